@@ -1,0 +1,2 @@
+# Measurement and motion models (core/*_model.h).
+target_sources(graphslam_core PRIVATE)

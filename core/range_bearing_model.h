@@ -1,0 +1,34 @@
+// Range-bearing measurement of a point feature (paper eq. 1, Table 2 l.12-17).
+//
+//   delta = m - (x, y),  q = delta^T delta
+//   h(x_t, m_j) = ( sqrt(q), atan2(delta_y, delta_x) - theta )
+//   e = ( sqrt(q) - r, wrap(atan2(delta_y, delta_x) - theta - phi) )
+//
+// Jacobian of h (and of e) with respect to (x, y, theta, m_x, m_y), Table 2 l.17
+// with the corrected rows (ARCHITECTURE.md errata):
+//   range:   ( -dx/sqrt(q), -dy/sqrt(q),  0,  dx/sqrt(q), dy/sqrt(q) )
+//   bearing: (  dy/q,       -dx/q,       -1, -dy/q,       dx/q       )
+// The bearing residual is wrapped, so a bearing across +-pi is handled.
+//
+// THREAD SAFETY: pure functions. ALLOCATION: none.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "core/se2.h"
+
+namespace graphslam::core {
+
+// Returns false (and leaves outputs untouched) when the feature coincides with
+// the robot position (q below 1e-18), where the bearing is undefined.
+bool EvaluateRangeBearing(const Pose2& pose, const Point2& feature,
+                          const Eigen::Vector2d& measurement, Eigen::Vector2d* residual,
+                          Eigen::Matrix<double, 2, 3>* jacobian_pose,
+                          Eigen::Matrix2d* jacobian_feature);
+
+// The feature position that would produce `measurement` from `pose`
+// (initialization from first sight, Table 1):
+//   m = (x, y) + r (cos(theta + phi), sin(theta + phi)).
+Point2 InvertRangeBearing(const Pose2& pose, const Eigen::Vector2d& measurement);
+
+}  // namespace graphslam::core

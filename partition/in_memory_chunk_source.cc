@@ -1,0 +1,1 @@
+#include "partition/in_memory_chunk_source.h"

@@ -1,0 +1,2 @@
+# Importers, exporters, files.
+target_sources(graphslam_storage PRIVATE)

@@ -1,0 +1,36 @@
+// Locating the shared real datasets (../shared/datasets) from tests.
+//
+// GS_REQUIRE_DATASET(path) skips the test when the file is missing, except
+// under CI=true, where a missing dataset is a failure, never a skip.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+namespace graphslam::testing {
+
+inline std::string DatasetPath(const std::string& relative) {
+  return std::string(GRAPHSLAM_DATASETS_DIR) + "/" + relative;
+}
+
+inline bool RunningInCi() {
+  const char* ci = std::getenv("CI");
+  return ci != nullptr && std::string(ci) == "true";
+}
+
+}  // namespace graphslam::testing
+
+#define GS_REQUIRE_DATASET(relative)                                                  \
+  do {                                                                                \
+    const std::string gs_dataset_path_ = ::graphslam::testing::DatasetPath(relative); \
+    if (!std::filesystem::exists(gs_dataset_path_)) {                                 \
+      if (::graphslam::testing::RunningInCi()) {                                      \
+        FAIL() << "dataset missing under CI=true: " << gs_dataset_path_;              \
+      } else {                                                                        \
+        GTEST_SKIP() << "dataset missing: " << gs_dataset_path_;                      \
+      }                                                                               \
+    }                                                                                 \
+  } while (0)
