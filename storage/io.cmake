@@ -1,2 +1,3 @@
 # Importers, exporters, files.
-target_sources(graphslam_storage PRIVATE)
+target_sources(graphslam_storage PRIVATE
+  atomic_file.cc)

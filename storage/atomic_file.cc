@@ -1,0 +1,1 @@
+// placeholder: storage helper writes the atomic file writer here
