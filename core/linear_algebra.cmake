@@ -1,2 +1,7 @@
 # Block-sparse matrices, Schur elimination, PCG, CHOLMOD.
-target_sources(graphslam_core PRIVATE)
+target_sources(graphslam_core PRIVATE
+  block_jacobi_preconditioner.cc
+  block_sparse_matrix.cc
+  cholmod_solver.cc
+  preconditioned_conjugate_gradient.cc
+  schur_eliminator.cc)

@@ -1,2 +1,8 @@
 # Measurement and motion models (core/*_model.h).
-target_sources(graphslam_core PRIVATE)
+target_sources(graphslam_core PRIVATE
+  gps_model.cc
+  initialization.cc
+  point_observation_model.cc
+  range_bearing_model.cc
+  relative_pose_model.cc
+  velocity_motion_model.cc)

@@ -1,2 +1,6 @@
 # Linearization, reduce pass, initialization, Levenberg-Marquardt driver.
-target_sources(graphslam_core PRIVATE)
+target_sources(graphslam_core PRIVATE
+  chunk_passes.cc
+  feature_linearizer.cc
+  graphslam_solver.cc
+  pose_factors.cc)

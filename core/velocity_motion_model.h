@@ -20,8 +20,9 @@
 // Noise: the control noise of Probabilistic Robotics (Thrun, Burgard, Fox 2005,
 // Table 5.3) with a final-rotation term gamma, M = diag(a1 v^2 + a2 w^2,
 // a3 v^2 + a4 w^2, a5 v^2 + a6 w^2) in (v, w, gamma), mapped to state space:
-//   R_t = V M V^T,  V = d g / d(v, w, gamma), plus a floor on each diagonal so R
-// stays positive definite when the robot stands still.
+//   R_t = V M V^T + diag(min_sigma_xy^2, min_sigma_xy^2, min_sigma_theta^2),
+// V = d g / d(v, w, gamma); the floor is added so R stays positive definite
+// when the robot stands still.
 //
 // THREAD SAFETY: pure functions. ALLOCATION: none.
 #pragma once
@@ -51,6 +52,17 @@ Pose2 PredictVelocityMotion(const Pose2& previous, const VelocityControl& contro
 
 // G_t = dg/dx_{t-1}.
 Eigen::Matrix3d VelocityMotionJacobian(const Pose2& previous, const VelocityControl& control);
+
+// V = dg/d(v, omega, gamma), gamma being the final rotation of Probabilistic
+// Robotics Table 5.3 (theta_t = theta + omega dt + gamma dt):
+//   V = [ dt R(th) (S, C)   v dt^2 R(th) (S', C')   0  ]
+//       [ 0                 dt                      dt ]
+// with a = omega dt, S = sin(a)/a, C = (1 - cos a)/a (series near a = 0).
+Eigen::Matrix3d VelocityControlJacobian(const Pose2& previous, const VelocityControl& control);
+
+// The exact inverse of g: the pose x_{t-1} with g(u, x_{t-1}) = current
+// (theta_{t-1} = theta_t - omega dt, then the translation is undone).
+Pose2 InverseVelocityMotion(const Pose2& current, const VelocityControl& control);
 
 // e = wrap(current - g(u, previous)); Jacobian pointers may be null.
 void EvaluateVelocityMotion(const Pose2& previous, const Pose2& current,

@@ -1,3 +1,14 @@
 # Importers, exporters, files.
 target_sources(graphslam_storage PRIVATE
-  atomic_file.cc)
+  atomic_file.cc
+  env.cc
+  format_detection.cc
+  features_csv_writer.cc
+  g2o_reader.cc
+  g2o_writer.cc
+  internal/problem_validation.cc
+  internal/text_reader.cc
+  isam_reader.cc
+  mrclam_reader.cc
+  native_log_reader.cc
+  tum_writer.cc)

@@ -1,1 +1,2 @@
-# Tests of the solver.
+graphslam_test(core/chunk_passes)
+graphslam_test(core/graphslam_solver)

@@ -1,1 +1,11 @@
 # Tests of importers and exporters.
+graphslam_test(storage/env)
+graphslam_test(storage/atomic_file)
+graphslam_test(storage/g2o_reader)
+graphslam_test(storage/isam_reader)
+graphslam_test(storage/mrclam_reader)
+graphslam_test(storage/native_log_reader)
+graphslam_test(storage/format_detection)
+graphslam_test(storage/g2o_writer)
+graphslam_test(storage/tum_writer)
+graphslam_test(storage/features_csv_writer)

@@ -1,0 +1,89 @@
+// The streaming passes over observation chunks that one GraphSLAM iteration
+// makes (paper Tables 2-4, in increment form with Levenberg-Marquardt damping).
+//
+//   ScreenFeatures: which features can be eliminated at all. A feature whose
+//     information C = sum F^T W F is not positive definite (e.g. seen once by a
+//     bearing-only sensor, or unobserved) is kept out of the solve and reported.
+//   CollectReducedPattern: the pose pairs the reduced matrix couples: all pairs
+//     of free poses observing a common feature.
+//   ReducePass (Table 3): for each feature, C_d = C + lambda D_m and
+//       S   += H_pp - H_pm C_d^{-1} H_qm^T       (all p, q observing it)
+//       rhs += -g_p + H_pm C_d^{-1} g_m
+//   RecoverPass (Table 4): dm = -C_d^{-1}(g_m + sum_p H_pm^T dx_p), the
+//     candidate feature m + dm, and its chi2 at the candidate poses; plus the
+//     terms g_m^T dm and dm^T D_m dm of the Levenberg-Marquardt model decrease.
+// D_m is diag(C) clamped to [kMinDiagonal, kMaxDiagonal] (as Ceres does).
+//
+// THREAD SAFETY: each pass runs chunks in parallel (TBB) and merges their
+// results in chunk order, so results do not depend on the thread count.
+// ALLOCATION: bounded by max_in_flight chunks plus the caller's outputs.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "core/block_sparse_matrix.h"
+#include "core/chunk_source.h"
+#include "core/problem.h"
+#include "core/progress.h"
+#include "core/status.h"
+#include "core/unknown_layout.h"
+
+namespace graphslam::core {
+
+inline constexpr double kMinDiagonal = 1e-6;
+inline constexpr double kMaxDiagonal = 1e32;
+
+struct PassContext {
+  const ChunkSource* chunks = nullptr;         // must outlive the pass
+  const UnknownLayout* layout = nullptr;       // must outlive the pass
+  const std::vector<uint8_t>* excluded = nullptr;  // per feature; 1 = out of the solve
+  int max_in_flight = 4;
+  ProgressCallback progress;  // optional
+};
+
+struct ScreeningResult {
+  std::vector<uint8_t> excluded;    // per feature
+  int64_t excluded_not_positive_definite = 0;
+  int64_t unobserved = 0;
+  int64_t observations = 0;         // observations of eliminable features
+};
+
+Status ScreenFeatures(const PassContext& context, const std::vector<Pose2>& poses,
+                      const std::vector<Point2>& features, ScreeningResult* result);
+
+Status CollectReducedPattern(const PassContext& context, std::vector<std::pair<int, int>>* pairs);
+
+struct ReducedSystem {
+  BlockSparseMatrix matrix;         // S, pattern fixed; filled by ReducePass
+  Eigen::VectorXd rhs;              // S dx = rhs
+  Eigen::VectorXd gradient;         // full (unreduced) pose gradient g_x
+  Eigen::VectorXd hessian_diagonal; // diag of the full (unreduced) H_xx, for damping
+  double chi2 = 0.0;                // chi2 of the observations at the linearization point
+};
+
+// Adds the observation terms into `system` (which the caller has zeroed and
+// into which it may already have added pose-only factors).
+Status ReducePass(const PassContext& context, const std::vector<Pose2>& poses,
+                  const std::vector<Point2>& features, double lambda, ReducedSystem* system);
+
+struct RecoveryResult {
+  double candidate_chi2 = 0.0;     // observations at (candidate poses, candidate features)
+  double gradient_dot_step = 0.0;  // sum g_m^T dm
+  double damped_step_norm = 0.0;   // sum dm^T D_m dm
+  double step_squared_norm = 0.0;  // sum |dm|^2
+  double state_squared_norm = 0.0; // sum |m|^2
+};
+
+Status RecoverPass(const PassContext& context, const std::vector<Pose2>& poses,
+                   const std::vector<Point2>& features, double lambda,
+                   const Eigen::VectorXd& pose_step, const std::vector<Pose2>& candidate_poses,
+                   std::vector<Point2>* candidate_features, RecoveryResult* result);
+
+// chi2 of all observations of eliminable features at (poses, features).
+Status ObservationsChi2(const PassContext& context, const std::vector<Pose2>& poses,
+                        const std::vector<Point2>& features, double* chi2);
+
+}  // namespace graphslam::core

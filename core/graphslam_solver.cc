@@ -1,0 +1,283 @@
+#include "core/graphslam_solver.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+
+#include "core/angle.h"
+#include "core/block_jacobi_preconditioner.h"
+#include "core/block_sparse_matrix.h"
+#include "core/chunk_passes.h"
+#include "core/cholmod_solver.h"
+#include "core/logging.h"
+#include "core/pose_factors.h"
+#include "core/preconditioned_conjugate_gradient.h"
+#include "core/unknown_layout.h"
+
+namespace graphslam::core {
+namespace {
+
+constexpr int kDim = UnknownLayout::kPoseDimension;
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// The reduced-system solver of one run: CHOLMOD keeps its symbolic analysis
+// across iterations; PCG keeps its preconditioner storage.
+class ReducedSolver {
+ public:
+  ReducedSolver(LinearSolverType type, const SolverOptions& options)
+      : type_(type), options_(options) {}
+
+  // Solves matrix * x = rhs. Returns the linear iteration count in *iterations.
+  Status Solve(const BlockSparseMatrix& matrix, const Eigen::VectorXd& rhs, Eigen::VectorXd* x,
+               int* iterations) {
+    x->setZero(rhs.size());
+    if (rhs.size() == 0) {
+      *iterations = 0;
+      return Status::Ok();
+    }
+    if (type_ == LinearSolverType::kCholmod) {
+      GS_RETURN_IF_ERROR(cholmod_.Factorize(matrix));
+      GS_RETURN_IF_ERROR(cholmod_.Solve(rhs, x));
+      *iterations = 1;
+      return Status::Ok();
+    }
+    GS_RETURN_IF_ERROR(preconditioner_.Update(matrix));
+    PcgOptions pcg;
+    pcg.max_iterations = options_.pcg_max_iterations;
+    pcg.relative_tolerance = options_.pcg_relative_tolerance;
+    const PcgSummary summary = SolvePcg(matrix, preconditioner_, rhs, pcg, x);
+    *iterations = summary.iterations;
+    if (!x->allFinite()) return Status::Numerical("PCG produced a non-finite step");
+    return Status::Ok();
+  }
+
+ private:
+  LinearSolverType type_;
+  const SolverOptions& options_;
+  CholmodSolver cholmod_;
+  BlockJacobiPreconditioner preconditioner_;
+};
+
+std::vector<Pose2> ApplyPoseStep(const std::vector<Pose2>& poses, const UnknownLayout& layout,
+                                 const Eigen::VectorXd& step) {
+  std::vector<Pose2> out = poses;
+  for (size_t p = 0; p < poses.size(); ++p) {
+    const int32_t u = layout.unknown_index[p];
+    if (u < 0) continue;
+    out[p] += step.segment<kDim>(kDim * u);
+    out[p].z() = WrapAngle(out[p].z());
+  }
+  return out;
+}
+
+}  // namespace
+
+const char* LinearSolverName(LinearSolverType type) {
+  switch (type) {
+    case LinearSolverType::kAuto: return "auto";
+    case LinearSolverType::kPcg: return "pcg";
+    case LinearSolverType::kCholmod: return "cholmod";
+  }
+  return "unknown";
+}
+
+StatusOr<LinearSolverType> ParseLinearSolverType(std::string_view name) {
+  if (name == "auto") return LinearSolverType::kAuto;
+  if (name == "pcg") return LinearSolverType::kPcg;
+  if (name == "cholmod") return LinearSolverType::kCholmod;
+  return Status::InvalidArgument("unknown linear solver '" + std::string(name) +
+                                 "'; expected auto, pcg or cholmod");
+}
+
+Status SolverOptions::Validate() const {
+  if (max_iterations < 0)
+    return Status::InvalidArgument("max_iterations must be >= 0, got " +
+                                   std::to_string(max_iterations));
+  if (!(function_tolerance >= 0) || !(gradient_tolerance >= 0) || !(parameter_tolerance >= 0))
+    return Status::InvalidArgument("tolerances must be non-negative");
+  if (!(initial_trust_region_radius > 0) ||
+      !(max_trust_region_radius >= initial_trust_region_radius))
+    return Status::InvalidArgument(
+        "trust region radii must satisfy 0 < initial <= max");
+  if (pcg_max_iterations <= 0 || !(pcg_relative_tolerance > 0))
+    return Status::InvalidArgument("PCG needs max_iterations > 0 and relative_tolerance > 0");
+  if (max_chunks_in_flight <= 0)
+    return Status::InvalidArgument("max_chunks_in_flight must be > 0");
+  return Status::Ok();
+}
+
+Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
+                      Problem2d* problem, SolverSummary* summary) {
+  GS_RETURN_IF_ERROR(options.Validate());
+  const Clock::time_point start = Clock::now();
+  *summary = SolverSummary();
+
+  const UnknownLayout layout = UnknownLayout::FromProblem(*problem);
+  summary->unknown_poses = layout.num_unknown_poses;
+  PassContext context;
+  context.chunks = &chunks;
+  context.layout = &layout;
+  context.max_in_flight = options.max_chunks_in_flight;
+  context.progress = options.progress;
+
+  // Which features can be eliminated (positive definite information).
+  ScreeningResult screening;
+  GS_RETURN_IF_ERROR(ScreenFeatures(context, problem->poses, problem->features, &screening));
+  summary->excluded_features = screening.excluded_not_positive_definite;
+  summary->unobserved_features = screening.unobserved;
+  summary->observations_used = screening.observations;
+  summary->eliminated_features =
+      problem->num_features() - screening.excluded_not_positive_definite - screening.unobserved;
+  if (screening.excluded_not_positive_definite > 0) {
+    GS_LOG(WARNING,
+           "%lld features have information that is not positive definite (too few or "
+           "degenerate observations); they are kept out of the solve",
+           static_cast<long long>(screening.excluded_not_positive_definite));
+  }
+  summary->excluded = screening.excluded;
+  context.excluded = &summary->excluded;
+
+  // The reduced matrix's pattern: pose-only factors plus co-observing poses.
+  std::vector<std::pair<int, int>> pairs;
+  AppendPoseFactorPattern(*problem, layout, &pairs);
+  GS_RETURN_IF_ERROR(CollectReducedPattern(context, &pairs));
+  ReducedSystem system;
+  system.matrix = BlockSparseMatrix::FromPattern(kDim, layout.num_unknown_poses, std::move(pairs));
+  pairs = {};
+  summary->reduced_nonzero_blocks = system.matrix.num_nonzero_blocks();
+
+  LinearSolverType type = options.linear_solver;
+  if (type == LinearSolverType::kAuto) {
+    type = system.matrix.num_rows() <= options.auto_cholmod_max_unknowns
+               ? LinearSolverType::kCholmod
+               : LinearSolverType::kPcg;
+  }
+  summary->linear_solver_used = type;
+  ReducedSolver solver(type, options);
+
+  std::vector<Pose2>& poses = problem->poses;
+  std::vector<Point2>& features = problem->features;
+  double observations_chi2 = 0.0;
+  GS_RETURN_IF_ERROR(ObservationsChi2(context, poses, features, &observations_chi2));
+  double chi2 = PoseFactorsChi2(*problem, poses) + observations_chi2;
+  summary->initial_chi2 = chi2;
+  summary->final_chi2 = chi2;
+  if (!std::isfinite(chi2)) {
+    return Status::Numerical("initial chi2 is not finite (" + std::to_string(chi2) +
+                             "); check the initial guess and information matrices");
+  }
+
+  double radius = options.initial_trust_region_radius;
+  double decrease_factor = 2.0;
+  std::vector<Point2> candidate_features;
+  Eigen::VectorXd pose_step;
+  summary->termination = "max_iterations";
+  const int num_rows = system.matrix.num_rows();
+
+  for (int iteration = 1; iteration <= options.max_iterations; ++iteration) {
+    const Clock::time_point iteration_start = Clock::now();
+    IterationSummary it;
+    it.iteration = iteration;
+    it.lambda = 1.0 / radius;
+
+    // 1. Linearize and reduce.
+    system.matrix.SetZero();
+    system.rhs.setZero(num_rows);
+    system.gradient.setZero(num_rows);
+    system.hessian_diagonal.setZero(num_rows);
+    system.chi2 = 0.0;
+    LinearizePoseFactors(*problem, poses, layout, &system.matrix, &system.gradient,
+                         &system.hessian_diagonal);
+    system.rhs -= system.gradient;
+    GS_RETURN_IF_ERROR(ReducePass(context, poses, features, it.lambda, &system));
+    it.gradient_max_norm = num_rows > 0 ? system.gradient.cwiseAbs().maxCoeff() : 0.0;
+    if (it.gradient_max_norm <= options.gradient_tolerance) {
+      summary->termination = "gradient_tolerance";
+      summary->converged = true;
+      break;
+    }
+    const Eigen::VectorXd damping =
+        system.hessian_diagonal.cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal);
+    system.matrix.AddToDiagonal(it.lambda * damping);
+
+    // 2. Solve the reduced pose system.
+    Status solve_status = solver.Solve(system.matrix, system.rhs, &pose_step, &it.linear_iterations);
+    bool step_ok = solve_status.ok();
+    if (!step_ok) GS_VLOG(1, "linear solve failed (%s); raising damping", solve_status.ToString().c_str());
+
+    double candidate_chi2 = std::numeric_limits<double>::infinity();
+    double model_decrease = 0.0;
+    RecoveryResult recovery;
+    std::vector<Pose2> candidate_poses;
+    if (step_ok) {
+      // 3. Recover the features and evaluate the candidate.
+      candidate_poses = ApplyPoseStep(poses, layout, pose_step);
+      GS_RETURN_IF_ERROR(RecoverPass(context, poses, features, it.lambda, pose_step,
+                                     candidate_poses, &candidate_features, &recovery));
+      candidate_chi2 = PoseFactorsChi2(*problem, candidate_poses) + recovery.candidate_chi2;
+      model_decrease = -(system.gradient.dot(pose_step) + recovery.gradient_dot_step) +
+                       it.lambda * (pose_step.dot(damping.cwiseProduct(pose_step)) +
+                                    recovery.damped_step_norm);
+      it.step_norm = std::sqrt(pose_step.squaredNorm() + recovery.step_squared_norm);
+    }
+    it.candidate_chi2 = candidate_chi2;
+    it.relative_decrease =
+        model_decrease > 0.0 ? (chi2 - candidate_chi2) / model_decrease : -1.0;
+    it.accepted = step_ok && std::isfinite(candidate_chi2) &&
+                  it.relative_decrease > options.min_relative_decrease;
+
+    bool converged = false;
+    if (it.accepted) {
+      const double relative_change = (chi2 - candidate_chi2) / std::max(chi2, 1e-300);
+      double state_norm_squared = recovery.state_squared_norm;
+      for (size_t p = 0; p < poses.size(); ++p)
+        if (layout.unknown_index[p] >= 0) state_norm_squared += poses[p].squaredNorm();
+      poses = std::move(candidate_poses);
+      for (size_t g = 0; g < features.size(); ++g)
+        if (!summary->excluded[g]) features[g] = candidate_features[g];
+      chi2 = candidate_chi2;
+      const double factor = 1.0 - std::pow(2.0 * it.relative_decrease - 1.0, 3);
+      radius = std::min(radius / std::max(1.0 / 3.0, factor), options.max_trust_region_radius);
+      decrease_factor = 2.0;
+      if (relative_change < options.function_tolerance) {
+        summary->termination = "function_tolerance";
+        converged = true;
+      } else if (it.step_norm <= options.parameter_tolerance *
+                                     (std::sqrt(state_norm_squared) + options.parameter_tolerance)) {
+        summary->termination = "parameter_tolerance";
+        converged = true;
+      }
+    } else {
+      radius /= decrease_factor;
+      decrease_factor *= 2.0;
+    }
+    it.chi2 = chi2;
+    it.seconds = SecondsSince(iteration_start);
+    summary->per_iteration.push_back(it);
+    summary->iterations = iteration;
+    summary->final_chi2 = chi2;
+    GS_VLOG(1, "iteration %d: chi2 %.9g candidate %.9g rho %.3g lambda %.3g |step| %.3g cg %d %s",
+            iteration, chi2, candidate_chi2, it.relative_decrease, it.lambda, it.step_norm,
+            it.linear_iterations, it.accepted ? "accepted" : "rejected");
+    if (options.iteration_callback) options.iteration_callback(it);
+    if (options.progress) options.progress("optimize", iteration, options.max_iterations);
+    if (converged) {
+      summary->converged = true;
+      break;
+    }
+    if (radius < options.min_trust_region_radius) {
+      summary->termination = "min_trust_region_radius";
+      summary->converged = true;  // no further decrease possible: a (local) minimum
+      break;
+    }
+  }
+  summary->seconds = SecondsSince(start);
+  return Status::Ok();
+}
+
+}  // namespace graphslam::core

@@ -1,0 +1,105 @@
+// SolveGraphSlam: the GraphSLAM loop of Thrun & Montemerlo (paper Table 5),
+// with Levenberg-Marquardt damping so hard problems converge with defaults.
+//
+// Each iteration, about the current estimate (x, m):
+//   1. linearize every constraint (Table 2) and eliminate every feature by
+//      Schur complement (Table 3), chunk by chunk:       ReducePass
+//        S = H_xx + lambda D_x - sum_j H_xj (C_j + lambda D_j)^{-1} H_jx
+//        rhs = -g_x + sum_j H_xj (C_j + lambda D_j)^{-1} g_j
+//   2. solve the reduced pose system S dx = rhs: PCG with block-Jacobi, or
+//      CHOLMOD (sparse Cholesky)
+//   3. recover each feature (Table 4):  dm_j = -(C_j + lambda D_j)^{-1}(g_j + H_jx dx)
+//   4. accept the step if the actual chi2 decrease is a fair share of the
+//      model's, rho = (chi2 - chi2') / (-g^T d + lambda d^T D d) > 1e-3, and
+//      update the trust region radius mu = 1/lambda as Ceres does (Nielsen):
+//      success mu /= max(1/3, 1 - (2 rho - 1)^3); failure mu /= v, v *= 2.
+// Convergence (Ceres' criteria): relative chi2 decrease below
+// function_tolerance, |dx| below parameter_tolerance (|x| + tol), or
+// max |g| below gradient_tolerance.
+// D is diag(H) clamped to [1e-6, 1e32]. Solving for increments (H d = -g) and
+// removing the anchor from the unknowns keep the system well conditioned.
+//
+// Observations come only through the ChunkSource (problem->observations is not
+// read), so the out-of-core store swaps the source, not this loop.
+//
+// THREAD SAFETY: one call at a time per problem; internally parallel (TBB,
+// bounded by the caller's tbb::global_control). Results do not depend on the
+// number of threads. ALLOCATION: O(poses + features + nonzero blocks of S)
+// plus max_chunks_in_flight chunks.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/chunk_source.h"
+#include "core/problem.h"
+#include "core/progress.h"
+#include "core/status.h"
+
+namespace graphslam::core {
+
+enum class LinearSolverType { kAuto, kPcg, kCholmod };
+const char* LinearSolverName(LinearSolverType type);
+StatusOr<LinearSolverType> ParseLinearSolverType(std::string_view name);
+
+struct IterationSummary {
+  int iteration = 0;              // 1-based
+  double chi2 = 0.0;              // after the iteration (the accepted state)
+  double candidate_chi2 = 0.0;    // at the trial point
+  double step_norm = 0.0;         // |(dx, dm)|
+  double gradient_max_norm = 0.0; // max |g_x| at the linearization point
+  int linear_iterations = 0;      // PCG iterations (1 for CHOLMOD)
+  double lambda = 0.0;            // damping used
+  double relative_decrease = 0.0; // rho
+  bool accepted = false;
+  double seconds = 0.0;
+};
+
+struct SolverOptions {
+  LinearSolverType linear_solver = LinearSolverType::kAuto;
+  int max_iterations = 100;
+  double function_tolerance = 1e-6;
+  double gradient_tolerance = 1e-10;
+  double parameter_tolerance = 1e-8;
+  double initial_trust_region_radius = 1e4;
+  double max_trust_region_radius = 1e16;
+  double min_trust_region_radius = 1e-32;
+  double min_relative_decrease = 1e-3;
+  int pcg_max_iterations = 2000;
+  double pcg_relative_tolerance = 1e-10;
+  // kAuto picks CHOLMOD up to this many scalar pose unknowns, PCG above.
+  int64_t auto_cholmod_max_unknowns = 3'000'000;
+  int max_chunks_in_flight = 8;
+  ProgressCallback progress;                                  // optional
+  std::function<void(const IterationSummary&)> iteration_callback;  // optional
+
+  Status Validate() const;
+};
+
+struct SolverSummary {
+  double initial_chi2 = 0.0;
+  double final_chi2 = 0.0;
+  int iterations = 0;  // Levenberg-Marquardt iterations, accepted or not
+  std::vector<IterationSummary> per_iteration;
+  LinearSolverType linear_solver_used = LinearSolverType::kCholmod;
+  std::string termination;  // "function_tolerance", "max_iterations", ...
+  bool converged = false;
+  int64_t unknown_poses = 0;
+  int64_t eliminated_features = 0;
+  int64_t excluded_features = 0;   // not positive definite: kept out of the solve
+  int64_t unobserved_features = 0;
+  int64_t observations_used = 0;
+  int64_t reduced_nonzero_blocks = 0;
+  double seconds = 0.0;
+  std::vector<uint8_t> excluded;   // per feature: 1 if kept out of the solve
+};
+
+// Optimizes problem->poses and problem->features in place. `chunks` holds the
+// observations of `problem` (feature indices refer to problem->features).
+Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
+                      Problem2d* problem, SolverSummary* summary);
+
+}  // namespace graphslam::core

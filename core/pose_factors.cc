@@ -1,0 +1,112 @@
+#include "core/pose_factors.h"
+
+#include "core/check.h"
+#include "core/gps_model.h"
+#include "core/relative_pose_model.h"
+#include "core/velocity_motion_model.h"
+
+namespace graphslam::core {
+namespace {
+
+constexpr int kDim = UnknownLayout::kPoseDimension;
+
+// Adds A_a^T W A_b for every pair of touched unknown poses, and the gradients.
+template <int kResidual>
+void AddBinary(const UnknownLayout& layout, int32_t pose_a, int32_t pose_b,
+               const Eigen::Matrix<double, kResidual, 3>& jacobian_a,
+               const Eigen::Matrix<double, kResidual, 3>& jacobian_b,
+               const Eigen::Matrix<double, kResidual, kResidual>& information,
+               const Eigen::Matrix<double, kResidual, 1>& residual, BlockSparseMatrix* hessian,
+               Eigen::VectorXd* gradient, Eigen::VectorXd* hessian_diagonal) {
+  const int32_t ua = layout.unknown_index[pose_a];
+  const int32_t ub = layout.unknown_index[pose_b];
+  const Eigen::Matrix<double, 3, kResidual> wa = jacobian_a.transpose() * information;
+  const Eigen::Matrix<double, 3, kResidual> wb = jacobian_b.transpose() * information;
+  if (ua >= 0) {
+    const Eigen::Matrix3d haa = wa * jacobian_a;
+    GS_CHECK(hessian->AddBlock(ua, ua, haa));
+    gradient->segment<kDim>(kDim * ua) += wa * residual;
+    hessian_diagonal->segment<kDim>(kDim * ua) += haa.diagonal();
+  }
+  if (ub >= 0) {
+    const Eigen::Matrix3d hbb = wb * jacobian_b;
+    GS_CHECK(hessian->AddBlock(ub, ub, hbb));
+    gradient->segment<kDim>(kDim * ub) += wb * residual;
+    hessian_diagonal->segment<kDim>(kDim * ub) += hbb.diagonal();
+  }
+  if (ua >= 0 && ub >= 0 && ua != ub) {
+    // Store the upper block (row < column); AddBlock mirrors it.
+    if (ua < ub) {
+      GS_CHECK(hessian->AddBlock(ua, ub, Eigen::Matrix3d(wa * jacobian_b)));
+    } else {
+      GS_CHECK(hessian->AddBlock(ub, ua, Eigen::Matrix3d(wb * jacobian_a)));
+    }
+  }
+}
+
+}  // namespace
+
+double PoseFactorsChi2(const Problem2d& problem, const std::vector<Pose2>& poses) {
+  double chi2 = 0.0;
+  Eigen::Vector3d e3;
+  for (const RelativePoseConstraint& c : problem.relative_poses) {
+    EvaluateRelativePose(poses[c.from], poses[c.to], c.z, &e3, nullptr, nullptr);
+    chi2 += e3.dot(c.information * e3);
+  }
+  for (const VelocityMotionConstraint& c : problem.motions) {
+    EvaluateVelocityMotion(poses[c.from], poses[c.to], c.control, &e3, nullptr, nullptr);
+    chi2 += e3.dot(c.information * e3);
+  }
+  Eigen::Vector2d e2;
+  for (const GpsConstraint& c : problem.gps) {
+    EvaluateGps(poses[c.pose], c.z, &e2, nullptr);
+    chi2 += e2.dot(c.information * e2);
+  }
+  return chi2;
+}
+
+double LinearizePoseFactors(const Problem2d& problem, const std::vector<Pose2>& poses,
+                            const UnknownLayout& layout, BlockSparseMatrix* hessian,
+                            Eigen::VectorXd* gradient, Eigen::VectorXd* hessian_diagonal) {
+  double chi2 = 0.0;
+  Eigen::Vector3d e3;
+  Eigen::Matrix3d ja, jb;
+  for (const RelativePoseConstraint& c : problem.relative_poses) {
+    EvaluateRelativePose(poses[c.from], poses[c.to], c.z, &e3, &ja, &jb);
+    chi2 += e3.dot(c.information * e3);
+    AddBinary<3>(layout, c.from, c.to, ja, jb, c.information, e3, hessian, gradient,
+                 hessian_diagonal);
+  }
+  for (const VelocityMotionConstraint& c : problem.motions) {
+    EvaluateVelocityMotion(poses[c.from], poses[c.to], c.control, &e3, &ja, &jb);
+    chi2 += e3.dot(c.information * e3);
+    AddBinary<3>(layout, c.from, c.to, ja, jb, c.information, e3, hessian, gradient,
+                 hessian_diagonal);
+  }
+  Eigen::Vector2d e2;
+  Eigen::Matrix<double, 2, 3> j2;
+  for (const GpsConstraint& c : problem.gps) {
+    EvaluateGps(poses[c.pose], c.z, &e2, &j2);
+    chi2 += e2.dot(c.information * e2);
+    const int32_t u = layout.unknown_index[c.pose];
+    if (u < 0) continue;
+    const Eigen::Matrix<double, 3, 2> w = j2.transpose() * c.information;
+    const Eigen::Matrix3d h = w * j2;
+    GS_CHECK(hessian->AddBlock(u, u, h));
+    gradient->segment<kDim>(kDim * u) += w * e2;
+    hessian_diagonal->segment<kDim>(kDim * u) += h.diagonal();
+  }
+  return chi2;
+}
+
+void AppendPoseFactorPattern(const Problem2d& problem, const UnknownLayout& layout,
+                             std::vector<std::pair<int, int>>* pairs) {
+  auto add = [&](int32_t a, int32_t b) {
+    const int32_t ua = layout.unknown_index[a], ub = layout.unknown_index[b];
+    if (ua >= 0 && ub >= 0) pairs->emplace_back(std::min(ua, ub), std::max(ua, ub));
+  };
+  for (const RelativePoseConstraint& c : problem.relative_poses) add(c.from, c.to);
+  for (const VelocityMotionConstraint& c : problem.motions) add(c.from, c.to);
+}
+
+}  // namespace graphslam::core

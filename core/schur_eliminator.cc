@@ -1,0 +1,162 @@
+#include "core/schur_eliminator.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <fmt/format.h>
+
+#include "core/check.h"
+
+namespace graphslam::core {
+namespace {
+
+// Fixed-capacity types: stack storage, no heap allocation per feature.
+using FeatureMatrix =
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxFeatureDim,
+                  kMaxFeatureDim>;
+using FeatureVector =
+    Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxFeatureDim, 1>;
+using PoseFeatureMatrix =
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxPoseBlockSize,
+                  kMaxFeatureDim>;
+using PoseMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor,
+                                 kMaxPoseBlockSize, kMaxPoseBlockSize>;
+using PoseVector =
+    Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxPoseBlockSize, 1>;
+
+// Relative eigenvalue floor below which C counts as singular.
+constexpr double kMinRelativeEigenvalue = 1e-12;
+
+// Y = H L^{-T}, i.e. Y L^T = H: a triangular solve from the right with L^T.
+PoseFeatureMatrix Whiten(const Eigen::LLT<FeatureMatrix>& llt, const Eigen::MatrixXd& h) {
+  PoseFeatureMatrix y = h;
+  llt.matrixU().solveInPlace<Eigen::OnTheRight>(y);
+  return y;
+}
+
+}  // namespace
+
+void ReducedContribution::Clear() {
+  block_size = 0;
+  rows.clear();
+  cols.clear();
+  values.clear();
+  rhs_rows.clear();
+  rhs_values.clear();
+}
+
+Status EliminateFeature(const FeatureBlocks& f, ReducedContribution* out) {
+  const int d = static_cast<int>(f.feature_information.rows());
+  GS_CHECK(d >= 1 && d <= kMaxFeatureDim);
+  GS_CHECK(f.feature_information.cols() == d);
+  GS_CHECK(f.feature_gradient.size() == d);
+  GS_CHECK(f.poses.size() == f.pose_feature.size());
+  int b = out->block_size;
+  if (!f.pose_feature.empty()) {
+    if (b == 0) b = static_cast<int>(f.pose_feature[0].rows());
+    GS_CHECK(b >= 1 && b <= kMaxPoseBlockSize);
+  }
+  for (size_t p = 0; p < f.poses.size(); ++p) {
+    GS_CHECK(f.pose_feature[p].rows() == b && f.pose_feature[p].cols() == d);
+    GS_CHECK(f.poses[p] >= 0);
+    for (size_t q = 0; q < p; ++q) GS_DCHECK(f.poses[q] != f.poses[p]);
+  }
+
+  const FeatureMatrix c = f.feature_information;
+  if (!c.allFinite() || !f.feature_gradient.allFinite()) {
+    return Status::Numerical("feature information or gradient is not finite");
+  }
+  Eigen::SelfAdjointEigenSolver<FeatureMatrix> eigen(c, Eigen::EigenvaluesOnly);
+  const double min_eigenvalue = eigen.eigenvalues()(0);
+  const double max_eigenvalue = eigen.eigenvalues()(d - 1);
+  if (eigen.info() != Eigen::Success || max_eigenvalue <= 0.0 ||
+      min_eigenvalue <= kMinRelativeEigenvalue * max_eigenvalue) {
+    return Status::Numerical(fmt::format(
+        "feature information is not positive definite: min eigenvalue {:g}, max eigenvalue {:g}",
+        min_eigenvalue, max_eigenvalue));
+  }
+  const Eigen::LLT<FeatureMatrix> llt(c);
+  if (llt.info() != Eigen::Success) {
+    return Status::Numerical(fmt::format(
+        "feature information is not positive definite: min eigenvalue {:g} (LLT failed)",
+        min_eigenvalue));
+  }
+  if (f.poses.empty()) return Status::Ok();
+  out->block_size = b;
+
+  // w = L^{-1} g_m, so that H_pm C^{-1} g_m = Y_p w.
+  FeatureVector w = f.feature_gradient;
+  llt.matrixL().solveInPlace(w);
+
+  PoseMatrix block(b, b);
+  PoseVector rhs(b);
+  const int num_poses = static_cast<int>(f.poses.size());
+  for (int p = 0; p < num_poses; ++p) {
+    const PoseFeatureMatrix yp = Whiten(llt, f.pose_feature[p]);
+    rhs.noalias() = yp * w;
+    out->rhs_rows.push_back(f.poses[p]);
+    out->rhs_values.insert(out->rhs_values.end(), rhs.data(), rhs.data() + b);
+    for (int q = p; q < num_poses; ++q) {
+      // Y_q is recomputed per pair instead of stored: O(b d^2) against the
+      // O(b^2 d) product, and it keeps the kernel free of per-feature scratch.
+      if (q == p) {
+        block.noalias() = -yp * yp.transpose();
+      } else {
+        block.noalias() = -yp * Whiten(llt, f.pose_feature[q]).transpose();
+      }
+      out->rows.push_back(f.poses[p]);
+      out->cols.push_back(f.poses[q]);
+      out->values.insert(out->values.end(), block.data(), block.data() + b * b);  // row-major
+    }
+  }
+  return Status::Ok();
+}
+
+Eigen::VectorXd RecoverFeature(const FeatureBlocks& f, const Eigen::VectorXd& pose_delta) {
+  const int d = static_cast<int>(f.feature_information.rows());
+  GS_CHECK(d >= 1 && d <= kMaxFeatureDim);
+  GS_CHECK(f.poses.size() == f.pose_feature.size());
+  const Eigen::LLT<FeatureMatrix> llt(FeatureMatrix(f.feature_information));
+  GS_CHECK(llt.info() == Eigen::Success);
+  FeatureVector v = f.feature_gradient;
+  for (size_t p = 0; p < f.poses.size(); ++p) {
+    const Eigen::MatrixXd& h = f.pose_feature[p];
+    const Eigen::Index b = h.rows();
+    GS_CHECK((static_cast<Eigen::Index>(f.poses[p]) + 1) * b <= pose_delta.size());
+    v.noalias() += h.transpose() * pose_delta.segment(f.poses[p] * b, b);
+  }
+  return -llt.solve(v);
+}
+
+void AccumulateContribution(const ReducedContribution& c, BlockSparseMatrix* s,
+                            Eigen::VectorXd* rhs) {
+  GS_CHECK(rhs->size() == s->num_rows());
+  if (c.rows.empty() && c.rhs_rows.empty()) return;
+  const int b = c.block_size;
+  GS_CHECK(b == s->block_size());
+  GS_CHECK(c.rows.size() == c.cols.size());
+  GS_CHECK(c.values.size() == c.rows.size() * b * b);
+  GS_CHECK(c.rhs_values.size() == c.rhs_rows.size() * b);
+  for (size_t j = 0; j < c.rows.size(); ++j) {
+    const int i = c.rows[j];
+    const int k = c.cols[j];
+    const double* v = c.values.data() + j * b * b;
+    double* ik = s->MutableBlock(i, k);
+    GS_CHECK(ik != nullptr);
+    for (int e = 0; e < b * b; ++e) ik[e] += v[e];
+    if (i != k) {
+      double* ki = s->MutableBlock(k, i);
+      GS_CHECK(ki != nullptr);
+      for (int r = 0; r < b; ++r) {
+        for (int col = 0; col < b; ++col) ki[r * b + col] += v[col * b + r];
+      }
+    }
+  }
+  for (size_t j = 0; j < c.rhs_rows.size(); ++j) {
+    const int64_t row = c.rhs_rows[j];
+    GS_CHECK(row >= 0 && (row + 1) * b <= rhs->size());
+    for (int r = 0; r < b; ++r) (*rhs)[row * b + r] += c.rhs_values[j * b + r];
+  }
+}
+
+}  // namespace graphslam::core

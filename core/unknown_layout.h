@@ -1,0 +1,46 @@
+// UnknownLayout: which poses are unknowns of the reduced system, and where.
+//
+// The gauge is fixed by removing anchored poses from the unknowns (never by a
+// huge "infinite" prior, which would ruin PCG's conditioning; ARCHITECTURE.md):
+// poses marked fixed are anchors; when none is fixed and no GPS constraint ties
+// the map to the world, pose 0 is the anchor. Free pose p owns the block
+// unknown_index[p] of size 3 in the increment vector dx; anchored poses have -1.
+//
+// THREAD SAFETY: a plain value. ALLOCATION: O(poses).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/problem.h"
+
+namespace graphslam::core {
+
+struct UnknownLayout {
+  static constexpr int kPoseDimension = 3;
+  std::vector<int32_t> unknown_index;  // per pose: block index, or -1 if anchored
+  int32_t num_unknown_poses = 0;
+  int32_t num_anchored = 0;
+  bool anchored_by_gps = false;
+
+  static UnknownLayout FromProblem(const Problem2d& problem) {
+    UnknownLayout layout;
+    const int32_t n = problem.num_poses();
+    std::vector<uint8_t> fixed(problem.pose_fixed.begin(), problem.pose_fixed.end());
+    bool any_fixed = false;
+    for (uint8_t f : fixed) any_fixed = any_fixed || f != 0;
+    if (!any_fixed && problem.gps.empty() && n > 0) fixed[0] = 1;
+    layout.anchored_by_gps = !any_fixed && !problem.gps.empty();
+    layout.unknown_index.assign(n, -1);
+    for (int32_t p = 0; p < n; ++p) {
+      if (fixed[p]) {
+        ++layout.num_anchored;
+      } else {
+        layout.unknown_index[p] = layout.num_unknown_poses++;
+      }
+    }
+    return layout;
+  }
+};
+
+}  // namespace graphslam::core

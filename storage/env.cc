@@ -1,0 +1,228 @@
+#include "storage/env.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <utility>
+
+namespace graphslam::storage {
+namespace {
+
+Status PosixError(const std::string& path, const char* operation, int error_number) {
+  return Status::IOError(path + ": " + operation + ": " + std::strerror(error_number));
+}
+
+// Buffered writer over a POSIX file descriptor (LevelDB PosixWritableFile).
+class PosixWritableFile final : public WritableFile {
+ public:
+  static constexpr size_t kBufferSize = 64 * 1024;
+
+  PosixWritableFile(std::string path, int fd) : path_(std::move(path)), fd_(fd) {
+    buffer_.reserve(kBufferSize);
+  }
+  ~PosixWritableFile() override {
+    if (fd_ >= 0) ::close(fd_);  // errors are only reported by Close()
+  }
+
+  Status Append(std::string_view data) override {
+    if (fd_ < 0) return Status::IOError(path_ + ": append after close");
+    if (buffer_.size() + data.size() <= kBufferSize) {
+      buffer_.append(data);
+      return Status::Ok();
+    }
+    GS_RETURN_IF_ERROR(Flush());
+    if (data.size() <= kBufferSize) {
+      buffer_.append(data);
+      return Status::Ok();
+    }
+    return WriteUnbuffered(data);
+  }
+
+  Status Sync() override {
+    if (fd_ < 0) return Status::IOError(path_ + ": sync after close");
+    GS_RETURN_IF_ERROR(Flush());
+    if (::fsync(fd_) != 0) return PosixError(path_, "fsync", errno);
+    return Status::Ok();
+  }
+
+  Status Close() override {
+    if (fd_ < 0) return Status::IOError(path_ + ": close called twice");
+    Status status = Flush();
+    if (::close(fd_) != 0 && status.ok()) status = PosixError(path_, "close", errno);
+    fd_ = -1;
+    return status;
+  }
+
+ private:
+  Status Flush() {
+    Status status = WriteUnbuffered(buffer_);
+    buffer_.clear();
+    return status;
+  }
+
+  Status WriteUnbuffered(std::string_view data) {
+    while (!data.empty()) {
+      const ssize_t written = ::write(fd_, data.data(), data.size());
+      if (written < 0) {
+        if (errno == EINTR) continue;
+        return PosixError(path_, "write", errno);
+      }
+      data.remove_prefix(static_cast<size_t>(written));
+    }
+    return Status::Ok();
+  }
+
+  const std::string path_;
+  int fd_;
+  std::string buffer_;
+};
+
+class PosixEnv final : public Env {
+ public:
+  StatusOr<std::unique_ptr<WritableFile>> NewWritableFile(const std::string& path) override {
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd < 0) return PosixError(path, "open for writing", errno);
+    return std::unique_ptr<WritableFile>(std::make_unique<PosixWritableFile>(path, fd));
+  }
+
+  Status Rename(const std::string& from, const std::string& to) override {
+    if (::rename(from.c_str(), to.c_str()) != 0) {
+      return PosixError(from, ("rename to " + to).c_str(), errno);
+    }
+    return Status::Ok();
+  }
+
+  Status RemoveFile(const std::string& path) override {
+    if (::unlink(path.c_str()) != 0) return PosixError(path, "unlink", errno);
+    return Status::Ok();
+  }
+
+  bool FileExists(const std::string& path) override { return ::access(path.c_str(), F_OK) == 0; }
+
+  Status SyncDirectory(const std::string& path) override {
+    const std::string directory = path.empty() ? "." : path;
+    const int fd = ::open(directory.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (fd < 0) return PosixError(directory, "open directory", errno);
+    Status status;
+    if (::fsync(fd) != 0) status = PosixError(directory, "fsync directory", errno);
+    ::close(fd);
+    return status;
+  }
+};
+
+// Forwards to the wrapped file after asking the FaultInjectionEnv whether this
+// call is to fail.
+class FaultInjectionWritableFile final : public WritableFile {
+ public:
+  FaultInjectionWritableFile(std::string path, std::unique_ptr<WritableFile> base,
+                             FaultInjectionEnv* env)
+      : path_(std::move(path)), base_(std::move(base)), env_(env) {}
+
+  Status Append(std::string_view data) override {
+    GS_RETURN_IF_ERROR(env_->MaybeFail(FaultInjectionEnv::Operation::kAppend, path_));
+    return base_->Append(data);
+  }
+  Status Sync() override {
+    GS_RETURN_IF_ERROR(env_->MaybeFail(FaultInjectionEnv::Operation::kSync, path_));
+    return base_->Sync();
+  }
+  Status Close() override {
+    GS_RETURN_IF_ERROR(env_->MaybeFail(FaultInjectionEnv::Operation::kClose, path_));
+    return base_->Close();
+  }
+
+ private:
+  const std::string path_;
+  std::unique_ptr<WritableFile> base_;
+  FaultInjectionEnv* const env_;
+};
+
+const char* OperationName(FaultInjectionEnv::Operation operation) {
+  switch (operation) {
+    case FaultInjectionEnv::Operation::kNewWritableFile: return "open";
+    case FaultInjectionEnv::Operation::kAppend: return "append";
+    case FaultInjectionEnv::Operation::kSync: return "sync";
+    case FaultInjectionEnv::Operation::kClose: return "close";
+    case FaultInjectionEnv::Operation::kRename: return "rename";
+    case FaultInjectionEnv::Operation::kRemoveFile: return "remove";
+    case FaultInjectionEnv::Operation::kSyncDirectory: return "sync directory";
+  }
+  return "unknown operation";
+}
+
+}  // namespace
+
+Env* Env::Default() {
+  // Intentionally leaked function-local static (see env.h): stateless, never
+  // destroyed, so usable from other statics' destructors.
+  static PosixEnv* const env = new PosixEnv();
+  return env;
+}
+
+FaultInjectionEnv::FaultInjectionEnv(Env* base) : base_(base) { GS_CHECK(base != nullptr); }
+
+void FaultInjectionEnv::FailAt(Operation operation, int nth) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const int index = static_cast<int>(operation);
+  fail_at_[index] = nth > 0 ? counts_[index] + nth : 0;
+}
+
+void FaultInjectionEnv::FailAlways(Operation operation) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  fail_always_[static_cast<int>(operation)] = true;
+}
+
+void FaultInjectionEnv::Reset() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (int i = 0; i < kNumOperations; ++i) {
+    counts_[i] = 0;
+    fail_at_[i] = 0;
+    fail_always_[i] = false;
+  }
+}
+
+int FaultInjectionEnv::Count(Operation operation) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return counts_[static_cast<int>(operation)];
+}
+
+Status FaultInjectionEnv::MaybeFail(Operation operation, const std::string& path) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const int index = static_cast<int>(operation);
+  const int call = ++counts_[index];
+  if (fail_always_[index] || call == fail_at_[index]) {
+    return Status::IOError(path + ": " + OperationName(operation) + ": injected fault (call " +
+                           std::to_string(call) + ")");
+  }
+  return Status::Ok();
+}
+
+StatusOr<std::unique_ptr<WritableFile>> FaultInjectionEnv::NewWritableFile(
+    const std::string& path) {
+  GS_RETURN_IF_ERROR(MaybeFail(Operation::kNewWritableFile, path));
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<WritableFile> base, base_->NewWritableFile(path));
+  return std::unique_ptr<WritableFile>(
+      std::make_unique<FaultInjectionWritableFile>(path, std::move(base), this));
+}
+
+Status FaultInjectionEnv::Rename(const std::string& from, const std::string& to) {
+  GS_RETURN_IF_ERROR(MaybeFail(Operation::kRename, from));
+  return base_->Rename(from, to);
+}
+
+Status FaultInjectionEnv::RemoveFile(const std::string& path) {
+  GS_RETURN_IF_ERROR(MaybeFail(Operation::kRemoveFile, path));
+  return base_->RemoveFile(path);
+}
+
+bool FaultInjectionEnv::FileExists(const std::string& path) { return base_->FileExists(path); }
+
+Status FaultInjectionEnv::SyncDirectory(const std::string& path) {
+  GS_RETURN_IF_ERROR(MaybeFail(Operation::kSyncDirectory, path));
+  return base_->SyncDirectory(path);
+}
+
+}  // namespace graphslam::storage

@@ -1,0 +1,123 @@
+// Env: the small filesystem interface every writer in graphslam goes through
+// (after LevelDB's include/leveldb/env.h and util/env_posix.cc).
+//
+// Writers never call open()/rename() directly; they ask an Env. Production code
+// uses Env::Default() (POSIX); tests substitute FaultInjectionEnv, which wraps a
+// real Env and makes the N-th Append/Sync/Close/Rename/... fail with IOError, so
+// the "kill between write and rename" and "disk full during write" paths of
+// WriteFileAtomically (atomic_file.h) can be asserted (STYLE.md rules 12, 16).
+//
+//   WritableFile: Append* -> Sync (fsync: data durable) -> Close
+//   Env:          NewWritableFile, Rename (atomic on POSIX within one
+//                 filesystem), RemoveFile, FileExists, SyncDirectory (fsync of
+//                 a directory: makes a rename durable)
+//
+// Every operation that touches the disk returns a Status; IOError messages name
+// the path and the errno text, e.g. "out.g2o: fsync: No space left on device".
+//
+// THREAD SAFETY: Env::Default() and FaultInjectionEnv may be used from several
+// threads at once. One WritableFile must not be used by two threads at once.
+// ALLOCATION: a PosixWritableFile holds a 64 KiB write buffer.
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <string>
+#include <string_view>
+
+#include "core/status.h"
+
+namespace graphslam::storage {
+
+// A file opened for sequential writing. Destroying an unclosed file closes it
+// and ignores errors; call Close() to see them.
+class WritableFile {
+ public:
+  WritableFile() = default;
+  WritableFile(const WritableFile&) = delete;
+  WritableFile& operator=(const WritableFile&) = delete;
+  virtual ~WritableFile() = default;
+
+  [[nodiscard]] virtual Status Append(std::string_view data) = 0;
+  // Flushes buffers and fsyncs: after OK the data survive a power loss.
+  [[nodiscard]] virtual Status Sync() = 0;
+  // Flushes and closes. Further calls except the destructor are errors.
+  [[nodiscard]] virtual Status Close() = 0;
+};
+
+class Env {
+ public:
+  Env() = default;
+  Env(const Env&) = delete;
+  Env& operator=(const Env&) = delete;
+  virtual ~Env() = default;
+
+  // Creates (or truncates) `path` for writing.
+  virtual StatusOr<std::unique_ptr<WritableFile>> NewWritableFile(const std::string& path) = 0;
+  // Atomically replaces `to` by `from` (POSIX rename(2)).
+  [[nodiscard]] virtual Status Rename(const std::string& from, const std::string& to) = 0;
+  [[nodiscard]] virtual Status RemoveFile(const std::string& path) = 0;
+  virtual bool FileExists(const std::string& path) = 0;
+  // fsyncs the directory `path` so that renames and creations inside it are
+  // durable ("" means the current directory).
+  [[nodiscard]] virtual Status SyncDirectory(const std::string& path) = 0;
+
+  // The process-wide POSIX Env. It is a function-local static, the one
+  // singleton the project permits: it holds no state (every call goes straight
+  // to the kernel), so sharing it cannot couple callers, and it is never
+  // destroyed before its users because it is never destroyed at all
+  // (LevelDB's Env::Default() does the same). Never null.
+  static Env* Default();
+};
+
+// Wraps another Env and fails chosen operations with IOError, for tests
+// (LevelDB's test::ErrorEnv / FaultInjectionTestEnv). Operations are counted
+// from construction (or the last Reset()), 1-based, across all files opened
+// through this Env: FailAt(Operation::kSync, 1) makes the first Sync fail.
+// A failed operation does not reach the wrapped Env (a failed Append writes
+// nothing, a failed Rename renames nothing).
+class FaultInjectionEnv : public Env {
+ public:
+  enum class Operation {
+    kNewWritableFile = 0,
+    kAppend,
+    kSync,
+    kClose,
+    kRename,
+    kRemoveFile,
+    kSyncDirectory,
+  };
+  static constexpr int kNumOperations = 7;
+
+  // `base` must outlive this Env and every file opened through it.
+  explicit FaultInjectionEnv(Env* base);
+
+  // The nth (1-based) call of `operation` from now on the counter fails;
+  // nth <= 0 disables. Each operation has one pending failure at most.
+  void FailAt(Operation operation, int nth);
+  // Every call of `operation` from now on fails (a full disk, a dead device).
+  void FailAlways(Operation operation);
+  // Clears pending failures and counters.
+  void Reset();
+  // How many times `operation` was called (including failed calls).
+  int Count(Operation operation) const;
+
+  StatusOr<std::unique_ptr<WritableFile>> NewWritableFile(const std::string& path) override;
+  [[nodiscard]] Status Rename(const std::string& from, const std::string& to) override;
+  [[nodiscard]] Status RemoveFile(const std::string& path) override;
+  bool FileExists(const std::string& path) override;
+  [[nodiscard]] Status SyncDirectory(const std::string& path) override;
+
+  // Counts a call of `operation`; returns IOError if this call is to fail.
+  // Public for the wrapped files; not part of the test-facing API.
+  [[nodiscard]] Status MaybeFail(Operation operation, const std::string& path);
+
+ private:
+  Env* const base_;
+  mutable std::mutex mutex_;
+  int counts_[kNumOperations] = {};
+  int fail_at_[kNumOperations] = {};   // 0: no pending failure
+  bool fail_always_[kNumOperations] = {};
+};
+
+}  // namespace graphslam::storage

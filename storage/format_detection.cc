@@ -1,0 +1,100 @@
+#include "storage/format_detection.h"
+
+#include <filesystem>
+
+#include "storage/g2o_reader.h"
+#include "storage/internal/text_reader.h"
+#include "storage/isam_reader.h"
+#include "storage/native_log_reader.h"
+
+namespace graphslam::storage {
+namespace {
+
+bool StartsWith(std::string_view text, std::string_view prefix) {
+  return text.substr(0, prefix.size()) == prefix;
+}
+
+// True if `folder` holds some RobotN_Odometry.dat.
+bool IsMrclamFolder(const std::string& folder) {
+  std::error_code error;
+  for (const auto& entry : std::filesystem::directory_iterator(folder, error)) {
+    const std::string name = entry.path().filename().string();
+    if (StartsWith(name, "Robot") && name.size() > 18 &&
+        name.substr(name.size() - 13) == "_Odometry.dat") {
+      const std::string number = name.substr(5, name.size() - 18);
+      if (!number.empty() &&
+          number.find_first_not_of("0123456789") == std::string::npos) {
+        return true;
+      }
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+StatusOr<InputFormat> DetectInputFormat(const std::string& path) {
+  std::error_code error;
+  if (!std::filesystem::exists(path, error)) {
+    return Status::NotFound(path + ": no such file or directory; expected an input");
+  }
+  if (std::filesystem::is_directory(path, error)) {
+    if (IsMrclamFolder(path)) return InputFormat::kMrclam;
+    return Status::NotSupported(path +
+                                ": is a directory without RobotN_Odometry.dat; expected an MRCLAM "
+                                "dataset folder or a file");
+  }
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<internal::LineReader> reader,
+                      internal::LineReader::Open(path));
+  if (!reader->Next()) {
+    GS_RETURN_IF_ERROR(reader->status());
+    return Status::Corruption(path + ": has no records; expected a g2o, iSAM or native log file");
+  }
+  const std::string_view token = reader->fields()[0];
+  if (token == kNativeLogMagic) return InputFormat::kNative;
+  if (StartsWith(token, "VERTEX_") || StartsWith(token, "EDGE_") || token == "FIX" ||
+      StartsWith(token, "DATA_")) {
+    return InputFormat::kG2o;
+  }
+  if (token == "ODOMETRY" || token == "EDGE2" || token == "EDGE3" || token == "LANDMARK" ||
+      token == "POINT3") {
+    return InputFormat::kIsam;
+  }
+  return Status::NotSupported(
+      reader->name() + ":" + std::to_string(reader->line_number()) + ": first record '" +
+      std::string(token) +
+      "' matches no known format; expected VERTEX_*/EDGE_*/FIX (g2o), ODOMETRY/EDGE2/LANDMARK "
+      "(iSAM) or " + kNativeLogMagic + " (native log)");
+}
+
+StatusOr<InputFormat> ParseInputFormat(std::string_view name) {
+  if (name == "g2o") return InputFormat::kG2o;
+  if (name == "isam") return InputFormat::kIsam;
+  if (name == "mrclam") return InputFormat::kMrclam;
+  if (name == "native") return InputFormat::kNative;
+  return Status::InvalidArgument("input format '" + std::string(name) +
+                                 "'; expected g2o, isam, mrclam or native");
+}
+
+const char* InputFormatName(InputFormat format) {
+  switch (format) {
+    case InputFormat::kG2o: return "g2o";
+    case InputFormat::kIsam: return "isam";
+    case InputFormat::kMrclam: return "mrclam";
+    case InputFormat::kNative: return "native";
+  }
+  return "unknown";
+}
+
+StatusOr<core::Problem2d> ReadProblem(const std::string& path, InputFormat format,
+                                      const MrclamOptions& mrclam) {
+  switch (format) {
+    case InputFormat::kG2o: return ReadG2o(path);
+    case InputFormat::kIsam: return ReadIsam(path);
+    case InputFormat::kMrclam: return ReadMrclam(path, mrclam);
+    case InputFormat::kNative: return ReadNativeLog(path);
+  }
+  return Status::InvalidArgument("unknown InputFormat value; expected g2o, isam, mrclam or native");
+}
+
+}  // namespace graphslam::storage

@@ -1,0 +1,41 @@
+// Input format detection and the one entry point that reads any supported
+// input into a core::Problem2d.
+//
+//   directory containing RobotN_Odometry.dat         -> kMrclam
+//   first record GRAPHSLAM_LOG                        -> kNative
+//   first record VERTEX_* / EDGE_* / FIX / DATA_*     -> kG2o
+//   first record ODOMETRY / EDGE2 / EDGE3 / LANDMARK / POINT3 -> kIsam
+// ("first record": first line that is neither blank nor a '#' comment; only
+// that line is read.) 3-D g2o/iSAM files are detected as g2o/iSAM; their
+// readers then answer NotSupported with file:line.
+//
+// THREAD SAFETY: reentrant. ALLOCATION: one line.
+#pragma once
+
+#include <string>
+#include <string_view>
+
+#include "core/problem.h"
+#include "core/status.h"
+#include "storage/mrclam_reader.h"
+
+namespace graphslam::storage {
+
+enum class InputFormat { kG2o, kIsam, kMrclam, kNative };
+
+// NotFound if `path` does not exist; NotSupported naming the first token if no
+// format matches; Corruption if the file has no record at all.
+StatusOr<InputFormat> DetectInputFormat(const std::string& path);
+
+// "g2o", "isam", "mrclam", "native" (the --format values); InvalidArgument
+// naming the accepted values otherwise.
+StatusOr<InputFormat> ParseInputFormat(std::string_view name);
+
+// The name ParseInputFormat accepts for `format`.
+const char* InputFormatName(InputFormat format);
+
+// Reads `path` with the reader of `format`; `mrclam` is used for kMrclam only.
+StatusOr<core::Problem2d> ReadProblem(const std::string& path, InputFormat format,
+                                      const MrclamOptions& mrclam);
+
+}  // namespace graphslam::storage

@@ -1,0 +1,277 @@
+#include "storage/g2o_reader.h"
+
+#include <string_view>
+#include <unordered_map>
+#include <vector>
+
+#include "storage/internal/text_reader.h"
+
+namespace graphslam::storage {
+namespace {
+
+using internal::LineReader;
+
+enum class VertexKind { kPose, kFeature };
+
+struct Vertex {
+  VertexKind kind;
+  int32_t index;  // into poses or features
+  int32_t line;   // 0 if created implicitly (edges-only files)
+};
+
+enum class PendingKind { kRelativePose, kPointObservation, kPositionPrior, kFix };
+
+// An edge or FIX, kept with its file ids until every vertex is known (vertices
+// may follow the edges that use them).
+struct Pending {
+  PendingKind kind;
+  int64_t ids[2] = {0, 0};
+  int32_t line = 0;
+  core::Pose2 pose_measurement = core::Pose2::Zero();
+  Eigen::Vector2d point_measurement = Eigen::Vector2d::Zero();
+  Eigen::Matrix3d information3 = Eigen::Matrix3d::Identity();
+  Eigen::Matrix2d information2 = Eigen::Matrix2d::Identity();
+};
+
+const char* KindTag(VertexKind kind) {
+  return kind == VertexKind::kPose ? "VERTEX_SE2" : "VERTEX_XY";
+}
+
+const char* PendingTag(PendingKind kind) {
+  switch (kind) {
+    case PendingKind::kRelativePose: return "EDGE_SE2";
+    case PendingKind::kPointObservation: return "EDGE_SE2_XY";
+    case PendingKind::kPositionPrior: return "EDGE_PRIOR_SE2_XY";
+    case PendingKind::kFix: return "FIX";
+  }
+  return "?";
+}
+
+bool IsThreeDimensionalTag(std::string_view tag) {
+  return tag.find("SE3") != std::string_view::npos || tag.find("XYZ") != std::string_view::npos ||
+         tag.find("3D") != std::string_view::npos || tag.find("QUAT") != std::string_view::npos;
+}
+
+constexpr const char* kKnownTags =
+    "VERTEX_SE2, VERTEX_XY, EDGE_SE2, EDGE_SE2_XY, EDGE_PRIOR_SE2_XY or FIX";
+
+class G2oParser {
+ public:
+  explicit G2oParser(const std::string& path) : path_(path) {}
+
+  StatusOr<core::Problem2d> Parse() {
+    GS_ASSIGN_OR_RETURN(std::unique_ptr<LineReader> reader, LineReader::Open(path_));
+    name_ = reader->name();
+    problem_.source = path_;
+    while (reader->Next()) GS_RETURN_IF_ERROR(ParseLine(*reader));
+    GS_RETURN_IF_ERROR(reader->status());
+    if (vertices_.empty() && pending_.empty()) {
+      return Status::Corruption(name_ + ": has no vertices or edges; expected a g2o graph");
+    }
+    has_vertices_ = !vertices_.empty();
+    for (const Pending& item : pending_) GS_RETURN_IF_ERROR(Resolve(item));
+    return std::move(problem_);
+  }
+
+ private:
+  Status ParseLine(const LineReader& reader) {
+    const std::string_view tag = reader.fields()[0];
+    if (tag == "VERTEX_SE2") return ParseVertex(reader, VertexKind::kPose);
+    if (tag == "VERTEX_XY") return ParseVertex(reader, VertexKind::kFeature);
+    if (tag == "EDGE_SE2") return ParseRelativePose(reader);
+    if (tag == "EDGE_SE2_XY") return ParsePointEdge(reader, PendingKind::kPointObservation);
+    if (tag == "EDGE_PRIOR_SE2_XY") return ParsePointEdge(reader, PendingKind::kPositionPrior);
+    if (tag == "FIX") return ParseFix(reader);
+    if (tag == "DATA_FEATURE_POINTXY") {
+      return reader.Unsupported(
+          "DATA_FEATURE_POINTXY observations have no landmark id; use --associate (not yet "
+          "supported)");
+    }
+    if (IsThreeDimensionalTag(tag)) {
+      return reader.Unsupported(std::string(tag) +
+                                " is a 3-D element; expected a 2-D graph (3-D is not supported)");
+    }
+    return reader.Unsupported("unknown tag '" + std::string(tag) + "'; expected " + kKnownTags);
+  }
+
+  Status ParseVertex(const LineReader& reader, VertexKind kind) {
+    const bool pose = kind == VertexKind::kPose;
+    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(pose ? 5 : 4));
+    GS_ASSIGN_OR_RETURN(const int64_t id, reader.Id(1, "id"));
+    double values[3] = {0.0, 0.0, 0.0};
+    GS_RETURN_IF_ERROR(reader.Doubles(2, pose ? 3 : 2, "estimate", values));
+    if (const auto it = vertices_.find(id); it != vertices_.end()) {
+      return reader.Error(std::string(KindTag(kind)) + " id " + std::to_string(id) +
+                          " is already defined at line " + std::to_string(it->second.line) +
+                          " (" + KindTag(it->second.kind) + "); expected unique vertex ids");
+    }
+    Vertex vertex{kind, 0, reader.line_number()};
+    if (pose) {
+      vertex.index = problem_.AddPose(id, core::Pose2(values[0], values[1], values[2]),
+                                      /*initialized=*/true, reader.line_number());
+    } else {
+      vertex.index = problem_.AddFeature(id, core::Point2(values[0], values[1]),
+                                         /*initialized=*/true);
+    }
+    vertices_.emplace(id, vertex);
+    return Status::Ok();
+  }
+
+  Status ParseRelativePose(const LineReader& reader) {
+    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(12));
+    Pending item;
+    item.kind = PendingKind::kRelativePose;
+    item.line = reader.line_number();
+    GS_ASSIGN_OR_RETURN(item.ids[0], reader.Id(1, "from id"));
+    GS_ASSIGN_OR_RETURN(item.ids[1], reader.Id(2, "to id"));
+    double z[3];
+    double upper[6];
+    GS_RETURN_IF_ERROR(reader.Doubles(3, 3, "measurement", z));
+    GS_RETURN_IF_ERROR(reader.Doubles(6, 6, "information", upper));
+    item.pose_measurement = core::Pose2(z[0], z[1], z[2]);
+    item.information3 = internal::SymmetricFromUpper3(upper);
+    if (!internal::IsPositiveDefinite(item.information3)) {
+      return reader.Error("EDGE_SE2 information " + internal::UpperTriangleString(upper, 6) +
+                          " is not positive definite; expected a symmetric positive definite "
+                          "matrix (upper triangle xx xy xt yy yt tt)");
+    }
+    if (item.ids[0] == item.ids[1]) {
+      return reader.Error("EDGE_SE2 connects vertex " + std::to_string(item.ids[0]) +
+                          " to itself; expected two distinct vertices");
+    }
+    pending_.push_back(item);
+    return Status::Ok();
+  }
+
+  // EDGE_SE2_XY pose landmark x y xx xy yy, EDGE_PRIOR_SE2_XY pose x y xx xy yy.
+  Status ParsePointEdge(const LineReader& reader, PendingKind kind) {
+    const bool observation = kind == PendingKind::kPointObservation;
+    const size_t ids = observation ? 2 : 1;
+    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(1 + ids + 2 + 3));
+    Pending item;
+    item.kind = kind;
+    item.line = reader.line_number();
+    GS_ASSIGN_OR_RETURN(item.ids[0], reader.Id(1, "pose id"));
+    if (observation) {
+      GS_ASSIGN_OR_RETURN(item.ids[1], reader.Id(2, "landmark id"));
+    }
+    double z[2];
+    double upper[3];
+    GS_RETURN_IF_ERROR(reader.Doubles(1 + ids, 2, "measurement", z));
+    GS_RETURN_IF_ERROR(reader.Doubles(3 + ids, 3, "information", upper));
+    item.point_measurement = Eigen::Vector2d(z[0], z[1]);
+    item.information2 = internal::SymmetricFromUpper2(upper);
+    if (!internal::IsPositiveDefinite(item.information2)) {
+      return reader.Error(std::string(PendingTag(kind)) + " information " +
+                          internal::UpperTriangleString(upper, 3) +
+                          " is not positive definite; expected a symmetric positive definite "
+                          "matrix (upper triangle xx xy yy)");
+    }
+    pending_.push_back(item);
+    return Status::Ok();
+  }
+
+  Status ParseFix(const LineReader& reader) {
+    if (reader.fields().size() < 2) {
+      return reader.Error("FIX has 1 fields; expected at least 2 (FIX id [id ...])");
+    }
+    for (size_t k = 1; k < reader.fields().size(); ++k) {
+      Pending item;
+      item.kind = PendingKind::kFix;
+      item.line = reader.line_number();
+      GS_ASSIGN_OR_RETURN(item.ids[0], reader.Id(k, "vertex id"));
+      pending_.push_back(item);
+    }
+    return Status::Ok();
+  }
+
+  // The dense index of vertex `id`, which must be of `kind`; creates it in
+  // edges-only files.
+  StatusOr<int32_t> Lookup(int64_t id, VertexKind kind, const Pending& item) {
+    const auto it = vertices_.find(id);
+    if (it != vertices_.end()) {
+      if (it->second.kind != kind) {
+        std::string defined = it->second.line > 0
+                                  ? " (line " + std::to_string(it->second.line) + ")"
+                                  : " (implicitly, by an earlier edge)";
+        return internal::CorruptionAt(
+            name_, item.line,
+            std::string(PendingTag(item.kind)) + " vertex " + std::to_string(id) + " is a " +
+                KindTag(it->second.kind) + defined + "; expected a " + KindTag(kind));
+      }
+      return it->second.index;
+    }
+    if (has_vertices_) {
+      return internal::CorruptionAt(
+          name_, item.line,
+          std::string(PendingTag(item.kind)) + " refers to vertex " + std::to_string(id) +
+              ", which no VERTEX line defines; expected a " + KindTag(kind) + " " +
+              std::to_string(id) + " line");
+    }
+    Vertex vertex{kind, 0, 0};
+    if (kind == VertexKind::kPose) {
+      vertex.index = problem_.AddPose(id, core::Pose2::Zero(), /*initialized=*/false, 0);
+    } else {
+      vertex.index = problem_.AddFeature(id, core::Point2::Zero(), /*initialized=*/false);
+    }
+    vertices_.emplace(id, vertex);
+    return vertex.index;
+  }
+
+  Status Resolve(const Pending& item) {
+    switch (item.kind) {
+      case PendingKind::kRelativePose: {
+        core::RelativePoseConstraint constraint;
+        GS_ASSIGN_OR_RETURN(constraint.from, Lookup(item.ids[0], VertexKind::kPose, item));
+        GS_ASSIGN_OR_RETURN(constraint.to, Lookup(item.ids[1], VertexKind::kPose, item));
+        constraint.z = item.pose_measurement;
+        constraint.information = item.information3;
+        constraint.line = item.line;
+        problem_.relative_poses.push_back(constraint);
+        return Status::Ok();
+      }
+      case PendingKind::kPointObservation: {
+        core::Observation observation;
+        GS_ASSIGN_OR_RETURN(observation.pose, Lookup(item.ids[0], VertexKind::kPose, item));
+        GS_ASSIGN_OR_RETURN(observation.feature,
+                            Lookup(item.ids[1], VertexKind::kFeature, item));
+        observation.kind = core::ObservationKind::kPointXY;
+        observation.z = item.point_measurement;
+        observation.information = item.information2;
+        observation.line = item.line;
+        problem_.observations.push_back(observation);
+        return Status::Ok();
+      }
+      case PendingKind::kPositionPrior: {
+        core::GpsConstraint gps;
+        GS_ASSIGN_OR_RETURN(gps.pose, Lookup(item.ids[0], VertexKind::kPose, item));
+        gps.z = item.point_measurement;
+        gps.information = item.information2;
+        gps.line = item.line;
+        problem_.gps.push_back(gps);
+        return Status::Ok();
+      }
+      case PendingKind::kFix: {
+        // FIX names vertices: in a file with vertices a FIX of an unknown id
+        // is an error like any edge; fixing a landmark is not supported.
+        GS_ASSIGN_OR_RETURN(const int32_t pose, Lookup(item.ids[0], VertexKind::kPose, item));
+        problem_.pose_fixed[pose] = 1;
+        return Status::Ok();
+      }
+    }
+    return Status::Ok();
+  }
+
+  const std::string path_;
+  std::string name_;
+  core::Problem2d problem_;
+  std::unordered_map<int64_t, Vertex> vertices_;
+  std::vector<Pending> pending_;
+  bool has_vertices_ = false;
+};
+
+}  // namespace
+
+StatusOr<core::Problem2d> ReadG2o(const std::string& path) { return G2oParser(path).Parse(); }
+
+}  // namespace graphslam::storage

@@ -1,0 +1,131 @@
+#include "storage/g2o_writer.h"
+
+#include <Eigen/LU>
+
+#include "core/se2.h"
+#include "core/velocity_motion_model.h"
+#include "storage/atomic_file.h"
+#include "storage/internal/problem_validation.h"
+#include "storage/internal/text_reader.h"
+
+namespace graphslam::storage {
+namespace {
+
+using internal::FormatDouble;
+
+// See g2o_writer.h: polar -> cartesian with first-order information.
+void RangeBearingToPoint(const core::Observation& observation, Eigen::Vector2d* point,
+                         Eigen::Matrix2d* information) {
+  const double range = observation.z.x(), bearing = observation.z.y();
+  const double c = std::cos(bearing), s = std::sin(bearing);
+  *point = Eigen::Vector2d(range * c, range * s);
+  Eigen::Matrix2d jacobian;
+  jacobian << c, -range * s, s, range * c;
+  const Eigen::Matrix2d inverse = jacobian.inverse();
+  *information = inverse.transpose() * observation.information * inverse;
+  *information = 0.5 * (*information + information->transpose());
+}
+
+void MotionToRelative(const core::Problem2d& problem, const core::VelocityMotionConstraint& motion,
+                      core::Pose2* z, Eigen::Matrix3d* information) {
+  *z = core::PredictVelocityMotion(core::Pose2::Zero(), motion.control);
+  const double phi = problem.poses[motion.from].z() + z->z();
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+  rotation.topLeftCorner<2, 2>() = core::Rotation2(phi);
+  *information = rotation.transpose() * motion.information * rotation;
+  *information = 0.5 * (*information + information->transpose());
+}
+
+}  // namespace
+
+Status WriteG2o(const core::Problem2d& problem, const std::string& path, Env* env) {
+  const std::string context = "writing " + path;
+  GS_RETURN_IF_ERROR(internal::ValidateProblemForWriting(problem, /*shared_id_space=*/true)
+                         .WithContext(context));
+  for (size_t k = 0; k < problem.observations.size(); ++k) {
+    const auto& observation = problem.observations[k];
+    if (observation.kind == core::ObservationKind::kRangeBearing && !(observation.z.x() > 0.0)) {
+      return Status::InvalidArgument(
+          context + ": observations[" + std::to_string(k) + "] range is " +
+          FormatDouble(observation.z.x()) +
+          "; expected range > 0 to convert it to EDGE_SE2_XY (the polar Jacobian is singular)");
+    }
+  }
+  if (env == nullptr) env = Env::Default();
+  return WriteFileAtomically(env, path, [&problem](WritableFile* file) -> Status {
+    using internal::AppendField;
+    using internal::AppendUpperTriangle;
+    const auto& pose_ids = problem.pose_ids;
+    const auto& feature_ids = problem.feature_ids;
+    std::string line;
+    const auto flush = [&]() {
+      line.push_back('\n');
+      Status status = file->Append(line);
+      line.clear();
+      return status;
+    };
+    for (int32_t i = 0; i < problem.num_poses(); ++i) {
+      AppendField(&line, "VERTEX_SE2");
+      AppendField(&line, pose_ids[i]);
+      for (int k = 0; k < 3; ++k) AppendField(&line, problem.poses[i][k]);
+      GS_RETURN_IF_ERROR(flush());
+    }
+    for (int32_t i = 0; i < problem.num_features(); ++i) {
+      AppendField(&line, "VERTEX_XY");
+      AppendField(&line, feature_ids[i]);
+      AppendField(&line, problem.features[i].x());
+      AppendField(&line, problem.features[i].y());
+      GS_RETURN_IF_ERROR(flush());
+    }
+    for (int32_t i = 0; i < problem.num_poses(); ++i) {
+      if (!problem.pose_fixed[i]) continue;
+      AppendField(&line, "FIX");
+      AppendField(&line, pose_ids[i]);
+      GS_RETURN_IF_ERROR(flush());
+    }
+    const auto append_edge = [&](int32_t from, int32_t to, const core::Pose2& z,
+                                 const Eigen::Matrix3d& information) {
+      AppendField(&line, "EDGE_SE2");
+      AppendField(&line, pose_ids[from]);
+      AppendField(&line, pose_ids[to]);
+      for (int k = 0; k < 3; ++k) AppendField(&line, z[k]);
+      AppendUpperTriangle(&line, information);
+      return flush();
+    };
+    for (const auto& constraint : problem.relative_poses) {
+      GS_RETURN_IF_ERROR(
+          append_edge(constraint.from, constraint.to, constraint.z, constraint.information));
+    }
+    for (const auto& motion : problem.motions) {
+      core::Pose2 z;
+      Eigen::Matrix3d information;
+      MotionToRelative(problem, motion, &z, &information);
+      GS_RETURN_IF_ERROR(append_edge(motion.from, motion.to, z, information));
+    }
+    for (const auto& observation : problem.observations) {
+      Eigen::Vector2d point = observation.z;
+      Eigen::Matrix2d information = observation.information;
+      if (observation.kind == core::ObservationKind::kRangeBearing) {
+        RangeBearingToPoint(observation, &point, &information);
+      }
+      AppendField(&line, "EDGE_SE2_XY");
+      AppendField(&line, pose_ids[observation.pose]);
+      AppendField(&line, feature_ids[observation.feature]);
+      AppendField(&line, point.x());
+      AppendField(&line, point.y());
+      AppendUpperTriangle(&line, information);
+      GS_RETURN_IF_ERROR(flush());
+    }
+    for (const auto& gps : problem.gps) {
+      AppendField(&line, "EDGE_PRIOR_SE2_XY");
+      AppendField(&line, pose_ids[gps.pose]);
+      AppendField(&line, gps.z.x());
+      AppendField(&line, gps.z.y());
+      AppendUpperTriangle(&line, gps.information);
+      GS_RETURN_IF_ERROR(flush());
+    }
+    return Status::Ok();
+  });
+}
+
+}  // namespace graphslam::storage

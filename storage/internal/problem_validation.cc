@@ -1,0 +1,111 @@
+#include "storage/internal/problem_validation.h"
+
+#include <string>
+#include <unordered_set>
+
+namespace graphslam::storage::internal {
+namespace {
+
+Status IndexError(const std::string& element, int64_t value, int64_t limit, const char* what) {
+  return Status::InvalidArgument(element + " is " + std::to_string(value) +
+                                 "; expected an index in [0, " + std::to_string(limit) + ") (" +
+                                 what + ")");
+}
+
+Status CheckPose(const std::string& element, int32_t index, const core::Problem2d& problem) {
+  if (index < 0 || index >= problem.num_poses()) {
+    return IndexError(element, index, problem.num_poses(), "num_poses");
+  }
+  return Status::Ok();
+}
+
+Status CheckFeature(const std::string& element, int32_t index, const core::Problem2d& problem) {
+  if (index < 0 || index >= problem.num_features()) {
+    return IndexError(element, index, problem.num_features(), "num_features");
+  }
+  return Status::Ok();
+}
+
+template <typename Matrix>
+Status CheckFinite(const std::string& element, const Matrix& value) {
+  if (!value.allFinite()) {
+    return Status::InvalidArgument(element + " has a non-finite entry; expected finite values");
+  }
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status ValidateProblemForWriting(const core::Problem2d& problem, bool shared_id_space) {
+  const size_t poses = problem.poses.size();
+  if (problem.pose_ids.size() != poses || problem.pose_fixed.size() != poses ||
+      problem.pose_initialized.size() != poses || problem.pose_lines.size() != poses ||
+      problem.pose_stamps.size() != poses) {
+    return Status::InvalidArgument(
+        "pose arrays have different sizes; expected poses, pose_ids, pose_fixed, "
+        "pose_initialized, pose_lines and pose_stamps of size " + std::to_string(poses));
+  }
+  const size_t features = problem.features.size();
+  if (problem.feature_ids.size() != features || problem.feature_initialized.size() != features) {
+    return Status::InvalidArgument(
+        "feature arrays have different sizes; expected features, feature_ids and "
+        "feature_initialized of size " + std::to_string(features));
+  }
+  std::unordered_set<int64_t> pose_ids;
+  for (size_t i = 0; i < poses; ++i) {
+    if (!pose_ids.insert(problem.pose_ids[i]).second) {
+      return Status::InvalidArgument("pose id " + std::to_string(problem.pose_ids[i]) +
+                                     " appears twice; expected unique pose ids");
+    }
+    GS_RETURN_IF_ERROR(CheckFinite("poses[" + std::to_string(i) + "]", problem.poses[i]));
+  }
+  std::unordered_set<int64_t> feature_ids;
+  for (size_t i = 0; i < features; ++i) {
+    const int64_t id = problem.feature_ids[i];
+    if (!feature_ids.insert(id).second) {
+      return Status::InvalidArgument("feature id " + std::to_string(id) +
+                                     " appears twice; expected unique feature ids");
+    }
+    if (shared_id_space && pose_ids.count(id) > 0) {
+      return Status::InvalidArgument("feature id " + std::to_string(id) +
+                                     " is also a pose id; expected one shared id space "
+                                     "without collisions (g2o)");
+    }
+    GS_RETURN_IF_ERROR(CheckFinite("features[" + std::to_string(i) + "]", problem.features[i]));
+  }
+  for (size_t k = 0; k < problem.relative_poses.size(); ++k) {
+    const auto& c = problem.relative_poses[k];
+    const std::string name = "relative_poses[" + std::to_string(k) + "]";
+    GS_RETURN_IF_ERROR(CheckPose(name + ".from", c.from, problem));
+    GS_RETURN_IF_ERROR(CheckPose(name + ".to", c.to, problem));
+    GS_RETURN_IF_ERROR(CheckFinite(name + ".z", c.z));
+    GS_RETURN_IF_ERROR(CheckFinite(name + ".information", c.information));
+  }
+  for (size_t k = 0; k < problem.motions.size(); ++k) {
+    const auto& c = problem.motions[k];
+    const std::string name = "motions[" + std::to_string(k) + "]";
+    GS_RETURN_IF_ERROR(CheckPose(name + ".from", c.from, problem));
+    GS_RETURN_IF_ERROR(CheckPose(name + ".to", c.to, problem));
+    GS_RETURN_IF_ERROR(CheckFinite(
+        name + ".control", Eigen::Vector3d(c.control.v, c.control.omega, c.control.dt)));
+    GS_RETURN_IF_ERROR(CheckFinite(name + ".information", c.information));
+  }
+  for (size_t k = 0; k < problem.gps.size(); ++k) {
+    const auto& c = problem.gps[k];
+    const std::string name = "gps[" + std::to_string(k) + "]";
+    GS_RETURN_IF_ERROR(CheckPose(name + ".pose", c.pose, problem));
+    GS_RETURN_IF_ERROR(CheckFinite(name + ".z", c.z));
+    GS_RETURN_IF_ERROR(CheckFinite(name + ".information", c.information));
+  }
+  for (size_t k = 0; k < problem.observations.size(); ++k) {
+    const auto& c = problem.observations[k];
+    const std::string name = "observations[" + std::to_string(k) + "]";
+    GS_RETURN_IF_ERROR(CheckPose(name + ".pose", c.pose, problem));
+    GS_RETURN_IF_ERROR(CheckFeature(name + ".feature", c.feature, problem));
+    GS_RETURN_IF_ERROR(CheckFinite(name + ".z", c.z));
+    GS_RETURN_IF_ERROR(CheckFinite(name + ".information", c.information));
+  }
+  return Status::Ok();
+}
+
+}  // namespace graphslam::storage::internal

@@ -1,0 +1,202 @@
+#include "storage/internal/text_reader.h"
+
+#include <Eigen/Cholesky>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+namespace graphslam::storage::internal {
+
+std::string BaseName(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+LineReader::LineReader(std::string name, std::string path)
+    : name_(std::move(name)), path_(std::move(path)) {}
+
+StatusOr<std::unique_ptr<LineReader>> LineReader::Open(const std::string& path) {
+  std::error_code error;
+  if (!std::filesystem::exists(path, error)) {
+    return Status::NotFound(path + ": no such file; expected an existing input file");
+  }
+  if (std::filesystem::is_directory(path, error)) {
+    return Status::InvalidArgument(path + ": is a directory; expected a file");
+  }
+  std::unique_ptr<LineReader> reader(new LineReader(BaseName(path), path));
+  reader->stream_.open(path);
+  if (!reader->stream_.is_open()) return Status::IOError(path + ": cannot open for reading");
+  return reader;
+}
+
+bool LineReader::Next() {
+  while (std::getline(stream_, line_)) {
+    ++line_number_;
+    fields_.clear();
+    const std::string_view line(line_);
+    size_t position = 0;
+    while (position < line.size()) {
+      while (position < line.size() && std::isspace(static_cast<unsigned char>(line[position]))) {
+        ++position;
+      }
+      if (position >= line.size()) break;
+      size_t end = position;
+      while (end < line.size() && !std::isspace(static_cast<unsigned char>(line[end]))) ++end;
+      fields_.push_back(line.substr(position, end - position));
+      position = end;
+    }
+    if (fields_.empty() || fields_[0][0] == '#') continue;
+    return true;
+  }
+  if (stream_.bad()) status_ = Status::IOError(path_ + ": read error after line " +
+                                               std::to_string(line_number_));
+  fields_.clear();
+  return false;
+}
+
+std::string LineReader::Tag() const {
+  return record_name_.empty() ? std::string(fields_[0]) : record_name_;
+}
+
+Status LineReader::Error(std::string_view what) const {
+  return Status::Corruption(name_ + ":" + std::to_string(line_number_) + ": " + std::string(what));
+}
+
+Status LineReader::Unsupported(std::string_view what) const {
+  return Status::NotSupported(name_ + ":" + std::to_string(line_number_) + ": " +
+                              std::string(what));
+}
+
+Status LineReader::ExpectFieldCount(size_t expected) const {
+  if (fields_.size() == expected) return Status::Ok();
+  return Error(Tag() + " has " + std::to_string(fields_.size()) +
+               " fields; expected " + std::to_string(expected));
+}
+
+Status LineReader::ExpectFieldCount(size_t first, size_t second) const {
+  if (fields_.size() == first || fields_.size() == second) return Status::Ok();
+  return Error(Tag() + " has " + std::to_string(fields_.size()) +
+               " fields; expected " + std::to_string(first) + " or " + std::to_string(second));
+}
+
+Status CorruptionAt(const std::string& name, int32_t line, std::string_view what) {
+  return Status::Corruption(name + ":" + std::to_string(line) + ": " + std::string(what));
+}
+
+bool ParseDouble(std::string_view token, double* value) {
+  if (!token.empty() && token[0] == '+') token.remove_prefix(1);
+  if (token.empty()) return false;
+  const auto [end, error] = std::from_chars(token.data(), token.data() + token.size(), *value);
+  return error == std::errc() && end == token.data() + token.size();
+}
+
+bool ParseInt64(std::string_view token, int64_t* value) {
+  if (!token.empty() && token[0] == '+') token.remove_prefix(1);
+  if (token.empty()) return false;
+  const auto [end, error] = std::from_chars(token.data(), token.data() + token.size(), *value);
+  return error == std::errc() && end == token.data() + token.size();
+}
+
+StatusOr<double> LineReader::Double(size_t index, std::string_view what) const {
+  GS_CHECK(index < fields_.size());
+  const std::string prefix = Tag() + " field " + std::to_string(index + 1) +
+                             " (" + std::string(what) + ") is '" + std::string(fields_[index]) +
+                             "'";
+  double value = 0.0;
+  if (!ParseDouble(fields_[index], &value)) return Error(prefix + "; expected a number");
+  if (!std::isfinite(value)) return Error(prefix + "; expected a finite number");
+  return value;
+}
+
+StatusOr<int64_t> LineReader::Id(size_t index, std::string_view what) const {
+  GS_CHECK(index < fields_.size());
+  int64_t value = 0;
+  if (!ParseInt64(fields_[index], &value)) {
+    return Error(Tag() + " field " + std::to_string(index + 1) + " (" +
+                 std::string(what) + ") is '" + std::string(fields_[index]) +
+                 "'; expected an integer id");
+  }
+  return value;
+}
+
+Status LineReader::Doubles(size_t first, size_t count, std::string_view what, double* out) const {
+  for (size_t k = 0; k < count; ++k) {
+    GS_ASSIGN_OR_RETURN(out[k], Double(first + k, what));
+  }
+  return Status::Ok();
+}
+
+Eigen::Matrix3d SymmetricFromUpper3(const double upper[6]) {
+  Eigen::Matrix3d m;
+  m << upper[0], upper[1], upper[2],  //
+      upper[1], upper[3], upper[4],   //
+      upper[2], upper[4], upper[5];
+  return m;
+}
+
+Eigen::Matrix2d SymmetricFromUpper2(const double upper[3]) {
+  Eigen::Matrix2d m;
+  m << upper[0], upper[1], upper[1], upper[2];
+  return m;
+}
+
+bool IsPositiveDefinite(const Eigen::Matrix3d& matrix) {
+  return matrix.allFinite() && Eigen::LLT<Eigen::Matrix3d>(matrix).info() == Eigen::Success;
+}
+
+bool IsPositiveDefinite(const Eigen::Matrix2d& matrix) {
+  return matrix.allFinite() && Eigen::LLT<Eigen::Matrix2d>(matrix).info() == Eigen::Success;
+}
+
+std::string UpperTriangleString(const double* upper, int count) {
+  std::string out = "[";
+  for (int k = 0; k < count; ++k) {
+    if (k > 0) out += ' ';
+    out += FormatDouble(upper[k]);
+  }
+  return out + "]";
+}
+
+std::string FormatDouble(double value) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%.17g", value);
+  return buffer;
+}
+
+}  // namespace graphslam::storage::internal
+
+namespace graphslam::storage::internal {
+
+void AppendField(std::string* line, std::string_view text) {
+  if (!line->empty()) line->push_back(' ');
+  line->append(text);
+}
+
+void AppendField(std::string* line, double value) {
+  char buffer[32];
+  const int length = std::snprintf(buffer, sizeof(buffer), "%.17g", value);
+  AppendField(line, std::string_view(buffer, static_cast<size_t>(length)));
+}
+
+void AppendField(std::string* line, int64_t value) {
+  char buffer[24];
+  const int length = std::snprintf(buffer, sizeof(buffer), "%lld", static_cast<long long>(value));
+  AppendField(line, std::string_view(buffer, static_cast<size_t>(length)));
+}
+
+void AppendUpperTriangle(std::string* line, const Eigen::Matrix3d& matrix) {
+  for (int r = 0; r < 3; ++r) {
+    for (int c = r; c < 3; ++c) AppendField(line, matrix(r, c));
+  }
+}
+
+void AppendUpperTriangle(std::string* line, const Eigen::Matrix2d& matrix) {
+  AppendField(line, matrix(0, 0));
+  AppendField(line, matrix(0, 1));
+  AppendField(line, matrix(1, 1));
+}
+
+}  // namespace graphslam::storage::internal

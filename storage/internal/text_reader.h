@@ -1,0 +1,111 @@
+// Line-oriented text input shared by the importers (g2o, iSAM, MRCLAM, native
+// log): a streaming line reader (std::getline, never the whole file in memory)
+// and a field parser whose errors follow the project format
+//   "<file>:<line>: <what was wrong>; expected <what>"
+// e.g. "intel.g2o:12: EDGE_SE2 has 9 fields; expected 12".
+// <file> is the base name of the path, as in the example.
+//
+// Numbers are parsed with std::from_chars (locale-independent); a token must be
+// consumed whole, and nan/inf are rejected (they would poison the solver).
+//
+// THREAD SAFETY: one reader per thread. ALLOCATION: one line buffer plus the
+// token views into it.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/status.h"
+
+namespace graphslam::storage::internal {
+
+// Base name of a path ("a/b/intel.g2o" -> "intel.g2o").
+std::string BaseName(const std::string& path);
+
+class LineReader {
+ public:
+  // NotFound if the file does not exist, IOError if it cannot be opened.
+  static StatusOr<std::unique_ptr<LineReader>> Open(const std::string& path);
+
+  // Reads the next line that is neither blank nor a comment (first non-blank
+  // character '#') and splits it on whitespace into fields(). Returns false at
+  // the end of the file or on a read error (then status() is not OK).
+  bool Next();
+  const std::vector<std::string_view>& fields() const { return fields_; }
+  int32_t line_number() const { return line_number_; }
+  const std::string& name() const { return name_; }  // base name, for messages
+  const Status& status() const { return status_; }
+
+  // For tag-less files (MRCLAM): messages say `record_name` where they would
+  // name the tag (fields()[0]), e.g. "odometry record field 3 ...".
+  void set_record_name(std::string record_name) { record_name_ = std::move(record_name); }
+
+  // "<name>:<line>: <what>" as a Corruption.
+  Status Error(std::string_view what) const;
+  // The same with NotSupported.
+  Status Unsupported(std::string_view what) const;
+
+  // Checks fields().size() == expected: "<tag> has N fields; expected M".
+  Status ExpectFieldCount(size_t expected) const;
+  // Accepts either of two counts: "...; expected A or B".
+  Status ExpectFieldCount(size_t first, size_t second) const;
+
+  // Field `index` as a finite double: "<tag> field 3 (x) is 'abc'; expected a
+  // number" or "... is 'nan'; expected a finite number".
+  StatusOr<double> Double(size_t index, std::string_view what) const;
+  // Field `index` as an integer id: "...; expected an integer id".
+  StatusOr<int64_t> Id(size_t index, std::string_view what) const;
+  // `count` doubles starting at `first`.
+  Status Doubles(size_t first, size_t count, std::string_view what, double* out) const;
+
+ private:
+  LineReader(std::string name, std::string path);
+
+  std::string name_;
+  std::string path_;
+  std::ifstream stream_;
+  std::string line_;
+  std::vector<std::string_view> fields_;
+  int32_t line_number_ = 0;
+  Status status_;
+  std::string record_name_;
+
+  std::string Tag() const;
+};
+
+// "<name>:<line>: <what>" as a Corruption, for errors found after the line
+// was read (e.g. an edge to a vertex that is never defined).
+Status CorruptionAt(const std::string& name, int32_t line, std::string_view what);
+
+// Parses a whole token as a finite double / integer (no reader context).
+bool ParseDouble(std::string_view token, double* value);
+bool ParseInt64(std::string_view token, int64_t* value);
+
+// Builds the symmetric matrix from its upper triangle in row-first order
+// (g2o: xx xy xt yy yt tt).
+Eigen::Matrix3d SymmetricFromUpper3(const double upper[6]);
+Eigen::Matrix2d SymmetricFromUpper2(const double upper[3]);
+// True if the (symmetric) matrix is positive definite (Cholesky succeeds).
+bool IsPositiveDefinite(const Eigen::Matrix3d& matrix);
+bool IsPositiveDefinite(const Eigen::Matrix2d& matrix);
+// "[a b c ...]" of the upper triangle, %.17g, for messages.
+std::string UpperTriangleString(const double* upper, int count);
+
+// "%.17g": a form that reads back to the identical double.
+std::string FormatDouble(double value);
+
+// Append one field to a record being written, preceded by a space unless the
+// line is empty: numbers as "%.17g", ids in decimal.
+void AppendField(std::string* line, std::string_view text);
+void AppendField(std::string* line, double value);
+void AppendField(std::string* line, int64_t value);
+// The upper triangle of a symmetric matrix, row first.
+void AppendUpperTriangle(std::string* line, const Eigen::Matrix3d& matrix);
+void AppendUpperTriangle(std::string* line, const Eigen::Matrix2d& matrix);
+
+}  // namespace graphslam::storage::internal

@@ -1,0 +1,282 @@
+#include "storage/mrclam_reader.h"
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <unordered_map>
+
+#include "core/logging.h"
+#include "storage/internal/text_reader.h"
+
+namespace graphslam::storage {
+namespace {
+
+using internal::LineReader;
+
+// Subjects 1..5 of Barcodes.dat are the robots of MRCLAM (Leung et al. 2011).
+constexpr int64_t kLastRobotSubject = 5;
+
+std::string RobotFile(const std::string& folder, int robot, const char* suffix) {
+  return folder + "/Robot" + std::to_string(robot) + "_" + suffix + ".dat";
+}
+
+StatusOr<std::unordered_map<int64_t, int64_t>> ReadBarcodes(const std::string& path) {
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<LineReader> reader, LineReader::Open(path));
+  reader->set_record_name("barcode record");
+  std::unordered_map<int64_t, int64_t> subject_of_barcode;
+  while (reader->Next()) {
+    if (reader->fields().size() != 2) {
+      return reader->Error("barcode record has " + std::to_string(reader->fields().size()) +
+                           " fields; expected 2 (subject barcode)");
+    }
+    GS_ASSIGN_OR_RETURN(const int64_t subject, reader->Id(0, "subject"));
+    GS_ASSIGN_OR_RETURN(const int64_t barcode, reader->Id(1, "barcode"));
+    if (!subject_of_barcode.emplace(barcode, subject).second) {
+      return reader->Error("barcode " + std::to_string(barcode) +
+                           " is listed twice; expected one subject per barcode");
+    }
+  }
+  GS_RETURN_IF_ERROR(reader->status());
+  if (subject_of_barcode.empty()) {
+    return Status::Corruption(reader->name() + ": has no records; expected subject barcode lines");
+  }
+  return subject_of_barcode;
+}
+
+// Reads "t a b c" records with non-decreasing t.
+struct TimedRecords {
+  std::vector<double> stamps;
+  std::vector<Eigen::Vector3d> values;
+  std::vector<int32_t> lines;
+};
+
+StatusOr<TimedRecords> ReadTimedRecords(const std::string& path, const char* layout) {
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<LineReader> reader, LineReader::Open(path));
+  reader->set_record_name("record");
+  TimedRecords records;
+  while (reader->Next()) {
+    // Odometry "t v omega" has 3 fields, ground truth "t x y theta" 4.
+    const size_t expected = std::string_view(layout).find("theta") != std::string_view::npos ? 4 : 3;
+    if (reader->fields().size() != expected) {
+      return reader->Error("record has " + std::to_string(reader->fields().size()) +
+                           " fields; expected " + std::to_string(expected) + " (" + layout + ")");
+    }
+    double values[4] = {0.0, 0.0, 0.0, 0.0};
+    GS_ASSIGN_OR_RETURN(values[0], reader->Double(0, "time"));
+    GS_RETURN_IF_ERROR(reader->Doubles(1, expected - 1, "value", values + 1));
+    if (!records.stamps.empty() && values[0] < records.stamps.back()) {
+      return reader->Error("time " + internal::FormatDouble(values[0]) +
+                           " is earlier than the previous record's " +
+                           internal::FormatDouble(records.stamps.back()) +
+                           "; expected non-decreasing time stamps");
+    }
+    records.stamps.push_back(values[0]);
+    records.values.emplace_back(values[1], values[2], values[3]);
+    records.lines.push_back(reader->line_number());
+  }
+  GS_RETURN_IF_ERROR(reader->status());
+  if (records.stamps.empty()) {
+    return Status::Corruption(reader->name() + ": has no records; expected " + layout +
+                              " lines");
+  }
+  return records;
+}
+
+// Index of the stamp nearest to t (ties: the earlier one); stamps sorted.
+size_t NearestStamp(const std::vector<double>& stamps, double t) {
+  const auto upper = std::lower_bound(stamps.begin(), stamps.end(), t);
+  if (upper == stamps.begin()) return 0;
+  if (upper == stamps.end()) return stamps.size() - 1;
+  const size_t after = static_cast<size_t>(upper - stamps.begin());
+  return (t - stamps[after - 1] <= stamps[after] - t) ? after - 1 : after;
+}
+
+StatusOr<std::map<int64_t, core::Point2>> ReadLandmarkGroundTruth(const std::string& path) {
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<LineReader> reader, LineReader::Open(path));
+  reader->set_record_name("landmark record");
+  std::map<int64_t, core::Point2> landmarks;
+  while (reader->Next()) {
+    const size_t count = reader->fields().size();
+    if (count != 5 && count != 3) {
+      return reader->Error("landmark record has " + std::to_string(count) +
+                           " fields; expected 5 (subject x y sigma_x sigma_y) or 3");
+    }
+    GS_ASSIGN_OR_RETURN(const int64_t subject, reader->Id(0, "subject"));
+    double values[4];
+    GS_RETURN_IF_ERROR(reader->Doubles(1, count - 1, "value", values));
+    if (!landmarks.emplace(subject, core::Point2(values[0], values[1])).second) {
+      return reader->Error("landmark subject " + std::to_string(subject) +
+                           " is listed twice; expected one record per landmark");
+    }
+  }
+  GS_RETURN_IF_ERROR(reader->status());
+  return landmarks;
+}
+
+}  // namespace
+
+Status MrclamOptions::Validate() const {
+  if (robot < 1 || robot > 5) {
+    return Status::InvalidArgument("MrclamOptions.robot is " + std::to_string(robot) +
+                                   "; expected 1..5");
+  }
+  for (int k = 0; k < 6; ++k) {
+    if (!std::isfinite(noise.alpha[k]) || noise.alpha[k] < 0.0) {
+      return Status::InvalidArgument("MrclamOptions.noise.alpha[" + std::to_string(k) + "] is " +
+                                     internal::FormatDouble(noise.alpha[k]) +
+                                     "; expected a finite value >= 0");
+    }
+  }
+  if (!(noise.min_sigma_xy > 0.0) || !(noise.min_sigma_theta > 0.0) ||
+      !std::isfinite(noise.min_sigma_xy) || !std::isfinite(noise.min_sigma_theta)) {
+    return Status::InvalidArgument("MrclamOptions.noise.min_sigma_xy/theta are " +
+                                   internal::FormatDouble(noise.min_sigma_xy) + "/" +
+                                   internal::FormatDouble(noise.min_sigma_theta) +
+                                   "; expected finite values > 0");
+  }
+  const Eigen::Matrix2d symmetric =
+      0.5 * (measurement_information + measurement_information.transpose());
+  if (!internal::IsPositiveDefinite(measurement_information) ||
+      (measurement_information - symmetric).cwiseAbs().maxCoeff() > 0.0) {
+    return Status::InvalidArgument(
+        "MrclamOptions.measurement_information is not symmetric positive definite; expected "
+        "e.g. diag(1/sigma_range^2, 1/sigma_bearing^2)");
+  }
+  if (!(max_time_offset > 0.0) || !std::isfinite(max_time_offset)) {
+    return Status::InvalidArgument("MrclamOptions.max_time_offset is " +
+                                   internal::FormatDouble(max_time_offset) +
+                                   "; expected a finite value > 0 [s]");
+  }
+  return Status::Ok();
+}
+
+StatusOr<MrclamGroundTruth> ReadMrclamGroundTruth(const std::string& folder, int robot) {
+  MrclamGroundTruth truth;
+  GS_ASSIGN_OR_RETURN(TimedRecords records,
+                      ReadTimedRecords(RobotFile(folder, robot, "Groundtruth"), "t x y theta"));
+  truth.stamps = std::move(records.stamps);
+  truth.poses = std::move(records.values);
+  GS_ASSIGN_OR_RETURN(truth.landmarks,
+                      ReadLandmarkGroundTruth(folder + "/Landmark_Groundtruth.dat"));
+  return truth;
+}
+
+StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOptions& options,
+                                     MrclamReadStats* stats) {
+  GS_RETURN_IF_ERROR(options.Validate());
+  if (options.ignore_barcodes) {
+    return Status::NotSupported(folder +
+                                ": MrclamOptions.ignore_barcodes asks for unknown "
+                                "correspondences; expected barcodes (data association is not "
+                                "yet supported)");
+  }
+  std::error_code error;
+  if (!std::filesystem::is_directory(folder, error)) {
+    return Status::NotFound(folder + ": is not a directory; expected an MRCLAM dataset folder");
+  }
+  MrclamReadStats local_stats;
+  GS_ASSIGN_OR_RETURN(const auto subject_of_barcode, ReadBarcodes(folder + "/Barcodes.dat"));
+  const std::string odometry_path = RobotFile(folder, options.robot, "Odometry");
+  GS_ASSIGN_OR_RETURN(const TimedRecords odometry,
+                      ReadTimedRecords(odometry_path, "t v omega"));
+  local_stats.odometry_records = static_cast<int64_t>(odometry.stamps.size());
+
+  // The anchor: ground truth nearest to t_0 if present, else the origin.
+  core::Pose2 initial = core::Pose2::Zero();
+  const std::string truth_path = RobotFile(folder, options.robot, "Groundtruth");
+  if (std::filesystem::exists(truth_path, error)) {
+    GS_ASSIGN_OR_RETURN(const TimedRecords truth, ReadTimedRecords(truth_path, "t x y theta"));
+    initial = truth.values[NearestStamp(truth.stamps, odometry.stamps[0])];
+  }
+
+  core::Problem2d problem;
+  problem.source = folder;
+  const size_t count = odometry.stamps.size();
+  problem.AddPose(0, initial, /*initialized=*/true, odometry.lines[0], odometry.stamps[0]);
+  problem.pose_fixed[0] = 1;
+  core::Pose2 dead_reckoned = initial;
+  for (size_t k = 0; k + 1 < count; ++k) {
+    core::VelocityControl control;
+    control.v = odometry.values[k].x();
+    control.omega = odometry.values[k].y();
+    control.dt = odometry.stamps[k + 1] - odometry.stamps[k];
+    const Eigen::Matrix3d covariance =
+        core::VelocityMotionCovariance(dead_reckoned, control, options.noise);
+    const Eigen::Matrix3d information = covariance.inverse();
+    if (!internal::IsPositiveDefinite(information)) {
+      return Status::Numerical(internal::BaseName(odometry_path) + ":" +
+                               std::to_string(odometry.lines[k]) +
+                               ": motion information (inverse of the velocity motion "
+                               "covariance) is not positive definite; expected the noise floor "
+                               "min_sigma_xy/theta to keep it definite");
+    }
+    dead_reckoned = core::PredictVelocityMotion(dead_reckoned, control);
+    const int32_t to = problem.AddPose(static_cast<int64_t>(k + 1), dead_reckoned,
+                                       /*initialized=*/false, odometry.lines[k + 1],
+                                       odometry.stamps[k + 1]);
+    core::VelocityMotionConstraint motion;
+    motion.from = to - 1;
+    motion.to = to;
+    motion.control = control;
+    motion.information = information;
+    motion.line = odometry.lines[k];
+    problem.motions.push_back(motion);
+  }
+
+  const std::string measurement_path = RobotFile(folder, options.robot, "Measurement");
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<LineReader> reader, LineReader::Open(measurement_path));
+  reader->set_record_name("measurement");
+  std::unordered_map<int64_t, int32_t> feature_of_subject;
+  while (reader->Next()) {
+    if (reader->fields().size() != 4) {
+      return reader->Error("measurement has " + std::to_string(reader->fields().size()) +
+                           " fields; expected 4 (t barcode range bearing)");
+    }
+    ++local_stats.measurements;
+    GS_ASSIGN_OR_RETURN(const double t, reader->Double(0, "time"));
+    GS_ASSIGN_OR_RETURN(const int64_t barcode, reader->Id(1, "barcode"));
+    GS_ASSIGN_OR_RETURN(const double range, reader->Double(2, "range"));
+    GS_ASSIGN_OR_RETURN(const double bearing, reader->Double(3, "bearing"));
+    const auto subject = subject_of_barcode.find(barcode);
+    if (subject == subject_of_barcode.end()) {
+      return reader->Error("barcode " + std::to_string(barcode) +
+                           " is not in Barcodes.dat; expected a known barcode");
+    }
+    if (!(range > 0.0)) {
+      return reader->Error("range " + internal::FormatDouble(range) + "; expected range > 0");
+    }
+    if (subject->second <= kLastRobotSubject) {
+      ++local_stats.robot_measurements_dropped;
+      continue;
+    }
+    const size_t pose = NearestStamp(odometry.stamps, t);
+    if (std::abs(odometry.stamps[pose] - t) > options.max_time_offset) {
+      ++local_stats.out_of_time_range_dropped;
+      continue;
+    }
+    const auto [feature, inserted] =
+        feature_of_subject.try_emplace(subject->second, problem.num_features());
+    if (inserted) problem.AddFeature(subject->second, core::Point2::Zero(), /*initialized=*/false);
+    core::Observation observation;
+    observation.pose = static_cast<int32_t>(pose);
+    observation.feature = feature->second;
+    observation.kind = core::ObservationKind::kRangeBearing;
+    observation.z = Eigen::Vector2d(range, bearing);
+    observation.information = options.measurement_information;
+    observation.line = reader->line_number();
+    problem.observations.push_back(observation);
+    ++local_stats.landmark_observations;
+  }
+  GS_RETURN_IF_ERROR(reader->status());
+  GS_VLOG(1, "%s robot %d: %lld poses, %lld landmark observations, %lld robot measurements "
+          "dropped, %lld out of time range",
+          folder.c_str(), options.robot, static_cast<long long>(local_stats.odometry_records),
+          static_cast<long long>(local_stats.landmark_observations),
+          static_cast<long long>(local_stats.robot_measurements_dropped),
+          static_cast<long long>(local_stats.out_of_time_range_dropped));
+  if (stats != nullptr) *stats = local_stats;
+  return problem;
+}
+
+}  // namespace graphslam::storage

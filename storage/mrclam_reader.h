@@ -1,0 +1,86 @@
+// Reads one robot of the UTIAS Multi-Robot Cooperative Localization and
+// Mapping dataset (Leung, Halpern, Barfoot, Liu, "The UTIAS multi-robot
+// cooperative localization and mapping dataset", IJRR 2011) into a
+// core::Problem2d with the velocity motion model of Thrun & Montemerlo.
+//
+// Folder contents (whitespace text, '#' header lines skipped; the raw files
+// with irregular time stamps and the 50 Hz resampled ones both work):
+//   RobotN_Odometry.dat     t v omega            (commanded velocities)
+//   RobotN_Measurement.dat  t barcode range bearing
+//   Barcodes.dat            subject barcode      (subjects 1..5 robots, 6..20 landmarks)
+//   RobotN_Groundtruth.dat  t x y theta          (optional; Vicon)
+//   Landmark_Groundtruth.dat subject x y sx sy   (optional)
+//
+// Poses: one per odometry record; pose k has time t_k and id k. Control record
+// k drives pose k -> k+1:  u_k = (v_k, omega_k),  dt = t_{k+1} - t_k, and
+//   Omega_k = R_k^{-1},  R_k = VelocityMotionCovariance(x_k, u_k, noise),
+// evaluated at the dead-reckoned pose x_k (x_0 (+) the controls so far), the
+// only estimate available when reading. Pose 0 is the ground-truth pose
+// nearest to t_0 if RobotN_Groundtruth.dat exists, else the origin; it is
+// initialized and fixed (the map frame is the ground-truth frame). Poses
+// 1..T-1 are uninitialized (pose_initialized = 0) but hold the dead-reckoned
+// pose at which their motion information was linearized.
+//
+// Measurements: attached to the pose with the nearest time stamp (ties go to
+// the earlier pose), dropped if that is farther than max_time_offset.
+// Barcodes of robots (subjects 1..5) are dropped and counted; a landmark
+// barcode becomes feature id = its subject number (6..20), created
+// uninitialized at its first observation. z = (range, bearing), kRangeBearing,
+// information = options.measurement_information.
+//
+// THREAD SAFETY: reentrant. ALLOCATION: O(records); files streamed by line.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "core/problem.h"
+#include "core/status.h"
+#include "core/velocity_motion_model.h"
+
+namespace graphslam::storage {
+
+struct MrclamOptions {
+  int robot = 1;  // 1..5
+  // true asks for unknown correspondences (barcodes ignored): data association,
+  // which is not yet supported (ReadMrclam returns NotSupported).
+  bool ignore_barcodes = false;
+  core::VelocityNoise noise;
+  // diag(1/sigma_r^2, 1/sigma_phi^2) with sigma_r = 0.1 m and sigma_phi = 0.05
+  // rad (about 3 degrees): our default, deliberately looser than the few-cm
+  // errors of the camera so that occasional outliers do not dominate; tune it
+  // for other data.
+  Eigen::Matrix2d measurement_information =
+      (Eigen::Matrix2d() << 1.0 / (0.1 * 0.1), 0.0, 0.0, 1.0 / (0.05 * 0.05)).finished();
+  // Measurements farther than this from every odometry stamp are dropped [s].
+  double max_time_offset = 0.5;
+
+  // InvalidArgument naming the bad field and its value.
+  [[nodiscard]] Status Validate() const;
+};
+
+// What ReadMrclam read and dropped.
+struct MrclamReadStats {
+  int64_t odometry_records = 0;
+  int64_t measurements = 0;             // all records of RobotN_Measurement.dat
+  int64_t robot_measurements_dropped = 0;   // barcodes of robots
+  int64_t out_of_time_range_dropped = 0;    // no pose within max_time_offset
+  int64_t landmark_observations = 0;        // became Observations
+};
+
+StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOptions& options,
+                                     MrclamReadStats* stats = nullptr);
+
+struct MrclamGroundTruth {
+  std::vector<double> stamps;              // RobotN_Groundtruth.dat
+  std::vector<core::Pose2> poses;
+  std::map<int64_t, core::Point2> landmarks;  // subject -> position
+};
+
+// Reads RobotN_Groundtruth.dat and Landmark_Groundtruth.dat (both required).
+StatusOr<MrclamGroundTruth> ReadMrclamGroundTruth(const std::string& folder, int robot);
+
+}  // namespace graphslam::storage

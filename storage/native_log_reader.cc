@@ -1,0 +1,396 @@
+#include "storage/native_log_reader.h"
+
+#include <Eigen/LU>
+#include <cmath>
+#include <limits>
+#include <string_view>
+#include <unordered_map>
+
+#include "core/se2.h"
+#include "core/velocity_motion_model.h"
+#include "storage/atomic_file.h"
+#include "storage/internal/problem_validation.h"
+#include "storage/internal/text_reader.h"
+
+namespace graphslam::storage {
+namespace {
+
+using internal::FormatDouble;
+using internal::LineReader;
+
+constexpr const char* kKnownTags =
+    "POSE, FEATURE, CONTROL, CONTROL_INFO, ODOM, RB, XY, GPS or FIX";
+
+class NativeLogParser {
+ public:
+  explicit NativeLogParser(const std::string& path) : path_(path) {}
+
+  StatusOr<core::Problem2d> Parse() {
+    GS_ASSIGN_OR_RETURN(std::unique_ptr<LineReader> reader, LineReader::Open(path_));
+    problem_.source = path_;
+    if (!reader->Next()) {
+      GS_RETURN_IF_ERROR(reader->status());
+      return Status::Corruption(reader->name() + ": is empty; expected the header " +
+                                kNativeLogMagic + " " + std::to_string(kNativeLogVersion));
+    }
+    GS_RETURN_IF_ERROR(ParseHeader(*reader));
+    while (reader->Next()) GS_RETURN_IF_ERROR(ParseLine(*reader));
+    GS_RETURN_IF_ERROR(reader->status());
+    return std::move(problem_);
+  }
+
+ private:
+  Status ParseHeader(const LineReader& reader) {
+    const auto& fields = reader.fields();
+    if (fields[0] != kNativeLogMagic) {
+      return reader.Error("first record is '" + std::string(fields[0]) +
+                          "'; expected the header " + kNativeLogMagic + " " +
+                          std::to_string(kNativeLogVersion));
+    }
+    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(2));
+    GS_ASSIGN_OR_RETURN(const int64_t version, reader.Id(1, "version"));
+    if (version != kNativeLogVersion) {
+      return reader.Unsupported("format version " + std::to_string(version) + "; expected " +
+                                std::to_string(kNativeLogVersion));
+    }
+    return Status::Ok();
+  }
+
+  Status ParseLine(const LineReader& reader) {
+    const std::string_view tag = reader.fields()[0];
+    if (tag == "POSE") return ParsePose(reader);
+    if (tag == "FEATURE") return ParseFeature(reader);
+    if (tag == "CONTROL") return ParseControl(reader, /*explicit_information=*/false);
+    if (tag == "CONTROL_INFO") return ParseControl(reader, /*explicit_information=*/true);
+    if (tag == "ODOM") return ParseOdometry(reader);
+    if (tag == "RB" || tag == "XY") return ParseObservation(reader);
+    if (tag == "GPS") return ParseGps(reader);
+    if (tag == "FIX") return ParseFix(reader);
+    if (tag == kNativeLogMagic) {
+      return reader.Error("a second header; expected one header, on the first line");
+    }
+    return reader.Unsupported("unknown tag '" + std::string(tag) + "'; expected " + kKnownTags);
+  }
+
+  Status ParsePose(const LineReader& reader) {
+    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(3, 6));
+    GS_ASSIGN_OR_RETURN(const int64_t id, reader.Id(1, "id"));
+    double stamp = std::numeric_limits<double>::quiet_NaN();
+    if (reader.fields()[2] != "-") {
+      GS_ASSIGN_OR_RETURN(stamp, reader.Double(2, "time"));
+    }
+    const bool initialized = reader.fields().size() == 6;
+    double guess[3] = {0.0, 0.0, 0.0};
+    if (initialized) GS_RETURN_IF_ERROR(reader.Doubles(3, 3, "initial guess", guess));
+    if (const auto it = poses_.find(id); it != poses_.end()) {
+      return reader.Error("POSE " + std::to_string(id) + " is already declared at line " +
+                          std::to_string(problem_.pose_lines[it->second]) +
+                          "; expected unique pose ids");
+    }
+    poses_.emplace(id, problem_.AddPose(id, core::Pose2(guess[0], guess[1], guess[2]),
+                                        initialized, reader.line_number(), stamp));
+    reached_.push_back(initialized ? 1 : 0);
+    return Status::Ok();
+  }
+
+  Status ParseFeature(const LineReader& reader) {
+    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(2, 4));
+    GS_ASSIGN_OR_RETURN(const int64_t id, reader.Id(1, "id"));
+    const bool initialized = reader.fields().size() == 4;
+    double guess[2] = {0.0, 0.0};
+    if (initialized) GS_RETURN_IF_ERROR(reader.Doubles(2, 2, "initial guess", guess));
+    if (const auto it = features_.find(id); it != features_.end()) {
+      const int32_t line = feature_lines_[it->second];
+      return reader.Error(
+          "FEATURE " + std::to_string(id) +
+          (feature_declared_[it->second] ? " is already declared at line "
+                                         : " comes after its first use at line ") +
+          std::to_string(line) + "; expected one FEATURE record, before the feature's first use");
+    }
+    features_.emplace(id, problem_.AddFeature(id, core::Point2(guess[0], guess[1]), initialized));
+    feature_lines_.push_back(reader.line_number());
+    feature_declared_.push_back(1);
+    return Status::Ok();
+  }
+
+  StatusOr<int32_t> Pose(const LineReader& reader, size_t field) {
+    GS_ASSIGN_OR_RETURN(const int64_t id, reader.Id(field, "pose id"));
+    const auto it = poses_.find(id);
+    if (it == poses_.end()) {
+      return reader.Error(std::string(reader.fields()[0]) + " refers to pose " +
+                          std::to_string(id) +
+                          ", which no earlier POSE record declares; expected POSE " +
+                          std::to_string(id) + " first");
+    }
+    return it->second;
+  }
+
+  StatusOr<int32_t> Feature(const LineReader& reader, size_t field) {
+    if (reader.fields()[field] == "-") {
+      return reader.Unsupported(
+          std::string(reader.fields()[0]) +
+          " with unknown correspondence ('-'); expected a feature id (data association is not "
+          "yet supported)");
+    }
+    GS_ASSIGN_OR_RETURN(const int64_t id, reader.Id(field, "feature id"));
+    const auto [it, inserted] = features_.try_emplace(id, problem_.num_features());
+    if (inserted) {
+      problem_.AddFeature(id, core::Point2::Zero(), /*initialized=*/false);
+      feature_lines_.push_back(reader.line_number());
+      feature_declared_.push_back(0);
+    }
+    return it->second;
+  }
+
+  // Reads `from` and `to` and rejects self-loops.
+  Status PosePair(const LineReader& reader, int32_t* from, int32_t* to) {
+    GS_ASSIGN_OR_RETURN(*from, Pose(reader, 1));
+    GS_ASSIGN_OR_RETURN(*to, Pose(reader, 2));
+    if (*from == *to) {
+      return reader.Error(std::string(reader.fields()[0]) + " connects pose " +
+                          std::string(reader.fields()[1]) +
+                          " to itself; expected two distinct poses");
+    }
+    return Status::Ok();
+  }
+
+  StatusOr<Eigen::Matrix3d> Information3(const LineReader& reader, size_t first) {
+    double upper[6];
+    GS_RETURN_IF_ERROR(reader.Doubles(first, 6, "information", upper));
+    const Eigen::Matrix3d information = internal::SymmetricFromUpper3(upper);
+    if (!internal::IsPositiveDefinite(information)) {
+      return reader.Error(std::string(reader.fields()[0]) + " information " +
+                          internal::UpperTriangleString(upper, 6) +
+                          " is not positive definite; expected a symmetric positive definite "
+                          "matrix (i11 i12 i13 i22 i23 i33)");
+    }
+    return information;
+  }
+
+  StatusOr<Eigen::Matrix2d> Information2(const LineReader& reader, size_t first) {
+    double upper[3];
+    GS_RETURN_IF_ERROR(reader.Doubles(first, 3, "information", upper));
+    const Eigen::Matrix2d information = internal::SymmetricFromUpper2(upper);
+    if (!internal::IsPositiveDefinite(information)) {
+      return reader.Error(std::string(reader.fields()[0]) + " information " +
+                          internal::UpperTriangleString(upper, 3) +
+                          " is not positive definite; expected a symmetric positive definite "
+                          "matrix (i11 i12 i22)");
+    }
+    return information;
+  }
+
+  // Spec rule 3: the first constraint reaching an uninitialized pose sets its
+  // value (the linearization point of later CONTROL records).
+  void Reach(int32_t to, const core::Pose2& predicted) {
+    if (reached_[to]) return;
+    reached_[to] = 1;
+    problem_.poses[to] = predicted;
+  }
+
+  Status ParseControl(const LineReader& reader, bool explicit_information) {
+    if (explicit_information) {
+      GS_RETURN_IF_ERROR(reader.ExpectFieldCount(12));
+    } else {
+      GS_RETURN_IF_ERROR(reader.ExpectFieldCount(6, 12));
+    }
+    core::VelocityMotionConstraint motion;
+    GS_RETURN_IF_ERROR(PosePair(reader, &motion.from, &motion.to));
+    GS_ASSIGN_OR_RETURN(motion.control.v, reader.Double(3, "v"));
+    GS_ASSIGN_OR_RETURN(motion.control.omega, reader.Double(4, "omega"));
+    GS_ASSIGN_OR_RETURN(motion.control.dt, reader.Double(5, "dt"));
+    if (motion.control.dt < 0.0) {
+      return reader.Error(std::string(reader.fields()[0]) + " dt is " +
+                          FormatDouble(motion.control.dt) + "; expected dt >= 0");
+    }
+    const core::Pose2& previous = problem_.poses[motion.from];
+    if (explicit_information) {
+      GS_ASSIGN_OR_RETURN(motion.information, Information3(reader, 6));
+    } else {
+      core::VelocityNoise noise;
+      if (reader.fields().size() == 12) {
+        GS_RETURN_IF_ERROR(reader.Doubles(6, 6, "noise alpha", noise.alpha));
+        for (double alpha : noise.alpha) {
+          if (alpha < 0.0) {
+            return reader.Error("CONTROL noise alpha " + FormatDouble(alpha) +
+                                " is negative; expected alphas >= 0");
+          }
+        }
+      }
+      motion.information =
+          core::VelocityMotionCovariance(previous, motion.control, noise).inverse();
+      if (!internal::IsPositiveDefinite(motion.information)) {
+        return reader.Error(
+            "CONTROL motion information (inverse of the velocity motion covariance) is not "
+            "positive definite; expected the noise floor to keep it definite");
+      }
+    }
+    motion.line = reader.line_number();
+    Reach(motion.to, core::PredictVelocityMotion(previous, motion.control));
+    problem_.motions.push_back(motion);
+    return Status::Ok();
+  }
+
+  Status ParseOdometry(const LineReader& reader) {
+    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(12));
+    core::RelativePoseConstraint constraint;
+    GS_RETURN_IF_ERROR(PosePair(reader, &constraint.from, &constraint.to));
+    double z[3];
+    GS_RETURN_IF_ERROR(reader.Doubles(3, 3, "measurement", z));
+    constraint.z = core::Pose2(z[0], z[1], z[2]);
+    GS_ASSIGN_OR_RETURN(constraint.information, Information3(reader, 6));
+    constraint.line = reader.line_number();
+    Reach(constraint.to, core::Compose(problem_.poses[constraint.from], constraint.z));
+    problem_.relative_poses.push_back(constraint);
+    return Status::Ok();
+  }
+
+  Status ParseObservation(const LineReader& reader) {
+    const bool range_bearing = reader.fields()[0] == "RB";
+    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(8));
+    core::Observation observation;
+    GS_ASSIGN_OR_RETURN(observation.pose, Pose(reader, 1));
+    double z[2];
+    GS_RETURN_IF_ERROR(reader.Doubles(3, 2, "measurement", z));
+    if (range_bearing && !(z[0] > 0.0)) {
+      return reader.Error("RB range is " + FormatDouble(z[0]) + "; expected range > 0");
+    }
+    GS_ASSIGN_OR_RETURN(observation.information, Information2(reader, 5));
+    GS_ASSIGN_OR_RETURN(observation.feature, Feature(reader, 2));
+    observation.kind =
+        range_bearing ? core::ObservationKind::kRangeBearing : core::ObservationKind::kPointXY;
+    observation.z = Eigen::Vector2d(z[0], z[1]);
+    observation.line = reader.line_number();
+    problem_.observations.push_back(observation);
+    return Status::Ok();
+  }
+
+  Status ParseGps(const LineReader& reader) {
+    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(7));
+    core::GpsConstraint gps;
+    GS_ASSIGN_OR_RETURN(gps.pose, Pose(reader, 1));
+    double z[2];
+    GS_RETURN_IF_ERROR(reader.Doubles(2, 2, "position", z));
+    gps.z = Eigen::Vector2d(z[0], z[1]);
+    GS_ASSIGN_OR_RETURN(gps.information, Information2(reader, 4));
+    gps.line = reader.line_number();
+    problem_.gps.push_back(gps);
+    return Status::Ok();
+  }
+
+  Status ParseFix(const LineReader& reader) {
+    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(2));
+    GS_ASSIGN_OR_RETURN(const int32_t pose, Pose(reader, 1));
+    problem_.pose_fixed[pose] = 1;
+    return Status::Ok();
+  }
+
+  const std::string path_;
+  core::Problem2d problem_;
+  std::unordered_map<int64_t, int32_t> poses_;
+  std::unordered_map<int64_t, int32_t> features_;
+  std::vector<uint8_t> reached_;          // per pose: has a value (guess or prediction)
+  std::vector<int32_t> feature_lines_;    // per feature: declaration or first use
+  std::vector<uint8_t> feature_declared_;  // per feature: by a FEATURE record
+};
+
+}  // namespace
+
+StatusOr<core::Problem2d> ReadNativeLog(const std::string& path) {
+  return NativeLogParser(path).Parse();
+}
+
+Status WriteNativeLog(const core::Problem2d& problem, const std::string& path, Env* env) {
+  GS_RETURN_IF_ERROR(
+      internal::ValidateProblemForWriting(problem, /*shared_id_space=*/false)
+          .WithContext("writing " + path));
+  if (env == nullptr) env = Env::Default();
+  return WriteFileAtomically(env, path, [&problem](WritableFile* file) -> Status {
+    using internal::AppendField;
+    using internal::AppendUpperTriangle;
+    std::string line;
+    const auto flush = [&]() {
+      line.push_back('\n');
+      Status status = file->Append(line);
+      line.clear();
+      return status;
+    };
+    AppendField(&line, kNativeLogMagic);
+    AppendField(&line, static_cast<int64_t>(kNativeLogVersion));
+    GS_RETURN_IF_ERROR(flush());
+    AppendField(&line, "# written by graphslam from");
+    AppendField(&line, problem.source.empty() ? std::string_view("memory") : problem.source);
+    AppendField(&line, "(spec: docs/formats/native_log.md)");
+    GS_RETURN_IF_ERROR(flush());
+    const auto& pose_ids = problem.pose_ids;
+    const auto& feature_ids = problem.feature_ids;
+    for (int32_t i = 0; i < problem.num_poses(); ++i) {
+      AppendField(&line, "POSE");
+      AppendField(&line, pose_ids[i]);
+      const double stamp = problem.pose_stamps[i];
+      if (std::isnan(stamp)) {
+        AppendField(&line, "-");
+      } else {
+        AppendField(&line, stamp);
+      }
+      if (problem.pose_initialized[i]) {
+        for (int k = 0; k < 3; ++k) AppendField(&line, problem.poses[i][k]);
+      }
+      GS_RETURN_IF_ERROR(flush());
+    }
+    for (int32_t i = 0; i < problem.num_features(); ++i) {
+      AppendField(&line, "FEATURE");
+      AppendField(&line, feature_ids[i]);
+      if (problem.feature_initialized[i]) {
+        AppendField(&line, problem.features[i].x());
+        AppendField(&line, problem.features[i].y());
+      }
+      GS_RETURN_IF_ERROR(flush());
+    }
+    for (int32_t i = 0; i < problem.num_poses(); ++i) {
+      if (!problem.pose_fixed[i]) continue;
+      AppendField(&line, "FIX");
+      AppendField(&line, pose_ids[i]);
+      GS_RETURN_IF_ERROR(flush());
+    }
+    for (const auto& motion : problem.motions) {
+      AppendField(&line, "CONTROL_INFO");
+      AppendField(&line, pose_ids[motion.from]);
+      AppendField(&line, pose_ids[motion.to]);
+      AppendField(&line, motion.control.v);
+      AppendField(&line, motion.control.omega);
+      AppendField(&line, motion.control.dt);
+      AppendUpperTriangle(&line, motion.information);
+      GS_RETURN_IF_ERROR(flush());
+    }
+    for (const auto& constraint : problem.relative_poses) {
+      AppendField(&line, "ODOM");
+      AppendField(&line, pose_ids[constraint.from]);
+      AppendField(&line, pose_ids[constraint.to]);
+      for (int k = 0; k < 3; ++k) AppendField(&line, constraint.z[k]);
+      AppendUpperTriangle(&line, constraint.information);
+      GS_RETURN_IF_ERROR(flush());
+    }
+    for (const auto& observation : problem.observations) {
+      const bool range_bearing = observation.kind == core::ObservationKind::kRangeBearing;
+      AppendField(&line, range_bearing ? "RB" : "XY");
+      AppendField(&line, pose_ids[observation.pose]);
+      AppendField(&line, feature_ids[observation.feature]);
+      AppendField(&line, observation.z.x());
+      AppendField(&line, observation.z.y());
+      AppendUpperTriangle(&line, observation.information);
+      GS_RETURN_IF_ERROR(flush());
+    }
+    for (const auto& gps : problem.gps) {
+      AppendField(&line, "GPS");
+      AppendField(&line, pose_ids[gps.pose]);
+      AppendField(&line, gps.z.x());
+      AppendField(&line, gps.z.y());
+      AppendUpperTriangle(&line, gps.information);
+      GS_RETURN_IF_ERROR(flush());
+    }
+    return Status::Ok();
+  });
+}
+
+}  // namespace graphslam::storage

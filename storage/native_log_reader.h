@@ -1,0 +1,49 @@
+// The graphslam native log (spec: docs/formats/native_log.md, version 1): a
+// text log, one record per line, opening with the header "GRAPHSLAM_LOG 1".
+//
+//   POSE id t [x y theta]          FEATURE id [x y]
+//   CONTROL from to v omega dt [a1..a6]        (velocity model, Thrun &
+//   CONTROL_INFO from to v omega dt i11..i33    Montemerlo eq. 4)
+//   ODOM from to dx dy dth i11 i12 i13 i22 i23 i33
+//   RB pose feature range bearing i11 i12 i22   (feature '-' -> NotSupported)
+//   XY pose feature x y i11 i12 i22
+//   GPS pose x y i11 i12 i22       FIX pose      # comment
+//
+// CONTROL without explicit information gets Omega = R^{-1} with
+// R = VelocityMotionCovariance(x_from, u, noise) at the from-pose's guess or
+// dead-reckoned prediction (spec rule 3).
+//
+// ReadNativeLog rejects (Corruption, "<file>:<line>: ...; expected ..."):
+// missing header, malformed or non-finite numbers, wrong field counts,
+// information not positive definite, undeclared or duplicate poses, duplicate
+// or late FEATURE records, dt < 0, range <= 0, self-loops. NotSupported: other
+// versions, unknown tags, unknown correspondences.
+//
+// WriteNativeLog writes through WriteFileAtomically (atomic_file.h): poses,
+// features, FIX, then CONTROL_INFO / ODOM / RB / XY / GPS records, numbers as
+// "%.17g", so reading the file back gives the same problem (exactly: same
+// numbers, same dense order; uninitialized values come back as reader hints).
+//
+// THREAD SAFETY: reentrant. ALLOCATION: O(records); streamed line by line.
+#pragma once
+
+#include <string>
+
+#include "core/problem.h"
+#include "core/status.h"
+#include "storage/env.h"
+
+namespace graphslam::storage {
+
+inline constexpr const char* kNativeLogMagic = "GRAPHSLAM_LOG";
+inline constexpr int kNativeLogVersion = 1;
+
+StatusOr<core::Problem2d> ReadNativeLog(const std::string& path);
+
+// InvalidArgument (before anything is written) if `problem` is inconsistent;
+// IOError if the disk fails (an existing `path` is then left untouched).
+// `env` defaults to Env::Default() and must outlive the call.
+[[nodiscard]] Status WriteNativeLog(const core::Problem2d& problem, const std::string& path,
+                                    Env* env = nullptr);
+
+}  // namespace graphslam::storage

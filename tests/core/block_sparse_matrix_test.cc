@@ -1,0 +1,204 @@
+// Property tests of BlockSparseMatrix against dense Eigen reference math on
+// random seeded patterns (STYLE rule 15).
+#include "core/block_sparse_matrix.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+#include <utility>
+#include <vector>
+
+namespace graphslam::core {
+namespace {
+
+// Random pattern: a chain (i, i+1) plus `extra` random pairs, some repeated
+// and some given as (k, i) and (i, i), to exercise deduplication.
+std::vector<std::pair<int, int>> RandomPairs(std::mt19937* rng, int n, int extra) {
+  std::vector<std::pair<int, int>> pairs;
+  for (int i = 0; i + 1 < n; ++i) pairs.emplace_back(i + 1, i);
+  std::uniform_int_distribution<int> index(0, n - 1);
+  for (int e = 0; e < extra; ++e) {
+    const int i = index(*rng), k = index(*rng);
+    pairs.emplace_back(i, k);
+    if (e % 5 == 0) pairs.emplace_back(k, i);  // duplicate in transposed form
+  }
+  return pairs;
+}
+
+// Fills every pattern pair with random values, symmetric by construction.
+void FillRandom(std::mt19937* rng, const std::vector<std::pair<int, int>>& pairs,
+                BlockSparseMatrix* m) {
+  std::uniform_real_distribution<double> value(-1.0, 1.0);
+  const int b = m->block_size();
+  auto random_block = [&] {
+    Eigen::MatrixXd block(b, b);
+    for (int r = 0; r < b; ++r)
+      for (int c = 0; c < b; ++c) block(r, c) = value(*rng);
+    return block;
+  };
+  for (const auto& [i, k] : pairs) {
+    Eigen::MatrixXd block = random_block();
+    if (i == k) block = (block + block.transpose()).eval();
+    ASSERT_TRUE(m->AddBlock(i, k, block));
+  }
+  for (int i = 0; i < m->num_block_rows(); ++i) {
+    Eigen::MatrixXd block = random_block();
+    ASSERT_TRUE(m->AddBlock(i, i, block * block.transpose()));
+  }
+}
+
+Eigen::VectorXd RandomVector(std::mt19937* rng, int n) {
+  std::uniform_real_distribution<double> value(-1.0, 1.0);
+  Eigen::VectorXd v(n);
+  for (int j = 0; j < n; ++j) v[j] = value(*rng);
+  return v;
+}
+
+TEST(BlockSparseMatrix, PatternHoldsBothTrianglesAndEveryDiagonal) {
+  BlockSparseMatrix m =
+      BlockSparseMatrix::FromPattern(3, 5, {{0, 2}, {2, 0}, {0, 2}, {4, 1}, {3, 3}});
+  EXPECT_EQ(m.block_size(), 3);
+  EXPECT_EQ(m.num_block_rows(), 5);
+  EXPECT_EQ(m.num_rows(), 15);
+  EXPECT_EQ(m.num_nonzero_blocks(), 5 + 4);  // 5 diagonal + (0,2),(2,0),(4,1),(1,4)
+  for (int i = 0; i < 5; ++i) EXPECT_NE(m.Block(i, i), nullptr) << "diagonal block " << i;
+  EXPECT_NE(m.Block(0, 2), nullptr);
+  EXPECT_NE(m.Block(2, 0), nullptr);
+  EXPECT_NE(m.Block(1, 4), nullptr);
+  EXPECT_NE(m.Block(4, 1), nullptr);
+  EXPECT_EQ(m.Block(0, 1), nullptr);
+  EXPECT_EQ(m.Block(3, 4), nullptr);
+  EXPECT_EQ(m.Block(-1, 0), nullptr);
+  EXPECT_EQ(m.Block(0, 5), nullptr);
+  // Column indices are sorted within each row.
+  for (int i = 0; i < 5; ++i) {
+    for (int64_t j = m.row_start()[i] + 1; j < m.row_start()[i + 1]; ++j) {
+      EXPECT_LT(m.block_cols()[j - 1], m.block_cols()[j]);
+    }
+  }
+}
+
+TEST(BlockSparseMatrix, AddBlockAddsTheTransposeAndRejectsBlocksOutsideThePattern) {
+  BlockSparseMatrix m = BlockSparseMatrix::FromPattern(2, 3, {{0, 2}});
+  Eigen::MatrixXd block(2, 2);
+  block << 1, 2, 3, 4;
+  EXPECT_TRUE(m.AddBlock(0, 2, block));
+  EXPECT_TRUE(m.AddBlock(0, 2, block));
+  EXPECT_FALSE(m.AddBlock(0, 1, block));
+  Eigen::MatrixXd expected = Eigen::MatrixXd::Zero(6, 6);
+  expected.block(0, 4, 2, 2) = 2 * block;
+  expected.block(4, 0, 2, 2) = 2 * block.transpose();
+  EXPECT_EQ(m.ToDense(), expected) << "sparse:\n" << m.ToDense() << "\ndense:\n" << expected;
+  // Row-major raw storage of block (2,0) = 2 block^T.
+  const double* raw = m.Block(2, 0);
+  EXPECT_EQ(raw[0], 2.0);
+  EXPECT_EQ(raw[1], 6.0);
+  EXPECT_EQ(raw[2], 4.0);
+  EXPECT_EQ(raw[3], 8.0);
+
+  Eigen::MatrixXd diagonal(2, 2);
+  diagonal << 5, 1, 1, 7;
+  EXPECT_TRUE(m.AddBlock(1, 1, diagonal));  // added once, not twice
+  EXPECT_EQ(m.ToDense().block(2, 2, 2, 2), diagonal);
+}
+
+TEST(BlockSparseMatrix, ProductMatchesDenseForEveryBlockSize) {
+  // 3 and 6 take the fixed-size kernels, 1, 2 and 4 the dynamic one.
+  for (int b : {1, 2, 3, 4, 6}) {
+    for (uint32_t seed = 1; seed <= 5; ++seed) {
+      SCOPED_TRACE(testing::Message() << "block size " << b << ", seed " << seed);
+      std::mt19937 rng(seed);
+      const int n = 5 + 7 * static_cast<int>(seed);
+      const auto pairs = RandomPairs(&rng, n, 2 * n);
+      BlockSparseMatrix m = BlockSparseMatrix::FromPattern(b, n, pairs);
+      FillRandom(&rng, pairs, &m);
+      const Eigen::MatrixXd dense = m.ToDense();
+      ASSERT_EQ(dense, dense.transpose());  // full storage is exactly symmetric
+      const Eigen::VectorXd x = RandomVector(&rng, m.num_rows());
+      const Eigen::VectorXd y0 = RandomVector(&rng, m.num_rows());
+      Eigen::VectorXd y = y0;
+      m.RightMultiplyAndAccumulate(x.data(), y.data());
+      const Eigen::VectorXd expected = y0 + dense * x;
+      // Relative tolerance 1e-14: only the summation order differs.
+      EXPECT_LE((y - expected).norm(), 1e-14 * expected.norm())
+          << "sparse: " << y.transpose() << "\ndense:  " << expected.transpose();
+    }
+  }
+}
+
+TEST(BlockSparseMatrix, ParallelProductEqualsSerialBitForBit) {
+  for (int b : {3, 6, 4}) {
+    SCOPED_TRACE(testing::Message() << "block size " << b);
+    std::mt19937 rng(42 + b);
+    const int n = 8 * BlockSparseMatrix::kMinBlockRowsForParallel;  // takes the parallel path
+    const auto pairs = RandomPairs(&rng, n, 4 * n);
+    BlockSparseMatrix m = BlockSparseMatrix::FromPattern(b, n, pairs);
+    FillRandom(&rng, pairs, &m);
+    const Eigen::VectorXd x = RandomVector(&rng, m.num_rows());
+    const Eigen::VectorXd y0 = RandomVector(&rng, m.num_rows());
+    Eigen::VectorXd y_s = y0;
+    Eigen::VectorXd y_p = y0;
+    m.RightMultiplyAndAccumulateSerial(x.data(), y_s.data());
+    m.RightMultiplyAndAccumulate(x.data(), y_p.data());
+    EXPECT_EQ((y_s - y_p).norm(), 0.);
+    // And it is the right product (relative 1e-13).
+    const Eigen::VectorXd expected = y0 + m.ToSparseUpper().selfadjointView<Eigen::Upper>() * x;
+    EXPECT_LE((y_p - expected).norm(), 1e-13 * expected.norm());
+  }
+}
+
+TEST(BlockSparseMatrix, ToSparseUpperIsTheUpperTriangleOfTheDenseMatrix) {
+  for (int b : {1, 3, 6}) {
+    for (uint32_t seed = 1; seed <= 3; ++seed) {
+      SCOPED_TRACE(testing::Message() << "block size " << b << ", seed " << seed);
+      std::mt19937 rng(100 + seed);
+      const int n = 10 * static_cast<int>(seed);
+      const auto pairs = RandomPairs(&rng, n, 3 * n);
+      BlockSparseMatrix m = BlockSparseMatrix::FromPattern(b, n, pairs);
+      FillRandom(&rng, pairs, &m);
+      const Eigen::SparseMatrix<double> upper = m.ToSparseUpper();
+      ASSERT_TRUE(upper.isCompressed());
+      // Row indices sorted within each column, all in the upper triangle.
+      for (int c = 0; c < upper.outerSize(); ++c) {
+        for (int j = upper.outerIndexPtr()[c]; j < upper.outerIndexPtr()[c + 1]; ++j) {
+          EXPECT_LE(upper.innerIndexPtr()[j], c);
+          if (j > upper.outerIndexPtr()[c]) {
+            EXPECT_LT(upper.innerIndexPtr()[j - 1], upper.innerIndexPtr()[j]);
+          }
+        }
+      }
+      const Eigen::MatrixXd dense = m.ToDense();
+      const Eigen::MatrixXd expected = dense.triangularView<Eigen::Upper>();
+      EXPECT_EQ(Eigen::MatrixXd(upper), expected);  // copies only: exact
+    }
+  }
+}
+
+TEST(BlockSparseMatrix, DiagonalAddToDiagonalAndSetZero) {
+  std::mt19937 rng(7);
+  const auto pairs = RandomPairs(&rng, 9, 12);
+  BlockSparseMatrix m = BlockSparseMatrix::FromPattern(3, 9, pairs);
+  FillRandom(&rng, pairs, &m);
+  const Eigen::MatrixXd before = m.ToDense();
+  EXPECT_EQ(m.Diagonal(), before.diagonal());
+  const Eigen::VectorXd d = RandomVector(&rng, m.num_rows());
+  m.AddToDiagonal(d);
+  Eigen::MatrixXd expected = before;
+  expected.diagonal() += d;
+  EXPECT_EQ(m.ToDense(), expected);
+  const int64_t blocks = m.num_nonzero_blocks();
+  m.SetZero();
+  EXPECT_EQ(m.ToDense(), Eigen::MatrixXd::Zero(27, 27));
+  EXPECT_EQ(m.num_nonzero_blocks(), blocks);
+}
+
+TEST(BlockSparseMatrix, EmptyMatrix) {
+  BlockSparseMatrix m = BlockSparseMatrix::FromPattern(3, 0, {});
+  EXPECT_EQ(m.num_rows(), 0);
+  EXPECT_EQ(m.num_nonzero_blocks(), 0);
+  EXPECT_EQ(m.ToSparseUpper().nonZeros(), 0);
+  m.RightMultiplyAndAccumulate(nullptr, nullptr);
+}
+
+}  // namespace
+}  // namespace graphslam::core

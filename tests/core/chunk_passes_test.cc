@@ -1,0 +1,138 @@
+// The chunked reduce and recover passes against the dense Schur complement of
+// the whole information matrix (H by central differences of the stacked
+// residuals, independent of the analytic Jacobians).
+#include "core/chunk_passes.h"
+
+#include <gtest/gtest.h>
+
+#include "core/pose_factors.h"
+#include "partition/in_memory_chunk_source.h"
+#include "tests/testing/dense_reference.h"
+#include "tests/testing/random_problem.h"
+
+namespace graphslam::core {
+namespace {
+
+struct Reduced {
+  Eigen::MatrixXd matrix;
+  Eigen::VectorXd rhs;
+  Eigen::VectorXd gradient;
+};
+
+Reduced RunReduce(const Problem2d& problem, const ChunkSource& chunks, const UnknownLayout& layout,
+                  double lambda) {
+  PassContext context;
+  context.chunks = &chunks;
+  context.layout = &layout;
+  std::vector<std::pair<int, int>> pairs;
+  AppendPoseFactorPattern(problem, layout, &pairs);
+  EXPECT_TRUE(CollectReducedPattern(context, &pairs).ok());
+  ReducedSystem system;
+  system.matrix = BlockSparseMatrix::FromPattern(3, layout.num_unknown_poses, pairs);
+  const int n = system.matrix.num_rows();
+  system.matrix.SetZero();
+  system.rhs.setZero(n);
+  system.gradient.setZero(n);
+  system.hessian_diagonal.setZero(n);
+  LinearizePoseFactors(problem, problem.poses, layout, &system.matrix, &system.gradient,
+                       &system.hessian_diagonal);
+  system.rhs -= system.gradient;
+  EXPECT_TRUE(ReducePass(context, problem.poses, problem.features, lambda, &system).ok());
+  return {system.matrix.ToDense(), system.rhs, system.gradient};
+}
+
+class ChunkPassesTest : public ::testing::TestWithParam<std::tuple<bool, int>> {};
+
+TEST_P(ChunkPassesTest, ReduceEqualsDenseSchurComplementAndRecoveryEqualsDenseSolve) {
+  const auto [range_bearing, chunk_size] = GetParam();
+  for (uint32_t seed = 1; seed <= 5; ++seed) {
+    testing::RandomProblemOptions options;
+    options.seed = seed;
+    options.range_bearing = range_bearing;
+    options.num_poses = 12;
+    options.num_features = 6;
+    options.gps_every = seed % 2 == 0 ? 4 : 0;
+    testing::RandomProblem random = testing::MakeRandomProblem(options);
+    const Problem2d& problem = random.problem;
+    partition::ChunkingOptions chunking;
+    chunking.max_observations_per_chunk = chunk_size;
+    partition::InMemoryChunkSource chunks(problem, chunking);
+    const UnknownLayout layout = UnknownLayout::FromProblem(problem);
+
+    testing::DenseReference dense(problem);
+    Eigen::MatrixXd h;
+    Eigen::VectorXd g;
+    dense.Linearize(dense.State(), &h, &g);
+    const int nx = dense.num_pose_unknowns();
+    const int nm = dense.num_unknowns() - nx;
+    const Eigen::MatrixXd hxx = h.topLeftCorner(nx, nx);
+    const Eigen::MatrixXd hxm = h.topRightCorner(nx, nm);
+    const Eigen::MatrixXd hmm = h.bottomRightCorner(nm, nm);
+    const Eigen::MatrixXd schur = hxx - hxm * hmm.ldlt().solve(hxm.transpose());
+    const Eigen::VectorXd schur_rhs = -g.head(nx) + hxm * hmm.ldlt().solve(g.tail(nm));
+
+    const Reduced reduced = RunReduce(problem, chunks, layout, 0.0);
+    // Central differences of an O(1e4)-scaled residual: relative 1e-6.
+    EXPECT_LE((reduced.matrix - schur).norm(), 1e-6 * schur.norm())
+        << "seed " << seed << "\nsparse:\n" << reduced.matrix << "\ndense:\n" << schur;
+    EXPECT_LE((reduced.rhs - schur_rhs).norm(), 1e-6 * schur_rhs.norm() + 1e-9)
+        << "seed " << seed << "\nsparse: " << reduced.rhs.transpose()
+        << "\ndense:  " << schur_rhs.transpose();
+
+    // Reduced solve plus recovered features equals the dense full solve.
+    const Eigen::VectorXd full = h.ldlt().solve(-g);
+    const Eigen::VectorXd dx = reduced.matrix.ldlt().solve(reduced.rhs);
+    EXPECT_LE((dx - full.head(nx)).norm(), 1e-5 * full.norm()) << "seed " << seed;
+    PassContext context;
+    context.chunks = &chunks;
+    context.layout = &layout;
+    std::vector<Point2> candidate;
+    RecoveryResult recovery;
+    ASSERT_TRUE(RecoverPass(context, problem.poses, problem.features, 0.0, dx, problem.poses,
+                            &candidate, &recovery)
+                    .ok());
+    Eigen::VectorXd dm(nm);
+    for (int j = 0; j < problem.num_features(); ++j)
+      dm.segment<2>(2 * j) = candidate[j] - problem.features[j];
+    EXPECT_LE((dm - full.tail(nm)).norm(), 1e-5 * full.norm())
+        << "seed " << seed << "\nrecovered: " << dm.transpose()
+        << "\ndense:     " << full.tail(nm).transpose();
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(KindsAndChunkSizes, ChunkPassesTest,
+                         ::testing::Combine(::testing::Bool(), ::testing::Values(1, 7, 100000)));
+
+TEST(ChunkPasses, ScreeningExcludesFeatureWithSingularInformation) {
+  testing::RandomProblemOptions options;
+  options.num_poses = 6;
+  options.num_features = 2;
+  testing::RandomProblem random = testing::MakeRandomProblem(options);
+  Problem2d& problem = random.problem;
+  // A third feature observed once with an information that only constrains
+  // one direction: its C is rank one.
+  const int32_t f = problem.AddFeature(99, Point2(1.0, 2.0), true);
+  Observation o;
+  o.pose = 1;
+  o.feature = f;
+  o.kind = ObservationKind::kPointXY;
+  o.z = Eigen::Vector2d(1.0, 1.0);
+  o.information << 1.0, 0.0, 0.0, 0.0;
+  problem.observations.push_back(o);
+  problem.AddFeature(100, Point2(0.0, 0.0), true);  // never observed
+  partition::InMemoryChunkSource chunks(problem, partition::ChunkingOptions());
+  const UnknownLayout layout = UnknownLayout::FromProblem(problem);
+  PassContext context;
+  context.chunks = &chunks;
+  context.layout = &layout;
+  ScreeningResult result;
+  ASSERT_TRUE(ScreenFeatures(context, problem.poses, problem.features, &result).ok());
+  EXPECT_EQ(result.excluded_not_positive_definite, 1);
+  EXPECT_EQ(result.unobserved, 1);
+  EXPECT_EQ(result.excluded[f], 1);
+  EXPECT_EQ(result.excluded[f + 1], 1);
+  EXPECT_EQ(result.excluded[0] + result.excluded[1], 0);
+}
+
+}  // namespace
+}  // namespace graphslam::core

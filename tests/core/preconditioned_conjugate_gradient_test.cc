@@ -1,0 +1,203 @@
+// PCG against dense LDLT solves on random seeded SPD block systems
+// (STYLE rule 15).
+#include "core/preconditioned_conjugate_gradient.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <random>
+#include <utility>
+#include <vector>
+
+#include "core/block_jacobi_preconditioner.h"
+#include "core/block_sparse_matrix.h"
+
+namespace graphslam::core {
+namespace {
+
+class IdentityOperator : public LinearOperator {
+ public:
+  explicit IdentityOperator(int n) : n_(n) {}
+  int num_rows() const override { return n_; }
+  void RightMultiplyAndAccumulate(const double* x, double* y) const override {
+    for (int i = 0; i < n_; ++i) y[i] += x[i];
+  }
+
+ private:
+  int n_;
+};
+
+class DenseOperator : public LinearOperator {
+ public:
+  explicit DenseOperator(Eigen::MatrixXd a) : a_(std::move(a)) {}
+  int num_rows() const override { return static_cast<int>(a_.rows()); }
+  void RightMultiplyAndAccumulate(const double* x, double* y) const override {
+    Eigen::Map<Eigen::VectorXd>(y, a_.rows()) +=
+        a_ * Eigen::Map<const Eigen::VectorXd>(x, a_.cols());
+  }
+
+ private:
+  Eigen::MatrixXd a_;
+};
+
+// Random SPD block matrix: a chain plus random pairs with random blocks
+// scaled by sqrt(s_i s_k), row scales s_i in 10^-2..10^2, and diagonal blocks
+// that make it strictly diagonally dominant (hence SPD). The row scales make
+// plain CG slow (condition ~1e4) and block-Jacobi effective.
+BlockSparseMatrix RandomSpdMatrix(uint32_t seed, int b, int n) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> value(-1.0, 1.0);
+  std::uniform_int_distribution<int> index(0, n - 1);
+  std::vector<std::pair<int, int>> pairs;
+  for (int i = 0; i + 1 < n; ++i) pairs.emplace_back(i, i + 1);
+  for (int e = 0; e < n; ++e) {
+    const int i = index(rng), k = index(rng);
+    if (i != k) pairs.emplace_back(i, k);
+  }
+  BlockSparseMatrix m = BlockSparseMatrix::FromPattern(b, n, pairs);
+  std::vector<double> scale(n);
+  for (int i = 0; i < n; ++i) scale[i] = std::pow(10.0, 2.0 * value(rng));
+  for (const auto& [i, k] : pairs) {
+    Eigen::MatrixXd block(b, b);
+    for (int r = 0; r < b; ++r)
+      for (int c = 0; c < b; ++c) block(r, c) = value(rng) * std::sqrt(scale[i] * scale[k]);
+    EXPECT_TRUE(m.AddBlock(i, k, block));
+  }
+  const Eigen::MatrixXd dense = m.ToDense();
+  const Eigen::VectorXd row_sums = dense.cwiseAbs().rowwise().sum();
+  for (int i = 0; i < n; ++i) {
+    Eigen::MatrixXd r(b, b);
+    for (int a = 0; a < b; ++a)
+      for (int c = 0; c < b; ++c) r(a, c) = value(rng);
+    Eigen::MatrixXd diagonal = scale[i] * r * r.transpose();
+    for (int a = 0; a < b; ++a) {
+      diagonal(a, a) += row_sums[i * b + a] + scale[i] * (0.1 + diagonal.row(a).cwiseAbs().sum());
+    }
+    EXPECT_TRUE(m.AddBlock(i, i, diagonal));
+  }
+  return m;
+}
+
+Eigen::VectorXd RandomVector(uint32_t seed, int n) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> value(-1.0, 1.0);
+  Eigen::VectorXd v(n);
+  for (int i = 0; i < n; ++i) v[i] = value(rng);
+  return v;
+}
+
+double RelativeError(const Eigen::VectorXd& actual, const Eigen::VectorXd& expected) {
+  return (actual - expected).norm() / expected.norm();
+}
+
+TEST(Pcg, EqualsDenseSolveWithoutPreconditioner) {
+  for (int b : {3, 6}) {
+    for (uint32_t seed = 1; seed <= 5; ++seed) {
+      SCOPED_TRACE(testing::Message() << "block size " << b << ", seed " << seed);
+      const BlockSparseMatrix a = RandomSpdMatrix(seed, b, 20 + 10 * seed);
+      const Eigen::VectorXd rhs = RandomVector(seed + 1000, a.num_rows());
+      const Eigen::VectorXd expected = a.ToDense().ldlt().solve(rhs);
+      PcgOptions options;
+      options.max_iterations = 10 * a.num_rows();
+      options.relative_tolerance = 1e-12;
+      Eigen::VectorXd x;
+      const PcgSummary summary = SolvePcg(a, IdentityOperator(a.num_rows()), rhs, options, &x);
+      EXPECT_TRUE(summary.converged) << "iterations " << summary.iterations << ", residual "
+                                     << summary.relative_residual;
+      EXPECT_LE(summary.relative_residual, 1e-12);
+      // Relative 1e-8 on x (condition numbers up to ~1e4 here).
+      EXPECT_LE(RelativeError(x, expected), 1e-8)
+          << "pcg:   " << x.transpose() << "\ndense: " << expected.transpose();
+    }
+  }
+}
+
+TEST(Pcg, BlockJacobiPreconditionedSolveEqualsDenseSolve) {
+  for (int b : {3, 6}) {
+    for (uint32_t seed = 1; seed <= 5; ++seed) {
+      SCOPED_TRACE(testing::Message() << "block size " << b << ", seed " << seed);
+      // One case large enough for the parallel products of both operators.
+      const int n =
+          (seed == 5 && b == 3) ? BlockSparseMatrix::kMinBlockRowsForParallel + 16 : 30;
+      const BlockSparseMatrix a = RandomSpdMatrix(seed + 50, b, n);
+      const Eigen::VectorXd rhs = RandomVector(seed + 2000, a.num_rows());
+      const Eigen::VectorXd expected = a.ToDense().ldlt().solve(rhs);
+      BlockJacobiPreconditioner jacobi;
+      ASSERT_TRUE(jacobi.Update(a).ok());
+      PcgOptions options;
+      options.max_iterations = 10 * a.num_rows();
+      options.relative_tolerance = 1e-12;
+      Eigen::VectorXd x = Eigen::VectorXd::Zero(a.num_rows());
+      const PcgSummary with = SolvePcg(a, jacobi, rhs, options, &x);
+      EXPECT_TRUE(with.converged);
+      EXPECT_LE(RelativeError(x, expected), 1e-8)
+          << "pcg:   " << x.transpose() << "\ndense: " << expected.transpose();
+      Eigen::VectorXd x_plain;
+      const PcgSummary without =
+          SolvePcg(a, IdentityOperator(a.num_rows()), rhs, options, &x_plain);
+      // The badly scaled rows make the preconditioner worth it.
+      EXPECT_LT(with.iterations, without.iterations);
+    }
+  }
+}
+
+TEST(Pcg, IterationCapIsRespected) {
+  const BlockSparseMatrix a = RandomSpdMatrix(3, 3, 40);
+  const Eigen::VectorXd rhs = RandomVector(3, a.num_rows());
+  PcgOptions options;
+  options.relative_tolerance = 1e-15;
+  for (int cap : {0, 1, 3, 7}) {
+    options.max_iterations = cap;
+    Eigen::VectorXd x;
+    const PcgSummary summary = SolvePcg(a, IdentityOperator(a.num_rows()), rhs, options, &x);
+    EXPECT_EQ(summary.iterations, cap);
+    EXPECT_FALSE(summary.converged);
+    EXPECT_GT(summary.relative_residual, 1e-15);
+  }
+}
+
+TEST(Pcg, ExactInitialGuessAndZeroRightHandSideNeedNoIteration) {
+  const BlockSparseMatrix a = RandomSpdMatrix(4, 3, 10);
+  const Eigen::VectorXd rhs = RandomVector(4, a.num_rows());
+  PcgOptions options;
+  options.relative_tolerance = 1e-8;
+  Eigen::VectorXd x = a.ToDense().ldlt().solve(rhs);
+  PcgSummary summary = SolvePcg(a, IdentityOperator(a.num_rows()), rhs, options, &x);
+  EXPECT_TRUE(summary.converged);
+  EXPECT_EQ(summary.iterations, 0);
+
+  x = Eigen::VectorXd::Ones(a.num_rows());
+  summary = SolvePcg(a, IdentityOperator(a.num_rows()), Eigen::VectorXd::Zero(a.num_rows()),
+                     options, &x);
+  EXPECT_TRUE(summary.converged);
+  EXPECT_EQ(summary.iterations, 0);
+  EXPECT_EQ(x, Eigen::VectorXd::Zero(a.num_rows()));
+}
+
+TEST(Pcg, IndefiniteMatrixStopsWithoutConverging) {
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(4, 4);
+  a.diagonal() << 1.0, -1.0, 2.0, -3.0;
+  const Eigen::VectorXd rhs = Eigen::VectorXd::Ones(4);  // p^T A p = -1 on the first step
+  PcgOptions options;
+  Eigen::VectorXd x;
+  const PcgSummary summary = SolvePcg(DenseOperator(a), IdentityOperator(4), rhs, options, &x);
+  EXPECT_FALSE(summary.converged);
+  EXPECT_LT(summary.iterations, options.max_iterations);
+  EXPECT_TRUE(x.allFinite());
+}
+
+TEST(Pcg, OptionsAreValidated) {
+  PcgOptions options;
+  EXPECT_TRUE(options.Validate().ok());
+  options.max_iterations = -1;
+  EXPECT_TRUE(options.Validate().IsInvalidArgument());
+  EXPECT_NE(options.Validate().message().find("max_iterations"), std::string::npos);
+  options.max_iterations = 5;
+  options.relative_tolerance = 0.0;
+  EXPECT_TRUE(options.Validate().IsInvalidArgument());
+  EXPECT_NE(options.Validate().message().find("relative_tolerance"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace graphslam::core

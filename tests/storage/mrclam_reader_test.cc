@@ -1,0 +1,147 @@
+#include "storage/mrclam_reader.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <Eigen/LU>
+#include <filesystem>
+#include <fstream>
+
+#include "tests/testing/datasets.h"
+
+namespace graphslam::storage {
+namespace {
+
+using testing::DatasetPath;
+
+constexpr const char* kFolder = "mrclam_dataset1_sampled50hz";
+
+TEST(MrclamReader, Robot1CountsAndRobotBarcodeFiltering) {
+  GS_REQUIRE_DATASET(kFolder);
+  MrclamReadStats stats;
+  const auto problem = ReadMrclam(DatasetPath(kFolder), MrclamOptions(), &stats);
+  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+  EXPECT_EQ(problem->num_poses(), 75000);
+  EXPECT_EQ(problem->motions.size(), 74999u);
+  EXPECT_EQ(stats.odometry_records, 75000);
+  EXPECT_EQ(stats.measurements, 5723);
+  // Robot 1 sees robots 2..5 (barcodes 14, 41, 32, 23): 226 + 239 + 269 + 218.
+  EXPECT_EQ(stats.robot_measurements_dropped, 952);
+  EXPECT_EQ(stats.out_of_time_range_dropped, 0);
+  EXPECT_EQ(stats.landmark_observations, 4771);
+  EXPECT_EQ(problem->observations.size(), 4771u);
+  EXPECT_EQ(problem->num_features(), 15);
+  for (int64_t id : problem->feature_ids) {
+    EXPECT_GE(id, 6);
+    EXPECT_LE(id, 20);
+  }
+  // First landmark measurement "12.72 90 2.148 0.025": barcode 90 = subject 16,
+  // attached to the pose at t = 12.72 (index 636 on the 0.02 s grid).
+  const core::Observation& first = problem->observations[0];
+  EXPECT_EQ(problem->feature_ids[first.feature], 16);
+  EXPECT_EQ(first.pose, 636);
+  EXPECT_DOUBLE_EQ(problem->pose_stamps[first.pose], 12.72);
+  EXPECT_EQ(first.kind, core::ObservationKind::kRangeBearing);
+  EXPECT_EQ(first.z, Eigen::Vector2d(2.148, 0.025));
+  EXPECT_DOUBLE_EQ(first.information(0, 0), 100.0);
+  EXPECT_DOUBLE_EQ(first.information(1, 1), 400.0);
+  // Pose 0: first ground-truth pose, fixed; the rest uninitialized.
+  EXPECT_EQ(problem->poses[0], core::Pose2(3.5732, -3.3328, 2.3408));
+  EXPECT_EQ(problem->pose_fixed[0], 1);
+  EXPECT_EQ(problem->pose_initialized[0], 1);
+  EXPECT_EQ(problem->pose_initialized[1], 0);
+  // Motion k: dt from the stamps, information = covariance^-1.
+  const core::VelocityMotionConstraint& motion = problem->motions[10];
+  EXPECT_EQ(motion.from, 10);
+  EXPECT_EQ(motion.to, 11);
+  EXPECT_NEAR(motion.control.dt, 0.02, 1e-12);
+  const Eigen::Matrix3d covariance = core::VelocityMotionCovariance(
+      problem->poses[10], motion.control, MrclamOptions().noise);
+  EXPECT_TRUE((motion.information * covariance).isIdentity(1e-9));
+}
+
+TEST(MrclamReader, GroundTruth) {
+  GS_REQUIRE_DATASET(kFolder);
+  const auto truth = ReadMrclamGroundTruth(DatasetPath(kFolder), 1);
+  ASSERT_TRUE(truth.ok()) << truth.status().ToString();
+  EXPECT_EQ(truth->stamps.size(), 75000u);
+  EXPECT_EQ(truth->poses.size(), 75000u);
+  ASSERT_EQ(truth->landmarks.size(), 15u);
+  EXPECT_EQ(truth->landmarks.begin()->first, 6);
+  EXPECT_EQ(truth->landmarks.at(6), core::Point2(5.70928255, 4.96404466));
+}
+
+TEST(MrclamReader, OptionsAreValidated) {
+  MrclamOptions options;
+  options.robot = 7;
+  EXPECT_EQ(options.Validate().message(), "MrclamOptions.robot is 7; expected 1..5");
+  options = MrclamOptions();
+  options.measurement_information(1, 1) = -1.0;
+  EXPECT_TRUE(options.Validate().IsInvalidArgument());
+  options = MrclamOptions();
+  options.ignore_barcodes = true;
+  EXPECT_TRUE(ReadMrclam("/nonexistent", options).status().IsNotSupported());
+  EXPECT_TRUE(ReadMrclam("/nonexistent", MrclamOptions()).status().IsNotFound());
+}
+
+class MrclamSmallTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = (std::filesystem::temp_directory_path() /
+            ("graphslam_mrclam_" + std::to_string(::getpid())))
+               .string();
+    std::filesystem::remove_all(dir_);
+    std::filesystem::create_directories(dir_);
+    Write("Barcodes.dat", "# header\n# Subject # Barcode #\n 1 5\n 2 14\n 6 72\n 7 27\n");
+    // Irregular (raw-like) time stamps, with header lines.
+    Write("Robot1_Odometry.dat", "# Time [s] v [m/s] w [rad/s]\n"
+                                 "100.0 0.1 0.0\n100.013 0.1 0.2\n100.041 0.0 0.0\n");
+    Write("Robot1_Measurement.dat", "# header\n100.02 72 1.5 0.1\n100.02 14 2.0 0.0\n"
+                                    "100.04 27 3.0 -0.1\n200.0 72 1.0 0.0\n");
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  void Write(const std::string& name, const std::string& contents) {
+    std::ofstream(dir_ + "/" + name) << contents;
+  }
+  std::string dir_;
+};
+
+TEST_F(MrclamSmallTest, RawIrregularStampsWithoutGroundTruth) {
+  MrclamReadStats stats;
+  const auto problem = ReadMrclam(dir_, MrclamOptions(), &stats);
+  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+  EXPECT_EQ(problem->num_poses(), 3);
+  EXPECT_EQ(problem->poses[0], core::Pose2::Zero());  // no ground truth: origin
+  ASSERT_EQ(problem->motions.size(), 2u);
+  EXPECT_NEAR(problem->motions[0].control.dt, 0.013, 1e-12);
+  EXPECT_NEAR(problem->motions[1].control.dt, 0.028, 1e-12);
+  EXPECT_EQ(problem->motions[0].line, 2);
+  EXPECT_EQ(stats.robot_measurements_dropped, 1);
+  EXPECT_EQ(stats.out_of_time_range_dropped, 1);
+  ASSERT_EQ(problem->observations.size(), 2u);
+  EXPECT_EQ(problem->observations[0].pose, 1);  // 100.02 is nearest to 100.013
+  EXPECT_EQ(problem->observations[1].pose, 2);
+  EXPECT_EQ(problem->feature_ids[problem->observations[1].feature], 7);
+  EXPECT_EQ(problem->observations[1].line, 4);
+}
+
+TEST_F(MrclamSmallTest, RejectsMalformedRecords) {
+  Write("Robot1_Measurement.dat", "100.02 99 1.5 0.1\n");
+  EXPECT_EQ(ReadMrclam(dir_, MrclamOptions()).status().message(),
+            "Robot1_Measurement.dat:1: barcode 99 is not in Barcodes.dat; expected a known "
+            "barcode");
+  Write("Robot1_Measurement.dat", "100.02 72 1.5\n");
+  EXPECT_EQ(ReadMrclam(dir_, MrclamOptions()).status().message(),
+            "Robot1_Measurement.dat:1: measurement has 3 fields; expected 4 (t barcode range "
+            "bearing)");
+  Write("Robot1_Odometry.dat", "100.0 0.1 0.0\n99.0 0.1 nan\n");
+  EXPECT_EQ(ReadMrclam(dir_, MrclamOptions()).status().message(),
+            "Robot1_Odometry.dat:2: record field 3 (value) is 'nan'; expected a finite number");
+  Write("Robot1_Odometry.dat", "100.0 0.1 0.0\n99.0 0.1 0\n");
+  EXPECT_EQ(ReadMrclam(dir_, MrclamOptions()).status().message(),
+            "Robot1_Odometry.dat:2: time 99 is earlier than the previous record's 100; expected "
+            "non-decreasing time stamps");
+}
+
+}  // namespace
+}  // namespace graphslam::storage

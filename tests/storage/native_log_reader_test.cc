@@ -1,0 +1,158 @@
+#include "storage/native_log_reader.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <Eigen/LU>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+namespace graphslam::storage {
+namespace {
+
+std::string TempPath(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("graphslam_native_log_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  return (dir / name).string();
+}
+
+std::string WriteTemp(const std::string& name, const std::string& contents) {
+  const std::string path = TempPath(name);
+  std::ofstream(path) << contents;
+  return path;
+}
+
+Status ReadError(const std::string& contents) {
+  const auto problem = ReadNativeLog(WriteTemp("bad.log", contents));
+  EXPECT_FALSE(problem.ok());
+  return problem.ok() ? Status::Ok() : problem.status();
+}
+
+constexpr const char* kExample =
+    "GRAPHSLAM_LOG 1\n"
+    "# two poses, a control, a landmark seen twice\n"
+    "POSE 0 0.0 0 0 0\n"
+    "FIX 0\n"
+    "POSE 1 0.5\n"
+    "CONTROL 0 1 1.0 0.1 0.5\n"
+    "POSE 2 -\n"
+    "CONTROL_INFO 1 2 1.0 0.1 0.5 1e4 0 0 1e4 0 1e4\n"
+    "ODOM 0 2 1 0 0.1 100 0 0 100 0 100\n"
+    "FEATURE 3 5 1\n"
+    "RB 0 7 5.2 0.3 100 0 400\n"
+    "XY 1 3 4.8 0.33 100 0 400\n"
+    "GPS 2 1.0 0.1 4 0 4\n";
+
+TEST(NativeLogReader, ReadsEveryRecordOfTheSpecExample) {
+  const auto problem = ReadNativeLog(WriteTemp("example.log", kExample));
+  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+  ASSERT_EQ(problem->num_poses(), 3);
+  EXPECT_EQ(problem->pose_fixed[0], 1);
+  EXPECT_EQ(problem->pose_initialized[1], 0);
+  EXPECT_DOUBLE_EQ(problem->pose_stamps[1], 0.5);
+  EXPECT_TRUE(std::isnan(problem->pose_stamps[2]));
+  ASSERT_EQ(problem->motions.size(), 2u);
+  // CONTROL: Omega = R^-1 at pose 0's guess, with the default noise.
+  const core::VelocityControl control{1.0, 0.1, 0.5};
+  const Eigen::Matrix3d expected =
+      core::VelocityMotionCovariance(core::Pose2::Zero(), control, core::VelocityNoise())
+          .inverse();
+  EXPECT_TRUE(problem->motions[0].information.isApprox(expected, 1e-12));
+  // Pose 1's value is the dead-reckoned hint (spec rule 3).
+  EXPECT_TRUE(problem->poses[1].isApprox(core::PredictVelocityMotion(core::Pose2::Zero(), control)));
+  EXPECT_EQ(problem->motions[1].information, Eigen::Matrix3d::Identity() * 1e4);
+  ASSERT_EQ(problem->relative_poses.size(), 1u);
+  EXPECT_EQ(problem->relative_poses[0].line, 9);
+  ASSERT_EQ(problem->num_features(), 2);
+  EXPECT_EQ(problem->feature_ids[0], 3);
+  EXPECT_EQ(problem->feature_initialized[0], 1);
+  EXPECT_EQ(problem->feature_ids[1], 7);  // implicit at first use
+  EXPECT_EQ(problem->feature_initialized[1], 0);
+  ASSERT_EQ(problem->observations.size(), 2u);
+  EXPECT_EQ(problem->observations[0].kind, core::ObservationKind::kRangeBearing);
+  EXPECT_EQ(problem->observations[1].kind, core::ObservationKind::kPointXY);
+  ASSERT_EQ(problem->gps.size(), 1u);
+  EXPECT_EQ(problem->gps[0].pose, 2);
+}
+
+TEST(NativeLogReader, RoundTripIsExact) {
+  const auto original = ReadNativeLog(WriteTemp("original.log", kExample));
+  ASSERT_TRUE(original.ok()) << original.status().ToString();
+  core::Problem2d problem = *original;
+  problem.poses[0] = core::Pose2(0.1, 1.0 / 3.0, -2.9);  // needs all 17 digits
+  const std::string path = TempPath("round_trip.log");
+  ASSERT_TRUE(WriteNativeLog(problem, path).ok());
+  const auto back = ReadNativeLog(path);
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  ASSERT_EQ(back->num_poses(), problem.num_poses());
+  EXPECT_EQ(back->pose_ids, problem.pose_ids);
+  EXPECT_EQ(back->pose_fixed, problem.pose_fixed);
+  EXPECT_EQ(back->pose_initialized, problem.pose_initialized);
+  EXPECT_EQ(back->poses[0], problem.poses[0]);  // bit-exact
+  EXPECT_EQ(back->pose_stamps[1], problem.pose_stamps[1]);
+  EXPECT_TRUE(std::isnan(back->pose_stamps[2]));
+  EXPECT_EQ(back->feature_ids, problem.feature_ids);
+  EXPECT_EQ(back->features[0], problem.features[0]);
+  ASSERT_EQ(back->motions.size(), problem.motions.size());
+  for (size_t k = 0; k < problem.motions.size(); ++k) {
+    EXPECT_EQ(back->motions[k].information, problem.motions[k].information);
+    EXPECT_EQ(back->motions[k].control.dt, problem.motions[k].control.dt);
+  }
+  ASSERT_EQ(back->observations.size(), problem.observations.size());
+  for (size_t k = 0; k < problem.observations.size(); ++k) {
+    EXPECT_EQ(back->observations[k].z, problem.observations[k].z);
+    EXPECT_EQ(back->observations[k].information, problem.observations[k].information);
+    EXPECT_EQ(back->observations[k].kind, problem.observations[k].kind);
+  }
+  EXPECT_EQ(back->relative_poses[0].z, problem.relative_poses[0].z);
+  EXPECT_EQ(back->gps[0].z, problem.gps[0].z);
+}
+
+TEST(NativeLogReader, RejectsBadHeaders) {
+  EXPECT_EQ(ReadError("POSE 0 0\n").message(),
+            "bad.log:1: first record is 'POSE'; expected the header GRAPHSLAM_LOG 1");
+  const Status version = ReadError("# c\nGRAPHSLAM_LOG 2\n");
+  EXPECT_TRUE(version.IsNotSupported());
+  EXPECT_EQ(version.message(), "bad.log:2: format version 2; expected 1");
+  EXPECT_EQ(ReadError("").message(), "bad.log: is empty; expected the header GRAPHSLAM_LOG 1");
+}
+
+TEST(NativeLogReader, RejectsMalformedRecords) {
+  const std::string header = "GRAPHSLAM_LOG 1\nPOSE 0 0 0 0 0\nPOSE 1 1\n";
+  EXPECT_EQ(ReadError(header + "ODOM 0 1 1 0 0 1 0 0 1\n").message(),
+            "bad.log:4: ODOM has 10 fields; expected 12");
+  EXPECT_EQ(ReadError(header + "ODOM 0 1 1 0 x 1 0 0 1 0 1\n").message(),
+            "bad.log:4: ODOM field 6 (measurement) is 'x'; expected a number");
+  EXPECT_EQ(ReadError(header + "GPS 1 inf 0 1 0 1\n").message(),
+            "bad.log:4: GPS field 3 (position) is 'inf'; expected a finite number");
+  EXPECT_EQ(ReadError(header + "XY 1 4 1 1 1 0 0\n").message(),
+            "bad.log:4: XY information [1 0 0] is not positive definite; expected a symmetric "
+            "positive definite matrix (i11 i12 i22)");
+  EXPECT_EQ(ReadError(header + "ODOM 0 77 1 0 0 1 0 0 1 0 1\n").message(),
+            "bad.log:4: ODOM refers to pose 77, which no earlier POSE record declares; expected "
+            "POSE 77 first");
+  EXPECT_EQ(ReadError(header + "POSE 1 2\n").message(),
+            "bad.log:4: POSE 1 is already declared at line 3; expected unique pose ids");
+  EXPECT_EQ(ReadError(header + "RB 1 4 1 0 1 0 1\nFEATURE 4\n").message(),
+            "bad.log:5: FEATURE 4 comes after its first use at line 4; expected one FEATURE "
+            "record, before the feature's first use");
+  EXPECT_EQ(ReadError(header + "CONTROL 0 1 1 0 -0.1\n").message(),
+            "bad.log:4: CONTROL dt is -0.10000000000000001; expected dt >= 0");
+  EXPECT_EQ(ReadError(header + "RB 1 4 0 0 1 0 1\n").message(),
+            "bad.log:4: RB range is 0; expected range > 0");
+  const Status unknown = ReadError(header + "LIDAR 1 2 3\n");
+  EXPECT_TRUE(unknown.IsNotSupported());
+  EXPECT_EQ(unknown.message(),
+            "bad.log:4: unknown tag 'LIDAR'; expected POSE, FEATURE, CONTROL, CONTROL_INFO, ODOM, "
+            "RB, XY, GPS or FIX");
+  const Status association = ReadError(header + "RB 1 - 1 0 1 0 1\n");
+  EXPECT_TRUE(association.IsNotSupported());
+  EXPECT_EQ(association.message(),
+            "bad.log:4: RB with unknown correspondence ('-'); expected a feature id (data "
+            "association is not yet supported)");
+}
+
+}  // namespace
+}  // namespace graphslam::storage

@@ -1,0 +1,604 @@
+#include "tools/campus_simulator.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <random>
+#include <string>
+#include <utility>
+
+#include "core/angle.h"
+#include "core/check.h"
+#include "core/range_bearing_model.h"
+
+namespace graphslam::tools {
+namespace {
+
+// Uniform and normal draws from one std::mt19937_64 (whose sequence the
+// standard fixes), with our own transforms so the draws do not depend on the
+// standard library's distributions.
+class Random {
+ public:
+  explicit Random(uint64_t seed) : engine_(seed) {}
+
+  // [0, 1) with 53 random bits.
+  double Uniform() { return static_cast<double>(engine_() >> 11) * 0x1.0p-53; }
+  double Uniform(double low, double high) { return low + (high - low) * Uniform(); }
+  // 0..n-1, n > 0.
+  int64_t UniformInt(int64_t n) {
+    GS_DCHECK(n > 0);
+    return std::min<int64_t>(static_cast<int64_t>(Uniform() * static_cast<double>(n)), n - 1);
+  }
+  // N(0, 1) by Box-Muller; the second value of each pair is kept for the next call.
+  double Normal() {
+    if (has_spare_) {
+      has_spare_ = false;
+      return spare_;
+    }
+    const double u1 = 1.0 - Uniform();  // (0, 1]: log is finite
+    const double u2 = Uniform();
+    const double radius = std::sqrt(-2.0 * std::log(u1));
+    const double angle = 2.0 * std::numbers::pi * u2;
+    spare_ = radius * std::sin(angle);
+    has_spare_ = true;
+    return radius * std::cos(angle);
+  }
+  double Normal(double sigma) { return sigma * Normal(); }
+
+ private:
+  std::mt19937_64 engine_;
+  bool has_spare_ = false;
+  double spare_ = 0.0;
+};
+
+// Directions 0: +x, 1: +y, 2: -x, 3: -y; left of d is d + 1.
+const int kStepX[4] = {1, 0, -1, 0};
+const int kStepY[4] = {0, 1, 0, -1};
+
+core::Point2 DirectionVector(int direction) {
+  return core::Point2(kStepX[direction], kStepY[direction]);
+}
+double DirectionAngle(int direction) { return 0.5 * std::numbers::pi * direction; }
+
+struct Grid {
+  int columns = 0;
+  int rows = 0;
+  double block_size = 0;
+  bool Contains(int x, int y) const { return x >= 0 && x < columns && y >= 0 && y < rows; }
+  core::Point2 Node(int x, int y) const { return core::Point2(x * block_size, y * block_size); }
+  int64_t Segments() const {
+    return static_cast<int64_t>(columns) * (rows - 1) + static_cast<int64_t>(rows) * (columns - 1);
+  }
+};
+
+// Landmarks along both sides of every street segment, in segment order.
+std::vector<core::Point2> PlaceLandmarks(const Grid& grid, const CampusSimulatorOptions& options,
+                                         Random* random) {
+  std::vector<core::Point2> landmarks;
+  const double half_width = 0.5 * options.street_width;
+  const double begin = half_width;
+  const double end = options.block_size - half_width;
+  auto place_side = [&](const core::Point2& origin, const core::Point2& along,
+                        const core::Point2& offset) {
+    double t = begin + random->Uniform(0.0, 0.5 * options.min_landmark_spacing);
+    while (t <= end) {
+      landmarks.push_back(origin + t * along + offset);
+      t += random->Uniform(options.min_landmark_spacing, options.max_landmark_spacing);
+    }
+  };
+  for (int y = 0; y < grid.rows; ++y) {
+    for (int x = 0; x < grid.columns; ++x) {
+      for (int direction = 0; direction < 2; ++direction) {  // +x and +y segments
+        if (!grid.Contains(x + kStepX[direction], y + kStepY[direction])) continue;
+        const core::Point2 along = DirectionVector(direction);
+        const core::Point2 normal = DirectionVector(direction + 1);
+        place_side(grid.Node(x, y), along, half_width * normal);
+        place_side(grid.Node(x, y), along, -half_width * normal);
+      }
+    }
+  }
+  return landmarks;
+}
+
+double ExpectedLandmarksPerSegment(const CampusSimulatorOptions& options) {
+  const double usable = options.block_size - options.street_width;
+  const double mean_spacing = 0.5 * (options.min_landmark_spacing + options.max_landmark_spacing);
+  return 2.0 * (usable / mean_spacing + 0.5);
+}
+
+// Grows the grid by one column or row, keeping it near-square.
+void Grow(Grid* grid) {
+  if (grid->columns <= grid->rows) {
+    ++grid->columns;
+  } else {
+    ++grid->rows;
+  }
+}
+
+// Sizes the grid and places the landmarks (exactly options.features when > 0).
+std::vector<core::Point2> BuildCampus(const CampusSimulatorOptions& options, Random* random,
+                                      Grid* grid) {
+  grid->columns = 3;
+  grid->rows = 3;
+  grid->block_size = options.block_size;
+  if (options.features == 0) {
+    // Street length about a quarter of the driving distance: every street is
+    // driven several times over.
+    const double distance = static_cast<double>(options.poses) * options.speed * options.dt;
+    while (static_cast<double>(grid->Segments()) * options.block_size < 0.25 * distance) Grow(grid);
+    return PlaceLandmarks(*grid, options, random);
+  }
+  const double per_segment = ExpectedLandmarksPerSegment(options);
+  while (static_cast<double>(grid->Segments()) * per_segment <
+         1.05 * static_cast<double>(options.features)) {
+    Grow(grid);
+  }
+  std::vector<core::Point2> landmarks = PlaceLandmarks(*grid, options, random);
+  while (static_cast<int64_t>(landmarks.size()) < options.features) {
+    Grow(grid);
+    landmarks = PlaceLandmarks(*grid, options, random);
+  }
+  // Drop a random subset (partial Fisher-Yates), keeping the segment order.
+  const int64_t count = static_cast<int64_t>(landmarks.size());
+  std::vector<int64_t> order(static_cast<size_t>(count));
+  for (int64_t i = 0; i < count; ++i) order[static_cast<size_t>(i)] = i;
+  const int64_t drop = count - options.features;
+  for (int64_t i = 0; i < drop; ++i) {
+    const int64_t j = i + random->UniformInt(count - i);
+    std::swap(order[static_cast<size_t>(i)], order[static_cast<size_t>(j)]);
+  }
+  std::vector<uint8_t> dropped(static_cast<size_t>(count), 0);
+  for (int64_t i = 0; i < drop; ++i) dropped[static_cast<size_t>(order[static_cast<size_t>(i)])] = 1;
+  std::vector<core::Point2> kept;
+  kept.reserve(static_cast<size_t>(options.features));
+  for (int64_t i = 0; i < count; ++i) {
+    if (!dropped[static_cast<size_t>(i)]) kept.push_back(landmarks[static_cast<size_t>(i)]);
+  }
+  return kept;
+}
+
+// A piece of the planned path: a line (curvature 0) or a circular arc.
+struct PathSegment {
+  core::Point2 start = core::Point2::Zero();
+  double heading = 0;    // at start
+  double curvature = 0;  // 1/m, positive = left
+  double length = 0;     // m
+  double start_s = 0;    // arc length of the path at start
+};
+
+core::Point2 SegmentPosition(const PathSegment& segment, double local) {
+  const double k = segment.curvature;
+  const double h = segment.heading;
+  if (k == 0.0) return segment.start + local * core::Point2(std::cos(h), std::sin(h));
+  return segment.start + core::Point2((std::sin(h + k * local) - std::sin(h)) / k,
+                                      (std::cos(h) - std::cos(h + k * local)) / k);
+}
+
+// The planned route along the street centerlines, generated one leg at a time
+// as the robot needs it. Arc length s = 0 is the start intersection.
+class StreetPath {
+ public:
+  StreetPath(const Grid& grid, const CampusSimulatorOptions& options, int x, int y, int direction,
+             Random* random)
+      : grid_(grid),
+        turn_radius_(options.turn_radius > 0 ? options.turn_radius : 0.5 * options.street_width),
+        straight_probability_(options.straight_probability),
+        random_(random),
+        end_(grid.Node(x, y)),
+        node_x_(x + kStepX[direction]),
+        node_y_(y + kStepY[direction]),
+        direction_(direction) {}
+
+  // Plans legs until the path reaches arc length s.
+  void ExtendTo(double s) {
+    while (end_s_ < s) AddLeg();
+  }
+
+  core::Point2 Position(double s) const {
+    const PathSegment& segment = SegmentAt(s);
+    return SegmentPosition(segment, std::clamp(s - segment.start_s, 0.0, segment.length));
+  }
+  core::Point2 Tangent(double s) const {
+    const PathSegment& segment = SegmentAt(s);
+    const double h =
+        segment.heading +
+        segment.curvature * std::clamp(s - segment.start_s, 0.0, segment.length);
+    return core::Point2(std::cos(h), std::sin(h));
+  }
+
+ private:
+  const PathSegment& SegmentAt(double s) const {
+    GS_CHECK(!segments_.empty());
+    auto it = std::upper_bound(segments_.begin(), segments_.end(), s,
+                               [](double value, const PathSegment& segment) {
+                                 return value < segment.start_s;
+                               });
+    if (it != segments_.begin()) --it;
+    return *it;
+  }
+
+  void Append(const core::Point2& start, double heading, double curvature, double length) {
+    if (length <= 0.0) return;
+    PathSegment segment;
+    segment.start = start;
+    segment.heading = heading;
+    segment.curvature = curvature;
+    segment.length = length;
+    segment.start_s = end_s_;
+    segments_.push_back(segment);
+    end_s_ += length;
+  }
+
+  // Chooses the way on at the next intersection and plans the path up to the
+  // end of the turn there.
+  void AddLeg() {
+    int candidates[3];
+    double weights[3];
+    int count = 0;
+    const int options[3] = {direction_, (direction_ + 1) % 4, (direction_ + 3) % 4};
+    const double option_weights[3] = {straight_probability_, 0.5 * (1.0 - straight_probability_),
+                                      0.5 * (1.0 - straight_probability_)};
+    for (int i = 0; i < 3; ++i) {
+      if (grid_.Contains(node_x_ + kStepX[options[i]], node_y_ + kStepY[options[i]])) {
+        candidates[count] = options[i];
+        weights[count] = option_weights[i];
+        ++count;
+      }
+    }
+    // A grid of at least 2 x 2 always offers a left or a right turn.
+    GS_CHECK(count > 0);
+    double total = 0.0;
+    for (int i = 0; i < count; ++i) total += weights[i];
+    int next = candidates[count - 1];
+    if (total > 0.0) {
+      double draw = random_->Uniform() * total;
+      for (int i = 0; i < count; ++i) {
+        if (draw < weights[i]) {
+          next = candidates[i];
+          break;
+        }
+        draw -= weights[i];
+      }
+    } else {
+      next = candidates[random_->UniformInt(count)];
+    }
+
+    const core::Point2 node = grid_.Node(node_x_, node_y_);
+    const core::Point2 in = DirectionVector(direction_);
+    const double heading = DirectionAngle(direction_);
+    if (next == direction_) {
+      Append(end_, heading, 0.0, (node - end_).dot(in));
+      end_ = node;
+    } else {
+      const core::Point2 turn_start = node - turn_radius_ * in;
+      Append(end_, heading, 0.0, (turn_start - end_).dot(in));
+      const double curvature = (next == (direction_ + 1) % 4 ? 1.0 : -1.0) / turn_radius_;
+      Append(turn_start, heading, curvature, 0.5 * std::numbers::pi * turn_radius_);
+      end_ = node + turn_radius_ * DirectionVector(next);
+    }
+    node_x_ += kStepX[next];
+    node_y_ += kStepY[next];
+    direction_ = next;
+  }
+
+  const Grid& grid_;
+  const double turn_radius_;
+  const double straight_probability_;
+  Random* random_;  // must outlive the path
+  std::vector<PathSegment> segments_;
+  double end_s_ = 0.0;
+  core::Point2 end_;  // where the planned path ends
+  int node_x_, node_y_;  // the next intersection
+  int direction_;       // heading on the way to it
+};
+
+// Landmarks bucketed in square cells of side sensor_range.
+class LandmarkIndex {
+ public:
+  LandmarkIndex(const std::vector<core::Point2>& landmarks, const Grid& grid, double cell_size,
+                double margin)
+      : landmarks_(landmarks), cell_size_(cell_size) {
+    origin_ = core::Point2(-margin, -margin);
+    columns_ = static_cast<int>(((grid.columns - 1) * grid.block_size + 2 * margin) / cell_size) + 1;
+    rows_ = static_cast<int>(((grid.rows - 1) * grid.block_size + 2 * margin) / cell_size) + 1;
+    cells_.resize(static_cast<size_t>(columns_) * static_cast<size_t>(rows_));
+    for (size_t i = 0; i < landmarks.size(); ++i) {
+      cells_[CellOf(landmarks[i])].push_back(static_cast<int32_t>(i));
+    }
+  }
+
+  // Appends the indices of the landmarks within `radius` of `center`, in increasing order.
+  void Near(const core::Point2& center, double radius, std::vector<int32_t>* out) const {
+    out->clear();
+    const int x0 = ClampColumn((center.x() - radius - origin_.x()) / cell_size_);
+    const int x1 = ClampColumn((center.x() + radius - origin_.x()) / cell_size_);
+    const int y0 = ClampRow((center.y() - radius - origin_.y()) / cell_size_);
+    const int y1 = ClampRow((center.y() + radius - origin_.y()) / cell_size_);
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) {
+        for (int32_t index : cells_[static_cast<size_t>(y) * columns_ + x]) {
+          if ((landmarks_[static_cast<size_t>(index)] - center).squaredNorm() <= radius * radius) {
+            out->push_back(index);
+          }
+        }
+      }
+    }
+    std::sort(out->begin(), out->end());
+  }
+
+ private:
+  int ClampColumn(double value) const {
+    return static_cast<int>(std::clamp(std::floor(value), 0.0, static_cast<double>(columns_ - 1)));
+  }
+  int ClampRow(double value) const {
+    return static_cast<int>(std::clamp(std::floor(value), 0.0, static_cast<double>(rows_ - 1)));
+  }
+  size_t CellOf(const core::Point2& p) const {
+    const int x = ClampColumn((p.x() - origin_.x()) / cell_size_);
+    const int y = ClampRow((p.y() - origin_.y()) / cell_size_);
+    return static_cast<size_t>(y) * columns_ + x;
+  }
+
+  const std::vector<core::Point2>& landmarks_;  // must outlive the index
+  double cell_size_;
+  core::Point2 origin_;
+  int columns_ = 0;
+  int rows_ = 0;
+  std::vector<std::vector<int32_t>> cells_;
+};
+
+Status Positive(const char* name, double value) {
+  if (!(value > 0.0) || !std::isfinite(value)) {
+    return Status::InvalidArgument(std::string(name) + " must be a finite number > 0, got " +
+                                   std::to_string(value));
+  }
+  return Status::Ok();
+}
+
+Status NonNegative(const char* name, double value) {
+  if (!(value >= 0.0) || !std::isfinite(value)) {
+    return Status::InvalidArgument(std::string(name) + " must be a finite number >= 0, got " +
+                                   std::to_string(value));
+  }
+  return Status::Ok();
+}
+
+Eigen::Matrix3d SymmetricInverse(const Eigen::Matrix3d& covariance) {
+  const Eigen::Matrix3d inverse = covariance.inverse();
+  return 0.5 * (inverse + inverse.transpose());
+}
+
+}  // namespace
+
+Status CampusSimulatorOptions::Validate() const {
+  if (runs < 1) return Status::InvalidArgument("runs must be >= 1, got " + std::to_string(runs));
+  if (poses < 2 * static_cast<int64_t>(runs)) {
+    return Status::InvalidArgument("poses must be >= 2 per run (" + std::to_string(2 * runs) +
+                                   " for " + std::to_string(runs) + " runs), got " +
+                                   std::to_string(poses));
+  }
+  if (features < 0) {
+    return Status::InvalidArgument("features must be >= 0 (0: from the campus size), got " +
+                                   std::to_string(features));
+  }
+  if (gps_every < 0) {
+    return Status::InvalidArgument("gps_every must be >= 0 (0: no GPS), got " +
+                                   std::to_string(gps_every));
+  }
+  if (feature_id_base < poses) {
+    return Status::InvalidArgument("feature_id_base (" + std::to_string(feature_id_base) +
+                                   ") must be >= poses (" + std::to_string(poses) +
+                                   ") so that pose and feature ids never collide");
+  }
+  GS_RETURN_IF_ERROR(Positive("block_size", block_size));
+  GS_RETURN_IF_ERROR(Positive("street_width", street_width));
+  if (street_width >= block_size) {
+    return Status::InvalidArgument("street_width (" + std::to_string(street_width) +
+                                   ") must be < block_size (" + std::to_string(block_size) + ")");
+  }
+  GS_RETURN_IF_ERROR(Positive("min_landmark_spacing", min_landmark_spacing));
+  GS_RETURN_IF_ERROR(Positive("max_landmark_spacing", max_landmark_spacing));
+  if (max_landmark_spacing < min_landmark_spacing) {
+    return Status::InvalidArgument("max_landmark_spacing (" + std::to_string(max_landmark_spacing) +
+                                   ") must be >= min_landmark_spacing (" +
+                                   std::to_string(min_landmark_spacing) + ")");
+  }
+  GS_RETURN_IF_ERROR(NonNegative("turn_radius", turn_radius));
+  const double radius = turn_radius > 0 ? turn_radius : 0.5 * street_width;
+  if (radius > 0.5 * block_size) {
+    return Status::InvalidArgument("turn radius (" + std::to_string(radius) +
+                                   ") must be <= block_size / 2 (" +
+                                   std::to_string(0.5 * block_size) + ")");
+  }
+  if (!(straight_probability >= 0.0 && straight_probability <= 1.0)) {
+    return Status::InvalidArgument("straight_probability must be in [0, 1], got " +
+                                   std::to_string(straight_probability));
+  }
+  GS_RETURN_IF_ERROR(Positive("lookahead", lookahead));
+  GS_RETURN_IF_ERROR(Positive("max_omega", max_omega));
+  GS_RETURN_IF_ERROR(Positive("speed", speed));
+  GS_RETURN_IF_ERROR(Positive("dt", dt));
+  GS_RETURN_IF_ERROR(Positive("sensor_range", sensor_range));
+  GS_RETURN_IF_ERROR(Positive("field_of_view", field_of_view));
+  if (field_of_view > 2.0 * std::numbers::pi) {
+    return Status::InvalidArgument("field_of_view must be <= 2 pi, got " +
+                                   std::to_string(field_of_view));
+  }
+  GS_RETURN_IF_ERROR(Positive("range_sigma", range_sigma));
+  GS_RETURN_IF_ERROR(Positive("bearing_sigma", bearing_sigma));
+  GS_RETURN_IF_ERROR(Positive("gps_sigma", gps_sigma));
+  GS_RETURN_IF_ERROR(NonNegative("initial_position_sigma", initial_position_sigma));
+  GS_RETURN_IF_ERROR(NonNegative("initial_heading_sigma", initial_heading_sigma));
+  for (int i = 0; i < 6; ++i) {
+    const std::string name = "noise.alpha[" + std::to_string(i) + "] (a" + std::to_string(i + 1) + ")";
+    GS_RETURN_IF_ERROR(NonNegative(name.c_str(), noise.alpha[i]));
+  }
+  GS_RETURN_IF_ERROR(Positive("noise.min_sigma_xy", noise.min_sigma_xy));
+  GS_RETURN_IF_ERROR(Positive("noise.min_sigma_theta", noise.min_sigma_theta));
+  return Status::Ok();
+}
+
+StatusOr<SimulatedCampus> SimulateCampus(const CampusSimulatorOptions& options) {
+  GS_RETURN_IF_ERROR(options.Validate());
+  Random random(options.seed);
+  SimulatedCampus campus;
+  core::Problem2d& problem = campus.problem;
+  problem.source = "simulated campus (seed " + std::to_string(options.seed) + ")";
+
+  Grid grid;
+  campus.true_features = BuildCampus(options, &random, &grid);
+  campus.grid_columns = grid.columns;
+  campus.grid_rows = grid.rows;
+  const int64_t num_features = static_cast<int64_t>(campus.true_features.size());
+  problem.features.reserve(static_cast<size_t>(num_features));
+  problem.feature_ids.reserve(static_cast<size_t>(num_features));
+  problem.feature_initialized.reserve(static_cast<size_t>(num_features));
+  for (int64_t i = 0; i < num_features; ++i) {
+    problem.AddFeature(options.feature_id_base + i, core::Point2::Zero(), /*initialized=*/false);
+  }
+
+  // Trajectories and controls, run after run.
+  const size_t total_poses = static_cast<size_t>(options.poses);
+  campus.true_poses.reserve(total_poses);
+  campus.run_of_pose.reserve(total_poses);
+  problem.poses.reserve(total_poses);
+  problem.motions.reserve(total_poses);
+  for (int run = 0; run < options.runs; ++run) {
+    const int64_t run_poses =
+        options.poses / options.runs + (run < options.poses % options.runs ? 1 : 0);
+    // A random intersection and a street leaving it.
+    const int start_x = static_cast<int>(random.UniformInt(grid.columns));
+    const int start_y = static_cast<int>(random.UniformInt(grid.rows));
+    int directions[4];
+    int count = 0;
+    for (int d = 0; d < 4; ++d) {
+      if (grid.Contains(start_x + kStepX[d], start_y + kStepY[d])) directions[count++] = d;
+    }
+    const int direction = directions[random.UniformInt(count)];
+    StreetPath path(grid, options, start_x, start_y, direction, &random);
+
+    core::Pose2 truth(start_x * grid.block_size, start_y * grid.block_size,
+                      core::WrapAngle(DirectionAngle(direction)));
+    core::Pose2 guess = truth;
+    if (run > 0) {
+      guess.x() += random.Normal(options.initial_position_sigma);
+      guess.y() += random.Normal(options.initial_position_sigma);
+      guess.z() = core::WrapAngle(guess.z() + random.Normal(options.initial_heading_sigma));
+    }
+    double s = 0.0;
+    for (int64_t k = 0; k < run_poses; ++k) {
+      const int32_t index = problem.AddPose(problem.num_poses(), guess, /*initialized=*/k == 0,
+                                            /*line=*/0, static_cast<double>(k) * options.dt);
+      if (run == 0 && k == 0 && options.gps_every == 0) problem.pose_fixed[index] = 1;
+      campus.true_poses.push_back(truth);
+      campus.run_of_pose.push_back(run);
+      if (k + 1 == run_poses) break;
+
+      // Pure pursuit on the true pose: project onto the path (Newton steps
+      // along the tangent, never backwards), aim at the point `lookahead` on.
+      path.ExtendTo(s + options.lookahead + 2.0 * options.block_size);
+      for (int iteration = 0; iteration < 3; ++iteration) {
+        const double step = (truth.head<2>() - path.Position(s)).dot(path.Tangent(s));
+        s = std::max(s, s + std::clamp(step, -options.block_size, options.block_size));
+      }
+      const core::Point2 target = path.Position(s + options.lookahead);
+      const core::Point2 local =
+          core::Rotation2(truth.z()).transpose() * (target - truth.head<2>());
+      const double curvature = 2.0 * local.y() / std::max(local.squaredNorm(), 1e-12);
+      core::VelocityControl control;
+      control.v = options.speed;
+      control.omega = std::clamp(options.speed * curvature, -options.max_omega, options.max_omega);
+      control.dt = options.dt;
+
+      // Execute the control with noise (Probabilistic Robotics Table 5.3).
+      const double v2 = control.v * control.v;
+      const double w2 = control.omega * control.omega;
+      const double* a = options.noise.alpha;
+      core::VelocityControl executed = control;
+      executed.v += random.Normal(std::sqrt(a[0] * v2 + a[1] * w2));
+      executed.omega += random.Normal(std::sqrt(a[2] * v2 + a[3] * w2));
+      const double gamma = random.Normal(std::sqrt(a[4] * v2 + a[5] * w2));
+      core::Pose2 next = core::PredictVelocityMotion(truth, executed);
+      next.x() += random.Normal(options.noise.min_sigma_xy);
+      next.y() += random.Normal(options.noise.min_sigma_xy);
+      next.z() = core::WrapAngle(next.z() + gamma * options.dt +
+                                 random.Normal(options.noise.min_sigma_theta));
+
+      core::VelocityMotionConstraint motion;
+      motion.from = index;
+      motion.to = index + 1;
+      motion.control = control;
+      motion.information =
+          SymmetricInverse(core::VelocityMotionCovariance(truth, control, options.noise));
+      problem.motions.push_back(motion);
+
+      campus.distance_travelled += (next.head<2>() - truth.head<2>()).norm();
+      truth = next;
+      guess = core::PredictVelocityMotion(guess, control);  // dead reckoning: the hint
+    }
+  }
+
+  // Sensing, pose after pose.
+  const double margin = 0.5 * options.street_width + options.sensor_range;
+  LandmarkIndex index(campus.true_features, grid, options.sensor_range, margin);
+  std::vector<int32_t> nearby;
+  std::vector<uint8_t> seen(static_cast<size_t>(num_features), 0);
+  const double half_fov = 0.5 * options.field_of_view;
+  const Eigen::Matrix2d observation_information =
+      Eigen::Vector2d(1.0 / (options.range_sigma * options.range_sigma),
+                      1.0 / (options.bearing_sigma * options.bearing_sigma))
+          .asDiagonal();
+  // Ranges below this could come out <= 0 once noise is added.
+  const double min_range = 5.0 * options.range_sigma;
+  for (int32_t pose = 0; pose < problem.num_poses(); ++pose) {
+    const core::Pose2& truth = campus.true_poses[static_cast<size_t>(pose)];
+    index.Near(truth.head<2>(), options.sensor_range, &nearby);
+    for (int32_t feature : nearby) {
+      const core::Point2 delta = campus.true_features[static_cast<size_t>(feature)] - truth.head<2>();
+      const double range = delta.norm();
+      if (range < min_range || range > options.sensor_range) continue;
+      const double bearing = core::WrapAngle(std::atan2(delta.y(), delta.x()) - truth.z());
+      if (std::abs(bearing) > half_fov) continue;
+      core::Observation observation;
+      observation.pose = pose;
+      observation.feature = feature;
+      observation.kind = core::ObservationKind::kRangeBearing;
+      observation.z = Eigen::Vector2d(range + random.Normal(options.range_sigma),
+                                      core::WrapAngle(bearing + random.Normal(options.bearing_sigma)));
+      observation.information = observation_information;
+      problem.observations.push_back(observation);
+      if (!seen[static_cast<size_t>(feature)]) {
+        seen[static_cast<size_t>(feature)] = 1;
+        ++campus.observed_features;
+        // The hint: first sight from the dead-reckoned pose (Table 1).
+        problem.features[static_cast<size_t>(feature)] =
+            core::InvertRangeBearing(problem.poses[static_cast<size_t>(pose)], observation.z);
+      }
+    }
+  }
+
+  // GPS every gps_every-th pose of each run.
+  if (options.gps_every > 0) {
+    const Eigen::Matrix2d gps_information =
+        Eigen::Matrix2d::Identity() / (options.gps_sigma * options.gps_sigma);
+    int64_t k = 0;
+    for (int32_t pose = 0; pose < problem.num_poses(); ++pose, ++k) {
+      if (pose > 0 && campus.run_of_pose[static_cast<size_t>(pose)] !=
+                          campus.run_of_pose[static_cast<size_t>(pose) - 1]) {
+        k = 0;
+      }
+      if (k % options.gps_every != 0) continue;
+      core::GpsConstraint gps;
+      gps.pose = pose;
+      const core::Pose2& truth = campus.true_poses[static_cast<size_t>(pose)];
+      gps.z = Eigen::Vector2d(truth.x() + random.Normal(options.gps_sigma),
+                              truth.y() + random.Normal(options.gps_sigma));
+      gps.information = gps_information;
+      problem.gps.push_back(gps);
+    }
+  }
+  return campus;
+}
+
+}  // namespace graphslam::tools

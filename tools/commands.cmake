@@ -1,0 +1,6 @@
+# Further subcommands (simulate, evaluate).
+target_sources(graphslam_tools PRIVATE
+  campus_simulator.cc
+  evaluate_command.cc
+  simulate_command.cc
+  trajectory_metrics.cc)

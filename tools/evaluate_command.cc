@@ -1,0 +1,194 @@
+#include "tools/evaluate_command.h"
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <utility>
+#include <vector>
+
+#include "storage/atomic_file.h"
+#include "storage/mrclam_reader.h"
+#include "tools/exit_codes.h"
+#include "tools/trajectory_metrics.h"
+
+namespace graphslam::tools {
+namespace {
+
+Status ValidateOptions(const EvaluateCommandOptions& options) {
+  if (options.trajectory.empty()) return Status::InvalidArgument("--trajectory is required");
+  const bool tum_truth = !options.ground_truth.empty();
+  const bool mrclam_truth = !options.mrclam.empty();
+  if (tum_truth == mrclam_truth) {
+    return Status::InvalidArgument(
+        "give exactly one ground truth: --ground-truth GT.tum or --mrclam DIR");
+  }
+  if (mrclam_truth && !options.ground_truth_features.empty()) {
+    return Status::InvalidArgument(
+        "--ground-truth-features does not go with --mrclam (the landmarks come from "
+        "Landmark_Groundtruth.dat)");
+  }
+  if (!options.ground_truth_features.empty() && options.features.empty()) {
+    return Status::InvalidArgument("--ground-truth-features needs --features EST.csv");
+  }
+  if (!options.features.empty() && tum_truth && options.ground_truth_features.empty()) {
+    return Status::InvalidArgument("--features needs --ground-truth-features GT.csv");
+  }
+  if (options.robot < 1 || options.robot > 5) {
+    return Status::InvalidArgument("--robot must be 1..5, got " + std::to_string(options.robot));
+  }
+  return Status::Ok();
+}
+
+// NaN is not JSON: missing figures become null.
+nlohmann::json Number(double value) {
+  return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
+}
+
+nlohmann::json TransformJson(const Eigen::Isometry2d& transform) {
+  return {{"x", transform.translation().x()},
+          {"y", transform.translation().y()},
+          {"theta", RotationAngle(transform)}};
+}
+
+}  // namespace
+
+void AddEvaluateCommand(CLI::App* app, EvaluateCommandOptions* options, int* exit_code) {
+  CLI::App* evaluate = app->add_subcommand(
+      "evaluate", "Trajectory and landmark RMSE of an estimate against ground truth");
+  evaluate->add_option("--trajectory", options->trajectory, "estimated trajectory (TUM)")
+      ->required();
+  evaluate->add_option("--ground-truth", options->ground_truth, "true trajectory (TUM)");
+  evaluate->add_option("--features", options->features, "estimated features (.csv)");
+  evaluate->add_option("--ground-truth-features", options->ground_truth_features,
+                       "true features (.csv)");
+  evaluate->add_option("--mrclam", options->mrclam, "MRCLAM dataset folder (ground truth)");
+  evaluate->add_option("--robot", options->robot, "MRCLAM robot number")->capture_default_str();
+  evaluate->add_option("--max-time-difference", options->max_time_difference,
+                       "pose matching tolerance [s] (default: min(0.05, GT spacing / 2))");
+  evaluate->add_option("--report", options->report, "evaluation report (.json)");
+  evaluate->add_flag("-q,--quiet", options->quiet, "no figures on the terminal");
+  evaluate->callback([options, exit_code]() { *exit_code = RunEvaluateCommand(*options); });
+}
+
+int RunEvaluateCommand(const EvaluateCommandOptions& options) {
+  auto fail = [](const Status& status) {
+    std::fprintf(stderr, "graphslam evaluate: %s\n", status.ToString().c_str());
+    return ExitCodeFor(status);
+  };
+  if (Status status = ValidateOptions(options); !status.ok()) {
+    std::fprintf(stderr, "graphslam evaluate: %s\n", status.message().c_str());
+    return kExitUsage;
+  }
+
+  // Read everything first.
+  StatusOr<std::vector<StampedPose2>> estimated = ReadTum(options.trajectory);
+  if (!estimated.ok()) return fail(estimated.status());
+  std::vector<StampedPose2> truth;
+  std::map<int64_t, core::Point2> truth_features;
+  bool have_truth_features = false;
+  if (!options.mrclam.empty()) {
+    StatusOr<storage::MrclamGroundTruth> mrclam =
+        storage::ReadMrclamGroundTruth(options.mrclam, options.robot);
+    if (!mrclam.ok()) return fail(mrclam.status());
+    truth.reserve(mrclam->poses.size());
+    for (size_t i = 0; i < mrclam->poses.size(); ++i) {
+      truth.push_back(StampedPose2{mrclam->stamps[i], mrclam->poses[i]});
+    }
+    truth_features = std::move(mrclam->landmarks);
+    have_truth_features = true;
+  } else {
+    StatusOr<std::vector<StampedPose2>> read = ReadTum(options.ground_truth);
+    if (!read.ok()) return fail(read.status());
+    truth = std::move(read).value();
+    if (!options.ground_truth_features.empty()) {
+      StatusOr<std::map<int64_t, core::Point2>> features =
+          ReadFeaturesCsv(options.ground_truth_features);
+      if (!features.ok()) return fail(features.status());
+      truth_features = std::move(features).value();
+      have_truth_features = true;
+    }
+  }
+  std::map<int64_t, core::Point2> estimated_features;
+  std::vector<int64_t> excluded;
+  const bool evaluate_features = !options.features.empty() && have_truth_features;
+  if (evaluate_features) {
+    StatusOr<std::map<int64_t, core::Point2>> features =
+        ReadFeaturesCsv(options.features, &excluded);
+    if (!features.ok()) return fail(features.status());
+    estimated_features = std::move(features).value();
+  }
+
+  // Compare.
+  TrajectoryMatchOptions match;
+  match.max_time_difference = options.max_time_difference;
+  StatusOr<TrajectoryErrors> compared = CompareTrajectories(*estimated, truth, match);
+  if (!compared.ok()) return fail(compared.status());
+  const TrajectoryErrors& errors = *compared;
+  FeatureErrors feature_errors;
+  if (evaluate_features) {
+    feature_errors = CompareFeatures(estimated_features, truth_features, errors.alignment);
+  }
+
+  nlohmann::json report;
+  report["trajectory"] = options.trajectory;
+  report["ground_truth"] = options.mrclam.empty() ? options.ground_truth : options.mrclam;
+  if (!options.mrclam.empty()) report["robot"] = options.robot;
+  report["estimated_poses"] = static_cast<int64_t>(estimated->size());
+  report["ground_truth_poses"] = static_cast<int64_t>(truth.size());
+  report["runs"] = errors.runs;
+  report["matched_poses"] = errors.matched;
+  report["unmatched_poses"] = errors.unmatched;
+  report["max_time_difference_s"] = errors.max_time_difference;
+  report["position_rmse_m"] = errors.position_rmse;
+  report["position_mean_m"] = errors.position_mean;
+  report["position_max_m"] = errors.position_max;
+  report["heading_rmse_rad"] = errors.heading_rmse_rad;
+  report["heading_rmse_deg"] = errors.heading_rmse_rad * 180.0 / std::numbers::pi;
+  report["alignment"] = TransformJson(errors.alignment);
+  if (evaluate_features) {
+    report["features"] = {
+        {"estimated", options.features},
+        {"matched", feature_errors.matched},
+        {"missing", feature_errors.missing},
+        {"extra", feature_errors.extra},
+        {"excluded", static_cast<int64_t>(excluded.size())},
+        {"rmse_trajectory_aligned_m", Number(feature_errors.rmse_trajectory_aligned)},
+        {"rmse_self_aligned_m", Number(feature_errors.rmse_self_aligned)},
+        {"self_alignment", TransformJson(feature_errors.self_alignment)}};
+  }
+  if (!options.report.empty()) {
+    if (Status status = storage::WriteStringAtomically(storage::Env::Default(), options.report,
+                                                       report.dump(2) + "\n");
+        !status.ok()) {
+      return fail(status);
+    }
+  }
+
+  if (!options.quiet) {
+    std::printf("graphslam evaluate summary\n");
+    std::printf("  matched poses      %lld of %zu (%lld unmatched, tolerance %.3g s, %lld run(s))\n",
+                static_cast<long long>(errors.matched), estimated->size(),
+                static_cast<long long>(errors.unmatched), errors.max_time_difference,
+                static_cast<long long>(errors.runs));
+    std::printf("  position RMSE      %.4f m (mean %.4f m, max %.4f m)\n", errors.position_rmse,
+                errors.position_mean, errors.position_max);
+    std::printf("  heading RMSE       %.5f rad (%.3f deg)\n", errors.heading_rmse_rad,
+                errors.heading_rmse_rad * 180.0 / std::numbers::pi);
+    std::printf("  alignment          x %.3f m, y %.3f m, theta %.5f rad\n",
+                errors.alignment.translation().x(), errors.alignment.translation().y(),
+                RotationAngle(errors.alignment));
+    if (evaluate_features) {
+      std::printf("  landmarks          %lld matched, %lld missing, %lld extra, %zu excluded\n",
+                  static_cast<long long>(feature_errors.matched),
+                  static_cast<long long>(feature_errors.missing),
+                  static_cast<long long>(feature_errors.extra), excluded.size());
+      std::printf("  landmark RMSE      %.4f m (trajectory alignment), %.4f m (own alignment)\n",
+                  feature_errors.rmse_trajectory_aligned, feature_errors.rmse_self_aligned);
+    }
+  }
+  return kExitOk;
+}
+
+}  // namespace graphslam::tools

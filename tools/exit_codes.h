@@ -1,0 +1,22 @@
+// Exit codes of the graphslam command line (docs/cli.md).
+#pragma once
+
+#include "core/status.h"
+
+namespace graphslam::tools {
+
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitUsage = 1;
+inline constexpr int kExitBadInput = 2;
+inline constexpr int kExitIOError = 3;
+inline constexpr int kExitNotConverged = 4;
+
+// Maps a Status to the exit code a script can act on.
+inline int ExitCodeFor(const Status& status) {
+  if (status.ok()) return kExitOk;
+  if (status.IsIOError()) return kExitIOError;
+  if (status.IsNumerical()) return kExitNotConverged;
+  return kExitBadInput;  // Corruption, InvalidArgument, NotFound, NotSupported
+}
+
+}  // namespace graphslam::tools

@@ -1,0 +1,135 @@
+#include "tools/simulate_command.h"
+
+#include <cstdio>
+#include <filesystem>
+#include <system_error>
+#include <utility>
+
+#include "storage/features_csv_writer.h"
+#include "storage/g2o_writer.h"
+#include "storage/native_log_reader.h"
+#include "storage/tum_writer.h"
+#include "tools/exit_codes.h"
+
+namespace graphslam::tools {
+namespace {
+
+// Writes the truth through the problem's own writers: the true values are
+// swapped in for the writes and swapped back whatever happens.
+Status WriteGroundTruth(SimulatedCampus* campus, const std::string& tum_path,
+                        const std::string& features_path) {
+  core::Problem2d& problem = campus->problem;
+  std::swap(problem.poses, campus->true_poses);
+  std::swap(problem.features, campus->true_features);
+  Status status = storage::WriteTum(problem, tum_path);
+  if (status.ok()) status = storage::WriteFeaturesCsv(problem, features_path);
+  std::swap(problem.poses, campus->true_poses);
+  std::swap(problem.features, campus->true_features);
+  return status;
+}
+
+}  // namespace
+
+void AddSimulateCommand(CLI::App* app, SimulateCommandOptions* options, int* exit_code) {
+  CLI::App* simulate = app->add_subcommand(
+      "simulate", "Generate a synthetic campus data set (measurements + ground truth)");
+  CampusSimulatorOptions& sim = options->simulator;
+  simulate->add_option("-o,--output", options->output_dir, "output folder (created if missing)")
+      ->required();
+  simulate->add_option("--format", options->format, "measurement file format: native, g2o")
+      ->capture_default_str();
+  simulate->add_option("--poses", sim.poses, "poses in total (split over the runs)")
+      ->capture_default_str();
+  simulate->add_option("--features", sim.features, "landmarks (0: from the campus size)")
+      ->capture_default_str();
+  simulate->add_option("--runs", sim.runs, "independent drives through the same campus")
+      ->capture_default_str();
+  simulate->add_option("--gps-every", sim.gps_every, "a GPS fix every K poses (0: none)")
+      ->capture_default_str();
+  simulate->add_option("--seed", sim.seed, "random seed")->capture_default_str();
+  simulate->add_option("--block-size", sim.block_size, "street pitch [m]")->capture_default_str();
+  simulate->add_option("--street-width", sim.street_width, "street width [m]")
+      ->capture_default_str();
+  simulate->add_option("--speed", sim.speed, "robot speed [m/s]")->capture_default_str();
+  simulate->add_option("--dt", sim.dt, "time between poses [s]")->capture_default_str();
+  simulate->add_option("--sensor-range", sim.sensor_range, "sensor range [m]")
+      ->capture_default_str();
+  simulate->add_option("--range-sigma", sim.range_sigma, "range noise [m]")->capture_default_str();
+  simulate->add_option("--bearing-sigma", sim.bearing_sigma, "bearing noise [rad]")
+      ->capture_default_str();
+  simulate->add_option("--gps-sigma", sim.gps_sigma, "GPS noise [m]")->capture_default_str();
+  simulate->add_option("--alpha", options->alpha,
+                       "control noise a1..a6 (Probabilistic Robotics Table 5.3; default "
+                       "0.01 0.001 0.0001 0.01 0.0001 0.01)")
+      ->expected(6);
+  simulate->add_flag("-q,--quiet", options->quiet, "no summary on the terminal");
+  simulate->callback([options, exit_code]() { *exit_code = RunSimulateCommand(*options); });
+}
+
+int RunSimulateCommand(const SimulateCommandOptions& options) {
+  auto fail = [](const Status& status) {
+    std::fprintf(stderr, "graphslam simulate: %s\n", status.ToString().c_str());
+    return ExitCodeFor(status);
+  };
+  auto usage = [](const std::string& message) {
+    std::fprintf(stderr, "graphslam simulate: %s\n", message.c_str());
+    return kExitUsage;
+  };
+  if (options.output_dir.empty()) return usage("no output folder given (-o DIR)");
+  if (options.format != "native" && options.format != "g2o") {
+    return usage("--format must be 'native' or 'g2o', got '" + options.format + "'");
+  }
+  CampusSimulatorOptions simulator = options.simulator;
+  if (!options.alpha.empty()) {
+    if (options.alpha.size() != 6) {
+      return usage("--alpha takes 6 values a1..a6, got " + std::to_string(options.alpha.size()));
+    }
+    for (int i = 0; i < 6; ++i) simulator.noise.alpha[i] = options.alpha[static_cast<size_t>(i)];
+  }
+  if (Status status = simulator.Validate(); !status.ok()) return usage(status.message());
+
+  std::error_code error;
+  std::filesystem::create_directories(options.output_dir, error);
+  if (error) {
+    return fail(Status::IOError("cannot create " + options.output_dir + ": " + error.message()));
+  }
+  if (!std::filesystem::is_directory(options.output_dir, error)) {
+    return fail(Status::IOError(options.output_dir + " is not a folder"));
+  }
+
+  StatusOr<SimulatedCampus> simulated = SimulateCampus(simulator);
+  if (!simulated.ok()) return fail(simulated.status());
+  SimulatedCampus campus = std::move(simulated).value();
+
+  const std::filesystem::path folder(options.output_dir);
+  const std::string measurements =
+      (folder / (options.format == "g2o" ? "graph.g2o" : "log.graphslam")).string();
+  const std::string tum = (folder / "ground_truth.tum").string();
+  const std::string features = (folder / "ground_truth_features.csv").string();
+  const Status written = options.format == "g2o"
+                             ? storage::WriteG2o(campus.problem, measurements)
+                             : storage::WriteNativeLog(campus.problem, measurements);
+  if (!written.ok()) return fail(written);
+  if (Status status = WriteGroundTruth(&campus, tum, features); !status.ok()) return fail(status);
+
+  if (!options.quiet) {
+    const CampusSimulatorOptions& sim = simulator;
+    const core::Problem2d& problem = campus.problem;
+    const double width = (campus.grid_columns - 1) * sim.block_size;
+    const double height = (campus.grid_rows - 1) * sim.block_size;
+    std::printf(
+        "Simulated a campus of %d x %d intersections (%.0f m x %.0f m, %.0f m blocks, seed %u) "
+        "with %d landmarks (%lld observed); %d poses in %d run(s) over %.0f m of driving, "
+        "%zu motion controls, %zu range-bearing observations (%.1f per pose), %zu GPS fixes. "
+        "Wrote %s, %s and %s.\n",
+        campus.grid_columns, campus.grid_rows, width, height, sim.block_size, sim.seed,
+        problem.num_features(), static_cast<long long>(campus.observed_features),
+        problem.num_poses(), sim.runs, campus.distance_travelled, problem.motions.size(),
+        problem.observations.size(),
+        static_cast<double>(problem.observations.size()) / problem.num_poses(),
+        problem.gps.size(), measurements.c_str(), tum.c_str(), features.c_str());
+  }
+  return kExitOk;
+}
+
+}  // namespace graphslam::tools

@@ -1,0 +1,240 @@
+#include "tools/solve_command.h"
+
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "core/graphslam_solver.h"
+#include "core/initialization.h"
+#include "core/logging.h"
+#include "partition/in_memory_chunk_source.h"
+#include "storage/atomic_file.h"
+#include "storage/features_csv_writer.h"
+#include "storage/format_detection.h"
+#include "storage/g2o_writer.h"
+#include "storage/tum_writer.h"
+#include "tools/exit_codes.h"
+#include "tools/progress_display.h"
+#include "tools/resource_usage.h"
+
+namespace graphslam::tools {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Seconds(Clock::time_point since) {
+  return std::chrono::duration<double>(Clock::now() - since).count();
+}
+
+Status ValidateOptions(const SolveCommandOptions& options) {
+  if (options.input.empty()) return Status::InvalidArgument("no INPUT given");
+  if (options.max_iterations < 0)
+    return Status::InvalidArgument("--max-iterations must be >= 0, got " +
+                                   std::to_string(options.max_iterations));
+  if (options.threads < 0)
+    return Status::InvalidArgument("--threads must be >= 0, got " + std::to_string(options.threads));
+  if (options.chunk_observations <= 0)
+    return Status::InvalidArgument("--chunk-observations must be > 0");
+  return Status::Ok();
+}
+
+nlohmann::json BuildReport(const SolveCommandOptions& options, const core::Problem2d& problem,
+                           const core::SolverSummary& summary, const char* format_name,
+                           double read_seconds, double initialize_seconds, double total_seconds) {
+  nlohmann::json report;
+  report["input"] = options.input;
+  report["format"] = format_name;
+  report["solver"] = core::LinearSolverName(summary.linear_solver_used);
+  report["initial_chi2"] = summary.initial_chi2;
+  report["final_chi2"] = summary.final_chi2;
+  report["iterations"] = summary.iterations;
+  report["converged"] = summary.converged;
+  report["termination"] = summary.termination;
+  report["poses"] = problem.num_poses();
+  report["features"] = problem.num_features();
+  report["observations"] = static_cast<int64_t>(problem.observations.size());
+  report["observations_used"] = summary.observations_used;
+  report["eliminated_features"] = summary.eliminated_features;
+  report["excluded_features"] = summary.excluded_features;
+  report["unobserved_features"] = summary.unobserved_features;
+  report["relative_pose_constraints"] = static_cast<int64_t>(problem.relative_poses.size());
+  report["motion_constraints"] = static_cast<int64_t>(problem.motions.size());
+  report["gps_constraints"] = static_cast<int64_t>(problem.gps.size());
+  // Degrees of freedom: chi2 / (residual_dimension - unknowns) should be near 1
+  // when the noise is what the model says.
+  const int64_t residual_dimension =
+      3 * static_cast<int64_t>(problem.relative_poses.size() + problem.motions.size()) +
+      2 * static_cast<int64_t>(problem.gps.size()) + 2 * summary.observations_used;
+  report["residual_dimension"] = residual_dimension;
+  report["unknowns"] = 3 * summary.unknown_poses + 2 * summary.eliminated_features;
+  report["reduced_nonzero_blocks"] = summary.reduced_nonzero_blocks;
+  report["threads"] = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
+  report["seconds"] = total_seconds;
+  report["stage_seconds"] = {{"read", read_seconds},
+                             {"initialize", initialize_seconds},
+                             {"optimize", summary.seconds}};
+  report["peak_rss_bytes"] = PeakRssBytes();
+  nlohmann::json per_iteration = nlohmann::json::array();
+  for (const core::IterationSummary& it : summary.per_iteration) {
+    per_iteration.push_back({{"iteration", it.iteration},
+                             {"chi2", it.chi2},
+                             {"candidate_chi2", it.candidate_chi2},
+                             {"step_norm", it.step_norm},
+                             {"gradient_max_norm", it.gradient_max_norm},
+                             {"linear_solver_iterations", it.linear_iterations},
+                             {"lambda", it.lambda},
+                             {"relative_decrease", it.relative_decrease},
+                             {"accepted", it.accepted},
+                             {"seconds", it.seconds}});
+  }
+  report["per_iteration"] = per_iteration;
+  return report;
+}
+
+const char* FormatName(storage::InputFormat format) {
+  switch (format) {
+    case storage::InputFormat::kG2o: return "g2o";
+    case storage::InputFormat::kIsam: return "isam";
+    case storage::InputFormat::kMrclam: return "mrclam";
+    case storage::InputFormat::kNative: return "native";
+  }
+  return "unknown";
+}
+
+}  // namespace
+
+void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code) {
+  CLI::App* solve = app->add_subcommand(
+      "solve", "Optimize one input (g2o, iSAM, MRCLAM folder, native log) and write the results");
+  solve->add_option("input", options->input, "input file or MRCLAM dataset folder")->required();
+  solve->add_option("-o,--output", options->output_g2o, "optimized graph (.g2o)");
+  solve->add_option("--format", options->format, "input format: auto, g2o, isam, mrclam, native")
+      ->capture_default_str();
+  solve->add_option("--solver", options->solver, "reduced system solver: auto, pcg, cholmod")
+      ->capture_default_str();
+  solve->add_option("--max-iterations", options->max_iterations, "Levenberg-Marquardt iterations")
+      ->capture_default_str();
+  solve->add_option("--threads", options->threads, "worker threads (0: all cores)")
+      ->capture_default_str();
+  solve->add_option("--report", options->report, "run report (.json)");
+  solve->add_option("--tum", options->tum, "optimized trajectory (TUM format)");
+  solve->add_option("--features-csv", options->features_csv, "optimized features (.csv)");
+  solve->add_option("--robot", options->robot, "MRCLAM robot number")->capture_default_str();
+  solve->add_option("--chunk-observations", options->chunk_observations,
+                    "observations per chunk (feature-complete)")
+      ->capture_default_str();
+  solve->add_flag("-q,--quiet", options->quiet, "no progress or summary on the terminal");
+  solve->add_flag("-v,--verbose", options->verbosity, "more log detail (repeatable)");
+  solve->callback([options, exit_code]() { *exit_code = RunSolveCommand(*options); });
+}
+
+int RunSolveCommand(const SolveCommandOptions& options) {
+  const Clock::time_point start = Clock::now();
+  SetLogVerbosity(options.verbosity);
+  SetQuietLogging(options.quiet);
+  auto fail = [](const Status& status) {
+    std::fprintf(stderr, "graphslam solve: %s\n", status.ToString().c_str());
+    return ExitCodeFor(status);
+  };
+  if (Status status = ValidateOptions(options); !status.ok()) {
+    std::fprintf(stderr, "graphslam solve: %s\n", status.ToString().c_str());
+    return kExitUsage;
+  }
+  StatusOr<core::LinearSolverType> solver_type = core::ParseLinearSolverType(options.solver);
+  if (!solver_type.ok()) {
+    std::fprintf(stderr, "graphslam solve: --solver: %s\n", solver_type.status().ToString().c_str());
+    return kExitUsage;
+  }
+
+  // Read.
+  storage::InputFormat format;
+  if (options.format == "auto") {
+    StatusOr<storage::InputFormat> detected = storage::DetectInputFormat(options.input);
+    if (!detected.ok()) return fail(detected.status());
+    format = *detected;
+  } else {
+    StatusOr<storage::InputFormat> parsed = storage::ParseInputFormat(options.format);
+    if (!parsed.ok()) {
+      std::fprintf(stderr, "graphslam solve: --format: %s\n", parsed.status().ToString().c_str());
+      return kExitUsage;
+    }
+    format = *parsed;
+  }
+  storage::MrclamOptions mrclam;
+  mrclam.robot = options.robot;
+  StatusOr<core::Problem2d> read = storage::ReadProblem(options.input, format, mrclam);
+  if (!read.ok()) return fail(read.status());
+  core::Problem2d problem = std::move(read).value();
+  const double read_seconds = Seconds(start);
+
+  // Initialize (Table 1) and validate connectivity.
+  const Clock::time_point initialize_start = Clock::now();
+  if (Status status = core::InitializeProblem(&problem); !status.ok()) return fail(status);
+  const double initialize_seconds = Seconds(initialize_start);
+
+  // Partition and solve.
+  std::unique_ptr<tbb::global_control> threads;
+  if (options.threads > 0) {
+    threads = std::make_unique<tbb::global_control>(
+        tbb::global_control::max_allowed_parallelism, static_cast<size_t>(options.threads));
+  }
+  partition::ChunkingOptions chunking;
+  chunking.max_observations_per_chunk = options.chunk_observations;
+  partition::InMemoryChunkSource chunks(problem, chunking);
+
+  ProgressDisplay display(!options.quiet);
+  core::SolverOptions solver_options;
+  solver_options.linear_solver = *solver_type;
+  solver_options.max_iterations = options.max_iterations;
+  solver_options.progress = display.AsCallback();
+  core::SolverSummary summary;
+  if (Status status = core::SolveGraphSlam(solver_options, chunks, &problem, &summary); !status.ok())
+    return fail(status);
+  display.Finish();
+
+  // Write outputs (each atomically).
+  if (!options.output_g2o.empty()) {
+    if (Status status = storage::WriteG2o(problem, options.output_g2o); !status.ok())
+      return fail(status);
+  }
+  if (!options.tum.empty()) {
+    if (Status status = storage::WriteTum(problem, options.tum); !status.ok()) return fail(status);
+  }
+  if (!options.features_csv.empty()) {
+    if (Status status = storage::WriteFeaturesCsv(problem, options.features_csv, &summary.excluded);
+        !status.ok())
+      return fail(status);
+  }
+  const double total_seconds = Seconds(start);
+  if (!options.report.empty()) {
+    const nlohmann::json report = BuildReport(options, problem, summary, FormatName(format),
+                                              read_seconds, initialize_seconds, total_seconds);
+    if (Status status = storage::WriteStringAtomically(storage::Env::Default(), options.report,
+                                                       report.dump(2) + "\n");
+        !status.ok())
+      return fail(status);
+  }
+
+  if (!options.quiet) {
+    std::printf("graphslam solve summary\n");
+    std::printf("  input              %s (%s)\n", options.input.c_str(), FormatName(format));
+    std::printf("  poses / features   %d / %d (%lld eliminated, %lld excluded)\n",
+                problem.num_poses(), problem.num_features(),
+                static_cast<long long>(summary.eliminated_features),
+                static_cast<long long>(summary.excluded_features));
+    std::printf("  observations       %zu\n", problem.observations.size());
+    std::printf("  linear solver      %s\n", core::LinearSolverName(summary.linear_solver_used));
+    std::printf("  initial chi2       %.9g\n", summary.initial_chi2);
+    std::printf("  final chi2         %.9g\n", summary.final_chi2);
+    std::printf("  iterations         %d (%s)\n", summary.iterations, summary.termination.c_str());
+    std::printf("  seconds            %.3f\n", total_seconds);
+    std::printf("  peak RSS           %.1f MiB\n", PeakRssBytes() / (1024.0 * 1024.0));
+  }
+  return summary.converged ? kExitOk : kExitNotConverged;
+}
+
+}  // namespace graphslam::tools

@@ -1,0 +1,37 @@
+// `graphslam solve INPUT -o OUT.g2o ...`: read any supported input, initialize
+// (paper Table 1), optimize (Tables 2-5), and write the optimized graph, the
+// trajectory, the features and a JSON report. Outputs are written only after a
+// successful solve, each atomically, so bad input never leaves a file behind.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+namespace graphslam::tools {
+
+struct SolveCommandOptions {
+  std::string input;
+  std::string format = "auto";      // auto, g2o, isam, mrclam, native
+  std::string output_g2o;           // -o
+  std::string report;               // --report
+  std::string tum;                  // --tum
+  std::string features_csv;         // --features-csv
+  std::string solver = "auto";      // auto, pcg, cholmod
+  int max_iterations = 100;
+  int threads = 0;                  // 0: all cores
+  int robot = 1;                    // MRCLAM robot number
+  int64_t chunk_observations = 4096;
+  bool quiet = false;
+  int verbosity = 0;
+};
+
+// Registers the subcommand on `app`; the callback runs the solve and stores
+// the exit code in *exit_code.
+void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code);
+
+// Runs a solve; returns the process exit code (tools/exit_codes.h).
+int RunSolveCommand(const SolveCommandOptions& options);
+
+}  // namespace graphslam::tools
