@@ -179,7 +179,8 @@ Status CheckConnectivity(const Problem2d& problem) {
   }
 
   std::vector<uint8_t> anchored_root(num_poses + problem.num_features(), 0);
-  if (fixed_poses.empty()) anchored_root[sets.Find(0)] = 1;
+  // The same gauge as UnknownLayout: fixed poses; else GPS; else pose 0.
+  if (fixed_poses.empty() && num_gps_poses == 0) anchored_root[sets.Find(0)] = 1;
   for (int32_t pose : fixed_poses) anchored_root[sets.Find(pose)] = 1;
   for (int32_t i = 0; i < num_poses; ++i)
     if (has_gps[i] != 0) anchored_root[sets.Find(i)] = 1;
@@ -196,9 +197,11 @@ Status CheckConnectivity(const Problem2d& problem) {
   // Name the anchor(s) the way a user would look them up in the input.
   std::string anchors;
   int32_t num_anchors = num_gps_poses;
-  if (fixed_poses.empty()) {
+  if (fixed_poses.empty() && num_gps_poses == 0) {
     anchors = PoseName(problem, 0);
     ++num_anchors;
+  } else if (fixed_poses.empty()) {
+    anchors = "GPS";
   } else if (fixed_poses.size() == 1) {
     anchors = PoseName(problem, fixed_poses[0]);
     ++num_anchors;
@@ -207,7 +210,8 @@ Status CheckConnectivity(const Problem2d& problem) {
     num_anchors += static_cast<int32_t>(fixed_poses.size());
   }
   if (num_gps_poses > 0) {
-    anchors += ", " + std::to_string(num_gps_poses) +
+    if (anchors == "GPS") anchors.clear(); else anchors += ", ";
+    anchors += std::to_string(num_gps_poses) +
                (num_gps_poses == 1 ? " pose with a GPS fix" : " poses with a GPS fix");
   }
   int32_t line = problem.pose_lines[first_disconnected];

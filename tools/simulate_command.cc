@@ -1,5 +1,6 @@
 #include "tools/simulate_command.h"
 
+#include <Eigen/Dense>
 #include <cstdio>
 #include <filesystem>
 #include <system_error>
@@ -26,6 +27,21 @@ Status WriteGroundTruth(SimulatedCampus* campus, const std::string& tum_path,
   std::swap(problem.poses, campus->true_poses);
   std::swap(problem.features, campus->true_features);
   return status;
+}
+
+// g2o keeps a motion's information in the frame of its from-pose, which
+// storage::WriteG2o takes from the written (dead-reckoned) pose values. R_t
+// only rotates with theta (V(theta) = diag(R(theta), 1) V(0), and the floor is
+// isotropic in x, y), so evaluating it at those values instead of the truth
+// gives the g2o edge exactly the local information the truth implies.
+void ExpressMotionInformationAtGuesses(const core::VelocityNoise& noise,
+                                       core::Problem2d* problem) {
+  for (core::VelocityMotionConstraint& motion : problem->motions) {
+    const Eigen::Matrix3d covariance = core::VelocityMotionCovariance(
+        problem->poses[static_cast<size_t>(motion.from)], motion.control, noise);
+    const Eigen::Matrix3d information = covariance.inverse();
+    motion.information = 0.5 * (information + information.transpose());
+  }
 }
 
 }  // namespace
@@ -60,7 +76,7 @@ void AddSimulateCommand(CLI::App* app, SimulateCommandOptions* options, int* exi
   simulate->add_option("--gps-sigma", sim.gps_sigma, "GPS noise [m]")->capture_default_str();
   simulate->add_option("--alpha", options->alpha,
                        "control noise a1..a6 (Probabilistic Robotics Table 5.3; default "
-                       "0.01 0.001 0.0001 0.01 0.0001 0.01)")
+                       "0.01 0.001 0.00003 0.01 0.00003 0.01)")
       ->expected(6);
   simulate->add_flag("-q,--quiet", options->quiet, "no summary on the terminal");
   simulate->callback([options, exit_code]() { *exit_code = RunSimulateCommand(*options); });
@@ -106,6 +122,7 @@ int RunSimulateCommand(const SimulateCommandOptions& options) {
       (folder / (options.format == "g2o" ? "graph.g2o" : "log.graphslam")).string();
   const std::string tum = (folder / "ground_truth.tum").string();
   const std::string features = (folder / "ground_truth_features.csv").string();
+  if (options.format == "g2o") ExpressMotionInformationAtGuesses(simulator.noise, &campus.problem);
   const Status written = options.format == "g2o"
                              ? storage::WriteG2o(campus.problem, measurements)
                              : storage::WriteNativeLog(campus.problem, measurements);

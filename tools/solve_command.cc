@@ -118,6 +118,12 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
       ->capture_default_str();
   solve->add_option("--max-iterations", options->max_iterations, "Levenberg-Marquardt iterations")
       ->capture_default_str();
+  solve->add_option("--function-tolerance", options->function_tolerance,
+                    "stop when the relative chi2 decrease of a step is below this")
+      ->capture_default_str();
+  solve->add_option("--initial-trust-region", options->initial_trust_region_radius,
+                    "initial trust region radius (1 / initial damping)")
+      ->capture_default_str();
   solve->add_option("--threads", options->threads, "worker threads (0: all cores)")
       ->capture_default_str();
   solve->add_option("--report", options->report, "run report (.json)");
@@ -190,6 +196,8 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   core::SolverOptions solver_options;
   solver_options.linear_solver = *solver_type;
   solver_options.max_iterations = options.max_iterations;
+  solver_options.function_tolerance = options.function_tolerance;
+  solver_options.initial_trust_region_radius = options.initial_trust_region_radius;
   solver_options.progress = display.AsCallback();
   core::SolverSummary summary;
   if (Status status = core::SolveGraphSlam(solver_options, chunks, &problem, &summary); !status.ok())

@@ -20,6 +20,8 @@ struct SolveCommandOptions {
   std::string features_csv;         // --features-csv
   std::string solver = "auto";      // auto, pcg, cholmod
   int max_iterations = 100;
+  double function_tolerance = 1e-6;
+  double initial_trust_region_radius = 1e4;
   int threads = 0;                  // 0: all cores
   int robot = 1;                    // MRCLAM robot number
   int64_t chunk_observations = 4096;

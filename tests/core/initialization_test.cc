@@ -223,9 +223,13 @@ TEST(Initialization, SharedLandmarkOrGpsConnectsComponents) {
           .norm(),
       1e-12);
 
-  // A GPS fix anchors the second component and seeds its guess.
+  // A GPS fix anchors the second component and seeds its guess. Once GPS
+  // exists, pose 0 is no longer an implicit anchor (the gauge of
+  // UnknownLayout), so the first component needs a fixed pose of its own.
   Problem2d gps = base;
   gps.gps.push_back({.pose = 2, .z = Eigen::Vector2d(5.0, 5.0), .line = 9});
+  EXPECT_TRUE(InitializeProblem(&gps).IsInvalidArgument());
+  gps.pose_fixed[0] = 1;
   ASSERT_TRUE(InitializeProblem(&gps).ok());
   ExpectPoseNear(gps.poses[2], Pose2(5.0, 5.0, 0.0), 0.0);
   ExpectPoseNear(gps.poses[3], Pose2(6.0, 5.0, 0.0), 1e-12);

@@ -7,6 +7,8 @@
 #include <unistd.h>
 #include <vector>
 
+#include "core/point_observation_model.h"
+#include "core/relative_pose_model.h"
 #include "storage/g2o_reader.h"
 #include "storage/native_log_reader.h"
 #include "tools/exit_codes.h"
@@ -69,7 +71,7 @@ TEST_F(SimulateCommandTest, G2oFormatWritesGraph) {
   SimulateCommandOptions options;
   options.output_dir = root_.string();
   options.format = "g2o";
-  options.simulator.poses = 300;
+  options.simulator.poses = 1000;
   options.quiet = true;
   ASSERT_EQ(RunSimulateCommand(options), kExitOk);
   EXPECT_TRUE(std::filesystem::exists(root_ / "graph.g2o"));
@@ -78,7 +80,36 @@ TEST_F(SimulateCommandTest, G2oFormatWritesGraph) {
   EXPECT_FALSE(std::filesystem::exists(root_ / "log.graphslam"));
   StatusOr<core::Problem2d> graph = storage::ReadG2o((root_ / "graph.g2o").string());
   ASSERT_TRUE(graph.ok()) << graph.status().ToString();
-  EXPECT_EQ(graph->num_poses(), 300);
+  ASSERT_EQ(graph->num_poses(), 1000);
+  ASSERT_EQ(graph->relative_poses.size(), 999u);
+
+  // The converted edges still fit the truth: chi2/dof ~ 1 (2997 and ~7000
+  // dimensions: sd ~0.026 and ~0.017, first-order conversions).
+  StatusOr<SimulatedCampus> campus = SimulateCampus(options.simulator);
+  ASSERT_TRUE(campus.ok());
+  double motion_chi2 = 0.0;
+  for (const core::RelativePoseConstraint& edge : graph->relative_poses) {
+    Eigen::Vector3d residual;
+    core::EvaluateRelativePose(campus->true_poses[edge.from], campus->true_poses[edge.to], edge.z,
+                               &residual, nullptr, nullptr);
+    motion_chi2 += residual.dot(edge.information * residual);
+  }
+  motion_chi2 /= 3.0 * static_cast<double>(graph->relative_poses.size());
+  EXPECT_GT(motion_chi2, 0.9);
+  EXPECT_LT(motion_chi2, 1.1);
+  double point_chi2 = 0.0;
+  for (const core::Observation& observation : graph->observations) {
+    ASSERT_EQ(observation.kind, core::ObservationKind::kPointXY);
+    Eigen::Vector2d residual;
+    // g2o ids are shared: features follow the poses in the dense order.
+    core::EvaluatePointObservation(campus->true_poses[observation.pose],
+                                   campus->true_features[observation.feature], observation.z,
+                                   &residual, nullptr, nullptr);
+    point_chi2 += residual.dot(observation.information * residual);
+  }
+  point_chi2 /= 2.0 * static_cast<double>(graph->observations.size());
+  EXPECT_GT(point_chi2, 0.9);
+  EXPECT_LT(point_chi2, 1.1);
 }
 
 TEST_F(SimulateCommandTest, BadOptionsExitWithUsageBeforeWritingAnything) {
