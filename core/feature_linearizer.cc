@@ -49,6 +49,7 @@ void LinearizeFeature(const ObservationChunk& chunk, int64_t feature_slot,
     }
     const Eigen::Matrix2d& w = observation.information;
     out->chi2 += residual.dot(w * residual);
+    jacobian_pose = jacobian_pose * RetractionJacobian(poses[observation.pose]);
     const Eigen::Matrix2d fw = jacobian_feature.transpose() * w;
     blocks.feature_information += fw * jacobian_feature;
     blocks.feature_gradient += fw * residual;

@@ -69,8 +69,7 @@ std::vector<Pose2> ApplyPoseStep(const std::vector<Pose2>& poses, const UnknownL
   for (size_t p = 0; p < poses.size(); ++p) {
     const int32_t u = layout.unknown_index[p];
     if (u < 0) continue;
-    out[p] += step.segment<kDim>(kDim * u);
-    out[p].z() = WrapAngle(out[p].z());
+    out[p] = RetractPose(poses[p], step.segment<kDim>(kDim * u));
   }
   return out;
 }

@@ -74,12 +74,16 @@ double LinearizePoseFactors(const Problem2d& problem, const std::vector<Pose2>& 
   for (const RelativePoseConstraint& c : problem.relative_poses) {
     EvaluateRelativePose(poses[c.from], poses[c.to], c.z, &e3, &ja, &jb);
     chi2 += e3.dot(c.information * e3);
+    ja = ja * RetractionJacobian(poses[c.from]);
+    jb = jb * RetractionJacobian(poses[c.to]);
     AddBinary<3>(layout, c.from, c.to, ja, jb, c.information, e3, hessian, gradient,
                  hessian_diagonal);
   }
   for (const VelocityMotionConstraint& c : problem.motions) {
     EvaluateVelocityMotion(poses[c.from], poses[c.to], c.control, &e3, &ja, &jb);
     chi2 += e3.dot(c.information * e3);
+    ja = ja * RetractionJacobian(poses[c.from]);
+    jb = jb * RetractionJacobian(poses[c.to]);
     AddBinary<3>(layout, c.from, c.to, ja, jb, c.information, e3, hessian, gradient,
                  hessian_diagonal);
   }
@@ -88,6 +92,7 @@ double LinearizePoseFactors(const Problem2d& problem, const std::vector<Pose2>& 
   for (const GpsConstraint& c : problem.gps) {
     EvaluateGps(poses[c.pose], c.z, &e2, &j2);
     chi2 += e2.dot(c.information * e2);
+    j2 = j2 * RetractionJacobian(poses[c.pose]);
     const int32_t u = layout.unknown_index[c.pose];
     if (u < 0) continue;
     const Eigen::Matrix<double, 3, 2> w = j2.transpose() * c.information;

@@ -51,4 +51,19 @@ inline Point2 TransformPoint(const Pose2& pose, const Point2& local) {
   return Rotation2(pose.z()) * local + pose.head<2>();
 }
 
+// The pose increment of the solver: a body-frame step, g2o's SE2 oplus,
+//   x (+) delta = Compose(x, delta).
+// Jacobians of the models are taken w.r.t. delta at delta = 0:
+//   d(x (+) delta)/d delta = [R(theta) 0; 0 1] = RetractionJacobian(x),
+// so J_delta = J_xytheta * RetractionJacobian(x). Stepping in the body frame
+// follows the same path through the cost as g2o and is the same algebra the
+// SE(3) tangent-space increments use.
+inline Pose2 RetractPose(const Pose2& x, const Eigen::Vector3d& delta) { return Compose(x, delta); }
+
+inline Eigen::Matrix3d RetractionJacobian(const Pose2& x) {
+  Eigen::Matrix3d m = Eigen::Matrix3d::Identity();
+  m.topLeftCorner<2, 2>() = Rotation2(x.z());
+  return m;
+}
+
 }  // namespace graphslam::core

@@ -6,6 +6,8 @@
 //   r(s) = stacked L^T e_k  with W_k = L L^T, so r^T r = sum e^T W e = chi2
 //   H = J^T J,  g = J^T r       (J by central differences: independent of the
 //                                analytic Jacobians under test)
+// J is taken w.r.t. the solver's increment: a body-frame step for each pose,
+// x (+) d = Compose(x, d) (core/se2.h RetractPose), and a plain step for features.
 #pragma once
 
 #include <Eigen/Cholesky>
@@ -87,9 +89,19 @@ class DenseReference {
 
   double Chi2(const Eigen::VectorXd& s) const { return Residual(s).squaredNorm(); }
 
-  // H = J^T J and g = J^T r at s.
+  // s (+) d: body-frame steps for poses, additive for features.
+  Eigen::VectorXd Retract(const Eigen::VectorXd& s, const Eigen::VectorXd& d) const {
+    Eigen::VectorXd out = s + d;
+    for (int u = 0; u < layout_.num_unknown_poses; ++u)
+      out.segment<3>(3 * u) = core::RetractPose(s.segment<3>(3 * u), d.segment<3>(3 * u));
+    return out;
+  }
+
+  // H = J^T J and g = J^T r at s, J = d r(s (+) d) / d d at d = 0.
   void Linearize(const Eigen::VectorXd& s, Eigen::MatrixXd* hessian, Eigen::VectorXd* gradient) const {
-    const Eigen::MatrixXd j = NumericJacobian([this](const Eigen::VectorXd& v) { return Residual(v); }, s);
+    const Eigen::MatrixXd j = NumericJacobian(
+        [this, &s](const Eigen::VectorXd& d) { return Residual(Retract(s, d)); },
+        Eigen::VectorXd::Zero(s.size()));
     *hessian = j.transpose() * j;
     *gradient = j.transpose() * Residual(s);
   }
@@ -102,7 +114,7 @@ class DenseReference {
       Eigen::VectorXd g;
       Linearize(s, &h, &g);
       const Eigen::VectorXd step = h.ldlt().solve(-g);
-      s += step;
+      s = Retract(s, step);
       if (step.norm() < 1e-12) break;
     }
     return s;
