@@ -27,13 +27,17 @@ void Report(const PassContext& context, const char* stage, int64_t done) {
 }  // namespace
 
 Status ScreenFeatures(const PassContext& context, const std::vector<Pose2>& poses,
-                      const std::vector<Point2>& features, ScreeningResult* result) {
+                      const std::vector<Point2>& features, int64_t max_eliminated_observations,
+                      ScreeningResult* result) {
   struct Output {
     LinearizedFeature scratch;
     std::vector<int32_t> rejected;
+    std::vector<int32_t> kept;
     int64_t observations = 0;
   };
   result->excluded.assign(features.size(), 1);  // unobserved until a chunk says otherwise
+  result->kept.assign(features.size(), 0);
+  result->kept_count = 0;
   result->excluded_not_positive_definite = 0;
   result->observations = 0;
   std::vector<uint8_t> observed(features.size(), 0);
@@ -41,10 +45,12 @@ Status ScreenFeatures(const PassContext& context, const std::vector<Pose2>& pose
       *context.chunks, context.max_in_flight,
       [&](const ObservationChunk& chunk, Output* out) {
         out->rejected.clear();
+        out->kept.clear();
         out->observations = 0;
         for (int64_t k = 0; k < chunk.num_features(); ++k) {
           const int32_t g = chunk.features[k];
-          LinearizeFeature(chunk, k, poses, features[g], *context.layout, &out->scratch);
+          LinearizeFeature(chunk, k, poses, features[g], *context.layout, RobustKernel(),
+                           &out->scratch);
           const Eigen::Matrix2d c = out->scratch.blocks.feature_information;
           Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(c);
           const double max_eigen = eigen.eigenvalues().maxCoeff();
@@ -53,7 +59,9 @@ Status ScreenFeatures(const PassContext& context, const std::vector<Pose2>& pose
           if (!c.allFinite() || !(max_eigen > 0.0) || min_eigen <= 1e-10 * max_eigen) {
             out->rejected.push_back(g);
           } else {
-            out->observations += chunk.feature_begin[k + 1] - chunk.feature_begin[k];
+            const int64_t count = chunk.feature_begin[k + 1] - chunk.feature_begin[k];
+            out->observations += count;
+            if (count > max_eliminated_observations) out->kept.push_back(g);
           }
         }
         return Status::Ok();
@@ -64,6 +72,8 @@ Status ScreenFeatures(const PassContext& context, const std::vector<Pose2>& pose
           result->excluded[g] = 0;
         }
         for (int32_t g : out.rejected) result->excluded[g] = 1;
+        for (int32_t g : out.kept) result->kept[g] = 1;
+        result->kept_count += static_cast<int64_t>(out.kept.size());
         result->excluded_not_positive_definite += static_cast<int64_t>(out.rejected.size());
         result->observations += out.observations;
         Report(context, "screen", chunk.index + 1);
@@ -83,7 +93,8 @@ Status CollectReducedPattern(const PassContext& context,
       [&](const ObservationChunk& chunk, Output* out) {
         out->pairs.clear();
         for (int64_t k = 0; k < chunk.num_features(); ++k) {
-          if (Excluded(context, chunk.features[k])) continue;
+          const int32_t g = chunk.features[k];
+          if (Excluded(context, g)) continue;
           out->poses.clear();
           for (int64_t o = chunk.feature_begin[k]; o < chunk.feature_begin[k + 1]; ++o) {
             const int32_t u = context.layout->unknown_index[chunk.observations[o].pose];
@@ -91,6 +102,13 @@ Status CollectReducedPattern(const PassContext& context,
           }
           std::sort(out->poses.begin(), out->poses.end());
           out->poses.erase(std::unique(out->poses.begin(), out->poses.end()), out->poses.end());
+          if (context.layout->IsKept(g)) {
+            // Kept features couple only with their observing poses.
+            const int fu = context.layout->feature_unknown_index[g];
+            out->pairs.emplace_back(fu, fu);
+            for (int u : out->poses) out->pairs.emplace_back(u, fu);
+            continue;
+          }
           for (size_t a = 0; a < out->poses.size(); ++a)
             for (size_t b = a; b < out->poses.size(); ++b)
               out->pairs.emplace_back(out->poses[a], out->poses[b]);
@@ -108,28 +126,60 @@ Status CollectReducedPattern(const PassContext& context,
 
 Status ReducePass(const PassContext& context, const std::vector<Pose2>& poses,
                   const std::vector<Point2>& features, double lambda, ReducedSystem* system) {
+  // Blocks added to S as they are (not through elimination): direct pose
+  // terms H_pp, and every block of a kept feature, with their gradient.
+  struct Direct {
+    int row = 0;
+    int col = 0;
+    Eigen::Matrix3d block;
+  };
+  struct DirectGradient {
+    int row = 0;
+    Eigen::Vector3d gradient;
+    Eigen::Vector3d diagonal;
+  };
   struct Output {
     LinearizedFeature scratch;
     ReducedContribution contribution;
-    std::vector<int> direct_poses;
-    std::vector<Eigen::Matrix3d> direct_hessian;
-    std::vector<Eigen::Vector3d> direct_gradient;
+    std::vector<Direct> blocks;
+    std::vector<DirectGradient> gradients;
     double chi2 = 0.0;
   };
   return internal::RunOrderedChunkPipeline<Output>(
       *context.chunks, context.max_in_flight,
       [&](const ObservationChunk& chunk, Output* out) -> Status {
         out->contribution.Clear();
-        out->direct_poses.clear();
-        out->direct_hessian.clear();
-        out->direct_gradient.clear();
+        out->blocks.clear();
+        out->gradients.clear();
         out->chi2 = 0.0;
         for (int64_t k = 0; k < chunk.num_features(); ++k) {
           const int32_t g = chunk.features[k];
           if (Excluded(context, g)) continue;
           LinearizedFeature& f = out->scratch;
-          LinearizeFeature(chunk, k, poses, features[g], *context.layout, &f);
+          LinearizeFeature(chunk, k, poses, features[g], *context.layout, context.kernel, &f);
           out->chi2 += f.chi2;
+          for (size_t slot = 0; slot < f.blocks.poses.size(); ++slot) {
+            const int u = f.blocks.poses[slot];
+            out->blocks.push_back({u, u, f.pose_hessian[slot]});
+            out->gradients.push_back({u, f.pose_gradient[slot], f.pose_hessian[slot].diagonal()});
+          }
+          if (context.layout->IsKept(g)) {
+            // Padded to the pose block size: third component decoupled.
+            const int fu = context.layout->feature_unknown_index[g];
+            Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
+            c.topLeftCorner<2, 2>() = f.blocks.feature_information;
+            c(2, 2) = 1.0;
+            Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
+            gradient.head<2>() = f.blocks.feature_gradient;
+            out->blocks.push_back({fu, fu, c});
+            out->gradients.push_back({fu, gradient, c.diagonal()});
+            for (size_t slot = 0; slot < f.blocks.poses.size(); ++slot) {
+              Eigen::Matrix3d coupling = Eigen::Matrix3d::Zero();
+              coupling.leftCols<2>() = f.blocks.pose_feature[slot];
+              out->blocks.push_back({f.blocks.poses[slot], fu, coupling});
+            }
+            continue;
+          }
           const Eigen::Vector2d damping = DampingDiagonal(f.blocks.feature_information);
           f.blocks.feature_information.diagonal() += lambda * damping;
           Status status = EliminateFeature(f.blocks, &out->contribution);
@@ -137,22 +187,16 @@ Status ReducePass(const PassContext& context, const std::vector<Pose2>& poses,
             return status.WithContext("chunk " + std::to_string(chunk.index) + ", feature " +
                                       std::to_string(g));
           }
-          for (size_t s = 0; s < f.blocks.poses.size(); ++s) {
-            out->direct_poses.push_back(f.blocks.poses[s]);
-            out->direct_hessian.push_back(f.pose_hessian[s]);
-            out->direct_gradient.push_back(f.pose_gradient[s]);
-          }
         }
         return Status::Ok();
       },
       [&](const ObservationChunk& chunk, Output& out) {
         AccumulateContribution(out.contribution, &system->matrix, &system->rhs);
-        for (size_t s = 0; s < out.direct_poses.size(); ++s) {
-          const int u = out.direct_poses[s];
-          GS_CHECK(system->matrix.AddBlock(u, u, out.direct_hessian[s]));
-          system->gradient.segment<kDim>(kDim * u) += out.direct_gradient[s];
-          system->rhs.segment<kDim>(kDim * u) -= out.direct_gradient[s];
-          system->hessian_diagonal.segment<kDim>(kDim * u) += out.direct_hessian[s].diagonal();
+        for (const Direct& d : out.blocks) GS_CHECK(system->matrix.AddBlock(d.row, d.col, d.block));
+        for (const DirectGradient& d : out.gradients) {
+          system->gradient.segment<kDim>(kDim * d.row) += d.gradient;
+          system->rhs.segment<kDim>(kDim * d.row) -= d.gradient;
+          system->hessian_diagonal.segment<kDim>(kDim * d.row) += d.diagonal;
         }
         system->chi2 += out.chi2;
         Report(context, "reduce", chunk.index + 1);
@@ -161,7 +205,7 @@ Status ReducePass(const PassContext& context, const std::vector<Pose2>& poses,
 
 Status RecoverPass(const PassContext& context, const std::vector<Pose2>& poses,
                    const std::vector<Point2>& features, double lambda,
-                   const Eigen::VectorXd& pose_step, const std::vector<Pose2>& candidate_poses,
+                   const Eigen::VectorXd& step, const std::vector<Pose2>& candidate_poses,
                    std::vector<Point2>* candidate_features, RecoveryResult* result) {
   struct Output {
     LinearizedFeature scratch;
@@ -176,17 +220,26 @@ Status RecoverPass(const PassContext& context, const std::vector<Pose2>& poses,
         for (int64_t k = 0; k < chunk.num_features(); ++k) {
           const int32_t g = chunk.features[k];
           if (Excluded(context, g)) continue;
+          if (context.layout->IsKept(g)) {
+            // Solved in the reduced system; its model terms are in the pose part.
+            const int fu = context.layout->feature_unknown_index[g];
+            (*candidate_features)[g] = features[g] + step.segment<2>(kDim * fu);
+            out->sums.candidate_chi2 +=
+                FeatureChi2(chunk, k, candidate_poses, (*candidate_features)[g], context.kernel);
+            continue;
+          }
           LinearizedFeature& f = out->scratch;
-          LinearizeFeature(chunk, k, poses, features[g], *context.layout, &f);
+          LinearizeFeature(chunk, k, poses, features[g], *context.layout, context.kernel, &f);
           const Eigen::Vector2d damping = DampingDiagonal(f.blocks.feature_information);
           f.blocks.feature_information.diagonal() += lambda * damping;
-          const Eigen::Vector2d step = RecoverFeature(f.blocks, pose_step);
+          const Eigen::Vector2d feature_step = RecoverFeature(f.blocks, step);
           // Each feature lives in exactly one chunk: no two tasks write one slot.
-          (*candidate_features)[g] = features[g] + step;
-          out->sums.candidate_chi2 += FeatureChi2(chunk, k, candidate_poses, (*candidate_features)[g]);
-          out->sums.gradient_dot_step += f.blocks.feature_gradient.dot(step);
-          out->sums.damped_step_norm += step.dot(damping.cwiseProduct(step));
-          out->sums.step_squared_norm += step.squaredNorm();
+          (*candidate_features)[g] = features[g] + feature_step;
+          out->sums.candidate_chi2 +=
+              FeatureChi2(chunk, k, candidate_poses, (*candidate_features)[g], context.kernel);
+          out->sums.gradient_dot_step += f.blocks.feature_gradient.dot(feature_step);
+          out->sums.damped_step_norm += feature_step.dot(damping.cwiseProduct(feature_step));
+          out->sums.step_squared_norm += feature_step.squaredNorm();
           out->sums.state_squared_norm += features[g].squaredNorm();
         }
         return Status::Ok();
@@ -213,7 +266,7 @@ Status ObservationsChi2(const PassContext& context, const std::vector<Pose2>& po
         out->chi2 = 0.0;
         for (int64_t k = 0; k < chunk.num_features(); ++k) {
           if (Excluded(context, chunk.features[k])) continue;
-          out->chi2 += FeatureChi2(chunk, k, poses, features[chunk.features[k]]);
+          out->chi2 += FeatureChi2(chunk, k, poses, features[chunk.features[k]], context.kernel);
         }
         return Status::Ok();
       },

@@ -4,11 +4,16 @@
 //   ScreenFeatures: which features can be eliminated at all. A feature whose
 //     information C = sum F^T W F is not positive definite (e.g. seen once by a
 //     bearing-only sensor, or unobserved) is kept out of the solve and reported.
+//     A feature with more than max_eliminated_observations observations is
+//     "kept": an unknown of the reduced system instead of eliminated
+//     (UnknownLayout), so its k observing poses add k blocks, not k^2.
 //   CollectReducedPattern: the pose pairs the reduced matrix couples: all pairs
 //     of free poses observing a common feature.
 //   ReducePass (Table 3): for each feature, C_d = C + lambda D_m and
 //       S   += H_pp - H_pm C_d^{-1} H_qm^T       (all p, q observing it)
 //       rhs += -g_p + H_pm C_d^{-1} g_m
+//   Kept features add their blocks to S directly (C, H_pm, g_m), padded to the
+//     pose block size.
 //   RecoverPass (Table 4): dm = -C_d^{-1}(g_m + sum_p H_pm^T dx_p), the
 //     candidate feature m + dm, and its chi2 at the candidate poses; plus the
 //     terms g_m^T dm and dm^T D_m dm of the Levenberg-Marquardt model decrease.
@@ -28,6 +33,7 @@
 #include "core/chunk_source.h"
 #include "core/problem.h"
 #include "core/progress.h"
+#include "core/robust_kernel.h"
 #include "core/status.h"
 #include "core/unknown_layout.h"
 
@@ -40,19 +46,23 @@ struct PassContext {
   const ChunkSource* chunks = nullptr;         // must outlive the pass
   const UnknownLayout* layout = nullptr;       // must outlive the pass
   const std::vector<uint8_t>* excluded = nullptr;  // per feature; 1 = out of the solve
+  RobustKernel kernel;                             // applied to every observation
   int max_in_flight = 4;
   ProgressCallback progress;  // optional
 };
 
 struct ScreeningResult {
   std::vector<uint8_t> excluded;    // per feature
+  std::vector<uint8_t> kept;        // per feature: unknown of the reduced system
+  int64_t kept_count = 0;
   int64_t excluded_not_positive_definite = 0;
   int64_t unobserved = 0;
   int64_t observations = 0;         // observations of eliminable features
 };
 
 Status ScreenFeatures(const PassContext& context, const std::vector<Pose2>& poses,
-                      const std::vector<Point2>& features, ScreeningResult* result);
+                      const std::vector<Point2>& features, int64_t max_eliminated_observations,
+                      ScreeningResult* result);
 
 Status CollectReducedPattern(const PassContext& context, std::vector<std::pair<int, int>>* pairs);
 
@@ -69,9 +79,10 @@ struct ReducedSystem {
 Status ReducePass(const PassContext& context, const std::vector<Pose2>& poses,
                   const std::vector<Point2>& features, double lambda, ReducedSystem* system);
 
+// `step` is the solution of the reduced system: poses, then kept features.
 struct RecoveryResult {
   double candidate_chi2 = 0.0;     // observations at (candidate poses, candidate features)
-  double gradient_dot_step = 0.0;  // sum g_m^T dm
+  double gradient_dot_step = 0.0;  // sum g_m^T dm over eliminated features
   double damped_step_norm = 0.0;   // sum dm^T D_m dm
   double step_squared_norm = 0.0;  // sum |dm|^2
   double state_squared_norm = 0.0; // sum |m|^2
@@ -79,7 +90,7 @@ struct RecoveryResult {
 
 Status RecoverPass(const PassContext& context, const std::vector<Pose2>& poses,
                    const std::vector<Point2>& features, double lambda,
-                   const Eigen::VectorXd& pose_step, const std::vector<Pose2>& candidate_poses,
+                   const Eigen::VectorXd& step, const std::vector<Pose2>& candidate_poses,
                    std::vector<Point2>* candidate_features, RecoveryResult* result);
 
 // chi2 of all observations of eliminable features at (poses, features).

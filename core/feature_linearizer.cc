@@ -26,7 +26,8 @@ bool EvaluateObservation(const Observation& observation, const Pose2& pose, cons
 
 void LinearizeFeature(const ObservationChunk& chunk, int64_t feature_slot,
                       const std::vector<Pose2>& poses, const Point2& feature,
-                      const UnknownLayout& layout, LinearizedFeature* out) {
+                      const UnknownLayout& layout, const RobustKernel& kernel,
+                      LinearizedFeature* out) {
   FeatureBlocks& blocks = out->blocks;
   blocks.feature_information.setZero(2, 2);
   blocks.feature_gradient.setZero(2);
@@ -47,8 +48,9 @@ void LinearizeFeature(const ObservationChunk& chunk, int64_t feature_slot,
       ++out->degenerate_observations;
       continue;
     }
-    const Eigen::Matrix2d& w = observation.information;
-    out->chi2 += residual.dot(w * residual);
+    const double squared = residual.dot(observation.information * residual);
+    out->chi2 += kernel.Cost(squared);
+    const Eigen::Matrix2d w = kernel.Weight(squared) * observation.information;
     jacobian_pose = jacobian_pose * RetractionJacobian(poses[observation.pose]);
     const Eigen::Matrix2d fw = jacobian_feature.transpose() * w;
     blocks.feature_information += fw * jacobian_feature;
@@ -80,7 +82,8 @@ void LinearizeFeature(const ObservationChunk& chunk, int64_t feature_slot,
 }
 
 double FeatureChi2(const ObservationChunk& chunk, int64_t feature_slot,
-                   const std::vector<Pose2>& poses, const Point2& feature) {
+                   const std::vector<Pose2>& poses, const Point2& feature,
+                   const RobustKernel& kernel) {
   double chi2 = 0.0;
   Eigen::Vector2d residual;
   for (int64_t o = chunk.feature_begin[feature_slot]; o < chunk.feature_begin[feature_slot + 1];
@@ -89,7 +92,7 @@ double FeatureChi2(const ObservationChunk& chunk, int64_t feature_slot,
     if (!EvaluateObservation(observation, poses[observation.pose], feature, &residual, nullptr,
                              nullptr))
       continue;
-    chi2 += residual.dot(observation.information * residual);
+    chi2 += kernel.Cost(residual.dot(observation.information * residual));
   }
   return chi2;
 }

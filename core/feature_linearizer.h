@@ -7,6 +7,9 @@
 //   H_pm += A^T W F                                  (pose-feature coupling)
 //   H_pp += A^T W A          g_p += A^T W e          (direct pose terms)
 //   chi2 += e^T W e
+// With a robust kernel (core/robust_kernel.h) W is scaled by rho'(e^T W e) and
+// chi2 accumulates rho(e^T W e) (iteratively reweighted least squares).
+// Pose Jacobians are w.r.t. the body-frame increment (core/se2.h).
 // Observations from the same pose are summed into one slot. Anchored poses
 // contribute to C and g_m only. Damping for Levenberg-Marquardt is added by the
 // caller (C + lambda * D_m).
@@ -20,6 +23,7 @@
 #include <vector>
 
 #include "core/observation_chunk.h"
+#include "core/robust_kernel.h"
 #include "core/schur_eliminator.h"
 #include "core/unknown_layout.h"
 
@@ -35,10 +39,12 @@ struct LinearizedFeature {
 
 void LinearizeFeature(const ObservationChunk& chunk, int64_t feature_slot,
                       const std::vector<Pose2>& poses, const Point2& feature,
-                      const UnknownLayout& layout, LinearizedFeature* out);
+                      const UnknownLayout& layout, const RobustKernel& kernel,
+                      LinearizedFeature* out);
 
 // chi2 of the feature's observations at (poses, feature), without Jacobians.
 double FeatureChi2(const ObservationChunk& chunk, int64_t feature_slot,
-                   const std::vector<Pose2>& poses, const Point2& feature);
+                   const std::vector<Pose2>& poses, const Point2& feature,
+                   const RobustKernel& kernel);
 
 }  // namespace graphslam::core

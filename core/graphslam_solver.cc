@@ -105,6 +105,8 @@ Status SolverOptions::Validate() const {
         "trust region radii must satisfy 0 < initial <= max");
   if (pcg_max_iterations <= 0 || !(pcg_relative_tolerance > 0))
     return Status::InvalidArgument("PCG needs max_iterations > 0 and relative_tolerance > 0");
+  if (max_eliminated_observations < 0)
+    return Status::InvalidArgument("max_eliminated_observations must be >= 0");
   if (max_chunks_in_flight <= 0)
     return Status::InvalidArgument("max_chunks_in_flight must be > 0");
   return Status::Ok();
@@ -116,22 +118,27 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
   const Clock::time_point start = Clock::now();
   *summary = SolverSummary();
 
-  const UnknownLayout layout = UnknownLayout::FromProblem(*problem);
+  UnknownLayout layout = UnknownLayout::FromProblem(*problem);
   summary->unknown_poses = layout.num_unknown_poses;
   PassContext context;
   context.chunks = &chunks;
   context.layout = &layout;
   context.max_in_flight = options.max_chunks_in_flight;
   context.progress = options.progress;
+  context.kernel = options.observation_kernel;
 
   // Which features can be eliminated (positive definite information).
   ScreeningResult screening;
-  GS_RETURN_IF_ERROR(ScreenFeatures(context, problem->poses, problem->features, &screening));
+  GS_RETURN_IF_ERROR(ScreenFeatures(context, problem->poses, problem->features,
+                                    options.max_eliminated_observations, &screening));
+  layout.KeepFeatures(screening.kept);
+  summary->kept_features = screening.kept_count;
   summary->excluded_features = screening.excluded_not_positive_definite;
   summary->unobserved_features = screening.unobserved;
   summary->observations_used = screening.observations;
   summary->eliminated_features =
-      problem->num_features() - screening.excluded_not_positive_definite - screening.unobserved;
+      problem->num_features() - screening.excluded_not_positive_definite - screening.unobserved -
+      screening.kept_count;
   if (screening.excluded_not_positive_definite > 0) {
     GS_LOG(WARNING,
            "%lld features have information that is not positive definite (too few or "
@@ -146,7 +153,7 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
   AppendPoseFactorPattern(*problem, layout, &pairs);
   GS_RETURN_IF_ERROR(CollectReducedPattern(context, &pairs));
   ReducedSystem system;
-  system.matrix = BlockSparseMatrix::FromPattern(kDim, layout.num_unknown_poses, std::move(pairs));
+  system.matrix = BlockSparseMatrix::FromPattern(kDim, layout.num_blocks(), std::move(pairs));
   pairs = {};
   summary->reduced_nonzero_blocks = system.matrix.num_nonzero_blocks();
 

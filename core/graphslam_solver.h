@@ -37,6 +37,7 @@
 #include "core/chunk_source.h"
 #include "core/problem.h"
 #include "core/progress.h"
+#include "core/robust_kernel.h"
 #include "core/status.h"
 
 namespace graphslam::core {
@@ -73,6 +74,11 @@ struct SolverOptions {
   // kAuto picks CHOLMOD up to this many scalar pose unknowns, PCG above.
   int64_t auto_cholmod_max_unknowns = 3'000'000;
   int max_chunks_in_flight = 8;
+  // Features with more observations than this stay unknowns of the reduced
+  // system instead of being eliminated (their k^2 fill would explode).
+  int64_t max_eliminated_observations = 64;
+  // Applied to every observation (IRLS); chi2 is then the robust cost.
+  RobustKernel observation_kernel;
   ProgressCallback progress;                                  // optional
   std::function<void(const IterationSummary&)> iteration_callback;  // optional
 
@@ -89,6 +95,7 @@ struct SolverSummary {
   bool converged = false;
   int64_t unknown_poses = 0;
   int64_t eliminated_features = 0;
+  int64_t kept_features = 0;       // unknowns of the reduced system (many observations)
   int64_t excluded_features = 0;   // not positive definite: kept out of the solve
   int64_t unobserved_features = 0;
   int64_t observations_used = 0;

@@ -3,4 +3,5 @@ target_sources(graphslam_core PRIVATE
   chunk_passes.cc
   feature_linearizer.cc
   graphslam_solver.cc
-  pose_factors.cc)
+  pose_factors.cc
+  robust_kernel.cc)

@@ -6,6 +6,14 @@
 // the map to the world, pose 0 is the anchor. Free pose p owns the block
 // unknown_index[p] of size 3 in the increment vector dx; anchored poses have -1.
 //
+//
+// Features with very many observations are not eliminated: a feature seen from
+// k poses would fill k^2 pose blocks of the reduced matrix. Such "kept"
+// features stay unknowns of the reduced system, after the poses, as blocks of
+// the same size 3 whose third component is a decoupled pad (information 1,
+// gradient 0, so its step is exactly 0). feature_unknown_index[f] is the block
+// of kept feature f, or -1.
+//
 // THREAD SAFETY: a plain value. ALLOCATION: O(poses).
 #pragma once
 
@@ -22,6 +30,21 @@ struct UnknownLayout {
   int32_t num_unknown_poses = 0;
   int32_t num_anchored = 0;
   bool anchored_by_gps = false;
+  std::vector<int32_t> feature_unknown_index;  // per feature: block, or -1 if eliminated/excluded
+  int32_t num_kept_features = 0;
+
+  int32_t num_blocks() const { return num_unknown_poses + num_kept_features; }
+
+  // Makes the features with keep[f] != 0 unknowns of the reduced system.
+  void KeepFeatures(const std::vector<uint8_t>& keep) {
+    feature_unknown_index.assign(keep.size(), -1);
+    num_kept_features = 0;
+    for (size_t f = 0; f < keep.size(); ++f)
+      if (keep[f]) feature_unknown_index[f] = num_unknown_poses + num_kept_features++;
+  }
+  bool IsKept(int32_t feature) const {
+    return !feature_unknown_index.empty() && feature_unknown_index[feature] >= 0;
+  }
 
   static UnknownLayout FromProblem(const Problem2d& problem) {
     UnknownLayout layout;

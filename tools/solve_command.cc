@@ -37,6 +37,8 @@ Status ValidateOptions(const SolveCommandOptions& options) {
                                    std::to_string(options.max_iterations));
   if (options.threads < 0)
     return Status::InvalidArgument("--threads must be >= 0, got " + std::to_string(options.threads));
+  if (options.max_eliminated_observations < 0)
+    return Status::InvalidArgument("--max-eliminated-observations must be >= 0");
   if (options.chunk_observations <= 0)
     return Status::InvalidArgument("--chunk-observations must be > 0");
   return Status::Ok();
@@ -59,6 +61,8 @@ nlohmann::json BuildReport(const SolveCommandOptions& options, const core::Probl
   report["observations"] = static_cast<int64_t>(problem.observations.size());
   report["observations_used"] = summary.observations_used;
   report["eliminated_features"] = summary.eliminated_features;
+  report["kept_features"] = summary.kept_features;
+  report["robust_kernel"] = options.robust_kernel;
   report["excluded_features"] = summary.excluded_features;
   report["unobserved_features"] = summary.unobserved_features;
   report["relative_pose_constraints"] = static_cast<int64_t>(problem.relative_poses.size());
@@ -70,7 +74,8 @@ nlohmann::json BuildReport(const SolveCommandOptions& options, const core::Probl
       3 * static_cast<int64_t>(problem.relative_poses.size() + problem.motions.size()) +
       2 * static_cast<int64_t>(problem.gps.size()) + 2 * summary.observations_used;
   report["residual_dimension"] = residual_dimension;
-  report["unknowns"] = 3 * summary.unknown_poses + 2 * summary.eliminated_features;
+  report["unknowns"] =
+      3 * summary.unknown_poses + 2 * (summary.eliminated_features + summary.kept_features);
   report["reduced_nonzero_blocks"] = summary.reduced_nonzero_blocks;
   report["threads"] = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
   report["seconds"] = total_seconds;
@@ -133,6 +138,12 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
   solve->add_option("--chunk-observations", options->chunk_observations,
                     "observations per chunk (feature-complete)")
       ->capture_default_str();
+  solve->add_option("--max-eliminated-observations", options->max_eliminated_observations,
+                    "features with more observations stay unknowns instead of being eliminated")
+      ->capture_default_str();
+  solve->add_option("--robust-kernel", options->robust_kernel,
+                    "kernel on observations: none, huber[:c], cauchy[:c]")
+      ->capture_default_str();
   solve->add_flag("-q,--quiet", options->quiet, "no progress or summary on the terminal");
   solve->add_flag("-v,--verbose", options->verbosity, "more log detail (repeatable)");
   solve->callback([options, exit_code]() { *exit_code = RunSolveCommand(*options); });
@@ -153,6 +164,12 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   StatusOr<core::LinearSolverType> solver_type = core::ParseLinearSolverType(options.solver);
   if (!solver_type.ok()) {
     std::fprintf(stderr, "graphslam solve: --solver: %s\n", solver_type.status().ToString().c_str());
+    return kExitUsage;
+  }
+
+  StatusOr<core::RobustKernel> kernel = core::ParseRobustKernel(options.robust_kernel);
+  if (!kernel.ok()) {
+    std::fprintf(stderr, "graphslam solve: --robust-kernel: %s\n", kernel.status().ToString().c_str());
     return kExitUsage;
   }
 
@@ -196,6 +213,8 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   core::SolverOptions solver_options;
   solver_options.linear_solver = *solver_type;
   solver_options.max_iterations = options.max_iterations;
+  solver_options.max_eliminated_observations = options.max_eliminated_observations;
+  solver_options.observation_kernel = *kernel;
   solver_options.function_tolerance = options.function_tolerance;
   solver_options.initial_trust_region_radius = options.initial_trust_region_radius;
   solver_options.progress = display.AsCallback();

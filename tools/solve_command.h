@@ -25,6 +25,8 @@ struct SolveCommandOptions {
   int threads = 0;                  // 0: all cores
   int robot = 1;                    // MRCLAM robot number
   int64_t chunk_observations = 4096;
+  int64_t max_eliminated_observations = 64;
+  std::string robust_kernel = "none";  // none, huber[:c], cauchy[:c]
   bool quiet = false;
   int verbosity = 0;
 };

@@ -126,7 +126,7 @@ TEST(ChunkPasses, ScreeningExcludesFeatureWithSingularInformation) {
   context.chunks = &chunks;
   context.layout = &layout;
   ScreeningResult result;
-  ASSERT_TRUE(ScreenFeatures(context, problem.poses, problem.features, &result).ok());
+  ASSERT_TRUE(ScreenFeatures(context, problem.poses, problem.features, 64, &result).ok());
   EXPECT_EQ(result.excluded_not_positive_definite, 1);
   EXPECT_EQ(result.unobserved, 1);
   EXPECT_EQ(result.excluded[f], 1);

@@ -127,3 +127,70 @@ TEST(GraphSlamSolver, RejectsInvalidOptions) {
 
 }  // namespace
 }  // namespace graphslam::core
+
+namespace graphslam::core {
+namespace {
+
+TEST(GraphSlamSolver, KeepingFeaturesAsUnknownsEqualsEliminatingThem) {
+  testing::RandomProblemOptions options;
+  options.num_poses = 50;
+  options.num_features = 12;
+  options.seed = 5;
+  testing::RandomProblem random = testing::MakeRandomProblem(options);
+  Problem2d eliminated = random.problem, kept = random.problem;
+  for (LinearSolverType type : {LinearSolverType::kCholmod, LinearSolverType::kPcg}) {
+    partition::InMemoryChunkSource chunks(random.problem, partition::ChunkingOptions());
+    SolverOptions solver_options;
+    solver_options.linear_solver = type;
+    solver_options.function_tolerance = 1e-12;
+    SolverSummary a, b;
+    Problem2d x = eliminated, y = kept;
+    ASSERT_TRUE(SolveGraphSlam(solver_options, chunks, &x, &a).ok());
+    solver_options.max_eliminated_observations = 3;  // most features are kept
+    ASSERT_TRUE(SolveGraphSlam(solver_options, chunks, &y, &b).ok());
+    EXPECT_EQ(a.kept_features, 0);
+    EXPECT_GT(b.kept_features, 6);
+    EXPECT_EQ(b.kept_features + b.eliminated_features, 12);
+    EXPECT_LT(b.reduced_nonzero_blocks, a.reduced_nonzero_blocks);
+    EXPECT_NEAR(a.final_chi2, b.final_chi2, 1e-8 * a.final_chi2) << LinearSolverName(type);
+    for (int j = 0; j < x.num_features(); ++j)
+      EXPECT_LT((x.features[j] - y.features[j]).norm(), 1e-6) << "feature " << j;
+  }
+}
+
+TEST(GraphSlamSolver, RobustKernelResistsAGrossOutlier) {
+  testing::RandomProblemOptions options;
+  options.num_poses = 40;
+  options.num_features = 10;
+  options.seed = 9;
+  options.perturb_initial = false;
+  testing::RandomProblem random = testing::MakeRandomProblem(options);
+  // Corrupt a few range-bearing observations of feature 0 (a misread barcode).
+  int corrupted = 0;
+  for (Observation& o : random.problem.observations) {
+    if (o.feature == 0 && corrupted < 3) {
+      o.z.y() = WrapAngle(o.z.y() + 2.0);
+      ++corrupted;
+    }
+  }
+  ASSERT_EQ(corrupted, 3);
+  auto feature_error = [&](const RobustKernel& kernel) {
+    Problem2d problem = random.problem;
+    partition::InMemoryChunkSource chunks(problem, partition::ChunkingOptions());
+    SolverOptions solver_options;
+    solver_options.observation_kernel = kernel;
+    SolverSummary summary;
+    EXPECT_TRUE(SolveGraphSlam(solver_options, chunks, &problem, &summary).ok());
+    return (problem.features[0] - random.true_features[0]).norm();
+  };
+  const double plain = feature_error(RobustKernel());
+  RobustKernel cauchy;
+  cauchy.type = RobustKernel::Type::kCauchy;
+  cauchy.scale = 2.0;
+  const double robust = feature_error(cauchy);
+  EXPECT_LT(robust, 0.25);
+  EXPECT_LT(robust, 0.5 * plain) << "plain " << plain << " robust " << robust;
+}
+
+}  // namespace
+}  // namespace graphslam::core

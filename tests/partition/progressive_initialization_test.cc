@@ -1,0 +1,196 @@
+// Progressive initialization: prefixes of the trajectory placed and optimized
+// in time order, then the usual full solve, against the dense optimum and the
+// known Victoria Park optimum.
+#include "partition/progressive_initialization.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/initialization.h"
+#include "partition/in_memory_chunk_source.h"
+#include "storage/g2o_reader.h"
+#include "tests/testing/datasets.h"
+#include "tests/testing/dense_reference.h"
+#include "tests/testing/random_problem.h"
+
+namespace graphslam::partition {
+namespace {
+
+core::SolverSummary FullSolve(core::Problem2d* problem, const core::SolverOptions& options) {
+  InMemoryChunkSource chunks(*problem, ChunkingOptions());
+  core::SolverSummary summary;
+  Status status = core::SolveGraphSlam(options, chunks, problem, &summary);
+  EXPECT_TRUE(status.ok()) << status.ToString();
+  return summary;
+}
+
+// The random loop of tests/testing with a much worse initial guess: every
+// pose and feature moved by several times the default perturbation.
+testing::RandomProblem BadlyInitializedProblem(uint32_t seed, bool range_bearing,
+                                               bool velocity_motion) {
+  testing::RandomProblemOptions options;
+  options.seed = seed;
+  options.num_poses = 40;
+  options.num_features = 14;
+  options.range_bearing = range_bearing;
+  options.velocity_motion = velocity_motion;
+  testing::RandomProblem random = testing::MakeRandomProblem(options);
+  std::mt19937 rng(seed + 100);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  core::Problem2d& p = random.problem;
+  for (int i = 1; i < p.num_poses(); ++i)
+    p.poses[i] += Eigen::Vector3d(1.0 * normal(rng), 1.0 * normal(rng), 0.6 * normal(rng));
+  for (int j = 0; j < p.num_features(); ++j)
+    p.features[j] += Eigen::Vector2d(2.0 * normal(rng), 2.0 * normal(rng));
+  return random;
+}
+
+TEST(ProgressiveInitialization, ThenSolveReachesTheDenseOptimum) {
+  for (const auto& [range_bearing, velocity] :
+       {std::pair{true, false}, std::pair{false, false}, std::pair{true, true}}) {
+    for (uint32_t seed = 1; seed <= 3; ++seed) {
+      testing::RandomProblem random = BadlyInitializedProblem(seed, range_bearing, velocity);
+      // Dense Gauss-Newton from the ground truth gives the optimum to compare with.
+      core::Problem2d truth = random.problem;
+      truth.poses = random.true_poses;
+      truth.features = random.true_features;
+      testing::DenseReference dense(truth);
+      const double optimum = dense.Chi2(dense.SolveGaussNewton(30));
+
+      core::Problem2d problem = random.problem;
+      ProgressiveInitializationOptions options;
+      options.first_poses = 8;
+      options.max_iterations_per_stage = 10;
+      core::SolverOptions solver;
+      solver.function_tolerance = 1e-12;
+      ProgressiveSummary progressive;
+      Status status = InitializeProgressively(options, solver, &problem, &progressive);
+      ASSERT_TRUE(status.ok()) << status.ToString();
+      EXPECT_TRUE(progressive.ran);
+      // 8, 16, 32, 40 poses.
+      ASSERT_EQ(progressive.stages.size(), 4u);
+      EXPECT_EQ(progressive.stages.front().poses, 8);
+      EXPECT_EQ(progressive.stages.back().poses, 40);
+      EXPECT_EQ(problem.poses[0], random.problem.poses[0]) << "the anchor moved";
+
+      const core::SolverSummary summary = FullSolve(&problem, solver);
+      EXPECT_NEAR(summary.final_chi2, optimum, 1e-6 * optimum)
+          << "seed " << seed << " range_bearing " << range_bearing << " velocity " << velocity
+          << " after progressive " << progressive.stages.back().final_chi2;
+    }
+  }
+}
+
+TEST(ProgressiveInitialization, ChainsOdometryAndPlacesFeaturesByFirstSight) {
+  // Noise-free measurements, garbage initial guess, zero iterations per
+  // stage: the result is pure chaining, so it must equal the ground truth.
+  testing::RandomProblemOptions random_options;
+  random_options.num_poses = 25;
+  random_options.num_features = 10;
+  random_options.seed = 4;
+  testing::RandomProblem random = testing::MakeRandomProblem(random_options);
+  core::Problem2d& p = random.problem;
+  for (int i = 0; i + 1 < p.num_poses(); ++i)
+    p.relative_poses[i].z = core::Between(random.true_poses[i], random.true_poses[i + 1]);
+  for (core::Observation& o : p.observations) {
+    const core::Pose2& x = random.true_poses[o.pose];
+    const Eigen::Vector2d delta = random.true_features[o.feature] - x.head<2>();
+    o.z = Eigen::Vector2d(delta.norm(), core::WrapAngle(std::atan2(delta.y(), delta.x()) - x.z()));
+  }
+  p.poses[0] = random.true_poses[0];
+  for (int i = 1; i < p.num_poses(); ++i) p.poses[i] = core::Pose2(100.0 + i, -7.0, 2.0);
+  for (int j = 0; j < p.num_features(); ++j) p.features[j] = core::Point2(-50.0, 3.0 * j);
+
+  ProgressiveInitializationOptions options;
+  options.first_poses = 1;
+  options.growth = 1.5;
+  options.max_iterations_per_stage = 0;
+  ProgressiveSummary summary;
+  ASSERT_TRUE(InitializeProgressively(options, core::SolverOptions(), &p, &summary).ok());
+  for (int i = 0; i < p.num_poses(); ++i) {
+    EXPECT_LT((p.poses[i].head<2>() - random.true_poses[i].head<2>()).norm(), 1e-9) << "pose " << i;
+    EXPECT_LT(std::abs(core::WrapAngle(p.poses[i].z() - random.true_poses[i].z())), 1e-9);
+  }
+  for (int j = 0; j < p.num_features(); ++j) {
+    bool observed = false;
+    for (const core::Observation& o : p.observations) observed = observed || o.feature == j;
+    if (!observed) continue;
+    EXPECT_LT((p.features[j] - random.true_features[j]).norm(), 1e-9) << "feature " << j;
+    EXPECT_EQ(p.feature_initialized[j], 1);
+  }
+  // 1, 2, 3, 5, 8, 12, 18, 25.
+  ASSERT_EQ(summary.stages.size(), 8u);
+  EXPECT_EQ(summary.stages[3].poses, 5);
+}
+
+TEST(ProgressiveInitialization, DisabledLeavesTheProblemAlone) {
+  testing::RandomProblem random = BadlyInitializedProblem(2, true, false);
+  core::Problem2d problem = random.problem;
+  ProgressiveInitializationOptions options;
+  options.enabled = false;
+  ProgressiveSummary summary;
+  ASSERT_TRUE(InitializeProgressively(options, core::SolverOptions(), &problem, &summary).ok());
+  EXPECT_FALSE(summary.ran);
+  EXPECT_TRUE(summary.stages.empty());
+  for (int i = 0; i < problem.num_poses(); ++i) EXPECT_EQ(problem.poses[i], random.problem.poses[i]);
+}
+
+TEST(ProgressiveInitialization, RejectsInvalidOptionsAndIndicesBeforeChangingAnything) {
+  testing::RandomProblem random = BadlyInitializedProblem(3, true, false);
+  ProgressiveSummary summary;
+  auto expect_invalid = [&](const ProgressiveInitializationOptions& options,
+                            const core::Problem2d& input, const char* what) {
+    core::Problem2d problem = input;
+    Status status = InitializeProgressively(options, core::SolverOptions(), &problem, &summary);
+    EXPECT_TRUE(status.IsInvalidArgument()) << what << ": " << status.ToString();
+    for (int i = 0; i < problem.num_poses(); ++i) EXPECT_EQ(problem.poses[i], input.poses[i]) << what;
+  };
+  ProgressiveInitializationOptions options;
+  options.first_poses = 0;
+  expect_invalid(options, random.problem, "first_poses 0");
+  options = ProgressiveInitializationOptions();
+  options.growth = 1.0;
+  expect_invalid(options, random.problem, "growth 1");
+  options = ProgressiveInitializationOptions();
+  options.max_iterations_per_stage = -1;
+  expect_invalid(options, random.problem, "negative iterations");
+  options = ProgressiveInitializationOptions();
+  options.landmark_weight = 0.0;
+  expect_invalid(options, random.problem, "landmark weight 0");
+  core::Problem2d broken = random.problem;
+  broken.observations.back().feature = broken.num_features();
+  Status status =
+      InitializeProgressively(ProgressiveInitializationOptions(), core::SolverOptions(), &broken, &summary);
+  ASSERT_TRUE(status.IsInvalidArgument());
+  EXPECT_NE(status.message().find("observation feature index"), std::string::npos)
+      << status.ToString();
+}
+
+// The known optimum: g2o Levenberg-Marquardt with CHOLMOD (~1300 iterations),
+// the file's numbers read as information.
+constexpr double kVictoriaParkOptimum = 12058.87;
+
+TEST(ProgressiveInitialization, VictoriaParkReachesTheKnownOptimumWithDefaults) {
+  GS_REQUIRE_DATASET("victoria_park/victoriaPark-full.g2o");
+  StatusOr<core::Problem2d> read =
+      storage::ReadG2o(testing::DatasetPath("victoria_park/victoriaPark-full.g2o"));
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  core::Problem2d problem = std::move(read).value();
+  ASSERT_TRUE(core::InitializeProblem(&problem).ok());
+
+  const core::SolverOptions solver;  // defaults, as the tool uses them
+  ProgressiveSummary progressive;
+  Status status =
+      InitializeProgressively(ProgressiveInitializationOptions(), solver, &problem, &progressive);
+  ASSERT_TRUE(status.ok()) << status.ToString();
+  const core::SolverSummary summary = FullSolve(&problem, solver);
+  EXPECT_TRUE(summary.converged) << summary.termination;
+  EXPECT_NEAR(summary.final_chi2, kVictoriaParkOptimum, 1e-3 * kVictoriaParkOptimum)
+      << "progressive stages " << progressive.stages.size() << ", last stage chi2 "
+      << progressive.stages.back().final_chi2 << ", full solve " << summary.iterations
+      << " iterations (" << summary.termination << ")";
+}
+
+}  // namespace
+}  // namespace graphslam::partition
