@@ -201,6 +201,7 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
                          &system.hessian_diagonal);
     system.rhs -= system.gradient;
     GS_RETURN_IF_ERROR(ReducePass(context, poses, features, it.lambda, &system));
+    it.reduce_seconds = SecondsSince(iteration_start);
     it.gradient_max_norm = num_rows > 0 ? system.gradient.cwiseAbs().maxCoeff() : 0.0;
     if (it.gradient_max_norm <= options.gradient_tolerance) {
       summary->termination = "gradient_tolerance";
@@ -212,8 +213,11 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
     system.matrix.AddToDiagonal(it.lambda * damping);
 
     // 2. Solve the reduced pose system.
+    const Clock::time_point solve_start = Clock::now();
     Status solve_status = solver.Solve(system.matrix, system.rhs, &pose_step, &it.linear_iterations);
     bool step_ok = solve_status.ok();
+    it.solve_seconds = SecondsSince(solve_start);
+    const Clock::time_point recover_start = Clock::now();
     if (!step_ok) GS_VLOG(1, "linear solve failed (%s); raising damping", solve_status.ToString().c_str());
 
     double candidate_chi2 = std::numeric_limits<double>::infinity();
@@ -231,6 +235,7 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
                                     recovery.damped_step_norm);
       it.step_norm = std::sqrt(pose_step.squaredNorm() + recovery.step_squared_norm);
     }
+    it.recover_seconds = SecondsSince(recover_start);
     it.candidate_chi2 = candidate_chi2;
     it.relative_decrease =
         model_decrease > 0.0 ? (chi2 - candidate_chi2) / model_decrease : -1.0;

@@ -57,6 +57,9 @@ struct IterationSummary {
   double relative_decrease = 0.0; // rho
   bool accepted = false;
   double seconds = 0.0;
+  double reduce_seconds = 0.0;   // linearize + eliminate (one pass over the chunks)
+  double solve_seconds = 0.0;    // reduced system solve
+  double recover_seconds = 0.0;  // recover features + evaluate (one pass)
 };
 
 struct SolverOptions {

@@ -54,13 +54,14 @@ void LogMessage(LogSeverity severity, const char* file, int line, const char* fo
   spdlog::level::level_enum level = spdlog::level::info;
   if (severity == LogSeverity::kWARNING) level = spdlog::level::warn;
   if (severity == LogSeverity::kERROR) level = spdlog::level::err;
+  // log_msg keeps a view of its text: the string must outlive the sink calls.
+  const std::string text = fmt::format("{}:{}] {}", BaseName(file), line, buffer);
   std::lock_guard<std::mutex> lock(state.mutex);
   for (auto& sink : state.logger->sinks()) {
     // The first sink is stderr; quiet mode hides its INFO lines only.
     bool is_stderr = sink == state.logger->sinks().front();
     if (is_stderr && state.quiet && level == spdlog::level::info) continue;
-    spdlog::details::log_msg message(spdlog::source_loc{}, "graphslam", level,
-                                     fmt::format("{}:{}] {}", BaseName(file), line, buffer));
+    spdlog::details::log_msg message(spdlog::source_loc{}, "graphslam", level, text);
     sink->log(message);
   }
 }

@@ -81,9 +81,9 @@ std::vector<int32_t> StageSizes(const ProgressiveInitializationOptions& options,
   sizes.push_back(static_cast<int32_t>(t));
   while (t < n) {
     const double grown = std::ceil(options.growth * static_cast<double>(t));
-    t = std::min<int64_t>(n, std::max<int64_t>(t + 1, grown >= static_cast<double>(n)
-                                                          ? n
-                                                          : static_cast<int64_t>(grown)));
+    int64_t next = grown >= static_cast<double>(n) ? n : static_cast<int64_t>(grown);
+    if (options.max_new_poses > 0) next = std::min(next, t + options.max_new_poses);
+    t = std::min<int64_t>(n, std::max<int64_t>(t + 1, next));
     sizes.push_back(static_cast<int32_t>(t));
   }
   return sizes;
@@ -190,14 +190,14 @@ Status ProgressiveInitializationOptions::Validate() const {
   if (!(growth > 1.0) || !std::isfinite(growth))
     return Status::InvalidArgument("progressive initialization: growth must be finite and > 1, got " +
                                    std::to_string(growth));
+  if (max_new_poses < 0)
+    return Status::InvalidArgument(
+        "progressive initialization: max_new_poses must be >= 0 (0: no cap), got " +
+        std::to_string(max_new_poses));
   if (max_iterations_per_stage < 0)
     return Status::InvalidArgument(
         "progressive initialization: max_iterations_per_stage must be >= 0, got " +
         std::to_string(max_iterations_per_stage));
-  if (!(landmark_weight > 0.0) || !(landmark_weight <= 1.0))
-    return Status::InvalidArgument(
-        "progressive initialization: landmark_weight must be in (0, 1], got " +
-        std::to_string(landmark_weight));
   if (max_observations_per_chunk < 1)
     return Status::InvalidArgument(
         "progressive initialization: max_observations_per_chunk must be >= 1, got " +
@@ -282,23 +282,11 @@ Status InitializeProgressively(const ProgressiveInitializationOptions& options,
     core::SolverSummary solver_summary;
     const std::string context = "progressive initialization stage " + std::to_string(stage) +
                                 " (" + std::to_string(t) + " poses)";
-    bool first_pass = true;
-    if (options.landmark_weight < 1.0) {
-      core::Problem2d weighted = sub;
-      for (core::Observation& o : weighted.observations) o.information *= options.landmark_weight;
-      Status status = SolvePass(stage_options, chunking, &weighted, &solver_summary);
-      if (!status.ok()) return status.WithContext(context + ", down-weighted pass");
-      sub.poses = std::move(weighted.poses);
-      sub.features = std::move(weighted.features);
-      stage_summary.initial_chi2 = solver_summary.initial_chi2;
-      stage_summary.iterations += solver_summary.iterations;
-      first_pass = false;
-    }
     Status status = SolvePass(stage_options, chunking, &sub, &solver_summary);
     if (!status.ok()) return status.WithContext(context);
-    if (first_pass) stage_summary.initial_chi2 = solver_summary.initial_chi2;
+    stage_summary.initial_chi2 = solver_summary.initial_chi2;
     stage_summary.final_chi2 = solver_summary.final_chi2;
-    stage_summary.iterations += solver_summary.iterations;
+    stage_summary.iterations = solver_summary.iterations;
     stage_summary.termination = solver_summary.termination;
 
     std::copy(sub.poses.begin(), sub.poses.end(), poses.begin());

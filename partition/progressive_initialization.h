@@ -4,7 +4,7 @@
 //
 // Levenberg-Marquardt from a dead-reckoning guess can settle in a local
 // minimum when the odometry drift is large compared with the landmark
-// geometry (Victoria Park: chi2 13.1k..34k instead of 12058.87). A smoother
+// geometry (Victoria Park: chi2 13.1k..34k instead of 389.79). A smoother
 // that adds poses a few at a time never sees that drift: each new pose starts
 // from its odometry chained off an already-optimized predecessor, and each new
 // feature from its first sighting from that optimized pose, so every
@@ -12,7 +12,8 @@
 //
 // Stages. With N poses (index order = time order in every importer), the
 // prefix lengths are
-//   T_0 = min(first_poses, N),  T_{k+1} = min(N, max(T_k + 1, ceil(growth T_k)))
+//   T_0 = min(first_poses, N),
+//   T_{k+1} = min(N, max(T_k + 1, min(ceil(growth T_k), T_k + max_new_poses)))
 // up to T_K = N. Stage k optimizes the sub-problem P_k of
 //   poses      x_0 .. x_{T_k - 1}
 //   features   every m_j observed from some pose p < T_k (keeping its id)
@@ -33,13 +34,17 @@
 // Stage 0 starts from the input guess. The gauge is the sub-problem's own
 // (UnknownLayout): pose 0 or the fixed poses, which every prefix contains.
 //
-// Down-weighted landmark stage (optional, landmark_weight < 1): each stage
-// first runs the same iterations with every observation information scaled by
-// landmark_weight, so odometry dominates while the map is still wrong, then the
-// true weights. A graduated scheme in the spirit of graduated non-convexity.
+// The last stage (T_K = N) only places its new poses and features unless
+// solve_last_stage. The result is written to problem->poses /
+// problem->features (features marked initialized); the caller then runs the
+// full SolveGraphSlam as usual.
 //
-// The result is written to problem->poses / problem->features (features
-// marked initialized); the caller then runs the full SolveGraphSlam as usual.
+// Victoria Park (6969 poses, 151 features, 3640 observations): from the
+// odometry guess LM stops at chi2 13.1k..34k; after this initialization
+// (defaults) the full solve converges to chi2 389.787 (the g2o reference run
+// from odometry, 12058.87, is a local minimum as well). The geometric growth
+// keeps early stages cheap; the cap keeps the chained odometry segment short
+// once the trajectory is long (uncapped growth 2 ended at 13.2k).
 //
 // THREAD SAFETY: one call at a time per problem; each stage solve is
 // internally parallel (TBB) like SolveGraphSlam and results do not depend on
@@ -64,14 +69,14 @@ struct ProgressiveInitializationOptions {
   int64_t first_poses = 100;
   // Prefix growth factor between stages (> 1).
   double growth = 2.0;
+  // At most this many new poses per stage (0: no cap). Odometry drift grows
+  // with the length of the chained segment, so late stages must stay short.
+  int64_t max_new_poses = 1000;
   // LM iterations per stage (each sub-problem solve).
   int max_iterations_per_stage = 10;
-  // Solve the last stage (all poses) too; when false the last stage only
-  // places the remaining poses and features and leaves the solve to the caller.
-  bool solve_last_stage = true;
-  // In (0, 1]: < 1 runs each stage first with observation information scaled
-  // by this factor (see above); 1 disables that pass.
-  double landmark_weight = 1.0;
+  // Solve the last stage (all poses) too. By default the last stage only
+  // places the remaining poses and features: the caller's full solve follows.
+  bool solve_last_stage = false;
   // Chunking of each stage's observations.
   int64_t max_observations_per_chunk = 4096;
 
@@ -84,8 +89,8 @@ struct ProgressiveStageSummary {
   int64_t observations = 0;  // observations in the sub-problem
   double initial_chi2 = 0.0; // of the sub-problem, after placing the new unknowns
   double final_chi2 = 0.0;
-  int iterations = 0;        // LM iterations of all passes of the stage
-  std::string termination;   // of the last pass
+  int iterations = 0;        // LM iterations of the stage solve
+  std::string termination;   // of the stage solve
   double seconds = 0.0;
 };
 

@@ -6,8 +6,8 @@
 // iteration count, seconds per iteration and the final chi2 (g2o convention),
 // so speed is always quoted together with the optimum it reached.
 //
-//   build/bin/graphslam_solver_benchmark --benchmark_repetitions=3 \
-//       --benchmark_out=docs/results/graphslam_solver.json
+//   build/bin/graphslam_solver_benchmark --benchmark_repetitions=3
+//       --benchmark_out=docs/results/graphslam_solver.json   (one command line)
 #include <benchmark/benchmark.h>
 
 #include <chrono>

@@ -18,9 +18,12 @@ void ProgressDisplay::Update(std::string_view stage, int64_t done, int64_t total
   std::lock_guard<std::mutex> lock(mutex_);
   const Clock::time_point now = Clock::now();
   if (stage != stage_) {
+    // The throttle is not reset: passes change stage several times per
+    // iteration and would otherwise print a line each.
     stage_ = std::string(stage);
-    stage_start_ = now;
-    last_output_ = Clock::time_point();
+    auto found = stage_starts_.find(stage);
+    if (found == stage_starts_.end()) found = stage_starts_.emplace(stage_, now).first;
+    stage_start_ = found->second;
   }
   const double elapsed = std::chrono::duration<double>(now - stage_start_).count();
   const double since_output = std::chrono::duration<double>(now - last_output_).count();
@@ -38,7 +41,11 @@ void ProgressDisplay::Update(std::string_view stage, int64_t done, int64_t total
     }
     std::fflush(stderr);
   } else {
-    if (since_output < min_log_interval_ && !complete) return;
+    // At most one line per stage per interval; single-chunk passes are noise.
+    if (total <= 1 && stage_ != "optimize") return;
+    Clock::time_point& last = stage_outputs_[stage_];
+    if (std::chrono::duration<double>(now - last).count() < min_log_interval_) return;
+    last = now;
     GS_LOG(INFO, "progress stage=%s done=%lld total=%lld rate=%.2f/s eta=%.0fs", stage_.c_str(),
            static_cast<long long>(done), static_cast<long long>(total), rate, eta);
   }

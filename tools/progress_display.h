@@ -10,6 +10,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <map>
 #include <mutex>
 #include <string>
 #include <string_view>
@@ -36,6 +37,9 @@ class ProgressDisplay {
   double min_log_interval_;
   std::string stage_;
   Clock::time_point stage_start_;
+  // When each stage was first seen, so that rates span interleaved passes.
+  std::map<std::string, Clock::time_point, std::less<>> stage_starts_;
+  std::map<std::string, Clock::time_point, std::less<>> stage_outputs_;
   Clock::time_point last_output_;
   bool line_open_ = false;
 };

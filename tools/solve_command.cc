@@ -94,7 +94,10 @@ nlohmann::json BuildReport(const SolveCommandOptions& options, const core::Probl
                              {"lambda", it.lambda},
                              {"relative_decrease", it.relative_decrease},
                              {"accepted", it.accepted},
-                             {"seconds", it.seconds}});
+                             {"seconds", it.seconds},
+                             {"reduce_seconds", it.reduce_seconds},
+                             {"solve_seconds", it.solve_seconds},
+                             {"recover_seconds", it.recover_seconds}});
   }
   report["per_iteration"] = per_iteration;
   return report;

@@ -68,10 +68,10 @@ TEST(ProgressiveInitialization, ThenSolveReachesTheDenseOptimum) {
       Status status = InitializeProgressively(options, solver, &problem, &progressive);
       ASSERT_TRUE(status.ok()) << status.ToString();
       EXPECT_TRUE(progressive.ran);
-      // 8, 16, 32, 40 poses.
-      ASSERT_EQ(progressive.stages.size(), 4u);
+      // Solved stages of 8, 16 and 32 poses; the last (40) is only placed.
+      ASSERT_EQ(progressive.stages.size(), 3u);
       EXPECT_EQ(progressive.stages.front().poses, 8);
-      EXPECT_EQ(progressive.stages.back().poses, 40);
+      EXPECT_EQ(progressive.stages.back().poses, 32);
       EXPECT_EQ(problem.poses[0], random.problem.poses[0]) << "the anchor moved";
 
       const core::SolverSummary summary = FullSolve(&problem, solver);
@@ -106,6 +106,7 @@ TEST(ProgressiveInitialization, ChainsOdometryAndPlacesFeaturesByFirstSight) {
   options.first_poses = 1;
   options.growth = 1.5;
   options.max_iterations_per_stage = 0;
+  options.solve_last_stage = true;
   ProgressiveSummary summary;
   ASSERT_TRUE(InitializeProgressively(options, core::SolverOptions(), &p, &summary).ok());
   for (int i = 0; i < p.num_poses(); ++i) {
@@ -156,8 +157,8 @@ TEST(ProgressiveInitialization, RejectsInvalidOptionsAndIndicesBeforeChangingAny
   options.max_iterations_per_stage = -1;
   expect_invalid(options, random.problem, "negative iterations");
   options = ProgressiveInitializationOptions();
-  options.landmark_weight = 0.0;
-  expect_invalid(options, random.problem, "landmark weight 0");
+  options.max_new_poses = -1;
+  expect_invalid(options, random.problem, "negative max_new_poses");
   core::Problem2d broken = random.problem;
   broken.observations.back().feature = broken.num_features();
   Status status =
@@ -167,11 +168,14 @@ TEST(ProgressiveInitialization, RejectsInvalidOptionsAndIndicesBeforeChangingAny
       << status.ToString();
 }
 
-// The known optimum: g2o Levenberg-Marquardt with CHOLMOD (~1300 iterations),
-// the file's numbers read as information.
-constexpr double kVictoriaParkOptimum = 12058.87;
+// The g2o reference: Levenberg-Marquardt with CHOLMOD (~1300 iterations) from
+// the file's odometry guess, the file's numbers read as information. It is a
+// local minimum too: the progressive guess leads to chi2 389.787, which an
+// independent evaluation of the written g2o file confirms.
+constexpr double kVictoriaParkG2oReference = 12058.87;
+constexpr double kVictoriaParkBest = 389.7874;
 
-TEST(ProgressiveInitialization, VictoriaParkReachesTheKnownOptimumWithDefaults) {
+TEST(ProgressiveInitialization, VictoriaParkReachesTheBestKnownMinimumWithDefaults) {
   GS_REQUIRE_DATASET("victoria_park/victoriaPark-full.g2o");
   StatusOr<core::Problem2d> read =
       storage::ReadG2o(testing::DatasetPath("victoria_park/victoriaPark-full.g2o"));
@@ -186,7 +190,8 @@ TEST(ProgressiveInitialization, VictoriaParkReachesTheKnownOptimumWithDefaults) 
   ASSERT_TRUE(status.ok()) << status.ToString();
   const core::SolverSummary summary = FullSolve(&problem, solver);
   EXPECT_TRUE(summary.converged) << summary.termination;
-  EXPECT_NEAR(summary.final_chi2, kVictoriaParkOptimum, 1e-3 * kVictoriaParkOptimum)
+  EXPECT_LE(summary.final_chi2, kVictoriaParkG2oReference * (1.0 + 1e-3));
+  EXPECT_NEAR(summary.final_chi2, kVictoriaParkBest, 1e-3 * kVictoriaParkBest)
       << "progressive stages " << progressive.stages.size() << ", last stage chi2 "
       << progressive.stages.back().final_chi2 << ", full solve " << summary.iterations
       << " iterations (" << summary.termination << ")";
