@@ -27,6 +27,7 @@ struct SolveCommandOptions {
   int64_t chunk_observations = 4096;
   int64_t max_eliminated_observations = 64;
   std::string robust_kernel = "none";  // none, huber[:c], cauchy[:c]
+  std::string initialization = "progressive";  // progressive, odometry
   bool quiet = false;
   int verbosity = 0;
 };
