@@ -1,0 +1,75 @@
+// Real datasets reach the optimum of a converged Levenberg-Marquardt solver
+// with `graphslam solve`'s default options (../shared/datasets/INDEX.md lists
+// g2o's optima; "a correct solver reaches these within 0.1 % or lower").
+//
+// Victoria Park: g2o's LM stops at 12058.87, a local minimum; our default
+// (progressive initialization) reaches 389.7874 — the lowest chi2 any of our
+// runs found, confirmed by an independent chi2 evaluation of the written graph.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "tests/testing/datasets.h"
+#include "tools/exit_codes.h"
+#include "tools/solve_command.h"
+
+namespace graphslam::tools {
+namespace {
+
+double SolveWithDefaults(const std::string& relative) {
+  const std::string report =
+      (std::filesystem::temp_directory_path() /
+       ("graphslam_reference_" + std::to_string(::getpid()) + ".json"))
+          .string();
+  SolveCommandOptions options;
+  options.input = graphslam::testing::DatasetPath(relative);
+  options.report = report;
+  options.quiet = true;
+  EXPECT_EQ(RunSolveCommand(options), kExitOk) << relative;
+  std::ifstream in(report);
+  const nlohmann::json json = nlohmann::json::parse(in, nullptr, false);
+  std::filesystem::remove(report);
+  if (json.is_discarded()) return -1.0;
+  EXPECT_TRUE(json["converged"].get<bool>()) << relative;
+  return json["final_chi2"].get<double>();
+}
+
+// Within 0.1 % of the reference, or lower.
+void ExpectReached(double chi2, double reference) {
+  EXPECT_GT(chi2, 0.0);
+  EXPECT_LE(chi2, reference * 1.001) << "reference " << reference;
+}
+
+TEST(ReferenceOptima, IntelReachesG2oOptimum) {
+  GS_REQUIRE_DATASET("freiburg_course_g2o/intel.g2o");
+  const double chi2 = SolveWithDefaults("freiburg_course_g2o/intel.g2o");
+  ExpectReached(chi2, 359.996112);
+  EXPECT_NEAR(chi2, 359.996112, 1e-3 * 359.996112);
+}
+
+TEST(ReferenceOptima, M3500ReachesG2oOptimum) {
+  GS_REQUIRE_DATASET("freiburg_course_g2o/input_M3500_g2o.g2o");
+  const double chi2 = SolveWithDefaults("freiburg_course_g2o/input_M3500_g2o.g2o");
+  ExpectReached(chi2, 137.912951);
+  EXPECT_NEAR(chi2, 137.912951, 1e-3 * 137.912951);
+}
+
+TEST(ReferenceOptima, VictoriaParkReachesBelowG2oLocalMinimum) {
+  GS_REQUIRE_DATASET("victoria_park/victoriaPark-full.g2o");
+  const double chi2 = SolveWithDefaults("victoria_park/victoriaPark-full.g2o");
+  ExpectReached(chi2, 12058.87);
+  EXPECT_NEAR(chi2, 389.7874, 1e-3 * 389.7874);
+}
+
+TEST(ReferenceOptima, City10000ReachesG2oOptimumOrLower) {
+  GS_REQUIRE_DATASET("sesync_posegraphs/city10000.g2o");
+  const double chi2 = SolveWithDefaults("sesync_posegraphs/city10000.g2o");
+  ExpectReached(chi2, 1484.685685);
+}
+
+}  // namespace
+}  // namespace graphslam::tools
