@@ -71,7 +71,7 @@ struct ProgressiveInitializationOptions {
   double growth = 2.0;
   // At most this many new poses per stage (0: no cap). Odometry drift grows
   // with the length of the chained segment, so late stages must stay short.
-  int64_t max_new_poses = 1000;
+  int64_t max_new_poses = 500;
   // LM iterations per stage (each sub-problem solve).
   int max_iterations_per_stage = 10;
   // Solve the last stage (all poses) too. By default the last stage only

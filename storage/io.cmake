@@ -12,3 +12,8 @@ target_sources(graphslam_storage PRIVATE
   mrclam_reader.cc
   native_log_reader.cc
   tum_writer.cc)
+# Observation chunk files (docs/formats/observation_chunk.md).
+target_sources(graphslam_storage PRIVATE
+  chunk_reader.cc
+  chunk_writer.cc
+  crc32c.cc)

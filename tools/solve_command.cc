@@ -158,6 +158,9 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
                     "initial guess: progressive (solve growing prefixes of the trajectory) or "
                     "odometry (the paper's Table 1 only)")
       ->capture_default_str();
+  solve->add_option("--progressive-max-new-poses", options->progressive_max_new_poses,
+                    "at most this many poses join per progressive stage")
+      ->capture_default_str();
   solve->add_flag("-q,--quiet", options->quiet, "no progress or summary on the terminal");
   solve->add_flag("-v,--verbose", options->verbosity, "more log detail (repeatable)");
   solve->callback([options, exit_code]() { *exit_code = RunSolveCommand(*options); });
@@ -238,6 +241,11 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   partition::ProgressiveInitializationOptions progressive;
   progressive.enabled = options.initialization == "progressive";
   progressive.max_observations_per_chunk = options.chunk_observations;
+  progressive.max_new_poses = options.progressive_max_new_poses;
+  if (Status status = progressive.Validate(); !status.ok()) {
+    std::fprintf(stderr, "graphslam solve: %s\n", status.ToString().c_str());
+    return kExitUsage;
+  }
   partition::ProgressiveSummary progressive_summary;
   if (Status status = partition::InitializeProgressively(progressive, solver_options, &problem,
                                                          &progressive_summary);

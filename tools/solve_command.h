@@ -28,6 +28,7 @@ struct SolveCommandOptions {
   int64_t max_eliminated_observations = 64;
   std::string robust_kernel = "none";  // none, huber[:c], cauchy[:c]
   std::string initialization = "progressive";  // progressive, odometry
+  int64_t progressive_max_new_poses = 500;     // poses added per progressive stage
   bool quiet = false;
   int verbosity = 0;
 };

@@ -1,0 +1,148 @@
+// The on-disk layout of one observation chunk (a core::ObservationChunk), as
+// specified in docs/formats/observation_chunk.md; shared by chunk_writer.h and
+// chunk_reader.h. The design follows LevelDB's log format (db/log_format.h,
+// doc/log_format.md): a fixed header, then framed records, each checksummed
+// with a masked CRC32C (storage/crc32c.h), so that a reader can name the record
+// and byte offset of any damage and, if asked, skip just the damaged record.
+//
+//   file    := header  feature_block*  footer                 (little-endian)
+//   header  := magic[8] version:u32 flags:u32 chunk_index:i64
+//              num_features:i64 num_observations:i64 reserved:u32
+//              header_crc:u32                                 (48 bytes)
+//   record  := length:u32 type:u8 crc:u32 payload[length]      (9 + length)
+//              crc = Mask(CRC32C(type byte || payload))
+//   feature_block payload (type 1; type 0x81 = the same, zstd-compressed as
+//              uncompressed_length:u32 zstd_frame):
+//              first_feature_slot:i64 first_observation:i64 feature_count:u32
+//              { feature:i32 observation_count:u32 } * feature_count
+//              observation * (sum of observation_count)
+//   observation := pose:i32 feature:i32 kind:u8 z[2]:f64
+//                  information[4]:f64 (column-major) line:i32  (61 bytes)
+//   footer payload (type 2, never compressed, last record of the file):
+//              num_features:i64 num_observations:i64 num_blocks:u32
+//              chain_crc:u32 = Mask(CRC32C(header_crc || crc of each block))
+//
+// A block holds whole features only (a chunk is feature-complete and each of
+// its features stays in one record), so dropping a damaged record in
+// non-paranoid mode still leaves a consistent chunk: fewer features, each
+// complete.
+//
+// THREAD SAFETY: constants and pure inline functions. ALLOCATION: none.
+#pragma once
+
+#include <bit>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "core/problem.h"
+
+namespace graphslam::storage::chunk_format {
+
+// "\x89GSC\r\n\x1a\n" read as a little-endian u64: the high first byte catches
+// 7-bit transfers, CR LF / LF catch newline translation, 0x1A stops a DOS
+// `type` (the PNG signature trick).
+inline constexpr uint64_t kMagic = 0x0A1A0A0D43534789ull;
+inline constexpr uint32_t kFormatVersion = 1;
+
+// Header flags. A reader rejects unknown bits (NotSupported).
+inline constexpr uint32_t kFlagZstd = 1u << 0;  // blocks may be zstd-compressed
+inline constexpr uint32_t kKnownFlags = kFlagZstd;
+
+inline constexpr size_t kHeaderSize = 48;
+inline constexpr size_t kHeaderCrcOffset = 44;  // the CRC covers bytes [0, 44)
+inline constexpr size_t kRecordHeaderSize = 9;  // length u32, type u8, crc u32
+
+// Record types. 0 is never written, so a zeroed region is never a valid record.
+inline constexpr uint8_t kFeatureBlock = 1;
+inline constexpr uint8_t kFooter = 2;
+inline constexpr uint8_t kCompressedBit = 0x80;  // only on kFeatureBlock
+
+inline constexpr size_t kBlockHeaderSize = 20;   // first slot, first obs, count
+inline constexpr size_t kFeatureEntrySize = 8;   // feature i32, count u32
+inline constexpr size_t kObservationSize = 61;
+inline constexpr size_t kFooterSize = 24;
+
+// Largest payload (and largest uncompressed feature block) a writer emits or a
+// reader accepts: bounds what a corrupt length can make a reader allocate.
+// 256 MiB holds a single feature with about 4.4 million observations.
+inline constexpr size_t kMaxRecordLength = size_t{1} << 28;
+
+// --- little-endian encoding, independent of the host's byte order ---------
+
+inline void PutFixed32(std::string* out, uint32_t value) {
+  for (int i = 0; i < 4; ++i) out->push_back(static_cast<char>((value >> (8 * i)) & 0xFFu));
+}
+inline void PutFixed64(std::string* out, uint64_t value) {
+  for (int i = 0; i < 8; ++i) out->push_back(static_cast<char>((value >> (8 * i)) & 0xFFu));
+}
+inline void PutDouble(std::string* out, double value) {
+  PutFixed64(out, std::bit_cast<uint64_t>(value));  // bit-exact, -0.0 included
+}
+inline uint32_t DecodeFixed32(const char* p) {
+  const auto* u = reinterpret_cast<const unsigned char*>(p);
+  return static_cast<uint32_t>(u[0]) | (static_cast<uint32_t>(u[1]) << 8) |
+         (static_cast<uint32_t>(u[2]) << 16) | (static_cast<uint32_t>(u[3]) << 24);
+}
+inline uint64_t DecodeFixed64(const char* p) {
+  return static_cast<uint64_t>(DecodeFixed32(p)) |
+         (static_cast<uint64_t>(DecodeFixed32(p + 4)) << 32);
+}
+inline double DecodeDouble(const char* p) { return std::bit_cast<double>(DecodeFixed64(p)); }
+
+// --- one observation ----------------------------------------------------
+
+inline void PutObservation(std::string* out, const core::Observation& observation) {
+  PutFixed32(out, static_cast<uint32_t>(observation.pose));
+  PutFixed32(out, static_cast<uint32_t>(observation.feature));
+  out->push_back(static_cast<char>(observation.kind));
+  PutDouble(out, observation.z[0]);
+  PutDouble(out, observation.z[1]);
+  for (int i = 0; i < 4; ++i) PutDouble(out, observation.information.data()[i]);
+  PutFixed32(out, static_cast<uint32_t>(observation.line));
+}
+
+// Decodes kObservationSize bytes. The kind byte is copied as is: check it
+// with DescribeInvalidObservation before using the value.
+inline void DecodeObservation(const char* p, core::Observation* observation) {
+  observation->pose = static_cast<int32_t>(DecodeFixed32(p));
+  observation->feature = static_cast<int32_t>(DecodeFixed32(p + 4));
+  observation->kind = static_cast<core::ObservationKind>(static_cast<uint8_t>(p[8]));
+  observation->z[0] = DecodeDouble(p + 9);
+  observation->z[1] = DecodeDouble(p + 17);
+  for (int i = 0; i < 4; ++i) observation->information.data()[i] = DecodeDouble(p + 25 + 8 * i);
+  observation->line = static_cast<int32_t>(DecodeFixed32(p + 57));
+}
+
+// "" when `observation` may be stored in the slot of feature `expected_feature`,
+// else what is wrong with it, with expected and actual values. Shared by the
+// writer (InvalidArgument) and the reader (Corruption) so both enforce the
+// same rules (docs/formats/observation_chunk.md, "Validity").
+inline std::string DescribeInvalidObservation(const core::Observation& observation,
+                                              int32_t expected_feature) {
+  if (observation.feature != expected_feature) {
+    return "feature is " + std::to_string(observation.feature) + ", expected " +
+           std::to_string(expected_feature) + " (the feature of its slot)";
+  }
+  if (observation.pose < 0) {
+    return "pose " + std::to_string(observation.pose) + " is negative";
+  }
+  const auto kind = static_cast<uint8_t>(observation.kind);
+  if (kind != static_cast<uint8_t>(core::ObservationKind::kRangeBearing) &&
+      kind != static_cast<uint8_t>(core::ObservationKind::kPointXY)) {
+    return "kind " + std::to_string(kind) + " is not an ObservationKind (expected 0 or 1)";
+  }
+  for (int i = 0; i < 2; ++i) {
+    if (!std::isfinite(observation.z[i])) return "z[" + std::to_string(i) + "] is not finite";
+  }
+  for (int i = 0; i < 4; ++i) {
+    if (!std::isfinite(observation.information.data()[i])) {
+      return "information(" + std::to_string(i % 2) + "," + std::to_string(i / 2) +
+             ") is not finite";
+    }
+  }
+  return "";
+}
+
+}  // namespace graphslam::storage::chunk_format
