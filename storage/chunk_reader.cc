@@ -163,9 +163,12 @@ class ChunkParser {
       const size_t left = size - position;
       if (left == 0) {
         // Atomic writes never leave this; the file was cut at a record boundary.
+        // After a drop the footer itself may have been the damaged record.
+        const std::string what = dropped_any_ ? ": the file ends without a valid footer after "
+                                              : ": no footer after ";
         return Drop(0, Status::Corruption(
-                           path_ + ": truncated at byte " + std::to_string(size) +
-                           ": no footer after " + std::to_string(record) +
+                           path_ + (dropped_any_ ? ": at byte " : ": truncated at byte ") +
+                           std::to_string(size) + what + std::to_string(record) +
                            " records (the header promises " + std::to_string(num_features_) +
                            " features and " + std::to_string(num_observations_) +
                            " observations; read " + std::to_string(result_->features.size()) +

@@ -324,7 +324,9 @@ TEST_P(ChunkRoundTripTest, LargeChunkWithOneHundredThousandObservations) {
   ASSERT_TRUE(WriteObservationChunk(Env::Default(), path_, chunk, options).ok());
   const std::string data = Slurp(path_);
   const size_t raw = format::kHeaderSize + 100000 * format::kObservationSize;
-  if (GetParam() == ChunkCompression::kNone) EXPECT_GT(data.size(), raw);
+  if (GetParam() == ChunkCompression::kNone) {
+    EXPECT_GT(data.size(), raw);
+  }
   if (GetParam() == ChunkCompression::kZstd) {
     EXPECT_EQ(format::DecodeFixed32(data.data() + 12), format::kFlagZstd);
     EXPECT_LT(data.size(), raw);  // the repeated feature compresses
@@ -520,6 +522,52 @@ TEST_F(ChunkFormatTest, ShorterLengthIsACrcMismatchOfTheShortenedRecord) {
                                   ", got " + Hex32(ComputedCrc(data, damaged, shorter)) + ")");
 }
 
+TEST_F(ChunkFormatTest, NonParanoidReportsEveryDamagedRecordWithItsExactSize) {
+  const core::ObservationChunk chunk = MakeChunk(42, 120, 5, 17);
+  std::string data = WriteSmallRecords(chunk);
+  const std::vector<Frame> frames = Frames(data);
+  ASSERT_GE(frames.size(), 8u);
+  for (const size_t r : {1u, 5u}) data[frames[r].offset + format::kRecordHeaderSize + 30] ^= 1;
+  data[frames.back().offset + format::kRecordHeaderSize] ^= 1;  // the footer too
+  Spit(path_, data);
+  RecordingReporter reporter;
+  core::ObservationChunk read;
+  ASSERT_TRUE(Read(&read, false, &reporter).ok());
+  ASSERT_EQ(reporter.messages.size(), 4u);  // two blocks, the footer, then "no valid footer"
+  EXPECT_EQ(reporter.dropped_bytes,
+            static_cast<int64_t>(3 * format::kRecordHeaderSize + frames[1].length +
+                                 frames[5].length + format::kFooterSize));
+  EXPECT_EQ(reporter.messages[3],
+            "Corruption: " + path_ + ": at byte " + std::to_string(data.size()) +
+                ": the file ends without a valid footer after " + std::to_string(frames.size()) +
+                " records (the header promises 120 features and " +
+                std::to_string(chunk.observations.size()) + " observations; read " +
+                std::to_string(read.features.size()) + " and " +
+                std::to_string(read.observations.size()) + ")");
+  core::ObservationChunk expected =
+      WithoutSlots(chunk, BlockSlots(data, frames[5]).first, BlockSlots(data, frames[5]).second);
+  expected = WithoutSlots(expected, BlockSlots(data, frames[1]).first,
+                          BlockSlots(data, frames[1]).second);
+  ExpectBitExact(expected, read);
+}
+
+TEST_F(ChunkFormatTest, CompressedRecordWithoutTheHeaderFlagIsCorruption) {
+  core::ObservationChunk chunk = MakeChunk(42, 40, 5, 18);
+  for (core::Observation& o : chunk.observations) o.z = {1.0, 2.0};  // compressible
+  std::string data = WriteSmallRecords(chunk, ChunkCompression::kZstd);
+  const std::vector<Frame> frames = Frames(data);
+  ASSERT_EQ(frames[0].type, format::kFeatureBlock | format::kCompressedBit);
+  PutFixed32At(&data, 12, 0);
+  PutFixed32At(&data, 44, crc32c::Mask(crc32c::Value(data.data(), 44)));
+  Spit(path_, data);
+  core::ObservationChunk read;
+  const Status status = Read(&read);
+  EXPECT_TRUE(status.IsCorruption());
+  EXPECT_EQ(status.message(), path_ +
+                                  ": record 0 at byte 48: compressed record in a file whose "
+                                  "header (flags 0x00000000) does not allow compression");
+}
+
 // ---------------------------------------------------------------- truncation
 
 TEST_F(ChunkFormatTest, TruncationAnywhereIsACorruptionNamingTheOffset) {
@@ -678,9 +726,15 @@ TEST_F(ChunkFormatTest, InvalidChunkIsRejectedBeforeAnyFileIsWritten) {
   };
   const std::string prefix = "writing " + path_ + ": chunk 42: ";
   const std::vector<Case> cases = {
-      {[](core::ObservationChunk* c) { std::swap(c->features[2], c->features[3]); },
+      {[](core::ObservationChunk* c) {
+         // Slot 3 repeats the feature of slot 2 (its observations agree).
+         c->features[3] = c->features[2];
+         for (int64_t o = c->feature_begin[3]; o < c->feature_begin[4]; ++o) {
+           c->observations[o].feature = c->features[2];
+         }
+       },
        prefix + "feature slot 3 (feature " + std::to_string(good.features[2]) +
-           "): expected a feature above " + std::to_string(good.features[3]) +
+           "): expected a feature above " + std::to_string(good.features[2]) +
            " (features must be strictly ascending)"},
       {[](core::ObservationChunk* c) { c->feature_begin.pop_back(); },
        prefix + "feature_begin has 10 entries, expected 11 (features + 1)"},
