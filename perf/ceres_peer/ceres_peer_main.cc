@@ -324,7 +324,12 @@ int Run(const PeerOptions& options) {
   const double total_seconds = Seconds(start);
 
   const bool converged = summary.termination_type == ceres::CONVERGENCE;
-  const int iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
+  // Ceres' summary.iterations and num_successful_steps include iteration 0
+  // (the initial evaluation); graphslam counts Levenberg-Marquardt steps only.
+  const int iterations = static_cast<int>(recorder.per_iteration().size());
+  int successful_iterations = 0;
+  for (const nlohmann::json& it : recorder.per_iteration())
+    if (it["accepted"].get<bool>()) ++successful_iterations;
   const std::string version = std::string("ceres ") + CERES_VERSION_STRING;
   if (!options.report.empty()) {
     nlohmann::json report;
@@ -343,7 +348,7 @@ int Run(const PeerOptions& options) {
     report["initial_chi2_graphslam_models"] = initial_chi2_graphslam;
     report["final_chi2_graphslam_models"] = final_chi2_graphslam;
     report["iterations"] = iterations;
-    report["successful_iterations"] = summary.num_successful_steps;
+    report["successful_iterations"] = successful_iterations;
     report["converged"] = converged;
     report["termination"] = TerminationName(summary);
     report["termination_message"] = summary.message;
