@@ -3,5 +3,6 @@ target_sources(graphslam_core PRIVATE
   block_jacobi_preconditioner.cc
   block_sparse_matrix.cc
   cholmod_solver.cc
+  incomplete_cholesky_preconditioner.cc
   preconditioned_conjugate_gradient.cc
   schur_eliminator.cc)

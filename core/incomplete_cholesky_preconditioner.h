@@ -1,0 +1,112 @@
+// Incomplete Cholesky preconditioner for the reduced pose system: a limited-
+// memory incomplete factor L of the scaled, AMD-permuted A, applied as
+//
+//   S P A P^T S  ~  L L^T                       (Update)
+//   y += M^{-1} x = P^T S L^{-T} L^{-1} S P x   (RightMultiplyAndAccumulate)
+//
+//   P  fill-reducing permutation (approximate minimum degree on the scalar
+//      pattern of A)
+//   S  diagonal scaling, S_jj = ||A_{:,j}||_2^{-1/2}, so S P A P^T S has
+//      entries of order one
+//   L  lower triangular; column j keeps only the p_j entries of largest
+//      magnitude, p_j = number of off-diagonal entries of column j of the
+//      permuted lower triangle of A. L therefore has exactly as many nonzeros
+//      as tril(A): fill-in is allowed where it is large, but never grows the
+//      memory.
+//
+// Block-Jacobi (core/block_jacobi_preconditioner.h) only sees each pose's own
+// information; on a loop-closing pose graph the error left by PCG is smooth
+// along the trajectory and block-Jacobi needs O(graph diameter) iterations to
+// propagate it. The incomplete factor couples neighbouring poses through L, so
+// it removes much of that long-range error per iteration
+// (tests/core/incomplete_cholesky_preconditioner_test.cc measures both).
+//
+// The factorization is Eigen's Eigen::IncompleteCholesky<double, Eigen::Lower,
+// Eigen::AMDOrdering<int>> (Eigen 3.4), which follows
+//   C.-J. Lin and J. J. More, "Incomplete Cholesky factorizations with limited
+//   memory", SIAM J. Sci. Comput. 21(1), pp. 24-45, 1999 (ICFS),
+// with the memory parameter fixed at p = 0 extra entries per column. Eigen 3.4
+// exposes no fill or drop-tolerance knob for this class (those exist only on
+// IncompleteLUT); its one knob is the initial diagonal shift sigma:
+//   beta = min_j (S P A P^T S)_jj; the first attempt uses shift 0 if beta > 0,
+//   else sigma - beta; whenever a pivot is <= 0 the shift becomes
+//   max(sigma, 2 * shift) and the factorization restarts, at most 10 attempts.
+// A non-positive or non-finite diagonal of A is rejected before Eigen is
+// called (A is then not positive definite, and Eigen would silently shift it),
+// and the finished factor is checked for non-finite values, which Eigen does
+// not detect.
+//
+// THREAD SAFETY: RightMultiplyAndAccumulate is const and may be called
+// concurrently; the triangular solves need one n-vector of scratch, which is
+// owned by the factor and guarded by a mutex, so concurrent calls are correct
+// but run one at a time (a triangular solve is sequential anyway). Update must
+// not run concurrently with anything else on the same object.
+//
+// ALLOCATION: Update allocates: ToSparseUpper() and its transpose, the AMD
+// ordering, Eigen's working copies (O(nnz(A))), and the new factor, which is
+// built beside the current one and swapped in only on success, so a failed
+// Update leaves the previous preconditioner intact.
+// RightMultiplyAndAccumulate never allocates.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+
+#include "core/block_sparse_matrix.h"
+#include "core/linear_operator.h"
+#include "core/status.h"
+
+namespace graphslam::core {
+
+struct IncompleteCholeskyOptions {
+  // Eigen's sigma (setInitialShift): the first diagonal shift tried, on the
+  // scaled matrix (diagonal entries <= 1), when a pivot breaks down. Eigen's
+  // default. Raise it if Update reports a breakdown after 10 shifts.
+  double initial_shift = 1e-3;
+
+  // InvalidArgument naming the field unless initial_shift is positive and
+  // finite.
+  [[nodiscard]] Status Validate() const;
+};
+
+class IncompleteCholeskyPreconditioner : public LinearOperator {
+ public:
+  explicit IncompleteCholeskyPreconditioner(const IncompleteCholeskyOptions& options = {});
+  ~IncompleteCholeskyPreconditioner() override;
+  IncompleteCholeskyPreconditioner(IncompleteCholeskyPreconditioner&&) noexcept;
+  IncompleteCholeskyPreconditioner& operator=(IncompleteCholeskyPreconditioner&&) noexcept;
+
+  // Factors `a` (symmetric; both triangles are stored, the upper one is read).
+  // Returns, with the previous state kept:
+  //   InvalidArgument naming the field if the options are invalid;
+  //   Numerical naming the scalar and block row of a non-finite entry or of a
+  //     diagonal entry <= 0 (A is not positive definite);
+  //   Numerical naming the shifts tried if Eigen reports that every pivot
+  //     sequence broke down (A is probably indefinite);
+  //   Numerical naming the column of a non-finite entry of L.
+  [[nodiscard]] Status Update(const BlockSparseMatrix& a);
+
+  // 0 before the first successful Update.
+  int num_rows() const override { return num_rows_; }
+
+  // y += M^{-1} x. Requires a successful Update (GS_CHECK).
+  void RightMultiplyAndAccumulate(const double* x, double* y) const override;
+
+  // Nonzeros of L (diagonal included) and of tril(A); equal by construction
+  // (see the picture above). 0 before the first successful Update.
+  int64_t num_factor_nonzeros() const;
+  int64_t num_lower_nonzeros() const { return num_lower_nonzeros_; }
+
+  const IncompleteCholeskyOptions& options() const { return options_; }
+
+ private:
+  struct Factor;  // Eigen's factor object and the solve scratch (.cc)
+
+  IncompleteCholeskyOptions options_;
+  int num_rows_ = 0;
+  int64_t num_lower_nonzeros_ = 0;
+  std::unique_ptr<Factor> factor_;  // null until the first successful Update
+  std::unique_ptr<Factor> spare_;   // Update's output before it is swapped in
+};
+
+}  // namespace graphslam::core
