@@ -3,8 +3,10 @@
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCore>
+#include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
+#include <limits>
 #include <mutex>
 #include <vector>
 
@@ -19,6 +21,78 @@ using EigenIncompleteCholesky =
 // Eigen 3.4 IncompleteCholesky::factorize gives up after this many shifted
 // attempts (the `++iter >= 10` in IncompleteCholesky.h).
 constexpr int kEigenMaxShiftAttempts = 10;
+
+// The lower triangle of A, column-major with sorted rows, stored on the block
+// pattern of A^(fill_levels + 1): entries of A where A has them, explicit zeros
+// elsewhere. Eigen keeps in column j of L as many entries as column j of its
+// input has, explicit zeros included, so the zeros are fill budget -- Lin &
+// More's memory parameter p, spent on the largest fill entries wherever they
+// appear. fill_levels = 0 is A itself.
+Eigen::SparseMatrix<double> LowerWithFillBudget(const BlockSparseMatrix& a, int fill_levels) {
+  const int b = a.block_size();
+  const int num_blocks = a.num_block_rows();
+  const std::vector<int64_t>& row_start = a.row_start();
+  const std::vector<int>& block_cols = a.block_cols();
+
+  // reach[i]: block columns k >= i within fill_levels + 1 edges of i (sorted).
+  // Breadth-first over the block graph, with `mark` as the visited set.
+  std::vector<std::vector<int>> reach(static_cast<size_t>(num_blocks));
+  std::vector<int> mark(static_cast<size_t>(num_blocks), -1);
+  std::vector<int> frontier, next, visited;
+  for (int i = 0; i < num_blocks; ++i) {
+    frontier.assign(1, i);
+    visited.assign(1, i);
+    mark[i] = i;
+    for (int level = 0; level <= fill_levels && !frontier.empty(); ++level) {
+      next.clear();
+      for (int v : frontier) {
+        for (int64_t j = row_start[v]; j < row_start[v + 1]; ++j) {
+          const int k = block_cols[j];
+          if (mark[k] == i) continue;
+          mark[k] = i;
+          next.push_back(k);
+          visited.push_back(k);
+        }
+      }
+      frontier.swap(next);
+    }
+    std::vector<int>& columns = reach[i];
+    for (int k : visited)
+      if (k >= i) columns.push_back(k);
+    std::sort(columns.begin(), columns.end());
+  }
+
+  int64_t nnz = 0;
+  for (int i = 0; i < num_blocks; ++i) {
+    nnz += static_cast<int64_t>(reach[i].size() - 1) * b * b + static_cast<int64_t>(b) * (b + 1) / 2;
+  }
+  GS_CHECK(nnz <= std::numeric_limits<int>::max());
+  const int n = a.num_rows();
+  Eigen::SparseMatrix<double> lower(n, n);
+  lower.resizeNonZeros(static_cast<Eigen::Index>(nnz));
+  int* outer = lower.outerIndexPtr();
+  int* inner = lower.innerIndexPtr();
+  double* value = lower.valuePtr();
+  int64_t pos = 0;
+  outer[0] = 0;
+  for (int i = 0; i < num_blocks; ++i) {
+    for (int lc = 0; lc < b; ++lc) {
+      // Column i*b + lc below the diagonal is, by symmetry, row i*b + lc of A
+      // to the right of it: row lc of the row-major blocks (i, k), k >= i.
+      for (int k : reach[i]) {
+        const double* block = a.Block(i, k);  // nullptr: fill budget only
+        for (int lr = (k == i) ? lc : 0; lr < b; ++lr) {
+          inner[pos] = k * b + lr;
+          value[pos] = block != nullptr ? block[lc * b + lr] : 0.0;
+          ++pos;
+        }
+      }
+      outer[i * b + lc + 1] = static_cast<int>(pos);
+    }
+  }
+  GS_CHECK(pos == nnz);
+  return lower;
+}
 
 }  // namespace
 
@@ -35,6 +109,11 @@ Status IncompleteCholeskyOptions::Validate() const {
     return Status::InvalidArgument(fmt::format(
         "IncompleteCholeskyOptions.initial_shift must be positive and finite, got {:g}",
         initial_shift));
+  }
+  if (fill_levels < 0 || fill_levels > kMaxFillLevels) {
+    return Status::InvalidArgument(
+        fmt::format("IncompleteCholeskyOptions.fill_levels must be in [0, {}], got {}",
+                    kMaxFillLevels, fill_levels));
   }
   return Status::Ok();
 }
@@ -53,12 +132,12 @@ Status IncompleteCholeskyPreconditioner::Update(const BlockSparseMatrix& a) {
   GS_RETURN_IF_ERROR(options_.Validate());
   const int n = a.num_rows();
   const int b = a.block_size();
-  const Eigen::SparseMatrix<double> upper = a.ToSparseUpper();
+  const Eigen::SparseMatrix<double> lower = LowerWithFillBudget(a, options_.fill_levels);
 
   // Input checks Eigen does not make: a NaN pivot passes its `diag <= 0`
   // test, and a non-positive diagonal is silently shifted away.
   for (int c = 0; c < n; ++c) {
-    for (Eigen::SparseMatrix<double>::InnerIterator it(upper, c); it; ++it) {
+    for (Eigen::SparseMatrix<double>::InnerIterator it(lower, c); it; ++it) {
       const int r = static_cast<int>(it.row());
       if (!std::isfinite(it.value())) {
         return Status::Numerical(fmt::format(
@@ -77,9 +156,6 @@ Status IncompleteCholeskyPreconditioner::Update(const BlockSparseMatrix& a) {
   if (spare_ == nullptr) spare_ = std::make_unique<Factor>();
   EigenIncompleteCholesky& factorization = spare_->incomplete_cholesky;
   factorization.setInitialShift(options_.initial_shift);
-  // Eigen reads the lower triangle (UpLo = Lower); the transpose of the
-  // compressed upper triangle is exactly that.
-  const Eigen::SparseMatrix<double> lower = upper.transpose();
   if (n > 0) {  // Eigen 3.4 sizes a work vector n - 1 and asserts on n = 0
     factorization.compute(lower);
     if (factorization.info() != Eigen::Success) {
@@ -114,7 +190,7 @@ Status IncompleteCholeskyPreconditioner::Update(const BlockSparseMatrix& a) {
   spare_->scratch.assign(static_cast<size_t>(n), 0.0);
   factor_.swap(spare_);
   num_rows_ = n;
-  num_lower_nonzeros_ = lower.nonZeros();
+  num_pattern_nonzeros_ = lower.nonZeros();
   return Status::Ok();
 }
 

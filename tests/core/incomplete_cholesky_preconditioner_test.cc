@@ -98,12 +98,14 @@ TEST(IncompleteCholeskyPreconditioner, PcgSolveEqualsDenseSolve) {
       const BlockSparseMatrix a = RandomSpdMatrix(seed + 70, b, n);
       const Eigen::VectorXd rhs = RandomVector(seed + 3000, a.num_rows());
       const Eigen::VectorXd expected = a.ToDense().ldlt().solve(rhs);
-      IncompleteCholeskyPreconditioner incomplete_cholesky;
+      IncompleteCholeskyOptions ic_options;
+      ic_options.fill_levels = static_cast<int>(seed % 3);  // 0, 1 and 2
+      IncompleteCholeskyPreconditioner incomplete_cholesky(ic_options);
       ASSERT_TRUE(incomplete_cholesky.Update(a).ok());
       EXPECT_EQ(incomplete_cholesky.num_rows(), a.num_rows());
-      // Eigen keeps p largest entries per column: no more memory than tril(A).
+      // Eigen keeps p_j largest entries per column: exactly the budget tril(G).
       EXPECT_EQ(incomplete_cholesky.num_factor_nonzeros(),
-                incomplete_cholesky.num_lower_nonzeros());
+                incomplete_cholesky.num_pattern_nonzeros());
       PcgOptions options;
       options.max_iterations = 10 * a.num_rows();
       options.relative_tolerance = 1e-12;
@@ -122,8 +124,12 @@ TEST(IncompleteCholeskyPreconditioner, ProductEqualsEigenSolveAndIsSymmetricPosi
   for (uint32_t seed = 1; seed <= 4; ++seed) {
     SCOPED_TRACE(testing::Message() << "seed " << seed);
     const BlockSparseMatrix a = RandomSpdMatrix(seed + 90, 3, 25);
-    IncompleteCholeskyPreconditioner incomplete_cholesky;
+    // fill_levels 0: the matrix handed to Eigen is exactly tril(A).
+    IncompleteCholeskyOptions options;
+    options.fill_levels = 0;
+    IncompleteCholeskyPreconditioner incomplete_cholesky(options);
     ASSERT_TRUE(incomplete_cholesky.Update(a).ok());
+    EXPECT_EQ(incomplete_cholesky.num_pattern_nonzeros(), a.ToSparseUpper().nonZeros());
 
     // Reference: Eigen's own solve with the same factor (same input, same
     // deterministic factorization), through its generic permutation and
@@ -142,12 +148,21 @@ TEST(IncompleteCholeskyPreconditioner, ProductEqualsEigenSolveAndIsSymmetricPosi
         << "ours:  " << y.transpose() << "\neigen: " << expected.transpose();
 
     // PCG needs M^{-1} symmetric positive definite.
-    const Eigen::MatrixXd inverse = DenseInverse(incomplete_cholesky);
-    EXPECT_LE((inverse - inverse.transpose()).norm(), 1e-12 * inverse.norm());
-    const Eigen::VectorXd eigenvalues =
-        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(0.5 * (inverse + inverse.transpose()))
-            .eigenvalues();
-    EXPECT_GT(eigenvalues.minCoeff(), 0.0) << eigenvalues.transpose();
+    // PCG needs M^{-1} symmetric positive definite, with and without fill.
+    for (int fill_levels : {0, 1, 2}) {
+      SCOPED_TRACE(testing::Message() << "fill_levels " << fill_levels);
+      options.fill_levels = fill_levels;
+      IncompleteCholeskyPreconditioner with_fill(options);
+      ASSERT_TRUE(with_fill.Update(a).ok());
+      const Eigen::MatrixXd inverse = DenseInverse(with_fill);
+      // Relative 1e-12: the two triangular solves are transposes of each
+      // other, so asymmetry is rounding only.
+      EXPECT_LE((inverse - inverse.transpose()).norm(), 1e-12 * inverse.norm());
+      const Eigen::VectorXd eigenvalues =
+          Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(0.5 * (inverse + inverse.transpose()))
+              .eigenvalues();
+      EXPECT_GT(eigenvalues.minCoeff(), 0.0) << eigenvalues.transpose();
+    }
   }
 }
 
@@ -155,7 +170,8 @@ TEST(IncompleteCholeskyPreconditioner, IsExactOnABlockTridiagonalMatrix) {
   // A chain has no fill under AMD (its graph is an interval graph, eliminated
   // leaf-first), so nothing is dropped and L L^T is the exact Cholesky factor.
   for (uint32_t seed = 1; seed <= 3; ++seed) {
-    SCOPED_TRACE(testing::Message() << "seed " << seed);
+    const int fill_levels = static_cast<int>(seed) - 1;  // 0, 1, 2
+    SCOPED_TRACE(testing::Message() << "seed " << seed << ", fill_levels " << fill_levels);
     const int n = 40;
     std::vector<std::pair<int, int>> pairs;
     for (int i = 0; i + 1 < n; ++i) pairs.emplace_back(i, i + 1);
@@ -169,7 +185,9 @@ TEST(IncompleteCholeskyPreconditioner, IsExactOnABlockTridiagonalMatrix) {
       ASSERT_TRUE(a.AddBlock(i, k, block));
     }
     for (int i = 0; i < n; ++i) ASSERT_TRUE(a.AddBlock(i, i, 7.0 * Eigen::Matrix3d::Identity()));
-    IncompleteCholeskyPreconditioner incomplete_cholesky;
+    IncompleteCholeskyOptions options;
+    options.fill_levels = fill_levels;
+    IncompleteCholeskyPreconditioner incomplete_cholesky(options);
     ASSERT_TRUE(incomplete_cholesky.Update(a).ok());
     const Eigen::MatrixXd inverse = DenseInverse(incomplete_cholesky);
     const Eigen::MatrixXd expected = a.ToDense().inverse();
@@ -252,6 +270,15 @@ TEST(IncompleteCholeskyPreconditioner, FailuresNameTheQuantityAndKeepTheState) {
     EXPECT_TRUE(status.IsInvalidArgument()) << status.ToString();
     EXPECT_NE(status.message().find("initial_shift"), std::string::npos) << status.ToString();
   }
+  options = IncompleteCholeskyOptions();
+  for (int bad_levels : {-1, IncompleteCholeskyOptions::kMaxFillLevels + 1}) {
+    options.fill_levels = bad_levels;
+    IncompleteCholeskyPreconditioner rejected(options);
+    status = rejected.Update(good);
+    EXPECT_TRUE(status.IsInvalidArgument()) << status.ToString();
+    EXPECT_NE(status.message().find("fill_levels"), std::string::npos) << status.ToString();
+    EXPECT_EQ(rejected.num_rows(), 0);
+  }
 
   // Every failure above left the first factor in place, bit for bit.
   EXPECT_EQ(incomplete_cholesky.num_rows(), good.num_rows());
@@ -259,6 +286,7 @@ TEST(IncompleteCholeskyPreconditioner, FailuresNameTheQuantityAndKeepTheState) {
 
   // A larger initial shift makes the indefinite matrix factorable (M^{-1} is
   // then SPD, though no longer an approximation of A^{-1}).
+  options = IncompleteCholeskyOptions();
   options.initial_shift = 1.0;
   IncompleteCholeskyPreconditioner shifted(options);
   EXPECT_TRUE(shifted.Update(indefinite).ok());
@@ -383,30 +411,41 @@ TEST(IncompleteCholeskyPreconditioner, NeedsFarFewerPcgIterationsThanBlockJacobi
 
     BlockJacobiPreconditioner jacobi;
     const TimedSolve with_jacobi = UpdateAndSolve(a, graph.rhs, options, &jacobi);
-    IncompleteCholeskyPreconditioner incomplete_cholesky;
-    const TimedSolve with_ic = UpdateAndSolve(a, graph.rhs, options, &incomplete_cholesky);
     ASSERT_TRUE(with_jacobi.summary.converged);
-    ASSERT_TRUE(with_ic.summary.converged);
-
-    // Both solve the same system: relative 1e-6 between the two PCG solutions
-    // and against a dense LDLT (residual 1e-8, condition ~1e4 on this graph).
-    const Eigen::VectorXd expected = a.ToDense().ldlt().solve(graph.rhs);
-    EXPECT_LE(RelativeError(with_ic.x, expected), 1e-6);
-    EXPECT_LE(RelativeError(with_jacobi.x, expected), 1e-6);
-
     std::printf(
-        "[ pose graph seed %u: %d poses, %d loop closures, %d x %d reduced system ]\n"
-        "  block-Jacobi:         %4d PCG iterations, update %8.3f ms, solve %8.3f ms\n"
-        "  incomplete Cholesky:  %4d PCG iterations, update %8.3f ms, solve %8.3f ms "
-        "(nnz(L) = %lld = nnz(tril A))\n",
+        "[ pose graph seed %u: %d poses, %d loop closures, %d x %d reduced system, PCG to 1e-8 ]\n"
+        "  block-Jacobi:                        %4d iterations, update %7.3f ms, solve %7.3f ms\n",
         seed, a.num_block_rows() + 1, graph.num_loop_closures, a.num_rows(), a.num_rows(),
         with_jacobi.summary.iterations, 1e3 * with_jacobi.update_seconds,
-        1e3 * with_jacobi.solve_seconds, with_ic.summary.iterations,
-        1e3 * with_ic.update_seconds, 1e3 * with_ic.solve_seconds,
-        static_cast<long long>(incomplete_cholesky.num_factor_nonzeros()));
-    EXPECT_LT(3 * with_ic.summary.iterations, with_jacobi.summary.iterations)
-        << "incomplete Cholesky " << with_ic.summary.iterations << " vs block-Jacobi "
-        << with_jacobi.summary.iterations;
+        1e3 * with_jacobi.solve_seconds);
+    // Relative 1e-6 against a dense LDLT for every solve: cond(A) ~ 4e6 here,
+    // so a 1e-8 residual does not bound the error by 1e-6 a priori; observed
+    // 2e-9 .. 7e-8 on these seeds.
+    const Eigen::VectorXd expected = a.ToDense().ldlt().solve(graph.rhs);
+    EXPECT_LE(RelativeError(with_jacobi.x, expected), 1e-6);
+
+    // The default (fill_levels 1) is asserted; 0 and 2 are printed for scale.
+    for (int fill_levels : {0, 1, 2}) {
+      IncompleteCholeskyOptions ic_options;
+      ic_options.fill_levels = fill_levels;
+      IncompleteCholeskyPreconditioner incomplete_cholesky(ic_options);
+      const TimedSolve with_ic = UpdateAndSolve(a, graph.rhs, options, &incomplete_cholesky);
+      ASSERT_TRUE(with_ic.summary.converged);
+      EXPECT_LE(RelativeError(with_ic.x, expected), 1e-6);
+      std::printf(
+          "  incomplete Cholesky, fill_levels %d:  %4d iterations, update %7.3f ms, solve %7.3f "
+          "ms, nnz(L) = %lld = %.2f x nnz(tril A)\n",
+          fill_levels, with_ic.summary.iterations, 1e3 * with_ic.update_seconds,
+          1e3 * with_ic.solve_seconds,
+          static_cast<long long>(incomplete_cholesky.num_factor_nonzeros()),
+          static_cast<double>(incomplete_cholesky.num_factor_nonzeros()) /
+              static_cast<double>(a.ToSparseUpper().nonZeros()));
+      if (fill_levels == IncompleteCholeskyOptions().fill_levels) {
+        EXPECT_LT(3 * with_ic.summary.iterations, with_jacobi.summary.iterations)
+            << "incomplete Cholesky " << with_ic.summary.iterations << " vs block-Jacobi "
+            << with_jacobi.summary.iterations;
+      }
+    }
   }
 }
 
