@@ -17,3 +17,4 @@ target_sources(graphslam_storage PRIVATE
   chunk_reader.cc
   chunk_writer.cc
   crc32c.cc)
+target_sources(graphslam_storage PRIVATE chunk_store.cc)

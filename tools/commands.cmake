@@ -4,3 +4,4 @@ target_sources(graphslam_tools PRIVATE
   evaluate_command.cc
   simulate_command.cc
   trajectory_metrics.cc)
+target_sources(graphslam_tools PRIVATE ingest_command.cc)

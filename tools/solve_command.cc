@@ -14,6 +14,7 @@
 #include "partition/in_memory_chunk_source.h"
 #include "partition/progressive_initialization.h"
 #include "storage/atomic_file.h"
+#include "storage/chunk_store.h"
 #include "storage/features_csv_writer.h"
 #include "storage/format_detection.h"
 #include "storage/g2o_writer.h"
@@ -120,6 +121,20 @@ const char* FormatName(storage::InputFormat format) {
   return "unknown";
 }
 
+// Appends every observation of `chunks`, in chunk order, to problem->observations.
+// Each feature's observations keep their input order (chunks are
+// feature-complete), which is all progressive initialization and the
+// in-memory chunking depend on, so they behave as on the original input.
+Status LoadObservations(const core::ChunkSource& chunks, core::Problem2d* problem) {
+  core::ObservationChunk chunk;
+  for (int64_t k = 0; k < chunks.NumChunks(); ++k) {
+    GS_RETURN_IF_ERROR(chunks.Load(k, &chunk));
+    problem->observations.insert(problem->observations.end(), chunk.observations.begin(),
+                                 chunk.observations.end());
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code) {
@@ -190,25 +205,43 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     return kExitUsage;
   }
 
-  // Read.
-  storage::InputFormat format;
-  if (options.format == "auto") {
-    StatusOr<storage::InputFormat> detected = storage::DetectInputFormat(options.input);
-    if (!detected.ok()) return fail(detected.status());
-    format = *detected;
+  // Read. A chunk store (graphslam ingest) needs no format detection: the
+  // problem is its pose-only native log and the solve streams its chunks from
+  // disk. Its observations are also loaded back into the problem, for
+  // progressive initialization (which needs them) and the report.
+  std::unique_ptr<storage::DiskChunkSource> store;
+  core::Problem2d problem;
+  const char* format_name = "chunk-store";
+  if (storage::IsChunkStore(options.input)) {
+    StatusOr<std::unique_ptr<storage::DiskChunkSource>> opened =
+        storage::DiskChunkSource::Open(options.input);
+    if (!opened.ok()) return fail(opened.status());
+    store = std::move(opened).value();
+    StatusOr<core::Problem2d> read = storage::ReadChunkStoreProblem(options.input);
+    if (!read.ok()) return fail(read.status());
+    problem = std::move(read).value();
+    if (Status status = LoadObservations(*store, &problem); !status.ok()) return fail(status);
   } else {
-    StatusOr<storage::InputFormat> parsed = storage::ParseInputFormat(options.format);
-    if (!parsed.ok()) {
-      std::fprintf(stderr, "graphslam solve: --format: %s\n", parsed.status().ToString().c_str());
-      return kExitUsage;
+    storage::InputFormat format;
+    if (options.format == "auto") {
+      StatusOr<storage::InputFormat> detected = storage::DetectInputFormat(options.input);
+      if (!detected.ok()) return fail(detected.status());
+      format = *detected;
+    } else {
+      StatusOr<storage::InputFormat> parsed = storage::ParseInputFormat(options.format);
+      if (!parsed.ok()) {
+        std::fprintf(stderr, "graphslam solve: --format: %s\n", parsed.status().ToString().c_str());
+        return kExitUsage;
+      }
+      format = *parsed;
     }
-    format = *parsed;
+    storage::MrclamOptions mrclam;
+    mrclam.robot = options.robot;
+    StatusOr<core::Problem2d> read = storage::ReadProblem(options.input, format, mrclam);
+    if (!read.ok()) return fail(read.status());
+    problem = std::move(read).value();
+    format_name = FormatName(format);
   }
-  storage::MrclamOptions mrclam;
-  mrclam.robot = options.robot;
-  StatusOr<core::Problem2d> read = storage::ReadProblem(options.input, format, mrclam);
-  if (!read.ok()) return fail(read.status());
-  core::Problem2d problem = std::move(read).value();
   const double read_seconds = Seconds(start);
 
   // Initialize (Table 1) and validate connectivity.
@@ -224,7 +257,10 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   }
   partition::ChunkingOptions chunking;
   chunking.max_observations_per_chunk = options.chunk_observations;
-  partition::InMemoryChunkSource chunks(problem, chunking);
+  std::unique_ptr<partition::InMemoryChunkSource> in_memory;
+  if (!store) in_memory = std::make_unique<partition::InMemoryChunkSource>(problem, chunking);
+  const core::ChunkSource& chunks =
+      store ? static_cast<const core::ChunkSource&>(*store) : *in_memory;
 
   ProgressDisplay display(!options.quiet);
   core::SolverOptions solver_options;
@@ -273,7 +309,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   }
   const double total_seconds = Seconds(start);
   if (!options.report.empty()) {
-    const nlohmann::json report = BuildReport(options, problem, summary, FormatName(format),
+    const nlohmann::json report = BuildReport(options, problem, summary, format_name,
                                               read_seconds, initialize_seconds,
                                               progressive_seconds, total_seconds);
     if (Status status = storage::WriteStringAtomically(storage::Env::Default(), options.report,
@@ -284,7 +320,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
 
   if (!options.quiet) {
     std::printf("graphslam solve summary\n");
-    std::printf("  input              %s (%s)\n", options.input.c_str(), FormatName(format));
+    std::printf("  input              %s (%s)\n", options.input.c_str(), format_name);
     std::printf("  poses / features   %d / %d (%lld eliminated, %lld excluded)\n",
                 problem.num_poses(), problem.num_features(),
                 static_cast<long long>(summary.eliminated_features),
