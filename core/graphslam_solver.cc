@@ -10,6 +10,7 @@
 #include "core/block_sparse_matrix.h"
 #include "core/chunk_passes.h"
 #include "core/cholmod_solver.h"
+#include "core/incomplete_cholesky_preconditioner.h"
 #include "core/logging.h"
 #include "core/pose_factors.h"
 #include "core/preconditioned_conjugate_gradient.h"
@@ -46,11 +47,17 @@ class ReducedSolver {
       *iterations = 1;
       return Status::Ok();
     }
-    GS_RETURN_IF_ERROR(preconditioner_.Update(matrix));
+    const LinearOperator* preconditioner = &block_jacobi_;
+    if (options_.preconditioner == PreconditionerType::kIncompleteCholesky) {
+      GS_RETURN_IF_ERROR(incomplete_cholesky_.Update(matrix));
+      preconditioner = &incomplete_cholesky_;
+    } else {
+      GS_RETURN_IF_ERROR(block_jacobi_.Update(matrix));
+    }
     PcgOptions pcg;
     pcg.max_iterations = options_.pcg_max_iterations;
     pcg.relative_tolerance = options_.pcg_relative_tolerance;
-    const PcgSummary summary = SolvePcg(matrix, preconditioner_, rhs, pcg, x);
+    const PcgSummary summary = SolvePcg(matrix, *preconditioner, rhs, pcg, x);
     *iterations = summary.iterations;
     if (!x->allFinite()) return Status::Numerical("PCG produced a non-finite step");
     return Status::Ok();
@@ -60,7 +67,8 @@ class ReducedSolver {
   LinearSolverType type_;
   const SolverOptions& options_;
   CholmodSolver cholmod_;
-  BlockJacobiPreconditioner preconditioner_;
+  BlockJacobiPreconditioner block_jacobi_;
+  IncompleteCholeskyPreconditioner incomplete_cholesky_;
 };
 
 std::vector<Pose2> ApplyPoseStep(const std::vector<Pose2>& poses, const UnknownLayout& layout,
@@ -91,6 +99,21 @@ StatusOr<LinearSolverType> ParseLinearSolverType(std::string_view name) {
   if (name == "cholmod") return LinearSolverType::kCholmod;
   return Status::InvalidArgument("unknown linear solver '" + std::string(name) +
                                  "'; expected auto, pcg or cholmod");
+}
+
+const char* PreconditionerName(PreconditionerType type) {
+  switch (type) {
+    case PreconditionerType::kBlockJacobi: return "block-jacobi";
+    case PreconditionerType::kIncompleteCholesky: return "incomplete-cholesky";
+  }
+  return "unknown";
+}
+
+StatusOr<PreconditionerType> ParsePreconditionerType(std::string_view name) {
+  if (name == "block-jacobi") return PreconditionerType::kBlockJacobi;
+  if (name == "incomplete-cholesky") return PreconditionerType::kIncompleteCholesky;
+  return Status::InvalidArgument("unknown preconditioner '" + std::string(name) +
+                                 "'; expected block-jacobi or incomplete-cholesky");
 }
 
 Status SolverOptions::Validate() const {

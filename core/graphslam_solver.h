@@ -43,8 +43,11 @@
 namespace graphslam::core {
 
 enum class LinearSolverType { kAuto, kPcg, kCholmod };
+enum class PreconditionerType { kBlockJacobi, kIncompleteCholesky };
 const char* LinearSolverName(LinearSolverType type);
 StatusOr<LinearSolverType> ParseLinearSolverType(std::string_view name);
+const char* PreconditionerName(PreconditionerType type);
+StatusOr<PreconditionerType> ParsePreconditionerType(std::string_view name);
 
 struct IterationSummary {
   int iteration = 0;              // 1-based
@@ -72,6 +75,7 @@ struct SolverOptions {
   double max_trust_region_radius = 1e16;
   double min_trust_region_radius = 1e-32;
   double min_relative_decrease = 1e-3;
+  PreconditionerType preconditioner = PreconditionerType::kBlockJacobi;  // for PCG
   int pcg_max_iterations = 2000;
   double pcg_relative_tolerance = 1e-10;
   // kAuto picks CHOLMOD up to this many scalar pose unknowns, PCG above.

@@ -57,6 +57,7 @@ nlohmann::json BuildReport(const SolveCommandOptions& options, const core::Probl
   report["input"] = options.input;
   report["format"] = format_name;
   report["solver"] = core::LinearSolverName(summary.linear_solver_used);
+  report["preconditioner"] = options.preconditioner;
   report["initial_chi2"] = summary.initial_chi2;
   report["final_chi2"] = summary.final_chi2;
   report["iterations"] = summary.iterations;
@@ -146,6 +147,9 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
       ->capture_default_str();
   solve->add_option("--solver", options->solver, "reduced system solver: auto, pcg, cholmod")
       ->capture_default_str();
+  solve->add_option("--preconditioner", options->preconditioner,
+                    "PCG preconditioner: block-jacobi, incomplete-cholesky")
+      ->capture_default_str();
   solve->add_option("--max-iterations", options->max_iterations, "Levenberg-Marquardt iterations")
       ->capture_default_str();
   solve->add_option("--function-tolerance", options->function_tolerance,
@@ -199,6 +203,13 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     return kExitUsage;
   }
 
+  StatusOr<core::PreconditionerType> preconditioner =
+      core::ParsePreconditionerType(options.preconditioner);
+  if (!preconditioner.ok()) {
+    std::fprintf(stderr, "graphslam solve: --preconditioner: %s\n",
+                 preconditioner.status().ToString().c_str());
+    return kExitUsage;
+  }
   StatusOr<core::RobustKernel> kernel = core::ParseRobustKernel(options.robust_kernel);
   if (!kernel.ok()) {
     std::fprintf(stderr, "graphslam solve: --robust-kernel: %s\n", kernel.status().ToString().c_str());
@@ -265,6 +276,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   ProgressDisplay display(!options.quiet);
   core::SolverOptions solver_options;
   solver_options.linear_solver = *solver_type;
+  solver_options.preconditioner = *preconditioner;
   solver_options.max_iterations = options.max_iterations;
   solver_options.max_eliminated_observations = options.max_eliminated_observations;
   solver_options.observation_kernel = *kernel;

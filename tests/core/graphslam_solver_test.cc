@@ -194,3 +194,30 @@ TEST(GraphSlamSolver, RobustKernelResistsAGrossOutlier) {
 
 }  // namespace
 }  // namespace graphslam::core
+
+namespace graphslam::core {
+namespace {
+
+TEST(GraphSlamSolver, IncompleteCholeskyPcgReachesTheCholmodOptimum) {
+  testing::RandomProblemOptions options;
+  options.num_poses = 80;
+  options.num_features = 20;
+  options.seed = 13;
+  testing::RandomProblem random = testing::MakeRandomProblem(options);
+  Problem2d direct = random.problem, iterative = random.problem;
+  partition::InMemoryChunkSource chunks(random.problem, partition::ChunkingOptions());
+  SolverOptions solver_options;
+  solver_options.function_tolerance = 1e-12;
+  solver_options.linear_solver = LinearSolverType::kCholmod;
+  SolverSummary a, b;
+  ASSERT_TRUE(SolveGraphSlam(solver_options, chunks, &direct, &a).ok());
+  solver_options.linear_solver = LinearSolverType::kPcg;
+  solver_options.preconditioner = PreconditionerType::kIncompleteCholesky;
+  ASSERT_TRUE(SolveGraphSlam(solver_options, chunks, &iterative, &b).ok());
+  EXPECT_EQ(b.linear_solver_used, LinearSolverType::kPcg);
+  EXPECT_NEAR(a.final_chi2, b.final_chi2, 1e-8 * a.final_chi2);
+  EXPECT_TRUE(ParsePreconditionerType("jacobi").status().IsInvalidArgument());
+}
+
+}  // namespace
+}  // namespace graphslam::core
