@@ -154,6 +154,30 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
   ScreeningResult screening;
   GS_RETURN_IF_ERROR(ScreenFeatures(context, problem->poses, problem->features,
                                     options.max_eliminated_observations, &screening));
+  const SolverCheckpoint* resume = options.resume_from;
+  if (resume != nullptr) {
+    if (resume->poses.size() != problem->poses.size() ||
+        resume->features.size() != problem->features.size() ||
+        resume->excluded.size() != problem->features.size() ||
+        resume->kept.size() != problem->features.size()) {
+      return Status::InvalidArgument(
+          "checkpoint does not match the problem: " + std::to_string(resume->poses.size()) +
+          " poses and " + std::to_string(resume->features.size()) + " features, expected " +
+          std::to_string(problem->poses.size()) + " and " +
+          std::to_string(problem->features.size()));
+    }
+    // The checkpoint's partition of the features, not one recomputed at the
+    // resumed state: the continued solve must be the interrupted one.
+    const int64_t unobserved = screening.unobserved;
+    screening.excluded = resume->excluded;
+    screening.kept = resume->kept;
+    screening.kept_count = std::count(screening.kept.begin(), screening.kept.end(), 1);
+    screening.excluded_not_positive_definite =
+        std::count(screening.excluded.begin(), screening.excluded.end(), 1) - unobserved;
+    problem->poses = resume->poses;
+    problem->features = resume->features;
+    summary->resumed_from_iteration = resume->iterations;
+  }
   layout.KeepFeatures(screening.kept);
   summary->kept_features = screening.kept_count;
   summary->excluded_features = screening.excluded_not_positive_definite;
@@ -203,12 +227,30 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
 
   double radius = options.initial_trust_region_radius;
   double decrease_factor = 2.0;
+  int first_iteration = 1;
+  if (resume != nullptr) {
+    // The checkpoint's chi2, not a recomputation: acceptance decisions must
+    // see the very number the interrupted solve saw.
+    chi2 = resume->chi2;
+    summary->final_chi2 = chi2;
+    summary->initial_chi2 = resume->initial_chi2;
+    radius = resume->trust_region_radius;
+    decrease_factor = resume->decrease_factor;
+    first_iteration = resume->iterations + 1;
+    summary->iterations = resume->iterations;
+    if (resume->converged) {
+      summary->converged = true;
+      summary->termination = resume->termination;
+      summary->seconds = SecondsSince(start);
+      return Status::Ok();
+    }
+  }
   std::vector<Point2> candidate_features;
   Eigen::VectorXd pose_step;
   summary->termination = "max_iterations";
   const int num_rows = system.matrix.num_rows();
 
-  for (int iteration = 1; iteration <= options.max_iterations; ++iteration) {
+  for (int iteration = first_iteration; iteration <= options.max_iterations; ++iteration) {
     const Clock::time_point iteration_start = Clock::now();
     IterationSummary it;
     it.iteration = iteration;
@@ -300,13 +342,27 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
             it.linear_iterations, it.accepted ? "accepted" : "rejected");
     if (options.iteration_callback) options.iteration_callback(it);
     if (options.progress) options.progress("optimize", iteration, options.max_iterations);
+    if (!converged && radius < options.min_trust_region_radius) {
+      summary->termination = "min_trust_region_radius";
+      converged = true;  // no further decrease possible: a (local) minimum
+    }
+    if (options.checkpoint_callback) {
+      SolverCheckpoint checkpoint;
+      checkpoint.iterations = iteration;
+      checkpoint.trust_region_radius = radius;
+      checkpoint.decrease_factor = decrease_factor;
+      checkpoint.initial_chi2 = summary->initial_chi2;
+      checkpoint.chi2 = chi2;
+      checkpoint.converged = converged;
+      checkpoint.termination = converged ? summary->termination : "";
+      checkpoint.poses = poses;
+      checkpoint.features = features;
+      checkpoint.excluded = summary->excluded;
+      checkpoint.kept = screening.kept;
+      GS_RETURN_IF_ERROR(options.checkpoint_callback(checkpoint));
+    }
     if (converged) {
       summary->converged = true;
-      break;
-    }
-    if (radius < options.min_trust_region_radius) {
-      summary->termination = "min_trust_region_radius";
-      summary->converged = true;  // no further decrease possible: a (local) minimum
       break;
     }
   }

@@ -65,6 +65,23 @@ struct IterationSummary {
   double recover_seconds = 0.0;  // recover features + evaluate (one pass)
 };
 
+// Everything the loop carries from one iteration to the next: a solve resumed
+// from a checkpoint continues exactly as the uninterrupted one would have
+// (same steps, same damping, bit for bit).
+struct SolverCheckpoint {
+  int iterations = 0;  // iterations completed
+  double trust_region_radius = 0.0;
+  double decrease_factor = 2.0;
+  double initial_chi2 = 0.0;
+  double chi2 = 0.0;
+  bool converged = false;
+  std::string termination;
+  std::vector<Pose2> poses;
+  std::vector<Point2> features;
+  std::vector<uint8_t> excluded;  // per feature: kept out of the solve
+  std::vector<uint8_t> kept;      // per feature: unknown of the reduced system
+};
+
 struct SolverOptions {
   LinearSolverType linear_solver = LinearSolverType::kAuto;
   int max_iterations = 100;
@@ -86,6 +103,11 @@ struct SolverOptions {
   int64_t max_eliminated_observations = 64;
   // Applied to every observation (IRLS); chi2 is then the robust cost.
   RobustKernel observation_kernel;
+  // Called after every iteration with the state to continue from; an error
+  // (e.g. the disk is full) stops the solve and is returned.
+  std::function<Status(const SolverCheckpoint&)> checkpoint_callback;  // optional
+  // Continue from this state instead of starting over; must outlive the call.
+  const SolverCheckpoint* resume_from = nullptr;
   ProgressCallback progress;                                  // optional
   std::function<void(const IterationSummary&)> iteration_callback;  // optional
 
@@ -109,6 +131,7 @@ struct SolverSummary {
   int64_t reduced_nonzero_blocks = 0;
   double seconds = 0.0;
   std::vector<uint8_t> excluded;   // per feature: 1 if kept out of the solve
+  int resumed_from_iteration = 0;  // > 0 when continued from a checkpoint
 };
 
 // Optimizes problem->poses and problem->features in place. `chunks` holds the

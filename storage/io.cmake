@@ -18,3 +18,4 @@ target_sources(graphslam_storage PRIVATE
   chunk_writer.cc
   crc32c.cc)
 target_sources(graphslam_storage PRIVATE chunk_store.cc)
+target_sources(graphslam_storage PRIVATE solver_checkpoint.cc)

@@ -4,6 +4,7 @@
 #include <tbb/info.h>
 
 #include <chrono>
+#include <filesystem>
 #include <cstdio>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -14,6 +15,7 @@
 #include "partition/in_memory_chunk_source.h"
 #include "partition/progressive_initialization.h"
 #include "storage/atomic_file.h"
+#include "storage/solver_checkpoint.h"
 #include "storage/chunk_store.h"
 #include "storage/features_csv_writer.h"
 #include "storage/format_detection.h"
@@ -44,6 +46,8 @@ Status ValidateOptions(const SolveCommandOptions& options) {
   if (options.initialization != "progressive" && options.initialization != "odometry")
     return Status::InvalidArgument("--initialization must be progressive or odometry, got '" +
                                    options.initialization + "'");
+  if (options.resume && options.checkpoint.empty() && !storage::IsChunkStore(options.input))
+    return Status::InvalidArgument("--resume needs --checkpoint FILE (or a chunk store as input)");
   if (options.chunk_observations <= 0)
     return Status::InvalidArgument("--chunk-observations must be > 0");
   return Status::Ok();
@@ -71,6 +75,7 @@ nlohmann::json BuildReport(const SolveCommandOptions& options, const core::Probl
   report["kept_features"] = summary.kept_features;
   report["robust_kernel"] = options.robust_kernel;
   report["initialization"] = options.initialization;
+  report["resumed_from_iteration"] = summary.resumed_from_iteration;
   report["excluded_features"] = summary.excluded_features;
   report["unobserved_features"] = summary.unobserved_features;
   report["relative_pose_constraints"] = static_cast<int64_t>(problem.relative_poses.size());
@@ -180,6 +185,11 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
   solve->add_option("--progressive-max-new-poses", options->progressive_max_new_poses,
                     "at most this many poses join per progressive stage")
       ->capture_default_str();
+  solve->add_option("--checkpoint", options->checkpoint,
+                    "solver checkpoint file, replaced atomically after every iteration "
+                    "(default for a chunk store: STORE/checkpoint.json)");
+  solve->add_flag("--resume", options->resume,
+                  "continue from the checkpoint, if one exists (after a crash or kill -9)");
   solve->add_flag("-q,--quiet", options->quiet, "no progress or summary on the terminal");
   solve->add_flag("-v,--verbose", options->verbosity, "more log detail (repeatable)");
   solve->callback([options, exit_code]() { *exit_code = RunSolveCommand(*options); });
@@ -283,11 +293,33 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   solver_options.function_tolerance = options.function_tolerance;
   solver_options.initial_trust_region_radius = options.initial_trust_region_radius;
   solver_options.progress = display.AsCallback();
+  // Checkpoints: one durable file, replaced atomically after every iteration;
+  // --resume continues from it (bit-identical to an uninterrupted solve).
+  std::string checkpoint_path = options.checkpoint;
+  if (checkpoint_path.empty() && store) checkpoint_path = options.input + "/checkpoint.json";
+  if (options.resume && checkpoint_path.empty()) {
+    std::fprintf(stderr, "graphslam solve: --resume needs --checkpoint FILE (or a chunk store)\n");
+    return kExitUsage;
+  }
+  core::SolverCheckpoint resume_state;
+  const bool resuming = options.resume && std::filesystem::exists(checkpoint_path);
+  if (resuming) {
+    StatusOr<core::SolverCheckpoint> read_checkpoint =
+        storage::ReadSolverCheckpoint(checkpoint_path, options.input);
+    if (!read_checkpoint.ok()) return fail(read_checkpoint.status());
+    resume_state = std::move(read_checkpoint).value();
+    GS_LOG(INFO, "resuming from %s after iteration %d (chi2 %.9g)", checkpoint_path.c_str(),
+           resume_state.iterations, resume_state.chi2);
+  } else if (options.resume) {
+    GS_LOG(WARNING, "no checkpoint at %s yet: starting from the beginning",
+           checkpoint_path.c_str());
+  }
+
   // Progressive initialization: growing prefixes of the trajectory, each
   // solved briefly, put the guess into the basin of the global optimum.
   const Clock::time_point progressive_start = Clock::now();
   partition::ProgressiveInitializationOptions progressive;
-  progressive.enabled = options.initialization == "progressive";
+  progressive.enabled = options.initialization == "progressive" && !resuming;
   progressive.max_observations_per_chunk = options.chunk_observations;
   progressive.max_new_poses = options.progressive_max_new_poses;
   if (Status status = progressive.Validate(); !status.ok()) {
@@ -301,6 +333,13 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     return fail(status);
   const double progressive_seconds = Seconds(progressive_start);
 
+  if (resuming) solver_options.resume_from = &resume_state;
+  if (!checkpoint_path.empty()) {
+    solver_options.checkpoint_callback = [&](const core::SolverCheckpoint& checkpoint) {
+      return storage::WriteSolverCheckpoint(storage::Env::Default(), checkpoint_path,
+                                            options.input, checkpoint);
+    };
+  }
   core::SolverSummary summary;
   if (Status status = core::SolveGraphSlam(solver_options, chunks, &problem, &summary); !status.ok())
     return fail(status);

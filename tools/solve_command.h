@@ -30,6 +30,8 @@ struct SolveCommandOptions {
   std::string robust_kernel = "none";  // none, huber[:c], cauchy[:c]
   std::string initialization = "progressive";  // progressive, odometry
   int64_t progressive_max_new_poses = 500;     // poses added per progressive stage
+  std::string checkpoint;  // --checkpoint FILE (default STORE/checkpoint.json for stores)
+  bool resume = false;     // --resume: continue from the checkpoint if there is one
   bool quiet = false;
   int verbosity = 0;
 };
