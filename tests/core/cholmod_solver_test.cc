@@ -1,6 +1,7 @@
 // CholmodSolver against dense LDLT solves on random seeded SPD block systems
 // (STYLE rule 15).
 #include "core/cholmod_solver.h"
+#include "tests/testing/random_linear_system.h"
 
 #include <gtest/gtest.h>
 
@@ -14,6 +15,9 @@
 
 namespace graphslam::core {
 namespace {
+
+using graphslam::testing::RelativeError;
+using graphslam::testing::RandomVector;
 
 std::vector<std::pair<int, int>> RandomPairs(uint32_t seed, int n) {
   std::mt19937 rng(seed);
@@ -48,22 +52,11 @@ void FillSpd(uint32_t seed, const std::vector<std::pair<int, int>>& pairs, Block
   m->AddToDiagonal(diagonal);
 }
 
-Eigen::VectorXd RandomVector(uint32_t seed, int n) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> value(-1.0, 1.0);
-  Eigen::VectorXd v(n);
-  for (int i = 0; i < n; ++i) v[i] = value(rng);
-  return v;
-}
-
-double RelativeError(const Eigen::VectorXd& actual, const Eigen::VectorXd& expected) {
-  return (actual - expected).norm() / expected.norm();
-}
 
 TEST(CholmodSolver, SolveEqualsDenseSolve) {
   for (int b : {3, 6}) {
     for (uint32_t seed = 1; seed <= 5; ++seed) {
-      SCOPED_TRACE(testing::Message() << "block size " << b << ", seed " << seed);
+      SCOPED_TRACE(::testing::Message() << "block size " << b << ", seed " << seed);
       const int n = 10 + 40 * static_cast<int>(seed);
       const auto pairs = RandomPairs(seed, n);
       BlockSparseMatrix a = BlockSparseMatrix::FromPattern(b, n, pairs);
@@ -87,7 +80,7 @@ TEST(CholmodSolver, RefactorizingWithNewValuesReusesTheAnalysis) {
   BlockSparseMatrix a = BlockSparseMatrix::FromPattern(3, n, pairs);
   CholmodSolver solver;
   for (uint32_t values_seed : {1u, 2u, 3u}) {
-    SCOPED_TRACE(testing::Message() << "values seed " << values_seed);
+    SCOPED_TRACE(::testing::Message() << "values seed " << values_seed);
     FillSpd(100 + values_seed, pairs, &a);
     ASSERT_TRUE(solver.Factorize(a).ok());
     const Eigen::VectorXd rhs = RandomVector(values_seed, a.num_rows());

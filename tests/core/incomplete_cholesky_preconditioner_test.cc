@@ -24,58 +24,15 @@
 #include "core/preconditioned_conjugate_gradient.h"
 #include "core/relative_pose_model.h"
 #include "core/se2.h"
+#include "tests/testing/random_linear_system.h"
 
 namespace graphslam::core {
 namespace {
 
-// Random SPD block matrix (as in preconditioned_conjugate_gradient_test.cc): a
-// chain plus n random pairs, random blocks scaled by sqrt(s_i s_k) with row
-// scales s_i in 10^-2..10^2, and diagonal blocks that make it strictly
-// diagonally dominant (hence SPD, condition up to ~1e4).
-BlockSparseMatrix RandomSpdMatrix(uint32_t seed, int b, int n) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> value(-1.0, 1.0);
-  std::uniform_int_distribution<int> index(0, n - 1);
-  std::vector<std::pair<int, int>> pairs;
-  for (int i = 0; i + 1 < n; ++i) pairs.emplace_back(i, i + 1);
-  for (int e = 0; e < n; ++e) {
-    const int i = index(rng), k = index(rng);
-    if (i != k) pairs.emplace_back(i, k);
-  }
-  BlockSparseMatrix m = BlockSparseMatrix::FromPattern(b, n, pairs);
-  std::vector<double> scale(n);
-  for (int i = 0; i < n; ++i) scale[i] = std::pow(10.0, 2.0 * value(rng));
-  for (const auto& [i, k] : pairs) {
-    Eigen::MatrixXd block(b, b);
-    for (int r = 0; r < b; ++r)
-      for (int c = 0; c < b; ++c) block(r, c) = value(rng) * std::sqrt(scale[i] * scale[k]);
-    EXPECT_TRUE(m.AddBlock(i, k, block));
-  }
-  const Eigen::VectorXd row_sums = m.ToDense().cwiseAbs().rowwise().sum();
-  for (int i = 0; i < n; ++i) {
-    Eigen::MatrixXd r(b, b);
-    for (int a = 0; a < b; ++a)
-      for (int c = 0; c < b; ++c) r(a, c) = value(rng);
-    Eigen::MatrixXd diagonal = scale[i] * r * r.transpose();
-    for (int a = 0; a < b; ++a) {
-      diagonal(a, a) += row_sums[i * b + a] + scale[i] * (0.1 + diagonal.row(a).cwiseAbs().sum());
-    }
-    EXPECT_TRUE(m.AddBlock(i, i, diagonal));
-  }
-  return m;
-}
+using graphslam::testing::RandomSpdMatrix;
+using graphslam::testing::RandomVector;
+using graphslam::testing::RelativeError;
 
-Eigen::VectorXd RandomVector(uint32_t seed, int n) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> value(-1.0, 1.0);
-  Eigen::VectorXd v(n);
-  for (int i = 0; i < n; ++i) v[i] = value(rng);
-  return v;
-}
-
-double RelativeError(const Eigen::VectorXd& actual, const Eigen::VectorXd& expected) {
-  return (actual - expected).norm() / expected.norm();
-}
 
 // Dense M^{-1}, one column per unit vector.
 Eigen::MatrixXd DenseInverse(const LinearOperator& m) {
@@ -93,7 +50,7 @@ Eigen::MatrixXd DenseInverse(const LinearOperator& m) {
 TEST(IncompleteCholeskyPreconditioner, PcgSolveEqualsDenseSolve) {
   for (int b : {1, 3, 6}) {
     for (uint32_t seed = 1; seed <= 5; ++seed) {
-      SCOPED_TRACE(testing::Message() << "block size " << b << ", seed " << seed);
+      SCOPED_TRACE(::testing::Message() << "block size " << b << ", seed " << seed);
       const int n = seed == 5 ? 300 : 20 + 10 * static_cast<int>(seed);
       const BlockSparseMatrix a = RandomSpdMatrix(seed + 70, b, n);
       const Eigen::VectorXd rhs = RandomVector(seed + 3000, a.num_rows());
@@ -122,7 +79,7 @@ TEST(IncompleteCholeskyPreconditioner, PcgSolveEqualsDenseSolve) {
 
 TEST(IncompleteCholeskyPreconditioner, ProductEqualsEigenSolveAndIsSymmetricPositiveDefinite) {
   for (uint32_t seed = 1; seed <= 4; ++seed) {
-    SCOPED_TRACE(testing::Message() << "seed " << seed);
+    SCOPED_TRACE(::testing::Message() << "seed " << seed);
     const BlockSparseMatrix a = RandomSpdMatrix(seed + 90, 3, 25);
     // fill_levels 0: the matrix handed to Eigen is exactly tril(A).
     IncompleteCholeskyOptions options;
@@ -150,7 +107,7 @@ TEST(IncompleteCholeskyPreconditioner, ProductEqualsEigenSolveAndIsSymmetricPosi
     // PCG needs M^{-1} symmetric positive definite.
     // PCG needs M^{-1} symmetric positive definite, with and without fill.
     for (int fill_levels : {0, 1, 2}) {
-      SCOPED_TRACE(testing::Message() << "fill_levels " << fill_levels);
+      SCOPED_TRACE(::testing::Message() << "fill_levels " << fill_levels);
       options.fill_levels = fill_levels;
       IncompleteCholeskyPreconditioner with_fill(options);
       ASSERT_TRUE(with_fill.Update(a).ok());
@@ -171,7 +128,7 @@ TEST(IncompleteCholeskyPreconditioner, IsExactOnABlockTridiagonalMatrix) {
   // leaf-first), so nothing is dropped and L L^T is the exact Cholesky factor.
   for (uint32_t seed = 1; seed <= 3; ++seed) {
     const int fill_levels = static_cast<int>(seed) - 1;  // 0, 1, 2
-    SCOPED_TRACE(testing::Message() << "seed " << seed << ", fill_levels " << fill_levels);
+    SCOPED_TRACE(::testing::Message() << "seed " << seed << ", fill_levels " << fill_levels);
     const int n = 40;
     std::vector<std::pair<int, int>> pairs;
     for (int i = 0; i + 1 < n; ++i) pairs.emplace_back(i, i + 1);
@@ -401,7 +358,7 @@ TimedSolve UpdateAndSolve(const BlockSparseMatrix& a, const Eigen::VectorXd& rhs
 
 TEST(IncompleteCholeskyPreconditioner, NeedsFarFewerPcgIterationsThanBlockJacobiOnAPoseGraph) {
   for (uint32_t seed = 1; seed <= 3; ++seed) {
-    SCOPED_TRACE(testing::Message() << "seed " << seed);
+    SCOPED_TRACE(::testing::Message() << "seed " << seed);
     // 20 x 25 = 500 poses, about a third of the possible closures.
     const LinearizedPoseGraph graph = MakeLoopClosingPoseGraph(seed, 20, 25, 0.3);
     const BlockSparseMatrix& a = graph.information;
