@@ -7,6 +7,8 @@ packages=(
   libeigen3-dev libsuitesparse-dev libtbb-dev
   libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev libyaml-cpp-dev libzstd-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  liboctomap-dev libpcl-dev libgeographiclib-dev libplplot-dev plplot-driver-cairo pkg-config
+  clang libclang-rt-14-dev
 )
 missing=()
 for p in "${packages[@]}"; do
