@@ -79,6 +79,7 @@ void AddSimulateCommand(CLI::App* app, SimulateCommandOptions* options, int* exi
                        "0.01 0.001 0.00003 0.01 0.00003 0.01)")
       ->expected(6);
   simulate->add_flag("-q,--quiet", options->quiet, "no summary on the terminal");
+  AddSimulate3dOptions(simulate, &options->sim3d);
   simulate->callback([options, exit_code]() { *exit_code = RunSimulateCommand(*options); });
 }
 
@@ -92,6 +93,10 @@ int RunSimulateCommand(const SimulateCommandOptions& options) {
     return kExitUsage;
   };
   if (options.output_dir.empty()) return usage("no output folder given (-o DIR)");
+  if (options.sim3d.enabled) {
+    return RunSimulate3dCommand(options.output_dir, options.sim3d, options.simulator.seed,
+                                options.quiet);
+  }
   if (options.format != "native" && options.format != "g2o") {
     return usage("--format must be 'native' or 'g2o', got '" + options.format + "'");
   }

@@ -20,6 +20,7 @@
 #include <CLI/CLI.hpp>
 
 #include "tools/campus_simulator.h"
+#include "tools/simulate3d_command.h"
 
 namespace graphslam::tools {
 
@@ -29,6 +30,7 @@ struct SimulateCommandOptions {
   CampusSimulatorOptions simulator;
   std::vector<double> alpha;  // --alpha a1..a6: replaces simulator.noise.alpha when given
   bool quiet = false;
+  Simulate3dOptions sim3d;  // --3d --scans (tools/simulate3d_command.h)
 };
 
 // Registers the subcommand on `app`; the callback stores the exit code in *exit_code.

@@ -1,0 +1,137 @@
+#include "map/map_builder.h"
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+#include <system_error>
+
+#include "map/pcd_io.h"
+#include "storage/atomic_file.h"
+#include "storage/env.h"
+
+namespace graphslam::map {
+namespace {
+
+Status WriteTree(const octomap::OcTree& tree, const std::string& path) {
+  std::ostringstream stream;
+  if (!tree.writeBinaryConst(stream)) return Status::IOError("writing " + path + ": OctoMap failed");
+  return storage::WriteStringAtomically(storage::Env::Default(), path, stream.str());
+}
+
+std::string TilesDir(const std::string& bt_path) {
+  std::filesystem::path p(bt_path);
+  p.replace_extension("");
+  return p.string() + ".tiles";
+}
+
+}  // namespace
+
+Status MapOptions::Validate() const {
+  GS_RETURN_IF_ERROR(fusion.Validate());
+  if (bt_path.empty() && pcd_path.empty()) {
+    return Status::InvalidArgument("nothing to write: give a .bt and/or a .pcd path");
+  }
+  if (!std::isfinite(pcd_voxel)) return Status::InvalidArgument("pcd voxel must be finite");
+  if (memory_budget_bytes <= 0) return Status::InvalidArgument("memory budget must be > 0");
+  if (batch_points <= 0) return Status::InvalidArgument("batch points must be > 0");
+  return Status::Ok();
+}
+
+StatusOr<MapSummary> BuildMap(const MapOptions& options, const ScanSource& scans,
+                              const std::vector<core::Pose3>* poses) {
+  GS_RETURN_IF_ERROR(options.Validate());
+  MapSummary summary;
+  TiledFusion fusion(options.fusion);
+  VoxelCloud cloud(options.pcd_voxel > 0.0 ? options.pcd_voxel : options.fusion.resolution);
+  std::vector<WorldScan> batch;
+  int64_t batch_points = 0;
+  double seconds = 0.0;
+  auto flush = [&] {
+    const auto start = std::chrono::steady_clock::now();
+    fusion.Insert(batch);
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    batch.clear();
+    batch_points = 0;
+  };
+  std::vector<Scan> chunk;
+  for (int64_t k = 0; k < scans.NumChunks(); ++k) {
+    GS_RETURN_IF_ERROR(scans.Load(k, &chunk));
+    for (Scan& scan : chunk) {
+      if (poses != nullptr) {
+        if (scan.pose < 0 || scan.pose >= static_cast<int64_t>(poses->size())) {
+          return Status::InvalidArgument("scan " + std::to_string(summary.scans) + " belongs to pose " +
+                                         std::to_string(scan.pose) + ", but the trajectory has " +
+                                         std::to_string(poses->size()) + " poses");
+        }
+        scan.sensor_pose = (*poses)[static_cast<size_t>(scan.pose)];
+      }
+      WorldScan world;
+      world.origin = scan.sensor_pose.t.cast<float>();
+      world.points = WorldPoints(scan);
+      if (!options.pcd_path.empty()) cloud.Add(world.points, scan);
+      ++summary.scans;
+      summary.points += static_cast<int64_t>(world.points.size());
+      batch_points += static_cast<int64_t>(world.points.size());
+      batch.push_back(std::move(world));
+      if (batch_points >= options.batch_points) flush();
+    }
+  }
+  if (!batch.empty()) flush();
+  summary.fusion_seconds = seconds;
+  summary.points_per_second = seconds > 0 ? static_cast<double>(summary.points) / seconds : 0.0;
+  summary.tree_bytes = static_cast<int64_t>(fusion.MemoryUsage());
+  summary.tiles = static_cast<int64_t>(fusion.num_tiles());
+
+  if (!options.bt_path.empty()) {
+    if (summary.tree_bytes <= options.memory_budget_bytes) {
+      const auto start = std::chrono::steady_clock::now();
+      std::unique_ptr<octomap::OcTree> tree = fusion.Merge();
+      summary.fusion_seconds +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      for (auto it = tree->begin_leafs(), end = tree->end_leafs(); it != end; ++it) {
+        if (tree->isNodeOccupied(*it)) {
+          ++summary.occupied_leaves;
+        } else {
+          ++summary.free_leaves;
+        }
+      }
+      GS_RETURN_IF_ERROR(WriteTree(*tree, options.bt_path));
+    } else {
+      summary.tiled_output = true;
+      const std::string dir = TilesDir(options.bt_path);
+      std::error_code ec;
+      std::filesystem::create_directories(dir, ec);
+      if (ec) return Status::IOError(dir + ": " + ec.message());
+      nlohmann::json index;
+      index["format"] = "graphslam-octomap-tiles";
+      index["version"] = 1;
+      index["resolution"] = options.fusion.resolution;
+      index["tile_cells"] = 1 << options.fusion.tile_bits;
+      nlohmann::json tiles = nlohmann::json::array();
+      for (const auto& [id, tree] : fusion.tiles()) {
+        char name[48];
+        std::snprintf(name, sizeof(name), "tile_%012llx.bt", static_cast<unsigned long long>(id));
+        GS_RETURN_IF_ERROR(WriteTree(*tree, dir + "/" + name));
+        Eigen::Vector3d lo, hi;
+        fusion.TileBounds(id, &lo, &hi);
+        tiles.push_back({{"file", name},
+                         {"min", {lo.x(), lo.y(), lo.z()}},
+                         {"max", {hi.x(), hi.y(), hi.z()}}});
+      }
+      index["tiles"] = tiles;
+      summary.tiles_index = dir + "/index.json";
+      GS_RETURN_IF_ERROR(storage::WriteStringAtomically(storage::Env::Default(), summary.tiles_index,
+                                                        index.dump(2) + "\n"));
+    }
+  }
+  if (!options.pcd_path.empty()) {
+    summary.pcd_points = static_cast<int64_t>(cloud.size());
+    GS_RETURN_IF_ERROR(WritePcd(options.pcd_path, cloud));
+  }
+  return summary;
+}
+
+}  // namespace graphslam::map

@@ -1,0 +1,65 @@
+// BuildMap: every scan, moved by its (optimized) pose, fused into one OctoMap
+// (ray casting from the sensor origin; map/tiled_fusion.h) and into a
+// voxel-downsampled registered cloud (map/pcd_io.h).
+//
+//   sensor pose of a scan = poses[scan.pose]   when `poses` is given (the
+//                                              solved trajectory, one row per
+//                                              pose; the sensor frame is the
+//                                              body frame),
+//                         = scan.sensor_pose   otherwise (as logged).
+//
+// Scans are read chunk by chunk (one chunk in memory) and fused in batches of
+// about `batch_points` points. Output:
+//   - bt_path: one .bt (OctoMap's binary, maximum-likelihood) of the merged
+//     tree, when the tiles' memory (OcTree::memoryUsage) is within
+//     memory_budget_bytes;
+//   - otherwise <bt_path minus .bt>.tiles/tile_<id>.bt, one per spatial tile
+//     (each a full OcTree holding only its tile's cells), plus index.json in
+//     that folder listing every tile file with its world bounding box;
+//   - pcd_path: the registered cloud (binary_compressed).
+// Every file is written atomically.
+//
+// THREAD SAFETY: one call at a time per output path; parallel inside (TBB).
+// ALLOCATION: the map, the voxel cloud, one chunk of scans and one batch's codes.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/se3.h"
+#include "core/status.h"
+#include "map/scan_store.h"
+#include "map/tiled_fusion.h"
+
+namespace graphslam::map {
+
+struct MapOptions {
+  FusionOptions fusion;
+  std::string bt_path;   // "" : no OctoMap output
+  std::string pcd_path;  // "" : no cloud output
+  double pcd_voxel = 0.0;  // <= 0: fusion.resolution
+  int64_t memory_budget_bytes = int64_t{4} << 30;
+  int64_t batch_points = 2'000'000;
+
+  [[nodiscard]] Status Validate() const;
+};
+
+struct MapSummary {
+  int64_t scans = 0;
+  int64_t points = 0;          // points fused (all rays)
+  int64_t occupied_leaves = 0;  // of the merged tree (0 when tiled)
+  int64_t free_leaves = 0;
+  int64_t tree_bytes = 0;       // OcTree::memoryUsage of the tiles before merging
+  int64_t tiles = 0;
+  bool tiled_output = false;
+  std::string tiles_index;      // index.json when tiled_output
+  int64_t pcd_points = 0;
+  double fusion_seconds = 0.0;  // wall time of ray casting + updates
+  double points_per_second = 0.0;
+};
+
+[[nodiscard]] StatusOr<MapSummary> BuildMap(const MapOptions& options, const ScanSource& scans,
+                                            const std::vector<core::Pose3>* poses);
+
+}  // namespace graphslam::map

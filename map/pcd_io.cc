@@ -1,0 +1,139 @@
+#include "map/pcd_io.h"
+
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/conversions.h>
+#include <pcl/io/pcd_io.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include "storage/atomic_file.h"
+#include "storage/env.h"
+
+namespace graphslam::map {
+namespace {
+
+constexpr int64_t kVoxelOffset = int64_t{1} << 20;  // 21 bits an axis: +-1e6 voxels
+constexpr uint64_t kVoxelMask = (uint64_t{1} << 21) - 1;
+
+}  // namespace
+
+void VoxelCloud::Add(const std::vector<Eigen::Vector3f>& world_points, const Scan& scan) {
+  if (scan.has_intensity()) has_intensity_ = true;
+  if (scan.run >= 0) has_run_ = true;
+  for (size_t i = 0; i < world_points.size(); ++i) {
+    const Eigen::Vector3f& p = world_points[i];
+    uint64_t key = 0;
+    for (int a = 0; a < 3; ++a) {
+      const int64_t v = static_cast<int64_t>(std::floor(p[a] / voxel_)) + kVoxelOffset;
+      key = (key << 21) | (static_cast<uint64_t>(std::clamp<int64_t>(v, 0, kVoxelMask)));
+    }
+    Accumulator& acc = voxels_[key];
+    if (acc.count == 0) acc.run = scan.run;
+    acc.x += p.x();
+    acc.y += p.y();
+    acc.z += p.z();
+    if (scan.has_intensity()) acc.intensity += scan.intensity[i];
+    ++acc.count;
+  }
+}
+
+std::vector<VoxelCloud::Point> VoxelCloud::Points() const {
+  std::vector<std::pair<uint64_t, const Accumulator*>> sorted;
+  sorted.reserve(voxels_.size());
+  for (const auto& [key, acc] : voxels_) sorted.emplace_back(key, &acc);
+  std::sort(sorted.begin(), sorted.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<Point> out;
+  out.reserve(sorted.size());
+  for (const auto& [key, acc] : sorted) {
+    const double n = static_cast<double>(acc->count);
+    out.push_back({Eigen::Vector3f(static_cast<float>(acc->x / n), static_cast<float>(acc->y / n),
+                                   static_cast<float>(acc->z / n)),
+                   static_cast<float>(acc->intensity / n), static_cast<float>(acc->run)});
+  }
+  return out;
+}
+
+Status WritePcd(const std::string& path, const VoxelCloud& cloud) {
+  const std::vector<VoxelCloud::Point> points = cloud.Points();
+  pcl::PCLPointCloud2 blob;
+  std::vector<std::string> names = {"x", "y", "z"};
+  if (cloud.has_intensity()) names.push_back("intensity");
+  if (cloud.has_run()) names.push_back("run");
+  uint32_t offset = 0;
+  for (const std::string& name : names) {
+    pcl::PCLPointField field;
+    field.name = name;
+    field.offset = offset;
+    field.datatype = pcl::PCLPointField::FLOAT32;
+    field.count = 1;
+    blob.fields.push_back(field);
+    offset += 4;
+  }
+  blob.point_step = offset;
+  blob.width = static_cast<uint32_t>(points.size());
+  blob.height = 1;
+  blob.row_step = blob.point_step * blob.width;
+  blob.is_dense = true;
+  blob.data.resize(static_cast<size_t>(blob.row_step));
+  uint8_t* out = blob.data.data();
+  for (const VoxelCloud::Point& p : points) {
+    float values[5] = {p.xyz.x(), p.xyz.y(), p.xyz.z(), 0, 0};
+    int n = 3;
+    if (cloud.has_intensity()) values[n++] = p.intensity;
+    if (cloud.has_run()) values[n++] = p.run;
+    std::memcpy(out, values, sizeof(float) * static_cast<size_t>(n));
+    out += blob.point_step;
+  }
+  std::ostringstream stream;
+  pcl::PCDWriter writer;
+  if (writer.writeBinaryCompressed(stream, blob) != 0) {
+    return Status::IOError("writing " + path + ": PCL could not encode the cloud");
+  }
+  return storage::WriteStringAtomically(storage::Env::Default(), path, stream.str());
+}
+
+StatusOr<PcdContents> ReadPcd(const std::string& path) {
+  pcl::PCLPointCloud2 blob;
+  if (pcl::io::loadPCDFile(path, blob) != 0) {
+    return Status::Corruption(path + ": PCL's loadPCDFile failed");
+  }
+  PcdContents contents;
+  {
+    std::ifstream in(path, std::ios::binary);
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.rfind("DATA ", 0) == 0) {
+        contents.data_type = line.substr(5);
+        break;
+      }
+    }
+  }
+  auto field_offset = [&](const std::string& name) -> int {
+    for (const pcl::PCLPointField& f : blob.fields) {
+      if (f.name == name && f.datatype == pcl::PCLPointField::FLOAT32) return static_cast<int>(f.offset);
+    }
+    return -1;
+  };
+  const int ox = field_offset("x"), oy = field_offset("y"), oz = field_offset("z");
+  if (ox < 0 || oy < 0 || oz < 0) return Status::Corruption(path + ": no float x y z fields");
+  const int oi = field_offset("intensity"), orun = field_offset("run");
+  const size_t n = static_cast<size_t>(blob.width) * blob.height;
+  auto at = [&](size_t i, int off) {
+    float v;
+    std::memcpy(&v, blob.data.data() + i * blob.point_step + static_cast<size_t>(off), sizeof(v));
+    return v;
+  };
+  for (size_t i = 0; i < n; ++i) {
+    contents.points.emplace_back(at(i, ox), at(i, oy), at(i, oz));
+    if (oi >= 0) contents.intensity.push_back(at(i, oi));
+    if (orun >= 0) contents.run.push_back(at(i, orun));
+  }
+  return contents;
+}
+
+}  // namespace graphslam::map

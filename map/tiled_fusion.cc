@@ -1,0 +1,256 @@
+#include "map/tiled_fusion.h"
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <iterator>
+#include <string>
+#include <utility>
+
+namespace graphslam::map {
+namespace {
+
+constexpr int kKeyBits = 16;  // octomap::OcTree: tree depth 16, 16-bit keys
+
+struct Codec {
+  int k;       // bits of a key inside its tile
+  int t;       // bits of the tile coordinate
+  uint64_t m;  // 2^k - 1
+
+  explicit Codec(int tile_bits)
+      : k(tile_bits), t(kKeyBits - tile_bits), m((uint64_t{1} << tile_bits) - 1) {}
+
+  uint64_t Encode(const octomap::OcTreeKey& key) const {
+    const uint64_t x = key[0], y = key[1], z = key[2];
+    const uint64_t tile = ((x >> k) << (2 * t)) | ((y >> k) << t) | (z >> k);
+    return (tile << (3 * k)) | ((x & m) << (2 * k)) | ((y & m) << k) | (z & m);
+  }
+  uint64_t Tile(uint64_t code) const { return code >> (3 * k); }
+  octomap::OcTreeKey Decode(uint64_t code) const {
+    const uint64_t tile = code >> (3 * k);
+    const uint64_t tm = (uint64_t{1} << t) - 1;
+    const uint64_t x = ((tile >> (2 * t)) << k) | ((code >> (2 * k)) & m);
+    const uint64_t y = (((tile >> t) & tm) << k) | ((code >> k) & m);
+    const uint64_t z = ((tile & tm) << k) | (code & m);
+    return octomap::OcTreeKey(static_cast<octomap::key_type>(x), static_cast<octomap::key_type>(y),
+                              static_cast<octomap::key_type>(z));
+  }
+};
+
+void SortUnique(std::vector<uint64_t>* codes) {
+  std::sort(codes->begin(), codes->end());
+  codes->erase(std::unique(codes->begin(), codes->end()), codes->end());
+}
+
+// F and O of one scan, as computeUpdate makes them (see the header).
+void ComputeScanCodes(const octomap::OcTree& keyer, const Codec& codec, const WorldScan& scan,
+                      double max_range, octomap::KeyRay* ray, std::vector<uint64_t>* free_codes,
+                      std::vector<uint64_t>* occupied_codes) {
+  constexpr size_t kDedupAt = size_t{4} << 20;
+  size_t dedup_at = kDedupAt;
+  free_codes->clear();
+  occupied_codes->clear();
+  const octomap::point3d origin(scan.origin.x(), scan.origin.y(), scan.origin.z());
+  for (const Eigen::Vector3f& q : scan.points) {
+    const octomap::point3d p(q.x(), q.y(), q.z());
+    if (max_range < 0.0 || (p - origin).norm() <= max_range) {
+      if (keyer.computeRayKeys(origin, p, *ray)) {
+        for (const octomap::OcTreeKey& key : *ray) free_codes->push_back(codec.Encode(key));
+      }
+      octomap::OcTreeKey key;
+      if (keyer.coordToKeyChecked(p, key)) occupied_codes->push_back(codec.Encode(key));
+    } else {
+      const octomap::point3d direction = (p - origin).normalized();
+      const octomap::point3d new_end = origin + direction * static_cast<float>(max_range);
+      if (keyer.computeRayKeys(origin, new_end, *ray)) {
+        for (const octomap::OcTreeKey& key : *ray) free_codes->push_back(codec.Encode(key));
+      }
+    }
+    if (free_codes->size() > dedup_at) {
+      SortUnique(free_codes);
+      dedup_at = std::max(kDedupAt, 2 * free_codes->size());
+    }
+  }
+  SortUnique(free_codes);
+  SortUnique(occupied_codes);
+  std::vector<uint64_t> difference;
+  difference.reserve(free_codes->size());
+  std::set_difference(free_codes->begin(), free_codes->end(), occupied_codes->begin(),
+                      occupied_codes->end(), std::back_inserter(difference));
+  free_codes->swap(difference);
+}
+
+// [begin, end) of each tile in a sorted code list, ordered by tile id.
+struct TileRange {
+  uint64_t tile;
+  size_t begin, end;
+};
+std::vector<TileRange> SplitByTile(const Codec& codec, const std::vector<uint64_t>& codes) {
+  std::vector<TileRange> ranges;
+  size_t i = 0;
+  while (i < codes.size()) {
+    const uint64_t tile = codec.Tile(codes[i]);
+    size_t j = i + 1;
+    while (j < codes.size() && codec.Tile(codes[j]) == tile) ++j;
+    ranges.push_back({tile, i, j});
+    i = j;
+  }
+  return ranges;
+}
+
+const TileRange* FindTile(const std::vector<TileRange>& ranges, uint64_t tile) {
+  auto it = std::lower_bound(ranges.begin(), ranges.end(), tile,
+                             [](const TileRange& r, uint64_t t) { return r.tile < t; });
+  return it != ranges.end() && it->tile == tile ? &*it : nullptr;
+}
+
+// An OcTree that accepts a leaf at any depth (the merge target).
+class MergeTree : public octomap::OcTree {
+ public:
+  using octomap::OcTree::OcTree;
+
+  void SetLeaf(const octomap::OcTreeKey& key, unsigned depth, float log_odds) {
+    if (root == nullptr) {
+      root = new octomap::OcTreeNode();
+      ++tree_size;
+    }
+    octomap::OcTreeNode* node = root;
+    for (unsigned d = 0; d < depth; ++d) {
+      const unsigned child = octomap::computeChildIdx(key, static_cast<int>(tree_depth - 1 - d));
+      node = nodeChildExists(node, child) ? getNodeChild(node, child)
+                                          : createNodeChild(node, child);
+    }
+    node->setLogOdds(log_odds);
+  }
+};
+
+}  // namespace
+
+Status FusionOptions::Validate() const {
+  if (!(resolution > 0.0) || !std::isfinite(resolution)) {
+    return Status::InvalidArgument("resolution must be > 0, got " + std::to_string(resolution));
+  }
+  if (!std::isfinite(max_range)) return Status::InvalidArgument("max_range must be finite");
+  if (!(prob_hit > 0.5 && prob_hit < 1.0) || !(prob_miss > 0.0 && prob_miss < 0.5)) {
+    return Status::InvalidArgument("need 0.5 < prob_hit < 1 and 0 < prob_miss < 0.5");
+  }
+  if (!(clamping_min > 0.0 && clamping_min < 0.5 && clamping_max > 0.5 && clamping_max < 1.0)) {
+    return Status::InvalidArgument("need 0 < clamping_min < 0.5 < clamping_max < 1");
+  }
+  if (tile_bits < 1 || tile_bits > 15) {
+    return Status::InvalidArgument("tile_bits must be in [1, 15], got " +
+                                   std::to_string(tile_bits));
+  }
+  return Status::Ok();
+}
+
+std::unique_ptr<octomap::OcTree> MakeOcTree(const FusionOptions& options) {
+  auto tree = std::make_unique<octomap::OcTree>(options.resolution);
+  tree->setProbHit(options.prob_hit);
+  tree->setProbMiss(options.prob_miss);
+  tree->setClampingThresMin(options.clamping_min);
+  tree->setClampingThresMax(options.clamping_max);
+  return tree;
+}
+
+std::unique_ptr<octomap::OcTree> FuseSerial(const FusionOptions& options,
+                                            const std::vector<WorldScan>& scans) {
+  std::unique_ptr<octomap::OcTree> tree = MakeOcTree(options);
+  octomap::Pointcloud cloud;
+  for (const WorldScan& scan : scans) {
+    cloud.clear();
+    cloud.reserve(scan.points.size());
+    for (const Eigen::Vector3f& p : scan.points) cloud.push_back(p.x(), p.y(), p.z());
+    tree->insertPointCloud(cloud, octomap::point3d(scan.origin.x(), scan.origin.y(), scan.origin.z()),
+                           options.max_range);
+  }
+  return tree;
+}
+
+TiledFusion::TiledFusion(const FusionOptions& options)
+    : options_(options), keyer_(MakeOcTree(options)) {}
+
+TiledFusion::~TiledFusion() = default;
+
+void TiledFusion::Insert(const std::vector<WorldScan>& batch) {
+  const Codec codec(options_.tile_bits);
+  const size_t n = batch.size();
+  std::vector<std::vector<uint64_t>> free_codes(n), occupied_codes(n);
+  std::vector<std::vector<TileRange>> free_ranges(n), occupied_ranges(n);
+  tbb::enumerable_thread_specific<octomap::KeyRay> rays;
+  tbb::parallel_for(size_t{0}, n, [&](size_t i) {
+    ComputeScanCodes(*keyer_, codec, batch[i], options_.max_range, &rays.local(), &free_codes[i],
+                     &occupied_codes[i]);
+    free_ranges[i] = SplitByTile(codec, free_codes[i]);
+    occupied_ranges[i] = SplitByTile(codec, occupied_codes[i]);
+  });
+  std::vector<uint64_t> touched;
+  for (size_t i = 0; i < n; ++i) {
+    points_ += static_cast<int64_t>(batch[i].points.size());
+    for (const TileRange& r : free_ranges[i]) touched.push_back(r.tile);
+    for (const TileRange& r : occupied_ranges[i]) touched.push_back(r.tile);
+  }
+  SortUnique(&touched);
+  std::vector<octomap::OcTree*> trees;
+  trees.reserve(touched.size());
+  for (uint64_t tile : touched) {
+    std::unique_ptr<octomap::OcTree>& tree = tiles_[tile];
+    if (!tree) tree = MakeOcTree(options_);
+    trees.push_back(tree.get());
+  }
+  tbb::parallel_for(size_t{0}, touched.size(), [&](size_t j) {
+    const uint64_t tile = touched[j];
+    octomap::OcTree* tree = trees[j];
+    for (size_t i = 0; i < n; ++i) {
+      if (const TileRange* r = FindTile(free_ranges[i], tile)) {
+        for (size_t c = r->begin; c < r->end; ++c) {
+          tree->updateNode(codec.Decode(free_codes[i][c]), false);
+        }
+      }
+      if (const TileRange* r = FindTile(occupied_ranges[i], tile)) {
+        for (size_t c = r->begin; c < r->end; ++c) {
+          tree->updateNode(codec.Decode(occupied_codes[i][c]), true);
+        }
+      }
+    }
+  });
+}
+
+size_t TiledFusion::MemoryUsage() const {
+  size_t bytes = 0;
+  for (const auto& [id, tree] : tiles_) bytes += tree->memoryUsage();
+  return bytes;
+}
+
+std::unique_ptr<octomap::OcTree> TiledFusion::Merge() {
+  auto out = std::make_unique<MergeTree>(options_.resolution);
+  out->setProbHit(options_.prob_hit);
+  out->setProbMiss(options_.prob_miss);
+  out->setClampingThresMin(options_.clamping_min);
+  out->setClampingThresMax(options_.clamping_max);
+  for (auto& [id, tree] : tiles_) {
+    for (auto it = tree->begin_leafs(), end = tree->end_leafs(); it != end; ++it) {
+      out->SetLeaf(it.getKey(), it.getDepth(), it->getLogOdds());
+    }
+    tree.reset();
+  }
+  tiles_.clear();
+  out->updateInnerOccupancy();
+  out->prune();
+  return out;
+}
+
+void TiledFusion::TileBounds(uint64_t tile_id, Eigen::Vector3d* min, Eigen::Vector3d* max) const {
+  const Codec codec(options_.tile_bits);
+  const octomap::OcTreeKey low = codec.Decode(tile_id << (3 * codec.k));
+  const octomap::OcTreeKey high = codec.Decode((tile_id << (3 * codec.k)) | ((uint64_t{1} << (3 * codec.k)) - 1));
+  const double half = 0.5 * options_.resolution;
+  for (int a = 0; a < 3; ++a) {
+    (*min)[a] = keyer_->keyToCoord(low[a]) - half;
+    (*max)[a] = keyer_->keyToCoord(high[a]) + half;
+  }
+}
+
+}  // namespace graphslam::map

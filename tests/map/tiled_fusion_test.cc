@@ -1,0 +1,145 @@
+// TiledFusion must give exactly OctoMap's serial insertPointCloud: the same
+// leaves (key, depth) with the same log-odds, hence the same occupied set.
+#include "map/tiled_fusion.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <map>
+#include <random>
+#include <tuple>
+
+#include "map/scan.h"
+#include "map/threedtk_reader.h"
+#include "tests/testing/datasets.h"
+
+namespace graphslam::map {
+namespace {
+
+using LeafKey = std::tuple<uint16_t, uint16_t, uint16_t, unsigned>;
+
+std::map<LeafKey, float> Leaves(octomap::OcTree* tree) {
+  tree->prune();
+  std::map<LeafKey, float> leaves;
+  for (auto it = tree->begin_leafs(), end = tree->end_leafs(); it != end; ++it) {
+    const octomap::OcTreeKey k = it.getKey();
+    leaves[{k[0], k[1], k[2], it.getDepth()}] = it->getLogOdds();
+  }
+  return leaves;
+}
+
+std::set<LeafKey> Occupied(octomap::OcTree* tree) {
+  std::set<LeafKey> occupied;
+  for (auto it = tree->begin_leafs(), end = tree->end_leafs(); it != end; ++it) {
+    if (tree->isNodeOccupied(*it)) {
+      const octomap::OcTreeKey k = it.getKey();
+      occupied.insert({k[0], k[1], k[2], it.getDepth()});
+    }
+  }
+  return occupied;
+}
+
+// Scans from a few origins inside a 12 m x 8 m x 3 m room (walls, floor,
+// ceiling), with some rays through a 2 m doorway in the +x wall that end 6 m
+// outside (beyond a 9 m max range for the far ones).
+std::vector<WorldScan> RoomScans(int scans, int points_per_scan, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::vector<WorldScan> out;
+  for (int s = 0; s < scans; ++s) {
+    WorldScan scan;
+    scan.origin = Eigen::Vector3f(-4.0f + 1.3f * static_cast<float>(s % 6), 0.5f * u(rng), 1.2f);
+    for (int i = 0; i < points_per_scan; ++i) {
+      Eigen::Vector3f d(u(rng), u(rng), 0.6f * u(rng));
+      if (d.norm() < 1e-3f) continue;
+      d.normalize();
+      // Distance to the room's boundary along d.
+      float t = 1e9f;
+      const Eigen::Vector3f lo(-6.0f, -4.0f, 0.0f), hi(6.0f, 4.0f, 3.0f);
+      for (int a = 0; a < 3; ++a) {
+        if (d[a] > 1e-6f) t = std::min(t, (hi[a] - scan.origin[a]) / d[a]);
+        if (d[a] < -1e-6f) t = std::min(t, (lo[a] - scan.origin[a]) / d[a]);
+      }
+      Eigen::Vector3f p = scan.origin + t * d;
+      if (p.x() > 5.99f && std::abs(p.y()) < 1.0f && p.z() < 2.0f) p = scan.origin + (t + 6.0f) * d;
+      scan.points.push_back(p);
+    }
+    out.push_back(std::move(scan));
+  }
+  return out;
+}
+
+void ExpectSameAsSerial(const FusionOptions& options, const std::vector<WorldScan>& scans,
+                        size_t batch) {
+  std::unique_ptr<octomap::OcTree> serial = FuseSerial(options, scans);
+  TiledFusion fusion(options);
+  for (size_t i = 0; i < scans.size(); i += batch) {
+    fusion.Insert(std::vector<WorldScan>(scans.begin() + static_cast<std::ptrdiff_t>(i),
+                                         scans.begin() + static_cast<std::ptrdiff_t>(
+                                                             std::min(scans.size(), i + batch))));
+  }
+  EXPECT_GT(fusion.num_tiles(), 1u);
+  std::unique_ptr<octomap::OcTree> tiled = fusion.Merge();
+  const std::set<LeafKey> occupied_serial = Occupied(serial.get());
+  EXPECT_GT(occupied_serial.size(), 100u);
+  EXPECT_EQ(Occupied(tiled.get()), occupied_serial);
+  const std::map<LeafKey, float> a = Leaves(serial.get()), b = Leaves(tiled.get());
+  ASSERT_EQ(a.size(), b.size());
+  size_t differing = 0;
+  for (const auto& [key, value] : a) {
+    auto it = b.find(key);
+    if (it == b.end() || it->second != value) ++differing;
+  }
+  EXPECT_EQ(differing, 0u);
+  EXPECT_EQ(serial->size(), tiled->size());
+}
+
+TEST(TiledFusionTest, RoomEqualsSerialInsertPointCloud) {
+  FusionOptions options;
+  options.resolution = 0.1;
+  options.tile_bits = 5;  // 3.2 m tiles: rays cross many
+  // Twelve scans, each origin twice, so cells reach the clamping bounds.
+  ExpectSameAsSerial(options, RoomScans(12, 1500, 7), 5);
+}
+
+TEST(TiledFusionTest, MaxRangeAndCoarseTilesEqualSerial) {
+  FusionOptions options;
+  options.resolution = 0.2;
+  options.max_range = 9.0;
+  options.tile_bits = 3;
+  options.prob_hit = 0.9;  // reaches the clamp sooner
+  ExpectSameAsSerial(options, RoomScans(10, 2000, 11), 3);
+}
+
+TEST(TiledFusionTest, ThreeDtkScansEqualSerial) {
+  GS_REQUIRE_DATASET("3dtk_uos_scans/scan000.3d");
+  const std::string dir = testing::DatasetPath("3dtk_uos_scans");
+  std::vector<WorldScan> scans;
+  for (int n = 0; n < 3; ++n) {
+    StatusOr<Scan> scan = Read3dtkScan(dir, n, n);
+    ASSERT_TRUE(scan.ok()) << scan.status().ToString();
+    WorldScan world;
+    world.origin = scan->sensor_pose.t.cast<float>();
+    const std::vector<Eigen::Vector3f> points = WorldPoints(*scan);
+    for (size_t i = 0; i < points.size(); i += 8) world.points.push_back(points[i]);
+    scans.push_back(std::move(world));
+  }
+  FusionOptions options;
+  options.resolution = 0.25;
+  options.max_range = 15.0;
+  options.tile_bits = 5;
+  ExpectSameAsSerial(options, scans, 2);
+}
+
+TEST(TiledFusionTest, ValidateRejectsBadOptions) {
+  FusionOptions options;
+  options.resolution = 0.0;
+  EXPECT_FALSE(options.Validate().ok());
+  options = FusionOptions();
+  options.tile_bits = 16;
+  EXPECT_FALSE(options.Validate().ok());
+  EXPECT_TRUE(FusionOptions().Validate().ok());
+}
+
+}  // namespace
+}  // namespace graphslam::map

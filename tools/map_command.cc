@@ -1,0 +1,139 @@
+#include "tools/map_command.h"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "map/threedtk_reader.h"
+#include "tools/exit_codes.h"
+
+namespace graphslam::tools {
+
+StatusOr<std::unique_ptr<map::ScanSource>> OpenScanSource(const std::string& input) {
+  if (map::DiskScanStore::Exists(input)) {
+    GS_ASSIGN_OR_RETURN(std::unique_ptr<map::DiskScanStore> store, map::DiskScanStore::Open(input));
+    return std::unique_ptr<map::ScanSource>(std::move(store));
+  }
+  if (map::List3dtkScans(input).ok()) {
+    GS_ASSIGN_OR_RETURN(std::unique_ptr<map::ThreeDtkScanSource> source,
+                        map::ThreeDtkScanSource::Open(input));
+    return std::unique_ptr<map::ScanSource>(std::move(source));
+  }
+  return Status::NotFound(input + ": no scans (expected scans/SCANS.json or 3DTK scanNNN.3d files)");
+}
+
+StatusOr<std::vector<core::Pose3>> ReadTumPoses(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return Status::NotFound(path + ": cannot open");
+  std::vector<core::Pose3> poses;
+  std::string line;
+  int64_t line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    double v[8];
+    int n = 0;
+    while (n < 8 && fields >> v[n]) ++n;
+    std::string extra;
+    if (n != 8 || (fields >> extra)) {
+      return Status::Corruption(path + ":" + std::to_string(line_no) +
+                                ": expected 8 numbers (stamp tx ty tz qx qy qz qw), got '" + line + "'");
+    }
+    core::Pose3 pose;
+    pose.t = Eigen::Vector3d(v[1], v[2], v[3]);
+    pose.q = Eigen::Quaterniond(v[7], v[4], v[5], v[6]);
+    const double norm = pose.q.norm();
+    if (!std::isfinite(norm) || std::abs(norm - 1.0) > 1e-3 || !pose.t.allFinite()) {
+      return Status::Corruption(path + ":" + std::to_string(line_no) +
+                                ": quaternion norm " + std::to_string(norm) + ", expected 1");
+    }
+    pose.q.normalize();
+    poses.push_back(pose);
+  }
+  return poses;
+}
+
+void AddMapCommand(CLI::App* app, MapCommandOptions* options, int* exit_code) {
+  CLI::App* cmd = app->add_subcommand(
+      "map", "Fuse the scans, moved by their poses, into an OctoMap (.bt) and a cloud (.pcd)");
+  map::MapOptions& m = options->map;
+  cmd->add_option("input", options->input, "folder with scans/ (store, simulate --3d) or 3DTK scans")
+      ->required();
+  cmd->add_option("--bt", m.bt_path, "OctoMap output (.bt)");
+  cmd->add_option("--pcd", m.pcd_path, "registered cloud output (.pcd, binary_compressed)");
+  cmd->add_option("--poses", options->poses_path, "TUM trajectory replacing the logged poses");
+  cmd->add_option("--resolution", m.fusion.resolution, "leaf size [m]")->capture_default_str();
+  cmd->add_option("--max-range", m.fusion.max_range, "ray length cap [m] (<0: none)")
+      ->capture_default_str();
+  cmd->add_option("--prob-hit", m.fusion.prob_hit, "P(occupied | hit)")->capture_default_str();
+  cmd->add_option("--prob-miss", m.fusion.prob_miss, "P(occupied | pass)")->capture_default_str();
+  cmd->add_option("--clamp-min", m.fusion.clamping_min, "lower clamping probability")
+      ->capture_default_str();
+  cmd->add_option("--clamp-max", m.fusion.clamping_max, "upper clamping probability")
+      ->capture_default_str();
+  cmd->add_option("--tile-bits", m.fusion.tile_bits, "tiles of 2^bits leaves a side")
+      ->capture_default_str();
+  cmd->add_option("--pcd-voxel", m.pcd_voxel, "cloud voxel [m] (0: the resolution)")
+      ->capture_default_str();
+  cmd->add_option("--memory-budget", options->memory_budget_mib,
+                  "MiB for one tree; above it the .bt is written as tiles + index.json")
+      ->capture_default_str();
+  cmd->add_option("--batch-points", m.batch_points, "points fused per parallel batch")
+      ->capture_default_str();
+  cmd->add_flag("-q,--quiet", options->quiet, "no summary on the terminal");
+  cmd->callback([options, exit_code]() { *exit_code = RunMapCommand(*options); });
+}
+
+int RunMapCommand(const MapCommandOptions& options) {
+  auto fail = [](const Status& status) {
+    std::fprintf(stderr, "graphslam map: %s\n", status.ToString().c_str());
+    return ExitCodeFor(status);
+  };
+  map::MapOptions map_options = options.map;
+  if (!(options.memory_budget_mib > 0)) {
+    std::fprintf(stderr, "graphslam map: --memory-budget must be > 0\n");
+    return kExitUsage;
+  }
+  map_options.memory_budget_bytes = static_cast<int64_t>(options.memory_budget_mib * 1048576.0);
+  if (Status status = map_options.Validate(); !status.ok()) {
+    std::fprintf(stderr, "graphslam map: %s\n", status.message().c_str());
+    return kExitUsage;
+  }
+  StatusOr<std::unique_ptr<map::ScanSource>> source = OpenScanSource(options.input);
+  if (!source.ok()) return fail(source.status());
+  std::vector<core::Pose3> poses;
+  if (!options.poses_path.empty()) {
+    StatusOr<std::vector<core::Pose3>> read = ReadTumPoses(options.poses_path);
+    if (!read.ok()) return fail(read.status());
+    poses = std::move(read).value();
+  }
+  StatusOr<map::MapSummary> summary =
+      map::BuildMap(map_options, **source, options.poses_path.empty() ? nullptr : &poses);
+  if (!summary.ok()) return fail(summary.status());
+  if (!options.quiet) {
+    const map::MapSummary& s = *summary;
+    std::printf("Fused %lld scans (%lld points) at %.3f m in %.2f s (%.0f points/s, %lld tiles, "
+                "%.1f MiB of tree).",
+                static_cast<long long>(s.scans), static_cast<long long>(s.points),
+                map_options.fusion.resolution, s.fusion_seconds, s.points_per_second,
+                static_cast<long long>(s.tiles), static_cast<double>(s.tree_bytes) / 1048576.0);
+    if (!map_options.bt_path.empty()) {
+      if (s.tiled_output) {
+        std::printf(" Over the memory budget: wrote tiles, index %s.", s.tiles_index.c_str());
+      } else {
+        std::printf(" Wrote %s (%lld occupied, %lld free leaves).", map_options.bt_path.c_str(),
+                    static_cast<long long>(s.occupied_leaves), static_cast<long long>(s.free_leaves));
+      }
+    }
+    if (!map_options.pcd_path.empty()) {
+      std::printf(" Wrote %s (%lld points).", map_options.pcd_path.c_str(),
+                  static_cast<long long>(s.pcd_points));
+    }
+    std::printf("\n");
+  }
+  return kExitOk;
+}
+
+}  // namespace graphslam::tools
