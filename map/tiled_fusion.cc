@@ -44,6 +44,27 @@ void SortUnique(std::vector<uint64_t>* codes) {
   codes->erase(std::unique(codes->begin(), codes->end()), codes->end());
 }
 
+// A direct-mapped filter of recently pushed codes: most ray cells repeat
+// those of the previous rays (all rays share the cells near the origin), so
+// skipping a code seen recently shrinks the buffer to sort several-fold. It
+// only drops exact duplicates, so the sorted unique set is unchanged.
+class RecentCodes {
+ public:
+  RecentCodes() : slots_(kSlots, ~uint64_t{0}) {}
+  // True if `code` was seen recently; remembers it otherwise.
+  bool SeenOrRemember(uint64_t code) {
+    uint64_t& slot = slots_[(code * 0x9E3779B97F4A7C15ull) >> (64 - kBits)];
+    if (slot == code) return true;
+    slot = code;
+    return false;
+  }
+
+ private:
+  static constexpr int kBits = 16;
+  static constexpr size_t kSlots = size_t{1} << kBits;
+  std::vector<uint64_t> slots_;
+};
+
 // F and O of one scan, as computeUpdate makes them (see the header).
 void ComputeScanCodes(const octomap::OcTree& keyer, const Codec& codec, const WorldScan& scan,
                       double max_range, octomap::KeyRay* ray, std::vector<uint64_t>* free_codes,
@@ -52,21 +73,24 @@ void ComputeScanCodes(const octomap::OcTree& keyer, const Codec& codec, const Wo
   size_t dedup_at = kDedupAt;
   free_codes->clear();
   occupied_codes->clear();
+  RecentCodes recent;
+  auto push_ray = [&](const octomap::KeyRay& keys) {
+    for (const octomap::OcTreeKey& key : keys) {
+      const uint64_t code = codec.Encode(key);
+      if (!recent.SeenOrRemember(code)) free_codes->push_back(code);
+    }
+  };
   const octomap::point3d origin(scan.origin.x(), scan.origin.y(), scan.origin.z());
   for (const Eigen::Vector3f& q : scan.points) {
     const octomap::point3d p(q.x(), q.y(), q.z());
     if (max_range < 0.0 || (p - origin).norm() <= max_range) {
-      if (keyer.computeRayKeys(origin, p, *ray)) {
-        for (const octomap::OcTreeKey& key : *ray) free_codes->push_back(codec.Encode(key));
-      }
+      if (keyer.computeRayKeys(origin, p, *ray)) push_ray(*ray);
       octomap::OcTreeKey key;
       if (keyer.coordToKeyChecked(p, key)) occupied_codes->push_back(codec.Encode(key));
     } else {
       const octomap::point3d direction = (p - origin).normalized();
       const octomap::point3d new_end = origin + direction * static_cast<float>(max_range);
-      if (keyer.computeRayKeys(origin, new_end, *ray)) {
-        for (const octomap::OcTreeKey& key : *ray) free_codes->push_back(codec.Encode(key));
-      }
+      if (keyer.computeRayKeys(origin, new_end, *ray)) push_ray(*ray);
     }
     if (free_codes->size() > dedup_at) {
       SortUnique(free_codes);
@@ -206,15 +230,19 @@ void TiledFusion::Insert(const std::vector<WorldScan>& batch) {
     for (size_t i = 0; i < n; ++i) {
       if (const TileRange* r = FindTile(free_ranges[i], tile)) {
         for (size_t c = r->begin; c < r->end; ++c) {
-          tree->updateNode(codec.Decode(free_codes[i][c]), false);
+          tree->updateNode(codec.Decode(free_codes[i][c]), false, /*lazy_eval=*/true);
         }
       }
       if (const TileRange* r = FindTile(occupied_ranges[i], tile)) {
         for (size_t c = r->begin; c < r->end; ++c) {
-          tree->updateNode(codec.Decode(occupied_codes[i][c]), true);
+          tree->updateNode(codec.Decode(occupied_codes[i][c]), true, /*lazy_eval=*/true);
         }
       }
     }
+    // Lazy updates skip the inner nodes and pruning on every update; both
+    // are done once per batch here (leaf values are the same either way).
+    tree->updateInnerOccupancy();
+    tree->prune();
   });
 }
 

@@ -24,7 +24,8 @@
 //      is one contiguous range of codes; F <- F \ O by set difference.
 //   2. (parallel over tiles) each tile's own OcTree applies, scan by scan in
 //      order, updateNode(key, false) for its part of F and updateNode(key,
-//      true) for its part of O. Sorted codes also make these updates walk the
+//      true) for its part of O (lazily: inner nodes and pruning once per
+//      batch, which leaves every leaf's value unchanged). Sorted codes also make these updates walk the
 //      tree in spatial order (cache-friendly), unlike the hash order of KeySet.
 // Merge: every tile leaf (key, depth, log-odds) is written into one tree at the
 // same depth, then inner nodes get the max of their children (as updateNode

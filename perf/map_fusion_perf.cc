@@ -9,6 +9,7 @@
 #include <tbb/global_control.h>
 
 #include <chrono>
+#include <ctime>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -121,8 +122,11 @@ int main(int argc, char** argv) {
               1 << options.tile_bits);
 
   auto start = std::chrono::steady_clock::now();
+  std::clock_t cpu = std::clock();
   std::unique_ptr<octomap::OcTree> serial = graphslam::map::FuseSerial(options, scans);
   const double serial_seconds = Seconds(start);
+  const double serial_cpu = static_cast<double>(std::clock() - cpu) / CLOCKS_PER_SEC;
+  cpu = std::clock();
 
   start = std::chrono::steady_clock::now();
   graphslam::map::TiledFusion fusion(options);
@@ -139,12 +143,15 @@ int main(int argc, char** argv) {
   }
   std::unique_ptr<octomap::OcTree> tiled = fusion.Merge();
   const double tiled_seconds = Seconds(start);
+  const double tiled_cpu = static_cast<double>(std::clock() - cpu) / CLOCKS_PER_SEC;
 
   const std::set<Cell> a = Occupied(serial.get()), b = Occupied(tiled.get());
-  std::printf("octomap insertPointCloud (serial): %8.3f s  %12.0f points/s  %zu occupied cells\n",
-              serial_seconds, static_cast<double>(points) / serial_seconds, a.size());
-  std::printf("tiled parallel fusion (TBB):       %8.3f s  %12.0f points/s  %zu occupied cells\n",
-              tiled_seconds, static_cast<double>(points) / tiled_seconds, b.size());
+  std::printf("octomap insertPointCloud (serial): %8.3f s wall %8.3f s cpu  %12.0f points/s  "
+              "%zu occupied cells\n",
+              serial_seconds, serial_cpu, static_cast<double>(points) / serial_seconds, a.size());
+  std::printf("tiled parallel fusion (TBB):       %8.3f s wall %8.3f s cpu  %12.0f points/s  "
+              "%zu occupied cells\n",
+              tiled_seconds, tiled_cpu, static_cast<double>(points) / tiled_seconds, b.size());
   std::printf("speed-up %.2fx; occupied cells %s\n", serial_seconds / tiled_seconds,
               a == b ? "IDENTICAL" : "DIFFER");
   return a == b ? 0 : 3;
