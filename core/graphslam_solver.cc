@@ -166,6 +166,7 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
   linear_options.pcg_max_iterations = options.pcg_max_iterations;
   linear_options.pcg_relative_tolerance = options.pcg_relative_tolerance;
   linear_options.forcing_sequence = options.pcg_forcing_sequence;
+  linear_options.eta_max = options.pcg_eta_max;
   linear_options.warm_start = options.pcg_warm_start;
   linear_options.max_analysis_unknowns = options.auto_cholmod_max_unknowns;
   linear_options.max_factor_bytes = options.auto_cholmod_max_factor_bytes;
