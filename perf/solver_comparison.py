@@ -20,7 +20,8 @@ and the ratios of ours/pcg to Ceres ITERATIVE_SCHUR: time per iteration, and
 final chi2 (the target: <= 0.5 at the same chi2 within 0.1 %).
 
   perf/solver_comparison.py --bin build/bin --out /tmp/cmp \
-      [--problems intel,M3500,city10000,victoria,sim1e5] [--skip RUN,...] [--timeout S]
+      [--problems intel,M3500,city10000,victoria,sim1e5] [--skip RUN,...] [--threads N]
+      [--timeout S]
 
 Simulated problems (sim1e5, sim1e6) are generated once into OUT with
 `graphslam simulate -o DIR --poses N --features M --format g2o`.
@@ -59,10 +60,11 @@ def write_atomically(path, text):
     os.replace(temp, path)
 
 
-def command(run, binaries, path, report):
+def command(run, binaries, path, report, threads):
     ours = [f"{binaries}/graphslam", "solve", path, "--initialization", "odometry",
-            "--max-iterations", "200", "--report", report, "-q"]
-    ceres = [f"{binaries}/graphslam_ceres_peer", path, "--report", report, "-q"]
+            "--max-iterations", "200", "--threads", str(threads), "--report", report, "-q"]
+    ceres = [f"{binaries}/graphslam_ceres_peer", path, "--threads", str(threads),
+             "--report", report, "-q"]
     return {
         "ours/cholmod": ours + ["--solver", "cholmod"],
         "ours/pcg": ours + ["--solver", "pcg", "--preconditioner", "subgraph"],
@@ -93,6 +95,8 @@ def main():
     parser.add_argument("--out", required=True)
     parser.add_argument("--problems", default="intel,M3500,city10000,victoria,sim1e5")
     parser.add_argument("--skip", default="", help="runs to leave out, e.g. ceres/iterative_schur_tight")
+    parser.add_argument("--threads", type=int, default=1,
+                        help="threads for both (1: least exposed to other load; 0: all cores)")
     parser.add_argument("--timeout", type=float, default=1200.0, help="seconds per run")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
@@ -104,7 +108,7 @@ def main():
             if run in skip:
                 continue
             report = os.path.join(args.out, f"{name}_{run.replace('/', '_')}.json")
-            cmd = command(run, args.bin, path, report)
+            cmd = command(run, args.bin, path, report, args.threads)
             start = time.monotonic()
             try:
                 result = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
