@@ -6,14 +6,11 @@
 #include <memory>
 
 #include "core/angle.h"
-#include "core/block_jacobi_preconditioner.h"
 #include "core/block_sparse_matrix.h"
 #include "core/chunk_passes.h"
-#include "core/cholmod_solver.h"
-#include "core/incomplete_cholesky_preconditioner.h"
 #include "core/logging.h"
 #include "core/pose_factors.h"
-#include "core/preconditioned_conjugate_gradient.h"
+#include "core/reduced_system_solver.h"
 #include "core/unknown_layout.h"
 
 namespace graphslam::core {
@@ -25,51 +22,6 @@ using Clock = std::chrono::steady_clock;
 double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
-
-// The reduced-system solver of one run: CHOLMOD keeps its symbolic analysis
-// across iterations; PCG keeps its preconditioner storage.
-class ReducedSolver {
- public:
-  ReducedSolver(LinearSolverType type, const SolverOptions& options)
-      : type_(type), options_(options) {}
-
-  // Solves matrix * x = rhs. Returns the linear iteration count in *iterations.
-  Status Solve(const BlockSparseMatrix& matrix, const Eigen::VectorXd& rhs, Eigen::VectorXd* x,
-               int* iterations) {
-    x->setZero(rhs.size());
-    if (rhs.size() == 0) {
-      *iterations = 0;
-      return Status::Ok();
-    }
-    if (type_ == LinearSolverType::kCholmod) {
-      GS_RETURN_IF_ERROR(cholmod_.Factorize(matrix));
-      GS_RETURN_IF_ERROR(cholmod_.Solve(rhs, x));
-      *iterations = 1;
-      return Status::Ok();
-    }
-    const LinearOperator* preconditioner = &block_jacobi_;
-    if (options_.preconditioner == PreconditionerType::kIncompleteCholesky) {
-      GS_RETURN_IF_ERROR(incomplete_cholesky_.Update(matrix));
-      preconditioner = &incomplete_cholesky_;
-    } else {
-      GS_RETURN_IF_ERROR(block_jacobi_.Update(matrix));
-    }
-    PcgOptions pcg;
-    pcg.max_iterations = options_.pcg_max_iterations;
-    pcg.relative_tolerance = options_.pcg_relative_tolerance;
-    const PcgSummary summary = SolvePcg(matrix, *preconditioner, rhs, pcg, x);
-    *iterations = summary.iterations;
-    if (!x->allFinite()) return Status::Numerical("PCG produced a non-finite step");
-    return Status::Ok();
-  }
-
- private:
-  LinearSolverType type_;
-  const SolverOptions& options_;
-  CholmodSolver cholmod_;
-  BlockJacobiPreconditioner block_jacobi_;
-  IncompleteCholeskyPreconditioner incomplete_cholesky_;
-};
 
 std::vector<Pose2> ApplyPoseStep(const std::vector<Pose2>& poses, const UnknownLayout& layout,
                                  const Eigen::VectorXd& step) {
@@ -105,6 +57,7 @@ const char* PreconditionerName(PreconditionerType type) {
   switch (type) {
     case PreconditionerType::kBlockJacobi: return "block-jacobi";
     case PreconditionerType::kIncompleteCholesky: return "incomplete-cholesky";
+    case PreconditionerType::kSubgraph: return "subgraph";
   }
   return "unknown";
 }
@@ -112,8 +65,9 @@ const char* PreconditionerName(PreconditionerType type) {
 StatusOr<PreconditionerType> ParsePreconditionerType(std::string_view name) {
   if (name == "block-jacobi") return PreconditionerType::kBlockJacobi;
   if (name == "incomplete-cholesky") return PreconditionerType::kIncompleteCholesky;
+  if (name == "subgraph") return PreconditionerType::kSubgraph;
   return Status::InvalidArgument("unknown preconditioner '" + std::string(name) +
-                                 "'; expected block-jacobi or incomplete-cholesky");
+                                 "'; expected block-jacobi, incomplete-cholesky or subgraph");
 }
 
 Status SolverOptions::Validate() const {
@@ -204,14 +158,29 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
   pairs = {};
   summary->reduced_nonzero_blocks = system.matrix.num_nonzero_blocks();
 
-  LinearSolverType type = options.linear_solver;
-  if (type == LinearSolverType::kAuto) {
-    type = system.matrix.num_rows() <= options.auto_cholmod_max_unknowns
-               ? LinearSolverType::kCholmod
-               : LinearSolverType::kPcg;
+  // The reduced system's solver (core/reduced_system_solver.h): kAuto picks
+  // CHOLMOD or PCG from CHOLMOD's symbolic analysis of this pattern.
+  ReducedSystemSolverOptions linear_options;
+  linear_options.type = options.linear_solver;
+  linear_options.preconditioner = options.preconditioner;
+  linear_options.pcg_max_iterations = options.pcg_max_iterations;
+  linear_options.pcg_relative_tolerance = options.pcg_relative_tolerance;
+  linear_options.forcing_sequence = options.pcg_forcing_sequence;
+  linear_options.eta_max = options.pcg_eta_max;
+  linear_options.warm_start = options.pcg_warm_start;
+  linear_options.max_analysis_unknowns = options.auto_cholmod_max_unknowns;
+  linear_options.max_factor_bytes = options.auto_cholmod_max_factor_bytes;
+  GS_RETURN_IF_ERROR(linear_options.Validate());
+  StatusOr<SolverChoice> choice = ChooseLinearSolver(system.matrix, linear_options);
+  GS_RETURN_IF_ERROR(choice.status());
+  const LinearSolverType type = choice->type;
+  if (choice->analyzed) {
+    GS_VLOG(1, "solver choice: CHOLMOD factor %.3g nonzeros, %.3g flops; PCG estimate %.3g "
+            "flops -> %s", choice->factor_nonzeros, choice->factor_flops, choice->pcg_cost,
+            LinearSolverName(type));
   }
   summary->linear_solver_used = type;
-  ReducedSolver solver(type, options);
+  ReducedSystemSolver solver(type, linear_options);
 
   std::vector<Pose2>& poses = problem->poses;
   std::vector<Point2>& features = problem->features;
@@ -306,6 +275,7 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
         model_decrease > 0.0 ? (chi2 - candidate_chi2) / model_decrease : -1.0;
     it.accepted = step_ok && std::isfinite(candidate_chi2) &&
                   it.relative_decrease > options.min_relative_decrease;
+    if (step_ok) solver.StepResult(it.accepted);
 
     bool converged = false;
     if (it.accepted) {

@@ -6,8 +6,9 @@
 //      Schur complement (Table 3), chunk by chunk:       ReducePass
 //        S = H_xx + lambda D_x - sum_j H_xj (C_j + lambda D_j)^{-1} H_jx
 //        rhs = -g_x + sum_j H_xj (C_j + lambda D_j)^{-1} g_j
-//   2. solve the reduced pose system S dx = rhs: PCG with block-Jacobi, or
-//      CHOLMOD (sparse Cholesky)
+//   2. solve the reduced pose system S dx = rhs: PCG (block-Jacobi, subgraph or
+//      incomplete Cholesky preconditioner, inexact-Newton forcing), or CHOLMOD
+//      (sparse Cholesky); core/reduced_system_solver.h
 //   3. recover each feature (Table 4):  dm_j = -(C_j + lambda D_j)^{-1}(g_j + H_jx dx)
 //   4. accept the step if the actual chi2 decrease is a fair share of the
 //      model's, rho = (chi2 - chi2') / (-g^T d + lambda d^T D d) > 1e-3, and
@@ -43,7 +44,7 @@
 namespace graphslam::core {
 
 enum class LinearSolverType { kAuto, kPcg, kCholmod };
-enum class PreconditionerType { kBlockJacobi, kIncompleteCholesky };
+enum class PreconditionerType { kBlockJacobi, kIncompleteCholesky, kSubgraph };
 const char* LinearSolverName(LinearSolverType type);
 StatusOr<LinearSolverType> ParseLinearSolverType(std::string_view name);
 const char* PreconditionerName(PreconditionerType type);
@@ -95,8 +96,16 @@ struct SolverOptions {
   PreconditionerType preconditioner = PreconditionerType::kBlockJacobi;  // for PCG
   int pcg_max_iterations = 2000;
   double pcg_relative_tolerance = 1e-10;
-  // kAuto picks CHOLMOD up to this many scalar pose unknowns, PCG above.
+  // PCG: Eisenstat-Walker forcing sequence and warm starts
+  // (core/reduced_system_solver.h).
+  bool pcg_forcing_sequence = true;
+  double pcg_eta_max = 0.1;  // the loosest forcing term
+  bool pcg_warm_start = true;
+  // kAuto: CHOLMOD when its factor (from its symbolic analysis) fits in
+  // auto_cholmod_max_factor_bytes and is estimated cheaper than PCG; PCG
+  // without analysing above auto_cholmod_max_unknowns scalar pose unknowns.
   int64_t auto_cholmod_max_unknowns = 3'000'000;
+  int64_t auto_cholmod_max_factor_bytes = int64_t{4} << 30;
   int max_chunks_in_flight = 8;
   // Features with more observations than this stay unknowns of the reduced
   // system instead of being eliminated (their k^2 fill would explode).

@@ -5,4 +5,6 @@ target_sources(graphslam_core PRIVATE
   cholmod_solver.cc
   incomplete_cholesky_preconditioner.cc
   preconditioned_conjugate_gradient.cc
-  schur_eliminator.cc)
+  reduced_system_solver.cc
+  schur_eliminator.cc
+  subgraph_preconditioner.cc)

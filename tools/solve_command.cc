@@ -153,7 +153,7 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
   solve->add_option("--solver", options->solver, "reduced system solver: auto, pcg, cholmod")
       ->capture_default_str();
   solve->add_option("--preconditioner", options->preconditioner,
-                    "PCG preconditioner: block-jacobi, incomplete-cholesky")
+                    "PCG preconditioner: block-jacobi, incomplete-cholesky, subgraph")
       ->capture_default_str();
   solve->add_option("--max-iterations", options->max_iterations, "Levenberg-Marquardt iterations")
       ->capture_default_str();

@@ -20,3 +20,18 @@ if ((${#missing[@]})); then
   apt-get update -qq
   apt-get install -y -qq --no-install-recommends "${missing[@]}"
 fi
+
+# Optional, perf-only: Ceres Solver for the peer harness perf/ceres_peer
+# (docs/peers.md). Opt-in (GRAPHSLAM_WITH_CERES=1) because building the peer
+# adds minutes to the default build. libceres-dev pulls in ATLAS and makes it
+# the libblas.so.3 / liblapack.so.3 alternative, which changes CHOLMOD's
+# timings; the reference BLAS/LAPACK we measure with are set back.
+if [[ "${GRAPHSLAM_WITH_CERES:-0}" == 1 ]]; then
+  if ! dpkg-query -W -f='${Status}' libceres-dev 2>/dev/null | grep -q "install ok installed"; then
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -qq
+    apt-get install -y -qq --no-install-recommends libceres-dev
+  fi
+  update-alternatives --set libblas.so.3-x86_64-linux-gnu /usr/lib/x86_64-linux-gnu/blas/libblas.so.3
+  update-alternatives --set liblapack.so.3-x86_64-linux-gnu /usr/lib/x86_64-linux-gnu/lapack/liblapack.so.3
+fi

@@ -1,0 +1,176 @@
+#include "core/reduced_system_solver.h"
+
+#include <Eigen/CholmodSupport>
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+
+#include "core/check.h"
+#include "core/preconditioned_conjugate_gradient.h"
+
+namespace graphslam::core {
+namespace {
+
+// Eisenstat-Walker choice 2.
+constexpr double kForcingGamma = 0.9;
+constexpr double kForcingAlpha = 2.0;
+
+}  // namespace
+
+Status ReducedSystemSolverOptions::Validate() const {
+  if (pcg_max_iterations <= 0 || !(pcg_relative_tolerance > 0) ||
+      !std::isfinite(pcg_relative_tolerance)) {
+    return Status::InvalidArgument(fmt::format(
+        "reduced system solver: PCG needs max_iterations > 0 and a positive finite tolerance, "
+        "got {} and {:g}",
+        pcg_max_iterations, pcg_relative_tolerance));
+  }
+  if (!(eta_max >= pcg_relative_tolerance) || !(eta_max < 1.0)) {
+    return Status::InvalidArgument(fmt::format(
+        "reduced system solver: eta_max must be in [pcg_relative_tolerance, 1), got {:g}",
+        eta_max));
+  }
+  if (max_factor_bytes < 0 || max_analysis_unknowns < 0) {
+    return Status::InvalidArgument("reduced system solver: budgets must be >= 0");
+  }
+  return Status::Ok();
+}
+
+StatusOr<SolverChoice> ChooseLinearSolver(const BlockSparseMatrix& s,
+                                          const ReducedSystemSolverOptions& options) {
+  SolverChoice choice;
+  if (options.type != LinearSolverType::kAuto) {
+    choice.type = options.type;
+    return choice;
+  }
+  const double n = s.num_rows();
+  const double b = s.block_size();
+  const double nnz = static_cast<double>(s.num_nonzero_blocks()) * b * b;
+  choice.pcg_cost = ReducedSystemSolver::kAssumedPcgIterations * (2.0 * nnz + 4.0 * n * b);
+  if (s.num_rows() == 0) {
+    choice.type = LinearSolverType::kCholmod;
+    return choice;
+  }
+  if (s.num_rows() > options.max_analysis_unknowns) {
+    choice.type = LinearSolverType::kPcg;
+    return choice;
+  }
+  // CHOLMOD's symbolic analysis on the pattern: the ordering CholmodSolver
+  // will use, and its exact fill and flop count (Common->lnz, Common->fl).
+  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Upper> analysis;
+  analysis.cholmod().print = 0;
+  analysis.analyzePattern(s.ToSparseUpper());
+  const cholmod_common& common = analysis.cholmod();
+  if (common.status < CHOLMOD_OK || !(common.lnz > 0)) {
+    return Status::Numerical(fmt::format(
+        "CHOLMOD symbolic analysis of the reduced system ({} rows) failed: status {}",
+        s.num_rows(), common.status));
+  }
+  choice.analyzed = true;
+  choice.factor_nonzeros = common.lnz;
+  choice.factor_flops = common.fl;
+  const double factor_bytes = 8.0 * common.lnz;
+  const double cholmod_cost = common.fl + 4.0 * common.lnz;
+  choice.type = factor_bytes <= static_cast<double>(options.max_factor_bytes) &&
+                        cholmod_cost <= choice.pcg_cost
+                    ? LinearSolverType::kCholmod
+                    : LinearSolverType::kPcg;
+  return choice;
+}
+
+ReducedSystemSolver::ReducedSystemSolver(LinearSolverType type,
+                                         const ReducedSystemSolverOptions& options)
+    : type_(type), options_(options), eta_(options.eta_max) {
+  GS_CHECK(type != LinearSolverType::kAuto);
+  GS_CHECK(options.Validate().ok());
+  if (!options_.forcing_sequence) eta_ = options_.pcg_relative_tolerance;
+}
+
+void ReducedSystemSolver::StepResult(bool accepted) {
+  if (!accepted || !options_.forcing_sequence) return;
+  // The next linearization is new: eta follows the gradient's progress, read
+  // at the next Solve. last_rhs_norm_ is the norm this step was solved for.
+  previous_rhs_norm_ = last_rhs_norm_;
+  have_previous_ = true;
+}
+
+const LinearOperator* ReducedSystemSolver::UpdatePreconditioner(const BlockSparseMatrix& s,
+                                                                Status* status) {
+  switch (options_.preconditioner) {
+    case PreconditionerType::kIncompleteCholesky:
+      *status = incomplete_cholesky_.Update(s);
+      return &incomplete_cholesky_;
+    case PreconditionerType::kSubgraph:
+      *status = subgraph_.Update(s);
+      return &subgraph_;
+    case PreconditionerType::kBlockJacobi:
+      break;
+  }
+  *status = block_jacobi_.Update(s);
+  return &block_jacobi_;
+}
+
+Status ReducedSystemSolver::Solve(const BlockSparseMatrix& s, const Eigen::VectorXd& rhs,
+                                  Eigen::VectorXd* x, int* iterations) {
+  const int n = static_cast<int>(rhs.size());
+  if (n == 0) {
+    x->resize(0);
+    *iterations = 0;
+    return Status::Ok();
+  }
+  if (type_ == LinearSolverType::kCholmod) {
+    GS_RETURN_IF_ERROR(cholmod_.Factorize(s));
+    GS_RETURN_IF_ERROR(cholmod_.Solve(rhs, x));
+    *iterations = 1;
+    return Status::Ok();
+  }
+
+  // Forcing term for this linearization.
+  const double rhs_norm = rhs.norm();
+  if (options_.forcing_sequence && have_previous_ && previous_rhs_norm_ > 0.0) {
+    const double previous_eta = eta_;
+    double eta = kForcingGamma * std::pow(rhs_norm / previous_rhs_norm_, kForcingAlpha);
+    const double safeguard = kForcingGamma * std::pow(previous_eta, kForcingAlpha);
+    if (safeguard > 0.1) eta = std::max(eta, safeguard);
+    eta_ = std::clamp(eta, options_.pcg_relative_tolerance, options_.eta_max);
+    have_previous_ = false;  // one update per accepted step
+  }
+  last_rhs_norm_ = rhs_norm;
+
+  Status status;
+  const LinearOperator* preconditioner = UpdatePreconditioner(s, &status);
+  GS_RETURN_IF_ERROR(status);
+
+  // Warm start: the previous solution scaled to the model's minimum along it.
+  product_.resize(n);
+  auto scale_to_model_minimum = [&](Eigen::VectorXd* v) {
+    product_.setZero();
+    s.RightMultiplyAndAccumulate(v->data(), product_.data());
+    const double curvature = v->dot(product_);
+    const double alpha = curvature > 0.0 ? rhs.dot(*v) / curvature : 0.0;
+    if (alpha > 0.0 && std::isfinite(alpha)) {
+      *v *= alpha;
+    } else {
+      v->setZero();
+    }
+  };
+  if (options_.warm_start && previous_x_.size() == n && previous_x_.allFinite()) {
+    *x = previous_x_;
+    scale_to_model_minimum(x);
+  } else {
+    x->setZero(n);
+  }
+
+  PcgOptions pcg;
+  pcg.max_iterations = options_.pcg_max_iterations;
+  pcg.relative_tolerance = options_.forcing_sequence ? eta_ : options_.pcg_relative_tolerance;
+  const PcgSummary summary = SolvePcg(s, *preconditioner, rhs, pcg, x);
+  *iterations = summary.iterations;
+  if (!x->allFinite()) return Status::Numerical("PCG produced a non-finite step");
+  // rhs^T dx = dx^T S dx for the LM model decrease (item 4 of the header).
+  if (options_.warm_start || options_.forcing_sequence) scale_to_model_minimum(x);
+  previous_x_ = *x;
+  return Status::Ok();
+}
+
+}  // namespace graphslam::core

@@ -1,0 +1,129 @@
+// ReducedSystemSolver: the linear solve of the reduced pose system
+//
+//   S dx = rhs      (S = reduced information + LM damping, rhs = -reduced gradient)
+//
+// across all Levenberg-Marquardt iterations of one run. It owns:
+//
+// 1. The choice between CHOLMOD and PCG (LinearSolverType::kAuto), made once
+//    from CHOLMOD's own symbolic analysis of S's pattern (AMD ordering):
+//      factor bytes   = 8 lnz                  (nonzeros of L)
+//      cholmod cost   = fl + 4 lnz             (factor flops + two solves)
+//      pcg cost       = kAssumedPcgIterations (2 nnz(S) + 4 n b)  per solve
+//    CHOLMOD if factor bytes <= max_factor_bytes and cholmod cost <=
+//    pcg cost, else PCG. Above max_analysis_unknowns the analysis itself is
+//    skipped (it costs O(nnz) memory and an AMD pass) and PCG is used.
+//    kAssumedPcgIterations was calibrated on the measured runs of
+//    docs/benchmarks.md (issue 4 section). `--solver pcg|cholmod` overrides.
+//
+// 2. For PCG, an inexact-Newton forcing sequence (Eisenstat & Walker,
+//    "Choosing the forcing terms in an inexact Newton method", SIAM J. Sci.
+//    Comput. 17(1), 1996, choice 2 with gamma = 0.9, alpha = 2):
+//      eta_0 = eta_max
+//      eta_k = gamma (|rhs_k| / |rhs_{k-1}|)^alpha      after an accepted step
+//      safeguard: eta_k = max(eta_k, gamma eta_{k-1}^alpha) if gamma eta_{k-1}^alpha > 0.1
+//      eta_k = clamp(eta_k, eta_min, eta_max)
+//    and PCG stops at |S dx - rhs| <= eta_k |rhs|. rhs is the reduced gradient,
+//    so the ratio is the Gauss-Newton progress: far from the optimum a rough
+//    step (eta 0.1) is as good as an exact one, near it the tolerance tightens
+//    quadratically and the iteration keeps Newton's local convergence. After a
+//    rejected step the linearization is the same and eta is kept.
+//    eta_max = 0.1 (Ceres' default), eta_min = the exact-solve tolerance.
+//
+// 3. Warm start: x0 = alpha x_prev, the previous solution scaled to minimize
+//    the quadratic model q(x) = x^T S x / 2 - rhs^T x along it,
+//      alpha = rhs^T x_prev / x_prev^T S x_prev   (x0 = 0 if alpha <= 0),
+//    so x0 is never worse than zero in the S-norm; it helps most after a
+//    rejected step (same linearization, more damping) and costs one product.
+//
+// 4. Exact model decrease. The LM driver computes the model decrease from
+//    dx^T S dx = rhs^T dx, which CG from x0 = 0 satisfies exactly (its
+//    residual is orthogonal to the Krylov space containing dx) but a warm
+//    started or truncated CG need not. Every PCG result is therefore rescaled
+//    by the same alpha (one more product), after which rhs^T dx = dx^T S dx.
+//
+// THREAD SAFETY: one object per solve; not thread-safe.
+// ALLOCATION: O(n) vectors kept across calls; the analysis and the
+// preconditioners allocate on their Update (see their headers).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+
+#include "core/block_jacobi_preconditioner.h"
+#include "core/block_sparse_matrix.h"
+#include "core/cholmod_solver.h"
+#include "core/graphslam_solver.h"
+#include "core/incomplete_cholesky_preconditioner.h"
+#include "core/status.h"
+#include "core/subgraph_preconditioner.h"
+
+namespace graphslam::core {
+
+struct ReducedSystemSolverOptions {
+  LinearSolverType type = LinearSolverType::kAuto;
+  PreconditionerType preconditioner = PreconditionerType::kSubgraph;
+  int pcg_max_iterations = 2000;
+  // The tolerance of an exact solve, and eta_min of the forcing sequence.
+  double pcg_relative_tolerance = 1e-10;
+  bool forcing_sequence = true;
+  double eta_max = 0.1;
+  bool warm_start = true;
+  // kAuto: CHOLMOD only if its factor fits in this many bytes.
+  int64_t max_factor_bytes = int64_t{4} << 30;
+  // kAuto: above this many scalar unknowns, PCG without analysing.
+  int64_t max_analysis_unknowns = 3'000'000;
+
+  [[nodiscard]] Status Validate() const;
+};
+
+// What the kAuto analysis found (zeros when it did not run).
+struct SolverChoice {
+  LinearSolverType type = LinearSolverType::kCholmod;
+  bool analyzed = false;
+  double factor_nonzeros = 0;  // CHOLMOD's lnz
+  double factor_flops = 0;     // CHOLMOD's fl
+  double pcg_cost = 0;         // the estimate above, flops per solve
+};
+
+// The analysis of item 1, on S's pattern (values are not read).
+StatusOr<SolverChoice> ChooseLinearSolver(const BlockSparseMatrix& s,
+                                          const ReducedSystemSolverOptions& options);
+
+class ReducedSystemSolver {
+ public:
+  // PCG iterations the kAuto rule assumes per solve (see item 1).
+  static constexpr double kAssumedPcgIterations = 100.0;
+
+  // Requires options.Validate().ok(). type must not be kAuto (call
+  // ChooseLinearSolver first).
+  ReducedSystemSolver(LinearSolverType type, const ReducedSystemSolverOptions& options);
+
+  // Solves s dx = rhs into *x. *iterations: PCG iterations (1 for CHOLMOD).
+  [[nodiscard]] Status Solve(const BlockSparseMatrix& s, const Eigen::VectorXd& rhs,
+                             Eigen::VectorXd* x, int* iterations);
+
+  // The LM driver tells whether the last solve's step was accepted.
+  void StepResult(bool accepted);
+
+  LinearSolverType type() const { return type_; }
+  double eta() const { return eta_; }
+
+ private:
+  const LinearOperator* UpdatePreconditioner(const BlockSparseMatrix& s, Status* status);
+
+  LinearSolverType type_;
+  ReducedSystemSolverOptions options_;
+  CholmodSolver cholmod_;
+  BlockJacobiPreconditioner block_jacobi_;
+  IncompleteCholeskyPreconditioner incomplete_cholesky_;
+  SubgraphPreconditioner subgraph_;
+  Eigen::VectorXd previous_x_;
+  Eigen::VectorXd product_;       // scratch: S x
+  double previous_rhs_norm_ = -1;  // |rhs| of the last accepted linearization
+  double last_rhs_norm_ = -1;
+  double eta_;
+  bool have_previous_ = false;
+};
+
+}  // namespace graphslam::core

@@ -1,0 +1,161 @@
+// ReducedSystemSolver: every configuration solves a random SPD block system
+// like a dense LDLT; the warm start and the final rescaling keep
+// rhs^T x = x^T S x (the LM model decrease relies on it); the kAuto choice
+// follows CHOLMOD's analysis and the memory budget; and on intel and M3500
+// the inexact-Newton run (forcing sequence, warm starts, subgraph
+// preconditioner) ends at the chi2 of exact CHOLMOD solves.
+#include "core/reduced_system_solver.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <cstdio>
+#include <string>
+
+#include "core/graphslam_solver.h"
+#include "core/initialization.h"
+#include "partition/in_memory_chunk_source.h"
+#include "storage/g2o_reader.h"
+#include "tests/testing/datasets.h"
+#include "tests/testing/random_linear_system.h"
+
+namespace graphslam::core {
+namespace {
+
+using graphslam::testing::RandomSpdMatrix;
+using graphslam::testing::RandomVector;
+using graphslam::testing::RelativeError;
+
+TEST(ReducedSystemSolver, EveryConfigurationEqualsTheDenseSolve) {
+  for (const PreconditionerType preconditioner :
+       {PreconditionerType::kBlockJacobi, PreconditionerType::kSubgraph,
+        PreconditionerType::kIncompleteCholesky}) {
+    for (const LinearSolverType type : {LinearSolverType::kPcg, LinearSolverType::kCholmod}) {
+      SCOPED_TRACE(::testing::Message() << PreconditionerName(preconditioner) << " "
+                                        << LinearSolverName(type));
+      ReducedSystemSolverOptions options;
+      options.preconditioner = preconditioner;
+      options.forcing_sequence = false;  // exact solves: compare with LDLT
+      options.pcg_relative_tolerance = 1e-12;
+      ReducedSystemSolver solver(type, options);
+      for (uint32_t seed = 1; seed <= 3; ++seed) {
+        const BlockSparseMatrix a = RandomSpdMatrix(seed + 500, 3, 80);
+        const Eigen::VectorXd rhs = RandomVector(seed + 600, a.num_rows());
+        Eigen::VectorXd x;
+        int iterations = 0;
+        ASSERT_TRUE(solver.Solve(a, rhs, &x, &iterations).ok());
+        EXPECT_LE(RelativeError(x, a.ToDense().ldlt().solve(rhs)), 1e-8);
+        solver.StepResult(seed % 2 == 0);
+      }
+    }
+  }
+}
+
+TEST(ReducedSystemSolver, WarmStartedInexactSolvesKeepTheModelIdentity) {
+  ReducedSystemSolverOptions options;
+  options.preconditioner = PreconditionerType::kBlockJacobi;
+  ReducedSystemSolver solver(LinearSolverType::kPcg, options);
+  const BlockSparseMatrix a = RandomSpdMatrix(11, 3, 200);
+  Eigen::VectorXd x;
+  int first = 0, second = 0;
+  const Eigen::VectorXd rhs = RandomVector(12, a.num_rows());
+  ASSERT_TRUE(solver.Solve(a, rhs, &x, &first).ok());
+  EXPECT_DOUBLE_EQ(solver.eta(), options.eta_max);
+  const Eigen::VectorXd exact = a.ToDense().ldlt().solve(rhs);
+  Eigen::VectorXd product = Eigen::VectorXd::Zero(a.num_rows());
+  a.RightMultiplyAndAccumulate(x.data(), product.data());
+  EXPECT_LE((product - rhs).norm(), 0.1 * rhs.norm() * 1.0000001);
+  EXPECT_NEAR(rhs.dot(x), x.dot(product), 1e-10 * std::abs(rhs.dot(x)));
+  // Same system again (a rejected step): the warm start begins at the
+  // previous answer, so it needs fewer iterations to the same tolerance.
+  solver.StepResult(false);
+  ASSERT_TRUE(solver.Solve(a, rhs, &x, &second).ok());
+  EXPECT_LT(second, first);
+  // An accepted step with 100x smaller gradient: eta = 0.9 * 1e-4.
+  solver.StepResult(true);
+  const Eigen::VectorXd small = 0.01 * RandomVector(13, a.num_rows());
+  ASSERT_TRUE(solver.Solve(a, small, &x, &first).ok());
+  EXPECT_NEAR(solver.eta(), 0.9 * std::pow(small.norm() / rhs.norm(), 2), 1e-15);
+  product.setZero();
+  a.RightMultiplyAndAccumulate(x.data(), product.data());
+  EXPECT_NEAR(small.dot(x), x.dot(product), 1e-10 * std::abs(small.dot(x)));
+  EXPECT_LE(RelativeError(x, a.ToDense().ldlt().solve(small)), 1e-2);
+}
+
+TEST(ReducedSystemSolver, AutoChoiceFollowsCholmodAnalysisAndBudget) {
+  const BlockSparseMatrix a = RandomSpdMatrix(21, 3, 300);
+  ReducedSystemSolverOptions options;
+  StatusOr<SolverChoice> choice = ChooseLinearSolver(a, options);
+  ASSERT_TRUE(choice.ok()) << choice.status().ToString();
+  EXPECT_TRUE(choice->analyzed);
+  // lnz is at least the lower triangle of A and at most dense.
+  const double n = a.num_rows();
+  EXPECT_GE(choice->factor_nonzeros, (a.ToSparseUpper().nonZeros()));
+  EXPECT_LE(choice->factor_nonzeros, n * (n + 1) / 2);
+  EXPECT_EQ(choice->type, choice->factor_flops + 4 * choice->factor_nonzeros <= choice->pcg_cost
+                              ? LinearSolverType::kCholmod
+                              : LinearSolverType::kPcg);
+  // A budget smaller than the factor forces PCG.
+  options.max_factor_bytes = static_cast<int64_t>(8 * choice->factor_nonzeros) - 1;
+  choice = ChooseLinearSolver(a, options);
+  ASSERT_TRUE(choice.ok());
+  EXPECT_EQ(choice->type, LinearSolverType::kPcg);
+  // Above the analysis limit: PCG without analysing.
+  options = ReducedSystemSolverOptions();
+  options.max_analysis_unknowns = a.num_rows() - 1;
+  choice = ChooseLinearSolver(a, options);
+  ASSERT_TRUE(choice.ok());
+  EXPECT_FALSE(choice->analyzed);
+  EXPECT_EQ(choice->type, LinearSolverType::kPcg);
+  // An explicit type is kept.
+  options.type = LinearSolverType::kCholmod;
+  choice = ChooseLinearSolver(a, options);
+  ASSERT_TRUE(choice.ok());
+  EXPECT_EQ(choice->type, LinearSolverType::kCholmod);
+}
+
+double SolveDataset(const std::string& relative, LinearSolverType type, int* iterations,
+                    int* linear_iterations) {
+  StatusOr<Problem2d> problem = storage::ReadG2o(graphslam::testing::DatasetPath(relative));
+  EXPECT_TRUE(problem.ok()) << problem.status().ToString();
+  if (!problem.ok()) return -1;
+  EXPECT_TRUE(InitializeProblem(&*problem).ok());
+  partition::InMemoryChunkSource chunks(*problem, partition::ChunkingOptions());
+  SolverOptions options;
+  options.linear_solver = type;
+  options.preconditioner = PreconditionerType::kSubgraph;
+  options.max_iterations = 200;
+  SolverSummary summary;
+  const Status status = SolveGraphSlam(options, chunks, &*problem, &summary);
+  EXPECT_TRUE(status.ok()) << status.ToString();
+  EXPECT_TRUE(summary.converged) << summary.termination;
+  *iterations = summary.iterations;
+  *linear_iterations = 0;
+  for (const IterationSummary& it : summary.per_iteration) *linear_iterations += it.linear_iterations;
+  return summary.final_chi2;
+}
+
+void ExpectInexactNewtonReachesTheExactOptimum(const std::string& relative) {
+  int cholmod_iterations = 0, pcg_iterations = 0, cholmod_linear = 0, pcg_linear = 0;
+  const double exact = SolveDataset(relative, LinearSolverType::kCholmod, &cholmod_iterations,
+                                    &cholmod_linear);
+  const double inexact =
+      SolveDataset(relative, LinearSolverType::kPcg, &pcg_iterations, &pcg_linear);
+  std::printf("[ %s: CHOLMOD chi2 %.9f in %d iterations; PCG (subgraph, forcing) chi2 %.9f in "
+              "%d iterations, %d CG iterations ]\n",
+              relative.c_str(), exact, cholmod_iterations, inexact, pcg_iterations, pcg_linear);
+  EXPECT_LE(std::abs(inexact - exact), 1e-6 * exact);
+}
+
+TEST(ReducedSystemSolver, ForcingSequenceReachesTheExactOptimumOnIntel) {
+  GS_REQUIRE_DATASET("freiburg_course_g2o/intel.g2o");
+  ExpectInexactNewtonReachesTheExactOptimum("freiburg_course_g2o/intel.g2o");
+}
+
+TEST(ReducedSystemSolver, ForcingSequenceReachesTheExactOptimumOnM3500) {
+  GS_REQUIRE_DATASET("freiburg_course_g2o/input_M3500_g2o.g2o");
+  ExpectInexactNewtonReachesTheExactOptimum("freiburg_course_g2o/input_M3500_g2o.g2o");
+}
+
+}  // namespace
+}  // namespace graphslam::core
