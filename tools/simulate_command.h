@@ -29,6 +29,7 @@ struct SimulateCommandOptions {
   CampusSimulatorOptions simulator;
   std::vector<double> alpha;  // --alpha a1..a6: replaces simulator.noise.alpha when given
   bool quiet = false;
+  bool streaming = false;  // --streaming: tools/streaming_campus_simulator.h (native only)
 };
 
 // Registers the subcommand on `app`; the callback stores the exit code in *exit_code.
