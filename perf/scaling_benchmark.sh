@@ -8,27 +8,33 @@
 #
 # usage: perf/scaling_benchmark.sh BUILD_DIR OUT_DIR [FEATURES...]
 #   default sizes: 10000 100000 1000000
-# environment: POSES_PER_FEATURE (default 0.5), RUNS (2), ITERATIONS (3),
-#   THREADS (2), CHUNK (4096), MEMORY_LIMIT (2G), SEED (1)
+# environment: POSES_PER_FEATURE (default 1), RUNS (2), ITERATIONS (3),
+#   THREADS (2), CHUNK (4096), MEMORY_LIMIT (2G), SEED (1), SPEED (8 m/s),
+#   SOLVER (pcg), INGEST_MEMORY_LIMIT (256M: the ingest's spill buffer is a
+#   third of it, ~1.2M observations, so the larger sizes spill to several buckets)
 #
 # Sizes: --features N landmarks, --poses N * POSES_PER_FEATURE (2 runs, GPS
-# every 50 poses). The solve runs ITERATIONS iterations in streaming mode
+# every 50 poses), driving SPEED m/s (8: 4 m between poses, so a pose sees new
+# landmarks and about 0.6 N of them are observed, ~5 observations each). The solve runs ITERATIONS iterations in streaming mode
 # (--streaming-poses 0: observations stay on disk, Table 1 guess from the
 # ingest); seconds per iteration = optimize seconds / iterations.
-# The simulator itself still builds the campus in memory (docs/out_of_core.md).
+# The simulator streams (--streaming: world per street segment).
 set -euo pipefail
 BUILD=${1:?usage: scaling_benchmark.sh BUILD_DIR OUT_DIR [FEATURES...]}
 OUT=${2:?usage: scaling_benchmark.sh BUILD_DIR OUT_DIR [FEATURES...]}
 shift 2
 SIZES=("$@")
 [ ${#SIZES[@]} -eq 0 ] && SIZES=(10000 100000 1000000)
-POSES_PER_FEATURE=${POSES_PER_FEATURE:-0.5}
+POSES_PER_FEATURE=${POSES_PER_FEATURE:-1}
 RUNS=${RUNS:-2}
 ITERATIONS=${ITERATIONS:-3}
 THREADS=${THREADS:-2}
 CHUNK=${CHUNK:-4096}
 MEMORY_LIMIT=${MEMORY_LIMIT:-2G}
+INGEST_MEMORY_LIMIT=${INGEST_MEMORY_LIMIT:-256M}
 SEED=${SEED:-1}
+SPEED=${SPEED:-8}
+SOLVER=${SOLVER:-pcg}
 GS="$BUILD/bin/graphslam"
 PLOT="$BUILD/perf/scaling_plot"
 mkdir -p "$OUT"
@@ -50,18 +56,18 @@ for N in "${SIZES[@]}"; do
   W="$OUT/n$N"
   rm -rf "$W"; mkdir -p "$W"
   echo "== $N features, $P poses" >&2
-  timed "$W/simulate" "$GS" simulate -o "$W/sim" --features "$N" --poses "$P" --runs "$RUNS" \
-    --gps-every 50 --seed "$SEED" -q
+  timed "$W/simulate" "$GS" simulate -o "$W/sim" --features "$N" --poses "$P" --runs "$RUNS" --streaming \
+    --speed "$SPEED" --gps-every 50 --seed "$SEED" -q
   SIM_S=$(wall_seconds "$W/simulate.time")
   timed "$W/ingest" "$GS" ingest "$W/sim/log.graphslam" -o "$W/store" \
-    --chunk-observations "$CHUNK" --memory-limit "$MEMORY_LIMIT"
+    --chunk-observations "$CHUNK" --memory-limit "$INGEST_MEMORY_LIMIT"
   INGEST_S=$(wall_seconds "$W/ingest.time")
   INGEST_RSS=$(rss_bytes "$W/ingest.time")
   rm -f "$W/sim/log.graphslam"   # the store is the input from here on
   STORE_BYTES=$(du -sb "$W/store" | cut -f1)
   set +e
   timed "$W/solve" "$GS" solve "$W/store" --streaming-poses 0 --max-iterations "$ITERATIONS" \
-    --threads "$THREADS" --chunk-observations "$CHUNK" --memory-limit "$MEMORY_LIMIT" \
+    --solver "$SOLVER" --threads "$THREADS" --chunk-observations "$CHUNK" --memory-limit "$MEMORY_LIMIT" \
     --report "$W/report.json" -q
   set -e
   SOLVE_RSS=$(rss_bytes "$W/solve.time")

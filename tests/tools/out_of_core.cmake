@@ -2,3 +2,5 @@
 graphslam_test(tools/out_of_core)
 add_dependencies(out_of_core_test graphslam)
 graphslam_test(tools/streaming_campus_simulator)
+graphslam_test(tools/ingest_kill)
+add_dependencies(ingest_kill_test graphslam)
