@@ -1,10 +1,13 @@
 #include "tools/out_of_core_solve.h"
 
 #include <algorithm>
+#include <filesystem>
+#include <system_error>
 
 #include "core/problem.h"
 #include "core/logging.h"
 #include "partition/streaming_ingest.h"
+#include "storage/chunk_store.h"
 #include "storage/env.h"
 #include "storage/format_detection.h"
 
@@ -29,6 +32,18 @@ int64_t IngestBufferObservations(int64_t limit_bytes, int64_t chunk_observations
   if (limit_bytes <= 0) limit_bytes = int64_t{1} << 30;
   return std::max(chunk_observations,
                   limit_bytes / (3 * static_cast<int64_t>(sizeof(core::Observation))));
+}
+
+bool WorkdirStoreIsCurrent(const std::string& input, const std::string& workdir) {
+  if (!storage::IsChunkStore(workdir)) return false;
+  StatusOr<std::unique_ptr<storage::DiskChunkSource>> store = storage::DiskChunkSource::Open(workdir);
+  if (!store.ok() || (*store)->source() != input) return false;
+  std::error_code error;
+  const auto input_time = std::filesystem::last_write_time(input, error);
+  if (error) return false;
+  const auto store_time = std::filesystem::last_write_time(
+      std::filesystem::path(workdir) / storage::kChunkStoreManifestName, error);
+  return !error && input_time <= store_time;
 }
 
 Status IngestIntoWorkdir(const std::string& input, const std::string& format, int robot,

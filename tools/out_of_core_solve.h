@@ -49,6 +49,12 @@ StatusOr<int> ChunksInFlightForMemoryLimit(int64_t limit_bytes, int64_t poses, i
 // the stable sort's scratch), at least `chunk_observations`.
 int64_t IngestBufferObservations(int64_t limit_bytes, int64_t chunk_observations);
 
+// True if `workdir` holds a complete chunk store ingested from `input` (the
+// manifest's source) after `input` was last modified: `solve FILE --workdir
+// DIR --resume` then reuses it instead of ingesting again, so the checkpoint
+// in DIR matches the store it was made on.
+bool WorkdirStoreIsCurrent(const std::string& input, const std::string& workdir);
+
 // Ingests `input` (format "auto" or a name) into the store `workdir` with
 // `chunk_observations` per chunk. Errors from detection, readers, the ingest.
 [[nodiscard]] Status IngestIntoWorkdir(const std::string& input, const std::string& format,

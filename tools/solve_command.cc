@@ -261,11 +261,14 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   // --workdir: a FILE goes through a chunk store in DIR (bounded-memory ingest).
   std::string store_path = options.input;
   if (!options.workdir.empty() && !storage::IsChunkStore(options.input)) {
-    if (Status status = IngestIntoWorkdir(options.input, options.format, options.robot,
-                                          options.workdir, options.chunk_observations,
-                                          memory_limit);
-        !status.ok())
-      return fail(status);
+    // --resume reuses the store its checkpoint was made on, if still current.
+    if (!(options.resume && WorkdirStoreIsCurrent(options.input, options.workdir))) {
+      if (Status status = IngestIntoWorkdir(options.input, options.format, options.robot,
+                                            options.workdir, options.chunk_observations,
+                                            memory_limit);
+          !status.ok())
+        return fail(status);
+    }
     store_path = options.workdir;
   }
   bool streaming = false;  // observations stay on disk; the ingest's guess starts

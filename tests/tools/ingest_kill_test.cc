@@ -1,6 +1,8 @@
 // kill -9 during `graphslam ingest` never leaves a store that opens (the
 // manifest is removed first and written last), and rerunning the ingest gives
-// a complete store whose solve equals the in-memory solve (docs/out_of_core.md).
+// a complete store whose solve equals the in-memory solve; kill -9 during
+// `solve FILE --workdir DIR`, then --resume, reuses the store and ends exactly
+// as an uninterrupted run (docs/out_of_core.md).
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -103,6 +105,35 @@ TEST_F(IngestKillTest, KillNineDuringIngestNeverLeavesAStoreThatOpens) {
                           (dir_ / "memory.json").string(), "--max-iterations", "3", "-q"}) % 4,
             0);
   ExpectSameChi2(ReadJson(dir_ / "memory.json"), ReadJson(dir_ / "store.json"));
+}
+
+TEST_F(IngestKillTest, KillNineDuringWorkdirSolveThenResumeEqualsUninterruptedRun) {
+  const std::string input = Simulate(1500, 4);
+  ASSERT_EQ(RunGraphslam({"solve", input, "--workdir", (dir_ / "full").string(), "--report",
+                          (dir_ / "full.json").string(), "-q"}),
+            0);
+  const fs::path store = dir_ / "store";
+  const fs::path checkpoint = store / "checkpoint.json";
+  const pid_t pid = SpawnGraphslam({"solve", input, "--workdir", store.string(), "-q"});
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (!fs::exists(checkpoint) && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  kill(pid, SIGKILL);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(fs::exists(checkpoint)) << "no checkpoint was written";
+  const int killed_after = ReadJson(checkpoint)["iterations"].get<int>();
+  // --resume reuses the store (no second ingest) and continues from the checkpoint.
+  const auto manifest_time = fs::last_write_time(store / "MANIFEST.json");
+  ASSERT_EQ(RunGraphslam({"solve", input, "--workdir", store.string(), "--resume", "--report",
+                          (dir_ / "resumed.json").string(), "-q"}),
+            0);
+  EXPECT_EQ(fs::last_write_time(store / "MANIFEST.json"), manifest_time) << "store re-ingested";
+  const nlohmann::json full = ReadJson(dir_ / "full.json");
+  const nlohmann::json resumed = ReadJson(dir_ / "resumed.json");
+  EXPECT_EQ(full["final_chi2"].get<double>(), resumed["final_chi2"].get<double>());
+  EXPECT_EQ(full["iterations"].get<int>(), resumed["iterations"].get<int>());
+  EXPECT_EQ(resumed["resumed_from_iteration"].get<int>(), killed_after);
 }
 
 }  // namespace
