@@ -23,7 +23,8 @@ constexpr const char* kKnownTags =
 
 class NativeLogParser {
  public:
-  explicit NativeLogParser(const std::string& path) : path_(path) {}
+  explicit NativeLogParser(const std::string& path, const ObservationSink* sink = nullptr)
+      : path_(path), sink_(sink) {}
 
   StatusOr<core::Problem2d> Parse() {
     GS_ASSIGN_OR_RETURN(std::unique_ptr<LineReader> reader, LineReader::Open(path_));
@@ -261,6 +262,9 @@ class NativeLogParser {
         range_bearing ? core::ObservationKind::kRangeBearing : core::ObservationKind::kPointXY;
     observation.z = Eigen::Vector2d(z[0], z[1]);
     observation.line = reader.line_number();
+    // Streaming (ReadNativeLogStreaming): the observation goes to the sink,
+    // the problem keeps O(poses + features).
+    if (sink_ != nullptr) return (*sink_)(observation);
     problem_.observations.push_back(observation);
     return Status::Ok();
   }
@@ -286,6 +290,7 @@ class NativeLogParser {
   }
 
   const std::string path_;
+  const ObservationSink* sink_ = nullptr;
   core::Problem2d problem_;
   std::unordered_map<int64_t, int32_t> poses_;
   std::unordered_map<int64_t, int32_t> features_;
@@ -298,6 +303,11 @@ class NativeLogParser {
 
 StatusOr<core::Problem2d> ReadNativeLog(const std::string& path) {
   return NativeLogParser(path).Parse();
+}
+
+StatusOr<core::Problem2d> ReadNativeLogStreaming(const std::string& path,
+                                                 const ObservationSink& sink) {
+  return NativeLogParser(path, &sink).Parse();
 }
 
 Status WriteNativeLog(const core::Problem2d& problem, const std::string& path, Env* env) {

@@ -27,6 +27,7 @@
 // THREAD SAFETY: reentrant. ALLOCATION: O(records); streamed line by line.
 #pragma once
 
+#include <functional>
 #include <string>
 
 #include "core/problem.h"
@@ -39,6 +40,17 @@ inline constexpr const char* kNativeLogMagic = "GRAPHSLAM_LOG";
 inline constexpr int kNativeLogVersion = 1;
 
 StatusOr<core::Problem2d> ReadNativeLog(const std::string& path);
+
+// Receives the observations of a streamed read, in file order; an error stops
+// the read and is returned by it.
+using ObservationSink = std::function<Status(const core::Observation&)>;
+
+// As ReadNativeLog, but every RB / XY record goes to `sink` instead of the
+// result (whose `observations` stay empty): memory O(poses + features), so
+// the out-of-core ingest (partition/external_bucketing.h) can read logs whose
+// observations do not fit in memory. Same checks, same dense indices.
+StatusOr<core::Problem2d> ReadNativeLogStreaming(const std::string& path,
+                                                 const ObservationSink& sink);
 
 // InvalidArgument (before anything is written) if `problem` is inconsistent;
 // IOError if the disk fails (an existing `path` is then left untouched).

@@ -1,14 +1,17 @@
 #include "tools/ingest_command.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <utility>
 
-#include "core/initialization.h"
-#include "partition/in_memory_chunk_source.h"
+#include "partition/streaming_ingest.h"
 #include "storage/chunk_store.h"
 #include "storage/env.h"
 #include "storage/format_detection.h"
 #include "tools/exit_codes.h"
+#include "tools/memory_size.h"
+#include "tools/out_of_core_solve.h"
+#include "tools/resource_usage.h"
 
 namespace graphslam::tools {
 
@@ -23,6 +26,11 @@ void AddIngestCommand(CLI::App* app, IngestCommandOptions* options, int* exit_co
   ingest->add_option("--chunk-observations", options->chunk_observations,
                      "observations per chunk (feature-complete)")
       ->capture_default_str();
+  ingest->add_option("--memory-limit", options->memory_limit,
+                     "memory budget of the observation buffer (e.g. 512M, 2G)")
+      ->capture_default_str();
+  ingest->add_option("--buffer-observations", options->buffer_observations,
+                     "observations held in memory at once (overrides --memory-limit)");
   ingest->add_flag("--compress", options->compress, "zstd-compress chunk blocks");
   ingest->add_flag("-q,--quiet", options->quiet, "no summary on the terminal");
   ingest->callback([options, exit_code]() { *exit_code = RunIngestCommand(*options); });
@@ -53,32 +61,40 @@ int RunIngestCommand(const IngestCommandOptions& options) {
     if (!parsed.ok()) return usage("--format: " + parsed.status().ToString());
     format = *parsed;
   }
-  storage::MrclamOptions mrclam;
-  mrclam.robot = options.robot;
-  StatusOr<core::Problem2d> read = storage::ReadProblem(options.input, format, mrclam);
-  if (!read.ok()) return fail(read.status());
-  core::Problem2d problem = std::move(read).value();
-  if (Status status = core::InitializeProblem(&problem); !status.ok()) return fail(status);
-
-  partition::ChunkingOptions chunking;
-  chunking.max_observations_per_chunk = options.chunk_observations;
-  const partition::InMemoryChunkSource chunks(problem, chunking);
-  storage::ChunkStoreWriteOptions store_options;
-  store_options.source = options.input;
-  if (options.compress) store_options.chunk.compression = storage::ChunkCompression::kZstd;
-  if (Status status = storage::WriteChunkStore(storage::Env::Default(), options.output_dir,
-                                               problem, chunks, store_options);
+  partition::StreamingIngestOptions ingest;
+  ingest.format = format;
+  ingest.mrclam.robot = options.robot;
+  ingest.max_observations_per_chunk = options.chunk_observations;
+  ingest.buffer_observations = options.buffer_observations;
+  if (ingest.buffer_observations <= 0) {
+    StatusOr<int64_t> limit = ParseMemorySize(options.memory_limit);
+    if (!limit.ok()) return usage("--memory-limit: " + limit.status().ToString());
+    ingest.buffer_observations = IngestBufferObservations(*limit, options.chunk_observations);
+  }
+  ingest.buffer_observations = std::max(ingest.buffer_observations, options.chunk_observations);
+  ingest.store.source = options.input;
+  if (options.compress) ingest.store.chunk.compression = storage::ChunkCompression::kZstd;
+  partition::IngestSummary summary;
+  if (Status status = partition::IngestToStore(storage::Env::Default(), options.input,
+                                               options.output_dir, ingest, &summary);
       !status.ok())
     return fail(status);
 
   if (!options.quiet) {
     std::printf("graphslam ingest summary\n");
-    std::printf("  input              %s (%s)\n", options.input.c_str(),
-                storage::InputFormatName(format));
+    std::printf("  input              %s (%s%s)\n", options.input.c_str(),
+                storage::InputFormatName(format), summary.streamed ? ", streamed" : ", read whole");
     std::printf("  store              %s\n", options.output_dir.c_str());
-    std::printf("  poses / features   %d / %d\n", problem.num_poses(), problem.num_features());
-    std::printf("  observations       %zu in %lld chunks\n", problem.observations.size(),
-                static_cast<long long>(chunks.NumChunks()));
+    std::printf("  poses / features   %d / %d\n", summary.poses, summary.features);
+    std::printf("  observations       %lld in %lld chunks\n",
+                static_cast<long long>(summary.observations),
+                static_cast<long long>(summary.chunks));
+    std::printf("  buckets / spills   %lld / %lld (buffer %lld observations, peak %lld held)\n",
+                static_cast<long long>(summary.bucketing.buckets),
+                static_cast<long long>(summary.bucketing.spills),
+                static_cast<long long>(ingest.buffer_observations),
+                static_cast<long long>(summary.bucketing.peak_observations_in_memory));
+    std::printf("  peak RSS           %.1f MiB\n", PeakRssBytes() / (1024.0 * 1024.0));
   }
   return kExitOk;
 }

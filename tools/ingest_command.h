@@ -1,16 +1,17 @@
 // `graphslam ingest INPUT -o STORE/ ...`: reads any supported input (g2o,
 // iSAM, MRCLAM folder, native log; storage/format_detection.h), initializes it
 // (paper Table 1, core/initialization.h), cuts its observations into
-// feature-complete chunks (partition/in_memory_chunk_source.h) and writes a
-// chunk store (storage/chunk_store.h, docs/formats/chunk_store.md) that
-// `graphslam solve STORE/` reads.
+// feature-complete chunks by external bucketing (partition/streaming_ingest.h)
+// and writes a chunk store (storage/chunk_store.h, docs/formats/chunk_store.md)
+// that `graphslam solve STORE/` reads.
 //
 // Bad options exit with kExitUsage and bad input with kExitBadInput before
 // anything is written; the store's MANIFEST.json is written last, so an
 // interrupted ingest leaves a store every reader rejects (tools/exit_codes.h).
 //
-// Memory: this version reads the whole input into memory (the external,
-// bounded-memory bucketing of issue 3 is not done yet).
+// Memory: for native logs O(poses + features) plus a bounded buffer of
+// observations (--memory-limit, or --buffer-observations); other formats are
+// read whole by their readers first (docs/out_of_core.md).
 #pragma once
 
 #include <cstdint>
@@ -26,6 +27,8 @@ struct IngestCommandOptions {
   std::string format = "auto";   // auto, g2o, isam, mrclam, native
   int robot = 1;                 // MRCLAM robot number
   int64_t chunk_observations = 4096;
+  int64_t buffer_observations = 0;  // 0: from memory_limit
+  std::string memory_limit = "1G";  // budget of the observation buffer (half of it)
   bool compress = false;         // zstd per block
   bool quiet = false;
 };

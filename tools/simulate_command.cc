@@ -11,6 +11,7 @@
 #include "storage/native_log_reader.h"
 #include "storage/tum_writer.h"
 #include "tools/exit_codes.h"
+#include "tools/streaming_campus_simulator.h"
 
 namespace graphslam::tools {
 namespace {
@@ -78,6 +79,9 @@ void AddSimulateCommand(CLI::App* app, SimulateCommandOptions* options, int* exi
                        "control noise a1..a6 (Probabilistic Robotics Table 5.3; default "
                        "0.01 0.001 0.00003 0.01 0.00003 0.01)")
       ->expected(6);
+  simulate->add_flag("--streaming", options->streaming,
+                     "write as the robot drives, world generated per street segment: bounded "
+                     "memory for 10^8 features (native format; a different file per seed)");
   simulate->add_flag("-q,--quiet", options->quiet, "no summary on the terminal");
   AddSimulate3dOptions(simulate, &options->sim3d);
   simulate->callback([options, exit_code]() { *exit_code = RunSimulateCommand(*options); });
@@ -118,6 +122,26 @@ int RunSimulateCommand(const SimulateCommandOptions& options) {
     return fail(Status::IOError(options.output_dir + " is not a folder"));
   }
 
+  if (options.streaming) {
+    if (options.format != "native") return usage("--streaming writes the native format only");
+    StreamingCampusSummary summary;
+    if (Status status = SimulateCampusStreaming(simulator, options.output_dir, &summary);
+        !status.ok())
+      return fail(status);
+    if (!options.quiet) {
+      std::printf(
+          "Simulated (streaming) a campus of %d x %d intersections (seed %u) with %lld "
+          "landmarks (%lld observed); %lld poses in %d run(s) over %.0f m, %lld motion controls, "
+          "%lld range-bearing observations, %lld GPS fixes. Wrote %s.\n",
+          summary.grid_columns, summary.grid_rows, simulator.seed,
+          static_cast<long long>(summary.landmarks),
+          static_cast<long long>(summary.observed_features), static_cast<long long>(summary.poses),
+          simulator.runs, summary.distance_travelled, static_cast<long long>(summary.motions),
+          static_cast<long long>(summary.observations), static_cast<long long>(summary.gps),
+          options.output_dir.c_str());
+    }
+    return kExitOk;
+  }
   StatusOr<SimulatedCampus> simulated = SimulateCampus(simulator);
   if (!simulated.ok()) return fail(simulated.status());
   SimulatedCampus campus = std::move(simulated).value();

@@ -31,6 +31,7 @@ struct SimulateCommandOptions {
   std::vector<double> alpha;  // --alpha a1..a6: replaces simulator.noise.alpha when given
   bool quiet = false;
   Simulate3dOptions sim3d;  // --3d --scans (tools/simulate3d_command.h)
+  bool streaming = false;  // --streaming: tools/streaming_campus_simulator.h (native only)
 };
 
 // Registers the subcommand on `app`; the callback stores the exit code in *exit_code.

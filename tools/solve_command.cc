@@ -22,6 +22,8 @@
 #include "storage/g2o_writer.h"
 #include "storage/tum_writer.h"
 #include "tools/exit_codes.h"
+#include "tools/memory_size.h"
+#include "tools/out_of_core_solve.h"
 #include "tools/progress_display.h"
 #include "tools/resource_usage.h"
 
@@ -46,7 +48,8 @@ Status ValidateOptions(const SolveCommandOptions& options) {
   if (options.initialization != "progressive" && options.initialization != "odometry")
     return Status::InvalidArgument("--initialization must be progressive or odometry, got '" +
                                    options.initialization + "'");
-  if (options.resume && options.checkpoint.empty() && !storage::IsChunkStore(options.input))
+  if (options.resume && options.checkpoint.empty() && !storage::IsChunkStore(options.input) &&
+      options.workdir.empty())
     return Status::InvalidArgument("--resume needs --checkpoint FILE (or a chunk store as input)");
   if (options.chunk_observations <= 0)
     return Status::InvalidArgument("--chunk-observations must be > 0");
@@ -56,7 +59,8 @@ Status ValidateOptions(const SolveCommandOptions& options) {
 nlohmann::json BuildReport(const SolveCommandOptions& options, const core::Problem2d& problem,
                            const core::SolverSummary& summary, const char* format_name,
                            double read_seconds, double initialize_seconds,
-                           double progressive_seconds, double total_seconds) {
+                           double progressive_seconds, double total_seconds,
+                           int64_t num_observations) {
   nlohmann::json report;
   report["input"] = options.input;
   report["format"] = format_name;
@@ -69,7 +73,7 @@ nlohmann::json BuildReport(const SolveCommandOptions& options, const core::Probl
   report["termination"] = summary.termination;
   report["poses"] = problem.num_poses();
   report["features"] = problem.num_features();
-  report["observations"] = static_cast<int64_t>(problem.observations.size());
+  report["observations"] = num_observations;
   report["observations_used"] = summary.observations_used;
   report["eliminated_features"] = summary.eliminated_features;
   report["kept_features"] = summary.kept_features;
@@ -190,6 +194,17 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
                     "(default for a chunk store: STORE/checkpoint.json)");
   solve->add_flag("--resume", options->resume,
                   "continue from the checkpoint, if one exists (after a crash or kill -9)");
+  solve->add_option("--workdir", options->workdir,
+                    "ingest a FILE input into this chunk store directory and solve from it "
+                    "(kept afterwards; without it a FILE is solved in memory)");
+  solve->add_option("--memory-limit", options->memory_limit,
+                    "memory budget (e.g. 2G): bounds the chunks in flight and the ingest buffer");
+  solve->add_option("--streaming-poses", options->streaming_poses,
+                    "stores with more poses skip progressive initialization (streaming mode)")
+      ->capture_default_str();
+  solve->add_option("--streaming-observations", options->streaming_observations,
+                    "stores with more observations are solved without loading them (streaming mode)")
+      ->capture_default_str();
   solve->add_flag("-q,--quiet", options->quiet, "no progress or summary on the terminal");
   solve->add_flag("-v,--verbose", options->verbosity, "more log detail (repeatable)");
   solve->callback([options, exit_code]() { *exit_code = RunSolveCommand(*options); });
@@ -233,15 +248,49 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   std::unique_ptr<storage::DiskChunkSource> store;
   core::Problem2d problem;
   const char* format_name = "chunk-store";
-  if (storage::IsChunkStore(options.input)) {
+  int64_t memory_limit = 0;
+  if (!options.memory_limit.empty()) {
+    StatusOr<int64_t> parsed = ParseMemorySize(options.memory_limit);
+    if (!parsed.ok()) {
+      std::fprintf(stderr, "graphslam solve: --memory-limit: %s\n",
+                   parsed.status().ToString().c_str());
+      return kExitUsage;
+    }
+    memory_limit = *parsed;
+  }
+  // --workdir: a FILE goes through a chunk store in DIR (bounded-memory ingest).
+  std::string store_path = options.input;
+  if (!options.workdir.empty() && !storage::IsChunkStore(options.input)) {
+    // --resume reuses the store its checkpoint was made on, if still current.
+    if (!(options.resume && WorkdirStoreIsCurrent(options.input, options.workdir))) {
+      if (Status status = IngestIntoWorkdir(options.input, options.format, options.robot,
+                                            options.workdir, options.chunk_observations,
+                                            memory_limit);
+          !status.ok())
+        return fail(status);
+    }
+    store_path = options.workdir;
+  }
+  bool streaming = false;  // observations stay on disk; the ingest's guess starts
+  int64_t num_observations = 0;
+  if (storage::IsChunkStore(store_path)) {
     StatusOr<std::unique_ptr<storage::DiskChunkSource>> opened =
-        storage::DiskChunkSource::Open(options.input);
+        storage::DiskChunkSource::Open(store_path);
     if (!opened.ok()) return fail(opened.status());
     store = std::move(opened).value();
-    StatusOr<core::Problem2d> read = storage::ReadChunkStoreProblem(options.input);
+    StatusOr<core::Problem2d> read = storage::ReadChunkStoreProblem(store_path);
     if (!read.ok()) return fail(read.status());
     problem = std::move(read).value();
-    if (Status status = LoadObservations(*store, &problem); !status.ok()) return fail(status);
+    num_observations = store->total_observations();
+    streaming = problem.num_poses() > options.streaming_poses ||
+                num_observations > options.streaming_observations;
+    if (streaming) {
+      GS_LOG(INFO, "streaming mode: %d poses, %lld observations stay on disk; initial guess "
+             "from the ingest (Table 1), no progressive initialization",
+             problem.num_poses(), static_cast<long long>(num_observations));
+    } else if (Status status = LoadObservations(*store, &problem); !status.ok()) {
+      return fail(status);
+    }
   } else {
     storage::InputFormat format;
     if (options.format == "auto") {
@@ -263,11 +312,15 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     problem = std::move(read).value();
     format_name = FormatName(format);
   }
+  if (!streaming) num_observations = static_cast<int64_t>(problem.observations.size());
   const double read_seconds = Seconds(start);
 
   // Initialize (Table 1) and validate connectivity.
   const Clock::time_point initialize_start = Clock::now();
-  if (Status status = core::InitializeProblem(&problem); !status.ok()) return fail(status);
+  // (Streaming: the ingest initialized and checked with every observation.)
+  if (!streaming) {
+    if (Status status = core::InitializeProblem(&problem); !status.ok()) return fail(status);
+  }
   const double initialize_seconds = Seconds(initialize_start);
 
   // Partition and solve.
@@ -293,10 +346,17 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   solver_options.function_tolerance = options.function_tolerance;
   solver_options.initial_trust_region_radius = options.initial_trust_region_radius;
   solver_options.progress = display.AsCallback();
+  {
+    StatusOr<int> in_flight = ChunksInFlightForMemoryLimit(
+        memory_limit, problem.num_poses(), problem.num_features(), options.chunk_observations,
+        solver_options.max_chunks_in_flight);
+    if (!in_flight.ok()) return fail(in_flight.status());
+    solver_options.max_chunks_in_flight = *in_flight;
+  }
   // Checkpoints: one durable file, replaced atomically after every iteration;
   // --resume continues from it (bit-identical to an uninterrupted solve).
   std::string checkpoint_path = options.checkpoint;
-  if (checkpoint_path.empty() && store) checkpoint_path = options.input + "/checkpoint.json";
+  if (checkpoint_path.empty() && store) checkpoint_path = store_path + "/checkpoint.json";
   if (options.resume && checkpoint_path.empty()) {
     std::fprintf(stderr, "graphslam solve: --resume needs --checkpoint FILE (or a chunk store)\n");
     return kExitUsage;
@@ -319,7 +379,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   // solved briefly, put the guess into the basin of the global optimum.
   const Clock::time_point progressive_start = Clock::now();
   partition::ProgressiveInitializationOptions progressive;
-  progressive.enabled = options.initialization == "progressive" && !resuming;
+  progressive.enabled = options.initialization == "progressive" && !resuming && !streaming;
   progressive.max_observations_per_chunk = options.chunk_observations;
   progressive.max_new_poses = options.progressive_max_new_poses;
   if (Status status = progressive.Validate(); !status.ok()) {
@@ -360,9 +420,14 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   }
   const double total_seconds = Seconds(start);
   if (!options.report.empty()) {
-    const nlohmann::json report = BuildReport(options, problem, summary, format_name,
+    nlohmann::json report = BuildReport(options, problem, summary, format_name,
                                               read_seconds, initialize_seconds,
-                                              progressive_seconds, total_seconds);
+                                              progressive_seconds, total_seconds,
+                                              num_observations);
+    report["streaming"] = streaming;
+    report["chunks_in_flight"] = solver_options.max_chunks_in_flight;
+    report["memory_limit_bytes"] = memory_limit;
+    if (store) report["store"] = store_path;
     if (Status status = storage::WriteStringAtomically(storage::Env::Default(), options.report,
                                                        report.dump(2) + "\n");
         !status.ok())
@@ -376,7 +441,8 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                 problem.num_poses(), problem.num_features(),
                 static_cast<long long>(summary.eliminated_features),
                 static_cast<long long>(summary.excluded_features));
-    std::printf("  observations       %zu\n", problem.observations.size());
+    std::printf("  observations       %lld%s\n", static_cast<long long>(num_observations),
+                streaming ? " (streamed from disk)" : "");
     std::printf("  linear solver      %s\n", core::LinearSolverName(summary.linear_solver_used));
     std::printf("  initial chi2       %.9g\n", summary.initial_chi2);
     std::printf("  final chi2         %.9g\n", summary.final_chi2);

@@ -32,6 +32,11 @@ struct SolveCommandOptions {
   int64_t progressive_max_new_poses = 500;     // poses added per progressive stage
   std::string checkpoint;  // --checkpoint FILE (default STORE/checkpoint.json for stores)
   bool resume = false;     // --resume: continue from the checkpoint if there is one
+  // Out of core (tools/out_of_core_solve.h, docs/out_of_core.md).
+  std::string workdir;       // --workdir DIR: ingest FILE into the store DIR, solve from it
+  std::string memory_limit;  // --memory-limit SIZE: bounds chunks in flight ("" = none)
+  int64_t streaming_poses = 100'000;            // stores above: streaming initialization
+  int64_t streaming_observations = 10'000'000;  // stores above: streaming initialization
   bool quiet = false;
   int verbosity = 0;
 };

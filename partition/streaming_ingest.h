@@ -1,0 +1,66 @@
+// IngestToStore: any supported input -> chunk store (storage/chunk_store.h),
+// in memory bounded by the external bucketing (external_bucketing.h).
+//
+//   1. un-commit: remove STORE/MANIFEST.json if there is one (fsync STORE/), and
+//      empty the scratch folder STORE/work/. From here until step 5 ends the
+//      directory is an incomplete store that every reader rejects, whatever
+//      kills the process (kill -9 included); rerunning the ingest restarts it.
+//   2. pass 1 over the input: the pose-only problem (poses, features, odometry,
+//      motion, GPS, FIX), the FeatureIndex and the InitializationObservations.
+//      Native logs are streamed (ReadNativeLogStreaming: O(poses + features));
+//      other formats (g2o, iSAM, MRCLAM) are read whole by their readers and
+//      replayed from memory -- only the native log path is bounded.
+//   3. Table 1 initialization (core/initialization.h) of the pose-only problem
+//      plus the kept observations: the same guesses and the same connectivity
+//      check as with every observation.
+//   4. pass 2: spill into bucket files in STORE/work/ (BucketChunkSource).
+//   5. WriteChunkStore: problem.graphslam, chunks in order, MANIFEST.json last;
+//      then STORE/work/ is removed.
+//
+// The store equals the one the in-memory path (InMemoryChunkSource +
+// WriteChunkStore) writes for the same input and chunk size, byte for byte in
+// problem.graphslam and record for record in every chunk (tested).
+//
+// THREAD SAFETY: one ingest per STORE at a time. ALLOCATION: O(poses +
+// features) + at most buffer_observations + max_observations_per_chunk
+// observations (summary->bucketing.peak_observations_in_memory) for native
+// logs, plus the scratch of std::stable_sort (up to as many again).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "core/status.h"
+#include "partition/external_bucketing.h"
+#include "storage/chunk_store.h"
+#include "storage/env.h"
+#include "storage/format_detection.h"
+
+namespace graphslam::partition {
+
+inline constexpr const char* kIngestWorkDirectory = "work";
+
+struct StreamingIngestOptions {
+  storage::InputFormat format = storage::InputFormat::kNative;
+  storage::MrclamOptions mrclam;
+  int64_t max_observations_per_chunk = 4096;  // B
+  int64_t buffer_observations = 1 << 20;      // K
+  storage::ChunkStoreWriteOptions store;
+};
+
+struct IngestSummary {
+  int32_t poses = 0;
+  int32_t features = 0;
+  int64_t observations = 0;
+  int64_t chunks = 0;
+  bool streamed = false;  // pass 1 and 2 streamed the file (native log)
+  BucketingStats bucketing;
+};
+
+// Errors: the readers' (file:line), InvalidArgument from initialization or the
+// options, IOError naming the path. On error no MANIFEST.json exists.
+[[nodiscard]] Status IngestToStore(storage::Env* env, const std::string& input,
+                                   const std::string& store_dir,
+                                   const StreamingIngestOptions& options, IngestSummary* summary);
+
+}  // namespace graphslam::partition

@@ -1,0 +1,5 @@
+# The scaling benchmark's plot (perf/scaling_benchmark.sh, docs/benchmarks.md):
+# PLplot's C API (pkg-config "plplot"; the top level finds only plplot-c++).
+pkg_check_modules(GRAPHSLAM_PLPLOT_C REQUIRED IMPORTED_TARGET plplot)
+add_executable(scaling_plot scaling_plot.cc)
+target_link_libraries(scaling_plot PRIVATE PkgConfig::GRAPHSLAM_PLPLOT_C)

@@ -1,0 +1,277 @@
+// External bucketing and the bounded-memory ingest (partition/external_bucketing.h,
+// partition/streaming_ingest.h): the store equals the in-memory path's, record
+// for record; the number of observations held at once is bounded by the
+// buffer (a counter, not wall-clock RSS); an interrupted ingest never leaves a
+// store that opens, and rerunning it gives the complete store.
+#include "partition/external_bucketing.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "core/initialization.h"
+#include "partition/in_memory_chunk_source.h"
+#include "partition/streaming_ingest.h"
+#include "storage/chunk_store.h"
+#include "storage/env.h"
+#include "storage/g2o_writer.h"
+#include "storage/native_log_reader.h"
+#include "tests/testing/random_problem.h"
+
+namespace graphslam::partition {
+namespace {
+
+using storage::Env;
+using storage::FaultInjectionEnv;
+
+class ExternalBucketingTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    root_ = std::filesystem::temp_directory_path() /
+            ("graphslam_bucketing_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(root_);
+    std::filesystem::create_directories(root_);
+  }
+  void TearDown() override { std::filesystem::remove_all(root_); }
+  std::string Path(const std::string& name) const { return (root_ / name).string(); }
+
+  // A random problem with many features seen from many poses, as a native log.
+  std::string WriteInput(uint32_t seed, int poses = 150, int features = 80) {
+    testing::RandomProblemOptions options;
+    options.num_poses = poses;
+    options.num_features = features;
+    options.seed = seed;
+    problem_ = testing::MakeRandomProblem(options).problem;
+    const std::string path = Path("input.graphslam");
+    EXPECT_TRUE(storage::WriteNativeLog(problem_, path).ok());
+    return path;
+  }
+
+  // The in-memory path of the previous ingest: read whole, initialize,
+  // InMemoryChunkSource, WriteChunkStore.
+  void WriteInMemoryStore(const std::string& input, const std::string& store, int64_t chunk) {
+    StatusOr<core::Problem2d> read = storage::ReadNativeLog(input);
+    ASSERT_TRUE(read.ok()) << read.status().ToString();
+    core::Problem2d problem = std::move(read).value();
+    ASSERT_TRUE(core::InitializeProblem(&problem).ok());
+    ChunkingOptions chunking;
+    chunking.max_observations_per_chunk = chunk;
+    const InMemoryChunkSource chunks(problem, chunking);
+    storage::ChunkStoreWriteOptions options;
+    options.source = input;
+    ASSERT_TRUE(storage::WriteChunkStore(Env::Default(), store, problem, chunks, options).ok());
+  }
+
+  static std::string ReadBytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  }
+
+  static void ExpectSameObservation(const core::Observation& a, const core::Observation& b) {
+    EXPECT_EQ(a.pose, b.pose);
+    EXPECT_EQ(a.feature, b.feature);
+    EXPECT_EQ(a.kind, b.kind);
+    EXPECT_EQ(a.z, b.z);
+    EXPECT_EQ(a.information, b.information);
+    EXPECT_EQ(a.line, b.line);
+  }
+
+  // Both stores open and hold the same problem file and the same chunks.
+  static void ExpectSameStore(const std::string& a, const std::string& b) {
+    EXPECT_EQ(ReadBytes(a + "/problem.graphslam"), ReadBytes(b + "/problem.graphslam"));
+    auto sa = storage::DiskChunkSource::Open(a);
+    auto sb = storage::DiskChunkSource::Open(b);
+    ASSERT_TRUE(sa.ok()) << sa.status().ToString();
+    ASSERT_TRUE(sb.ok()) << sb.status().ToString();
+    ASSERT_EQ((*sa)->NumChunks(), (*sb)->NumChunks());
+    core::ObservationChunk ca, cb;
+    for (int64_t k = 0; k < (*sa)->NumChunks(); ++k) {
+      ASSERT_TRUE((*sa)->Load(k, &ca).ok());
+      ASSERT_TRUE((*sb)->Load(k, &cb).ok());
+      EXPECT_EQ(ca.features, cb.features) << "chunk " << k;
+      EXPECT_EQ(ca.feature_begin, cb.feature_begin) << "chunk " << k;
+      ASSERT_EQ(ca.observations.size(), cb.observations.size()) << "chunk " << k;
+      for (size_t i = 0; i < ca.observations.size(); ++i)
+        ExpectSameObservation(ca.observations[i], cb.observations[i]);
+    }
+  }
+
+  core::Problem2d problem_;
+  std::filesystem::path root_;
+};
+
+TEST_F(ExternalBucketingTest, StoreEqualsTheInMemoryPathForManyBufferSizes) {
+  const std::string input = WriteInput(3);
+  const int64_t chunk = 100;
+  WriteInMemoryStore(input, Path("memory"), chunk);
+  for (int64_t buffer : {int64_t{100}, int64_t{137}, int64_t{1} << 20}) {
+    SCOPED_TRACE("buffer " + std::to_string(buffer));
+    StreamingIngestOptions options;
+    options.max_observations_per_chunk = chunk;
+    options.buffer_observations = buffer;
+    options.store.source = input;
+    IngestSummary summary;
+    const std::string store = Path("bucketed_" + std::to_string(buffer));
+    ASSERT_TRUE(IngestToStore(Env::Default(), input, store, options, &summary).ok());
+    EXPECT_TRUE(summary.streamed);
+    EXPECT_EQ(summary.observations, static_cast<int64_t>(problem_.observations.size()));
+    EXPECT_GT(summary.chunks, 3);
+    ExpectSameStore(Path("memory"), store);
+    EXPECT_FALSE(std::filesystem::exists(store + "/work")) << "scratch left behind";
+  }
+}
+
+TEST_F(ExternalBucketingTest, HeldObservationsAreBoundedByTheBufferNotTheInput) {
+  const std::string input = WriteInput(5, 300, 200);
+  const int64_t total = static_cast<int64_t>(problem_.observations.size());
+  std::vector<int64_t> per_feature(problem_.features.size(), 0);
+  for (const core::Observation& o : problem_.observations) ++per_feature[o.feature];
+  // A feature is never split, so one feature's observations are the floor.
+  const int64_t largest = *std::max_element(per_feature.begin(), per_feature.end());
+  const int64_t chunk = 64, buffer = 2 * largest;
+  ASSERT_GT(total, 10 * buffer) << "the input must be much larger than the buffer";
+  StreamingIngestOptions options;
+  options.max_observations_per_chunk = chunk;
+  options.buffer_observations = buffer;
+  IngestSummary summary;
+  ASSERT_TRUE(IngestToStore(Env::Default(), input, Path("store"), options, &summary).ok());
+  // Every bucket fits the buffer (no feature has more than `buffer`
+  // observations); a chunk holds at most max(chunk, largest feature).
+  EXPECT_LE(summary.bucketing.peak_observations_in_memory, buffer + std::max(chunk, largest));
+  EXPECT_GE(summary.bucketing.peak_observations_in_memory, buffer);
+  EXPECT_GE(summary.bucketing.spills, total / buffer);
+  EXPECT_GE(summary.bucketing.buckets, total / buffer);
+  EXPECT_EQ(summary.bucketing.observations, total);
+}
+
+TEST_F(ExternalBucketingTest, NonNativeInputIsReplayedFromMemoryWithTheSameChunks) {
+  // A g2o input (point observations): read whole, then bucketed.
+  testing::RandomProblemOptions random;
+  random.num_poses = 200;
+  random.num_features = 60;
+  random.range_bearing = false;
+  random.seed = 9;
+  const core::Problem2d problem = testing::MakeRandomProblem(random).problem;
+  const std::string input = Path("input.g2o");
+  ASSERT_TRUE(storage::WriteG2o(problem, input).ok());
+  StreamingIngestOptions options;
+  options.format = storage::InputFormat::kG2o;
+  options.max_observations_per_chunk = 50;
+  options.buffer_observations = 70;
+  IngestSummary summary;
+  ASSERT_TRUE(IngestToStore(Env::Default(), input, Path("store"), options, &summary).ok());
+  EXPECT_FALSE(summary.streamed);
+
+  StatusOr<core::Problem2d> read = storage::ReadProblem(input, storage::InputFormat::kG2o, {});
+  ASSERT_TRUE(read.ok());
+  core::Problem2d whole = std::move(read).value();
+  ASSERT_TRUE(core::InitializeProblem(&whole).ok());
+  ChunkingOptions chunking;
+  chunking.max_observations_per_chunk = 50;
+  const InMemoryChunkSource expected(whole, chunking);
+  auto store = storage::DiskChunkSource::Open(Path("store"));
+  ASSERT_TRUE(store.ok());
+  ASSERT_EQ((*store)->NumChunks(), expected.NumChunks());
+  core::ObservationChunk a, b;
+  for (int64_t k = 0; k < expected.NumChunks(); ++k) {
+    ASSERT_TRUE((*store)->Load(k, &a).ok());
+    ASSERT_TRUE(expected.Load(k, &b).ok());
+    EXPECT_EQ(a.features, b.features);
+    ASSERT_EQ(a.observations.size(), b.observations.size());
+    for (size_t i = 0; i < a.observations.size(); ++i)
+      ExpectSameObservation(a.observations[i], b.observations[i]);
+  }
+}
+
+TEST_F(ExternalBucketingTest, InitializationObservationsGiveTheSameGuessesAndConnectivity) {
+  WriteInput(7, 200, 50);
+  core::Problem2d all = problem_;
+  for (int32_t f = 0; f < all.num_features(); ++f) all.feature_initialized[f] = 0;
+  core::Problem2d kept_only = all;
+  InitializationObservations init;
+  for (const core::Observation& o : all.observations) init.Add(o);
+  EXPECT_LT(init.kept().size(), all.observations.size() / 4);
+  kept_only.observations = init.kept();
+  ASSERT_TRUE(core::InitializeProblem(&all).ok());
+  ASSERT_TRUE(core::InitializeProblem(&kept_only).ok());
+  for (int32_t f = 0; f < all.num_features(); ++f)
+    EXPECT_EQ(all.features[f], kept_only.features[f]) << "feature " << f;
+  for (int32_t p = 0; p < all.num_poses(); ++p) EXPECT_EQ(all.poses[p], kept_only.poses[p]);
+
+  // Connectivity only through features: without odometry, the kept
+  // observations still connect every pose, and still do not when a pose sees
+  // no feature shared with the rest.
+  core::Problem2d linked = problem_;
+  linked.relative_poses.clear();
+  InitializationObservations linked_init;
+  for (const core::Observation& o : linked.observations) linked_init.Add(o);
+  const Status full = core::ValidateProblem(linked);
+  linked.observations = linked_init.kept();
+  EXPECT_EQ(core::ValidateProblem(linked).ok(), full.ok()) << full.ToString();
+}
+
+TEST_F(ExternalBucketingTest, FailedIngestNeverLeavesAStoreThatOpensAndRerunCompletesIt) {
+  const std::string input = WriteInput(11);
+  const std::string store = Path("store");
+  StreamingIngestOptions options;
+  options.max_observations_per_chunk = 100;
+  options.buffer_observations = 150;
+  IngestSummary summary;
+  // A complete store first: a failed re-ingest must un-commit it too.
+  ASSERT_TRUE(IngestToStore(Env::Default(), input, store, options, &summary).ok());
+  const int64_t chunks = summary.chunks;
+  ASSERT_GT(chunks, 2);
+  // Fail the k-th durable rename: the problem file (1), a chunk, the manifest.
+  for (int nth : {1, static_cast<int>(chunks), static_cast<int>(chunks) + 2}) {
+    SCOPED_TRACE("rename " + std::to_string(nth));
+    FaultInjectionEnv env(Env::Default());
+    env.FailAt(FaultInjectionEnv::Operation::kRename, nth);
+    EXPECT_FALSE(IngestToStore(&env, input, store, options, &summary).ok());
+    EXPECT_FALSE(storage::IsChunkStore(store));
+    auto opened = storage::DiskChunkSource::Open(store);
+    ASSERT_FALSE(opened.ok());
+    EXPECT_NE(opened.status().ToString().find("incomplete chunk store"), std::string::npos)
+        << opened.status().ToString();
+  }
+  // Rerun: complete, and the same as a fresh ingest.
+  ASSERT_TRUE(IngestToStore(Env::Default(), input, store, options, &summary).ok());
+  ASSERT_TRUE(IngestToStore(Env::Default(), input, Path("fresh"), options, &summary).ok());
+  ExpectSameStore(store, Path("fresh"));
+}
+
+TEST_F(ExternalBucketingTest, ReplayThatDiffersFromTheFirstPassIsCorruption) {
+  FeatureIndex index;
+  core::Observation o;
+  o.pose = 0;
+  o.feature = 0;
+  index.Add(o);
+  index.Add(o);
+  ExternalBucketingOptions options;
+  options.max_observations_per_chunk = 4;
+  options.buffer_observations = 4;
+  options.work_dir = Path("");
+  // Second pass gives one observation of feature 0 only: counts differ.
+  auto short_replay = [&](const storage::ObservationSink& sink) { return sink(o); };
+  auto built = BucketChunkSource::Build(index, short_replay, options);
+  ASSERT_FALSE(built.ok());
+  EXPECT_NE(built.status().ToString().find("the first pass counted 2"), std::string::npos)
+      << built.status().ToString();
+  // ... or a feature pass 1 never saw.
+  core::Observation unseen = o;
+  unseen.feature = 5;
+  auto unseen_replay = [&](const storage::ObservationSink& sink) { return sink(unseen); };
+  built = BucketChunkSource::Build(index, unseen_replay, options);
+  ASSERT_FALSE(built.ok());
+  EXPECT_NE(built.status().ToString().find("was not seen in the first"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace graphslam::partition

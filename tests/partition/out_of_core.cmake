@@ -1,0 +1,1 @@
+graphslam_test(partition/external_bucketing)

@@ -1,0 +1,41 @@
+// Runs the graphslam binary of this build as a child process, for end-to-end
+// tests that need a real process (exit codes, kill -9).
+// GRAPHSLAM_BINARY_DIR comes from tests/CMakeLists.txt.
+#pragma once
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <string>
+#include <vector>
+
+namespace graphslam::testing {
+
+inline const std::string& GraphslamBinary() {
+  static const std::string path = std::string(GRAPHSLAM_BINARY_DIR) + "/bin/graphslam";
+  return path;
+}
+
+// Starts `graphslam args...` and returns its pid.
+inline pid_t SpawnGraphslam(const std::vector<std::string>& args) {
+  std::vector<char*> argv;
+  argv.push_back(const_cast<char*>(GraphslamBinary().c_str()));
+  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  const pid_t pid = fork();
+  if (pid == 0) {
+    execv(GraphslamBinary().c_str(), argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+// Runs `graphslam args...` to the end; its exit code, -1 if it was killed.
+inline int RunGraphslam(const std::vector<std::string>& args) {
+  const pid_t pid = SpawnGraphslam(args);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+}  // namespace graphslam::testing

@@ -1,0 +1,64 @@
+// The out-of-core parts of `graphslam solve` (docs/out_of_core.md):
+//
+//   --workdir DIR     a FILE input is first ingested into the chunk store DIR
+//                     (partition/streaming_ingest.h: bounded memory for native
+//                     logs) and solved from there; DIR is kept (checkpoints
+//                     land in DIR/checkpoint.json, so --resume works). Without
+//                     --workdir a FILE is solved in memory, as before.
+//   streaming mode    a chunk store with more than streaming_poses poses or
+//                     streaming_observations observations is solved without
+//                     loading its observations: the initial guess is the
+//                     ingest's Table 1 guess (odometry chaining, features from
+//                     first sight; the ingest already checked connectivity with
+//                     every observation) instead of the progressive
+//                     initialization, whose stages are in-memory sub-problems
+//                     (O(poses^2 / 500) work; fine to ~1e5 poses).
+//   --memory-limit    bounds the chunks in flight so that an estimate of the
+//                     pose system plus chunks in flight fits the budget:
+//                       pose system  ~ poses * kPoseSystemBytesPerPose
+//                                      + features * kBytesPerFeature
+//                       one chunk    ~ chunk_observations * kBytesPerObservationInFlight
+//                       in flight    = clamp(floor((limit - pose system) / chunk), 1, default)
+//                     InvalidArgument when even one chunk does not fit.
+//
+// THREAD SAFETY: pure functions plus one ingest. ALLOCATION: see the ingest.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "core/status.h"
+
+namespace graphslam::tools {
+
+// Bytes per pose of the reduced system (3x3 blocks of S for the pose and its
+// band of co-observing neighbours, the PCG vectors, the pose arrays) and per
+// feature (estimate, id, flags); bytes an observation costs while its chunk is
+// in flight (the record, its Jacobians, the feature's Schur blocks).
+inline constexpr int64_t kPoseSystemBytesPerPose = 4096;
+inline constexpr int64_t kBytesPerFeature = 64;
+inline constexpr int64_t kBytesPerObservationInFlight = 512;
+
+// The chunks in flight allowed by `limit_bytes` (<= 0: no limit ->
+// default_in_flight). InvalidArgument naming the budget and the need otherwise.
+StatusOr<int> ChunksInFlightForMemoryLimit(int64_t limit_bytes, int64_t poses, int64_t features,
+                                           int64_t chunk_observations, int default_in_flight);
+
+// Observation buffer of an ingest under `limit_bytes` (<= 0: 1 GiB): a third
+// of the budget in observations (each costs its bytes and as much again in
+// the stable sort's scratch), at least `chunk_observations`.
+int64_t IngestBufferObservations(int64_t limit_bytes, int64_t chunk_observations);
+
+// True if `workdir` holds a complete chunk store ingested from `input` (the
+// manifest's source) after `input` was last modified: `solve FILE --workdir
+// DIR --resume` then reuses it instead of ingesting again, so the checkpoint
+// in DIR matches the store it was made on.
+bool WorkdirStoreIsCurrent(const std::string& input, const std::string& workdir);
+
+// Ingests `input` (format "auto" or a name) into the store `workdir` with
+// `chunk_observations` per chunk. Errors from detection, readers, the ingest.
+[[nodiscard]] Status IngestIntoWorkdir(const std::string& input, const std::string& format,
+                                       int robot, const std::string& workdir,
+                                       int64_t chunk_observations, int64_t memory_limit_bytes);
+
+}  // namespace graphslam::tools

@@ -1,0 +1,375 @@
+#include "tools/streaming_campus_simulator.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "core/angle.h"
+#include "core/velocity_motion_model.h"
+#include "storage/atomic_file.h"
+#include "storage/env.h"
+#include "storage/internal/text_reader.h"
+#include "tools/internal/campus_world.h"
+
+namespace graphslam::tools {
+namespace {
+
+using internal::DirectionAngle;
+using internal::DirectionVector;
+using internal::Grid;
+using internal::kStepX;
+using internal::kStepY;
+using internal::Random;
+using internal::StreetPath;
+using storage::internal::AppendField;
+using storage::internal::AppendUpperTriangle;
+
+// SplitMix64 (Steele, Lea, Flood 2014): decorrelates the per-segment and
+// per-run seeds derived from one user seed.
+uint64_t SplitMix64(uint64_t x) {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+struct Landmark {
+  int64_t slot = 0;  // id - feature_id_base
+  core::Point2 position = core::Point2::Zero();
+};
+
+// The landmarks of the campus, generated per street segment on demand.
+class ProceduralWorld {
+ public:
+  ProceduralWorld(const CampusSimulatorOptions& options, const Grid& grid, double keep)
+      : options_(options), grid_(grid), keep_(keep) {
+    const double usable = options.block_size - options.street_width;
+    per_side_ = static_cast<int64_t>(std::floor(usable / options.min_landmark_spacing)) + 2;
+  }
+
+  int64_t NumSegmentSlots() const { return 2 * static_cast<int64_t>(grid_.columns) * grid_.rows; }
+  int64_t NumSlots() const { return NumSegmentSlots() * 2 * per_side_; }
+
+  // Landmarks of segment `s`, as PlaceLandmarks would place that one segment,
+  // each kept with probability keep_ (the draw is made either way).
+  void Generate(int64_t s, std::vector<Landmark>* out) const {
+    out->clear();
+    const int64_t node = s / 2;
+    const int direction = static_cast<int>(s % 2);
+    const int x = static_cast<int>(node % grid_.columns);
+    const int y = static_cast<int>(node / grid_.columns);
+    if (!grid_.Contains(x + kStepX[direction], y + kStepY[direction])) return;
+    Random random(SplitMix64(SplitMix64(options_.seed) ^ SplitMix64(static_cast<uint64_t>(s) + 1)));
+    const double half_width = 0.5 * options_.street_width;
+    const double end = options_.block_size - half_width;
+    const core::Point2 along = DirectionVector(direction);
+    const core::Point2 normal = DirectionVector(direction + 1);
+    for (int side = 0; side < 2; ++side) {
+      const core::Point2 offset = (side == 0 ? half_width : -half_width) * normal;
+      double t = half_width + random.Uniform(0.0, 0.5 * options_.min_landmark_spacing);
+      for (int64_t slot = 0; t <= end; ++slot) {
+        GS_CHECK(slot < per_side_);
+        const bool keep = random.Uniform() < keep_;
+        if (keep) {
+          out->push_back({(s * 2 + side) * per_side_ + slot,
+                          grid_.Node(x, y) + t * along + offset});
+        }
+        t += random.Uniform(options_.min_landmark_spacing, options_.max_landmark_spacing);
+      }
+    }
+  }
+
+  // Landmarks within `radius` of `center`, by slot.
+  void Near(const core::Point2& center, double radius, std::vector<Landmark>* out) {
+    out->clear();
+    const double reach = radius + 0.5 * options_.street_width;
+    const double b = grid_.block_size;
+    const int x0 = std::max(0, static_cast<int>(std::floor((center.x() - reach) / b)) - 1);
+    const int x1 = std::min(grid_.columns - 1, static_cast<int>(std::ceil((center.x() + reach) / b)));
+    const int y0 = std::max(0, static_cast<int>(std::floor((center.y() - reach) / b)) - 1);
+    const int y1 = std::min(grid_.rows - 1, static_cast<int>(std::ceil((center.y() + reach) / b)));
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) {
+        for (int d = 0; d < 2; ++d) {
+          const int64_t s = 2 * (static_cast<int64_t>(y) * grid_.columns + x) + d;
+          for (const Landmark& landmark : Cached(s))
+            if ((landmark.position - center).squaredNorm() <= radius * radius)
+              out->push_back(landmark);
+        }
+      }
+    }
+    std::sort(out->begin(), out->end(),
+              [](const Landmark& a, const Landmark& b) { return a.slot < b.slot; });
+  }
+
+ private:
+  const std::vector<Landmark>& Cached(int64_t s) {
+    auto it = cache_.find(s);
+    if (it != cache_.end()) return it->second;
+    // The robot moves locally: a bounded cache, dropped whole when full.
+    if (cache_.size() >= 4096) cache_.clear();
+    std::vector<Landmark>& landmarks = cache_[s];
+    Generate(s, &landmarks);
+    return landmarks;
+  }
+
+  const CampusSimulatorOptions& options_;
+  const Grid& grid_;
+  const double keep_;
+  int64_t per_side_ = 0;
+  std::unordered_map<int64_t, std::vector<Landmark>> cache_;
+};
+
+// Grid and keep probability, sized as BuildCampus sizes them.
+double SizeCampus(const CampusSimulatorOptions& options, Grid* grid) {
+  grid->columns = 3;
+  grid->rows = 3;
+  grid->block_size = options.block_size;
+  if (options.features == 0) {
+    const double distance = static_cast<double>(options.poses) * options.speed * options.dt;
+    while (static_cast<double>(grid->Segments()) * options.block_size < 0.25 * distance)
+      internal::Grow(grid);
+    return 1.0;
+  }
+  const double per_segment = internal::ExpectedLandmarksPerSegment(options);
+  while (static_cast<double>(grid->Segments()) * per_segment <
+         1.05 * static_cast<double>(options.features))
+    internal::Grow(grid);
+  return std::min(1.0, static_cast<double>(options.features) /
+                           (static_cast<double>(grid->Segments()) * per_segment));
+}
+
+// A file written through `env` to its temporary name, renamed into place by Commit().
+class StreamedFile {
+ public:
+  StreamedFile(storage::Env* env, std::string path) : env_(env), path_(std::move(path)) {}
+  Status Open() {
+    GS_ASSIGN_OR_RETURN(file_, env_->NewWritableFile(storage::TemporaryFileName(path_)));
+    return Status::Ok();
+  }
+  Status Append(std::string_view data) { return file_->Append(data); }
+  Status Commit() {
+    GS_RETURN_IF_ERROR(file_->Sync());
+    GS_RETURN_IF_ERROR(file_->Close());
+    GS_RETURN_IF_ERROR(env_->Rename(storage::TemporaryFileName(path_), path_));
+    return env_->SyncDirectory(std::filesystem::path(path_).parent_path().string());
+  }
+  ~StreamedFile() {
+    if (file_ != nullptr) {
+      std::error_code error;
+      std::filesystem::remove(storage::TemporaryFileName(path_), error);
+    }
+  }
+
+ private:
+  storage::Env* env_;
+  std::string path_;
+  std::unique_ptr<storage::WritableFile> file_;
+};
+
+}  // namespace
+
+Status SimulateCampusStreaming(const CampusSimulatorOptions& options, const std::string& dir,
+                               StreamingCampusSummary* summary) {
+  GS_CHECK(summary != nullptr);
+  GS_RETURN_IF_ERROR(options.Validate());
+  *summary = StreamingCampusSummary();
+  Grid grid;
+  const double keep = SizeCampus(options, &grid);
+  summary->grid_columns = grid.columns;
+  summary->grid_rows = grid.rows;
+  ProceduralWorld world(options, grid, keep);
+  std::vector<uint16_t> counts(static_cast<size_t>(world.NumSlots()), 0);
+
+  storage::Env* env = storage::Env::Default();
+  const std::filesystem::path folder(dir);
+  const std::string log_path = (folder / "log.graphslam").string();
+  const std::string tum_path = (folder / "ground_truth.tum").string();
+  const std::string features_path = (folder / "ground_truth_features.csv").string();
+  StreamedFile tum(env, tum_path);
+  GS_RETURN_IF_ERROR(tum.Open());
+  GS_RETURN_IF_ERROR(tum.Append("# timestamp x y z qx qy qz qw\n"));
+
+  const double half_fov = 0.5 * options.field_of_view;
+  const Eigen::Matrix2d observation_information =
+      Eigen::Vector2d(1.0 / (options.range_sigma * options.range_sigma),
+                      1.0 / (options.bearing_sigma * options.bearing_sigma))
+          .asDiagonal();
+  const Eigen::Matrix2d gps_information =
+      Eigen::Matrix2d::Identity() / (options.gps_sigma * options.gps_sigma);
+  const double min_range = 5.0 * options.range_sigma;
+
+  GS_RETURN_IF_ERROR(storage::WriteFileAtomically(env, log_path, [&](storage::WritableFile* file)
+                                                                     -> Status {
+    std::string line;
+    const auto flush = [&]() {
+      line.push_back('\n');
+      Status status = file->Append(line);
+      line.clear();
+      return status;
+    };
+    line = "GRAPHSLAM_LOG 1";
+    GS_RETURN_IF_ERROR(flush());
+    line = "# graphslam simulate --streaming, seed " + std::to_string(options.seed) +
+           " (spec: docs/formats/native_log.md)";
+    GS_RETURN_IF_ERROR(flush());
+    std::vector<Landmark> nearby;
+    int64_t index = 0;
+    for (int run = 0; run < options.runs; ++run) {
+      Random random(SplitMix64(SplitMix64(options.seed) ^ (0x5851f42d4c957f2dULL * (run + 1))));
+      const int64_t run_poses =
+          options.poses / options.runs + (run < options.poses % options.runs ? 1 : 0);
+      const int start_x = static_cast<int>(random.UniformInt(grid.columns));
+      const int start_y = static_cast<int>(random.UniformInt(grid.rows));
+      int directions[4];
+      int count = 0;
+      for (int d = 0; d < 4; ++d)
+        if (grid.Contains(start_x + kStepX[d], start_y + kStepY[d])) directions[count++] = d;
+      const int direction = directions[random.UniformInt(count)];
+      StreetPath path(grid, options, start_x, start_y, direction, &random);
+      core::Pose2 truth(start_x * grid.block_size, start_y * grid.block_size,
+                        core::WrapAngle(DirectionAngle(direction)));
+      core::Pose2 guess = truth;
+      if (run > 0) {
+        guess.x() += random.Normal(options.initial_position_sigma);
+        guess.y() += random.Normal(options.initial_position_sigma);
+        guess.z() = core::WrapAngle(guess.z() + random.Normal(options.initial_heading_sigma));
+      }
+      double s = 0.0;
+      core::VelocityControl control;
+      Eigen::Matrix3d motion_information;
+      for (int64_t k = 0; k < run_poses; ++k, ++index) {
+        const double stamp = static_cast<double>(k) * options.dt;
+        AppendField(&line, "POSE");
+        AppendField(&line, index);
+        AppendField(&line, stamp);
+        if (k == 0)
+          for (int c = 0; c < 3; ++c) AppendField(&line, guess[c]);
+        GS_RETURN_IF_ERROR(flush());
+        if (index == 0 && options.gps_every == 0) {
+          AppendField(&line, "FIX");
+          AppendField(&line, index);
+          GS_RETURN_IF_ERROR(flush());
+        }
+        if (k > 0) {
+          AppendField(&line, "CONTROL_INFO");
+          AppendField(&line, index - 1);
+          AppendField(&line, index);
+          AppendField(&line, control.v);
+          AppendField(&line, control.omega);
+          AppendField(&line, control.dt);
+          AppendUpperTriangle(&line, motion_information);
+          GS_RETURN_IF_ERROR(flush());
+          ++summary->motions;
+        }
+        // Sensing from the true pose.
+        world.Near(truth.head<2>(), options.sensor_range, &nearby);
+        for (const Landmark& landmark : nearby) {
+          const core::Point2 delta = landmark.position - truth.head<2>();
+          const double range = delta.norm();
+          if (range < min_range || range > options.sensor_range) continue;
+          const double bearing = core::WrapAngle(std::atan2(delta.y(), delta.x()) - truth.z());
+          if (std::abs(bearing) > half_fov) continue;
+          AppendField(&line, "RB");
+          AppendField(&line, index);
+          AppendField(&line, options.feature_id_base + landmark.slot);
+          AppendField(&line, range + random.Normal(options.range_sigma));
+          AppendField(&line, core::WrapAngle(bearing + random.Normal(options.bearing_sigma)));
+          AppendUpperTriangle(&line, observation_information);
+          GS_RETURN_IF_ERROR(flush());
+          uint16_t& seen = counts[static_cast<size_t>(landmark.slot)];
+          if (seen == 0) ++summary->observed_features;
+          if (seen < std::numeric_limits<uint16_t>::max()) ++seen;
+          ++summary->observations;
+        }
+        if (options.gps_every > 0 && k % options.gps_every == 0) {
+          AppendField(&line, "GPS");
+          AppendField(&line, index);
+          AppendField(&line, truth.x() + random.Normal(options.gps_sigma));
+          AppendField(&line, truth.y() + random.Normal(options.gps_sigma));
+          AppendUpperTriangle(&line, gps_information);
+          GS_RETURN_IF_ERROR(flush());
+          ++summary->gps;
+        }
+        std::string tum_line;
+        AppendField(&tum_line, stamp);
+        AppendField(&tum_line, truth.x());
+        AppendField(&tum_line, truth.y());
+        AppendField(&tum_line, "0 0 0");
+        AppendField(&tum_line, std::sin(0.5 * truth.z()));
+        AppendField(&tum_line, std::cos(0.5 * truth.z()));
+        tum_line.push_back('\n');
+        GS_RETURN_IF_ERROR(tum.Append(tum_line));
+        if (k + 1 == run_poses) continue;  // (ends the loop, counting the pose)
+
+        // Pure pursuit on the true pose and the noisy execution, as SimulateCampus.
+        path.ExtendTo(s + options.lookahead + 2.0 * options.block_size);
+        for (int iteration = 0; iteration < 3; ++iteration) {
+          const double step = (truth.head<2>() - path.Position(s)).dot(path.Tangent(s));
+          s = std::max(s, s + std::clamp(step, -options.block_size, options.block_size));
+        }
+        const core::Point2 target = path.Position(s + options.lookahead);
+        const core::Point2 local =
+            core::Rotation2(truth.z()).transpose() * (target - truth.head<2>());
+        const double curvature = 2.0 * local.y() / std::max(local.squaredNorm(), 1e-12);
+        control.v = options.speed;
+        control.omega =
+            std::clamp(options.speed * curvature, -options.max_omega, options.max_omega);
+        control.dt = options.dt;
+        const double v2 = control.v * control.v;
+        const double w2 = control.omega * control.omega;
+        const double* a = options.noise.alpha;
+        core::VelocityControl executed = control;
+        executed.v += random.Normal(std::sqrt(a[0] * v2 + a[1] * w2));
+        executed.omega += random.Normal(std::sqrt(a[2] * v2 + a[3] * w2));
+        const double gamma = random.Normal(std::sqrt(a[4] * v2 + a[5] * w2));
+        core::Pose2 next = core::PredictVelocityMotion(truth, executed);
+        next.x() += random.Normal(options.noise.min_sigma_xy);
+        next.y() += random.Normal(options.noise.min_sigma_xy);
+        next.z() = core::WrapAngle(next.z() + gamma * options.dt +
+                                   random.Normal(options.noise.min_sigma_theta));
+        const Eigen::Matrix3d inverse =
+            core::VelocityMotionCovariance(truth, control, options.noise).inverse();
+        motion_information = 0.5 * (inverse + inverse.transpose());
+        summary->distance_travelled += (next.head<2>() - truth.head<2>()).norm();
+        truth = next;
+      }
+    }
+    summary->poses = index;
+    return Status::Ok();
+  }));
+  GS_RETURN_IF_ERROR(tum.Commit());
+
+  // Every landmark of the world, segment by segment, with its observation count.
+  return storage::WriteFileAtomically(env, features_path, [&](storage::WritableFile* file)
+                                                              -> Status {
+    GS_RETURN_IF_ERROR(file->Append("id,x,y,observations,excluded\n"));
+    std::vector<Landmark> landmarks;
+    std::string line;
+    for (int64_t s = 0; s < world.NumSegmentSlots(); ++s) {
+      world.Generate(s, &landmarks);
+      for (const Landmark& landmark : landmarks) {
+        line.clear();
+        AppendField(&line, options.feature_id_base + landmark.slot);
+        line.push_back(',');
+        line.append(storage::internal::FormatDouble(landmark.position.x()));
+        line.push_back(',');
+        line.append(storage::internal::FormatDouble(landmark.position.y()));
+        line.push_back(',');
+        line.append(std::to_string(counts[static_cast<size_t>(landmark.slot)]));
+        line.append(",0\n");
+        GS_RETURN_IF_ERROR(file->Append(line));
+        ++summary->landmarks;
+      }
+    }
+    return Status::Ok();
+  });
+}
+
+}  // namespace graphslam::tools
