@@ -6,6 +6,7 @@
 #include "tools/evaluate_command.h"
 #include "tools/exit_codes.h"
 #include "tools/ingest_command.h"
+#include "tools/run_command.h"
 #include "tools/simulate_command.h"
 #include "tools/solve_command.h"
 
@@ -21,6 +22,8 @@ int main(int argc, char** argv) {
   graphslam::tools::AddEvaluateCommand(&app, &evaluate_options, &exit_code);
   graphslam::tools::IngestCommandOptions ingest_options;
   graphslam::tools::AddIngestCommand(&app, &ingest_options, &exit_code);
+  graphslam::tools::RunCommandOptions run_options;
+  graphslam::tools::AddRunCommand(&app, &run_options, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
