@@ -172,7 +172,7 @@ StatusOr<std::string> PlotStages(const std::vector<StageBar>& stages, const std:
     pls->col0(1);
     char label[64];
     std::snprintf(label, sizeof(label), "%.2f s", stages[i].seconds);
-    pls->ptex(static_cast<double>(i) + 0.5, stages[i].seconds + top * 0.09, 1, 0, 0.5, label);
+    pls->ptex(static_cast<double>(i) + 0.5, stages[i].seconds + top * 0.11, 1, 0, 0.5, label);
     std::snprintf(label, sizeof(label), "%.0f MiB", stages[i].peak_rss_mib);
     pls->ptex(static_cast<double>(i) + 0.5, stages[i].seconds + top * 0.03, 1, 0, 0.5, label);
     pls->mtex("b", 3.2, (static_cast<double>(i) + 0.5) / n, 0.5, stages[i].stage.c_str());

@@ -69,7 +69,7 @@ class JobResume : public ::testing::Test {
                            "runs:\n"
                            "  - name: campus\n"
                            "    format: simulate\n"
-                           "    simulate: {poses: 1000, runs: 2, gps_every: 20, seed: 11}\n";
+                           "    simulate: {poses: 600, runs: 2, gps_every: 20, seed: 11}\n";
     reference_ok_ = fs::exists(kGraphslam) && Wait(Spawn({"run", job_, "-q"})) == 0;
     for (const std::string& file : kCompared) reference_.push_back(ReadFile(dir_ / "reference" / file));
   }
