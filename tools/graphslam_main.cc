@@ -7,6 +7,7 @@
 #include "tools/exit_codes.h"
 #include "tools/ingest_command.h"
 #include "tools/map_command.h"
+#include "tools/run_command.h"
 #include "tools/simulate_command.h"
 #include "tools/solve_command.h"
 
@@ -24,6 +25,8 @@ int main(int argc, char** argv) {
   graphslam::tools::AddIngestCommand(&app, &ingest_options, &exit_code);
   graphslam::tools::MapCommandOptions map_options;
   graphslam::tools::AddMapCommand(&app, &map_options, &exit_code);
+  graphslam::tools::RunCommandOptions run_options;
+  graphslam::tools::AddRunCommand(&app, &run_options, &exit_code);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {

@@ -1,0 +1,12 @@
+# The libFuzzer executables, one per input parser; built only with
+# GRAPHSLAM_BUILD_FUZZERS=ON (tests/fuzz/run_fuzzers.sh), never by default.
+set(GRAPHSLAM_FUZZ_TARGETS
+  g2o_reader isam_reader native_log_reader mrclam_reader job_spec chunk_reader)
+if(GRAPHSLAM_BUILD_FUZZERS)
+  foreach(target ${GRAPHSLAM_FUZZ_TARGETS})
+    add_executable(${target}_fuzzer ${PROJECT_SOURCE_DIR}/tests/fuzz/${target}_fuzzer.cc)
+    target_include_directories(${target}_fuzzer PRIVATE ${PROJECT_SOURCE_DIR})
+    target_link_libraries(${target}_fuzzer PRIVATE graphslam_tools graphslam_storage graphslam_core)
+    target_link_options(${target}_fuzzer PRIVATE -fsanitize=fuzzer)
+  endforeach()
+endif()

@@ -1,0 +1,10 @@
+# Batch jobs (tools/job, `graphslam run`).
+graphslam_test(tools/job/job_spec)
+graphslam_test(tools/job/job_state)
+graphslam_test(tools/job/report_html)
+graphslam_test(tools/job/job_end_to_end)
+graphslam_test(tools/job/job_resume)
+graphslam_test(tools/job/job_mrclam)
+graphslam_test(tools/job/job_gps_indoor)
+# The resume test runs the graphslam binary itself.
+add_dependencies(job_resume_test graphslam)

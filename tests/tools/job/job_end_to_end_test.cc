@@ -1,0 +1,225 @@
+// A small multi-run job end to end: a simulated campus driven twice (GPS on
+// part of the poses) plus an unrelated run that shares nothing with them.
+// The outputs exist and load, each trajectory matches the simulator's ground
+// truth within the noise, the unrelated run is reported (not merged), and a
+// bad job or bad input afterwards fails with file:line and leaves the
+// earlier outputs byte for byte.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "storage/format_detection.h"
+#include "storage/native_log_reader.h"
+#include "tools/campus_simulator.h"
+#include "tools/job/job_runner.h"
+#include "tools/trajectory_metrics.h"
+
+namespace graphslam::tools::job {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+std::string ReadFile(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+class JobEndToEnd : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("graphslam_job_e2e_" + std::to_string(getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  Status Run(const std::string& yaml, const std::string& name = "job.yaml") {
+    std::ofstream((dir_ / name).string()) << yaml;
+    RunJobOptions options;
+    options.job_path = (dir_ / name).string();
+    options.quiet = true;
+    return RunJob(options);
+  }
+
+  fs::path dir_;
+};
+
+constexpr const char* kJob =
+    "output: out\n"
+    "threads: 2\n"
+    "runs:\n"
+    "  - name: campus\n"
+    "    format: simulate\n"
+    "    simulate: {poses: 800, runs: 2, gps_every: 10, seed: 4, gps_denied_region: [0, 0, 60, 60]}\n"
+    "  - name: lonely\n"
+    "    format: simulate\n"
+    "    simulate: {poses: 200, seed: 5, feature_id_base: 5000000}\n";
+
+TEST_F(JobEndToEnd, MultiRunJobWritesOutputsThatMatchGroundTruth) {
+  const Status status = Run(kJob);
+  ASSERT_TRUE(status.ok()) << status.ToString();
+  const fs::path out = dir_ / "out";
+  for (const char* file : {"trajectories/campus_1.tum", "trajectories/campus_2.tum",
+                           "trajectories/lonely.tum", "features.csv", "graph.g2o", "report.json",
+                           "report.html", "log.jsonl"})
+    EXPECT_TRUE(fs::exists(out / file)) << file;
+  // No scans: no map, and no stand-in file either.
+  EXPECT_FALSE(fs::exists(out / "map.bt"));
+  EXPECT_FALSE(fs::exists(out / "map.pcd"));
+
+  // Ground truth straight from the simulator, independent of the job.
+  CampusSimulatorOptions campus_options;
+  campus_options.poses = 800;
+  campus_options.runs = 2;
+  campus_options.gps_every = 10;
+  campus_options.seed = 4;
+  StatusOr<SimulatedCampus> campus = SimulateCampus(campus_options);
+  ASSERT_TRUE(campus.ok());
+  for (int run = 0; run < 2; ++run) {
+    std::vector<StampedPose2> truth;
+    for (size_t i = 0; i < campus->true_poses.size(); ++i) {
+      if (campus->run_of_pose[i] != run) continue;
+      truth.push_back({campus->problem.pose_stamps[i], campus->true_poses[i]});
+    }
+    StatusOr<std::vector<StampedPose2>> estimate =
+        ReadTum((out / ("trajectories/campus_" + std::to_string(run + 1) + ".tum")).string());
+    ASSERT_TRUE(estimate.ok()) << estimate.status().ToString();
+    ASSERT_EQ(estimate->size(), truth.size());
+    // With GPS the estimate is in the true frame: compare without alignment.
+    TrajectoryMatchOptions unaligned;
+    unaligned.align = false;
+    StatusOr<TrajectoryErrors> errors = CompareTrajectories(*estimate, truth, unaligned);
+    ASSERT_TRUE(errors.ok()) << errors.status().ToString();
+    EXPECT_EQ(errors->matched, static_cast<int64_t>(truth.size()));
+    // Range noise 0.1 m, GPS 1 m every 10 poses: decimetres, not metres.
+    EXPECT_LT(errors->position_rmse, 0.5) << "run " << run;
+    EXPECT_LT(errors->heading_rmse_rad, 0.02) << "run " << run;
+  }
+
+  // The graph and the map load.
+  StatusOr<core::Problem2d> graph =
+      storage::ReadProblem((out / "graph.g2o").string(), storage::InputFormat::kG2o, {});
+  ASSERT_TRUE(graph.ok()) << graph.status().ToString();
+  EXPECT_EQ(graph->num_poses(), 1000);
+  StatusOr<std::map<int64_t, core::Point2>> features = ReadFeaturesCsv((out / "features.csv").string());
+  ASSERT_TRUE(features.ok()) << features.status().ToString();
+  std::map<int64_t, core::Point2> true_features;
+  for (size_t f = 0; f < campus->true_features.size(); ++f)
+    true_features[campus->problem.feature_ids[f]] = campus->true_features[f];
+  int64_t matched = 0;
+  const double feature_rmse =
+      FeatureRmse(*features, true_features, Eigen::Isometry2d::Identity(), &matched);
+  EXPECT_GT(matched, 50);
+  EXPECT_LT(feature_rmse, 0.5);
+
+  // The report: the unrelated run is its own component, and said so.
+  const nlohmann::json report = nlohmann::json::parse(ReadFile(out / "report.json"));
+  ASSERT_EQ(report["components"].size(), 2u);
+  ASSERT_EQ(report["runs"].size(), 3u);
+  EXPECT_EQ(report["runs"][0]["component"], 0);
+  EXPECT_EQ(report["runs"][1]["component"], 0);
+  EXPECT_EQ(report["runs"][2]["component"], 1);
+  EXPECT_FALSE(report["runs"][2]["tied"].get<bool>());
+  EXPECT_THAT(report["warnings"].dump(), HasSubstr("run lonely is tied to no other run"));
+  EXPECT_GT(report["runs"][0]["indoor_poses"].get<int>(), 0);
+  EXPECT_LT(report["runs"][2]["position_rmse_m"].get<double>(), 0.5);
+  EXPECT_EQ(report["stages"].size(), 6u);
+  const std::string html = ReadFile(out / "report.html");
+  EXPECT_GE(std::count(html.begin(), html.end(), '<') , 10);
+  size_t images = 0;
+  for (size_t at = html.find("data:image/png;base64,iVBORw0KGgo"); at != std::string::npos;
+       at = html.find("data:image/png;base64,iVBORw0KGgo", at + 1))
+    ++images;
+  EXPECT_EQ(images, 3u);  // trajectories, convergence, stages
+  // The structured log: one JSON object per line, every stage done.
+  std::ifstream log(out / "log.jsonl");
+  std::string line;
+  int stages_done = 0;
+  while (std::getline(log, line))
+    if (nlohmann::json::parse(line)["event"] == "stage_done") ++stages_done;
+  EXPECT_EQ(stages_done, 6);
+
+  // A bad job file, then a bad input, into the same output folder: clear
+  // errors with file:line, and the earlier outputs are untouched.
+  const std::string graph_before = ReadFile(out / "graph.g2o");
+  const std::string report_before = ReadFile(out / "report.json");
+  const std::string tum_before = ReadFile(out / "trajectories/campus_1.tum");
+  Status bad = Run("output: out\nruns:\n  - {name: x, format: simulate, simulate: {poses: -3}}\n",
+                   "bad.yaml");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_THAT(bad.message(), HasSubstr("bad.yaml:3:"));
+  std::ofstream((dir_ / "broken.g2o").string())
+      << "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nEDGE_SE2 0 1 1 0 zero 1 0 0 1 0 1\n";
+  bad = Run("output: out\nruns:\n  - {name: x, format: g2o, path: broken.g2o}\n", "bad2.yaml");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_THAT(bad.message(), HasSubstr("broken.g2o:3"));
+  EXPECT_EQ(ReadFile(out / "graph.g2o"), graph_before);
+  EXPECT_EQ(ReadFile(out / "report.json"), report_before);
+  EXPECT_EQ(ReadFile(out / "trajectories/campus_1.tum"), tum_before);
+}
+
+TEST_F(JobEndToEnd, GpsFixesInLatitudeLongitudeTieARunToALocalEnuFrame) {
+  // A simulated drive saved as a native log (time-stamped poses, no GPS) and
+  // GPS fixes of its true positions as latitude / longitude around
+  // (48.1 N, 11.5 E), every 10th pose.
+  CampusSimulatorOptions sim;
+  sim.poses = 400;
+  sim.seed = 7;
+  StatusOr<SimulatedCampus> campus = SimulateCampus(sim);
+  ASSERT_TRUE(campus.ok());
+  ASSERT_TRUE(storage::WriteNativeLog(campus->problem, (dir_ / "drive.graphslam").string()).ok());
+  std::ofstream fixes((dir_ / "fixes.csv").string());
+  fixes.precision(15);
+  fixes << "t,lat,lon\n";
+  // Local metres per degree at lat0 (WGS84 series; ample for a few hundred m).
+  const double lat0 = 48.1, lon0 = 11.5, phi = lat0 * M_PI / 180;
+  const double per_lat = 111132.92 - 559.82 * std::cos(2 * phi) + 1.175 * std::cos(4 * phi);
+  const double per_lon = 111412.84 * std::cos(phi) - 93.5 * std::cos(3 * phi);
+  for (size_t i = 0; i < campus->true_poses.size(); i += 10) {
+    fixes << campus->problem.pose_stamps[i] << "," << lat0 + campus->true_poses[i].y() / per_lat
+          << "," << lon0 + campus->true_poses[i].x() / per_lon << "\n";
+  }
+  fixes.close();
+  const Status status = Run(
+      "output: out\n"
+      "runs:\n"
+      "  - {name: drive, format: native, path: drive.graphslam, gps: {path: fixes.csv, sigma: 0.5}}\n");
+  ASSERT_TRUE(status.ok()) << status.ToString();
+  // The ENU origin is the first fix (pose 0's true position), so the estimate
+  // is the truth shifted by that position, without rotation.
+  StatusOr<std::vector<StampedPose2>> estimate =
+      ReadTum((dir_ / "out/trajectories/drive.tum").string());
+  ASSERT_TRUE(estimate.ok());
+  ASSERT_EQ(estimate->size(), campus->true_poses.size());
+  double sum = 0;
+  for (size_t i = 0; i < estimate->size(); ++i) {
+    const Eigen::Vector2d truth = campus->true_poses[i].head<2>() - campus->true_poses[0].head<2>();
+    sum += ((*estimate)[i].pose.head<2>() - truth).squaredNorm();
+  }
+  EXPECT_LT(std::sqrt(sum / static_cast<double>(estimate->size())), 0.5);
+  const nlohmann::json report = nlohmann::json::parse(ReadFile(dir_ / "out/report.json"));
+  EXPECT_NEAR(report["enu_origin"]["latitude"].get<double>(), lat0, 1e-4);
+  EXPECT_EQ(report["runs"][0]["gps_fixes"].get<int>(), 40);
+
+  // A malformed GPS file is named with its line.
+  std::ofstream((dir_ / "bad_fixes.csv").string()) << "t,lat,lon\n0,48.1,11.5\n1,north,11.5\n";
+  const Status bad = Run(
+      "output: out2\n"
+      "runs:\n"
+      "  - {name: drive, format: native, path: drive.graphslam, gps: bad_fixes.csv}\n",
+      "gps.yaml");
+  ASSERT_FALSE(bad.ok());
+  EXPECT_THAT(bad.message(), HasSubstr("bad_fixes.csv:3"));
+}
+
+}  // namespace
+}  // namespace graphslam::tools::job

@@ -1,0 +1,159 @@
+// kill -9 at several points of a job, then `graphslam run --resume`: the
+// final outputs equal those of an uninterrupted run byte for byte.
+//
+// The graphslam binary runs as a child process (as in solve_resume_test.cc)
+// on a simulated two-run campus with GPS; the test watches the job's own
+// files to pick the moment: the structured log's stage_start events, the
+// state file, and the solver checkpoint written after every iteration.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kGraphslam = std::string(GRAPHSLAM_BINARY_DIR) + "/bin/graphslam";
+
+pid_t Spawn(const std::vector<std::string>& args) {
+  std::vector<char*> argv;
+  argv.push_back(const_cast<char*>(kGraphslam.c_str()));
+  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  const pid_t pid = fork();
+  if (pid == 0) {
+    execv(kGraphslam.c_str(), argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+int Wait(pid_t pid) {
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string ReadFile(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+// The deterministic outputs (the report holds wall times, so it is not one).
+std::vector<std::string> kCompared = {"trajectories/campus_1.tum", "trajectories/campus_2.tum",
+                                      "features.csv", "graph.g2o"};
+
+class JobResume : public ::testing::Test {
+ protected:
+  // One uninterrupted reference run for all tests.
+  static void SetUpTestSuite() {
+    dir_ = fs::temp_directory_path() / ("graphslam_job_resume_" + std::to_string(getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    job_ = (dir_ / "job.yaml").string();
+    std::ofstream(job_) << "output: reference\n"
+                           "threads: 2\n"
+                           "solver: {max_iterations: 20, function_tolerance: 1e-9, initialization: odometry}\n"
+                           "runs:\n"
+                           "  - name: campus\n"
+                           "    format: simulate\n"
+                           "    simulate: {poses: 600, runs: 2, gps_every: 20, seed: 11}\n";
+    reference_ok_ = fs::exists(kGraphslam) && Wait(Spawn({"run", job_, "-q"})) == 0;
+    for (const std::string& file : kCompared) reference_.push_back(ReadFile(dir_ / "reference" / file));
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir_); }
+  void SetUp() override {
+    ASSERT_TRUE(fs::exists(kGraphslam)) << kGraphslam;
+    ASSERT_TRUE(reference_ok_) << "the uninterrupted reference job failed";
+    for (const std::string& r : reference_) ASSERT_FALSE(r.empty());
+  }
+
+  // Starts the job into `name`, kills it with SIGKILL as soon as `ready`
+  // holds (polling every millisecond), resumes it, and compares the outputs
+  // with the uninterrupted run's. Returns false if the job finished before
+  // `ready` held (nothing was interrupted).
+  bool KillAndResume(const std::string& name, const std::function<bool(const fs::path&)>& ready) {
+    const fs::path out = dir_ / name;
+    const pid_t pid = Spawn({"run", job_, "-o", out.string(), "-q"});
+    bool killed = false;
+    for (int i = 0; i < 600000; ++i) {
+      if (ready(out)) {
+        kill(pid, SIGKILL);
+        killed = true;
+        break;
+      }
+      int status = 0;
+      if (waitpid(pid, &status, WNOHANG) == pid) break;  // finished first
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    if (killed) Wait(pid);
+    EXPECT_EQ(Wait(Spawn({"run", job_, "-o", out.string(), "--resume", "-q"})), 0) << name;
+    for (size_t k = 0; k < kCompared.size(); ++k)
+      EXPECT_EQ(ReadFile(out / kCompared[k]), reference_[k]) << name << ": " << kCompared[k];
+    return killed;
+  }
+
+  static inline fs::path dir_;
+  static inline std::string job_;
+  static inline bool reference_ok_ = false;
+  static inline std::vector<std::string> reference_;
+};
+
+bool LogHas(const fs::path& out, const std::string& text) {
+  return ReadFile(out / "log.jsonl").find(text) != std::string::npos;
+}
+
+TEST_F(JobResume, KillDuringIngest) {
+  EXPECT_TRUE(KillAndResume("ingest", [](const fs::path& out) {
+    return LogHas(out, "\"event\":\"stage_start\",\"stage\":\"ingest\"");
+  }));
+}
+
+TEST_F(JobResume, KillBetweenStages) {
+  EXPECT_TRUE(KillAndResume("initialized", [](const fs::path& out) {
+    return ReadFile(out / ".job/state.json").find("\"initialize\"") != std::string::npos;
+  }));
+}
+
+TEST_F(JobResume, KillInTheMiddleOfTheOptimization) {
+  const bool killed = KillAndResume("optimize", [](const fs::path& out) {
+    return fs::exists(out / ".job/optimize_c0.checkpoint.json");
+  });
+  EXPECT_TRUE(killed);
+  // The resumed solve continued from the checkpoint (the log says so).
+  EXPECT_TRUE(LogHas(dir_ / "optimize", "resuming after iteration"));
+}
+
+TEST_F(JobResume, KillDuringExport) {
+  EXPECT_TRUE(KillAndResume("export", [](const fs::path& out) {
+    return LogHas(out, "\"event\":\"stage_start\",\"stage\":\"export\"");
+  }));
+}
+
+TEST_F(JobResume, ResumeIsRefusedWhenTheJobFileChanged) {
+  const fs::path out = dir_ / "changed";
+  const std::string job = (dir_ / "changed.yaml").string();
+  fs::copy_file(job_, job);
+  ASSERT_EQ(Wait(Spawn({"run", job, "-o", out.string(), "-q"})), 0);
+  std::ofstream(job, std::ios::app) << "# edited\n";
+  EXPECT_NE(Wait(Spawn({"run", job, "-o", out.string(), "--resume", "-q"})), 0);
+  // Run afresh over the same folder: the same bytes again (determinism).
+  const std::string before = ReadFile(out / "graph.g2o");
+  fs::copy_file(job_, job, fs::copy_options::overwrite_existing);
+  EXPECT_EQ(Wait(Spawn({"run", job, "-o", out.string(), "-q"})), 0);
+  EXPECT_EQ(ReadFile(out / "graph.g2o"), before);
+}
+
+}  // namespace

@@ -1,0 +1,11 @@
+# Batch jobs: `graphslam run JOB.yaml` (issue 7, docs/jobs.md).
+target_sources(graphslam_tools PRIVATE
+  run_command.cc
+  job/job_data.cc
+  job/job_runner.cc
+  job/job_spec.cc
+  job/job_state.cc
+  job/plots.cc
+  job/report_html.cc)
+target_link_libraries(graphslam_tools PRIVATE
+  yaml-cpp ${GeographicLib_LIBRARIES} PkgConfig::PLPLOT)

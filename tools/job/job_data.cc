@@ -1,0 +1,459 @@
+#include "tools/job/job_data.h"
+
+#include <GeographicLib/LocalCartesian.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <numeric>
+#include <sstream>
+
+#include "storage/format_detection.h"
+#include "tools/campus_simulator.h"
+
+namespace graphslam::tools::job {
+namespace {
+
+// One input: a problem holding one or more consecutive runs.
+struct Block {
+  core::Problem2d problem;
+  std::vector<std::pair<std::string, int32_t>> runs;  // name, poses
+  std::vector<std::vector<StampedPose2>> ground_truth;  // per run, or empty
+  std::map<int64_t, core::Point2> ground_truth_features;
+  std::vector<std::vector<uint8_t>> indoor;  // per run, or empty
+};
+
+bool Inside(const std::array<double, 4>& box, double x, double y) {
+  return x >= box[0] && x <= box[2] && y >= box[1] && y <= box[3];
+}
+
+StatusOr<Block> SimulateRun(const RunSpec& spec) {
+  StatusOr<SimulatedCampus> simulated = SimulateCampus(spec.simulate);
+  if (!simulated.ok())
+    return Status::InvalidArgument("run '" + spec.name + "' (job line " +
+                                   std::to_string(spec.line) + "): " +
+                                   simulated.status().message());
+  SimulatedCampus campus = std::move(simulated).value();
+  Block block;
+  const int runs = spec.simulate.runs;
+  block.ground_truth.resize(static_cast<size_t>(runs));
+  block.indoor.resize(static_cast<size_t>(runs));
+  std::vector<int32_t> counts(static_cast<size_t>(runs), 0);
+  for (size_t i = 0; i < campus.true_poses.size(); ++i) {
+    const auto run = static_cast<size_t>(campus.run_of_pose[i]);
+    ++counts[run];
+    StampedPose2 truth;
+    truth.stamp = campus.problem.pose_stamps[i];
+    truth.pose = campus.true_poses[i];
+    block.ground_truth[run].push_back(truth);
+    const bool indoor = spec.gps_denied_region &&
+                        Inside(*spec.gps_denied_region, truth.pose.x(), truth.pose.y());
+    block.indoor[run].push_back(indoor ? 1 : 0);
+  }
+  // GPS is not received indoors.
+  if (spec.gps_denied_region) {
+    std::vector<core::GpsConstraint> kept;
+    for (const core::GpsConstraint& gps : campus.problem.gps) {
+      const core::Pose2& truth = campus.true_poses[static_cast<size_t>(gps.pose)];
+      if (!Inside(*spec.gps_denied_region, truth.x(), truth.y())) kept.push_back(gps);
+    }
+    campus.problem.gps = std::move(kept);
+  }
+  for (int r = 0; r < runs; ++r)
+    block.runs.emplace_back(runs == 1 ? spec.name : spec.name + "_" + std::to_string(r + 1),
+                            counts[static_cast<size_t>(r)]);
+  for (size_t f = 0; f < campus.true_features.size(); ++f)
+    block.ground_truth_features[campus.problem.feature_ids[f]] = campus.true_features[f];
+  block.problem = std::move(campus.problem);
+  block.problem.source = "simulate:" + spec.name;
+  return block;
+}
+
+StatusOr<Block> ReadRun(const RunSpec& spec) {
+  if (spec.format == "simulate") return SimulateRun(spec);
+  StatusOr<storage::InputFormat> format = storage::ParseInputFormat(spec.format);
+  if (!format.ok()) return format.status();
+  storage::MrclamOptions mrclam;
+  mrclam.robot = spec.robot;
+  if (spec.range_sigma) mrclam.measurement_information(0, 0) = 1.0 / (*spec.range_sigma * *spec.range_sigma);
+  if (spec.bearing_sigma)
+    mrclam.measurement_information(1, 1) = 1.0 / (*spec.bearing_sigma * *spec.bearing_sigma);
+  StatusOr<core::Problem2d> read = storage::ReadProblem(spec.path, *format, mrclam);
+  if (!read.ok()) return read.status();
+  Block block;
+  block.problem = std::move(read).value();
+  if (block.problem.num_poses() == 0)
+    return Status::InvalidArgument(spec.path + ": run '" + spec.name + "' has no poses");
+  block.runs.emplace_back(spec.name, block.problem.num_poses());
+  block.indoor.emplace_back();
+  if (!spec.ground_truth.empty()) {
+    StatusOr<std::vector<StampedPose2>> truth = ReadTum(spec.ground_truth);
+    if (!truth.ok()) return truth.status();
+    block.ground_truth.push_back(std::move(truth).value());
+  } else if (*format == storage::InputFormat::kMrclam &&
+             std::filesystem::exists(spec.path + "/Robot" + std::to_string(spec.robot) +
+                                     "_Groundtruth.dat")) {
+    // MRCLAM carries its Vicon ground truth: used for the report's errors.
+    // (Its landmark survey is not: two of its labels are swapped, see
+    // docs/benchmarks.md.)
+    StatusOr<storage::MrclamGroundTruth> truth =
+        storage::ReadMrclamGroundTruth(spec.path, spec.robot);
+    if (!truth.ok()) return truth.status();
+    std::vector<StampedPose2> poses;
+    for (size_t i = 0; i < truth->stamps.size(); ++i) poses.push_back({truth->stamps[i], truth->poses[i]});
+    block.ground_truth.push_back(std::move(poses));
+  } else {
+    block.ground_truth.emplace_back();
+  }
+  return block;
+}
+
+// Splits a CSV line on commas (and blanks).
+std::vector<std::string> Fields(const std::string& line) {
+  std::vector<std::string> fields;
+  std::string field;
+  std::istringstream in(line);
+  while (std::getline(in, field, ',')) {
+    const size_t begin = field.find_first_not_of(" \t\r");
+    const size_t end = field.find_last_not_of(" \t\r");
+    fields.push_back(begin == std::string::npos ? "" : field.substr(begin, end - begin + 1));
+  }
+  return fields;
+}
+
+bool ParseNumber(const std::string& text, double* value) {
+  if (text.empty()) return false;
+  char* end = nullptr;
+  *value = std::strtod(text.c_str(), &end);
+  return end == text.c_str() + text.size() && std::isfinite(*value);
+}
+
+// Attaches the fixes of `gps` to the poses [first, first + count) of `problem`.
+Status AttachGps(const GpsSource& gps, int32_t first, int32_t count,
+                 std::optional<std::array<double, 3>>* origin, core::Problem2d* problem) {
+  std::ifstream in(gps.path);
+  if (!in) return Status::NotFound(gps.path + ": cannot open the GPS file");
+  std::vector<std::pair<double, int32_t>> stamps;
+  for (int32_t i = first; i < first + count; ++i) {
+    const double t = problem->pose_stamps[static_cast<size_t>(i)];
+    if (!std::isfinite(t))
+      return Status::InvalidArgument(gps.path + ": the run's input has no time stamps (pose " +
+                                     std::to_string(problem->pose_ids[static_cast<size_t>(i)]) +
+                                     "); expected timed poses to attach GPS fixes to");
+    stamps.emplace_back(t, i);
+  }
+  std::sort(stamps.begin(), stamps.end());
+  const Eigen::Matrix2d information = Eigen::Matrix2d::Identity() / (gps.sigma * gps.sigma);
+  std::string line;
+  int32_t number = 0;
+  bool header_allowed = true;
+  std::optional<GeographicLib::LocalCartesian> enu;
+  while (std::getline(in, line)) {
+    ++number;
+    const size_t start = line.find_first_not_of(" \t\r");
+    if (start == std::string::npos || line[start] == '#') continue;
+    const std::vector<std::string> fields = Fields(line);
+    double values[3];
+    bool numeric = fields.size() >= 3;
+    for (size_t k = 0; numeric && k < 3; ++k) numeric = ParseNumber(fields[k], &values[k]);
+    if (!numeric) {
+      if (header_allowed) {
+        header_allowed = false;
+        continue;
+      }
+      return Status::Corruption(gps.path + ":" + std::to_string(number) + ": '" + line +
+                                "'; expected t," +
+                                (gps.frame == "enu" ? "east,north" : "lat,lon") + " numbers");
+    }
+    header_allowed = false;
+    double x = values[1], y = values[2];
+    if (gps.frame == "wgs84") {
+      if (std::abs(values[1]) > 90 || std::abs(values[2]) > 180)
+        return Status::Corruption(gps.path + ":" + std::to_string(number) +
+                                  ": latitude/longitude out of range; expected |lat| <= 90, "
+                                  "|lon| <= 180");
+      if (!origin->has_value()) *origin = std::array<double, 3>{values[1], values[2], 0.0};
+      if (!enu) enu.emplace((**origin)[0], (**origin)[1], (**origin)[2]);
+      double z = 0;
+      enu->Forward(values[1], values[2], 0.0, x, y, z);
+    }
+    // The pose nearest in time.
+    auto it = std::lower_bound(stamps.begin(), stamps.end(),
+                               std::make_pair(values[0], std::numeric_limits<int32_t>::min()));
+    int32_t best = -1;
+    double best_dt = gps.max_time_difference;
+    for (auto candidate : {it, it == stamps.begin() ? it : std::prev(it)}) {
+      if (candidate == stamps.end()) continue;
+      const double dt = std::abs(candidate->first - values[0]);
+      if (dt <= best_dt) {
+        best_dt = dt;
+        best = candidate->second;
+      }
+    }
+    if (best < 0) continue;  // no pose near that time
+    core::GpsConstraint constraint;
+    constraint.pose = best;
+    constraint.z = Eigen::Vector2d(x, y);
+    constraint.information = information;
+    constraint.line = number;
+    problem->gps.push_back(constraint);
+  }
+  return Status::Ok();
+}
+
+// Appends `part` to `merged`; features are identified by id.
+void Append(const core::Problem2d& part, std::map<int64_t, int32_t>* feature_index,
+            core::Problem2d* merged) {
+  const int32_t offset = merged->num_poses();
+  for (int32_t i = 0; i < part.num_poses(); ++i) {
+    const auto k = static_cast<size_t>(i);
+    merged->AddPose(part.pose_ids[k], part.poses[k], part.pose_initialized[k] != 0,
+                    part.pose_lines[k], part.pose_stamps[k]);
+    merged->pose_fixed.back() = part.pose_fixed[k];
+  }
+  std::vector<int32_t> feature_map(static_cast<size_t>(part.num_features()));
+  for (int32_t f = 0; f < part.num_features(); ++f) {
+    const auto k = static_cast<size_t>(f);
+    auto [it, inserted] = feature_index->emplace(part.feature_ids[k], merged->num_features());
+    if (inserted) merged->AddFeature(part.feature_ids[k], part.features[k], part.feature_initialized[k] != 0);
+    feature_map[k] = it->second;
+  }
+  for (core::RelativePoseConstraint c : part.relative_poses) {
+    c.from += offset;
+    c.to += offset;
+    merged->relative_poses.push_back(c);
+  }
+  for (core::VelocityMotionConstraint c : part.motions) {
+    c.from += offset;
+    c.to += offset;
+    merged->motions.push_back(c);
+  }
+  for (core::GpsConstraint c : part.gps) {
+    c.pose += offset;
+    merged->gps.push_back(c);
+  }
+  for (core::Observation o : part.observations) {
+    o.pose += offset;
+    o.feature = feature_map[static_cast<size_t>(o.feature)];
+    merged->observations.push_back(o);
+  }
+}
+
+int32_t Find(std::vector<int32_t>* parent, int32_t x) {
+  while ((*parent)[static_cast<size_t>(x)] != x) {
+    (*parent)[static_cast<size_t>(x)] =
+        (*parent)[static_cast<size_t>((*parent)[static_cast<size_t>(x)])];
+    x = (*parent)[static_cast<size_t>(x)];
+  }
+  return x;
+}
+
+// Union-find over runs; components numbered by their first run.
+void FindComponents(JobData* data) {
+  const core::Problem2d& problem = data->problem;
+  const auto runs = static_cast<int32_t>(data->runs.size());
+  std::vector<int32_t> run_of_pose(static_cast<size_t>(problem.num_poses()));
+  for (int32_t r = 0; r < runs; ++r) {
+    const RunInfo& run = data->runs[static_cast<size_t>(r)];
+    for (int32_t i = 0; i < run.num_poses; ++i)
+      run_of_pose[static_cast<size_t>(run.first_pose + i)] = r;
+  }
+  std::vector<int32_t> parent(static_cast<size_t>(runs));
+  std::iota(parent.begin(), parent.end(), 0);
+  auto unite = [&](int32_t a, int32_t b) {
+    a = Find(&parent, a);
+    b = Find(&parent, b);
+    if (a != b) parent[static_cast<size_t>(std::max(a, b))] = std::min(a, b);
+  };
+  std::vector<int32_t> feature_run(static_cast<size_t>(problem.num_features()), -1);
+  for (const core::Observation& o : problem.observations) {
+    const int32_t r = run_of_pose[static_cast<size_t>(o.pose)];
+    int32_t& seen = feature_run[static_cast<size_t>(o.feature)];
+    if (seen < 0) seen = r;
+    else unite(seen, r);
+  }
+  // Odometry never crosses runs, but relative-pose files could tie them.
+  for (const core::RelativePoseConstraint& c : problem.relative_poses)
+    unite(run_of_pose[static_cast<size_t>(c.from)], run_of_pose[static_cast<size_t>(c.to)]);
+  int32_t first_gps_run = -1;
+  for (int32_t r = 0; r < runs; ++r) {
+    if (data->runs[static_cast<size_t>(r)].gps_fixes == 0) continue;
+    if (first_gps_run < 0) first_gps_run = r;
+    else unite(first_gps_run, r);
+  }
+  std::map<int32_t, int32_t> numbering;
+  for (int32_t r = 0; r < runs; ++r) {
+    const int32_t root = Find(&parent, r);
+    auto [it, inserted] = numbering.emplace(root, static_cast<int32_t>(numbering.size()));
+    data->runs[static_cast<size_t>(r)].component = it->second;
+  }
+  data->num_components = static_cast<int32_t>(numbering.size());
+}
+
+// Gauge per component (see the header).
+void SetGauge(JobData* data) {
+  core::Problem2d& problem = data->problem;
+  std::fill(problem.pose_fixed.begin(), problem.pose_fixed.end(), 0);
+  std::vector<uint8_t> has_gps(static_cast<size_t>(data->num_components), 0);
+  for (const RunInfo& run : data->runs)
+    if (run.gps_fixes > 0) has_gps[static_cast<size_t>(run.component)] = 1;
+  std::vector<uint8_t> anchored(static_cast<size_t>(data->num_components), 0);
+  for (const RunInfo& run : data->runs) {
+    const auto c = static_cast<size_t>(run.component);
+    if (has_gps[c] || anchored[c] || run.num_poses == 0) continue;
+    problem.pose_fixed[static_cast<size_t>(run.first_pose)] = 1;
+    anchored[c] = 1;
+  }
+}
+
+}  // namespace
+
+StatusOr<JobData> LoadJobData(const JobSpec& job) {
+  JobData data;
+  data.problem.source = job.path;
+  std::map<int64_t, int32_t> feature_index;
+  for (const RunSpec& spec : job.runs) {
+    StatusOr<Block> read = ReadRun(spec);
+    if (!read.ok()) return read.status();
+    Block block = std::move(read).value();
+    if (spec.gps) {
+      if (block.runs.size() != 1)
+        return Status::InvalidArgument(job.path + ":" + std::to_string(spec.gps->line) +
+                                       ": a GPS file needs a single-run input");
+      GS_RETURN_IF_ERROR(
+          AttachGps(*spec.gps, 0, block.problem.num_poses(), &data.enu_origin, &block.problem));
+    }
+    // GPS fixes per run of the block.
+    std::vector<int64_t> fixes(block.runs.size(), 0);
+    {
+      std::vector<size_t> run_of_pose;
+      for (size_t r = 0; r < block.runs.size(); ++r)
+        run_of_pose.insert(run_of_pose.end(), static_cast<size_t>(block.runs[r].second), r);
+      for (const core::GpsConstraint& gps : block.problem.gps)
+        ++fixes[run_of_pose[static_cast<size_t>(gps.pose)]];
+    }
+    int32_t first = data.problem.num_poses();
+    Append(block.problem, &feature_index, &data.problem);
+    for (size_t r = 0; r < block.runs.size(); ++r) {
+      RunInfo run;
+      run.name = block.runs[r].first;
+      run.first_pose = first;
+      run.num_poses = block.runs[r].second;
+      run.gps_fixes = fixes[r];
+      run.has_ground_truth = !block.ground_truth[r].empty();
+      if (run.has_ground_truth) data.ground_truth[run.name] = block.ground_truth[r];
+      run.indoor = block.indoor[r];
+      first += run.num_poses;
+      for (const RunInfo& other : data.runs)
+        if (other.name == run.name)
+          return Status::InvalidArgument(job.path + ":" + std::to_string(spec.line) +
+                                         ": run name '" + run.name + "' is used twice");
+      data.runs.push_back(std::move(run));
+    }
+    data.ground_truth_features.insert(block.ground_truth_features.begin(),
+                                      block.ground_truth_features.end());
+  }
+  // Pose ids: 0..P-1, past the feature ids if they would collide.
+  core::Problem2d& problem = data.problem;
+  int64_t base = 0;
+  for (int64_t id : problem.feature_ids)
+    if (id >= 0 && id < problem.num_poses()) {
+      base = *std::max_element(problem.feature_ids.begin(), problem.feature_ids.end()) + 1;
+      break;
+    }
+  for (int32_t i = 0; i < problem.num_poses(); ++i) problem.pose_ids[static_cast<size_t>(i)] = base + i;
+  FindComponents(&data);
+  SetGauge(&data);
+  return data;
+}
+
+core::Problem2d ExtractComponent(const JobData& data, int32_t component,
+                                 std::vector<int32_t>* pose_map,
+                                 std::vector<int32_t>* feature_map) {
+  const core::Problem2d& problem = data.problem;
+  core::Problem2d sub;
+  sub.source = problem.source;
+  pose_map->clear();
+  feature_map->clear();
+  std::vector<int32_t> pose_index(static_cast<size_t>(problem.num_poses()), -1);
+  for (const RunInfo& run : data.runs) {
+    if (run.component != component) continue;
+    for (int32_t i = run.first_pose; i < run.first_pose + run.num_poses; ++i) {
+      const auto k = static_cast<size_t>(i);
+      pose_index[k] = sub.AddPose(problem.pose_ids[k], problem.poses[k],
+                                  problem.pose_initialized[k] != 0, problem.pose_lines[k],
+                                  problem.pose_stamps[k]);
+      sub.pose_fixed.back() = problem.pose_fixed[k];
+      pose_map->push_back(i);
+    }
+  }
+  std::vector<int32_t> feature_index(static_cast<size_t>(problem.num_features()), -1);
+  for (const core::Observation& o : problem.observations)
+    if (pose_index[static_cast<size_t>(o.pose)] >= 0) feature_index[static_cast<size_t>(o.feature)] = 0;
+  for (int32_t f = 0; f < problem.num_features(); ++f) {
+    const auto k = static_cast<size_t>(f);
+    if (feature_index[k] < 0) continue;
+    feature_index[k] = sub.AddFeature(problem.feature_ids[k], problem.features[k],
+                                      problem.feature_initialized[k] != 0);
+    feature_map->push_back(f);
+  }
+  auto in = [&](int32_t pose) { return pose_index[static_cast<size_t>(pose)] >= 0; };
+  auto map = [&](int32_t pose) { return pose_index[static_cast<size_t>(pose)]; };
+  for (core::RelativePoseConstraint c : problem.relative_poses) {
+    if (!in(c.from)) continue;
+    c.from = map(c.from);
+    c.to = map(c.to);
+    sub.relative_poses.push_back(c);
+  }
+  for (core::VelocityMotionConstraint c : problem.motions) {
+    if (!in(c.from)) continue;
+    c.from = map(c.from);
+    c.to = map(c.to);
+    sub.motions.push_back(c);
+  }
+  for (core::GpsConstraint c : problem.gps) {
+    if (!in(c.pose)) continue;
+    c.pose = map(c.pose);
+    sub.gps.push_back(c);
+  }
+  for (core::Observation o : problem.observations) {
+    if (!in(o.pose)) continue;
+    o.pose = map(o.pose);
+    o.feature = feature_index[static_cast<size_t>(o.feature)];
+    sub.observations.push_back(o);
+  }
+  return sub;
+}
+
+void ScatterComponent(const core::Problem2d& sub, const std::vector<int32_t>& pose_map,
+                      const std::vector<int32_t>& feature_map, core::Problem2d* problem) {
+  for (size_t i = 0; i < pose_map.size(); ++i) {
+    problem->poses[static_cast<size_t>(pose_map[i])] = sub.poses[i];
+    problem->pose_initialized[static_cast<size_t>(pose_map[i])] = sub.pose_initialized[i];
+  }
+  for (size_t f = 0; f < feature_map.size(); ++f) {
+    problem->features[static_cast<size_t>(feature_map[f])] = sub.features[f];
+    problem->feature_initialized[static_cast<size_t>(feature_map[f])] = sub.feature_initialized[f];
+  }
+}
+
+core::Problem2d RunTrajectory(const core::Problem2d& problem, const RunInfo& run) {
+  core::Problem2d trajectory;
+  for (int32_t i = run.first_pose; i < run.first_pose + run.num_poses; ++i) {
+    const auto k = static_cast<size_t>(i);
+    trajectory.AddPose(problem.pose_ids[k], problem.poses[k], true, problem.pose_lines[k],
+                       problem.pose_stamps[k]);
+  }
+  return trajectory;
+}
+
+void RemoveGps(JobData* data) {
+  data->problem.gps.clear();
+  for (RunInfo& run : data->runs) run.gps_fixes = 0;
+  FindComponents(data);
+  SetGauge(data);
+}
+
+}  // namespace graphslam::tools::job

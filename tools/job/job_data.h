@@ -1,0 +1,86 @@
+// Loading the runs of a job into ONE problem, and splitting it into the
+// independent pieces that can be solved.
+//
+// Merge. Runs are appended in job order; every run keeps its own frame (its
+// poses' guesses are those of its input). Features with the same id in two
+// runs are the same landmark (known correspondences); that is what ties runs
+// together, with GPS. Pose ids are renumbered 0..P-1 in run order, shifted
+// past the largest feature id when they would collide with one (g2o keeps
+// poses and features in one id space).
+//
+// GPS. A run's `gps:` CSV ("t,lat,lon" in degrees, or "t,east,north" in
+// metres with frame: enu; header and '#' lines skipped) becomes GPS
+// constraints on the pose nearest in time (within max_time_difference), with
+// information I / sigma^2. Latitude/longitude go through GeographicLib's
+// LocalCartesian (WGS84 -> local ENU) around ONE origin for the whole job,
+// the first fix read, so the numbers stay small and all runs share the frame.
+//
+// Components. Runs are joined (union-find) when they share a feature id, and
+// all runs with GPS are joined (GPS is one global frame). Each component is
+// solved on its own: a run tied to nothing is its own component, reported as
+// such and never silently merged into another's frame. Gauge: a component
+// with GPS has no fixed pose; one without fixes the first pose of its first
+// run (every input FIX is cleared: each run's fix is in its own frame).
+//
+// THREAD SAFETY: reentrant. ALLOCATION: O(problem).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/problem.h"
+#include "core/status.h"
+#include "tools/job/job_spec.h"
+#include "tools/trajectory_metrics.h"
+
+namespace graphslam::tools::job {
+
+struct RunInfo {
+  std::string name;
+  int32_t first_pose = 0;  // in the merged problem
+  int32_t num_poses = 0;
+  int32_t component = 0;
+  int64_t gps_fixes = 0;
+  bool has_ground_truth = false;
+  // Poses whose true position lies in the run's GPS-denied region (simulate).
+  std::vector<uint8_t> indoor;  // one per pose of the run, or empty
+};
+
+struct JobData {
+  core::Problem2d problem;
+  std::vector<RunInfo> runs;
+  int32_t num_components = 0;
+  // Ground truth, when known: per run a TUM-like list; features by id.
+  std::map<std::string, std::vector<StampedPose2>> ground_truth;
+  std::map<int64_t, core::Point2> ground_truth_features;
+  std::optional<std::array<double, 3>> enu_origin;  // lat, lon, height of the GPS frame
+};
+
+// Reads / simulates every run of `job`, attaches GPS, merges, and finds the
+// components (setting the gauge as above). Errors name the run's input file
+// and line, or the job file's line for the run.
+StatusOr<JobData> LoadJobData(const JobSpec& job);
+
+// The sub-problem of component `c`: its poses (merged order), the features its
+// observations reference, and the constraints among them. `pose_map` and
+// `feature_map` receive the merged index of every sub-problem pose / feature.
+core::Problem2d ExtractComponent(const JobData& data, int32_t component,
+                                 std::vector<int32_t>* pose_map,
+                                 std::vector<int32_t>* feature_map);
+
+// Copies the sub-problem's pose and feature values back into `problem`.
+void ScatterComponent(const core::Problem2d& sub, const std::vector<int32_t>& pose_map,
+                      const std::vector<int32_t>& feature_map, core::Problem2d* problem);
+
+// The poses of one run as a problem of their own (for the TUM writer).
+core::Problem2d RunTrajectory(const core::Problem2d& problem, const RunInfo& run);
+
+// Removes every GPS constraint and re-applies the no-GPS gauge (first pose of
+// each component's first run fixed): the ablation of the Figure 6 comparison.
+void RemoveGps(JobData* data);
+
+}  // namespace graphslam::tools::job

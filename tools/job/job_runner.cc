@@ -1,0 +1,740 @@
+#include "tools/job/job_runner.h"
+
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "core/graphslam_solver.h"
+#include "core/initialization.h"
+#include "core/logging.h"
+#include "core/robust_kernel.h"
+#include "partition/in_memory_chunk_source.h"
+#include "partition/progressive_initialization.h"
+#include "storage/atomic_file.h"
+#include "storage/features_csv_writer.h"
+#include "storage/g2o_writer.h"
+#include "storage/native_log_reader.h"
+#include "storage/solver_checkpoint.h"
+#include "storage/tum_writer.h"
+#include "tools/job/job_data.h"
+#include "tools/job/job_spec.h"
+#include "tools/job/job_state.h"
+#include "tools/job/plots.h"
+#include "tools/job/report_html.h"
+#include "tools/progress_display.h"
+#include "tools/resource_usage.h"
+#include "tools/trajectory_metrics.h"
+
+namespace graphslam::tools::job {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+
+struct Context {
+  JobSpec spec;
+  std::string fingerprint;
+  std::string work;  // OUTPUT/.job
+  bool quiet = false;
+  JobLog log;
+  std::unique_ptr<ProgressDisplay> display;
+  JobState state;
+
+  std::string Work(const std::string& name) const { return (fs::path(work) / name).string(); }
+  std::string Output(const std::string& name) const {
+    return (fs::path(spec.output) / name).string();
+  }
+  // A plain line on stderr (unless quiet) and the same event in log.jsonl.
+  void Info(const std::string& stage, const std::string& message, json extra = json::object()) {
+    if (!quiet) {
+      if (display) display->Finish();
+      std::fprintf(stderr, "graphslam run: [%s] %s\n", stage.c_str(), message.c_str());
+    }
+    extra["event"] = "info";
+    extra["stage"] = stage;
+    extra["message"] = message;
+    log.Write(std::move(extra));
+  }
+};
+
+Status ReadJson(const std::string& path, json* out) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Status::NotFound(path + ": missing (was the stage before it completed?)");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  *out = json::parse(buffer.str(), nullptr, /*allow_exceptions=*/false);
+  if (out->is_discarded()) return Status::Corruption(path + ": not valid JSON");
+  return Status::Ok();
+}
+
+Status WriteJson(const std::string& path, const json& value) {
+  return storage::WriteStringAtomically(storage::Env::Default(), path, value.dump(1) + "\n");
+}
+
+// ---- runs.json: everything of JobData but the problem ----------------------
+
+json RunsToJson(const JobData& data) {
+  json runs = json::array();
+  for (const RunInfo& run : data.runs) {
+    runs.push_back({{"name", run.name},
+                    {"first_pose", run.first_pose},
+                    {"num_poses", run.num_poses},
+                    {"component", run.component},
+                    {"gps_fixes", run.gps_fixes},
+                    {"has_ground_truth", run.has_ground_truth},
+                    {"indoor", run.indoor}});
+  }
+  json truth = json::object();
+  for (const auto& [name, poses] : data.ground_truth) {
+    json list = json::array();
+    for (const StampedPose2& p : poses)
+      list.push_back({p.stamp, p.pose.x(), p.pose.y(), p.pose.z()});
+    truth[name] = list;
+  }
+  json features = json::array();
+  for (const auto& [id, point] : data.ground_truth_features)
+    features.push_back({id, point.x(), point.y()});
+  json origin = nullptr;
+  if (data.enu_origin) origin = {(*data.enu_origin)[0], (*data.enu_origin)[1], (*data.enu_origin)[2]};
+  return {{"runs", runs},
+          {"num_components", data.num_components},
+          {"ground_truth", truth},
+          {"ground_truth_features", features},
+          {"enu_origin", origin}};
+}
+
+Status LoadData(const Context& ctx, const std::string& problem_file, JobData* data) {
+  json runs;
+  GS_RETURN_IF_ERROR(ReadJson(ctx.Work("runs.json"), &runs));
+  try {
+    data->runs.clear();
+    for (const json& r : runs.at("runs")) {
+      RunInfo run;
+      run.name = r.at("name").get<std::string>();
+      run.first_pose = r.at("first_pose").get<int32_t>();
+      run.num_poses = r.at("num_poses").get<int32_t>();
+      run.component = r.at("component").get<int32_t>();
+      run.gps_fixes = r.at("gps_fixes").get<int64_t>();
+      run.has_ground_truth = r.at("has_ground_truth").get<bool>();
+      run.indoor = r.at("indoor").get<std::vector<uint8_t>>();
+      data->runs.push_back(std::move(run));
+    }
+    data->num_components = runs.at("num_components").get<int32_t>();
+    for (const auto& [name, list] : runs.at("ground_truth").items()) {
+      std::vector<StampedPose2>& poses = data->ground_truth[name];
+      for (const json& p : list) {
+        StampedPose2 pose;
+        pose.stamp = p.at(0).get<double>();
+        pose.pose = core::Pose2(p.at(1).get<double>(), p.at(2).get<double>(), p.at(3).get<double>());
+        poses.push_back(pose);
+      }
+    }
+    for (const json& f : runs.at("ground_truth_features"))
+      data->ground_truth_features[f.at(0).get<int64_t>()] =
+          core::Point2(f.at(1).get<double>(), f.at(2).get<double>());
+    if (!runs.at("enu_origin").is_null())
+      data->enu_origin = runs.at("enu_origin").get<std::array<double, 3>>();
+  } catch (const json::exception& error) {
+    return Status::Corruption(ctx.Work("runs.json") + ": " + error.what());
+  }
+  StatusOr<core::Problem2d> problem = storage::ReadNativeLog(ctx.Work(problem_file));
+  if (!problem.ok()) return problem.status();
+  data->problem = std::move(problem).value();
+  int64_t poses = 0;
+  for (const RunInfo& run : data->runs) poses += run.num_poses;
+  if (poses != data->problem.num_poses())
+    return Status::Corruption(ctx.Work(problem_file) + ": " +
+                              std::to_string(data->problem.num_poses()) + " poses; expected " +
+                              std::to_string(poses) + " (runs.json)");
+  return Status::Ok();
+}
+
+// ---- solver settings shared by initialize and optimize ----------------------
+
+StatusOr<core::SolverOptions> SolverOptionsFor(const JobSpec& spec) {
+  core::SolverOptions options;
+  StatusOr<core::LinearSolverType> type = core::ParseLinearSolverType(spec.solver.linear_solver);
+  if (!type.ok())
+    return Status::InvalidArgument(spec.path + ": solver.linear_solver: " + type.status().message());
+  StatusOr<core::RobustKernel> kernel = core::ParseRobustKernel(spec.solver.robust_kernel);
+  if (!kernel.ok())
+    return Status::InvalidArgument(spec.path + ": solver.robust_kernel: " + kernel.status().message());
+  options.linear_solver = *type;
+  options.observation_kernel = *kernel;
+  options.max_iterations = spec.solver.max_iterations;
+  options.function_tolerance = spec.solver.function_tolerance;
+  return options;
+}
+
+// Table 1 and (optionally) progressive initialization of every component.
+Status InitializeComponents(const JobSpec& spec, const core::SolverOptions& base,
+                            ProgressDisplay* display, JobData* data) {
+  for (int32_t c = 0; c < data->num_components; ++c) {
+    std::vector<int32_t> pose_map, feature_map;
+    core::Problem2d sub = ExtractComponent(*data, c, &pose_map, &feature_map);
+    GS_RETURN_IF_ERROR(core::InitializeProblem(&sub));
+    partition::ProgressiveInitializationOptions progressive;
+    progressive.enabled = spec.solver.initialization == "progressive";
+    core::SolverOptions options = base;
+    if (display) options.progress = display->AsCallback();
+    partition::ProgressiveSummary summary;
+    GS_RETURN_IF_ERROR(partition::InitializeProgressively(progressive, options, &sub, &summary));
+    ScatterComponent(sub, pose_map, feature_map, &data->problem);
+  }
+  return Status::Ok();
+}
+
+// ---- stages -----------------------------------------------------------------
+
+Status StageIngest(Context& ctx) {
+  StatusOr<JobData> loaded = LoadJobData(ctx.spec);
+  if (!loaded.ok()) return loaded.status();
+  const JobData& data = *loaded;
+  for (const RunInfo& run : data.runs) {
+    ctx.Info("ingest",
+             "run " + run.name + ": " + std::to_string(run.num_poses) + " poses, " +
+                 std::to_string(run.gps_fixes) + " GPS fixes, component " +
+                 std::to_string(run.component),
+             {{"run", run.name}, {"poses", run.num_poses}, {"gps_fixes", run.gps_fixes}});
+  }
+  GS_RETURN_IF_ERROR(storage::WriteNativeLog(data.problem, ctx.Work("ingested.graphslam")));
+  return WriteJson(ctx.Work("runs.json"), RunsToJson(data));
+}
+
+Status StageInitialize(Context& ctx) {
+  JobData data;
+  GS_RETURN_IF_ERROR(LoadData(ctx, "ingested.graphslam", &data));
+  StatusOr<core::SolverOptions> base = SolverOptionsFor(ctx.spec);
+  if (!base.ok()) return base.status();
+  GS_RETURN_IF_ERROR(InitializeComponents(ctx.spec, *base, ctx.display.get(), &data));
+  return storage::WriteNativeLog(data.problem, ctx.Work("initialized.graphslam"));
+}
+
+Status StageAssociate(Context& ctx) {
+  JobData data;
+  GS_RETURN_IF_ERROR(LoadData(ctx, "ingested.graphslam", &data));
+  // Landmarks seen by more than one run tie the runs (known correspondences).
+  std::vector<int32_t> first_run(static_cast<size_t>(data.problem.num_features()), -1);
+  std::vector<uint8_t> shared(first_run.size(), 0);
+  std::vector<int32_t> run_of_pose(static_cast<size_t>(data.problem.num_poses()));
+  for (size_t r = 0; r < data.runs.size(); ++r)
+    for (int32_t i = 0; i < data.runs[r].num_poses; ++i)
+      run_of_pose[static_cast<size_t>(data.runs[r].first_pose + i)] = static_cast<int32_t>(r);
+  for (const core::Observation& o : data.problem.observations) {
+    int32_t& first = first_run[static_cast<size_t>(o.feature)];
+    const int32_t run = run_of_pose[static_cast<size_t>(o.pose)];
+    if (first < 0) first = run;
+    else if (first != run) shared[static_cast<size_t>(o.feature)] = 1;
+  }
+  const auto count = std::count(shared.begin(), shared.end(), 1);
+  ctx.Info("associate",
+           "known correspondences (landmark ids): " + std::to_string(count) +
+               " landmarks are seen by more than one run",
+           {{"shared_landmarks", count}});
+  return Status::Ok();
+}
+
+// Solves every component of `data`; with `checkpoints`, each one continues
+// from / writes .job/optimize_c<k>.checkpoint.json and its chi2 history.
+Status SolveComponents(Context& ctx, bool checkpoints, JobData* data, json* components,
+                       std::vector<uint8_t>* excluded) {
+  StatusOr<core::SolverOptions> base = SolverOptionsFor(ctx.spec);
+  if (!base.ok()) return base.status();
+  excluded->assign(static_cast<size_t>(data->problem.num_features()), 1);  // unobserved: 1
+  *components = json::array();
+  for (int32_t c = 0; c < data->num_components; ++c) {
+    std::vector<int32_t> pose_map, feature_map;
+    core::Problem2d sub = ExtractComponent(*data, c, &pose_map, &feature_map);
+    partition::ChunkingOptions chunking;
+    partition::InMemoryChunkSource chunks(sub, chunking);
+    core::SolverOptions options = *base;
+    if (ctx.display) options.progress = ctx.display->AsCallback();
+    const std::string tag = "c" + std::to_string(c);
+    const std::string checkpoint_path = ctx.Work("optimize_" + tag + ".checkpoint.json");
+    const std::string history_path = ctx.Work("optimize_" + tag + ".history.json");
+    const std::string input = ctx.spec.path + "#component" + std::to_string(c);
+    core::SolverCheckpoint resume_state;
+    json history = json::array();
+    if (checkpoints && fs::exists(checkpoint_path)) {
+      StatusOr<core::SolverCheckpoint> read = storage::ReadSolverCheckpoint(checkpoint_path, input);
+      if (!read.ok()) return read.status();
+      resume_state = std::move(read).value();
+      options.resume_from = &resume_state;
+      json stored;
+      if (ReadJson(history_path, &stored).ok() && stored.is_array()) {
+        // The history is written before the checkpoint: drop what is newer.
+        for (const json& h : stored)
+          if (h.value("iteration", 0) <= resume_state.iterations) history.push_back(h);
+      }
+      ctx.Info("optimize", "component " + std::to_string(c) + ": resuming after iteration " +
+                               std::to_string(resume_state.iterations),
+               {{"component", c}, {"resumed_from_iteration", resume_state.iterations}});
+    }
+    if (checkpoints) {
+      options.checkpoint_callback = [&](const core::SolverCheckpoint& checkpoint) -> Status {
+        history.push_back({{"iteration", checkpoint.iterations}, {"chi2", checkpoint.chi2}});
+        GS_RETURN_IF_ERROR(WriteJson(history_path, history));
+        return storage::WriteSolverCheckpoint(storage::Env::Default(), checkpoint_path, input,
+                                              checkpoint);
+      };
+    }
+    core::SolverSummary summary;
+    GS_RETURN_IF_ERROR(core::SolveGraphSlam(options, chunks, &sub, &summary));
+    if (ctx.display) ctx.display->Finish();
+    ScatterComponent(sub, pose_map, feature_map, &data->problem);
+    for (size_t f = 0; f < feature_map.size(); ++f)
+      (*excluded)[static_cast<size_t>(feature_map[f])] = summary.excluded[f];
+    json runs = json::array();
+    int64_t gps_fixes = 0;
+    for (const RunInfo& run : data->runs) {
+      if (run.component != c) continue;
+      runs.push_back(run.name);
+      gps_fixes += run.gps_fixes;
+    }
+    if (history.empty() && !checkpoints)
+      for (const core::IterationSummary& it : summary.per_iteration)
+        history.push_back({{"iteration", it.iteration}, {"chi2", it.chi2}});
+    components->push_back({{"component", c},
+                           {"runs", runs},
+                           {"poses", sub.num_poses()},
+                           {"features", sub.num_features()},
+                           {"gps_fixes", gps_fixes},
+                           {"iterations", summary.iterations},
+                           {"initial_chi2", summary.initial_chi2},
+                           {"final_chi2", summary.final_chi2},
+                           {"converged", summary.converged},
+                           {"termination", summary.termination},
+                           {"linear_solver", core::LinearSolverName(summary.linear_solver_used)},
+                           {"excluded_features", summary.excluded_features},
+                           {"history", history}});
+    ctx.Info("optimize",
+             "component " + std::to_string(c) + ": " + std::to_string(summary.iterations) +
+                 " iterations, chi2 " + std::to_string(summary.initial_chi2) + " -> " +
+                 std::to_string(summary.final_chi2) + " (" + summary.termination + ")",
+             {{"component", c}, {"final_chi2", summary.final_chi2}});
+  }
+  return Status::Ok();
+}
+
+Status StageOptimize(Context& ctx) {
+  JobData data;
+  GS_RETURN_IF_ERROR(LoadData(ctx, "initialized.graphslam", &data));
+  json components;
+  std::vector<uint8_t> excluded;
+  GS_RETURN_IF_ERROR(SolveComponents(ctx, /*checkpoints=*/true, &data, &components, &excluded));
+  if (ctx.spec.compare_without_gps && !data.problem.gps.empty()) {
+    // The ablation: the same job without any GPS fix, from the same inputs.
+    ctx.Info("optimize", "solving again without GPS (compare_without_gps)");
+    JobData without;
+    GS_RETURN_IF_ERROR(LoadData(ctx, "ingested.graphslam", &without));
+    RemoveGps(&without);
+    StatusOr<core::SolverOptions> base = SolverOptionsFor(ctx.spec);
+    if (!base.ok()) return base.status();
+    GS_RETURN_IF_ERROR(InitializeComponents(ctx.spec, *base, ctx.display.get(), &without));
+    json ignored;
+    std::vector<uint8_t> ignored_excluded;
+    GS_RETURN_IF_ERROR(SolveComponents(ctx, false, &without, &ignored, &ignored_excluded));
+    GS_RETURN_IF_ERROR(
+        storage::WriteNativeLog(without.problem, ctx.Work("optimized_without_gps.graphslam")));
+  }
+  GS_RETURN_IF_ERROR(storage::WriteNativeLog(data.problem, ctx.Work("optimized.graphslam")));
+  return WriteJson(ctx.Work("optimize.json"), {{"components", components}, {"excluded", excluded}});
+}
+
+Status StageMap(Context& ctx) {
+  std::vector<std::string> with_scans;
+  for (const RunSpec& run : ctx.spec.runs)
+    if (!run.scans.empty()) with_scans.push_back(run.name);
+  if (with_scans.empty()) {
+    ctx.Info("map", "map stage: no scans");
+    return Status::Ok();
+  }
+  std::string names;
+  for (const std::string& n : with_scans) names += (names.empty() ? "" : ", ") + n;
+  ctx.Info("map", "map stage: runs " + names +
+                      " have scans, but this build has no scan fusion: no map.bt / map.pcd");
+  return Status::Ok();
+}
+
+// ---- export -------------------------------------------------------------------
+
+std::vector<StampedPose2> Stamped(const core::Problem2d& problem, const RunInfo& run) {
+  std::vector<StampedPose2> poses;
+  for (int32_t i = run.first_pose; i < run.first_pose + run.num_poses; ++i) {
+    StampedPose2 p;
+    const double stamp = problem.pose_stamps[static_cast<size_t>(i)];
+    p.stamp = std::isfinite(stamp) ? stamp : i - run.first_pose;
+    p.pose = problem.poses[static_cast<size_t>(i)];
+    poses.push_back(p);
+  }
+  return poses;
+}
+
+struct RunErrors {
+  bool valid = false;
+  TrajectoryErrors errors;
+  double indoor_sum = 0;  // squared position errors of indoor poses
+  int64_t indoor_count = 0;
+  double all_sum = 0;
+  int64_t all_count = 0;
+};
+
+RunErrors EvaluateRun(const JobData& data, const RunInfo& run) {
+  RunErrors result;
+  auto truth = data.ground_truth.find(run.name);
+  if (truth == data.ground_truth.end()) return result;
+  StatusOr<TrajectoryErrors> errors = CompareTrajectories(Stamped(data.problem, run), truth->second);
+  if (!errors.ok()) return result;
+  result.valid = true;
+  result.errors = *errors;
+  const std::vector<StampedPose2> estimated = Stamped(data.problem, run);
+  for (size_t k = 0; k < errors->estimated_index.size(); ++k) {
+    const auto e = static_cast<size_t>(errors->estimated_index[k]);
+    const auto g = static_cast<size_t>(errors->ground_truth_index[k]);
+    const Eigen::Vector2d p = errors->alignment * estimated[e].pose.head<2>();
+    const double squared = (p - truth->second[g].pose.head<2>()).squaredNorm();
+    result.all_sum += squared;
+    ++result.all_count;
+    if (e < run.indoor.size() && run.indoor[e]) {
+      result.indoor_sum += squared;
+      ++result.indoor_count;
+    }
+  }
+  return result;
+}
+
+double Rmse(double sum, int64_t count) {
+  return count > 0 ? std::sqrt(sum / static_cast<double>(count)) : std::nan("");
+}
+
+Status StageExport(Context& ctx, const Clock::time_point export_start) {
+  JobData data;
+  GS_RETURN_IF_ERROR(LoadData(ctx, "optimized.graphslam", &data));
+  json optimize;
+  GS_RETURN_IF_ERROR(ReadJson(ctx.Work("optimize.json"), &optimize));
+  std::vector<uint8_t> excluded = optimize.value("excluded", std::vector<uint8_t>());
+  if (excluded.size() != static_cast<size_t>(data.problem.num_features()))
+    return Status::Corruption(ctx.Work("optimize.json") + ": 'excluded' has " +
+                              std::to_string(excluded.size()) + " entries; expected " +
+                              std::to_string(data.problem.num_features()));
+  std::error_code error;
+  fs::create_directories(ctx.Output("trajectories"), error);
+  if (error) return Status::IOError("cannot create " + ctx.Output("trajectories") + ": " + error.message());
+
+  json report;
+  report["job"] = ctx.spec.path;
+  report["output"] = ctx.spec.output;
+  report["threads"] = ctx.spec.threads > 0 ? ctx.spec.threads : tbb::info::default_concurrency();
+  report["memory_limit_bytes"] = ctx.spec.memory_limit;
+  json warnings = json::array();
+  json runs = json::array();
+  std::vector<int> runs_in_component(static_cast<size_t>(data.num_components), 0);
+  for (const RunInfo& run : data.runs) ++runs_in_component[static_cast<size_t>(run.component)];
+  double indoor_sum = 0, all_sum = 0;
+  int64_t indoor_count = 0, all_count = 0;
+  TrajectoryPlot plot;
+  plot.title = "Trajectories per run over the map";
+  for (const RunInfo& run : data.runs) {
+    const std::string tum = ctx.Output("trajectories/" + run.name + ".tum");
+    GS_RETURN_IF_ERROR(storage::WriteTum(RunTrajectory(data.problem, run), tum));
+    const bool tied = runs_in_component[static_cast<size_t>(run.component)] > 1 || run.gps_fixes > 0;
+    if (!tied && data.runs.size() > 1)
+      warnings.push_back("run " + run.name +
+                         " is tied to no other run (no shared landmark, no GPS): it is mapped on "
+                         "its own, in its own frame");
+    json entry = {{"name", run.name},
+                  {"poses", run.num_poses},
+                  {"component", run.component},
+                  {"gps_fixes", run.gps_fixes},
+                  {"tied", tied},
+                  {"trajectory", "trajectories/" + run.name + ".tum"}};
+    XySeries series;
+    series.name = run.name;
+    for (int32_t i = run.first_pose; i < run.first_pose + run.num_poses; ++i) {
+      series.x.push_back(data.problem.poses[static_cast<size_t>(i)].x());
+      series.y.push_back(data.problem.poses[static_cast<size_t>(i)].y());
+    }
+    plot.estimated.push_back(series);
+    const RunErrors errors = EvaluateRun(data, run);
+    if (errors.valid) {
+      entry["position_rmse_m"] = errors.errors.position_rmse;
+      entry["heading_rmse_rad"] = errors.errors.heading_rmse_rad;
+      entry["position_max_m"] = errors.errors.position_max;
+      entry["matched_poses"] = errors.errors.matched;
+      if (errors.indoor_count > 0) {
+        entry["indoor_poses"] = errors.indoor_count;
+        entry["indoor_position_rmse_m"] = Rmse(errors.indoor_sum, errors.indoor_count);
+      }
+      indoor_sum += errors.indoor_sum;
+      indoor_count += errors.indoor_count;
+      all_sum += errors.all_sum;
+      all_count += errors.all_count;
+      // Ground truth drawn in the estimate's frame.
+      XySeries truth;
+      truth.name = run.name + " ground truth";
+      const Eigen::Isometry2d inverse = errors.errors.alignment.inverse();
+      for (const StampedPose2& p : data.ground_truth.at(run.name)) {
+        const Eigen::Vector2d q = inverse * p.pose.head<2>();
+        truth.x.push_back(q.x());
+        truth.y.push_back(q.y());
+      }
+      plot.ground_truth.push_back(truth);
+    }
+    runs.push_back(entry);
+  }
+  for (const core::GpsConstraint& gps : data.problem.gps) {
+    plot.gps.x.push_back(gps.z.x());
+    plot.gps.y.push_back(gps.z.y());
+  }
+  for (int32_t f = 0; f < data.problem.num_features(); ++f) {
+    if (excluded[static_cast<size_t>(f)]) continue;
+    plot.features.x.push_back(data.problem.features[static_cast<size_t>(f)].x());
+    plot.features.y.push_back(data.problem.features[static_cast<size_t>(f)].y());
+  }
+  report["runs"] = runs;
+  report["components"] = optimize["components"];
+  if (all_count > 0) report["position_rmse_m"] = Rmse(all_sum, all_count);
+  if (data.enu_origin)
+    report["enu_origin"] = {{"latitude", (*data.enu_origin)[0]},
+                            {"longitude", (*data.enu_origin)[1]},
+                            {"height", (*data.enu_origin)[2]}};
+
+  // Features against ground truth, in the frame of the first run's alignment.
+  if (!data.ground_truth_features.empty()) {
+    std::map<int64_t, core::Point2> estimated;
+    for (int32_t f = 0; f < data.problem.num_features(); ++f)
+      if (!excluded[static_cast<size_t>(f)])
+        estimated[data.problem.feature_ids[static_cast<size_t>(f)]] =
+            data.problem.features[static_cast<size_t>(f)];
+    const FeatureErrors features =
+        CompareFeatures(estimated, data.ground_truth_features, Eigen::Isometry2d::Identity());
+    report["features"] = {{"matched", features.matched},
+                          {"rmse_self_aligned_m", features.rmse_self_aligned}};
+  }
+
+  // GPS ablation (Figure 6).
+  if (fs::exists(ctx.Work("optimized_without_gps.graphslam"))) {
+    JobData without;
+    GS_RETURN_IF_ERROR(LoadData(ctx, "optimized_without_gps.graphslam", &without));
+    double w_indoor = 0, w_all = 0;
+    int64_t w_indoor_count = 0, w_all_count = 0;
+    for (const RunInfo& run : without.runs) {
+      const RunErrors errors = EvaluateRun(without, run);
+      w_indoor += errors.indoor_sum;
+      w_indoor_count += errors.indoor_count;
+      w_all += errors.all_sum;
+      w_all_count += errors.all_count;
+    }
+    report["gps_comparison"] = {{"indoor_poses", indoor_count},
+                                {"indoor_rmse_with_gps_m", Rmse(indoor_sum, indoor_count)},
+                                {"indoor_rmse_without_gps_m", Rmse(w_indoor, w_indoor_count)},
+                                {"position_rmse_with_gps_m", Rmse(all_sum, all_count)},
+                                {"position_rmse_without_gps_m", Rmse(w_all, w_all_count)}};
+  }
+
+  // Stages: time and memory.
+  json stages = json::array();
+  std::vector<StageBar> bars;
+  for (Stage stage : ctx.spec.stages) {
+    const std::string name = StageName(stage);
+    const CompletedStage* done = ctx.state.Find(name);
+    double seconds = 0;
+    int64_t rss = 0;
+    if (done != nullptr) {
+      seconds = done->seconds;
+      rss = done->peak_rss_bytes;
+    } else if (stage == Stage::kExport) {
+      seconds = std::chrono::duration<double>(Clock::now() - export_start).count();
+      rss = PeakRssBytes();
+    }
+    json entry = {{"stage", name}, {"seconds", seconds}, {"peak_rss_bytes", rss}};
+    if (stage == Stage::kMap) {
+      bool scans = false;
+      for (const RunSpec& r : ctx.spec.runs) scans = scans || !r.scans.empty();
+      entry["note"] = scans ? "scans given; no scan fusion in this build" : "no scans";
+      if (scans) warnings.push_back("map stage: scans were given but this build has no scan fusion");
+    }
+    stages.push_back(entry);
+    bars.push_back({name, seconds, static_cast<double>(rss) / (1024.0 * 1024.0)});
+  }
+  report["stages"] = stages;
+  if (ctx.spec.memory_limit > 0 && PeakRssBytes() > ctx.spec.memory_limit)
+    warnings.push_back("peak resident memory " + std::to_string(PeakRssBytes() >> 20) +
+                       " MiB exceeded the memory limit of " +
+                       std::to_string(ctx.spec.memory_limit >> 20) + " MiB");
+  report["warnings"] = warnings;
+  report["outputs"] = {"trajectories/", "features.csv", "graph.g2o", "report.json", "report.html"};
+
+  // Plots.
+  std::vector<std::pair<std::string, std::string>> images;
+  const std::string scratch = ctx.Work("plot.png");
+  StatusOr<std::string> trajectories = PlotTrajectories(plot, scratch);
+  if (!trajectories.ok()) return trajectories.status();
+  images.emplace_back("Trajectories per run over the map (GPS fixes, ground truth)", *trajectories);
+  std::vector<XySeries> curves;
+  for (const json& c : optimize["components"]) {
+    XySeries curve;
+    curve.name = "component " + std::to_string(c.value("component", 0));
+    curve.x.push_back(0);
+    curve.y.push_back(c.value("initial_chi2", 1.0));
+    for (const json& h : c["history"]) {
+      curve.x.push_back(h.value("iteration", 0));
+      curve.y.push_back(h.value("chi2", 1.0));
+    }
+    curves.push_back(curve);
+  }
+  StatusOr<std::string> convergence = PlotConvergence(curves, scratch);
+  if (!convergence.ok()) return convergence.status();
+  images.emplace_back("Convergence (chi2 per iteration)", *convergence);
+  StatusOr<std::string> stage_plot = PlotStages(bars, scratch);
+  if (!stage_plot.ok()) return stage_plot.status();
+  images.emplace_back("Time and memory per stage", *stage_plot);
+
+  // Outputs, each atomically.
+  GS_RETURN_IF_ERROR(storage::WriteFeaturesCsv(data.problem, ctx.Output("features.csv"), &excluded));
+  GS_RETURN_IF_ERROR(storage::WriteG2o(data.problem, ctx.Output("graph.g2o")));
+  GS_RETURN_IF_ERROR(WriteJson(ctx.Output("report.json"), report));
+  GS_RETURN_IF_ERROR(storage::WriteStringAtomically(storage::Env::Default(),
+                                                    ctx.Output("report.html"),
+                                                    RenderReportHtml(report, images)));
+  for (const json& w : warnings) ctx.Info("export", "warning: " + w.get<std::string>());
+  ctx.Info("export", "wrote " + ctx.spec.output + " (trajectories/, features.csv, graph.g2o, "
+                     "report.json, report.html)");
+  return Status::Ok();
+}
+
+Status RunStage(Context& ctx, Stage stage, Clock::time_point start) {
+  switch (stage) {
+    case Stage::kIngest: return StageIngest(ctx);
+    case Stage::kInitialize: return StageInitialize(ctx);
+    case Stage::kAssociate: return StageAssociate(ctx);
+    case Stage::kOptimize: return StageOptimize(ctx);
+    case Stage::kMap: return StageMap(ctx);
+    case Stage::kExport: return StageExport(ctx, start);
+  }
+  return Status::InvalidArgument("unknown stage");
+}
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+}  // namespace
+
+Status RunJob(const RunJobOptions& options) {
+  SetLogVerbosity(options.verbosity);
+  SetQuietLogging(options.quiet);
+  StatusOr<JobSpec> spec = ReadJobSpec(options.job_path);
+  if (!spec.ok()) return spec.status();
+  Context ctx;
+  ctx.spec = std::move(spec).value();
+  if (!options.output.empty())
+    ctx.spec.output = fs::absolute(options.output).lexically_normal().string();
+  ctx.quiet = options.quiet;
+  ctx.fingerprint = Fingerprint(ReadAll(options.job_path));
+  ctx.work = (fs::path(ctx.spec.output) / ".job").string();
+  // Stages need their predecessors' results: ingest -> initialize -> optimize
+  // -> export form a chain, so a later one pulls in the earlier ones;
+  // associate and map run only when chosen.
+  auto core_rank = [](Stage s) {
+    switch (s) {
+      case Stage::kIngest: return 0;
+      case Stage::kInitialize: return 1;
+      case Stage::kOptimize: return 2;
+      case Stage::kExport: return 3;
+      default: return -1;
+    }
+  };
+  int last_core = -1;
+  for (Stage s : ctx.spec.stages) last_core = std::max(last_core, core_rank(s));
+  std::vector<Stage> stages;
+  for (Stage stage : kAllStages)
+    if (ctx.spec.HasStage(stage) || (core_rank(stage) >= 0 && core_rank(stage) <= last_core))
+      stages.push_back(stage);
+  ctx.spec.stages = stages;
+
+  std::error_code error;
+  fs::create_directories(ctx.spec.output, error);
+  if (error) return Status::IOError("cannot create " + ctx.spec.output + ": " + error.message());
+  const std::string state_path = ctx.Work("state.json");
+  if (options.resume && fs::exists(state_path)) {
+    StatusOr<JobState> state = ReadJobState(state_path);
+    if (!state.ok()) return state.status();
+    if (state->job_fingerprint != ctx.fingerprint)
+      return Status::InvalidArgument(
+          options.job_path + ": the job file changed since " + state_path +
+          " was written; run without --resume to start over");
+    ctx.state = std::move(state).value();
+  } else {
+    // A fresh start: stage results of an earlier job go, its final outputs stay
+    // until this job's export replaces them.
+    fs::remove_all(ctx.work, error);
+    if (error) return Status::IOError("cannot clear " + ctx.work + ": " + error.message());
+    ctx.state.job_fingerprint = ctx.fingerprint;
+  }
+  fs::create_directories(ctx.work, error);
+  if (error) return Status::IOError("cannot create " + ctx.work + ": " + error.message());
+  GS_RETURN_IF_ERROR(WriteJobState(state_path, ctx.state));
+  GS_RETURN_IF_ERROR(ctx.log.Open(ctx.Output("log.jsonl")));
+  ctx.display = std::make_unique<ProgressDisplay>(!options.quiet);
+
+  std::unique_ptr<tbb::global_control> threads;
+  if (ctx.spec.threads > 0)
+    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                    static_cast<size_t>(ctx.spec.threads));
+  ctx.log.Write({{"event", "job_start"},
+                 {"job", ctx.spec.path},
+                 {"resume", options.resume},
+                 {"stages", static_cast<int>(stages.size())}});
+  int64_t done = 0;
+  for (Stage stage : stages) {
+    const std::string name = StageName(stage);
+    if (ctx.state.IsCompleted(name)) {
+      ctx.Info(name, "already completed: skipped (--resume)");
+      ++done;
+      continue;
+    }
+    ctx.log.Write({{"event", "stage_start"}, {"stage", name}, {"done", done},
+                   {"total", static_cast<int64_t>(stages.size())}});
+    if (!options.quiet) ctx.Info(name, "stage " + std::to_string(done + 1) + "/" +
+                                           std::to_string(stages.size()) + " started");
+    const Clock::time_point start = Clock::now();
+    if (Status status = RunStage(ctx, stage, start); !status.ok()) {
+      ctx.log.Write({{"event", "stage_failed"}, {"stage", name}, {"error", status.ToString()}});
+      return status;
+    }
+    CompletedStage completed;
+    completed.stage = name;
+    completed.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    completed.peak_rss_bytes = PeakRssBytes();
+    ctx.state.completed.push_back(completed);
+    GS_RETURN_IF_ERROR(WriteJobState(state_path, ctx.state));
+    ++done;
+    ctx.display->Update("job", done, static_cast<int64_t>(stages.size()));
+    ctx.log.Write({{"event", "stage_done"},
+                   {"stage", name},
+                   {"seconds", completed.seconds},
+                   {"peak_rss_bytes", completed.peak_rss_bytes},
+                   {"done", done},
+                   {"total", static_cast<int64_t>(stages.size())}});
+  }
+  ctx.display->Finish();
+  ctx.log.Write({{"event", "job_done"}});
+  return Status::Ok();
+}
+
+}  // namespace graphslam::tools::job

@@ -1,0 +1,96 @@
+// JobSpec: a batch job file (`graphslam run JOB.yaml`, docs/jobs.md) parsed
+// and validated: where the outputs go, how many threads, the memory budget,
+// which stages run, and the list of runs (inputs) to map together.
+//
+//   output: out/                  # required; relative paths are relative to
+//   threads: 2                    #   the job file's folder
+//   memory_limit: 2GiB            # bytes, or with KiB/MiB/GiB
+//   stages: [ingest, initialize, optimize, export]   # default: all
+//   solver: {max_iterations: 50, robust_kernel: cauchy:1, initialization: odometry}
+//   runs:
+//     - {name: robot1, format: mrclam, path: data/MRCLAM_Dataset1, robot: 1}
+//     - {name: sim, format: simulate, simulate: {poses: 2000, runs: 2, gps_every: 10}}
+//
+// Every error is InvalidArgument "<job file>:<line>:<column>: <what>; expected
+// <what>", the line and column of the offending YAML node (yaml-cpp's Mark,
+// 0-based there, 1-based here). Unknown keys are errors (a typo must not
+// silently drop a setting).
+//
+// THREAD SAFETY: plain values and reentrant functions. ALLOCATION: O(file).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/status.h"
+#include "tools/campus_simulator.h"
+
+namespace graphslam::tools::job {
+
+// The stages, in execution order.
+enum class Stage { kIngest, kInitialize, kAssociate, kOptimize, kMap, kExport };
+inline constexpr std::array<Stage, 6> kAllStages = {Stage::kIngest,   Stage::kInitialize,
+                                                    Stage::kAssociate, Stage::kOptimize,
+                                                    Stage::kMap,      Stage::kExport};
+const char* StageName(Stage stage);
+
+// GPS fixes of a run from a CSV file: "t,lat,lon" (degrees, WGS84) or
+// "t,east,north" (metres, frame: enu). A fix is attached to the run's pose
+// nearest in time if that is within max_time_difference.
+struct GpsSource {
+  std::string path;
+  std::string frame = "wgs84";  // wgs84 or enu
+  double sigma = 2.0;           // m, per axis
+  double max_time_difference = 0.5;  // s
+  int line = 0;  // of the gps node in the job file
+};
+
+struct RunSpec {
+  std::string name;
+  std::string format;  // g2o, isam, mrclam, native, simulate
+  std::string path;    // absolute (resolved against the job file's folder)
+  int robot = 1;       // mrclam
+  CampusSimulatorOptions simulate;  // simulate
+  // simulate: no GPS fix inside this axis-aligned box [x0, y0, x1, y1] (indoors).
+  std::optional<std::array<double, 4>> gps_denied_region;
+  // mrclam: measurement noise (the format does not carry it).
+  std::optional<double> range_sigma;
+  std::optional<double> bearing_sigma;
+  std::optional<GpsSource> gps;
+  std::string ground_truth;  // optional TUM file
+  std::string scans;         // optional scan folder (map stage)
+  int line = 0;              // of the run in the job file
+};
+
+struct SolverSpec {
+  int max_iterations = 100;
+  double function_tolerance = 1e-6;
+  std::string robust_kernel = "none";
+  std::string initialization = "progressive";  // progressive, odometry
+  std::string linear_solver = "auto";
+};
+
+struct JobSpec {
+  std::string path;         // the job file
+  std::string output;       // absolute output folder
+  int threads = 0;          // 0: all cores
+  int64_t memory_limit = 0; // bytes; 0: none
+  std::vector<Stage> stages;  // in execution order
+  SolverSpec solver;
+  // simulate runs: also solve the job without GPS and report the indoor error
+  // of both (the paper's Figure 6 comparison).
+  bool compare_without_gps = false;
+  std::vector<RunSpec> runs;
+
+  bool HasStage(Stage stage) const;
+};
+
+// Parses YAML text; `path` names the file in messages and anchors relative paths.
+StatusOr<JobSpec> ParseJobSpec(const std::string& text, const std::string& path);
+// Reads and parses a job file (NotFound / IOError if it cannot be read).
+StatusOr<JobSpec> ReadJobSpec(const std::string& path);
+
+}  // namespace graphslam::tools::job

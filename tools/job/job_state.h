@@ -1,0 +1,73 @@
+// JobState: the checkpoint of a batch job (OUTPUT/.job/state.json), written
+// atomically (storage/atomic_file.h) after every completed stage, so that
+// `graphslam run JOB --resume` after a crash or kill -9 skips what is done:
+//
+//   {"format": "graphslam-job-state", "version": 1,
+//    "job_fingerprint": "<FNV-1a 64 of the job file's bytes, hex>",
+//    "completed": [{"stage": "ingest", "seconds": 0.8, "peak_rss_bytes": 123}, ...]}
+//
+// A resume with a job file whose fingerprint differs is refused: its stage
+// outputs would belong to another job.
+//
+// JobLog: the structured log OUTPUT/log.jsonl, one JSON object per line
+// ({"time": ISO-8601 UTC, "event": ..., ...}), appended and flushed per line
+// (a kill -9 loses at most the line being written; readers skip a torn last
+// line).
+//
+// THREAD SAFETY: JobLog::Write is guarded by a mutex; JobState is a value.
+// ALLOCATION: O(stages).
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "core/status.h"
+
+namespace graphslam::tools::job {
+
+inline constexpr const char* kJobStateFormat = "graphslam-job-state";
+inline constexpr int kJobStateVersion = 1;
+
+struct CompletedStage {
+  std::string stage;
+  double seconds = 0.0;
+  int64_t peak_rss_bytes = 0;
+};
+
+struct JobState {
+  std::string job_fingerprint;
+  std::vector<CompletedStage> completed;
+
+  bool IsCompleted(const std::string& stage) const;
+  const CompletedStage* Find(const std::string& stage) const;
+};
+
+// FNV-1a 64-bit of `bytes`, as 16 hex digits.
+std::string Fingerprint(const std::string& bytes);
+
+// Corruption naming the file and field for a malformed state file.
+StatusOr<JobState> ReadJobState(const std::string& path);
+[[nodiscard]] Status WriteJobState(const std::string& path, const JobState& state);
+
+class JobLog {
+ public:
+  JobLog() = default;
+  JobLog(const JobLog&) = delete;
+  JobLog& operator=(const JobLog&) = delete;
+  ~JobLog();
+  // Opens `path` for appending (created if missing).
+  [[nodiscard]] Status Open(const std::string& path);
+  // Adds "time" and writes one line; write errors are ignored (logging must
+  // not stop a job). A no-op before Open.
+  void Write(nlohmann::json event);
+
+ private:
+  std::mutex mutex_;
+  std::FILE* file_ = nullptr;
+};
+
+}  // namespace graphslam::tools::job
