@@ -1,0 +1,3 @@
+# 3-D solve end to end: reference optima and ground truth (real datasets).
+graphslam_test(tools/reference_optima_3d)
+set_tests_properties(reference_optima_3d PROPERTIES TIMEOUT 60)
