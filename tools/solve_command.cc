@@ -17,6 +17,7 @@
 #include "storage/atomic_file.h"
 #include "storage/solver_checkpoint.h"
 #include "storage/chunk_store.h"
+#include "storage/dimension_detection.h"
 #include "storage/features_csv_writer.h"
 #include "storage/format_detection.h"
 #include "storage/g2o_writer.h"
@@ -26,6 +27,7 @@
 #include "tools/out_of_core_solve.h"
 #include "tools/progress_display.h"
 #include "tools/resource_usage.h"
+#include "tools/solve_3d_command.h"
 
 namespace graphslam::tools {
 namespace {
@@ -305,6 +307,10 @@ int RunSolveCommand(const SolveCommandOptions& options) {
       }
       format = *parsed;
     }
+    // 3-D inputs (SE(3) poses) take the 3-D path (tools/solve_3d_command.h).
+    StatusOr<bool> three_d = storage::IsThreeDimensional(options.input, format);
+    if (!three_d.ok()) return fail(three_d.status());
+    if (*three_d) return RunSolve3dCommand(options, format, *solver_type, *preconditioner);
     storage::MrclamOptions mrclam;
     mrclam.robot = options.robot;
     StatusOr<core::Problem2d> read = storage::ReadProblem(options.input, format, mrclam);

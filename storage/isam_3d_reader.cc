@@ -1,0 +1,104 @@
+#include "storage/isam_3d_reader.h"
+
+#include <unordered_map>
+
+#include "storage/internal/text_reader.h"
+#include "storage/internal/upper_triangle.h"
+
+namespace graphslam::storage {
+
+Eigen::Quaterniond QuaternionFromRollPitchYaw(double roll, double pitch, double yaw) {
+  return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX()))
+      .normalized();
+}
+
+StatusOr<core::Problem3d> ReadIsam3d(const std::string& path) {
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<internal::LineReader> reader,
+                      internal::LineReader::Open(path));
+  core::Problem3d problem;
+  problem.source = path;
+  std::unordered_map<int64_t, int32_t> pose_index, point_index;
+  auto pose_of = [&](int64_t id, int32_t line) {
+    auto [it, added] = pose_index.emplace(id, problem.num_poses());
+    if (added) problem.AddPose(id, core::Pose3::Identity(), /*initialized=*/false, line);
+    return it->second;
+  };
+  while (reader->Next()) {
+    const std::string_view tag = reader->fields()[0];
+    if (tag == "EDGE3") {
+      GS_RETURN_IF_ERROR(reader->ExpectFieldCount(9, 30));
+      GS_ASSIGN_OR_RETURN(const int64_t from, reader->Id(1, "from id"));
+      GS_ASSIGN_OR_RETURN(const int64_t to, reader->Id(2, "to id"));
+      if (from == to)
+        return reader->Error("EDGE3 connects pose " + std::to_string(from) +
+                             " to itself; expected two distinct poses");
+      double v[6];
+      GS_RETURN_IF_ERROR(reader->Doubles(3, 6, "measurement", v));
+      core::RelativePose3Constraint c;
+      c.z.t = Eigen::Vector3d(v[0], v[1], v[2]);
+      c.z.q = QuaternionFromRollPitchYaw(v[3], v[4], v[5]);
+      if (reader->fields().size() == 30) {
+        double s[21];
+        GS_RETURN_IF_ERROR(reader->Doubles(9, 21, "square-root information", s));
+        const core::Matrix6d sqrt_information = internal::UpperFromRowFirst<6>(s);
+        c.information = sqrt_information.transpose() * sqrt_information;
+        // Angles -> vec(q) = angles / 2 (isam_3d_reader.h).
+        c.information.rightCols<3>() *= 2.0;
+        c.information.bottomRows<3>() *= 2.0;
+        if (!internal::IsPositiveDefiniteMatrix(c.information))
+          return reader->Error("EDGE3 square-root information " +
+                               internal::UpperTriangleString(s, 21) +
+                               " is singular; expected an upper-triangular S with a non-zero "
+                               "diagonal");
+      }
+      if (reader->fields().size() == 9) {
+        c.information.rightCols<3>() *= 2.0;
+        c.information.bottomRows<3>() *= 2.0;
+      }
+      c.line = reader->line_number();
+      c.from = pose_of(from, c.line);
+      c.to = pose_of(to, c.line);
+      problem.relative_poses.push_back(c);
+    } else if (tag == "POINT3") {
+      GS_RETURN_IF_ERROR(reader->ExpectFieldCount(6, 12));
+      GS_ASSIGN_OR_RETURN(const int64_t pose, reader->Id(1, "pose id"));
+      GS_ASSIGN_OR_RETURN(const int64_t point, reader->Id(2, "point id"));
+      double v[3];
+      GS_RETURN_IF_ERROR(reader->Doubles(3, 3, "measurement", v));
+      core::Point3Observation o;
+      o.z = Eigen::Vector3d(v[0], v[1], v[2]);
+      if (reader->fields().size() == 12) {
+        double s[6];
+        GS_RETURN_IF_ERROR(reader->Doubles(6, 6, "square-root information", s));
+        const Eigen::Matrix3d sqrt_information = internal::UpperFromRowFirst<3>(s);
+        o.information = sqrt_information.transpose() * sqrt_information;
+        if (!internal::IsPositiveDefiniteMatrix(o.information))
+          return reader->Error("POINT3 square-root information " +
+                               internal::UpperTriangleString(s, 6) +
+                               " is singular; expected an upper-triangular S with a non-zero "
+                               "diagonal");
+      }
+      o.line = reader->line_number();
+      o.pose = pose_of(pose, o.line);
+      auto [it, added] = point_index.emplace(point, problem.num_features());
+      if (added) problem.AddFeature(point, core::Point3::Zero(), /*initialized=*/false);
+      o.feature = it->second;
+      problem.observations.push_back(o);
+    } else if (tag == "EDGE2" || tag == "ODOMETRY" || tag == "LANDMARK") {
+      return reader->Unsupported(std::string(tag) +
+                                 " is a 2-D record in a 3-D file; expected EDGE3 or POINT3");
+    } else {
+      return reader->Unsupported("unknown record '" + std::string(tag) +
+                                 "'; expected EDGE3 or POINT3");
+    }
+  }
+  GS_RETURN_IF_ERROR(reader->status());
+  if (problem.num_poses() == 0)
+    return Status::Corruption(reader->name() + ": has no EDGE3 or POINT3 record; expected a 3-D "
+                              "iSAM file");
+  return problem;
+}
+
+}  // namespace graphslam::storage
