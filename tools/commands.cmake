@@ -5,3 +5,4 @@ target_sources(graphslam_tools PRIVATE
   simulate_command.cc
   trajectory_metrics.cc)
 target_sources(graphslam_tools PRIVATE ingest_command.cc)
+target_sources(graphslam_tools PRIVATE association_report.cc)

@@ -4,6 +4,7 @@
 #include <utility>
 
 #include "core/initialization.h"
+#include "core/unidentified_features.h"
 #include "partition/in_memory_chunk_source.h"
 #include "storage/chunk_store.h"
 #include "storage/env.h"
@@ -57,6 +58,15 @@ int RunIngestCommand(const IngestCommandOptions& options) {
   mrclam.robot = options.robot;
   StatusOr<core::Problem2d> read = storage::ReadProblem(options.input, format, mrclam);
   if (!read.ok()) return fail(read.status());
+  if (const core::UnidentifiedObservations unidentified =
+          core::CountUnidentifiedObservations(*read);
+      unidentified.count > 0) {
+    return fail(Status::NotSupported(
+        options.input + ":" + std::to_string(unidentified.first_line) + ": " +
+        std::to_string(unidentified.count) +
+        " observations have no feature id; expected ids (a chunk store needs feature-complete "
+        "chunks; use graphslam solve --associate on the input instead)"));
+  }
   core::Problem2d problem = std::move(read).value();
   if (Status status = core::InitializeProblem(&problem); !status.ok()) return fail(status);
 

@@ -32,6 +32,11 @@ struct SolveCommandOptions {
   int64_t progressive_max_new_poses = 500;     // poses added per progressive stage
   std::string checkpoint;  // --checkpoint FILE (default STORE/checkpoint.json for stores)
   bool resume = false;     // --resume: continue from the checkpoint if there is one
+  // Data association (unknown correspondence, docs/association.md).
+  bool associate = false;           // --associate
+  double chi = 1e-3;                // --chi: accept pi_{j=k} > chi
+  double association_radius = 5.0;  // --association-radius [m]
+  bool ignore_barcodes = false;     // --ignore-barcodes (MRCLAM)
   bool quiet = false;
   int verbosity = 0;
 };
