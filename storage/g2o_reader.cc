@@ -4,6 +4,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "core/unidentified_features.h"
 #include "storage/internal/text_reader.h"
 
 namespace graphslam::storage {
@@ -82,11 +83,7 @@ class G2oParser {
     if (tag == "EDGE_SE2_XY") return ParsePointEdge(reader, PendingKind::kPointObservation);
     if (tag == "EDGE_PRIOR_SE2_XY") return ParsePointEdge(reader, PendingKind::kPositionPrior);
     if (tag == "FIX") return ParseFix(reader);
-    if (tag == "DATA_FEATURE_POINTXY") {
-      return reader.Unsupported(
-          "DATA_FEATURE_POINTXY observations have no landmark id; use --associate (not yet "
-          "supported)");
-    }
+    if (tag == "DATA_FEATURE_POINTXY") return ParseFeatureData(reader);
     if (IsThreeDimensionalTag(tag)) {
       return reader.Unsupported(std::string(tag) +
                                 " is a 3-D element; expected a 2-D graph (3-D is not supported)");
@@ -109,6 +106,7 @@ class G2oParser {
     if (pose) {
       vertex.index = problem_.AddPose(id, core::Pose2(values[0], values[1], values[2]),
                                       /*initialized=*/true, reader.line_number());
+      last_pose_ = vertex.index;
     } else {
       vertex.index = problem_.AddFeature(id, core::Point2(values[0], values[1]),
                                          /*initialized=*/true);
@@ -168,6 +166,40 @@ class G2oParser {
                           "matrix (upper triangle xx xy yy)");
     }
     pending_.push_back(item);
+    return Status::Ok();
+  }
+
+  // DATA_FEATURE_POINTXY a b x y xx xy yy: a point observation without
+  // landmark id from the VERTEX_SE2 defined last; it gets a feature of its own
+  // (id core::kNoFeatureId) for data association to merge.
+  Status ParseFeatureData(const LineReader& reader) {
+    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(8));
+    GS_RETURN_IF_ERROR(reader.Id(1, "sensor id").status());
+    GS_RETURN_IF_ERROR(reader.Id(2, "dimension").status());
+    if (last_pose_ < 0) {
+      return reader.Error(
+          "DATA_FEATURE_POINTXY comes before any VERTEX_SE2; expected it after the pose it was "
+          "observed from");
+    }
+    double z[2];
+    double upper[3];
+    GS_RETURN_IF_ERROR(reader.Doubles(3, 2, "measurement", z));
+    GS_RETURN_IF_ERROR(reader.Doubles(5, 3, "information", upper));
+    core::Observation observation;
+    observation.information = internal::SymmetricFromUpper2(upper);
+    if (!internal::IsPositiveDefinite(observation.information)) {
+      return reader.Error("DATA_FEATURE_POINTXY information " +
+                          internal::UpperTriangleString(upper, 3) +
+                          " is not positive definite; expected a symmetric positive definite "
+                          "matrix (upper triangle xx xy yy)");
+    }
+    observation.pose = last_pose_;
+    observation.feature =
+        problem_.AddFeature(core::kNoFeatureId, core::Point2::Zero(), /*initialized=*/false);
+    observation.kind = core::ObservationKind::kPointXY;
+    observation.z = Eigen::Vector2d(z[0], z[1]);
+    observation.line = reader.line_number();
+    problem_.observations.push_back(observation);
     return Status::Ok();
   }
 
@@ -267,6 +299,7 @@ class G2oParser {
   core::Problem2d problem_;
   std::unordered_map<int64_t, Vertex> vertices_;
   std::vector<Pending> pending_;
+  int32_t last_pose_ = -1;  // the VERTEX_SE2 defined last (DATA_FEATURE_POINTXY's pose)
   bool has_vertices_ = false;
 };
 

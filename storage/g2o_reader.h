@@ -24,9 +24,12 @@
 // Rejected (Corruption, "<file>:<line>: <what>; expected <what>"): malformed or
 // non-finite numbers, wrong field counts, information not positive definite,
 // duplicate vertex ids, edges to undefined vertices or to a vertex of the wrong
-// kind, self-loops. NotSupported: unknown tags, 3-D tags (VERTEX_SE3:QUAT, ...)
-// and DATA_FEATURE_POINTXY (observations without landmark id: data association,
-// not yet supported). NotFound: missing file.
+// kind, self-loops. NotSupported: unknown tags, 3-D tags (VERTEX_SE3:QUAT, ...).
+// NotFound: missing file.
+//
+//   DATA_FEATURE_POINTXY a b x y xx xy yy     -> Observation kPointXY without
+//       landmark id, from the VERTEX_SE2 defined last (victoriaPark-noassoc);
+//       each gets a feature of its own (id core::kNoFeatureId, core/unidentified_features.h) for data association.
 //
 // THREAD SAFETY: reentrant. ALLOCATION: O(file records); the file is streamed
 // line by line.

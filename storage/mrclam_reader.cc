@@ -7,6 +7,7 @@
 #include <unordered_map>
 
 #include "core/logging.h"
+#include "core/unidentified_features.h"
 #include "storage/internal/text_reader.h"
 
 namespace graphslam::storage {
@@ -165,12 +166,6 @@ StatusOr<MrclamGroundTruth> ReadMrclamGroundTruth(const std::string& folder, int
 StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOptions& options,
                                      MrclamReadStats* stats) {
   GS_RETURN_IF_ERROR(options.Validate());
-  if (options.ignore_barcodes) {
-    return Status::NotSupported(folder +
-                                ": MrclamOptions.ignore_barcodes asks for unknown "
-                                "correspondences; expected barcodes (data association is not "
-                                "yet supported)");
-  }
   std::error_code error;
   if (!std::filesystem::is_directory(folder, error)) {
     return Status::NotFound(folder + ": is not a directory; expected an MRCLAM dataset folder");
@@ -255,12 +250,22 @@ StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOpti
       ++local_stats.out_of_time_range_dropped;
       continue;
     }
-    const auto [feature, inserted] =
-        feature_of_subject.try_emplace(subject->second, problem.num_features());
-    if (inserted) problem.AddFeature(subject->second, core::Point2::Zero(), /*initialized=*/false);
+    int32_t feature_index = 0;
+    if (options.ignore_barcodes) {
+      // Unknown correspondence: the barcode only tells a landmark from a robot
+      // (robots carry barcodes too); which landmark is for association.
+      feature_index =
+          problem.AddFeature(core::kNoFeatureId, core::Point2::Zero(), /*initialized=*/false);
+    } else {
+      const auto [feature, inserted] =
+          feature_of_subject.try_emplace(subject->second, problem.num_features());
+      if (inserted)
+        problem.AddFeature(subject->second, core::Point2::Zero(), /*initialized=*/false);
+      feature_index = feature->second;
+    }
     core::Observation observation;
     observation.pose = static_cast<int32_t>(pose);
-    observation.feature = feature->second;
+    observation.feature = feature_index;
     observation.kind = core::ObservationKind::kRangeBearing;
     observation.z = Eigen::Vector2d(range, bearing);
     observation.information = options.measurement_information;

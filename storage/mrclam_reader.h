@@ -45,8 +45,9 @@ namespace graphslam::storage {
 
 struct MrclamOptions {
   int robot = 1;  // 1..5
-  // true asks for unknown correspondences (barcodes ignored): data association,
-  // which is not yet supported (ReadMrclam returns NotSupported).
+  // true asks for unknown correspondences (barcodes ignored): every landmark
+  // observation gets a feature of its own (id core::kNoFeatureId) for data
+  // association (solve --associate); barcodes still tell robots from landmarks.
   bool ignore_barcodes = false;
   core::VelocityNoise noise;
   // diag(1/sigma_r^2, 1/sigma_phi^2) with sigma_r = 0.1 m and sigma_phi = 0.05

@@ -7,6 +7,7 @@
 #include <unordered_map>
 
 #include "core/se2.h"
+#include "core/unidentified_features.h"
 #include "core/velocity_motion_model.h"
 #include "storage/atomic_file.h"
 #include "storage/internal/problem_validation.h"
@@ -128,10 +129,12 @@ class NativeLogParser {
 
   StatusOr<int32_t> Feature(const LineReader& reader, size_t field) {
     if (reader.fields()[field] == "-") {
-      return reader.Unsupported(
-          std::string(reader.fields()[0]) +
-          " with unknown correspondence ('-'); expected a feature id (data association is not "
-          "yet supported)");
+      // Unknown correspondence: a feature of its own, for data association.
+      const int32_t feature =
+          problem_.AddFeature(core::kNoFeatureId, core::Point2::Zero(), /*initialized=*/false);
+      feature_lines_.push_back(reader.line_number());
+      feature_declared_.push_back(0);
+      return feature;
     }
     GS_ASSIGN_OR_RETURN(const int64_t id, reader.Id(field, "feature id"));
     const auto [it, inserted] = features_.try_emplace(id, problem_.num_features());

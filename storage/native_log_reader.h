@@ -5,7 +5,7 @@
 //   CONTROL from to v omega dt [a1..a6]        (velocity model, Thrun &
 //   CONTROL_INFO from to v omega dt i11..i33    Montemerlo eq. 4)
 //   ODOM from to dx dy dth i11 i12 i13 i22 i23 i33
-//   RB pose feature range bearing i11 i12 i22   (feature '-' -> NotSupported)
+//   RB pose feature range bearing i11 i12 i22   (feature '-': unknown, for --associate)
 //   XY pose feature x y i11 i12 i22
 //   GPS pose x y i11 i12 i22       FIX pose      # comment
 //
@@ -17,7 +17,8 @@
 // missing header, malformed or non-finite numbers, wrong field counts,
 // information not positive definite, undeclared or duplicate poses, duplicate
 // or late FEATURE records, dt < 0, range <= 0, self-loops. NotSupported: other
-// versions, unknown tags, unknown correspondences.
+// versions, unknown tags. An RB/XY with feature '-' gets a feature of its own
+// (id core::kNoFeatureId, core/unidentified_features.h).
 //
 // WriteNativeLog writes through WriteFileAtomically (atomic_file.h): poses,
 // features, FIX, then CONTROL_INFO / ODOM / RB / XY / GPS records, numbers as

@@ -7,3 +7,4 @@ target_sources(graphslam_tools PRIVATE
 target_sources(graphslam_tools PRIVATE ingest_command.cc)
 target_sources(graphslam_tools PRIVATE out_of_core_solve.cc)
 target_sources(graphslam_tools PRIVATE streaming_campus_simulator.cc)
+target_sources(graphslam_tools PRIVATE association_report.cc)

@@ -12,6 +12,8 @@
 #include "core/graphslam_solver.h"
 #include "core/initialization.h"
 #include "core/logging.h"
+#include "core/unidentified_features.h"
+#include "partition/association_driver.h"
 #include "partition/in_memory_chunk_source.h"
 #include "partition/progressive_initialization.h"
 #include "storage/atomic_file.h"
@@ -22,6 +24,7 @@
 #include "storage/format_detection.h"
 #include "storage/g2o_writer.h"
 #include "storage/tum_writer.h"
+#include "tools/association_report.h"
 #include "tools/exit_codes.h"
 #include "tools/memory_size.h"
 #include "tools/out_of_core_solve.h"
@@ -55,6 +58,16 @@ Status ValidateOptions(const SolveCommandOptions& options) {
     return Status::InvalidArgument("--resume needs --checkpoint FILE (or a chunk store as input)");
   if (options.chunk_observations <= 0)
     return Status::InvalidArgument("--chunk-observations must be > 0");
+  if (options.associate && (options.resume || !options.checkpoint.empty()))
+    return Status::InvalidArgument("--associate cannot be combined with --checkpoint/--resume");
+  if (options.associate && storage::IsChunkStore(options.input))
+    return Status::InvalidArgument(
+        "--associate needs a g2o, native or MRCLAM input, not a chunk store (merges rewrite "
+        "the in-memory chunks only)");
+  if (options.associate && !options.workdir.empty())
+    return Status::InvalidArgument(
+        "--associate cannot be combined with --workdir (merges rewrite the in-memory chunks "
+        "only)");
   return Status::Ok();
 }
 
@@ -207,6 +220,17 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
   solve->add_option("--streaming-observations", options->streaming_observations,
                     "stores with more observations are solved without loading them (streaming mode)")
       ->capture_default_str();
+  solve->add_flag("--associate", options->associate,
+                  "unknown correspondence: merge features by the correspondence test "
+                  "(paper Tables 9-10; docs/association.md)");
+  solve->add_option("--chi", options->chi,
+                    "with --associate: merge when the correspondence probability exceeds this")
+      ->capture_default_str();
+  solve->add_option("--association-radius", options->association_radius,
+                    "with --associate: test feature pairs closer than this [m]")
+      ->capture_default_str();
+  solve->add_flag("--ignore-barcodes", options->ignore_barcodes,
+                  "MRCLAM: drop the landmark identities (use with --associate)");
   solve->add_flag("-q,--quiet", options->quiet, "no progress or summary on the terminal");
   solve->add_flag("-v,--verbose", options->verbosity, "more log detail (repeatable)");
   solve->callback([options, exit_code]() { *exit_code = RunSolveCommand(*options); });
@@ -313,9 +337,19 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     if (*three_d) return RunSolve3dCommand(options, format, *solver_type, *preconditioner);
     storage::MrclamOptions mrclam;
     mrclam.robot = options.robot;
+    mrclam.ignore_barcodes = options.ignore_barcodes;
     StatusOr<core::Problem2d> read = storage::ReadProblem(options.input, format, mrclam);
     if (!read.ok()) return fail(read.status());
     problem = std::move(read).value();
+    const core::UnidentifiedObservations unidentified =
+        core::CountUnidentifiedObservations(problem);
+    if (unidentified.count > 0 && !options.associate) {
+      return fail(Status::NotSupported(
+          options.input + ":" + std::to_string(unidentified.first_line) + ": " +
+          std::to_string(unidentified.count) +
+          " observations have no feature id (unknown correspondence); expected ids, or "
+          "--associate to find the correspondences"));
+    }
     format_name = FormatName(format);
   }
   if (!streaming) num_observations = static_cast<int64_t>(problem.observations.size());
@@ -407,8 +441,21 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     };
   }
   core::SolverSummary summary;
-  if (Status status = core::SolveGraphSlam(solver_options, chunks, &problem, &summary); !status.ok())
+  partition::AssociationOptions association;
+  partition::AssociationSummary association_summary;
+  if (options.associate) {
+    association.chi = options.chi;
+    association.search_radius = options.association_radius;
+    association.chunk_observations = options.chunk_observations;
+    if (Status status = partition::AssociateAndSolve(association, solver_options, &problem,
+                                                     &association_summary);
+        !status.ok())
+      return fail(status);
+    summary = association_summary.final_solve;
+  } else if (Status status = core::SolveGraphSlam(solver_options, chunks, &problem, &summary);
+             !status.ok()) {
     return fail(status);
+  }
   display.Finish();
 
   // Write outputs (each atomically).
@@ -434,6 +481,8 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     report["chunks_in_flight"] = solver_options.max_chunks_in_flight;
     report["memory_limit_bytes"] = memory_limit;
     if (store) report["store"] = store_path;
+    if (options.associate)
+      report["association"] = BuildAssociationReport(association, association_summary, 200);
     if (Status status = storage::WriteStringAtomically(storage::Env::Default(), options.report,
                                                        report.dump(2) + "\n");
         !status.ok())
@@ -449,6 +498,15 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                 static_cast<long long>(summary.excluded_features));
     std::printf("  observations       %lld%s\n", static_cast<long long>(num_observations),
                 streaming ? " (streamed from disk)" : "");
+    if (options.associate) {
+      std::printf("  association        %lld -> %lld features, %lld merges (%lld undone), "
+                  "%zu rounds, %.3f s\n",
+                  static_cast<long long>(association_summary.initial_features),
+                  static_cast<long long>(association_summary.final_features),
+                  static_cast<long long>(association_summary.merges),
+                  static_cast<long long>(association_summary.undone),
+                  association_summary.rounds.size(), association_summary.seconds);
+    }
     std::printf("  linear solver      %s\n", core::LinearSolverName(summary.linear_solver_used));
     std::printf("  initial chi2       %.9g\n", summary.initial_chi2);
     std::printf("  final chi2         %.9g\n", summary.final_chi2);

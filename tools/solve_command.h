@@ -37,6 +37,11 @@ struct SolveCommandOptions {
   std::string memory_limit;  // --memory-limit SIZE: bounds chunks in flight ("" = none)
   int64_t streaming_poses = 100'000;            // stores above: streaming initialization
   int64_t streaming_observations = 10'000'000;  // stores above: streaming initialization
+  // Data association (unknown correspondence, docs/association.md).
+  bool associate = false;           // --associate
+  double chi = 1e-3;                // --chi: accept pi_{j=k} > chi
+  double association_radius = 5.0;  // --association-radius [m]
+  bool ignore_barcodes = false;     // --ignore-barcodes (MRCLAM)
   bool quiet = false;
   int verbosity = 0;
 };

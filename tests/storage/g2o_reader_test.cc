@@ -5,7 +5,10 @@
 
 #include <filesystem>
 #include <fstream>
+#include <set>
+#include <tuple>
 
+#include "core/unidentified_features.h"
 #include "tests/testing/datasets.h"
 
 namespace graphslam::storage {
@@ -85,13 +88,39 @@ TEST(G2oReader, CsailEdgesOnlyCreatesUninitializedPoses) {
   EXPECT_EQ(problem->pose_ids[0], 0);  // order of first mention
 }
 
-TEST(G2oReader, NoAssociationFileIsNotSupported) {
+TEST(G2oReader, NoAssociationFileGivesOneFeaturePerObservation) {
   GS_REQUIRE_DATASET("victoria_park/victoriaPark-noassoc.g2o");
+  GS_REQUIRE_DATASET("victoria_park/victoriaPark-full.g2o");
   const auto problem = ReadG2o(DatasetPath("victoria_park/victoriaPark-noassoc.g2o"));
-  ASSERT_TRUE(problem.status().IsNotSupported());
+  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+  const auto full = ReadG2o(DatasetPath("victoria_park/victoriaPark-full.g2o"));
+  ASSERT_TRUE(full.ok()) << full.status().ToString();
+  // The same observations (same pose, same measurement, in another order); no ids.
+  ASSERT_EQ(problem->observations.size(), full->observations.size());
+  const auto unidentified = core::CountUnidentifiedObservations(*problem);
+  EXPECT_EQ(unidentified.count, static_cast<int64_t>(problem->observations.size()));
+  EXPECT_EQ(unidentified.first_line, 7);
+  EXPECT_EQ(problem->num_features(), static_cast<int32_t>(problem->observations.size()));
+  std::multiset<std::tuple<int64_t, double, double>> in_full;
+  for (const auto& f : full->observations) in_full.insert({full->pose_ids[f.pose], f.z.x(), f.z.y()});
+  for (size_t i = 0; i < problem->observations.size(); ++i) {
+    const auto& o = problem->observations[i];
+    const auto it = in_full.find({problem->pose_ids[o.pose], o.z.x(), o.z.y()});
+    ASSERT_NE(it, in_full.end()) << "observation " << i << " at line " << o.line;
+    in_full.erase(it);
+    ASSERT_EQ(o.kind, core::ObservationKind::kPointXY);
+    ASSERT_EQ(problem->feature_ids[o.feature], core::kNoFeatureId);
+  }
+}
+
+TEST(G2oReader, FeatureDataBeforeAnyPoseIsAnError) {
+  const std::string path =
+      WriteTemp("early.g2o", "DATA_FEATURE_POINTXY 0 2 1 2 1 0 1\nVERTEX_SE2 0 0 0 0\n");
+  const auto problem = ReadG2o(path);
+  ASSERT_FALSE(problem.ok());
   EXPECT_EQ(problem.status().message(),
-            "victoriaPark-noassoc.g2o:7: DATA_FEATURE_POINTXY observations have no landmark id; "
-            "use --associate (not yet supported)");
+            "early.g2o:1: DATA_FEATURE_POINTXY comes before any VERTEX_SE2; expected it after "
+            "the pose it was observed from");
 }
 
 TEST(G2oReader, ThreeDimensionalFileIsNotSupported) {

@@ -1,5 +1,7 @@
 #include "storage/mrclam_reader.h"
 
+#include "core/unidentified_features.h"
+
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -60,6 +62,25 @@ TEST(MrclamReader, Robot1CountsAndRobotBarcodeFiltering) {
   EXPECT_TRUE((motion.information * covariance).isIdentity(1e-9));
 }
 
+TEST(MrclamReader, IgnoredBarcodesKeepTheObservationsWithoutIds) {
+  GS_REQUIRE_DATASET(kFolder);
+  const auto known = ReadMrclam(DatasetPath(kFolder), MrclamOptions());
+  ASSERT_TRUE(known.ok()) << known.status().ToString();
+  MrclamOptions options;
+  options.ignore_barcodes = true;
+  const auto unknown = ReadMrclam(DatasetPath(kFolder), options);
+  ASSERT_TRUE(unknown.ok()) << unknown.status().ToString();
+  ASSERT_EQ(unknown->observations.size(), known->observations.size());
+  EXPECT_EQ(core::CountUnidentifiedObservations(*unknown).count,
+            static_cast<int64_t>(unknown->observations.size()));
+  EXPECT_EQ(unknown->num_features(), static_cast<int32_t>(unknown->observations.size()));
+  for (size_t i = 0; i < unknown->observations.size(); ++i) {
+    ASSERT_EQ(unknown->observations[i].pose, known->observations[i].pose);
+    ASSERT_EQ(unknown->observations[i].z, known->observations[i].z);
+    ASSERT_EQ(unknown->feature_ids[unknown->observations[i].feature], core::kNoFeatureId);
+  }
+}
+
 TEST(MrclamReader, GroundTruth) {
   GS_REQUIRE_DATASET(kFolder);
   const auto truth = ReadMrclamGroundTruth(DatasetPath(kFolder), 1);
@@ -78,9 +99,6 @@ TEST(MrclamReader, OptionsAreValidated) {
   options = MrclamOptions();
   options.measurement_information(1, 1) = -1.0;
   EXPECT_TRUE(options.Validate().IsInvalidArgument());
-  options = MrclamOptions();
-  options.ignore_barcodes = true;
-  EXPECT_TRUE(ReadMrclam("/nonexistent", options).status().IsNotSupported());
   EXPECT_TRUE(ReadMrclam("/nonexistent", MrclamOptions()).status().IsNotFound());
 }
 

@@ -1,5 +1,7 @@
 #include "storage/native_log_reader.h"
 
+#include "core/unidentified_features.h"
+
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -147,11 +149,25 @@ TEST(NativeLogReader, RejectsMalformedRecords) {
   EXPECT_EQ(unknown.message(),
             "bad.log:4: unknown tag 'LIDAR'; expected POSE, FEATURE, CONTROL, CONTROL_INFO, ODOM, "
             "RB, XY, GPS or FIX");
-  const Status association = ReadError(header + "RB 1 - 1 0 1 0 1\n");
-  EXPECT_TRUE(association.IsNotSupported());
-  EXPECT_EQ(association.message(),
-            "bad.log:4: RB with unknown correspondence ('-'); expected a feature id (data "
-            "association is not yet supported)");
+}
+
+TEST(NativeLogReader, UnknownCorrespondenceGivesAFeaturePerObservation) {
+  const std::string path = WriteTemp(
+      "unknown.log",
+      "GRAPHSLAM_LOG 1\nPOSE 0 0 0 0 0\nPOSE 1 1\nODOM 0 1 1 0 0 1 0 0 1 0 1\n"
+      "RB 0 - 2 0.5 1 0 1\nXY 1 - 1 1 1 0 1\nRB 1 7 2 0 1 0 1\n");
+  const auto problem = ReadNativeLog(path);
+  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+  const auto unidentified = core::CountUnidentifiedObservations(*problem);
+  EXPECT_EQ(unidentified.count, 2);
+  EXPECT_EQ(unidentified.first_line, 5);
+  ASSERT_EQ(problem->num_features(), 3);
+  ASSERT_EQ(problem->observations.size(), 3u);
+  EXPECT_EQ(problem->feature_ids[problem->observations[0].feature], core::kNoFeatureId);
+  EXPECT_EQ(problem->feature_ids[problem->observations[1].feature], core::kNoFeatureId);
+  EXPECT_NE(problem->observations[0].feature, problem->observations[1].feature);
+  EXPECT_EQ(problem->feature_ids[problem->observations[2].feature], 7);
+  EXPECT_EQ(problem->observations[1].kind, core::ObservationKind::kPointXY);
 }
 
 }  // namespace

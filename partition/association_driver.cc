@@ -1,0 +1,620 @@
+#include "partition/association_driver.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <set>
+#include <unordered_map>
+
+#include "core/chunk_passes.h"
+#include "core/correspondence_test.h"
+#include "core/feature_linearizer.h"
+#include "core/logging.h"
+#include "core/point_observation_model.h"
+#include "core/pose_factors.h"
+#include "core/pose_marginals.h"
+#include "core/range_bearing_model.h"
+#include "core/unknown_layout.h"
+#include "partition/in_memory_chunk_source.h"
+
+namespace graphslam::partition {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double SecondsSince(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+// Raw (kernel-free) chi2 of one observation.
+double ObservationChi2(const core::Observation& o, const core::Pose2& pose,
+                       const core::Point2& feature) {
+  Eigen::Vector2d e;
+  if (o.kind == core::ObservationKind::kRangeBearing) {
+    if (!core::EvaluateRangeBearing(pose, feature, o.z, &e, nullptr, nullptr))
+      return std::numeric_limits<double>::infinity();
+  } else {
+    core::EvaluatePointObservation(pose, feature, o.z, &e, nullptr, nullptr);
+  }
+  return e.dot(o.information * e);
+}
+
+core::Point2 FirstSight(const core::Observation& o, const core::Pose2& pose) {
+  return o.kind == core::ObservationKind::kRangeBearing ? core::InvertRangeBearing(pose, o.z)
+                                                       : core::InvertPointObservation(pose, o.z);
+}
+
+// Chi-square quantile for `dof` degrees of freedom at standard normal z
+// (Wilson-Hilferty): dof (1 - 2/(9 dof) + z sqrt(2/(9 dof)))^3.
+double ChiSquareQuantile(double dof, double z) {
+  const double a = 2.0 / (9.0 * dof);
+  const double c = 1.0 - a + z * std::sqrt(a);
+  return dof * c * c * c;
+}
+
+struct UnionFind {
+  std::vector<int32_t> parent;
+  explicit UnionFind(int32_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
+  int32_t Find(int32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  }
+};
+
+// What the tests need of one feature at the current solution.
+struct FeatureState {
+  core::FeatureGain gain;
+  Eigen::Matrix2d information = Eigen::Matrix2d::Zero();  // C (weights merged positions)
+  bool usable = false;  // positive definite and observed
+};
+
+// The reduced system S at the solution (lambda = 0) and every feature's gain.
+Status LinearizeAtSolution(const core::SolverOptions& solver_options,
+                           const core::ChunkSource& chunks, const core::Problem2d& problem,
+                           core::PoseMarginals* marginals, std::vector<FeatureState>* states) {
+  core::UnknownLayout layout = core::UnknownLayout::FromProblem(problem);
+  core::PassContext context;
+  context.chunks = &chunks;
+  context.layout = &layout;
+  context.max_in_flight = solver_options.max_chunks_in_flight;
+  context.kernel = solver_options.observation_kernel;
+  core::ScreeningResult screening;
+  GS_RETURN_IF_ERROR(core::ScreenFeatures(context, problem.poses, problem.features,
+                                          solver_options.max_eliminated_observations,
+                                          &screening));
+  layout.KeepFeatures(screening.kept);
+  context.excluded = &screening.excluded;
+  std::vector<std::pair<int, int>> pairs;
+  core::AppendPoseFactorPattern(problem, layout, &pairs);
+  GS_RETURN_IF_ERROR(core::CollectReducedPattern(context, &pairs));
+  core::ReducedSystem system;
+  system.matrix = core::BlockSparseMatrix::FromPattern(core::UnknownLayout::kPoseDimension,
+                                                       layout.num_blocks(), std::move(pairs));
+  const int n = system.matrix.num_rows();
+  system.rhs.setZero(n);
+  system.gradient.setZero(n);
+  system.hessian_diagonal.setZero(n);
+  core::LinearizePoseFactors(problem, problem.poses, layout, &system.matrix, &system.gradient,
+                             &system.hessian_diagonal);
+  GS_RETURN_IF_ERROR(core::ReducePass(context, problem.poses, problem.features, 0.0, &system));
+  GS_RETURN_IF_ERROR(marginals->Factorize(system.matrix));
+
+  states->assign(problem.num_features(), FeatureState());
+  core::ObservationChunk chunk;
+  core::LinearizedFeature linearized;
+  for (int64_t c = 0; c < chunks.NumChunks(); ++c) {
+    GS_RETURN_IF_ERROR(chunks.Load(c, &chunk));
+    for (int64_t slot = 0; slot < chunk.num_features(); ++slot) {
+      const int32_t f = chunk.features[slot];
+      if (screening.excluded[f]) continue;
+      FeatureState& state = (*states)[f];
+      core::LinearizeFeature(chunk, slot, problem.poses, problem.features[f], layout,
+                             context.kernel, &linearized);
+      state.information = linearized.blocks.feature_information.topLeftCorner<2, 2>();
+      if (layout.IsKept(f)) {
+        state.gain.blocks = {layout.feature_unknown_index[f]};
+        Eigen::Matrix<double, 3, 2> select = Eigen::Matrix<double, 3, 2>::Zero();
+        select.topRows<2>().setIdentity();
+        state.gain.gains = {select};
+        state.gain.own_covariance.setZero();
+        state.usable = true;
+        continue;
+      }
+      const Eigen::LLT<Eigen::Matrix2d> llt(state.information);
+      if (llt.info() != Eigen::Success) continue;
+      const Eigen::Matrix2d covariance = llt.solve(Eigen::Matrix2d::Identity());
+      state.gain.own_covariance = covariance;
+      const size_t k = linearized.blocks.poses.size();
+      std::vector<size_t> order(k);
+      std::iota(order.begin(), order.end(), size_t{0});
+      std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+        return linearized.blocks.poses[a] < linearized.blocks.poses[b];
+      });
+      for (size_t i : order) {
+        state.gain.blocks.push_back(linearized.blocks.poses[i]);
+        state.gain.gains.push_back(
+            Eigen::Matrix<double, 3, 2>(-linearized.blocks.pose_feature[i] * covariance));
+      }
+      state.usable = true;
+    }
+  }
+  return Status::Ok();
+}
+
+struct Candidate {
+  int32_t j = 0, k = 0;
+  Eigen::Matrix4d joint = Eigen::Matrix4d::Zero();
+  core::CorrespondenceResult result;
+};
+
+// Gamma of feature `state` at `block`, or nullptr.
+const Eigen::Matrix<double, 3, 2>* GainAt(const core::FeatureGain& gain, int block) {
+  const auto it = std::lower_bound(gain.blocks.begin(), gain.blocks.end(), block);
+  if (it == gain.blocks.end() || *it != block) return nullptr;
+  return &gain.gains[it - gain.blocks.begin()];
+}
+
+// Joint covariances of every candidate: own noise plus sum Gamma^T Sigma Gamma,
+// streaming the needed covariance column blocks once.
+Status JointCovariances(const core::PoseMarginals& marginals, int batch,
+                        const std::vector<FeatureState>& states,
+                        std::vector<Candidate>* candidates) {
+  const int b = core::UnknownLayout::kPoseDimension;
+  const int num_blocks = marginals.num_rows() / b;
+  std::vector<std::vector<int32_t>> pairs_of_block(num_blocks);
+  for (size_t c = 0; c < candidates->size(); ++c) {
+    Candidate& candidate = (*candidates)[c];
+    candidate.joint.setZero();
+    candidate.joint.topLeftCorner<2, 2>() = states[candidate.j].gain.own_covariance;
+    candidate.joint.bottomRightCorner<2, 2>() = states[candidate.k].gain.own_covariance;
+    for (int block : states[candidate.j].gain.blocks) pairs_of_block[block].push_back(c);
+    for (int block : states[candidate.k].gain.blocks)
+      if (GainAt(states[candidate.j].gain, block) == nullptr) pairs_of_block[block].push_back(c);
+  }
+  std::vector<int> needed;
+  for (int block = 0; block < num_blocks; ++block)
+    if (!pairs_of_block[block].empty()) needed.push_back(block);
+  return marginals.ForEachColumnBlock(
+      needed, batch, [&](int p, const Eigen::Ref<const Eigen::MatrixXd>& columns) {
+        for (int32_t c : pairs_of_block[p]) {
+          Candidate& candidate = (*candidates)[c];
+          const core::FeatureGain& gj = states[candidate.j].gain;
+          const core::FeatureGain& gk = states[candidate.k].gain;
+          Eigen::Matrix<double, 3, 4> gamma_p = Eigen::Matrix<double, 3, 4>::Zero();
+          if (const auto* g = GainAt(gj, p)) gamma_p.leftCols<2>() = *g;
+          if (const auto* g = GainAt(gk, p)) gamma_p.rightCols<2>() = *g;
+          // R = sum_q Gamma_q^T Sigma_qp (4 x 3).
+          Eigen::Matrix<double, 4, 3> r = Eigen::Matrix<double, 4, 3>::Zero();
+          for (size_t i = 0; i < gj.blocks.size(); ++i)
+            r.topRows<2>() += gj.gains[i].transpose() * columns.block(gj.blocks[i] * b, 0, b, b);
+          for (size_t i = 0; i < gk.blocks.size(); ++i)
+            r.bottomRows<2>() +=
+                gk.gains[i].transpose() * columns.block(gk.blocks[i] * b, 0, b, b);
+          candidate.joint += r * gamma_p;
+        }
+      });
+}
+
+bool SortedIntersect(const std::vector<int32_t>& a, const std::vector<int32_t>& b) {
+  size_t i = 0, j = 0;
+  while (i < a.size() && j < b.size()) {
+    if (a[i] == b[j]) return true;
+    if (a[i] < b[j]) ++i; else ++j;
+  }
+  return false;
+}
+
+std::vector<int32_t> SortedUnion(const std::vector<int32_t>& a, const std::vector<int32_t>& b) {
+  std::vector<int32_t> out;
+  out.reserve(a.size() + b.size());
+  std::set_union(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out));
+  return out;
+}
+
+// The association state: which input feature ("origin") is in which feature.
+class Labels {
+ public:
+  Labels(const core::Problem2d& problem) {
+    origin_of_observation_.reserve(problem.observations.size());
+    for (const core::Observation& o : problem.observations)
+      origin_of_observation_.push_back(o.feature);
+    label_.resize(problem.num_features());
+    std::iota(label_.begin(), label_.end(), 0);
+    origin_ids_ = problem.feature_ids;
+  }
+  const std::vector<int32_t>& label() const { return label_; }
+  int32_t origin_of(size_t observation) const { return origin_of_observation_[observation]; }
+  const std::vector<int64_t>& origin_ids() const { return origin_ids_; }
+
+  // Applies label_[origin] := new_label[label_[origin]] and rewrites the
+  // problem's features (positions given per new label) and observations.
+  void Relabel(const std::vector<int32_t>& new_label, const std::vector<core::Point2>& positions,
+               core::Problem2d* problem) {
+    for (int32_t& l : label_) l = new_label[l];
+    problem->features = positions;
+    problem->feature_ids.assign(positions.size(), 0);
+    problem->feature_initialized.assign(positions.size(), 1);
+    for (size_t o = 0; o < problem->observations.size(); ++o)
+      problem->observations[o].feature = label_[origin_of_observation_[o]];
+  }
+
+  // Moves the `origins` still in `feature` to a new feature at `position`.
+  void SplitOff(const std::vector<int32_t>& origins, int32_t feature,
+                const core::Point2& position, core::Problem2d* problem) {
+    const int32_t fresh = problem->num_features();
+    problem->AddFeature(0, position, /*initialized=*/true);
+    for (int32_t origin : origins)
+      if (label_[origin] == feature) label_[origin] = fresh;
+    for (size_t o = 0; o < problem->observations.size(); ++o)
+      problem->observations[o].feature = label_[origin_of_observation_[o]];
+  }
+
+ private:
+  std::vector<int32_t> origin_of_observation_;
+  std::vector<int32_t> label_;  // per origin: current feature index
+  std::vector<int64_t> origin_ids_;
+};
+
+// Gives the problem's features ids: the smallest input id of each cluster if
+// the input had ids (>= 0), else fresh ids above every pose id.
+void AssignFeatureIds(const Labels& labels, core::Problem2d* problem) {
+  const int32_t n = problem->num_features();
+  std::vector<int64_t> ids(n, std::numeric_limits<int64_t>::max());
+  bool all_have_ids = true;
+  for (size_t origin = 0; origin < labels.label().size(); ++origin) {
+    const int64_t id = labels.origin_ids()[origin];
+    if (id < 0) all_have_ids = false;
+    int64_t& slot = ids[labels.label()[origin]];
+    slot = std::min(slot, id);
+  }
+  if (!all_have_ids) {
+    int64_t next = 0;
+    for (int64_t id : problem->pose_ids) next = std::max(next, id + 1);
+    for (int32_t f = 0; f < n; ++f) ids[f] = next + f;
+  }
+  problem->feature_ids = ids;
+}
+
+}  // namespace
+
+Status AssociationOptions::Validate() const {
+  if (!(chi >= 0.0) || !std::isfinite(chi))
+    return Status::InvalidArgument("association: chi is " + std::to_string(chi) +
+                                   "; expected a finite value >= 0");
+  if (!(search_radius > 0.0))
+    return Status::InvalidArgument("association: search_radius is " +
+                                   std::to_string(search_radius) + "; expected > 0");
+  if (!(max_mahalanobis_squared > 0.0))
+    return Status::InvalidArgument("association: max_mahalanobis_squared must be > 0");
+  if (max_rounds < 1) return Status::InvalidArgument("association: max_rounds must be >= 1");
+  if (marginal_batch < 1) return Status::InvalidArgument("association: marginal_batch must be >= 1");
+  if (chunk_observations < 1)
+    return Status::InvalidArgument("association: chunk_observations must be >= 1");
+  return Status::Ok();
+}
+
+Status TestCorrespondences(const core::SolverOptions& solver_options,
+                           const core::Problem2d& problem, int marginal_batch,
+                           std::vector<CorrespondenceQuery>* queries) {
+  InMemoryChunkSource chunks(problem, ChunkingOptions());
+  core::PoseMarginals marginals;
+  std::vector<FeatureState> states;
+  GS_RETURN_IF_ERROR(LinearizeAtSolution(solver_options, chunks, problem, &marginals, &states));
+  std::vector<Candidate> candidates;
+  std::vector<size_t> where;
+  for (size_t q = 0; q < queries->size(); ++q) {
+    CorrespondenceQuery& query = (*queries)[q];
+    query.result = core::CorrespondenceResult();
+    if (query.j < 0 || query.k < 0 || query.j >= problem.num_features() ||
+        query.k >= problem.num_features() || query.j == query.k)
+      return Status::InvalidArgument("TestCorrespondences: pair (" + std::to_string(query.j) +
+                                     ", " + std::to_string(query.k) +
+                                     ") is not two distinct features");
+    if (!states[query.j].usable || !states[query.k].usable) continue;
+    Candidate candidate;
+    candidate.j = query.j;
+    candidate.k = query.k;
+    candidates.push_back(candidate);
+    where.push_back(q);
+  }
+  GS_RETURN_IF_ERROR(JointCovariances(marginals, marginal_batch, states, &candidates));
+  for (size_t c = 0; c < candidates.size(); ++c) {
+    CorrespondenceQuery& query = (*queries)[where[c]];
+    query.joint_covariance = candidates[c].joint;
+    query.result = core::CorrespondenceTest(problem.features[query.j], problem.features[query.k],
+                                            candidates[c].joint);
+  }
+  return Status::Ok();
+}
+
+PairwiseScore ScorePairwise(const std::vector<int64_t>& assigned, const std::vector<int64_t>& key) {
+  PairwiseScore score;
+  auto pairs = [](int64_t n) { return n * (n - 1) / 2; };
+  std::unordered_map<int64_t, int64_t> by_assigned, by_key;
+  std::unordered_map<int64_t, std::unordered_map<int64_t, int64_t>> joint;
+  for (size_t i = 0; i < assigned.size() && i < key.size(); ++i) {
+    if (key[i] < 0) continue;
+    ++by_assigned[assigned[i]];
+    ++by_key[key[i]];
+    ++joint[assigned[i]][key[i]];
+  }
+  for (const auto& [label, count] : by_assigned) score.predicted += pairs(count);
+  for (const auto& [label, count] : by_key) score.actual += pairs(count);
+  for (const auto& [label, inner] : joint)
+    for (const auto& [k, count] : inner) score.true_positive += pairs(count);
+  return score;
+}
+
+Status AssociateAndSolve(const AssociationOptions& options,
+                         const core::SolverOptions& solver_options, core::Problem2d* problem,
+                         AssociationSummary* summary) {
+  GS_RETURN_IF_ERROR(options.Validate());
+  const Clock::time_point start = Clock::now();
+  *summary = AssociationSummary();
+  summary->initial_features = problem->num_features();
+  Labels labels(*problem);
+  ChunkingOptions chunking;
+  chunking.max_observations_per_chunk = options.chunk_observations;
+  std::set<std::pair<int32_t, int32_t>> forbidden;  // origin pairs never to merge again
+
+  // Observations of each current feature, for exclusivity and undo.
+  auto observations_by_feature = [&]() {
+    std::vector<std::vector<int32_t>> out(problem->num_features());
+    for (size_t o = 0; o < problem->observations.size(); ++o)
+      out[problem->observations[o].feature].push_back(static_cast<int32_t>(o));
+    return out;
+  };
+  auto poses_by_feature = [&]() {
+    std::vector<std::vector<int32_t>> out(problem->num_features());
+    for (const core::Observation& o : problem->observations) out[o.feature].push_back(o.pose);
+    for (auto& poses : out) {
+      std::sort(poses.begin(), poses.end());
+      poses.erase(std::unique(poses.begin(), poses.end()), poses.end());
+    }
+    return out;
+  };
+  // Merges features by union-find roots; the merged position is the
+  // information-weighted mean (C-weighted; equal weights if C is unknown).
+  auto apply_unions = [&](UnionFind* sets, const std::vector<FeatureState>* states) {
+    const int32_t n = problem->num_features();
+    std::vector<int32_t> new_label(n, -1);
+    int32_t next = 0;
+    for (int32_t f = 0; f < n; ++f) {
+      const int32_t root = sets->Find(f);
+      if (new_label[root] < 0) new_label[root] = next++;
+      new_label[f] = new_label[root];
+    }
+    std::vector<Eigen::Matrix2d> weight(next, Eigen::Matrix2d::Zero());
+    std::vector<Eigen::Vector2d> weighted(next, Eigen::Vector2d::Zero());
+    for (int32_t f = 0; f < n; ++f) {
+      Eigen::Matrix2d w = Eigen::Matrix2d::Identity();
+      if (states != nullptr && (*states)[f].usable) w = (*states)[f].information;
+      weight[new_label[f]] += w;
+      weighted[new_label[f]] += w * problem->features[f];
+    }
+    std::vector<core::Point2> positions(next);
+    for (int32_t l = 0; l < next; ++l) positions[l] = weight[l].ldlt().solve(weighted[l]);
+    labels.Relabel(new_label, positions, problem);
+  };
+
+  // Forced merges (tests): the same path as accepted merges.
+  if (!options.forced_merges.empty()) {
+    UnionFind sets(problem->num_features());
+    for (const auto& [a, b] : options.forced_merges) {
+      if (a < 0 || b < 0 || a >= problem->num_features() || b >= problem->num_features())
+        return Status::InvalidArgument("association: forced merge (" + std::to_string(a) + ", " +
+                                       std::to_string(b) + ") names a feature outside 0.." +
+                                       std::to_string(problem->num_features() - 1));
+      MergeRecord record;
+      record.forced = true;
+      record.probability = std::numeric_limits<double>::quiet_NaN();
+      record.feature_a = a;
+      record.feature_b = b;
+      record.origins_a = {a};
+      record.origins_b = {b};
+      summary->merge_log.push_back(record);
+      sets.parent[sets.Find(b)] = sets.Find(a);
+    }
+    apply_unions(&sets, nullptr);
+  }
+
+  for (int round = 1; round <= options.max_rounds; ++round) {
+    AssociationRound stats;
+    stats.round = round;
+    // Solve, then undo merges the solution contradicts, re-solving after undo.
+    for (;;) {
+      const Clock::time_point solve_start = Clock::now();
+      InMemoryChunkSource chunks(*problem, chunking);
+      GS_RETURN_IF_ERROR(
+          core::SolveGraphSlam(solver_options, chunks, problem, &summary->final_solve));
+      stats.solve_seconds += SecondsSince(solve_start);
+      stats.chi2 = summary->final_solve.final_chi2;
+      const std::vector<std::vector<int32_t>> members = observations_by_feature();
+      int64_t undone = 0;
+      // Newest merges first; at most one undo per feature per re-solve (its
+      // other merges may fit again once the worst side is gone).
+      std::vector<uint8_t> touched(problem->num_features() + summary->merge_log.size(), 0);
+      for (auto it = summary->merge_log.rbegin(); it != summary->merge_log.rend(); ++it) {
+        MergeRecord& record = *it;
+        if (record.undone) continue;
+        const int32_t feature = labels.label()[record.origins_b.front()];
+        if (labels.label()[record.origins_a.front()] != feature) continue;  // split already
+        // Features split off in this pass are not in `members`; they are
+        // checked after the re-solve.
+        if (feature >= static_cast<int32_t>(members.size()) || touched[feature]) continue;
+        std::set<int32_t> side_b(record.origins_b.begin(), record.origins_b.end());
+        double chi2_a = 0.0, chi2_b = 0.0;
+        int64_t count_a = 0, count_b = 0;
+        for (int32_t o : members[feature]) {
+          const core::Observation& obs = problem->observations[o];
+          const double e = ObservationChi2(obs, problem->poses[obs.pose], problem->features[feature]);
+          if (side_b.count(labels.origin_of(o))) {
+            chi2_b += e;
+            ++count_b;
+          } else {
+            chi2_a += e;
+            ++count_a;
+          }
+        }
+        const bool bad_b = count_b > 0 && chi2_b > ChiSquareQuantile(2.0 * count_b, options.undo_z);
+        const bool bad_a = count_a > 0 && chi2_a > ChiSquareQuantile(2.0 * count_a, options.undo_z);
+        if (!bad_a && !bad_b) continue;
+        record.undone = true;
+        record.undone_round = round;
+        ++undone;
+        forbidden.insert(std::minmax(record.origins_a.front(), record.origins_b.front()));
+        // Split side b off into a new feature at the mean of its first sights.
+        Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+        int64_t count = 0;
+        for (int32_t o : members[feature]) {
+          if (!side_b.count(labels.origin_of(o))) continue;
+          const core::Observation& obs = problem->observations[o];
+          sum += FirstSight(obs, problem->poses[obs.pose]);
+          ++count;
+        }
+        labels.SplitOff(record.origins_b, feature, sum / std::max<int64_t>(count, 1), problem);
+        touched[feature] = 1;
+        GS_LOG(INFO, "association round %d: undid merge of input features %lld and %lld "
+               "(chi2 %.3g over %lld and %.3g over %lld observations)",
+               round, static_cast<long long>(record.feature_a),
+               static_cast<long long>(record.feature_b), chi2_a,
+               static_cast<long long>(count_a), chi2_b, static_cast<long long>(count_b));
+      }
+      stats.undone += undone;
+      summary->undone += undone;
+      if (undone == 0) break;
+    }
+    stats.features = problem->num_features();
+
+    // Marginals and gains at the solution.
+    const Clock::time_point marginal_start = Clock::now();
+    InMemoryChunkSource chunks(*problem, chunking);
+    core::PoseMarginals marginals;
+    std::vector<FeatureState> states;
+    GS_RETURN_IF_ERROR(LinearizeAtSolution(solver_options, chunks, *problem, &marginals, &states));
+    stats.marginal_seconds += SecondsSince(marginal_start);
+
+    // Candidates from a uniform grid hash.
+    const Clock::time_point association_start = Clock::now();
+    const std::vector<std::vector<int32_t>> poses_of = poses_by_feature();
+    std::set<std::pair<int32_t, int32_t>> forbidden_features;
+    for (const auto& [a, b] : forbidden)
+      forbidden_features.insert(std::minmax(labels.label()[a], labels.label()[b]));
+    const double cell = options.search_radius;
+    auto key = [](int64_t x, int64_t y) { return (x << 32) ^ (y & 0xffffffffLL); };
+    std::unordered_map<int64_t, std::vector<int32_t>> grid;
+    for (int32_t f = 0; f < problem->num_features(); ++f) {
+      if (!states[f].usable) continue;
+      const auto& p = problem->features[f];
+      grid[key(static_cast<int64_t>(std::floor(p.x() / cell)),
+               static_cast<int64_t>(std::floor(p.y() / cell)))]
+          .push_back(f);
+    }
+    std::vector<Candidate> candidates;
+    const double radius_squared = options.search_radius * options.search_radius;
+    for (int32_t f = 0; f < problem->num_features(); ++f) {
+      if (!states[f].usable) continue;
+      const auto& p = problem->features[f];
+      const int64_t cx = static_cast<int64_t>(std::floor(p.x() / cell));
+      const int64_t cy = static_cast<int64_t>(std::floor(p.y() / cell));
+      for (int64_t dx = -1; dx <= 1; ++dx) {
+        for (int64_t dy = -1; dy <= 1; ++dy) {
+          const auto it = grid.find(key(cx + dx, cy + dy));
+          if (it == grid.end()) continue;
+          for (int32_t g : it->second) {
+            if (g <= f) continue;
+            if ((problem->features[g] - p).squaredNorm() > radius_squared) continue;
+            if (options.exclusive_per_pose && SortedIntersect(poses_of[f], poses_of[g])) continue;
+            if (forbidden_features.count({f, g})) continue;
+            Candidate candidate;
+            candidate.j = f;
+            candidate.k = g;
+            candidates.push_back(candidate);
+          }
+        }
+      }
+    }
+    stats.candidates = static_cast<int64_t>(candidates.size());
+    stats.association_seconds += SecondsSince(association_start);
+
+    const Clock::time_point covariance_start = Clock::now();
+    GS_RETURN_IF_ERROR(JointCovariances(marginals, options.marginal_batch, states, &candidates));
+    stats.marginal_seconds += SecondsSince(covariance_start);
+
+    const Clock::time_point test_start = Clock::now();
+    std::vector<int32_t> accepted;
+    for (size_t c = 0; c < candidates.size(); ++c) {
+      Candidate& candidate = candidates[c];
+      candidate.result = core::CorrespondenceTest(problem->features[candidate.j],
+                                                  problem->features[candidate.k], candidate.joint);
+      if (candidate.result.valid && candidate.result.probability > options.chi &&
+          candidate.result.mahalanobis_squared <= options.max_mahalanobis_squared)
+        accepted.push_back(static_cast<int32_t>(c));
+    }
+    stats.accepted = static_cast<int64_t>(accepted.size());
+    std::stable_sort(accepted.begin(), accepted.end(), [&](int32_t a, int32_t b) {
+      return candidates[a].result.probability > candidates[b].result.probability;
+    });
+
+    // Batch merge with union-find, clusters kept pose-exclusive.
+    UnionFind sets(problem->num_features());
+    std::vector<std::vector<int32_t>> cluster_poses = poses_of;
+    std::vector<std::vector<int32_t>> cluster_origins(problem->num_features());
+    for (size_t origin = 0; origin < labels.label().size(); ++origin)
+      cluster_origins[labels.label()[origin]].push_back(static_cast<int32_t>(origin));
+    for (int32_t c : accepted) {
+      const Candidate& candidate = candidates[c];
+      int32_t a = sets.Find(candidate.j);
+      int32_t b = sets.Find(candidate.k);
+      if (a == b) continue;
+      if (options.exclusive_per_pose && SortedIntersect(cluster_poses[a], cluster_poses[b]))
+        continue;
+      if (cluster_origins[a].size() < cluster_origins[b].size()) std::swap(a, b);
+      MergeRecord record;
+      record.round = round;
+      record.feature_a = cluster_origins[a].front();
+      record.feature_b = cluster_origins[b].front();
+      record.probability = candidate.result.probability;
+      record.mahalanobis_squared = candidate.result.mahalanobis_squared;
+      record.origins_a = cluster_origins[a];
+      record.origins_b = cluster_origins[b];
+      summary->merge_log.push_back(std::move(record));
+      sets.parent[b] = a;
+      cluster_poses[a] = SortedUnion(cluster_poses[a], cluster_poses[b]);
+      cluster_poses[b].clear();
+      cluster_origins[a].insert(cluster_origins[a].end(), cluster_origins[b].begin(),
+                                cluster_origins[b].end());
+      cluster_origins[b].clear();
+      ++stats.merges;
+    }
+    if (stats.merges > 0) apply_unions(&sets, &states);
+    stats.association_seconds += SecondsSince(test_start);
+    GS_LOG(INFO, "association round %d: %lld features, %lld candidates, %lld accepted, "
+           "%lld merges, %lld undone, chi2 %.9g (solve %.2f s, marginals %.2f s, tests %.2f s)",
+           round, static_cast<long long>(stats.features), static_cast<long long>(stats.candidates),
+           static_cast<long long>(stats.accepted), static_cast<long long>(stats.merges),
+           static_cast<long long>(stats.undone), stats.chi2, stats.solve_seconds,
+           stats.marginal_seconds, stats.association_seconds);
+    summary->rounds.push_back(stats);
+    if (stats.merges == 0) {
+      summary->converged = true;
+      break;
+    }
+  }
+  if (!summary->converged) {
+    // The last round merged: solve once more so the returned state is solved.
+    InMemoryChunkSource chunks(*problem, chunking);
+    GS_RETURN_IF_ERROR(
+        core::SolveGraphSlam(solver_options, chunks, problem, &summary->final_solve));
+  }
+  AssignFeatureIds(labels, problem);
+  summary->final_features = problem->num_features();
+  for (const MergeRecord& record : summary->merge_log)
+    if (!record.undone) ++summary->merges;
+  summary->seconds = SecondsSince(start);
+  return Status::Ok();
+}
+
+}  // namespace graphslam::partition

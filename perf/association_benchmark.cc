@@ -1,0 +1,183 @@
+// Data association at scale (issue 6): runs AssociateAndSolve on an id-less
+// input and scores the result against an answer key by pairwise precision and
+// recall (partition/association_driver.h), with seconds per round.
+//
+//   association_benchmark victoria [chi] [radius]
+//       victoriaPark-noassoc.g2o, key: victoriaPark-full.g2o (same observation
+//       order); also the known-correspondence chi2 of victoriaPark-full.g2o.
+//   association_benchmark mrclam [chi] [radius]
+//       MRCLAM dataset 1 robot 1 with barcodes ignored, key: the barcodes.
+//   association_benchmark campus POSES RUNS SEED [chi] [radius]
+//       simulated campus (GPS every 25 poses), key: the simulator's ids.
+// Prints one line per round and a summary; the commands and figures are in
+// docs/benchmarks.md.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <string>
+#include <tuple>
+
+#include "core/initialization.h"
+#include "core/unidentified_features.h"
+#include "partition/association_driver.h"
+#include "partition/in_memory_chunk_source.h"
+#include "partition/progressive_initialization.h"
+#include "storage/g2o_reader.h"
+#include "storage/mrclam_reader.h"
+#include "tools/campus_simulator.h"
+
+namespace gs = graphslam;
+
+namespace {
+
+int Fail(const gs::Status& status) {
+  std::fprintf(stderr, "association_benchmark: %s\n", status.ToString().c_str());
+  return 1;
+}
+
+// Gives every observation a feature of its own; returns the key (old index).
+std::vector<int64_t> ForgetIds(gs::core::Problem2d* problem) {
+  std::vector<int64_t> key;
+  problem->features.clear();
+  problem->feature_ids.clear();
+  problem->feature_initialized.clear();
+  for (gs::core::Observation& o : problem->observations) {
+    key.push_back(o.feature);
+    o.feature = problem->AddFeature(gs::core::kNoFeatureId, gs::core::Point2::Zero(), false);
+  }
+  return key;
+}
+
+double SolveKnown(gs::core::Problem2d problem, const gs::core::SolverOptions& options) {
+  if (!gs::core::InitializeProblem(&problem).ok()) return -1.0;
+  gs::partition::ProgressiveInitializationOptions progressive;
+  gs::partition::ProgressiveSummary progressive_summary;
+  if (!gs::partition::InitializeProgressively(progressive, options, &problem, &progressive_summary)
+           .ok())
+    return -1.0;
+  gs::partition::InMemoryChunkSource chunks(problem, gs::partition::ChunkingOptions());
+  gs::core::SolverSummary summary;
+  if (!gs::core::SolveGraphSlam(options, chunks, &problem, &summary).ok()) return -1.0;
+  return summary.final_chi2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: association_benchmark victoria|mrclam|campus ...\n");
+    return 2;
+  }
+  const std::string which = argv[1];
+  const std::string datasets = GRAPHSLAM_DATASETS_DIR;
+  gs::core::Problem2d problem;
+  std::vector<int64_t> key;
+  gs::core::SolverOptions solver;
+  gs::partition::AssociationOptions options;
+  double known_chi2 = -1.0;
+  int next_arg = 2;
+  if (which == "victoria") {
+    auto unknown = gs::storage::ReadG2o(datasets + "/victoria_park/victoriaPark-noassoc.g2o");
+    if (!unknown.ok()) return Fail(unknown.status());
+    auto full = gs::storage::ReadG2o(datasets + "/victoria_park/victoriaPark-full.g2o");
+    if (!full.ok()) return Fail(full.status());
+    problem = std::move(unknown).value();
+    // The key: the full file's landmark of the observation with the same pose
+    // and measurement (the two files list observations in different orders).
+    std::multimap<std::tuple<int64_t, double, double>, int64_t> landmark;
+    for (const auto& o : full->observations)
+      landmark.insert({{full->pose_ids[o.pose], o.z.x(), o.z.y()}, o.feature});
+    for (const auto& o : problem.observations) {
+      const auto it = landmark.find({problem.pose_ids[o.pose], o.z.x(), o.z.y()});
+      key.push_back(it == landmark.end() ? -1 : it->second);
+      if (it != landmark.end()) landmark.erase(it);
+    }
+    known_chi2 = SolveKnown(*full, solver);
+  } else if (which == "mrclam") {
+    gs::storage::MrclamOptions mrclam;
+    auto known = gs::storage::ReadMrclam(datasets + "/mrclam_dataset1_sampled50hz", mrclam);
+    if (!known.ok()) return Fail(known.status());
+    mrclam.ignore_barcodes = true;
+    auto unknown = gs::storage::ReadMrclam(datasets + "/mrclam_dataset1_sampled50hz", mrclam);
+    if (!unknown.ok()) return Fail(unknown.status());
+    problem = std::move(unknown).value();
+    for (const auto& o : known->observations) key.push_back(known->feature_ids[o.feature]);
+    solver.observation_kernel.type = gs::core::RobustKernel::Type::kCauchy;
+  } else if (which == "campus") {
+    if (argc < 5) {
+      std::fprintf(stderr, "usage: association_benchmark campus POSES RUNS SEED [chi] [radius]\n");
+      return 2;
+    }
+    gs::tools::CampusSimulatorOptions campus;
+    campus.poses = std::atoll(argv[2]);
+    campus.runs = std::atoi(argv[3]);
+    campus.seed = static_cast<uint32_t>(std::atoi(argv[4]));
+    campus.gps_every = 25;
+    next_arg = 5;
+    auto simulated = gs::tools::SimulateCampus(campus);
+    if (!simulated.ok()) return Fail(simulated.status());
+    gs::core::Problem2d known = simulated->problem;
+    problem = std::move(simulated->problem);
+    key = ForgetIds(&problem);
+    known_chi2 = SolveKnown(known, solver);
+  } else {
+    std::fprintf(stderr, "unknown dataset '%s'\n", which.c_str());
+    return 2;
+  }
+  if (argc > next_arg) options.chi = std::atof(argv[next_arg]);
+  if (argc > next_arg + 1) options.search_radius = std::atof(argv[next_arg + 1]);
+
+  const auto start = std::chrono::steady_clock::now();
+  if (gs::Status status = gs::core::InitializeProblem(&problem); !status.ok()) return Fail(status);
+  gs::partition::ProgressiveInitializationOptions progressive;
+  progressive.enabled = which != "mrclam";
+  gs::partition::ProgressiveSummary progressive_summary;
+  if (gs::Status status = gs::partition::InitializeProgressively(progressive, solver, &problem,
+                                                                 &progressive_summary);
+      !status.ok())
+    return Fail(status);
+  gs::partition::AssociationSummary summary;
+  if (gs::Status status = gs::partition::AssociateAndSolve(options, solver, &problem, &summary);
+      !status.ok())
+    return Fail(status);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::vector<int64_t> assigned;
+  for (const auto& o : problem.observations) assigned.push_back(o.feature);
+  const gs::partition::PairwiseScore score = gs::partition::ScorePairwise(assigned, key);
+  double round_seconds = 0.0;
+  for (const auto& r : summary.rounds) {
+    const double s = r.solve_seconds + r.marginal_seconds + r.association_seconds;
+    round_seconds += s;
+    std::printf("round %d: features %lld candidates %lld accepted %lld merges %lld undone %lld "
+                "chi2 %.6f solve %.2f s marginals %.2f s tests %.2f s\n",
+                r.round, static_cast<long long>(r.features), static_cast<long long>(r.candidates),
+                static_cast<long long>(r.accepted), static_cast<long long>(r.merges),
+                static_cast<long long>(r.undone), r.chi2, r.solve_seconds, r.marginal_seconds,
+                r.association_seconds);
+  }
+  std::printf("%s: %lld observations, %d poses, %lld -> %lld features (%zu in the key), "
+              "chi %.3g radius %.2f\n",
+              which.c_str(), static_cast<long long>(problem.observations.size()),
+              problem.num_poses(), static_cast<long long>(summary.initial_features),
+              static_cast<long long>(summary.final_features),
+              [&] {
+                std::vector<int64_t> k = key;
+                std::sort(k.begin(), k.end());
+                return static_cast<size_t>(std::unique(k.begin(), k.end()) - k.begin());
+              }(),
+              options.chi, options.search_radius);
+  std::printf("pairwise precision %.5f (%lld / %lld), recall %.5f (%lld / %lld)\n",
+              score.precision(), static_cast<long long>(score.true_positive),
+              static_cast<long long>(score.predicted), score.recall(),
+              static_cast<long long>(score.true_positive), static_cast<long long>(score.actual));
+  std::printf("merges %lld, undone %lld, rounds %zu, %.2f s per round, total %.2f s\n",
+              static_cast<long long>(summary.merges), static_cast<long long>(summary.undone),
+              summary.rounds.size(), round_seconds / std::max<size_t>(1, summary.rounds.size()),
+              seconds);
+  std::printf("final chi2 %.6f, known-correspondence chi2 %.6f\n",
+              summary.final_solve.final_chi2, known_chi2);
+  return 0;
+}

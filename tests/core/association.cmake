@@ -1,0 +1,1 @@
+graphslam_test(core/correspondence_test)

@@ -1,0 +1,222 @@
+// Tests of the data association driver (partition/association_driver.h):
+// the correspondence test against a dense inverse of the full information
+// matrix, two copies of one landmark merging back to the known-correspondence
+// optimum, a wrong forced merge being undone, and an id-less simulated problem
+// associated with bounded precision and recall.
+#include "partition/association_driver.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <numbers>
+
+#include "core/initialization.h"
+#include "core/unidentified_features.h"
+#include "partition/in_memory_chunk_source.h"
+#include "tests/testing/dense_reference.h"
+#include "tests/testing/random_problem.h"
+
+namespace graphslam::partition {
+namespace {
+
+core::SolverOptions TightSolverOptions() {
+  core::SolverOptions options;
+  options.linear_solver = core::LinearSolverType::kCholmod;
+  options.function_tolerance = 1e-14;
+  options.parameter_tolerance = 1e-14;
+  options.gradient_tolerance = 1e-12;
+  options.max_iterations = 200;
+  return options;
+}
+
+double SolveKnown(core::Problem2d* problem) {
+  InMemoryChunkSource chunks(*problem, ChunkingOptions());
+  core::SolverSummary summary;
+  EXPECT_TRUE(core::SolveGraphSlam(TightSolverOptions(), chunks, problem, &summary).ok());
+  return summary.final_chi2;
+}
+
+// pi_{j=k} from the dense inverse of the full (poses + features) Gauss-Newton
+// information at the current state: Sigma = H^{-1}, D = [I -I].
+double DenseCorrespondence(const core::Problem2d& problem, int j, int k) {
+  testing::DenseReference dense(problem);
+  Eigen::MatrixXd h;
+  Eigen::VectorXd g;
+  dense.Linearize(dense.State(), &h, &g);
+  const Eigen::MatrixXd sigma = h.inverse();
+  const int base = dense.num_pose_unknowns();
+  Eigen::MatrixXd d = Eigen::MatrixXd::Zero(2, sigma.rows());
+  d.block(0, base + 2 * j, 2, 2).setIdentity();
+  d.block(0, base + 2 * k, 2, 2) = -Eigen::Matrix2d::Identity();
+  const Eigen::Matrix2d cov = d * sigma * d.transpose();
+  const Eigen::Vector2d mu = problem.features[j] - problem.features[k];
+  return std::exp(-0.5 * mu.dot(cov.inverse() * mu)) /
+         (2.0 * std::numbers::pi * std::sqrt(cov.determinant()));
+}
+
+void ExpectMatchesDense(bool range_bearing, int64_t max_eliminated) {
+  testing::RandomProblemOptions options;
+  options.num_poses = 14;
+  options.num_features = 6;
+  options.range_bearing = range_bearing;
+  options.seed = 5;
+  testing::RandomProblem random = testing::MakeRandomProblem(options);
+  core::Problem2d& problem = random.problem;
+  ASSERT_TRUE(core::InitializeProblem(&problem).ok());
+  SolveKnown(&problem);
+  core::SolverOptions solver = TightSolverOptions();
+  solver.max_eliminated_observations = max_eliminated;
+  std::vector<CorrespondenceQuery> queries;
+  for (int j = 0; j < problem.num_features(); ++j)
+    for (int k = j + 1; k < problem.num_features(); ++k) {
+      CorrespondenceQuery query;
+      query.j = j;
+      query.k = k;
+      queries.push_back(query);
+    }
+  ASSERT_TRUE(TestCorrespondences(solver, problem, 3, &queries).ok());
+  int tested = 0;
+  for (const CorrespondenceQuery& q : queries) {
+    ASSERT_TRUE(q.result.valid) << q.j << " " << q.k;
+    const double expected = DenseCorrespondence(problem, q.j, q.k);
+    // Central differences make the dense H accurate to ~1e-8 relative.
+    EXPECT_NEAR(q.result.probability, expected, 1e-6 * expected + 1e-300)
+        << "pair " << q.j << " " << q.k;
+    ++tested;
+  }
+  EXPECT_EQ(tested, 15);
+}
+
+TEST(AssociationDriver, CorrespondenceMatchesDenseInversePointObservations) {
+  ExpectMatchesDense(false, 64);
+}
+TEST(AssociationDriver, CorrespondenceMatchesDenseInverseRangeBearing) {
+  ExpectMatchesDense(true, 64);
+}
+TEST(AssociationDriver, CorrespondenceMatchesDenseInverseWithKeptFeatures) {
+  ExpectMatchesDense(true, 3);  // features with > 3 observations stay unknowns
+}
+
+testing::RandomProblem SmallWorld(uint32_t seed) {
+  testing::RandomProblemOptions options;
+  options.num_poses = 40;
+  options.num_features = 10;
+  options.range_bearing = false;
+  options.sensor_range = 4.0;
+  options.seed = seed;
+  return testing::MakeRandomProblem(options);
+}
+
+TEST(AssociationDriver, TwoCopiesOfOneLandmarkMergeBack) {
+  testing::RandomProblem random = SmallWorld(11);
+  core::Problem2d known = random.problem;
+  ASSERT_TRUE(core::InitializeProblem(&known).ok());
+  const double known_chi2 = SolveKnown(&known);
+
+  // Landmark 0's observations alternate between it and a copy.
+  core::Problem2d split = random.problem;
+  const int32_t copy = split.AddFeature(5000, split.features[0], true);
+  int seen = 0;
+  for (core::Observation& o : split.observations)
+    if (o.feature == 0 && (seen++ % 2) == 1) o.feature = copy;
+  ASSERT_GE(seen, 4);
+  ASSERT_TRUE(core::InitializeProblem(&split).ok());
+  AssociationOptions options;
+  options.search_radius = 2.0;
+  AssociationSummary summary;
+  ASSERT_TRUE(AssociateAndSolve(options, TightSolverOptions(), &split, &summary).ok());
+  EXPECT_EQ(summary.merges, 1);
+  EXPECT_EQ(summary.undone, 0);
+  EXPECT_EQ(split.num_features(), known.num_features());
+  EXPECT_NEAR(summary.final_solve.final_chi2, known_chi2, 1e-9 * known_chi2);
+  // Every observation of landmark 0 (either copy) now points to one feature.
+  int32_t merged = -1;
+  for (size_t i = 0; i < split.observations.size(); ++i) {
+    if (random.problem.observations[i].feature != 0) continue;
+    if (merged < 0) merged = split.observations[i].feature;
+    EXPECT_EQ(split.observations[i].feature, merged);
+  }
+  EXPECT_EQ(split.feature_ids[merged], 1000);  // the smallest input id of the cluster
+}
+
+TEST(AssociationDriver, WrongForcedMergeIsUndone) {
+  testing::RandomProblem random = SmallWorld(12);
+  core::Problem2d known = random.problem;
+  ASSERT_TRUE(core::InitializeProblem(&known).ok());
+  const double known_chi2 = SolveKnown(&known);
+  // The two landmarks farthest apart.
+  int a = 0, b = 1;
+  for (int j = 0; j < 10; ++j)
+    for (int k = j + 1; k < 10; ++k)
+      if ((random.true_features[j] - random.true_features[k]).norm() >
+          (random.true_features[a] - random.true_features[b]).norm()) {
+        a = j;
+        b = k;
+      }
+  core::Problem2d problem = random.problem;
+  ASSERT_TRUE(core::InitializeProblem(&problem).ok());
+  AssociationOptions options;
+  options.search_radius = 0.5;
+  options.forced_merges = {{a, b}};
+  AssociationSummary summary;
+  ASSERT_TRUE(AssociateAndSolve(options, TightSolverOptions(), &problem, &summary).ok());
+  ASSERT_FALSE(summary.merge_log.empty());
+  EXPECT_TRUE(summary.merge_log.front().forced);
+  EXPECT_TRUE(summary.merge_log.front().undone);
+  EXPECT_EQ(summary.undone, 1);
+  EXPECT_EQ(problem.num_features(), 10);
+  EXPECT_NEAR(summary.final_solve.final_chi2, known_chi2, 1e-6 * known_chi2);
+  int32_t fa = -1, fb = -1;
+  for (size_t i = 0; i < problem.observations.size(); ++i) {
+    if (random.problem.observations[i].feature == a) fa = problem.observations[i].feature;
+    if (random.problem.observations[i].feature == b) fb = problem.observations[i].feature;
+  }
+  EXPECT_NE(fa, fb);
+}
+
+TEST(AssociationDriver, IdLessSimulationIsAssociatedAccurately) {
+  testing::RandomProblem random = SmallWorld(13);
+  // Forget the ids: one feature per observation.
+  core::Problem2d problem = random.problem;
+  std::vector<int64_t> key;
+  problem.features.clear();
+  problem.feature_ids.clear();
+  problem.feature_initialized.clear();
+  for (core::Observation& o : problem.observations) {
+    key.push_back(o.feature);
+    o.feature = problem.AddFeature(core::kNoFeatureId, core::Point2::Zero(), false);
+  }
+  ASSERT_TRUE(core::InitializeProblem(&problem).ok());
+  AssociationOptions options;
+  options.search_radius = 2.0;
+  AssociationSummary summary;
+  ASSERT_TRUE(AssociateAndSolve(options, TightSolverOptions(), &problem, &summary).ok());
+  std::vector<int64_t> assigned;
+  for (const core::Observation& o : problem.observations) assigned.push_back(o.feature);
+  const PairwiseScore score = ScorePairwise(assigned, key);
+  EXPECT_GE(score.precision(), 0.99) << score.true_positive << "/" << score.predicted;
+  EXPECT_GE(score.recall(), 0.95) << score.true_positive << "/" << score.actual;
+  // Fresh ids above the pose ids for id-less inputs.
+  for (int64_t id : problem.feature_ids) EXPECT_GE(id, problem.num_poses());
+}
+
+TEST(AssociationDriver, ScorePairwiseCountsPairs) {
+  // Assigned {0,0,1,1}, key {0,0,0,1}: predicted 2 pairs, actual 3, both share (0,1).
+  const PairwiseScore score = ScorePairwise({0, 0, 1, 1}, {0, 0, 0, 1});
+  EXPECT_EQ(score.predicted, 2);
+  EXPECT_EQ(score.actual, 3);
+  EXPECT_EQ(score.true_positive, 1);
+}
+
+TEST(AssociationDriver, OptionsAreValidated) {
+  AssociationOptions options;
+  options.search_radius = 0.0;
+  EXPECT_TRUE(options.Validate().IsInvalidArgument());
+  options = AssociationOptions();
+  options.chi = -1.0;
+  EXPECT_TRUE(options.Validate().IsInvalidArgument());
+}
+
+}  // namespace
+}  // namespace graphslam::partition
