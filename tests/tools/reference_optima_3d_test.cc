@@ -111,6 +111,38 @@ TEST(ReferenceOptima3d, ParkingGarage) {
   ExpectReached(SolveWithDefaults("sesync_posegraphs/parking-garage.g2o"), 1.238684);
 }
 
+// parking-garage without its VERTEX lines (an edges-only file, as SE-Sync's
+// CSAIL): the poses are chained from the odometry and the solve still reaches
+// the reference; --tum writes one pose per line.
+TEST(ReferenceOptima3d, EdgesOnlyParkingGarageIsChainedAndReachesTheOptimum) {
+  GS_REQUIRE_DATASET("sesync_posegraphs/parking-garage.g2o");
+  const std::string edges_only = TempPath("garage_edges.g2o");
+  {
+    std::ifstream in(graphslam::testing::DatasetPath("sesync_posegraphs/parking-garage.g2o"));
+    std::ofstream out(edges_only);
+    std::string line;
+    while (std::getline(in, line))
+      if (line.rfind("EDGE_", 0) == 0) out << line << "\n";
+  }
+  SolveCommandOptions options;
+  options.input = edges_only;
+  options.report = TempPath("garage_report.json");
+  options.tum = TempPath("garage.tum");
+  options.quiet = true;
+  EXPECT_EQ(RunSolveCommand(options), kExitOk);
+  std::ifstream report(options.report);
+  const nlohmann::json json = nlohmann::json::parse(report, nullptr, false);
+  ASSERT_FALSE(json.is_discarded());
+  EXPECT_LE(json["final_chi2"].get<double>(), 1.238684 * 1.001);
+  EXPECT_GT(json["initial_chi2"].get<double>(), 1.0);
+  std::ifstream tum(options.tum);
+  int lines = 0;
+  for (std::string line; std::getline(tum, line);) lines += line.empty() || line[0] == '#' ? 0 : 1;
+  EXPECT_EQ(lines, 1661);
+  for (const std::string& path : {edges_only, options.report, options.tum})
+    std::filesystem::remove(path);
+}
+
 // sphere2500 in iSAM's format against the noise-free trajectory it was made
 // from (groundtruth/sphere2500_groundtruth.txt: the same EDGE3 records without
 // noise, so chaining its odometry gives the true poses). Positions are
