@@ -48,20 +48,24 @@ void SortUnique(std::vector<uint64_t>* codes) {
 // those of the previous rays (all rays share the cells near the origin), so
 // skipping a code seen recently shrinks the buffer to sort several-fold. It
 // only drops exact duplicates, so the sorted unique set is unchanged.
+// Sized to the scan (about 4 slots a point, 2^10..2^16) so that small scans
+// (a push-broom line of a few hundred points) do not pay for a big table.
 class RecentCodes {
  public:
-  RecentCodes() : slots_(kSlots, ~uint64_t{0}) {}
+  explicit RecentCodes(size_t points) {
+    while (bits_ < 16 && (size_t{1} << bits_) < 4 * points) ++bits_;
+    slots_.assign(size_t{1} << bits_, ~uint64_t{0});
+  }
   // True if `code` was seen recently; remembers it otherwise.
   bool SeenOrRemember(uint64_t code) {
-    uint64_t& slot = slots_[(code * 0x9E3779B97F4A7C15ull) >> (64 - kBits)];
+    uint64_t& slot = slots_[(code * 0x9E3779B97F4A7C15ull) >> (64 - bits_)];
     if (slot == code) return true;
     slot = code;
     return false;
   }
 
  private:
-  static constexpr int kBits = 16;
-  static constexpr size_t kSlots = size_t{1} << kBits;
+  int bits_ = 10;
   std::vector<uint64_t> slots_;
 };
 
@@ -73,7 +77,7 @@ void ComputeScanCodes(const octomap::OcTree& keyer, const Codec& codec, const Wo
   size_t dedup_at = kDedupAt;
   free_codes->clear();
   occupied_codes->clear();
-  RecentCodes recent;
+  RecentCodes recent(scan.points.size());
   auto push_ray = [&](const octomap::KeyRay& keys) {
     for (const octomap::OcTreeKey& key : keys) {
       const uint64_t code = codec.Encode(key);
