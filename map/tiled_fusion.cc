@@ -14,28 +14,41 @@ namespace {
 
 constexpr int kKeyBits = 16;  // octomap::OcTree: tree depth 16, 16-bit keys
 
+// Morton (octree) order: bits 3l, 3l+1, 3l+2 of a code are bit l of x, y, z,
+// i.e. the child index at level l (OcTreeKey computeChildIdx). A tile (an
+// octree node at depth 16 - k) is then the code's top 3(16 - k) bits.
+uint64_t Spread(uint64_t v) {
+  v &= 0xFFFF;
+  v = (v | v << 32) & 0x1F00000000FFFFull;
+  v = (v | v << 16) & 0x1F0000FF0000FFull;
+  v = (v | v << 8) & 0x100F00F00F00F00Full;
+  v = (v | v << 4) & 0x10C30C30C30C30C3ull;
+  v = (v | v << 2) & 0x1249249249249249ull;
+  return v;
+}
+uint64_t Compact(uint64_t v) {
+  v &= 0x1249249249249249ull;
+  v = (v ^ (v >> 2)) & 0x10C30C30C30C30C3ull;
+  v = (v ^ (v >> 4)) & 0x100F00F00F00F00Full;
+  v = (v ^ (v >> 8)) & 0x1F0000FF0000FFull;
+  v = (v ^ (v >> 16)) & 0x1F00000000FFFFull;
+  v = (v ^ (v >> 32)) & 0x1FFFFFull;
+  return v;
+}
+
 struct Codec {
-  int k;       // bits of a key inside its tile
-  int t;       // bits of the tile coordinate
-  uint64_t m;  // 2^k - 1
+  int k;  // levels inside a tile
 
-  explicit Codec(int tile_bits)
-      : k(tile_bits), t(kKeyBits - tile_bits), m((uint64_t{1} << tile_bits) - 1) {}
+  explicit Codec(int tile_bits) : k(tile_bits) {}
 
-  uint64_t Encode(const octomap::OcTreeKey& key) const {
-    const uint64_t x = key[0], y = key[1], z = key[2];
-    const uint64_t tile = ((x >> k) << (2 * t)) | ((y >> k) << t) | (z >> k);
-    return (tile << (3 * k)) | ((x & m) << (2 * k)) | ((y & m) << k) | (z & m);
+  static uint64_t Encode(const octomap::OcTreeKey& key) {
+    return Spread(key[0]) | (Spread(key[1]) << 1) | (Spread(key[2]) << 2);
   }
   uint64_t Tile(uint64_t code) const { return code >> (3 * k); }
-  octomap::OcTreeKey Decode(uint64_t code) const {
-    const uint64_t tile = code >> (3 * k);
-    const uint64_t tm = (uint64_t{1} << t) - 1;
-    const uint64_t x = ((tile >> (2 * t)) << k) | ((code >> (2 * k)) & m);
-    const uint64_t y = (((tile >> t) & tm) << k) | ((code >> k) & m);
-    const uint64_t z = ((tile & tm) << k) | (code & m);
-    return octomap::OcTreeKey(static_cast<octomap::key_type>(x), static_cast<octomap::key_type>(y),
-                              static_cast<octomap::key_type>(z));
+  static octomap::OcTreeKey Decode(uint64_t code) {
+    return octomap::OcTreeKey(static_cast<octomap::key_type>(Compact(code)),
+                              static_cast<octomap::key_type>(Compact(code >> 1)),
+                              static_cast<octomap::key_type>(Compact(code >> 2)));
   }
 };
 
@@ -154,6 +167,65 @@ class MergeTree : public octomap::OcTree {
   }
 };
 
+// A tile's tree, updated from sorted codes with one descent shared between
+// consecutive codes. Equivalent, leaf by leaf, to OcTree::updateNode(key,
+// occupied, lazy_eval = true) per code: the same child creation and pruned-node
+// expansion as updateNodeRecurs, the same clamped addition at the leaf. (It
+// skips updateNode's early abort at a clamping bound, which changes no value:
+// the clamped sum equals the bound again.) Inner nodes are left stale, as in a
+// lazy update; the caller runs updateInnerOccupancy() and prune() afterwards.
+class TileTree : public octomap::OcTree {
+ public:
+  using octomap::OcTree::OcTree;
+
+  void ApplySorted(const uint64_t* codes, size_t n, bool occupied) {
+    if (n == 0) return;
+    const float update = occupied ? prob_hit_log : prob_miss_log;
+    constexpr int kDepth = 16;
+    octomap::OcTreeNode* path[kDepth + 1];
+    bool just_created = false;
+    if (root == nullptr) {
+      root = new octomap::OcTreeNode();
+      ++tree_size;
+      just_created = true;
+    }
+    path[0] = root;
+    uint64_t previous = 0;
+    for (size_t i = 0; i < n; ++i) {
+      const uint64_t code = codes[i];
+      int depth = 0;
+      if (i > 0) {
+        // The first level (from the root) where this code's path leaves the
+        // previous one: everything above is shared and already exists.
+        const int highest = 63 - __builtin_clzll(code ^ previous);
+        depth = kDepth - 1 - highest / 3;
+        just_created = false;
+      }
+      octomap::OcTreeNode* node = path[depth];
+      for (; depth < kDepth; ++depth) {
+        const unsigned child = static_cast<unsigned>((code >> (3 * (kDepth - 1 - depth))) & 7);
+        bool created = false;
+        if (!nodeChildExists(node, child)) {
+          if (!nodeHasChildren(node) && !just_created) {
+            expandNode(node);
+          } else {
+            createNodeChild(node, child);
+            created = true;
+          }
+        }
+        node = getNodeChild(node, child);
+        just_created = created;
+        path[depth + 1] = node;
+      }
+      float value = node->getLogOdds() + update;
+      if (value < clamping_thres_min) value = clamping_thres_min;
+      if (value > clamping_thres_max) value = clamping_thres_max;
+      node->setLogOdds(value);
+      previous = code;
+    }
+  }
+};
+
 }  // namespace
 
 Status FusionOptions::Validate() const {
@@ -225,22 +297,25 @@ void TiledFusion::Insert(const std::vector<WorldScan>& batch) {
   trees.reserve(touched.size());
   for (uint64_t tile : touched) {
     std::unique_ptr<octomap::OcTree>& tree = tiles_[tile];
-    if (!tree) tree = MakeOcTree(options_);
+    if (!tree) {
+      auto fresh = std::make_unique<TileTree>(options_.resolution);
+      fresh->setProbHit(options_.prob_hit);
+      fresh->setProbMiss(options_.prob_miss);
+      fresh->setClampingThresMin(options_.clamping_min);
+      fresh->setClampingThresMax(options_.clamping_max);
+      tree = std::move(fresh);
+    }
     trees.push_back(tree.get());
   }
   tbb::parallel_for(size_t{0}, touched.size(), [&](size_t j) {
     const uint64_t tile = touched[j];
-    octomap::OcTree* tree = trees[j];
+    TileTree* tree = static_cast<TileTree*>(trees[j]);
     for (size_t i = 0; i < n; ++i) {
       if (const TileRange* r = FindTile(free_ranges[i], tile)) {
-        for (size_t c = r->begin; c < r->end; ++c) {
-          tree->updateNode(codec.Decode(free_codes[i][c]), false, /*lazy_eval=*/true);
-        }
+        tree->ApplySorted(free_codes[i].data() + r->begin, r->end - r->begin, false);
       }
       if (const TileRange* r = FindTile(occupied_ranges[i], tile)) {
-        for (size_t c = r->begin; c < r->end; ++c) {
-          tree->updateNode(codec.Decode(occupied_codes[i][c]), true, /*lazy_eval=*/true);
-        }
+        tree->ApplySorted(occupied_codes[i].data() + r->begin, r->end - r->begin, true);
       }
     }
     // Lazy updates skip the inner nodes and pruning on every update; both
