@@ -5,6 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <system_error>
 #include <iterator>
 #include <string>
 #include <utility>
@@ -269,14 +272,69 @@ std::unique_ptr<octomap::OcTree> FuseSerial(const FusionOptions& options,
   return tree;
 }
 
+namespace {
+
+std::unique_ptr<octomap::OcTree> MakeTileTree(const FusionOptions& options) {
+  auto tree = std::make_unique<TileTree>(options.resolution);
+  tree->setProbHit(options.prob_hit);
+  tree->setProbMiss(options.prob_miss);
+  tree->setClampingThresMin(options.clamping_min);
+  tree->setClampingThresMax(options.clamping_max);
+  return tree;
+}
+
+}  // namespace
+
 TiledFusion::TiledFusion(const FusionOptions& options)
     : options_(options), keyer_(MakeOcTree(options)) {}
 
-TiledFusion::~TiledFusion() = default;
+TiledFusion::~TiledFusion() {
+  if (spill_dir_.empty()) return;
+  for (const auto& [id, tile] : tiles_) {
+    if (!tile.tree) {
+      std::error_code ec;
+      std::filesystem::remove(SpillPath(id), ec);  // scratch; best effort
+    }
+  }
+  std::error_code ec;
+  std::filesystem::remove(spill_dir_, ec);  // only if empty (it is ours then)
+}
 
-void TiledFusion::Insert(const std::vector<WorldScan>& batch) {
+void TiledFusion::EnableSpill(const std::string& dir, size_t budget_bytes) {
+  spill_dir_ = dir;
+  budget_bytes_ = budget_bytes;
+}
+
+std::string TiledFusion::SpillPath(uint64_t tile_id) const {
+  return spill_dir_ + "/tile_" + std::to_string(tile_id) + ".octree-data";
+}
+
+Status TiledFusion::Load(uint64_t tile_id, Tile* tile) const {
+  const std::string path = SpillPath(tile_id);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Status::IOError(path + ": cannot open spilled tile");
+  std::unique_ptr<octomap::OcTree> tree = MakeTileTree(options_);
+  tree->readData(in);
+  if (!in) return Status::IOError(path + ": cannot read spilled tile");
+  tile->tree = std::move(tree);
+  return Status::Ok();
+}
+
+Status TiledFusion::Spill(uint64_t tile_id, Tile* tile) {
+  const std::string path = SpillPath(tile_id);
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  tile->tree->writeData(out);
+  out.flush();
+  if (!out) return Status::IOError(path + ": cannot write spilled tile");
+  tile->tree.reset();
+  ++spills_;
+  return Status::Ok();
+}
+
+Status TiledFusion::Insert(const std::vector<WorldScan>& batch) {
   const Codec codec(options_.tile_bits);
   const size_t n = batch.size();
+  ++batches_;
   std::vector<std::vector<uint64_t>> free_codes(n), occupied_codes(n);
   std::vector<std::vector<TileRange>> free_ranges(n), occupied_ranges(n);
   tbb::enumerable_thread_specific<octomap::KeyRay> rays;
@@ -293,23 +351,23 @@ void TiledFusion::Insert(const std::vector<WorldScan>& batch) {
     for (const TileRange& r : occupied_ranges[i]) touched.push_back(r.tile);
   }
   SortUnique(&touched);
-  std::vector<octomap::OcTree*> trees;
-  trees.reserve(touched.size());
-  for (uint64_t tile : touched) {
-    std::unique_ptr<octomap::OcTree>& tree = tiles_[tile];
-    if (!tree) {
-      auto fresh = std::make_unique<TileTree>(options_.resolution);
-      fresh->setProbHit(options_.prob_hit);
-      fresh->setProbMiss(options_.prob_miss);
-      fresh->setClampingThresMin(options_.clamping_min);
-      fresh->setClampingThresMax(options_.clamping_max);
-      tree = std::move(fresh);
+  std::vector<Tile*> touched_tiles;
+  touched_tiles.reserve(touched.size());
+  for (uint64_t id : touched) {
+    auto [it, inserted] = tiles_.try_emplace(id);
+    Tile& tile = it->second;
+    if (inserted) {
+      tile.tree = MakeTileTree(options_);
+    } else if (!tile.tree) {
+      GS_RETURN_IF_ERROR(Load(id, &tile));
+      std::error_code ec;
+      std::filesystem::remove(SpillPath(id), ec);
     }
-    trees.push_back(tree.get());
+    touched_tiles.push_back(&tile);
   }
   tbb::parallel_for(size_t{0}, touched.size(), [&](size_t j) {
     const uint64_t tile = touched[j];
-    TileTree* tree = static_cast<TileTree*>(trees[j]);
+    TileTree* tree = static_cast<TileTree*>(touched_tiles[j]->tree.get());
     for (size_t i = 0; i < n; ++i) {
       if (const TileRange* r = FindTile(free_ranges[i], tile)) {
         tree->ApplySorted(free_codes[i].data() + r->begin, r->end - r->begin, false);
@@ -322,31 +380,72 @@ void TiledFusion::Insert(const std::vector<WorldScan>& batch) {
     // are done once per batch here (leaf values are the same either way).
     tree->updateInnerOccupancy();
     tree->prune();
+    touched_tiles[j]->bytes = tree->memoryUsage();
+    touched_tiles[j]->last_batch = batches_;
   });
+  if (spill_dir_.empty()) return Status::Ok();
+  size_t resident = 0;
+  std::vector<std::pair<int64_t, uint64_t>> lru;  // (last batch, tile id)
+  for (const auto& [id, tile] : tiles_) {
+    if (!tile.tree) continue;
+    resident += tile.bytes;
+    lru.emplace_back(tile.last_batch, id);
+  }
+  if (resident <= budget_bytes_) return Status::Ok();
+  std::error_code ec;
+  std::filesystem::create_directories(spill_dir_, ec);
+  if (ec) return Status::IOError(spill_dir_ + ": " + ec.message());
+  std::sort(lru.begin(), lru.end());
+  // Down to half the budget, so the next batches have room before spilling again.
+  for (const auto& [batch_index, id] : lru) {
+    if (resident <= budget_bytes_ / 2) break;
+    Tile& tile = tiles_.at(id);
+    resident -= tile.bytes;
+    GS_RETURN_IF_ERROR(Spill(id, &tile));
+  }
+  return Status::Ok();
 }
 
 size_t TiledFusion::MemoryUsage() const {
   size_t bytes = 0;
-  for (const auto& [id, tree] : tiles_) bytes += tree->memoryUsage();
+  for (const auto& [id, tile] : tiles_) bytes += tile.bytes;
   return bytes;
 }
 
-std::unique_ptr<octomap::OcTree> TiledFusion::Merge() {
+StatusOr<std::unique_ptr<octomap::OcTree>> TiledFusion::Merge() {
   auto out = std::make_unique<MergeTree>(options_.resolution);
   out->setProbHit(options_.prob_hit);
   out->setProbMiss(options_.prob_miss);
   out->setClampingThresMin(options_.clamping_min);
   out->setClampingThresMax(options_.clamping_max);
-  for (auto& [id, tree] : tiles_) {
-    for (auto it = tree->begin_leafs(), end = tree->end_leafs(); it != end; ++it) {
+  for (auto& [id, tile] : tiles_) {
+    if (!tile.tree) {
+      GS_RETURN_IF_ERROR(Load(id, &tile));
+      std::error_code ec;
+      std::filesystem::remove(SpillPath(id), ec);
+    }
+    for (auto it = tile.tree->begin_leafs(), end = tile.tree->end_leafs(); it != end; ++it) {
       out->SetLeaf(it.getKey(), it.getDepth(), it->getLogOdds());
     }
-    tree.reset();
+    tile.tree.reset();
   }
   tiles_.clear();
   out->updateInnerOccupancy();
   out->prune();
-  return out;
+  return std::unique_ptr<octomap::OcTree>(std::move(out));
+}
+
+Status TiledFusion::ForEachTile(const std::function<Status(uint64_t, const octomap::OcTree&)>& fn) {
+  for (auto& [id, tile] : tiles_) {
+    if (tile.tree) {
+      GS_RETURN_IF_ERROR(fn(id, *tile.tree));
+      continue;
+    }
+    Tile loaded;
+    GS_RETURN_IF_ERROR(Load(id, &loaded));
+    GS_RETURN_IF_ERROR(fn(id, *loaded.tree));
+  }
+  return Status::Ok();
 }
 
 void TiledFusion::TileBounds(uint64_t tile_id, Eigen::Vector3d* min, Eigen::Vector3d* max) const {
