@@ -45,16 +45,23 @@ StatusOr<MapSummary> BuildMap(const MapOptions& options, const ScanSource& scans
   GS_RETURN_IF_ERROR(options.Validate());
   MapSummary summary;
   TiledFusion fusion(options.fusion);
+  const bool fuse = !options.bt_path.empty();
+  if (fuse) {
+    std::filesystem::path spill(options.bt_path);
+    spill.replace_extension(".spill");
+    fusion.EnableSpill(spill.string(), static_cast<size_t>(options.memory_budget_bytes));
+  }
   VoxelCloud cloud(options.pcd_voxel > 0.0 ? options.pcd_voxel : options.fusion.resolution);
   std::vector<WorldScan> batch;
   int64_t batch_points = 0;
   double seconds = 0.0;
-  auto flush = [&] {
+  auto flush = [&]() -> Status {
     const auto start = std::chrono::steady_clock::now();
-    fusion.Insert(batch);
+    if (fuse) GS_RETURN_IF_ERROR(fusion.Insert(batch));
     seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     batch.clear();
     batch_points = 0;
+    return Status::Ok();
   };
   std::vector<Scan> chunk;
   for (int64_t k = 0; k < scans.NumChunks(); ++k) {
@@ -76,10 +83,10 @@ StatusOr<MapSummary> BuildMap(const MapOptions& options, const ScanSource& scans
       summary.points += static_cast<int64_t>(world.points.size());
       batch_points += static_cast<int64_t>(world.points.size());
       batch.push_back(std::move(world));
-      if (batch_points >= options.batch_points) flush();
+      if (batch_points >= options.batch_points) GS_RETURN_IF_ERROR(flush());
     }
   }
-  if (!batch.empty()) flush();
+  if (!batch.empty()) GS_RETURN_IF_ERROR(flush());
   summary.fusion_seconds = seconds;
   summary.points_per_second = seconds > 0 ? static_cast<double>(summary.points) / seconds : 0.0;
   summary.tree_bytes = static_cast<int64_t>(fusion.MemoryUsage());
@@ -88,7 +95,7 @@ StatusOr<MapSummary> BuildMap(const MapOptions& options, const ScanSource& scans
   if (!options.bt_path.empty()) {
     if (summary.tree_bytes <= options.memory_budget_bytes) {
       const auto start = std::chrono::steady_clock::now();
-      std::unique_ptr<octomap::OcTree> tree = fusion.Merge();
+      GS_ASSIGN_OR_RETURN(std::unique_ptr<octomap::OcTree> tree, fusion.Merge());
       summary.fusion_seconds +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       for (auto it = tree->begin_leafs(), end = tree->end_leafs(); it != end; ++it) {
@@ -111,16 +118,17 @@ StatusOr<MapSummary> BuildMap(const MapOptions& options, const ScanSource& scans
       index["resolution"] = options.fusion.resolution;
       index["tile_cells"] = 1 << options.fusion.tile_bits;
       nlohmann::json tiles = nlohmann::json::array();
-      for (const auto& [id, tree] : fusion.tiles()) {
+      GS_RETURN_IF_ERROR(fusion.ForEachTile([&](uint64_t id, const octomap::OcTree& tree) {
         char name[48];
         std::snprintf(name, sizeof(name), "tile_%012llx.bt", static_cast<unsigned long long>(id));
-        GS_RETURN_IF_ERROR(WriteTree(*tree, dir + "/" + name));
+        GS_RETURN_IF_ERROR(WriteTree(tree, dir + "/" + name));
         Eigen::Vector3d lo, hi;
         fusion.TileBounds(id, &lo, &hi);
         tiles.push_back({{"file", name},
                          {"min", {lo.x(), lo.y(), lo.z()}},
                          {"max", {hi.x(), hi.y(), hi.z()}}});
-      }
+        return Status::Ok();
+      }));
       index["tiles"] = tiles;
       summary.tiles_index = dir + "/index.json";
       GS_RETURN_IF_ERROR(storage::WriteStringAtomically(storage::Env::Default(), summary.tiles_index,

@@ -5,6 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <system_error>
 #include <iterator>
 #include <string>
 #include <utility>
@@ -14,28 +17,41 @@ namespace {
 
 constexpr int kKeyBits = 16;  // octomap::OcTree: tree depth 16, 16-bit keys
 
+// Morton (octree) order: bits 3l, 3l+1, 3l+2 of a code are bit l of x, y, z,
+// i.e. the child index at level l (OcTreeKey computeChildIdx). A tile (an
+// octree node at depth 16 - k) is then the code's top 3(16 - k) bits.
+uint64_t Spread(uint64_t v) {
+  v &= 0xFFFF;
+  v = (v | v << 32) & 0x1F00000000FFFFull;
+  v = (v | v << 16) & 0x1F0000FF0000FFull;
+  v = (v | v << 8) & 0x100F00F00F00F00Full;
+  v = (v | v << 4) & 0x10C30C30C30C30C3ull;
+  v = (v | v << 2) & 0x1249249249249249ull;
+  return v;
+}
+uint64_t Compact(uint64_t v) {
+  v &= 0x1249249249249249ull;
+  v = (v ^ (v >> 2)) & 0x10C30C30C30C30C3ull;
+  v = (v ^ (v >> 4)) & 0x100F00F00F00F00Full;
+  v = (v ^ (v >> 8)) & 0x1F0000FF0000FFull;
+  v = (v ^ (v >> 16)) & 0x1F00000000FFFFull;
+  v = (v ^ (v >> 32)) & 0x1FFFFFull;
+  return v;
+}
+
 struct Codec {
-  int k;       // bits of a key inside its tile
-  int t;       // bits of the tile coordinate
-  uint64_t m;  // 2^k - 1
+  int k;  // levels inside a tile
 
-  explicit Codec(int tile_bits)
-      : k(tile_bits), t(kKeyBits - tile_bits), m((uint64_t{1} << tile_bits) - 1) {}
+  explicit Codec(int tile_bits) : k(tile_bits) {}
 
-  uint64_t Encode(const octomap::OcTreeKey& key) const {
-    const uint64_t x = key[0], y = key[1], z = key[2];
-    const uint64_t tile = ((x >> k) << (2 * t)) | ((y >> k) << t) | (z >> k);
-    return (tile << (3 * k)) | ((x & m) << (2 * k)) | ((y & m) << k) | (z & m);
+  static uint64_t Encode(const octomap::OcTreeKey& key) {
+    return Spread(key[0]) | (Spread(key[1]) << 1) | (Spread(key[2]) << 2);
   }
   uint64_t Tile(uint64_t code) const { return code >> (3 * k); }
-  octomap::OcTreeKey Decode(uint64_t code) const {
-    const uint64_t tile = code >> (3 * k);
-    const uint64_t tm = (uint64_t{1} << t) - 1;
-    const uint64_t x = ((tile >> (2 * t)) << k) | ((code >> (2 * k)) & m);
-    const uint64_t y = (((tile >> t) & tm) << k) | ((code >> k) & m);
-    const uint64_t z = ((tile & tm) << k) | (code & m);
-    return octomap::OcTreeKey(static_cast<octomap::key_type>(x), static_cast<octomap::key_type>(y),
-                              static_cast<octomap::key_type>(z));
+  static octomap::OcTreeKey Decode(uint64_t code) {
+    return octomap::OcTreeKey(static_cast<octomap::key_type>(Compact(code)),
+                              static_cast<octomap::key_type>(Compact(code >> 1)),
+                              static_cast<octomap::key_type>(Compact(code >> 2)));
   }
 };
 
@@ -48,20 +64,24 @@ void SortUnique(std::vector<uint64_t>* codes) {
 // those of the previous rays (all rays share the cells near the origin), so
 // skipping a code seen recently shrinks the buffer to sort several-fold. It
 // only drops exact duplicates, so the sorted unique set is unchanged.
+// Sized to the scan (about 4 slots a point, 2^10..2^16) so that small scans
+// (a push-broom line of a few hundred points) do not pay for a big table.
 class RecentCodes {
  public:
-  RecentCodes() : slots_(kSlots, ~uint64_t{0}) {}
+  explicit RecentCodes(size_t points) {
+    while (bits_ < 16 && (size_t{1} << bits_) < 4 * points) ++bits_;
+    slots_.assign(size_t{1} << bits_, ~uint64_t{0});
+  }
   // True if `code` was seen recently; remembers it otherwise.
   bool SeenOrRemember(uint64_t code) {
-    uint64_t& slot = slots_[(code * 0x9E3779B97F4A7C15ull) >> (64 - kBits)];
+    uint64_t& slot = slots_[(code * 0x9E3779B97F4A7C15ull) >> (64 - bits_)];
     if (slot == code) return true;
     slot = code;
     return false;
   }
 
  private:
-  static constexpr int kBits = 16;
-  static constexpr size_t kSlots = size_t{1} << kBits;
+  int bits_ = 10;
   std::vector<uint64_t> slots_;
 };
 
@@ -73,7 +93,7 @@ void ComputeScanCodes(const octomap::OcTree& keyer, const Codec& codec, const Wo
   size_t dedup_at = kDedupAt;
   free_codes->clear();
   occupied_codes->clear();
-  RecentCodes recent;
+  RecentCodes recent(scan.points.size());
   auto push_ray = [&](const octomap::KeyRay& keys) {
     for (const octomap::OcTreeKey& key : keys) {
       const uint64_t code = codec.Encode(key);
@@ -150,6 +170,65 @@ class MergeTree : public octomap::OcTree {
   }
 };
 
+// A tile's tree, updated from sorted codes with one descent shared between
+// consecutive codes. Equivalent, leaf by leaf, to OcTree::updateNode(key,
+// occupied, lazy_eval = true) per code: the same child creation and pruned-node
+// expansion as updateNodeRecurs, the same clamped addition at the leaf. (It
+// skips updateNode's early abort at a clamping bound, which changes no value:
+// the clamped sum equals the bound again.) Inner nodes are left stale, as in a
+// lazy update; the caller runs updateInnerOccupancy() and prune() afterwards.
+class TileTree : public octomap::OcTree {
+ public:
+  using octomap::OcTree::OcTree;
+
+  void ApplySorted(const uint64_t* codes, size_t n, bool occupied) {
+    if (n == 0) return;
+    const float update = occupied ? prob_hit_log : prob_miss_log;
+    constexpr int kDepth = 16;
+    octomap::OcTreeNode* path[kDepth + 1];
+    bool just_created = false;
+    if (root == nullptr) {
+      root = new octomap::OcTreeNode();
+      ++tree_size;
+      just_created = true;
+    }
+    path[0] = root;
+    uint64_t previous = 0;
+    for (size_t i = 0; i < n; ++i) {
+      const uint64_t code = codes[i];
+      int depth = 0;
+      if (i > 0) {
+        // The first level (from the root) where this code's path leaves the
+        // previous one: everything above is shared and already exists.
+        const int highest = 63 - __builtin_clzll(code ^ previous);
+        depth = kDepth - 1 - highest / 3;
+        just_created = false;
+      }
+      octomap::OcTreeNode* node = path[depth];
+      for (; depth < kDepth; ++depth) {
+        const unsigned child = static_cast<unsigned>((code >> (3 * (kDepth - 1 - depth))) & 7);
+        bool created = false;
+        if (!nodeChildExists(node, child)) {
+          if (!nodeHasChildren(node) && !just_created) {
+            expandNode(node);
+          } else {
+            createNodeChild(node, child);
+            created = true;
+          }
+        }
+        node = getNodeChild(node, child);
+        just_created = created;
+        path[depth + 1] = node;
+      }
+      float value = node->getLogOdds() + update;
+      if (value < clamping_thres_min) value = clamping_thres_min;
+      if (value > clamping_thres_max) value = clamping_thres_max;
+      node->setLogOdds(value);
+      previous = code;
+    }
+  }
+};
+
 }  // namespace
 
 Status FusionOptions::Validate() const {
@@ -193,14 +272,69 @@ std::unique_ptr<octomap::OcTree> FuseSerial(const FusionOptions& options,
   return tree;
 }
 
+namespace {
+
+std::unique_ptr<octomap::OcTree> MakeTileTree(const FusionOptions& options) {
+  auto tree = std::make_unique<TileTree>(options.resolution);
+  tree->setProbHit(options.prob_hit);
+  tree->setProbMiss(options.prob_miss);
+  tree->setClampingThresMin(options.clamping_min);
+  tree->setClampingThresMax(options.clamping_max);
+  return tree;
+}
+
+}  // namespace
+
 TiledFusion::TiledFusion(const FusionOptions& options)
     : options_(options), keyer_(MakeOcTree(options)) {}
 
-TiledFusion::~TiledFusion() = default;
+TiledFusion::~TiledFusion() {
+  if (spill_dir_.empty()) return;
+  for (const auto& [id, tile] : tiles_) {
+    if (!tile.tree) {
+      std::error_code ec;
+      std::filesystem::remove(SpillPath(id), ec);  // scratch; best effort
+    }
+  }
+  std::error_code ec;
+  std::filesystem::remove(spill_dir_, ec);  // only if empty (it is ours then)
+}
 
-void TiledFusion::Insert(const std::vector<WorldScan>& batch) {
+void TiledFusion::EnableSpill(const std::string& dir, size_t budget_bytes) {
+  spill_dir_ = dir;
+  budget_bytes_ = budget_bytes;
+}
+
+std::string TiledFusion::SpillPath(uint64_t tile_id) const {
+  return spill_dir_ + "/tile_" + std::to_string(tile_id) + ".octree-data";
+}
+
+Status TiledFusion::Load(uint64_t tile_id, Tile* tile) const {
+  const std::string path = SpillPath(tile_id);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Status::IOError(path + ": cannot open spilled tile");
+  std::unique_ptr<octomap::OcTree> tree = MakeTileTree(options_);
+  tree->readData(in);
+  if (!in) return Status::IOError(path + ": cannot read spilled tile");
+  tile->tree = std::move(tree);
+  return Status::Ok();
+}
+
+Status TiledFusion::Spill(uint64_t tile_id, Tile* tile) {
+  const std::string path = SpillPath(tile_id);
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  tile->tree->writeData(out);
+  out.flush();
+  if (!out) return Status::IOError(path + ": cannot write spilled tile");
+  tile->tree.reset();
+  ++spills_;
+  return Status::Ok();
+}
+
+Status TiledFusion::Insert(const std::vector<WorldScan>& batch) {
   const Codec codec(options_.tile_bits);
   const size_t n = batch.size();
+  ++batches_;
   std::vector<std::vector<uint64_t>> free_codes(n), occupied_codes(n);
   std::vector<std::vector<TileRange>> free_ranges(n), occupied_ranges(n);
   tbb::enumerable_thread_specific<octomap::KeyRay> rays;
@@ -217,57 +351,101 @@ void TiledFusion::Insert(const std::vector<WorldScan>& batch) {
     for (const TileRange& r : occupied_ranges[i]) touched.push_back(r.tile);
   }
   SortUnique(&touched);
-  std::vector<octomap::OcTree*> trees;
-  trees.reserve(touched.size());
-  for (uint64_t tile : touched) {
-    std::unique_ptr<octomap::OcTree>& tree = tiles_[tile];
-    if (!tree) tree = MakeOcTree(options_);
-    trees.push_back(tree.get());
+  std::vector<Tile*> touched_tiles;
+  touched_tiles.reserve(touched.size());
+  for (uint64_t id : touched) {
+    auto [it, inserted] = tiles_.try_emplace(id);
+    Tile& tile = it->second;
+    if (inserted) {
+      tile.tree = MakeTileTree(options_);
+    } else if (!tile.tree) {
+      GS_RETURN_IF_ERROR(Load(id, &tile));
+      std::error_code ec;
+      std::filesystem::remove(SpillPath(id), ec);
+    }
+    touched_tiles.push_back(&tile);
   }
   tbb::parallel_for(size_t{0}, touched.size(), [&](size_t j) {
     const uint64_t tile = touched[j];
-    octomap::OcTree* tree = trees[j];
+    TileTree* tree = static_cast<TileTree*>(touched_tiles[j]->tree.get());
     for (size_t i = 0; i < n; ++i) {
       if (const TileRange* r = FindTile(free_ranges[i], tile)) {
-        for (size_t c = r->begin; c < r->end; ++c) {
-          tree->updateNode(codec.Decode(free_codes[i][c]), false, /*lazy_eval=*/true);
-        }
+        tree->ApplySorted(free_codes[i].data() + r->begin, r->end - r->begin, false);
       }
       if (const TileRange* r = FindTile(occupied_ranges[i], tile)) {
-        for (size_t c = r->begin; c < r->end; ++c) {
-          tree->updateNode(codec.Decode(occupied_codes[i][c]), true, /*lazy_eval=*/true);
-        }
+        tree->ApplySorted(occupied_codes[i].data() + r->begin, r->end - r->begin, true);
       }
     }
     // Lazy updates skip the inner nodes and pruning on every update; both
     // are done once per batch here (leaf values are the same either way).
     tree->updateInnerOccupancy();
     tree->prune();
+    touched_tiles[j]->bytes = tree->memoryUsage();
+    touched_tiles[j]->last_batch = batches_;
   });
+  if (spill_dir_.empty()) return Status::Ok();
+  size_t resident = 0;
+  std::vector<std::pair<int64_t, uint64_t>> lru;  // (last batch, tile id)
+  for (const auto& [id, tile] : tiles_) {
+    if (!tile.tree) continue;
+    resident += tile.bytes;
+    lru.emplace_back(tile.last_batch, id);
+  }
+  if (resident <= budget_bytes_) return Status::Ok();
+  std::error_code ec;
+  std::filesystem::create_directories(spill_dir_, ec);
+  if (ec) return Status::IOError(spill_dir_ + ": " + ec.message());
+  std::sort(lru.begin(), lru.end());
+  // Down to half the budget, so the next batches have room before spilling again.
+  for (const auto& [batch_index, id] : lru) {
+    if (resident <= budget_bytes_ / 2) break;
+    Tile& tile = tiles_.at(id);
+    resident -= tile.bytes;
+    GS_RETURN_IF_ERROR(Spill(id, &tile));
+  }
+  return Status::Ok();
 }
 
 size_t TiledFusion::MemoryUsage() const {
   size_t bytes = 0;
-  for (const auto& [id, tree] : tiles_) bytes += tree->memoryUsage();
+  for (const auto& [id, tile] : tiles_) bytes += tile.bytes;
   return bytes;
 }
 
-std::unique_ptr<octomap::OcTree> TiledFusion::Merge() {
+StatusOr<std::unique_ptr<octomap::OcTree>> TiledFusion::Merge() {
   auto out = std::make_unique<MergeTree>(options_.resolution);
   out->setProbHit(options_.prob_hit);
   out->setProbMiss(options_.prob_miss);
   out->setClampingThresMin(options_.clamping_min);
   out->setClampingThresMax(options_.clamping_max);
-  for (auto& [id, tree] : tiles_) {
-    for (auto it = tree->begin_leafs(), end = tree->end_leafs(); it != end; ++it) {
+  for (auto& [id, tile] : tiles_) {
+    if (!tile.tree) {
+      GS_RETURN_IF_ERROR(Load(id, &tile));
+      std::error_code ec;
+      std::filesystem::remove(SpillPath(id), ec);
+    }
+    for (auto it = tile.tree->begin_leafs(), end = tile.tree->end_leafs(); it != end; ++it) {
       out->SetLeaf(it.getKey(), it.getDepth(), it->getLogOdds());
     }
-    tree.reset();
+    tile.tree.reset();
   }
   tiles_.clear();
   out->updateInnerOccupancy();
   out->prune();
-  return out;
+  return std::unique_ptr<octomap::OcTree>(std::move(out));
+}
+
+Status TiledFusion::ForEachTile(const std::function<Status(uint64_t, const octomap::OcTree&)>& fn) {
+  for (auto& [id, tile] : tiles_) {
+    if (tile.tree) {
+      GS_RETURN_IF_ERROR(fn(id, *tile.tree));
+      continue;
+    }
+    Tile loaded;
+    GS_RETURN_IF_ERROR(Load(id, &loaded));
+    GS_RETURN_IF_ERROR(fn(id, *loaded.tree));
+  }
+  return Status::Ok();
 }
 
 void TiledFusion::TileBounds(uint64_t tile_id, Eigen::Vector3d* min, Eigen::Vector3d* max) const {

@@ -32,6 +32,7 @@
 // keeps them) and equal children are pruned. Tiles are disjoint octree nodes
 // at depth t, so no leaf of a tile is coarser than the tile.
 //
+// Memory: the tile trees (bounded by EnableSpill), plus per batch the codes.
 // THREAD SAFETY: one TiledFusion per thread; it parallelizes internally (TBB).
 // ALLOCATION: the tile trees (the map), plus per batch the codes of its scans
 // (at most ~8 bytes per ray cell before de-duplication, bounded by sorting
@@ -42,6 +43,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -81,29 +83,53 @@ class TiledFusion {
   explicit TiledFusion(const FusionOptions& options);
   ~TiledFusion();
 
-  // Fuses `batch` (after every earlier batch), in order.
-  void Insert(const std::vector<WorldScan>& batch);
+  // Keeps the tiles in memory within `budget_bytes`: after a batch, the least
+  // recently touched tiles are written to `dir` (OctoMap's writeData: every
+  // node with its float log-odds, so reading back is bit-exact) and freed;
+  // a batch that touches a spilled tile reads it back first. The files are
+  // scratch (removed when read back or when the fusion ends).
+  void EnableSpill(const std::string& dir, size_t budget_bytes);
+
+  // Fuses `batch` (after every earlier batch), in order. IOError on spill I/O.
+  [[nodiscard]] Status Insert(const std::vector<WorldScan>& batch);
 
   int64_t points_inserted() const { return points_; }
   size_t num_tiles() const { return tiles_.size(); }
-  // Bytes of all tile trees (OcTree::memoryUsage).
+  int64_t spills() const { return spills_; }
+  // Bytes of all tile trees, spilled ones included (OcTree::memoryUsage as of
+  // the batch that last touched each).
   size_t MemoryUsage() const;
 
   // Moves every tile into one tree (the tiles are freed one by one as they are
   // merged, so the peak is about one map) and returns it. Ends the fusion.
-  std::unique_ptr<octomap::OcTree> Merge();
+  [[nodiscard]] StatusOr<std::unique_ptr<octomap::OcTree>> Merge();
 
-  // The tiles, keyed by tile_id, for writing them as separate files. Each is a
-  // full-size OcTree holding only the cells of its tile.
-  const std::map<uint64_t, std::unique_ptr<octomap::OcTree>>& tiles() const { return tiles_; }
+  // Calls fn(tile_id, tree) for every tile in tile order, reading spilled
+  // tiles back one at a time. Each tree is a full-size OcTree holding only
+  // the cells of its tile.
+  [[nodiscard]] Status ForEachTile(
+      const std::function<Status(uint64_t, const octomap::OcTree&)>& fn);
   // The tile's bounding box in the world [m].
   void TileBounds(uint64_t tile_id, Eigen::Vector3d* min, Eigen::Vector3d* max) const;
 
  private:
+  struct Tile {
+    std::unique_ptr<octomap::OcTree> tree;  // null while spilled
+    size_t bytes = 0;
+    int64_t last_batch = 0;
+  };
+  std::string SpillPath(uint64_t tile_id) const;
+  [[nodiscard]] Status Load(uint64_t tile_id, Tile* tile) const;
+  [[nodiscard]] Status Spill(uint64_t tile_id, Tile* tile);
+
   FusionOptions options_;
   std::unique_ptr<octomap::OcTree> keyer_;  // computeRayKeys (const) only
-  std::map<uint64_t, std::unique_ptr<octomap::OcTree>> tiles_;
+  std::map<uint64_t, Tile> tiles_;
   int64_t points_ = 0;
+  int64_t batches_ = 0;
+  int64_t spills_ = 0;
+  std::string spill_dir_;  // empty: no spilling
+  size_t budget_bytes_ = 0;
 };
 
 }  // namespace graphslam::map

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/initialization.h"
+#include "core/unidentified_features.h"
 #include "storage/native_log_reader.h"
 
 namespace graphslam::partition {
@@ -57,6 +58,15 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
     summary->streamed = true;
   } else {
     GS_ASSIGN_OR_RETURN(problem, storage::ReadProblem(input, options.format, options.mrclam));
+    if (const core::UnidentifiedObservations unidentified =
+            core::CountUnidentifiedObservations(problem);
+        unidentified.count > 0) {
+      return Status::NotSupported(
+          input + ":" + std::to_string(unidentified.first_line) + ": " +
+          std::to_string(unidentified.count) +
+          " observations have no feature id; expected ids (a chunk store needs feature-complete "
+          "chunks; use graphslam solve --associate on the input instead)");
+    }
     auto observations =
         std::make_shared<std::vector<core::Observation>>(std::move(problem.observations));
     problem.observations.clear();
@@ -67,6 +77,16 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
         GS_RETURN_IF_ERROR(sink(observation));
       return Status::Ok();
     };
+  }
+  // The streaming native reader has no lines to give here; the count says enough.
+  if (summary->streamed) {
+    int64_t unidentified = 0;
+    for (const int64_t id : problem.feature_ids) unidentified += id == core::kNoFeatureId;
+    if (unidentified > 0)
+      return Status::NotSupported(
+          input + ": " + std::to_string(unidentified) +
+          " observations have no feature id ('-'); expected ids (a chunk store needs "
+          "feature-complete chunks; use graphslam solve --associate on the input instead)");
   }
   index.Resize(problem.num_features());
 

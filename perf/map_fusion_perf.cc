@@ -135,13 +135,18 @@ int main(int argc, char** argv) {
   for (size_t i = 0; i < scans.size(); ++i) {
     batch_points += static_cast<int64_t>(scans[i].points.size());
     if (batch_points >= 2'000'000 || i + 1 == scans.size()) {
-      fusion.Insert(std::vector<WorldScan>(scans.begin() + static_cast<std::ptrdiff_t>(batch_begin),
-                                           scans.begin() + static_cast<std::ptrdiff_t>(i + 1)));
+      const graphslam::Status status =
+          fusion.Insert(std::vector<WorldScan>(scans.begin() + static_cast<std::ptrdiff_t>(batch_begin),
+                                               scans.begin() + static_cast<std::ptrdiff_t>(i + 1)));
+      if (!status.ok()) {
+        std::fprintf(stderr, "%s\n", status.ToString().c_str());
+        return 2;
+      }
       batch_begin = i + 1;
       batch_points = 0;
     }
   }
-  std::unique_ptr<octomap::OcTree> tiled = fusion.Merge();
+  std::unique_ptr<octomap::OcTree> tiled = std::move(fusion.Merge()).value();
   const double tiled_seconds = Seconds(start);
   const double tiled_cpu = static_cast<double>(std::clock() - cpu) / CLOCKS_PER_SEC;
 

@@ -70,16 +70,28 @@ std::vector<WorldScan> RoomScans(int scans, int points_per_scan, uint32_t seed) 
 }
 
 void ExpectSameAsSerial(const FusionOptions& options, const std::vector<WorldScan>& scans,
-                        size_t batch) {
+                        size_t batch, size_t spill_budget = 0) {
   std::unique_ptr<octomap::OcTree> serial = FuseSerial(options, scans);
   TiledFusion fusion(options);
+  if (spill_budget > 0) {
+    const std::string dir = ::testing::TempDir() + "/tiled_fusion_spill";
+    std::filesystem::create_directories(dir);
+    fusion.EnableSpill(dir, spill_budget);
+  }
   for (size_t i = 0; i < scans.size(); i += batch) {
-    fusion.Insert(std::vector<WorldScan>(scans.begin() + static_cast<std::ptrdiff_t>(i),
-                                         scans.begin() + static_cast<std::ptrdiff_t>(
-                                                             std::min(scans.size(), i + batch))));
+    ASSERT_TRUE(fusion
+                    .Insert(std::vector<WorldScan>(
+                        scans.begin() + static_cast<std::ptrdiff_t>(i),
+                        scans.begin() + static_cast<std::ptrdiff_t>(std::min(scans.size(), i + batch))))
+                    .ok());
   }
   EXPECT_GT(fusion.num_tiles(), 1u);
-  std::unique_ptr<octomap::OcTree> tiled = fusion.Merge();
+  if (spill_budget > 0) {
+    EXPECT_GT(fusion.spills(), 0);
+  }
+  StatusOr<std::unique_ptr<octomap::OcTree>> merged = fusion.Merge();
+  ASSERT_TRUE(merged.ok()) << merged.status().ToString();
+  std::unique_ptr<octomap::OcTree> tiled = std::move(merged).value();
   const std::set<LeafKey> occupied_serial = Occupied(serial.get());
   EXPECT_GT(occupied_serial.size(), 100u);
   EXPECT_EQ(Occupied(tiled.get()), occupied_serial);
@@ -109,6 +121,15 @@ TEST(TiledFusionTest, MaxRangeAndCoarseTilesEqualSerial) {
   options.tile_bits = 3;
   options.prob_hit = 0.9;  // reaches the clamp sooner
   ExpectSameAsSerial(options, RoomScans(10, 2000, 11), 3);
+}
+
+TEST(TiledFusionTest, SpillingTilesToDiskEqualsSerial) {
+  FusionOptions options;
+  options.resolution = 0.1;
+  options.tile_bits = 5;
+  // A tiny budget: after every 2-scan batch most tiles go to disk and come
+  // back when touched again.
+  ExpectSameAsSerial(options, RoomScans(8, 800, 3), 2, /*spill_budget=*/20000);
 }
 
 TEST(TiledFusionTest, ThreeDtkScansEqualSerial) {
