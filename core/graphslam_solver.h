@@ -93,7 +93,7 @@ struct SolverOptions {
   double max_trust_region_radius = 1e16;
   double min_trust_region_radius = 1e-32;
   double min_relative_decrease = 1e-3;
-  PreconditionerType preconditioner = PreconditionerType::kBlockJacobi;  // for PCG
+  PreconditionerType preconditioner = PreconditionerType::kSubgraph;  // for PCG (measured, issue 4)
   int pcg_max_iterations = 2000;
   double pcg_relative_tolerance = 1e-10;
   // PCG: Eisenstat-Walker forcing sequence and warm starts

@@ -19,7 +19,7 @@ struct SolveCommandOptions {
   std::string tum;                  // --tum
   std::string features_csv;         // --features-csv
   std::string solver = "auto";      // auto, pcg, cholmod
-  std::string preconditioner = "block-jacobi";  // for pcg: block-jacobi, incomplete-cholesky
+  std::string preconditioner = "subgraph";  // for pcg: subgraph, block-jacobi, incomplete-cholesky
   int max_iterations = 100;
   double function_tolerance = 1e-6;
   double initial_trust_region_radius = 1e4;
