@@ -61,11 +61,12 @@ int main(int argc, char** argv) {
     double scale;
     int color;
   };
+  // Colors 1..5 (set below, readable on white); 15 is the axes' black.
   const Series series[] = {{"ingest_seconds", "ingest s", 1.0, 1},
-                           {"seconds_per_iteration", "s / iteration", 1.0, 3},
-                           {"ingest_peak_rss_bytes", "ingest peak RSS MiB", 1.0 / (1 << 20), 9},
+                           {"seconds_per_iteration", "s / iteration", 1.0, 2},
+                           {"ingest_peak_rss_bytes", "ingest peak RSS MiB", 1.0 / (1 << 20), 3},
                            {"solve_peak_rss_bytes", "solve peak RSS MiB", 1.0 / (1 << 20), 4},
-                           {"store_bytes", "store MiB on disk", 1.0 / (1 << 20), 2}};
+                           {"store_bytes", "store MiB on disk", 1.0 / (1 << 20), 5}};
   double ymin = 1e300, ymax = -1e300;
   const std::vector<double>& features = columns["features"];
   std::vector<double> x(rows);
@@ -81,10 +82,17 @@ int main(int argc, char** argv) {
   plspage(0, 0, 900, 600, 0, 0);
   plscolbg(255, 255, 255);
   plinit();
+  plscol0(15, 0, 0, 0);
+  plscol0(1, 200, 30, 30);
+  plscol0(2, 20, 120, 20);
+  plscol0(3, 30, 60, 200);
+  plscol0(4, 150, 40, 160);
+  plscol0(5, 200, 120, 0);
   plcol0(15);
   plenv(*std::min_element(x.begin(), x.end()) - 0.2, *std::max_element(x.begin(), x.end()) + 0.2,
         std::floor(ymin) - 0.2, std::ceil(ymax) + 0.2, 0, 30);
-  pllab("features", "", "graphslam scaling (2 cores): ingest, solve, memory, disk");
+  pllab("features (log10)", "value (log10)",
+        "graphslam out of core: ingest, solve, memory, disk");
   int n = 0;
   const char* texts[5];
   PLINT colors[5], line_styles[5], opts[5], symbol_colors[5];

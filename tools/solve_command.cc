@@ -15,6 +15,7 @@
 #include "core/unidentified_features.h"
 #include "partition/association_driver.h"
 #include "partition/in_memory_chunk_source.h"
+#include "partition/pose_graph_initialization.h"
 #include "partition/progressive_initialization.h"
 #include "storage/atomic_file.h"
 #include "storage/solver_checkpoint.h"
@@ -431,6 +432,17 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                                                          &progressive_summary);
       !status.ok())
     return fail(status);
+  // Streaming mode: the pose-graph initializer (no in-memory sub-problems).
+  if (streaming && !resuming && options.initialization == "progressive") {
+    partition::PoseGraphInitializationSummary pose_graph;
+    if (Status status = partition::InitializeFromPoseGraph(solver_options, 20, chunks, &problem,
+                                                           &pose_graph);
+        !status.ok())
+      return fail(status);
+    GS_LOG(INFO, "pose-graph initialization: %d iterations, pose-only chi2 %.6g -> %.6g, %lld "
+           "features re-placed", pose_graph.iterations, pose_graph.initial_chi2,
+           pose_graph.final_chi2, static_cast<long long>(pose_graph.placed_features));
+  }
   const double progressive_seconds = Seconds(progressive_start);
 
   if (resuming) solver_options.resume_from = &resume_state;
