@@ -6,10 +6,12 @@ if(GRAPHSLAM_BUILD_FUZZERS)
   foreach(target ${GRAPHSLAM_FUZZ_TARGETS})
     add_executable(${target}_fuzzer ${PROJECT_SOURCE_DIR}/tests/fuzz/${target}_fuzzer.cc)
     target_include_directories(${target}_fuzzer PRIVATE ${PROJECT_SOURCE_DIR})
-    # The file parsers need only storage and core; the job file parser is
-    # part of the tools library.
+    # The file parsers need only storage and core; the job file parser only
+    # its own source and the simulator options it validates.
     if(target STREQUAL "job_spec")
-      target_link_libraries(${target}_fuzzer PRIVATE graphslam_tools)
+      target_sources(${target}_fuzzer PRIVATE ${PROJECT_SOURCE_DIR}/tools/job/job_spec.cc
+                                              ${PROJECT_SOURCE_DIR}/tools/campus_simulator.cc)
+      target_link_libraries(${target}_fuzzer PRIVATE graphslam_core yaml-cpp)
     else()
       target_link_libraries(${target}_fuzzer PRIVATE graphslam_storage graphslam_core)
     endif()
