@@ -2,6 +2,8 @@
 
 #include <GeographicLib/LocalCartesian.hpp>
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -447,6 +449,84 @@ core::Problem2d RunTrajectory(const core::Problem2d& problem, const RunInfo& run
                        problem.pose_stamps[k]);
   }
   return trajectory;
+}
+
+namespace {
+
+// The landmark position implied by one observation from `pose`.
+core::Point2 FirstSight(const core::Pose2& pose, const core::Observation& o) {
+  if (o.kind == core::ObservationKind::kRangeBearing) {
+    const double angle = pose.z() + o.z.y();
+    return pose.head<2>() + o.z.x() * Eigen::Vector2d(std::cos(angle), std::sin(angle));
+  }
+  return pose.head<2>() + Eigen::Rotation2Dd(pose.z()) * o.z;
+}
+
+void Apply(const Eigen::Isometry2d& t, core::Pose2* pose) {
+  const Eigen::Vector2d p = t * pose->head<2>();
+  const double angle = std::atan2(t.linear()(1, 0), t.linear()(0, 0));
+  *pose = core::Pose2(p.x(), p.y(), std::remainder(pose->z() + angle, 2 * M_PI));
+}
+
+}  // namespace
+
+int AlignRunFrames(const JobData& data, int32_t component, core::Problem2d* sub) {
+  // The runs of the component and their pose ranges in `sub`.
+  std::vector<std::pair<int32_t, int32_t>> ranges;  // first, count
+  int32_t next = 0;
+  for (const RunInfo& run : data.runs) {
+    if (run.component != component) continue;
+    ranges.emplace_back(next, run.num_poses);
+    next += run.num_poses;
+  }
+  if (next != sub->num_poses()) return 0;
+  std::vector<int32_t> run_of_pose(static_cast<size_t>(sub->num_poses()));
+  for (size_t r = 0; r < ranges.size(); ++r)
+    for (int32_t i = 0; i < ranges[r].second; ++i)
+      run_of_pose[static_cast<size_t>(ranges[r].first + i)] = static_cast<int32_t>(r);
+  // First observation of each feature (its index) and the run that made it.
+  std::vector<int64_t> first(static_cast<size_t>(sub->num_features()), -1);
+  for (size_t k = 0; k < sub->observations.size(); ++k) {
+    int64_t& f = first[static_cast<size_t>(sub->observations[k].feature)];
+    if (f < 0) f = static_cast<int64_t>(k);
+  }
+  auto first_run = [&](int32_t feature) {
+    const int64_t k = first[static_cast<size_t>(feature)];
+    return k < 0 ? -1 : run_of_pose[static_cast<size_t>(sub->observations[static_cast<size_t>(k)].pose)];
+  };
+  int moved = 0;
+  for (size_t r = 0; r < ranges.size(); ++r) {
+    const auto run = static_cast<int32_t>(r);
+    std::vector<core::Point2> own, reference;
+    for (const core::GpsConstraint& gps : sub->gps) {
+      if (run_of_pose[static_cast<size_t>(gps.pose)] != run) continue;
+      own.push_back(sub->poses[static_cast<size_t>(gps.pose)].head<2>());
+      reference.push_back(gps.z);
+    }
+    if (own.size() < 2) {
+      own.clear();
+      reference.clear();
+      if (r == 0) continue;  // the first run's frame is the component's
+      std::vector<uint8_t> used(static_cast<size_t>(sub->num_features()), 0);
+      for (const core::Observation& o : sub->observations) {
+        const auto f = static_cast<size_t>(o.feature);
+        if (run_of_pose[static_cast<size_t>(o.pose)] != run || used[f]) continue;
+        const int32_t seen_first = first_run(o.feature);
+        if (seen_first < 0 || seen_first >= run) continue;
+        used[f] = 1;
+        own.push_back(FirstSight(sub->poses[static_cast<size_t>(o.pose)], o));
+        reference.push_back(sub->features[f]);
+      }
+      if (own.size() < 2) continue;
+    }
+    const Eigen::Isometry2d t = AlignRigid(own, reference);
+    for (int32_t i = ranges[r].first; i < ranges[r].first + ranges[r].second; ++i)
+      Apply(t, &sub->poses[static_cast<size_t>(i)]);
+    for (int32_t f = 0; f < sub->num_features(); ++f)
+      if (first_run(f) == run) sub->features[static_cast<size_t>(f)] = t * sub->features[static_cast<size_t>(f)];
+    ++moved;
+  }
+  return moved;
 }
 
 void RemoveGps(JobData* data) {

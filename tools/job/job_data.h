@@ -72,6 +72,17 @@ core::Problem2d ExtractComponent(const JobData& data, int32_t component,
                                  std::vector<int32_t>* pose_map,
                                  std::vector<int32_t>* feature_map);
 
+// Brings every run of component `c` into one frame before the solve: each
+// run's guesses are in its own frame. `sub` is ExtractComponent's result after
+// core::InitializeProblem (features placed from their first sight). Runs are
+// visited in order; a run with >= 2 GPS fixes is moved onto its fixes, else a
+// later run with >= 2 landmarks first seen by earlier runs is moved onto
+// those: the rigid T minimizing sum |T p_own - p_ref|^2 (Umeyama), with p_own
+// the landmark's first-sight position from this run's own poses. T is applied
+// to the run's poses and to the landmarks it saw first. Returns the number of
+// runs moved.
+int AlignRunFrames(const JobData& data, int32_t component, core::Problem2d* sub);
+
 // Copies the sub-problem's pose and feature values back into `problem`.
 void ScatterComponent(const core::Problem2d& sub, const std::vector<int32_t>& pose_map,
                       const std::vector<int32_t>& feature_map, core::Problem2d* problem);

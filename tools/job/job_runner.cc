@@ -184,6 +184,7 @@ Status InitializeComponents(const JobSpec& spec, const core::SolverOptions& base
     std::vector<int32_t> pose_map, feature_map;
     core::Problem2d sub = ExtractComponent(*data, c, &pose_map, &feature_map);
     GS_RETURN_IF_ERROR(core::InitializeProblem(&sub));
+    AlignRunFrames(*data, c, &sub);
     partition::ProgressiveInitializationOptions progressive;
     progressive.enabled = spec.solver.initialization == "progressive";
     core::SolverOptions options = base;

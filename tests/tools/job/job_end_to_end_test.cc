@@ -167,6 +167,101 @@ TEST_F(JobEndToEnd, MultiRunJobWritesOutputsThatMatchGroundTruth) {
   EXPECT_EQ(ReadFile(out / "trajectories/campus_1.tum"), tum_before);
 }
 
+// Run `run` of a simulated campus as a problem of its own, its guesses moved
+// by `frame` (its own frame: where its odometry starts is unknown).
+core::Problem2d SplitRun(const SimulatedCampus& campus, int run, const Eigen::Isometry2d& frame) {
+  const core::Problem2d& all = campus.problem;
+  core::Problem2d part;
+  std::vector<int32_t> index(static_cast<size_t>(all.num_poses()), -1);
+  const double angle = std::atan2(frame.linear()(1, 0), frame.linear()(0, 0));
+  for (int32_t i = 0; i < all.num_poses(); ++i) {
+    if (campus.run_of_pose[static_cast<size_t>(i)] != run) continue;
+    const core::Pose2& p = all.poses[static_cast<size_t>(i)];
+    const Eigen::Vector2d q = frame * p.head<2>();
+    index[static_cast<size_t>(i)] =
+        part.AddPose(all.pose_ids[static_cast<size_t>(i)], core::Pose2(q.x(), q.y(), p.z() + angle),
+                     all.pose_initialized[static_cast<size_t>(i)] != 0, 0,
+                     all.pose_stamps[static_cast<size_t>(i)]);
+  }
+  part.pose_fixed[0] = 1;
+  for (int32_t f = 0; f < all.num_features(); ++f)
+    part.AddFeature(all.feature_ids[static_cast<size_t>(f)], frame * all.features[static_cast<size_t>(f)],
+                    false);
+  for (core::VelocityMotionConstraint m : all.motions) {
+    if (index[static_cast<size_t>(m.from)] < 0) continue;
+    m.from = index[static_cast<size_t>(m.from)];
+    m.to = index[static_cast<size_t>(m.to)];
+    part.motions.push_back(m);
+  }
+  for (core::Observation o : all.observations) {
+    if (index[static_cast<size_t>(o.pose)] < 0) continue;
+    o.pose = index[static_cast<size_t>(o.pose)];
+    part.observations.push_back(o);
+  }
+  return part;
+}
+
+TEST_F(JobEndToEnd, RunsInTheirOwnFramesAreTiedByTheLandmarksTheyShare) {
+  // Two drives through one campus, saved as two native logs; the second one's
+  // odometry starts in a frame rotated by 100 degrees and 300 m away.
+  CampusSimulatorOptions sim;
+  sim.poses = 1000;
+  sim.runs = 2;
+  sim.seed = 21;
+  StatusOr<SimulatedCampus> campus = SimulateCampus(sim);
+  ASSERT_TRUE(campus.ok());
+  Eigen::Isometry2d far = Eigen::Isometry2d::Identity();
+  far.rotate(100.0 * M_PI / 180.0);
+  far.pretranslate(Eigen::Vector2d(300, -200));
+  ASSERT_TRUE(storage::WriteNativeLog(SplitRun(*campus, 0, Eigen::Isometry2d::Identity()),
+                                      (dir_ / "a.graphslam").string()).ok());
+  ASSERT_TRUE(storage::WriteNativeLog(SplitRun(*campus, 1, far), (dir_ / "b.graphslam").string()).ok());
+  // The same second drive, its odometry started in the true frame.
+  ASSERT_TRUE(storage::WriteNativeLog(SplitRun(*campus, 1, Eigen::Isometry2d::Identity()),
+                                      (dir_ / "b_true.graphslam").string()).ok());
+  Status status = Run(
+      "output: out\n"
+      "runs:\n"
+      "  - {name: a, format: native, path: a.graphslam}\n"
+      "  - {name: b, format: native, path: b.graphslam}\n");
+  ASSERT_TRUE(status.ok()) << status.ToString();
+  status = Run(
+      "output: reference\n"
+      "runs:\n"
+      "  - {name: a, format: native, path: a.graphslam}\n"
+      "  - {name: b, format: native, path: b_true.graphslam}\n",
+      "reference.yaml");
+  ASSERT_TRUE(status.ok()) << status.ToString();
+  // Both runs end in run a's frame, whatever frame b's odometry started in:
+  // the result equals that of the job whose runs started in one frame.
+  std::vector<StampedPose2> estimated, truth;
+  for (const char* run : {"a", "b"}) {
+    StatusOr<std::vector<StampedPose2>> moved =
+        ReadTum((dir_ / "out/trajectories" / (std::string(run) + ".tum")).string());
+    StatusOr<std::vector<StampedPose2>> reference =
+        ReadTum((dir_ / "reference/trajectories" / (std::string(run) + ".tum")).string());
+    ASSERT_TRUE(moved.ok() && reference.ok());
+    ASSERT_EQ(moved->size(), reference->size());
+    double sum = 0;
+    for (size_t i = 0; i < moved->size(); ++i)
+      sum += ((*moved)[i].pose.head<2>() - (*reference)[i].pose.head<2>()).squaredNorm();
+    EXPECT_LT(std::sqrt(sum / static_cast<double>(moved->size())), 0.05) << run;
+    estimated.insert(estimated.end(), moved->begin(), moved->end());
+  }
+  for (int run = 0; run < 2; ++run)
+    for (size_t i = 0; i < campus->true_poses.size(); ++i)
+      if (campus->run_of_pose[i] == run)
+        truth.push_back({campus->problem.pose_stamps[i], campus->true_poses[i]});
+  // And against the truth, one rigid alignment for both runs together.
+  StatusOr<TrajectoryErrors> errors = CompareTrajectories(estimated, truth);
+  ASSERT_TRUE(errors.ok()) << errors.status().ToString();
+  EXPECT_EQ(errors->matched, static_cast<int64_t>(truth.size()));
+  EXPECT_LT(errors->position_rmse, 0.5);
+  const nlohmann::json report = nlohmann::json::parse(ReadFile(dir_ / "out/report.json"));
+  EXPECT_EQ(report["components"].size(), 1u);
+  EXPECT_TRUE(report["runs"][1]["tied"].get<bool>());
+}
+
 TEST_F(JobEndToEnd, GpsFixesInLatitudeLongitudeTieARunToALocalEnuFrame) {
   // A simulated drive saved as a native log (time-stamped poses, no GPS) and
   // GPS fixes of its true positions as latitude / longitude around
