@@ -1,5 +1,5 @@
 # 3-D solve end to end: reference optima and ground truth (real datasets).
 graphslam_test(tools/reference_optima_3d)
-set_tests_properties(reference_optima_3d PROPERTIES TIMEOUT 60)
+set_tests_properties(reference_optima_3d PROPERTIES TIMEOUT 600)
 graphslam_test(tools/reference_optima_torus3d)
-set_tests_properties(reference_optima_torus3d PROPERTIES TIMEOUT 60)
+set_tests_properties(reference_optima_torus3d PROPERTIES TIMEOUT 600)
