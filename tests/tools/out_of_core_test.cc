@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "tests/testing/subprocess.h"
+#include "tests/tools/out_of_core_fixture.h"
 
 namespace {
 
@@ -27,41 +28,9 @@ namespace fs = std::filesystem;
 using graphslam::testing::GraphslamBinary;
 using graphslam::testing::RunGraphslam;
 
-nlohmann::json ReadJson(const fs::path& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
+using graphslam::testing::ReadJson;
 
-class OutOfCoreTest : public ::testing::Test {
- protected:
-  void SetUp() override {
-    ASSERT_TRUE(fs::exists(GraphslamBinary())) << GraphslamBinary();
-    const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           ("graphslam_ooc_" + std::string(info->name()) + "_" + std::to_string(getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  std::string Simulate(int poses, int seed) {
-    const fs::path out = dir_ / ("sim" + std::to_string(seed));
-    EXPECT_EQ(RunGraphslam({"simulate", "-o", out.string(), "--poses", std::to_string(poses),
-                            "--runs", "2", "--gps-every", "25", "--seed", std::to_string(seed),
-                            "-q"}),
-              0);
-    return (out / "log.graphslam").string();
-  }
-
-  static void ExpectSameChi2(const nlohmann::json& a, const nlohmann::json& b) {
-    const double ca = a["final_chi2"].get<double>(), cb = b["final_chi2"].get<double>();
-    EXPECT_LE(std::abs(ca - cb), 1e-9 * std::abs(ca)) << ca << " vs " << cb;
-    EXPECT_EQ(a["observations"], b["observations"]);
-    EXPECT_EQ(a["residual_dimension"], b["residual_dimension"]);
-  }
-
-  fs::path dir_;
-};
+class OutOfCoreTest : public graphslam::testing::OutOfCoreFixture {};
 
 TEST_F(OutOfCoreTest, WorkdirSolveEqualsInMemorySolve) {
   const std::string input = Simulate(1000, 3);
