@@ -30,12 +30,16 @@ inline pid_t SpawnGraphslam(const std::vector<std::string>& args) {
   return pid;
 }
 
-// Runs `graphslam args...` to the end; its exit code, -1 if it was killed.
-inline int RunGraphslam(const std::vector<std::string>& args) {
-  const pid_t pid = SpawnGraphslam(args);
+// Waits for a child to end; its exit code, -1 if it was killed.
+inline int WaitForExit(pid_t pid) {
   int status = 0;
   waitpid(pid, &status, 0);
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// Runs `graphslam args...` to the end; its exit code, -1 if it was killed.
+inline int RunGraphslam(const std::vector<std::string>& args) {
+  return WaitForExit(SpawnGraphslam(args));
 }
 
 }  // namespace graphslam::testing

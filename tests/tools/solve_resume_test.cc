@@ -20,32 +20,15 @@
 #include <thread>
 #include <vector>
 
+#include "tests/testing/subprocess.h"
+
 namespace {
 
 namespace fs = std::filesystem;
 
-const std::string kGraphslam = std::string(GRAPHSLAM_BINARY_DIR) + "/bin/graphslam";
-
-// Starts `kGraphslam args...` and returns its pid.
-pid_t Spawn(const std::vector<std::string>& args) {
-  std::vector<char*> argv;
-  argv.push_back(const_cast<char*>(kGraphslam.c_str()));
-  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  const pid_t pid = fork();
-  if (pid == 0) {
-    execv(kGraphslam.c_str(), argv.data());
-    _exit(127);
-  }
-  return pid;
-}
-
-int RunGraphslam(const std::vector<std::string>& args) {
-  const pid_t pid = Spawn(args);
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+const std::string kGraphslam = graphslam::testing::GraphslamBinary();
+const auto Spawn = &graphslam::testing::SpawnGraphslam;
+using graphslam::testing::RunGraphslam;
 
 std::string ReadFile(const fs::path& path) {
   std::ifstream in(path);
