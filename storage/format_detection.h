@@ -6,8 +6,9 @@
 //   first record VERTEX_* / EDGE_* / FIX / DATA_*     -> kG2o
 //   first record ODOMETRY / EDGE2 / EDGE3 / LANDMARK / POINT3 -> kIsam
 // ("first record": first line that is neither blank nor a '#' comment; only
-// that line is read.) 3-D g2o/iSAM files are detected as g2o/iSAM; their
-// readers then answer NotSupported with file:line.
+// that line is read.) 3-D g2o/iSAM files are detected as g2o/iSAM;
+// IsThreeDimensional then sends them to the 3-D reader and solver
+// (tools/solve_3d_command.h).
 //
 // THREAD SAFETY: reentrant. ALLOCATION: one line.
 #pragma once
