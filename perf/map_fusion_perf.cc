@@ -1,5 +1,5 @@
 // Points fused per second: OctoMap's serial OcTree::insertPointCloud against
-// our tiled parallel fusion (map/tiled_fusion.h, TBB) on the same scans in
+// our tiled parallel fusion (partition/tiled_fusion.h, TBB) on the same scans in
 // one run, checking that both maps have the same occupied cells.
 //
 //   map_fusion_perf [--3dtk DIR] [--campus COLUMNS ROWS SPACING] [--resolution R]
@@ -18,10 +18,10 @@
 #include <tuple>
 #include <vector>
 
-#include "map/campus3d.h"
-#include "map/scan_store.h"
-#include "map/threedtk_reader.h"
-#include "map/tiled_fusion.h"
+#include "tools/campus3d.h"
+#include "storage/scan_store.h"
+#include "storage/threedtk_reader.h"
+#include "partition/tiled_fusion.h"
 
 namespace {
 

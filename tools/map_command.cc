@@ -5,7 +5,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "map/threedtk_reader.h"
+#include "storage/threedtk_reader.h"
 #include "tools/exit_codes.h"
 
 namespace graphslam::tools {

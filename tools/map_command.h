@@ -1,6 +1,6 @@
 // `graphslam map INPUT --bt OUT.bt --pcd OUT.pcd [--resolution R] ...`: fuses
 // every scan of INPUT, moved by its pose, into an OctoMap and a registered
-// cloud (map/map_builder.h, docs/maps.md).
+// cloud (tools/map_builder.h, docs/maps.md).
 //
 // INPUT is a folder holding scans/SCANS.json (a chunk store or a
 // `simulate --3d --scans` output; docs/formats/scan_chunk.md) or a 3DTK uos
@@ -19,8 +19,8 @@
 
 #include "core/se3.h"
 #include "core/status.h"
-#include "map/map_builder.h"
-#include "map/scan_store.h"
+#include "tools/map_builder.h"
+#include "storage/scan_store.h"
 
 namespace graphslam::tools {
 

@@ -8,7 +8,7 @@
 #include <sstream>
 #include <system_error>
 
-#include "map/scan_store.h"
+#include "storage/scan_store.h"
 #include "storage/atomic_file.h"
 #include "storage/env.h"
 #include "tools/exit_codes.h"
@@ -17,7 +17,7 @@ namespace graphslam::tools {
 
 void AddSimulate3dOptions(CLI::App* simulate, Simulate3dOptions* options) {
   map::Campus3dOptions& c = options->campus;
-  simulate->add_flag("--3d", options->enabled, "simulate the 3-D campus (map/campus3d.h) instead");
+  simulate->add_flag("--3d", options->enabled, "simulate the 3-D campus (tools/campus3d.h) instead");
   simulate->add_flag("--scans", options->scans, "with --3d: write the laser scans (DIR/scans/)");
   simulate->add_option("--columns", c.columns, "--3d: blocks along x")->capture_default_str();
   simulate->add_option("--rows", c.rows, "--3d: blocks along y")->capture_default_str();

@@ -17,8 +17,8 @@
 #include <set>
 #include <tuple>
 
-#include "map/campus3d.h"
-#include "map/pcd_io.h"
+#include "tools/campus3d.h"
+#include "storage/pcd_io.h"
 #include "tests/testing/datasets.h"
 #include "tools/exit_codes.h"
 #include "tools/simulate_command.h"

@@ -1,4 +1,4 @@
-#include "map/scan_store.h"
+#include "storage/scan_store.h"
 
 #include <nlohmann/json.hpp>
 
@@ -11,7 +11,7 @@
 #include <sstream>
 #include <system_error>
 
-#include "map/threedtk_reader.h"
+#include "storage/threedtk_reader.h"
 #include "storage/atomic_file.h"
 #include "storage/crc32c.h"
 #include "storage/env.h"

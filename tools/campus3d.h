@@ -36,7 +36,7 @@
 
 #include "core/se3.h"
 #include "core/status.h"
-#include "map/scan.h"
+#include "core/scan.h"
 
 namespace graphslam::map {
 

@@ -1,5 +1,5 @@
 // Scan chunks on disk: round trip, chunking, and detection of damage.
-#include "map/scan_store.h"
+#include "storage/scan_store.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "map/map_builder.h"
+#include "tools/map_builder.h"
 
 #include <nlohmann/json.hpp>
 
@@ -8,7 +8,7 @@
 #include <sstream>
 #include <system_error>
 
-#include "map/pcd_io.h"
+#include "storage/pcd_io.h"
 #include "storage/atomic_file.h"
 #include "storage/env.h"
 

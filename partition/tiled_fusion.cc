@@ -1,4 +1,4 @@
-#include "map/tiled_fusion.h"
+#include "partition/tiled_fusion.h"
 
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>

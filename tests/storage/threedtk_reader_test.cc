@@ -1,5 +1,5 @@
 // The 3DTK uos reader on the dataset's real scans: counts, units, frames.
-#include "map/threedtk_reader.h"
+#include "storage/threedtk_reader.h"
 
 #include <gtest/gtest.h>
 

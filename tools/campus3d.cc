@@ -1,4 +1,4 @@
-#include "map/campus3d.h"
+#include "tools/campus3d.h"
 
 #include <algorithm>
 #include <cmath>

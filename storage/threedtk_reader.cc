@@ -1,4 +1,4 @@
-#include "map/threedtk_reader.h"
+#include "storage/threedtk_reader.h"
 
 #include <algorithm>
 #include <charconv>

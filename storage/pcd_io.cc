@@ -1,4 +1,4 @@
-#include "map/pcd_io.h"
+#include "storage/pcd_io.h"
 
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/conversions.h>

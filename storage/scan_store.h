@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "core/status.h"
-#include "map/scan.h"
+#include "core/scan.h"
 
 namespace graphslam::map {
 
@@ -94,7 +94,7 @@ class DiskScanStore : public ScanSource {
   int64_t total_scans_ = 0, total_points_ = 0;
 };
 
-// A 3DTK uos folder (map/threedtk_reader.h): scan i of List3dtkScans is chunk
+// A 3DTK uos folder (storage/threedtk_reader.h): scan i of List3dtkScans is chunk
 // i and belongs to pose i.
 class ThreeDtkScanSource : public ScanSource {
  public:

@@ -1,6 +1,6 @@
 // TiledFusion must give exactly OctoMap's serial insertPointCloud: the same
 // leaves (key, depth) with the same log-odds, hence the same occupied set.
-#include "map/tiled_fusion.h"
+#include "partition/tiled_fusion.h"
 
 #include <gtest/gtest.h>
 
@@ -9,8 +9,8 @@
 #include <random>
 #include <tuple>
 
-#include "map/scan.h"
-#include "map/threedtk_reader.h"
+#include "core/scan.h"
+#include "storage/threedtk_reader.h"
 #include "tests/testing/datasets.h"
 
 namespace graphslam::map {

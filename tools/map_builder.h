@@ -1,6 +1,6 @@
 // BuildMap: every scan, moved by its (optimized) pose, fused into one OctoMap
-// (ray casting from the sensor origin; map/tiled_fusion.h) and into a
-// voxel-downsampled registered cloud (map/pcd_io.h).
+// (ray casting from the sensor origin; partition/tiled_fusion.h) and into a
+// voxel-downsampled registered cloud (storage/pcd_io.h).
 //
 //   sensor pose of a scan = poses[scan.pose]   when `poses` is given (the
 //                                              solved trajectory, one row per
@@ -29,8 +29,8 @@
 
 #include "core/se3.h"
 #include "core/status.h"
-#include "map/scan_store.h"
-#include "map/tiled_fusion.h"
+#include "storage/scan_store.h"
+#include "partition/tiled_fusion.h"
 
 namespace graphslam::map {
 

@@ -1,6 +1,6 @@
 // The registered cloud written as binary_compressed .pcd and read back with
 // PCL's own reader (pcl::io::loadPCDFile into pcl::PointXYZI).
-#include "map/pcd_io.h"
+#include "storage/pcd_io.h"
 
 #include <gtest/gtest.h>
 #include <pcl/io/pcd_io.h>

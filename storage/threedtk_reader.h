@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "core/status.h"
-#include "map/scan.h"
+#include "core/scan.h"
 
 namespace graphslam::map {
 

@@ -1,0 +1,8 @@
+# Scans on disk, 3DTK scan folders and PCD files (issue 5, docs/maps.md).
+# PCL is private and only pcd_io.cc includes it.
+target_sources(graphslam_storage PRIVATE
+  pcd_io.cc
+  scan_store.cc
+  threedtk_reader.cc)
+target_include_directories(graphslam_storage SYSTEM PRIVATE ${PCL_INCLUDE_DIRS})
+target_link_libraries(graphslam_storage PRIVATE ${PCL_LIBRARIES})
