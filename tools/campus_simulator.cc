@@ -299,35 +299,9 @@ StatusOr<SimulatedCampus> SimulateCampus(const CampusSimulatorOptions& options) 
       campus.run_of_pose.push_back(run);
       if (k + 1 == run_poses) break;
 
-      // Pure pursuit on the true pose: project onto the path (Newton steps
-      // along the tangent, never backwards), aim at the point `lookahead` on.
-      path.ExtendTo(s + options.lookahead + 2.0 * options.block_size);
-      for (int iteration = 0; iteration < 3; ++iteration) {
-        const double step = (truth.head<2>() - path.Position(s)).dot(path.Tangent(s));
-        s = std::max(s, s + std::clamp(step, -options.block_size, options.block_size));
-      }
-      const core::Point2 target = path.Position(s + options.lookahead);
-      const core::Point2 local =
-          core::Rotation2(truth.z()).transpose() * (target - truth.head<2>());
-      const double curvature = 2.0 * local.y() / std::max(local.squaredNorm(), 1e-12);
-      core::VelocityControl control;
-      control.v = options.speed;
-      control.omega = std::clamp(options.speed * curvature, -options.max_omega, options.max_omega);
-      control.dt = options.dt;
-
-      // Execute the control with noise (Probabilistic Robotics Table 5.3).
-      const double v2 = control.v * control.v;
-      const double w2 = control.omega * control.omega;
-      const double* a = options.noise.alpha;
-      core::VelocityControl executed = control;
-      executed.v += random.Normal(std::sqrt(a[0] * v2 + a[1] * w2));
-      executed.omega += random.Normal(std::sqrt(a[2] * v2 + a[3] * w2));
-      const double gamma = random.Normal(std::sqrt(a[4] * v2 + a[5] * w2));
-      core::Pose2 next = core::PredictVelocityMotion(truth, executed);
-      next.x() += random.Normal(options.noise.min_sigma_xy);
-      next.y() += random.Normal(options.noise.min_sigma_xy);
-      next.z() = core::WrapAngle(next.z() + gamma * options.dt +
-                                 random.Normal(options.noise.min_sigma_theta));
+      // Pure pursuit on the true pose, executed with noise (campus_world.h).
+      const core::VelocityControl control = internal::PursuitControl(options, truth, &path, &s);
+      const core::Pose2 next = internal::ExecuteWithNoise(options, truth, control, &random);
 
       core::VelocityMotionConstraint motion;
       motion.from = index;

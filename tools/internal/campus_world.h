@@ -228,5 +228,49 @@ class StreetPath {
   int direction_;       // heading on the way to it
 };
 
+// Pure pursuit on the true pose: project it onto `path` (Newton steps along
+// the tangent, never backwards; *s is the arc length reached so far) and steer
+// at constant speed towards the point `lookahead` further on, with the
+// curvature 2 y / |local|^2 of the arc through that point, clamped to
+// max_omega.
+inline core::VelocityControl PursuitControl(const CampusSimulatorOptions& options,
+                                            const core::Pose2& truth, StreetPath* path,
+                                            double* s) {
+  path->ExtendTo(*s + options.lookahead + 2.0 * options.block_size);
+  for (int iteration = 0; iteration < 3; ++iteration) {
+    const double step = (truth.head<2>() - path->Position(*s)).dot(path->Tangent(*s));
+    *s = std::max(*s, *s + std::clamp(step, -options.block_size, options.block_size));
+  }
+  const core::Point2 target = path->Position(*s + options.lookahead);
+  const core::Point2 local = core::Rotation2(truth.z()).transpose() * (target - truth.head<2>());
+  const double curvature = 2.0 * local.y() / std::max(local.squaredNorm(), 1e-12);
+  core::VelocityControl control;
+  control.v = options.speed;
+  control.omega = std::clamp(options.speed * curvature, -options.max_omega, options.max_omega);
+  control.dt = options.dt;
+  return control;
+}
+
+// The next true pose: `control` executed with noise (Probabilistic Robotics
+// Table 5.3: noisy v and omega, a final rotation gamma) plus the small
+// isotropic floor min_sigma_xy / min_sigma_theta. The draws are made in a
+// fixed order, so a seed gives the same trajectory in both simulators.
+inline core::Pose2 ExecuteWithNoise(const CampusSimulatorOptions& options,
+                                    const core::Pose2& truth,
+                                    const core::VelocityControl& control, Random* random) {
+  const double v2 = control.v * control.v;
+  const double w2 = control.omega * control.omega;
+  const double* a = options.noise.alpha;
+  core::VelocityControl executed = control;
+  executed.v += random->Normal(std::sqrt(a[0] * v2 + a[1] * w2));
+  executed.omega += random->Normal(std::sqrt(a[2] * v2 + a[3] * w2));
+  const double gamma = random->Normal(std::sqrt(a[4] * v2 + a[5] * w2));
+  core::Pose2 next = core::PredictVelocityMotion(truth, executed);
+  next.x() += random->Normal(options.noise.min_sigma_xy);
+  next.y() += random->Normal(options.noise.min_sigma_xy);
+  next.z() = core::WrapAngle(next.z() + gamma * options.dt +
+                             random->Normal(options.noise.min_sigma_theta));
+  return next;
+}
 
 }  // namespace graphslam::tools::internal
