@@ -97,7 +97,7 @@ Status LinearizeAtSolution(const core::SolverOptions& solver_options,
   system.gradient.setZero(n);
   system.hessian_diagonal.setZero(n);
   core::LinearizePoseFactors(problem, problem.poses, layout, &system.matrix, &system.gradient,
-                             &system.hessian_diagonal);
+                             &system.hessian_diagonal, solver_options.pose_kernels);
   GS_RETURN_IF_ERROR(core::ReducePass(context, problem.poses, problem.features, 0.0, &system));
   GS_RETURN_IF_ERROR(marginals->Factorize(system.matrix));
 

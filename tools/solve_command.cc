@@ -196,7 +196,9 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
                     "features with more observations stay unknowns instead of being eliminated")
       ->capture_default_str();
   solve->add_option("--robust-kernel", options->robust_kernel,
-                    "kernel on observations: none, huber[:c], cauchy[:c]")
+                    "[TYPE=]K, K one of none, huber[:c], cauchy[:c]; TYPE one of observation "
+                    "(the default), odometry, motion, gps; repeatable")
+      ->join(' ')
       ->capture_default_str();
   solve->add_option("--initialization", options->initialization,
                     "initial guess: progressive (solve growing prefixes of the trajectory) or "
@@ -262,9 +264,12 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                  preconditioner.status().ToString().c_str());
     return kExitUsage;
   }
-  StatusOr<core::RobustKernel> kernel = core::ParseRobustKernel(options.robust_kernel);
-  if (!kernel.ok()) {
-    std::fprintf(stderr, "graphslam solve: --robust-kernel: %s\n", kernel.status().ToString().c_str());
+  core::RobustKernel observation_kernel;
+  core::PoseFactorKernels pose_kernels;
+  if (Status kernels = core::ApplyRobustKernelOption(options.robust_kernel, &observation_kernel,
+                                                     &pose_kernels);
+      !kernels.ok()) {
+    std::fprintf(stderr, "graphslam solve: --robust-kernel: %s\n", kernels.ToString().c_str());
     return kExitUsage;
   }
 
@@ -383,7 +388,8 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   solver_options.preconditioner = *preconditioner;
   solver_options.max_iterations = options.max_iterations;
   solver_options.max_eliminated_observations = options.max_eliminated_observations;
-  solver_options.observation_kernel = *kernel;
+  solver_options.observation_kernel = observation_kernel;
+  solver_options.pose_kernels = pose_kernels;
   solver_options.function_tolerance = options.function_tolerance;
   solver_options.initial_trust_region_radius = options.initial_trust_region_radius;
   solver_options.progress = display.AsCallback();
