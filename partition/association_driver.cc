@@ -9,6 +9,10 @@
 #include <set>
 #include <unordered_map>
 
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
 #include "core/chunk_passes.h"
 #include "core/correspondence_test.h"
 #include "core/feature_linearizer.h"
@@ -149,52 +153,54 @@ struct Candidate {
   core::CorrespondenceResult result;
 };
 
-// Gamma of feature `state` at `block`, or nullptr.
-const Eigen::Matrix<double, 3, 2>* GainAt(const core::FeatureGain& gain, int block) {
-  const auto it = std::lower_bound(gain.blocks.begin(), gain.blocks.end(), block);
-  if (it == gain.blocks.end() || *it != block) return nullptr;
-  return &gain.gains[it - gain.blocks.begin()];
-}
-
-// Joint covariances of every candidate: own noise plus sum Gamma^T Sigma Gamma,
-// streaming the needed covariance column blocks once.
-Status JointCovariances(const core::PoseMarginals& marginals, int batch,
+// Joint covariances of every candidate: own noise plus Gamma_j^T Sigma Gamma_k.
+// Each feature's gains are whitened once, y_j = L^{-1} P Gamma_j (sparse: the
+// elimination-tree reach of its poses), so Gamma_j^T Sigma Gamma_k = y_j^T y_k
+// is a sparse dot product per pair (core/pose_marginals.h). Features and
+// pairs are processed in parallel (TBB), each thread with its own workspace.
+Status JointCovariances(const core::PoseMarginals& marginals, int /*batch*/,
                         const std::vector<FeatureState>& states,
                         std::vector<Candidate>* candidates) {
-  const int b = core::UnknownLayout::kPoseDimension;
-  const int num_blocks = marginals.num_rows() / b;
-  std::vector<std::vector<int32_t>> pairs_of_block(num_blocks);
-  for (size_t c = 0; c < candidates->size(); ++c) {
-    Candidate& candidate = (*candidates)[c];
-    candidate.joint.setZero();
-    candidate.joint.topLeftCorner<2, 2>() = states[candidate.j].gain.own_covariance;
-    candidate.joint.bottomRightCorner<2, 2>() = states[candidate.k].gain.own_covariance;
-    for (int block : states[candidate.j].gain.blocks) pairs_of_block[block].push_back(c);
-    for (int block : states[candidate.k].gain.blocks)
-      if (GainAt(states[candidate.j].gain, block) == nullptr) pairs_of_block[block].push_back(c);
+  std::vector<int32_t> slot(states.size(), -1);
+  std::vector<int32_t> features;
+  for (const Candidate& candidate : *candidates) {
+    for (int32_t f : {candidate.j, candidate.k}) {
+      if (slot[f] < 0) {
+        slot[f] = static_cast<int32_t>(features.size());
+        features.push_back(f);
+      }
+    }
   }
-  std::vector<int> needed;
-  for (int block = 0; block < num_blocks; ++block)
-    if (!pairs_of_block[block].empty()) needed.push_back(block);
-  return marginals.ForEachColumnBlock(
-      needed, batch, [&](int p, const Eigen::Ref<const Eigen::MatrixXd>& columns) {
-        for (int32_t c : pairs_of_block[p]) {
-          Candidate& candidate = (*candidates)[c];
-          const core::FeatureGain& gj = states[candidate.j].gain;
-          const core::FeatureGain& gk = states[candidate.k].gain;
-          Eigen::Matrix<double, 3, 4> gamma_p = Eigen::Matrix<double, 3, 4>::Zero();
-          if (const auto* g = GainAt(gj, p)) gamma_p.leftCols<2>() = *g;
-          if (const auto* g = GainAt(gk, p)) gamma_p.rightCols<2>() = *g;
-          // R = sum_q Gamma_q^T Sigma_qp (4 x 3).
-          Eigen::Matrix<double, 4, 3> r = Eigen::Matrix<double, 4, 3>::Zero();
-          for (size_t i = 0; i < gj.blocks.size(); ++i)
-            r.topRows<2>() += gj.gains[i].transpose() * columns.block(gj.blocks[i] * b, 0, b, b);
-          for (size_t i = 0; i < gk.blocks.size(); ++i)
-            r.bottomRows<2>() +=
-                gk.gains[i].transpose() * columns.block(gk.blocks[i] * b, 0, b, b);
-          candidate.joint += r * gamma_p;
-        }
-      });
+  std::vector<core::PoseMarginals::WhitenedColumns> whitened(features.size());
+  std::vector<Eigen::Matrix2d> own(features.size());
+  tbb::enumerable_thread_specific<core::PoseMarginals::WhitenWorkspace> workspaces;
+  std::vector<Status> errors(features.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, features.size(), 64),
+                    [&](const tbb::blocked_range<size_t>& range) {
+                      core::PoseMarginals::WhitenWorkspace& workspace = workspaces.local();
+                      for (size_t i = range.begin(); i != range.end(); ++i) {
+                        const core::FeatureGain& gain = states[features[i]].gain;
+                        errors[i] = marginals.Whiten(gain.blocks, gain.gains, &whitened[i],
+                                                     &workspace);
+                        own[i] = gain.own_covariance +
+                                 core::PoseMarginals::Dot(whitened[i], whitened[i]);
+                      }
+                    });
+  for (const Status& error : errors) GS_RETURN_IF_ERROR(error);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates->size(), 256),
+                    [&](const tbb::blocked_range<size_t>& range) {
+                      for (size_t c = range.begin(); c != range.end(); ++c) {
+                        Candidate& candidate = (*candidates)[c];
+                        const int32_t a = slot[candidate.j], b = slot[candidate.k];
+                        const Eigen::Matrix2d cross =
+                            core::PoseMarginals::Dot(whitened[a], whitened[b]);
+                        candidate.joint.topLeftCorner<2, 2>() = own[a];
+                        candidate.joint.bottomRightCorner<2, 2>() = own[b];
+                        candidate.joint.topRightCorner<2, 2>() = cross;
+                        candidate.joint.bottomLeftCorner<2, 2>() = cross.transpose();
+                      }
+                    });
+  return Status::Ok();
 }
 
 bool SortedIntersect(const std::vector<int32_t>& a, const std::vector<int32_t>& b) {
