@@ -296,6 +296,8 @@ Status AssociationOptions::Validate() const {
     return Status::InvalidArgument("association: max_mahalanobis_squared must be > 0");
   if (max_rounds < 1) return Status::InvalidArgument("association: max_rounds must be >= 1");
   if (marginal_batch < 1) return Status::InvalidArgument("association: marginal_batch must be >= 1");
+  if (mutual_best_rounds < 0)
+    return Status::InvalidArgument("association: mutual_best_rounds must be >= 0");
   if (chunk_observations < 1)
     return Status::InvalidArgument("association: chunk_observations must be >= 1");
   return Status::Ok();
@@ -437,6 +439,8 @@ Status AssociateAndSolve(const AssociationOptions& options,
           core::SolveGraphSlam(solver_options, chunks, problem, &summary->final_solve));
       stats.solve_seconds += SecondsSince(solve_start);
       stats.chi2 = summary->final_solve.final_chi2;
+      ++stats.solves;
+      stats.solver_iterations += summary->final_solve.iterations;
       const std::vector<std::vector<int32_t>> members = observations_by_feature();
       int64_t undone = 0;
       // Newest merges first; at most one undo per feature per re-solve (its
@@ -563,6 +567,17 @@ Status AssociateAndSolve(const AssociationOptions& options,
     std::stable_sort(accepted.begin(), accepted.end(), [&](int32_t a, int32_t b) {
       return candidates[a].result.probability > candidates[b].result.probability;
     });
+    if (round <= options.mutual_best_rounds) {
+      // Keep a pair only if it is both features' most probable accepted pair.
+      std::vector<int32_t> best(problem->num_features(), -1);
+      for (int32_t c : accepted) {
+        if (best[candidates[c].j] < 0) best[candidates[c].j] = c;
+        if (best[candidates[c].k] < 0) best[candidates[c].k] = c;
+      }
+      std::erase_if(accepted, [&](int32_t c) {
+        return best[candidates[c].j] != c || best[candidates[c].k] != c;
+      });
+    }
 
     // Batch merge with union-find, clusters kept pose-exclusive.
     UnionFind sets(problem->num_features());
@@ -598,10 +613,12 @@ Status AssociateAndSolve(const AssociationOptions& options,
     if (stats.merges > 0) apply_unions(&sets, &states);
     stats.association_seconds += SecondsSince(test_start);
     GS_LOG(INFO, "association round %d: %lld features, %lld candidates, %lld accepted, "
-           "%lld merges, %lld undone, chi2 %.9g (solve %.2f s, marginals %.2f s, tests %.2f s)",
+           "%lld merges, %lld undone, chi2 %.9g (solve %.2f s in %lld solves / %lld iterations, "
+           "marginals %.2f s, tests %.2f s)",
            round, static_cast<long long>(stats.features), static_cast<long long>(stats.candidates),
            static_cast<long long>(stats.accepted), static_cast<long long>(stats.merges),
            static_cast<long long>(stats.undone), stats.chi2, stats.solve_seconds,
+           static_cast<long long>(stats.solves), static_cast<long long>(stats.solver_iterations),
            stats.marginal_seconds, stats.association_seconds);
     summary->rounds.push_back(stats);
     if (stats.merges == 0) {
