@@ -58,6 +58,54 @@ double ChiSquareQuantile(double dof, double z) {
   return dof * c * c * c;
 }
 
+// Gauss-Newton on one feature's position with the poses held, step halving
+// while the cost does not decrease: the cheap stand-in for a full re-solve
+// after an undo changed which observations the feature has.
+void RefitFeature(const core::Problem2d& problem, const std::vector<int32_t>& observations,
+                  core::Point2* feature) {
+  auto cost = [&](const core::Point2& m) {
+    double sum = 0.0;
+    for (int32_t o : observations) {
+      const core::Observation& obs = problem.observations[o];
+      sum += ObservationChi2(obs, problem.poses[obs.pose], m);
+    }
+    return sum;
+  };
+  double current = cost(*feature);
+  for (int iteration = 0; iteration < 10 && std::isfinite(current); ++iteration) {
+    Eigen::Matrix2d h = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d g = Eigen::Vector2d::Zero();
+    for (int32_t o : observations) {
+      const core::Observation& obs = problem.observations[o];
+      Eigen::Vector2d e;
+      Eigen::Matrix2d j;
+      if (obs.kind == core::ObservationKind::kRangeBearing) {
+        if (!core::EvaluateRangeBearing(problem.poses[obs.pose], *feature, obs.z, &e, nullptr, &j))
+          continue;
+      } else {
+        core::EvaluatePointObservation(problem.poses[obs.pose], *feature, obs.z, &e, nullptr, &j);
+      }
+      h += j.transpose() * obs.information * j;
+      g += j.transpose() * obs.information * e;
+    }
+    const Eigen::LLT<Eigen::Matrix2d> llt(h);
+    if (llt.info() != Eigen::Success) return;
+    const Eigen::Vector2d step = -llt.solve(g);
+    bool improved = false;
+    for (double t = 1.0; t > 1e-3; t *= 0.5) {
+      const core::Point2 candidate = *feature + t * step;
+      const double c = cost(candidate);
+      if (c < current) {
+        *feature = candidate;
+        improved = current - c > 1e-9 * current;
+        current = c;
+        break;
+      }
+    }
+    if (!improved) return;
+  }
+}
+
 struct UnionFind {
   std::vector<int32_t> parent;
   explicit UnionFind(int32_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
@@ -431,7 +479,10 @@ Status AssociateAndSolve(const AssociationOptions& options,
   for (int round = 1; round <= options.max_rounds; ++round) {
     AssociationRound stats;
     stats.round = round;
-    // Solve, then undo merges the solution contradicts, re-solving after undo.
+    // Solve, then undo merges the solution contradicts. Between undo passes
+    // only the features concerned are re-fitted (poses held, RefitFeature);
+    // the full re-solve comes once a pass undoes nothing, and the passes
+    // repeat until a full solve leaves nothing to undo.
     for (;;) {
       const Clock::time_point solve_start = Clock::now();
       InMemoryChunkSource chunks(*problem, chunking);
@@ -441,6 +492,8 @@ Status AssociateAndSolve(const AssociationOptions& options,
       stats.chi2 = summary->final_solve.final_chi2;
       ++stats.solves;
       stats.solver_iterations += summary->final_solve.iterations;
+      bool undone_since_solve = false;
+     for (;;) {
       const std::vector<std::vector<int32_t>> members = observations_by_feature();
       int64_t undone = 0;
       // Newest merges first; at most one undo per feature per re-solve (its
@@ -495,6 +548,15 @@ Status AssociateAndSolve(const AssociationOptions& options,
       stats.undone += undone;
       summary->undone += undone;
       if (undone == 0) break;
+      undone_since_solve = true;
+      // Re-fit the features that lost a side and the sides split off.
+      const std::vector<std::vector<int32_t>> after = observations_by_feature();
+      for (int32_t f = 0; f < problem->num_features(); ++f) {
+        if (f < static_cast<int32_t>(members.size()) && !touched[f]) continue;
+        RefitFeature(*problem, after[f], &problem->features[f]);
+      }
+     }
+      if (!undone_since_solve) break;
     }
     stats.features = problem->num_features();
 
