@@ -186,7 +186,7 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
   std::vector<Point2>& features = problem->features;
   double observations_chi2 = 0.0;
   GS_RETURN_IF_ERROR(ObservationsChi2(context, poses, features, &observations_chi2));
-  double chi2 = PoseFactorsChi2(*problem, poses) + observations_chi2;
+  double chi2 = PoseFactorsChi2(*problem, poses, options.pose_kernels) + observations_chi2;
   summary->initial_chi2 = chi2;
   summary->final_chi2 = chi2;
   if (!std::isfinite(chi2)) {
@@ -232,7 +232,7 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
     system.hessian_diagonal.setZero(num_rows);
     system.chi2 = 0.0;
     LinearizePoseFactors(*problem, poses, layout, &system.matrix, &system.gradient,
-                         &system.hessian_diagonal);
+                         &system.hessian_diagonal, options.pose_kernels);
     system.rhs -= system.gradient;
     GS_RETURN_IF_ERROR(ReducePass(context, poses, features, it.lambda, &system));
     it.reduce_seconds = SecondsSince(iteration_start);
@@ -263,7 +263,8 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
       candidate_poses = ApplyPoseStep(poses, layout, pose_step);
       GS_RETURN_IF_ERROR(RecoverPass(context, poses, features, it.lambda, pose_step,
                                      candidate_poses, &candidate_features, &recovery));
-      candidate_chi2 = PoseFactorsChi2(*problem, candidate_poses) + recovery.candidate_chi2;
+      candidate_chi2 = PoseFactorsChi2(*problem, candidate_poses, options.pose_kernels) +
+                       recovery.candidate_chi2;
       model_decrease = -(system.gradient.dot(pose_step) + recovery.gradient_dot_step) +
                        it.lambda * (pose_step.dot(damping.cwiseProduct(pose_step)) +
                                     recovery.damped_step_norm);
