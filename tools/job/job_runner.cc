@@ -27,6 +27,7 @@
 #include "storage/solver_checkpoint.h"
 #include "storage/tum_writer.h"
 #include "tools/job/job_data.h"
+#include "tools/job/job_map.h"
 #include "tools/job/job_spec.h"
 #include "tools/job/job_state.h"
 #include "tools/job/plots.h"
@@ -210,6 +211,13 @@ Status StageIngest(Context& ctx) {
              {{"run", run.name}, {"poses", run.num_poses}, {"gps_fixes", run.gps_fixes}});
   }
   GS_RETURN_IF_ERROR(storage::WriteNativeLog(data.problem, ctx.Work("ingested.graphslam")));
+  // Scans of simulated runs, generated now into disk-backed scan chunks.
+  StatusOr<int64_t> scans = WriteSimulatedScans(ctx.spec, data, ctx.work);
+  if (!scans.ok()) return scans.status();
+  if (*scans > 0)
+    ctx.Info("ingest", "simulated " + std::to_string(*scans) + " laser scans into " +
+                           ctx.Work("scans/"),
+             {{"scans", *scans}});
   return WriteJson(ctx.Work("runs.json"), RunsToJson(data));
 }
 
@@ -354,17 +362,21 @@ Status StageOptimize(Context& ctx) {
 }
 
 Status StageMap(Context& ctx) {
-  std::vector<std::string> with_scans;
-  for (const RunSpec& run : ctx.spec.runs)
-    if (!run.scans.empty()) with_scans.push_back(run.name);
-  if (with_scans.empty()) {
+  if (!JobHasScans(ctx.spec)) {
     ctx.Info("map", "map stage: no scans");
     return Status::Ok();
   }
-  std::string names;
-  for (const std::string& n : with_scans) names += (names.empty() ? "" : ", ") + n;
-  ctx.Info("map", "map stage: runs " + names +
-                      " have scans, but this build has no scan fusion: no map.bt / map.pcd");
+  JobData data;
+  GS_RETURN_IF_ERROR(LoadData(ctx, "optimized.graphslam", &data));
+  StatusOr<json> summary = BuildJobMap(ctx.spec, data, ctx.work, ctx.display.get());
+  if (!summary.ok()) return summary.status();
+  ctx.Info("map",
+           "fused " + std::to_string((*summary)["scans"].get<int64_t>()) + " scans (" +
+               std::to_string((*summary)["points"].get<int64_t>()) + " points) into " +
+               std::to_string((*summary)["occupied_leaves"].get<int64_t>()) +
+               " occupied cells; " + std::to_string((*summary)["pcd_points"].get<int64_t>()) +
+               " points in map.pcd",
+           *summary);
   return Status::Ok();
 }
 
@@ -544,6 +556,16 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
                                 {"position_rmse_without_gps_m", Rmse(w_all, w_all_count)}};
   }
 
+  // The map (map stage): its files, atomically, and its summary.
+  json map_summary = nullptr;
+  std::vector<std::string> map_files;
+  if (ctx.spec.HasStage(Stage::kMap) && fs::exists(ctx.Work("map.json"))) {
+    GS_RETURN_IF_ERROR(ReadJson(ctx.Work("map.json"), &map_summary));
+    StatusOr<std::vector<std::string>> files = ExportJobMap(ctx.work, ctx.spec.output);
+    if (!files.ok()) return files.status();
+    map_files = std::move(files).value();
+  }
+
   // Stages: time and memory.
   json stages = json::array();
   std::vector<StageBar> bars;
@@ -560,12 +582,7 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
       rss = PeakRssBytes();
     }
     json entry = {{"stage", name}, {"seconds", seconds}, {"peak_rss_bytes", rss}};
-    if (stage == Stage::kMap) {
-      bool scans = false;
-      for (const RunSpec& r : ctx.spec.runs) scans = scans || !r.scans.empty();
-      entry["note"] = scans ? "scans given; no scan fusion in this build" : "no scans";
-      if (scans) warnings.push_back("map stage: scans were given but this build has no scan fusion");
-    }
+    if (stage == Stage::kMap) entry["note"] = map_summary.is_null() ? "no scans" : "scans fused";
     stages.push_back(entry);
     bars.push_back({name, seconds, static_cast<double>(rss) / (1024.0 * 1024.0)});
   }
@@ -576,6 +593,8 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
                        std::to_string(ctx.spec.memory_limit >> 20) + " MiB");
   report["warnings"] = warnings;
   report["outputs"] = {"trajectories/", "features.csv", "graph.g2o", "report.json", "report.html"};
+  for (const std::string& file : map_files) report["outputs"].push_back(file);
+  if (!map_summary.is_null()) report["map"] = map_summary;
 
   // Plots.
   std::vector<std::pair<std::string, std::string>> images;
@@ -610,8 +629,10 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
                                                     ctx.Output("report.html"),
                                                     RenderReportHtml(report, images)));
   for (const json& w : warnings) ctx.Info("export", "warning: " + w.get<std::string>());
-  ctx.Info("export", "wrote " + ctx.spec.output + " (trajectories/, features.csv, graph.g2o, "
-                     "report.json, report.html)");
+  std::string map_list;
+  for (const std::string& file : map_files) map_list += ", " + file;
+  ctx.Info("export", "wrote " + ctx.spec.output + " (trajectories/, features.csv, graph.g2o" +
+                         map_list + ", report.json, report.html)");
   return Status::Ok();
 }
 
