@@ -151,7 +151,8 @@ Status ParseSimulate(const Reader& r, const YAML::Node& node, RunSpec* run) {
                                   "street_width", "speed", "dt", "sensor_range", "range_sigma",
                                   "bearing_sigma", "gps_sigma", "gps_denied_region",
                                   "feature_id_base", "scans", "scan_beams", "scan_max_range",
-                                  "scan_range_sigma"}));
+                                  "scan_range_sigma", "initial_position_sigma",
+                                  "initial_heading_sigma"}));
   CampusSimulatorOptions& sim = run->simulate;
   for (const auto& entry : node) {
     const std::string key = entry.first.Scalar();
@@ -174,6 +175,10 @@ Status ParseSimulate(const Reader& r, const YAML::Node& node, RunSpec* run) {
     else if (key == "gps_sigma") GS_RETURN_IF_ERROR(r.Double(v, key, &sim.gps_sigma));
     else if (key == "feature_id_base")
       GS_RETURN_IF_ERROR(r.Int(v, key, 0, int64_t{1} << 50, &sim.feature_id_base));
+    else if (key == "initial_position_sigma")
+      GS_RETURN_IF_ERROR(r.Double(v, key, &sim.initial_position_sigma));
+    else if (key == "initial_heading_sigma")
+      GS_RETURN_IF_ERROR(r.Double(v, key, &sim.initial_heading_sigma));
     else if (key == "scans") GS_RETURN_IF_ERROR(r.Bool(v, key, &run->simulate_scans.enabled));
     else if (key == "scan_beams")
       GS_RETURN_IF_ERROR(r.Int32(v, key, 1, 100000, &run->simulate_scans.beams));
@@ -234,7 +239,7 @@ Status ParseGps(const Reader& r, const YAML::Node& node, RunSpec* run) {
 Status ParseRun(const Reader& r, const YAML::Node& node, RunSpec* run) {
   GS_RETURN_IF_ERROR(r.ExpectMap(node, "a run",
                                  {"name", "format", "path", "robot", "simulate", "gps",
-                                  "ground_truth", "scans", "range_sigma", "bearing_sigma"}));
+                                  "ground_truth", "scans", "range_sigma", "bearing_sigma", "ids"}));
   run->line = node.Mark().line + 1;
   if (!node["name"]) return Error(r.file(), node, "run has no 'name'; expected name: <text>");
   GS_RETURN_IF_ERROR(r.String(node["name"], "name", &run->name));
@@ -281,6 +286,7 @@ Status ParseRun(const Reader& r, const YAML::Node& node, RunSpec* run) {
     (std::string(key) == "range_sigma" ? run->range_sigma : run->bearing_sigma) = sigma;
   }
   if (node["gps"]) GS_RETURN_IF_ERROR(ParseGps(r, node["gps"], run));
+  if (node["ids"]) GS_RETURN_IF_ERROR(r.Bool(node["ids"], "ids", &run->ids));
   if (node["ground_truth"])
     GS_RETURN_IF_ERROR(r.Path(node["ground_truth"], "ground_truth", &run->ground_truth));
   if (node["scans"]) GS_RETURN_IF_ERROR(r.Path(node["scans"], "scans", &run->scans));

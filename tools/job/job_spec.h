@@ -71,6 +71,11 @@ struct RunSpec {
   std::optional<double> range_sigma;
   std::optional<double> bearing_sigma;
   std::optional<GpsSource> gps;
+  // false: the run's landmark ids are ignored (unknown correspondence): every
+  // observation gets a landmark of its own and the associate stage finds
+  // which are the same (partition/association_driver.h), within the run and
+  // across runs.
+  bool ids = true;
   std::string ground_truth;  // optional TUM file
   // optional scan store folder (storage/scan_store.h: DIR/scans/SCANS.json)
   // whose scans' `pose` is the 0-based pose index within this run (map stage)
