@@ -213,6 +213,54 @@ TEST_F(JobMap, ScansAreFusedAtTheOptimizedPosesIntoAMapOfTheTrueWorld) {
   EXPECT_NE(html.find("map.pcd"), std::string::npos);
 }
 
+// memory_limit is applied: at 40 MiB the fusion's tile budget (20 MiB) is
+// below the map's ~29 MiB, so tiles spill to disk and the map is written as
+// tiles (map.tiles/index.json + one .bt per tile); their cells are exactly
+// those of the one-tree map of the same job at 1 GiB, and map.pcd is the same.
+TEST_F(JobMap, TheMemoryLimitBoundsTheFusionAndTilesTheMap) {
+  const std::string runs =
+      "map: {resolution: 0.25, max_range: 25}\n"
+      "runs:\n"
+      "  - name: campus\n"
+      "    format: simulate\n"
+      "    simulate: {poses: 600, runs: 2, gps_every: 10, seed: 4, scans: true,\n"
+      "               scan_beams: 60, scan_max_range: 25}\n";
+  ASSERT_TRUE(Run("output: big\nthreads: 2\nmemory_limit: 1GiB\n" + runs).ok());
+  ASSERT_TRUE(Run("output: small\nthreads: 2\nmemory_limit: 40MiB\n" + runs).ok());
+  EXPECT_EQ(ReadFile(dir_ / "big" / "map.pcd"), ReadFile(dir_ / "small" / "map.pcd"));
+  EXPECT_FALSE(fs::exists(dir_ / "small" / "map.bt"));
+  const nlohmann::json report = nlohmann::json::parse(ReadFile(dir_ / "small" / "report.json"));
+  EXPECT_TRUE(report["map"]["tiled_output"].get<bool>());
+  EXPECT_EQ(report["map"]["memory_budget_bytes"].get<int64_t>(), int64_t{20} << 20);
+  EXPECT_LT(report["map"]["batch_points"].get<int64_t>(), 2'000'000);
+
+  // Occupied and free cells at the finest depth (a pruned leaf of depth d
+  // stands for 8^(16 - d) of them).
+  auto count = [](const octomap::OcTree& tree, int64_t* occupied, int64_t* free) {
+    for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+      const int64_t cells = int64_t{1} << (3 * (tree.getTreeDepth() - it.getDepth()));
+      (tree.isNodeOccupied(*it) ? *occupied : *free) += cells;
+    }
+  };
+  octomap::OcTree whole(0.1);
+  ASSERT_TRUE(whole.readBinary((dir_ / "big" / "map.bt").string()));
+  int64_t whole_occupied = 0, whole_free = 0;
+  count(whole, &whole_occupied, &whole_free);
+  const nlohmann::json index =
+      nlohmann::json::parse(ReadFile(dir_ / "small" / "map.tiles" / "index.json"));
+  ASSERT_GT(index["tiles"].size(), 1u);
+  int64_t occupied = 0, free = 0;
+  for (const nlohmann::json& tile : index["tiles"]) {
+    octomap::OcTree tree(0.1);
+    ASSERT_TRUE(tree.readBinary(
+        (dir_ / "small" / "map.tiles" / tile["file"].get<std::string>()).string()));
+    count(tree, &occupied, &free);
+  }
+  EXPECT_GT(whole_occupied, 1000);
+  EXPECT_EQ(occupied, whole_occupied);
+  EXPECT_EQ(free, whole_free);
+}
+
 TEST_F(JobMap, ScanChunksFollowTheMemoryLimit) {
   EXPECT_EQ(ScanChunkBytes(0), int64_t{16} << 20);
   EXPECT_EQ(ScanChunkBytes(int64_t{64} << 20), int64_t{1} << 20);
