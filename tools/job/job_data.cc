@@ -12,6 +12,7 @@
 #include <numeric>
 #include <sstream>
 
+#include "core/unidentified_features.h"
 #include "storage/format_detection.h"
 #include "tools/campus_simulator.h"
 
@@ -218,6 +219,11 @@ void Append(const core::Problem2d& part, std::map<int64_t, int32_t>* feature_ind
   std::vector<int32_t> feature_map(static_cast<size_t>(part.num_features()));
   for (int32_t f = 0; f < part.num_features(); ++f) {
     const auto k = static_cast<size_t>(f);
+    if (part.feature_ids[k] == core::kNoFeatureId) {  // unknown correspondence: its own
+      feature_map[k] = merged->AddFeature(core::kNoFeatureId, part.features[k],
+                                          part.feature_initialized[k] != 0);
+      continue;
+    }
     auto [it, inserted] = feature_index->emplace(part.feature_ids[k], merged->num_features());
     if (inserted) merged->AddFeature(part.feature_ids[k], part.features[k], part.feature_initialized[k] != 0);
     feature_map[k] = it->second;
@@ -310,7 +316,22 @@ void SetGauge(JobData* data) {
   }
 }
 
+// ids: false: every observation gets an uninitialized feature of its own
+// (placed at first sight by the initialization).
+void StripIds(core::Problem2d* problem) {
+  problem->features.clear();
+  problem->feature_ids.clear();
+  problem->feature_initialized.clear();
+  for (core::Observation& o : problem->observations)
+    o.feature = problem->AddFeature(core::kNoFeatureId, core::Point2::Zero(), false);
+}
+
 }  // namespace
+
+void UpdateComponents(JobData* data) {
+  FindComponents(data);
+  SetGauge(data);
+}
 
 StatusOr<JobData> LoadJobData(const JobSpec& job) {
   JobData data;
@@ -320,6 +341,11 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
     StatusOr<Block> read = ReadRun(spec);
     if (!read.ok()) return read.status();
     Block block = std::move(read).value();
+    if (!spec.ids) {
+      StripIds(&block.problem);
+      block.ground_truth_features.clear();
+    }
+    const bool unidentified = core::CountUnidentifiedObservations(block.problem).count > 0;
     if (spec.gps) {
       if (block.runs.size() != 1)
         return Status::InvalidArgument(job.path + ":" + std::to_string(spec.gps->line) +
@@ -347,6 +373,7 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
       run.has_ground_truth = !block.ground_truth[r].empty();
       if (run.has_ground_truth) data.ground_truth[run.name] = block.ground_truth[r];
       run.indoor = block.indoor[r];
+      run.unidentified = unidentified;
       first += run.num_poses;
       for (const RunInfo& other : data.runs)
         if (other.name == run.name)
@@ -357,8 +384,15 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
     data.ground_truth_features.insert(block.ground_truth_features.begin(),
                                       block.ground_truth_features.end());
   }
-  // Pose ids: 0..P-1, past the feature ids if they would collide.
   core::Problem2d& problem = data.problem;
+  // Fresh ids for the features of unknown correspondence.
+  {
+    int64_t next = 0;
+    for (int64_t id : problem.feature_ids) next = std::max(next, id + 1);
+    for (int64_t& id : problem.feature_ids)
+      if (id == core::kNoFeatureId) id = next++;
+  }
+  // Pose ids: 0..P-1, past the feature ids if they would collide.
   int64_t base = 0;
   for (int64_t id : problem.feature_ids)
     if (id >= 0 && id < problem.num_poses()) {

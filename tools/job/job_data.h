@@ -15,6 +15,12 @@
 // LocalCartesian (WGS84 -> local ENU) around ONE origin for the whole job,
 // the first fix read, so the numbers stay small and all runs share the frame.
 //
+// Unknown correspondences. A run with ids: false has its landmark ids
+// dropped: every observation gets a feature of its own; such features and
+// those read without an id (core::kNoFeatureId) are never merged by id and
+// get fresh ids above every other feature id (so they survive the native
+// logs of .job/), for the associate stage to tie.
+//
 // Components. Runs are joined (union-find) when they share a feature id, and
 // all runs with GPS are joined (GPS is one global frame). Each component is
 // solved on its own: a run tied to nothing is its own component, reported as
@@ -46,6 +52,9 @@ struct RunInfo {
   int32_t component = 0;
   int64_t gps_fixes = 0;
   bool has_ground_truth = false;
+  // Came with unknown correspondences (ids: false, or observations without a
+  // feature id): the associate stage runs data association.
+  bool unidentified = false;
   // Poses whose true position lies in the run's GPS-denied region (simulate).
   std::vector<uint8_t> indoor;  // one per pose of the run, or empty
 };
@@ -89,6 +98,10 @@ void ScatterComponent(const core::Problem2d& sub, const std::vector<int32_t>& po
 
 // The poses of one run as a problem of their own (for the TUM writer).
 core::Problem2d RunTrajectory(const core::Problem2d& problem, const RunInfo& run);
+
+// Recomputes the components and the gauge (as LoadJobData does) after the
+// features changed, e.g. after data association tied runs together.
+void UpdateComponents(JobData* data);
 
 // Removes every GPS constraint and re-applies the no-GPS gauge (first pose of
 // each component's first run fixed): the ablation of the Figure 6 comparison.

@@ -18,6 +18,7 @@
 #include "core/initialization.h"
 #include "core/logging.h"
 #include "core/robust_kernel.h"
+#include "partition/association_driver.h"
 #include "partition/in_memory_chunk_source.h"
 #include "partition/progressive_initialization.h"
 #include "storage/atomic_file.h"
@@ -27,6 +28,7 @@
 #include "storage/solver_checkpoint.h"
 #include "storage/tum_writer.h"
 #include "tools/job/job_data.h"
+#include "tools/job/job_map.h"
 #include "tools/job/job_spec.h"
 #include "tools/job/job_state.h"
 #include "tools/job/plots.h"
@@ -93,6 +95,7 @@ json RunsToJson(const JobData& data) {
                     {"component", run.component},
                     {"gps_fixes", run.gps_fixes},
                     {"has_ground_truth", run.has_ground_truth},
+                    {"unidentified", run.unidentified},
                     {"indoor", run.indoor}});
   }
   json truth = json::object();
@@ -114,9 +117,20 @@ json RunsToJson(const JobData& data) {
           {"enu_origin", origin}};
 }
 
+// The runs (and components) that go with a stage's problem: after data
+// association tied runs together (associate stage), its associated_runs.json.
+std::string RunsFileFor(const Context& ctx, const std::string& problem_file) {
+  if (problem_file == "ingested.graphslam" || problem_file == "initialized.graphslam" ||
+      problem_file == "optimized_without_gps.graphslam" ||
+      !fs::exists(ctx.Work("associated_runs.json")))
+    return "runs.json";
+  return "associated_runs.json";
+}
+
 Status LoadData(const Context& ctx, const std::string& problem_file, JobData* data) {
   json runs;
-  GS_RETURN_IF_ERROR(ReadJson(ctx.Work("runs.json"), &runs));
+  const std::string runs_file = RunsFileFor(ctx, problem_file);
+  GS_RETURN_IF_ERROR(ReadJson(ctx.Work(runs_file), &runs));
   try {
     data->runs.clear();
     for (const json& r : runs.at("runs")) {
@@ -127,6 +141,7 @@ Status LoadData(const Context& ctx, const std::string& problem_file, JobData* da
       run.component = r.at("component").get<int32_t>();
       run.gps_fixes = r.at("gps_fixes").get<int64_t>();
       run.has_ground_truth = r.at("has_ground_truth").get<bool>();
+      run.unidentified = r.value("unidentified", false);
       run.indoor = r.at("indoor").get<std::vector<uint8_t>>();
       data->runs.push_back(std::move(run));
     }
@@ -146,7 +161,7 @@ Status LoadData(const Context& ctx, const std::string& problem_file, JobData* da
     if (!runs.at("enu_origin").is_null())
       data->enu_origin = runs.at("enu_origin").get<std::array<double, 3>>();
   } catch (const json::exception& error) {
-    return Status::Corruption(ctx.Work("runs.json") + ": " + error.what());
+    return Status::Corruption(ctx.Work(runs_file) + ": " + error.what());
   }
   StatusOr<core::Problem2d> problem = storage::ReadNativeLog(ctx.Work(problem_file));
   if (!problem.ok()) return problem.status();
@@ -156,7 +171,7 @@ Status LoadData(const Context& ctx, const std::string& problem_file, JobData* da
   if (poses != data->problem.num_poses())
     return Status::Corruption(ctx.Work(problem_file) + ": " +
                               std::to_string(data->problem.num_poses()) + " poses; expected " +
-                              std::to_string(poses) + " (runs.json)");
+                              std::to_string(poses) + " (" + runs_file + ")");
   return Status::Ok();
 }
 
@@ -210,6 +225,13 @@ Status StageIngest(Context& ctx) {
              {{"run", run.name}, {"poses", run.num_poses}, {"gps_fixes", run.gps_fixes}});
   }
   GS_RETURN_IF_ERROR(storage::WriteNativeLog(data.problem, ctx.Work("ingested.graphslam")));
+  // Scans of simulated runs, generated now into disk-backed scan chunks.
+  StatusOr<int64_t> scans = WriteSimulatedScans(ctx.spec, data, ctx.work);
+  if (!scans.ok()) return scans.status();
+  if (*scans > 0)
+    ctx.Info("ingest", "simulated " + std::to_string(*scans) + " laser scans into " +
+                           ctx.Work("scans/"),
+             {{"scans", *scans}});
   return WriteJson(ctx.Work("runs.json"), RunsToJson(data));
 }
 
@@ -222,7 +244,57 @@ Status StageInitialize(Context& ctx) {
   return storage::WriteNativeLog(data.problem, ctx.Work("initialized.graphslam"));
 }
 
+// Unknown correspondences (runs with ids: false or without feature ids):
+// GraphSLAM with data association (Table 10, partition/association_driver.h)
+// over all runs at once, starting from the initialized guesses; merged
+// landmarks tie runs, so the components are found again.
+//   -> .job/associated.graphslam, .job/associated_runs.json, .job/associate.json
+Status AssociateUnknown(Context& ctx) {
+  JobData data;
+  GS_RETURN_IF_ERROR(LoadData(ctx, "initialized.graphslam", &data));
+  const int32_t components_before = data.num_components;
+  StatusOr<core::SolverOptions> base = SolverOptionsFor(ctx.spec);
+  if (!base.ok()) return base.status();
+  core::SolverOptions solver = *base;
+  if (ctx.display) solver.progress = ctx.display->AsCallback();
+  partition::AssociationOptions options;
+  partition::AssociationSummary summary;
+  GS_RETURN_IF_ERROR(partition::AssociateAndSolve(options, solver, &data.problem, &summary));
+  UpdateComponents(&data);
+  ctx.Info("associate",
+           "data association: " + std::to_string(summary.initial_features) + " -> " +
+               std::to_string(summary.final_features) + " landmarks (" +
+               std::to_string(summary.merges) + " merges, " + std::to_string(summary.undone) +
+               " undone, " + std::to_string(summary.rounds.size()) + " rounds); components " +
+               std::to_string(components_before) + " -> " + std::to_string(data.num_components),
+           {{"initial_features", summary.initial_features},
+            {"final_features", summary.final_features},
+            {"merges", summary.merges},
+            {"undone", summary.undone},
+            {"rounds", static_cast<int64_t>(summary.rounds.size())},
+            {"components_before", components_before},
+            {"components_after", data.num_components}});
+  GS_RETURN_IF_ERROR(storage::WriteNativeLog(data.problem, ctx.Work("associated.graphslam")));
+  GS_RETURN_IF_ERROR(WriteJson(ctx.Work("associate.json"),
+                               {{"initial_features", summary.initial_features},
+                                {"final_features", summary.final_features},
+                                {"merges", summary.merges},
+                                {"undone", summary.undone},
+                                {"rounds", static_cast<int64_t>(summary.rounds.size())},
+                                {"converged", summary.converged},
+                                {"components_before", components_before},
+                                {"components_after", data.num_components}}));
+  // Last: its presence says associated.graphslam is complete.
+  return WriteJson(ctx.Work("associated_runs.json"), RunsToJson(data));
+}
+
 Status StageAssociate(Context& ctx) {
+  {
+    JobData ingested;
+    GS_RETURN_IF_ERROR(LoadData(ctx, "ingested.graphslam", &ingested));
+    for (const RunInfo& run : ingested.runs)
+      if (run.unidentified) return AssociateUnknown(ctx);
+  }
   JobData data;
   GS_RETURN_IF_ERROR(LoadData(ctx, "ingested.graphslam", &data));
   // Landmarks seen by more than one run tie the runs (known correspondences).
@@ -330,7 +402,10 @@ Status SolveComponents(Context& ctx, bool checkpoints, JobData* data, json* comp
 
 Status StageOptimize(Context& ctx) {
   JobData data;
-  GS_RETURN_IF_ERROR(LoadData(ctx, "initialized.graphslam", &data));
+  GS_RETURN_IF_ERROR(LoadData(ctx,
+                              fs::exists(ctx.Work("associated_runs.json")) ? "associated.graphslam"
+                                                                            : "initialized.graphslam",
+                              &data));
   json components;
   std::vector<uint8_t> excluded;
   GS_RETURN_IF_ERROR(SolveComponents(ctx, /*checkpoints=*/true, &data, &components, &excluded));
@@ -354,17 +429,21 @@ Status StageOptimize(Context& ctx) {
 }
 
 Status StageMap(Context& ctx) {
-  std::vector<std::string> with_scans;
-  for (const RunSpec& run : ctx.spec.runs)
-    if (!run.scans.empty()) with_scans.push_back(run.name);
-  if (with_scans.empty()) {
+  if (!JobHasScans(ctx.spec)) {
     ctx.Info("map", "map stage: no scans");
     return Status::Ok();
   }
-  std::string names;
-  for (const std::string& n : with_scans) names += (names.empty() ? "" : ", ") + n;
-  ctx.Info("map", "map stage: runs " + names +
-                      " have scans, but this build has no scan fusion: no map.bt / map.pcd");
+  JobData data;
+  GS_RETURN_IF_ERROR(LoadData(ctx, "optimized.graphslam", &data));
+  StatusOr<json> summary = BuildJobMap(ctx.spec, data, ctx.work, ctx.display.get());
+  if (!summary.ok()) return summary.status();
+  ctx.Info("map",
+           "fused " + std::to_string((*summary)["scans"].get<int64_t>()) + " scans (" +
+               std::to_string((*summary)["points"].get<int64_t>()) + " points) into " +
+               std::to_string((*summary)["occupied_leaves"].get<int64_t>()) +
+               " occupied cells; " + std::to_string((*summary)["pcd_points"].get<int64_t>()) +
+               " points in map.pcd",
+           *summary);
   return Status::Ok();
 }
 
@@ -505,6 +584,11 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
   }
   report["runs"] = runs;
   report["components"] = optimize["components"];
+  if (fs::exists(ctx.Work("associate.json"))) {
+    json association;
+    GS_RETURN_IF_ERROR(ReadJson(ctx.Work("associate.json"), &association));
+    report["association"] = association;
+  }
   if (all_count > 0) report["position_rmse_m"] = Rmse(all_sum, all_count);
   if (data.enu_origin)
     report["enu_origin"] = {{"latitude", (*data.enu_origin)[0]},
@@ -544,6 +628,16 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
                                 {"position_rmse_without_gps_m", Rmse(w_all, w_all_count)}};
   }
 
+  // The map (map stage): its files, atomically, and its summary.
+  json map_summary = nullptr;
+  std::vector<std::string> map_files;
+  if (ctx.spec.HasStage(Stage::kMap) && fs::exists(ctx.Work("map.json"))) {
+    GS_RETURN_IF_ERROR(ReadJson(ctx.Work("map.json"), &map_summary));
+    StatusOr<std::vector<std::string>> files = ExportJobMap(ctx.work, ctx.spec.output);
+    if (!files.ok()) return files.status();
+    map_files = std::move(files).value();
+  }
+
   // Stages: time and memory.
   json stages = json::array();
   std::vector<StageBar> bars;
@@ -560,12 +654,7 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
       rss = PeakRssBytes();
     }
     json entry = {{"stage", name}, {"seconds", seconds}, {"peak_rss_bytes", rss}};
-    if (stage == Stage::kMap) {
-      bool scans = false;
-      for (const RunSpec& r : ctx.spec.runs) scans = scans || !r.scans.empty();
-      entry["note"] = scans ? "scans given; no scan fusion in this build" : "no scans";
-      if (scans) warnings.push_back("map stage: scans were given but this build has no scan fusion");
-    }
+    if (stage == Stage::kMap) entry["note"] = map_summary.is_null() ? "no scans" : "scans fused";
     stages.push_back(entry);
     bars.push_back({name, seconds, static_cast<double>(rss) / (1024.0 * 1024.0)});
   }
@@ -576,6 +665,8 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
                        std::to_string(ctx.spec.memory_limit >> 20) + " MiB");
   report["warnings"] = warnings;
   report["outputs"] = {"trajectories/", "features.csv", "graph.g2o", "report.json", "report.html"};
+  for (const std::string& file : map_files) report["outputs"].push_back(file);
+  if (!map_summary.is_null()) report["map"] = map_summary;
 
   // Plots.
   std::vector<std::pair<std::string, std::string>> images;
@@ -610,8 +701,10 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
                                                     ctx.Output("report.html"),
                                                     RenderReportHtml(report, images)));
   for (const json& w : warnings) ctx.Info("export", "warning: " + w.get<std::string>());
-  ctx.Info("export", "wrote " + ctx.spec.output + " (trajectories/, features.csv, graph.g2o, "
-                     "report.json, report.html)");
+  std::string map_list;
+  for (const std::string& file : map_files) map_list += ", " + file;
+  ctx.Info("export", "wrote " + ctx.spec.output + " (trajectories/, features.csv, graph.g2o" +
+                         map_list + ", report.json, report.html)");
   return Status::Ok();
 }
 

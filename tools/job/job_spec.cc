@@ -150,7 +150,9 @@ Status ParseSimulate(const Reader& r, const YAML::Node& node, RunSpec* run) {
                                  {"poses", "features", "runs", "gps_every", "seed", "block_size",
                                   "street_width", "speed", "dt", "sensor_range", "range_sigma",
                                   "bearing_sigma", "gps_sigma", "gps_denied_region",
-                                  "feature_id_base"}));
+                                  "feature_id_base", "scans", "scan_beams", "scan_max_range",
+                                  "scan_range_sigma", "initial_position_sigma",
+                                  "initial_heading_sigma"}));
   CampusSimulatorOptions& sim = run->simulate;
   for (const auto& entry : node) {
     const std::string key = entry.first.Scalar();
@@ -173,6 +175,22 @@ Status ParseSimulate(const Reader& r, const YAML::Node& node, RunSpec* run) {
     else if (key == "gps_sigma") GS_RETURN_IF_ERROR(r.Double(v, key, &sim.gps_sigma));
     else if (key == "feature_id_base")
       GS_RETURN_IF_ERROR(r.Int(v, key, 0, int64_t{1} << 50, &sim.feature_id_base));
+    else if (key == "initial_position_sigma")
+      GS_RETURN_IF_ERROR(r.Double(v, key, &sim.initial_position_sigma));
+    else if (key == "initial_heading_sigma")
+      GS_RETURN_IF_ERROR(r.Double(v, key, &sim.initial_heading_sigma));
+    else if (key == "scans") GS_RETURN_IF_ERROR(r.Bool(v, key, &run->simulate_scans.enabled));
+    else if (key == "scan_beams")
+      GS_RETURN_IF_ERROR(r.Int32(v, key, 1, 100000, &run->simulate_scans.beams));
+    else if (key == "scan_max_range") {
+      GS_RETURN_IF_ERROR(r.Double(v, key, &run->simulate_scans.max_range));
+      if (run->simulate_scans.max_range <= 0)
+        return Error(r.file(), v, "'scan_max_range' must be > 0");
+    } else if (key == "scan_range_sigma") {
+      GS_RETURN_IF_ERROR(r.Double(v, key, &run->simulate_scans.range_sigma));
+      if (run->simulate_scans.range_sigma < 0)
+        return Error(r.file(), v, "'scan_range_sigma' must be >= 0");
+    }
     else if (key == "gps_denied_region") {
       if (!v.IsSequence() || v.size() != 4)
         return Error(r.file(), v, "'gps_denied_region' must be [x0, y0, x1, y1]; expected 4 numbers");
@@ -221,7 +239,7 @@ Status ParseGps(const Reader& r, const YAML::Node& node, RunSpec* run) {
 Status ParseRun(const Reader& r, const YAML::Node& node, RunSpec* run) {
   GS_RETURN_IF_ERROR(r.ExpectMap(node, "a run",
                                  {"name", "format", "path", "robot", "simulate", "gps",
-                                  "ground_truth", "scans", "range_sigma", "bearing_sigma"}));
+                                  "ground_truth", "scans", "range_sigma", "bearing_sigma", "ids"}));
   run->line = node.Mark().line + 1;
   if (!node["name"]) return Error(r.file(), node, "run has no 'name'; expected name: <text>");
   GS_RETURN_IF_ERROR(r.String(node["name"], "name", &run->name));
@@ -268,9 +286,34 @@ Status ParseRun(const Reader& r, const YAML::Node& node, RunSpec* run) {
     (std::string(key) == "range_sigma" ? run->range_sigma : run->bearing_sigma) = sigma;
   }
   if (node["gps"]) GS_RETURN_IF_ERROR(ParseGps(r, node["gps"], run));
+  if (node["ids"]) GS_RETURN_IF_ERROR(r.Bool(node["ids"], "ids", &run->ids));
   if (node["ground_truth"])
     GS_RETURN_IF_ERROR(r.Path(node["ground_truth"], "ground_truth", &run->ground_truth));
   if (node["scans"]) GS_RETURN_IF_ERROR(r.Path(node["scans"], "scans", &run->scans));
+  return Status::Ok();
+}
+
+Status ParseMap(const Reader& r, const YAML::Node& node, MapSpec* map) {
+  GS_RETURN_IF_ERROR(
+      r.ExpectMap(node, "map", {"resolution", "max_range", "pcd_voxel", "sensor_height"}));
+  struct Field {
+    const char* key;
+    double* value;
+    bool zero_allowed;
+  };
+  for (const Field& f : {Field{"resolution", &map->resolution, false},
+                         Field{"max_range", &map->max_range, false},
+                         Field{"pcd_voxel", &map->pcd_voxel, true},
+                         Field{"sensor_height", &map->sensor_height, true}}) {
+    if (!node[f.key]) continue;
+    GS_RETURN_IF_ERROR(r.Double(node[f.key], f.key, f.value));
+    if (*f.value < 0 || (*f.value == 0 && !f.zero_allowed))
+      return Error(r.file(), node[f.key],
+                   std::string("map ") + f.key + (f.zero_allowed ? " must be >= 0" : " must be > 0"));
+  }
+  if (map->resolution < 0.01)
+    return Error(r.file(), node, "map resolution is " + std::to_string(map->resolution) +
+                                     " m; expected >= 0.01 m");
   return Status::Ok();
 }
 
@@ -332,7 +375,7 @@ StatusOr<JobSpec> ParseJobSpec(const std::string& text, const std::string& path)
     return Status::InvalidArgument(path + ":1:1: a job file is a mapping; expected output: and runs:");
   GS_RETURN_IF_ERROR(r.ExpectMap(root, "the job",
                                  {"output", "threads", "memory_limit", "stages", "solver", "runs",
-                                  "compare_without_gps"}));
+                                  "compare_without_gps", "map"}));
   JobSpec job;
   job.path = path;
   if (!root["output"]) return Error(path, root, "no 'output'; expected output: <folder>");
@@ -341,6 +384,7 @@ StatusOr<JobSpec> ParseJobSpec(const std::string& text, const std::string& path)
   if (root["memory_limit"])
     GS_RETURN_IF_ERROR(r.Bytes(root["memory_limit"], "memory_limit", &job.memory_limit));
   if (root["solver"]) GS_RETURN_IF_ERROR(ParseSolver(r, root["solver"], &job.solver));
+  if (root["map"]) GS_RETURN_IF_ERROR(ParseMap(r, root["map"], &job.map));
   if (root["compare_without_gps"])
     GS_RETURN_IF_ERROR(
         r.Bool(root["compare_without_gps"], "compare_without_gps", &job.compare_without_gps));

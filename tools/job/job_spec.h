@@ -48,6 +48,16 @@ struct GpsSource {
   int line = 0;  // of the gps node in the job file
 };
 
+// simulate runs: a vertical push-broom laser scan generated for every true
+// pose against a 3-D world consistent with the 2-D campus (buildings on the
+// blocks, the landmarks as poles, level ground; tools/job/simulated_scans.h).
+struct SimulatedScanSpec {
+  bool enabled = false;
+  int beams = 90;            // rays over 360 degrees in the body y-z plane
+  double max_range = 30.0;   // m; no return beyond
+  double range_sigma = 0.02; // m
+};
+
 struct RunSpec {
   std::string name;
   std::string format;  // g2o, isam, mrclam, native, simulate
@@ -56,12 +66,20 @@ struct RunSpec {
   CampusSimulatorOptions simulate;  // simulate
   // simulate: no GPS fix inside this axis-aligned box [x0, y0, x1, y1] (indoors).
   std::optional<std::array<double, 4>> gps_denied_region;
+  SimulatedScanSpec simulate_scans;  // simulate: scans: true, scan_beams, ...
   // mrclam: measurement noise (the format does not carry it).
   std::optional<double> range_sigma;
   std::optional<double> bearing_sigma;
   std::optional<GpsSource> gps;
+  // false: the run's landmark ids are ignored (unknown correspondence): every
+  // observation gets a landmark of its own and the associate stage finds
+  // which are the same (partition/association_driver.h), within the run and
+  // across runs.
+  bool ids = true;
   std::string ground_truth;  // optional TUM file
-  std::string scans;         // optional scan folder (map stage)
+  // optional scan store folder (storage/scan_store.h: DIR/scans/SCANS.json)
+  // whose scans' `pose` is the 0-based pose index within this run (map stage)
+  std::string scans;
   int line = 0;              // of the run in the job file
 };
 
@@ -73,6 +91,16 @@ struct SolverSpec {
   std::string linear_solver = "auto";
 };
 
+// The map stage (tools/job/job_map.h): OctoMap fusion of every run's scans
+// moved by the optimized poses.
+struct MapSpec {
+  double resolution = 0.2;     // m, OctoMap leaf edge
+  double max_range = 30.0;     // m, rays cut here (no endpoint)
+  double pcd_voxel = 0.0;      // m, map.pcd voxel edge; 0: resolution
+  double sensor_height = 1.5;  // m: a 2-D pose (x, y, theta) is lifted to the
+                               // sensor pose (x, y, sensor_height, yaw theta)
+};
+
 struct JobSpec {
   std::string path;         // the job file
   std::string output;       // absolute output folder
@@ -80,6 +108,7 @@ struct JobSpec {
   int64_t memory_limit = 0; // bytes; 0: none
   std::vector<Stage> stages;  // in execution order
   SolverSpec solver;
+  MapSpec map;
   // simulate runs: also solve the job without GPS and report the indoor error
   // of both (the paper's Figure 6 comparison).
   bool compare_without_gps = false;

@@ -112,6 +112,15 @@ std::string RenderReportHtml(const nlohmann::json& report,
                  {"indoor_poses", "indoor_rmse_with_gps_m", "indoor_rmse_without_gps_m",
                   "position_rmse_with_gps_m", "position_rmse_without_gps_m"});
   }
+  if (report.contains("map")) {
+    out << "<h2>3-D map (scans fused at the optimized poses)</h2>\n<p>Files: ";
+    for (const nlohmann::json& f : report["map"].value("files", nlohmann::json::array()))
+      out << "<code>" << Cell(f) << "</code> ";
+    out << "</p>\n"
+        << Table(nlohmann::json::array({report["map"]}),
+                 {"scans", "points", "occupied_leaves", "free_leaves", "pcd_points",
+                  "resolution_m", "max_range_m", "tiles", "fusion_seconds"});
+  }
   out << "<h2>Stages</h2>\n" << Table(report["stages"], {"stage", "seconds", "peak_rss_bytes", "note"});
   for (const auto& [caption, png] : images) {
     out << "<h2>" << Escape(caption) << "</h2>\n<img alt=\"" << Escape(caption)

@@ -5,7 +5,7 @@
 # only outdoors (an indoor region without reception), solved with and without
 # GPS for the indoor-error comparison — writing into out/ (OUT=... to change):
 #   trajectories/<run>.tum, features.csv, graph.g2o, report.json, report.html,
-#   log.jsonl (and map.bt / map.pcd when the job has scans).
+#   log.jsonl, map.bt and map.pcd (the 3-D map from the simulated scans).
 # RESUME=1 continues an interrupted job. Exit code: that of `graphslam run`.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -16,4 +16,4 @@ cmake --build build -j2 --target graphslam
 resume=()
 if [[ "${RESUME:-0}" == 1 ]]; then resume=(--resume); fi
 build/bin/graphslam run tools/setup/default_job.yaml -o "$OUT" "${resume[@]}"
-echo "main job done: outputs in $OUT/ (trajectories/, features.csv, graph.g2o, report.json, report.html, log.jsonl)"
+echo "main job done: outputs in $OUT/ (trajectories/, features.csv, graph.g2o, map.bt, map.pcd, report.json, report.html, log.jsonl)"

@@ -6,5 +6,7 @@ graphslam_test(tools/job/job_end_to_end)
 graphslam_test(tools/job/job_resume)
 graphslam_test(tools/job/job_mrclam)
 graphslam_test(tools/job/job_gps_indoor)
+graphslam_test(tools/job/job_map)
+graphslam_test(tools/job/job_associate)
 # The resume test runs the graphslam binary itself.
 add_dependencies(job_resume_test graphslam)

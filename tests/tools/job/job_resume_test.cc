@@ -4,7 +4,9 @@
 // The graphslam binary runs as a child process (as in solve_resume_test.cc)
 // on a simulated two-run campus with GPS; the test watches the job's own
 // files to pick the moment: the structured log's stage_start events, the
-// state file, and the solver checkpoint written after every iteration.
+// state file, and the solver checkpoint written after every iteration. The
+// job has scans, so the map stage (OctoMap fusion) is killed too, and the
+// outputs of an earlier job in the folder must survive a killed new one.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -14,6 +16,8 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -38,7 +42,7 @@ std::string ReadFile(const fs::path& path) {
 
 // The deterministic outputs (the report holds wall times, so it is not one).
 std::vector<std::string> kCompared = {"trajectories/campus_1.tum", "trajectories/campus_2.tum",
-                                      "features.csv", "graph.g2o"};
+                                      "features.csv", "graph.g2o", "map.bt", "map.pcd"};
 
 class JobResume : public ::testing::Test {
  protected:
@@ -51,10 +55,12 @@ class JobResume : public ::testing::Test {
     std::ofstream(job_) << "output: reference\n"
                            "threads: 2\n"
                            "solver: {max_iterations: 20, function_tolerance: 1e-9, initialization: odometry}\n"
+                           "map: {resolution: 0.25, max_range: 25}\n"
                            "runs:\n"
                            "  - name: campus\n"
                            "    format: simulate\n"
-                           "    simulate: {poses: 600, runs: 2, gps_every: 20, seed: 11}\n";
+                           "    simulate: {poses: 600, runs: 2, gps_every: 20, seed: 11, scans: true,\n"
+                           "               scan_beams: 60, scan_max_range: 25}\n";
     reference_ok_ = fs::exists(kGraphslam) && Wait(Spawn({"run", job_, "-q"})) == 0;
     for (const std::string& file : kCompared) reference_.push_back(ReadFile(dir_ / "reference" / file));
   }
@@ -69,7 +75,9 @@ class JobResume : public ::testing::Test {
   // holds (polling every millisecond), resumes it, and compares the outputs
   // with the uninterrupted run's. Returns false if the job finished before
   // `ready` held (nothing was interrupted).
-  bool KillAndResume(const std::string& name, const std::function<bool(const fs::path&)>& ready) {
+  // `before_resume` (optional) runs between the kill and the resume.
+  bool KillAndResume(const std::string& name, const std::function<bool(const fs::path&)>& ready,
+                     const std::function<void(const fs::path&)>& before_resume = nullptr) {
     const fs::path out = dir_ / name;
     const pid_t pid = Spawn({"run", job_, "-o", out.string(), "-q"});
     bool killed = false;
@@ -84,6 +92,7 @@ class JobResume : public ::testing::Test {
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
     if (killed) Wait(pid);
+    if (before_resume) before_resume(out);
     EXPECT_EQ(Wait(Spawn({"run", job_, "-o", out.string(), "--resume", "-q"})), 0) << name;
     for (size_t k = 0; k < kCompared.size(); ++k)
       EXPECT_EQ(ReadFile(out / kCompared[k]), reference_[k]) << name << ": " << kCompared[k];
@@ -119,6 +128,52 @@ TEST_F(JobResume, KillInTheMiddleOfTheOptimization) {
   EXPECT_TRUE(killed);
   // The resumed solve continued from the checkpoint (the log says so).
   EXPECT_TRUE(LogHas(dir_ / "optimize", "resuming after iteration"));
+}
+
+int Count(const std::string& text, const std::string& what) {
+  int n = 0;
+  for (size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+  return n;
+}
+
+const std::string kMapStart = "\"event\":\"stage_start\",\"stage\":\"map\"";
+
+// True once the map stage has run for `delay`: its loading takes a few
+// milliseconds, the fusion of the 600 scans about a second.
+std::function<bool(const fs::path&)> InMapFusion(std::chrono::milliseconds delay) {
+  auto seen = std::make_shared<std::optional<std::chrono::steady_clock::time_point>>();
+  return [seen, delay](const fs::path& out) {
+    if (!seen->has_value()) {
+      if (LogHas(out, kMapStart)) *seen = std::chrono::steady_clock::now();
+      return false;
+    }
+    return std::chrono::steady_clock::now() - **seen >= delay;
+  };
+}
+
+TEST_F(JobResume, KillDuringMapFusion) {
+  bool map_done_at_kill = true;
+  EXPECT_TRUE(KillAndResume("map", InMapFusion(std::chrono::milliseconds(150)),
+                            [&](const fs::path& out) {
+                              map_done_at_kill = ReadFile(out / ".job/state.json")
+                                                     .find("\"map\"") != std::string::npos;
+                            }));
+  // Killed inside the map stage, which the resumed job ran again.
+  EXPECT_FALSE(map_done_at_kill);
+  EXPECT_EQ(Count(ReadFile(dir_ / "map" / "log.jsonl"), kMapStart), 2);
+}
+
+TEST_F(JobResume, AKilledJobLeavesTheOutputsOfTheEarlierJobUntouched) {
+  // An earlier job's outputs (stand-ins) in the folder; a new job killed
+  // during its map fusion must not touch them; its resume replaces them.
+  const fs::path out = dir_ / "earlier";
+  fs::create_directories(out / "trajectories");
+  for (const std::string& file : kCompared) std::ofstream(out / file) << "earlier " << file;
+  EXPECT_TRUE(KillAndResume("earlier", InMapFusion(std::chrono::milliseconds(150)),
+                            [](const fs::path& out) {
+                              for (const std::string& file : kCompared)
+                                EXPECT_EQ(ReadFile(out / file), "earlier " + file) << file;
+                            }));
 }
 
 TEST_F(JobResume, KillDuringExport) {

@@ -74,6 +74,40 @@ TEST(JobSpec, AllSettings) {
   EXPECT_THAT(job->runs[1].ground_truth, HasSubstr("gt.tum"));
 }
 
+TEST(JobSpec, MapScansAndIds) {
+  const std::string text =
+      "output: o\n"
+      "map: {resolution: 0.1, max_range: 40, pcd_voxel: 0.3, sensor_height: 2}\n"
+      "runs:\n"
+      "  - name: sim\n"
+      "    format: simulate\n"
+      "    ids: false\n"
+      "    simulate: {scans: true, scan_beams: 45, scan_max_range: 20, scan_range_sigma: 0.05,\n"
+      "               initial_position_sigma: 0, initial_heading_sigma: 0}\n"
+      "  - {name: g, format: g2o, path: a.g2o, scans: scan_folder}\n";
+  StatusOr<JobSpec> job = ParseJobSpec(text, "/jobs/j.yaml");
+  ASSERT_TRUE(job.ok()) << job.status().ToString();
+  EXPECT_DOUBLE_EQ(job->map.resolution, 0.1);
+  EXPECT_DOUBLE_EQ(job->map.max_range, 40.0);
+  EXPECT_DOUBLE_EQ(job->map.pcd_voxel, 0.3);
+  EXPECT_DOUBLE_EQ(job->map.sensor_height, 2.0);
+  EXPECT_FALSE(job->runs[0].ids);
+  EXPECT_TRUE(job->runs[0].simulate_scans.enabled);
+  EXPECT_EQ(job->runs[0].simulate_scans.beams, 45);
+  EXPECT_DOUBLE_EQ(job->runs[0].simulate_scans.max_range, 20.0);
+  EXPECT_DOUBLE_EQ(job->runs[0].simulate_scans.range_sigma, 0.05);
+  EXPECT_DOUBLE_EQ(job->runs[0].simulate.initial_position_sigma, 0.0);
+  EXPECT_TRUE(job->runs[1].ids);
+  EXPECT_FALSE(job->runs[1].simulate_scans.enabled);
+  EXPECT_EQ(job->runs[1].scans, "/jobs/scan_folder");
+  // Defaults.
+  StatusOr<JobSpec> plain = ParseJobSpec("output: o\nruns:\n  - {name: s, format: simulate}\n", "j.yaml");
+  ASSERT_TRUE(plain.ok());
+  EXPECT_DOUBLE_EQ(plain->map.resolution, 0.2);
+  EXPECT_FALSE(plain->runs[0].simulate_scans.enabled);
+  EXPECT_TRUE(plain->runs[0].ids);
+}
+
 struct BadCase {
   std::string text;
   std::string location;  // "j.yaml:<line>:<column>"
@@ -120,7 +154,17 @@ INSTANTIATE_TEST_SUITE_P(
                 "j.yaml:3:51", "expected an integer in [2,"},
         BadCase{"output: o\nruns:\n  - {name: s, format: simulate, simulate: {gps_denied_region: [1, 2]}}\n",
                 "j.yaml:3:63", "[x0, y0, x1, y1]"},
-        BadCase{"- just\n- a list\n", "j.yaml:1:1", "a job file is a mapping"}));
+        BadCase{"- just\n- a list\n", "j.yaml:1:1", "a job file is a mapping"},
+        BadCase{"output: o\nmap: {resolution: -1}\nruns:\n  - {name: s, format: simulate}\n",
+                "j.yaml:2:19", "map resolution must be > 0"},
+        BadCase{"output: o\nmap: {colour: red}\nruns:\n  - {name: s, format: simulate}\n",
+                "j.yaml:2:7", "unknown key 'colour'"},
+        BadCase{"output: o\nruns:\n  - {name: s, format: simulate, simulate: {scans: maybe}}\n",
+                "j.yaml:3:51", "expected true or false"},
+        BadCase{"output: o\nruns:\n  - {name: s, format: simulate, simulate: {scan_max_range: 0}}\n",
+                "j.yaml:3:60", "'scan_max_range' must be > 0"},
+        BadCase{"output: o\nruns:\n  - {name: s, format: simulate, ids: perhaps}\n",
+                "j.yaml:3:38", "expected true or false"}));
 
 TEST(JobSpec, MissingFileIsNotFound) {
   StatusOr<JobSpec> job = ReadJobSpec("/nonexistent/job.yaml");

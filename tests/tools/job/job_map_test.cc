@@ -1,0 +1,290 @@
+// The map stage of a job end to end: a simulated campus driven twice with GPS
+// and a vertical laser (scans: true). The outputs exist; map.bt loads with
+// OctoMap's readBinary and map.pcd with PCL (storage::ReadPcd is
+// pcl::io::loadPCDFile); cells on the building walls the laser hit are
+// occupied and the street space its rays crossed is free, checked against
+// the 3-D world rebuilt independently from the simulator; the trajectories
+// match the ground truth within the noise; the report lists the map.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <octomap/OcTree.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <set>
+#include <sstream>
+
+#include "storage/pcd_io.h"
+#include "storage/scan_store.h"
+#include "tools/campus_simulator.h"
+#include "tools/job/job_map.h"
+#include "tools/job/job_runner.h"
+#include "tools/job/simulated_scans.h"
+#include "tools/trajectory_metrics.h"
+
+namespace graphslam::tools::job {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string ReadFile(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+constexpr int kBeams = 60;
+constexpr double kMaxRange = 25.0;
+constexpr double kResolution = 0.25;
+constexpr double kSensorHeight = 1.5;
+
+CampusSimulatorOptions CampusOptions() {
+  CampusSimulatorOptions o;
+  o.poses = 600;
+  o.runs = 2;
+  o.gps_every = 10;
+  o.seed = 4;
+  return o;
+}
+
+class JobMap : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("graphslam_job_map_" + std::to_string(getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  Status Run(const std::string& yaml) {
+    std::ofstream((dir_ / "job.yaml").string()) << yaml;
+    RunJobOptions options;
+    options.job_path = (dir_ / "job.yaml").string();
+    options.quiet = true;
+    return RunJob(options);
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(JobMap, ScansAreFusedAtTheOptimizedPosesIntoAMapOfTheTrueWorld) {
+  const Status status =
+      Run("output: out\n"
+          "threads: 2\n"
+          "memory_limit: 512MiB\n"
+          "map: {resolution: 0.25, max_range: 25, sensor_height: 1.5}\n"
+          "runs:\n"
+          "  - name: campus\n"
+          "    format: simulate\n"
+          "    simulate: {poses: 600, runs: 2, gps_every: 10, seed: 4, scans: true,\n"
+          "               scan_beams: 60, scan_max_range: 25}\n");
+  ASSERT_TRUE(status.ok()) << status.ToString();
+  const fs::path out = dir_ / "out";
+  for (const char* file : {"trajectories/campus_1.tum", "trajectories/campus_2.tum",
+                           "features.csv", "graph.g2o", "map.bt", "map.pcd", "report.json",
+                           "report.html", "log.jsonl"})
+    EXPECT_TRUE(fs::exists(out / file)) << file;
+  // The scans went through disk-backed chunks.
+  EXPECT_TRUE(map::DiskScanStore::Exists((out / ".job/scans/campus").string()));
+
+  // Ground truth and the 3-D world, straight from the simulators.
+  StatusOr<SimulatedCampus> campus = SimulateCampus(CampusOptions());
+  ASSERT_TRUE(campus.ok());
+  const map::Campus3d world = MakeCampusWorld3d(CampusOptions(), *campus, kSensorHeight);
+
+  // Trajectories: with GPS the estimate is in the true frame.
+  for (int run = 0; run < 2; ++run) {
+    std::vector<StampedPose2> truth;
+    for (size_t i = 0; i < campus->true_poses.size(); ++i)
+      if (campus->run_of_pose[i] == run)
+        truth.push_back({campus->problem.pose_stamps[i], campus->true_poses[i]});
+    StatusOr<std::vector<StampedPose2>> estimate =
+        ReadTum((out / ("trajectories/campus_" + std::to_string(run + 1) + ".tum")).string());
+    ASSERT_TRUE(estimate.ok()) << estimate.status().ToString();
+    TrajectoryMatchOptions unaligned;
+    unaligned.align = false;
+    StatusOr<TrajectoryErrors> errors = CompareTrajectories(*estimate, truth, unaligned);
+    ASSERT_TRUE(errors.ok()) << errors.status().ToString();
+    EXPECT_EQ(errors->matched, static_cast<int64_t>(truth.size()));
+    EXPECT_LT(errors->position_rmse, 0.5) << "run " << run;
+  }
+
+  // map.bt through OctoMap's own reader.
+  octomap::OcTree tree(0.1);
+  ASSERT_TRUE(tree.readBinary((out / "map.bt").string()));
+  EXPECT_DOUBLE_EQ(tree.getResolution(), kResolution);
+  ASSERT_GT(tree.getNumLeafNodes(), 1000u);
+
+  // Walls and streets. For every 5th true pose, the low beams (within 25
+  // degrees of horizontal) that hit a building in the true world: the cells
+  // around the hit are occupied, the street halfway along the ray is free.
+  auto occupied_near = [&](const Eigen::Vector3d& p) {
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const octomap::OcTreeNode* node = tree.search(p.x() + dx * kResolution,
+                                                        p.y() + dy * kResolution,
+                                                        p.z() + dz * kResolution);
+          if (node != nullptr && tree.isNodeOccupied(node)) return true;
+        }
+    return false;
+  };
+  // The scan planes are 1 m apart (a pose every 1 m) and the cells 0.25 m:
+  // free space is seen in slices across the street, so "free" means a free
+  // cell within 2 cells horizontally (1 vertically) and no occupied one.
+  auto free_near = [&](const Eigen::Vector3d& p) {
+    bool any_free = false;
+    for (int dx = -2; dx <= 2; ++dx)
+      for (int dy = -2; dy <= 2; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const octomap::OcTreeNode* node = tree.search(p.x() + dx * kResolution,
+                                                        p.y() + dy * kResolution,
+                                                        p.z() + dz * kResolution);
+          if (node == nullptr) continue;
+          if (tree.isNodeOccupied(node)) return false;
+          any_free = true;
+        }
+    return any_free;
+  };
+  auto on_building = [&](const Eigen::Vector3d& p) {
+    for (const map::Box& b : world.buildings)
+      if ((p.array() >= b.lo.array() - 0.01).all() && (p.array() <= b.hi.array() + 0.01).all())
+        return true;
+    return false;
+  };
+  int64_t walls = 0, walls_occupied = 0, street = 0, street_free = 0, street_occupied = 0;
+  for (size_t k = 0; k < campus->true_poses.size(); k += 5) {
+    const core::Pose3 sensor = LiftPose(campus->true_poses[k], kSensorHeight);
+    const Eigen::Matrix3d r = sensor.rotation();
+    for (int beam = 0; beam < kBeams; ++beam) {
+      const double angle = 2.0 * std::numbers::pi * (beam + 0.5) / kBeams;
+      const Eigen::Vector3d local(0.0, std::cos(angle), std::sin(angle));
+      if (std::abs(local.z()) > std::sin(25.0 * std::numbers::pi / 180)) continue;
+      const Eigen::Vector3d d = r * local;
+      const double t = world.Cast(sensor.t, d, kMaxRange);
+      if (!std::isfinite(t)) continue;
+      const Eigen::Vector3d hit = sensor.t + t * d;
+      if (!on_building(hit)) continue;
+      ++walls;
+      if (occupied_near(hit)) ++walls_occupied;
+      const Eigen::Vector3d middle = sensor.t + 0.5 * t * d;
+      const octomap::OcTreeNode* node = tree.search(middle.x(), middle.y(), middle.z());
+      ++street;
+      if (node != nullptr && tree.isNodeOccupied(node)) ++street_occupied;
+      if (free_near(middle)) ++street_free;
+    }
+  }
+  ASSERT_GT(walls, 500);
+  EXPECT_GT(static_cast<double>(walls_occupied) / walls, 0.95) << walls_occupied << "/" << walls;
+  EXPECT_GT(static_cast<double>(street_free) / street, 0.95) << street_free << "/" << street;
+  EXPECT_EQ(street_occupied, 0);
+  // And a control: the middle of a building is never seen (unknown), nor
+  // free.
+  for (const map::Box& b : world.buildings) {
+    const Eigen::Vector3d centre = 0.5 * (b.lo + b.hi);
+    const octomap::OcTreeNode* node = tree.search(centre.x(), centre.y(), 2.0);
+    EXPECT_TRUE(node == nullptr || tree.isNodeOccupied(node)) << centre.transpose();
+  }
+
+  // map.pcd through PCL: binary_compressed, with the run id of every point.
+  StatusOr<map::PcdContents> cloud = map::ReadPcd((out / "map.pcd").string());
+  ASSERT_TRUE(cloud.ok()) << cloud.status().ToString();
+  EXPECT_EQ(cloud->data_type, "binary_compressed");
+  ASSERT_EQ(cloud->run.size(), cloud->points.size());
+  std::set<float> runs(cloud->run.begin(), cloud->run.end());
+  EXPECT_EQ(runs, (std::set<float>{0.0f, 1.0f}));
+
+  // The report says what was fused and where it went.
+  const nlohmann::json report = nlohmann::json::parse(ReadFile(out / "report.json"));
+  ASSERT_TRUE(report.contains("map"));
+  EXPECT_EQ(report["map"]["scans"].get<int64_t>(), 600);
+  EXPECT_GT(report["map"]["points"].get<int64_t>(), 10000);
+  EXPECT_EQ(report["map"]["pcd_points"].get<int64_t>(), static_cast<int64_t>(cloud->points.size()));
+  EXPECT_EQ(report["map"]["files"], nlohmann::json({"map.bt", "map.pcd"}));
+  // Half the memory limit is the fusion's tile budget.
+  EXPECT_EQ(report["map"]["memory_budget_bytes"].get<int64_t>(), int64_t{256} << 20);
+  const std::string html = ReadFile(out / "report.html");
+  EXPECT_NE(html.find("3-D map"), std::string::npos);
+  EXPECT_NE(html.find("map.pcd"), std::string::npos);
+}
+
+// memory_limit is applied: at 40 MiB the fusion's tile budget (20 MiB) is
+// below the map's ~29 MiB, so tiles spill to disk and the map is written as
+// tiles (map.tiles/index.json + one .bt per tile); their cells are exactly
+// those of the one-tree map of the same job at 1 GiB, and map.pcd is the same.
+TEST_F(JobMap, TheMemoryLimitBoundsTheFusionAndTilesTheMap) {
+  const std::string runs =
+      "map: {resolution: 0.25, max_range: 25}\n"
+      "runs:\n"
+      "  - name: campus\n"
+      "    format: simulate\n"
+      "    simulate: {poses: 600, runs: 2, gps_every: 10, seed: 4, scans: true,\n"
+      "               scan_beams: 60, scan_max_range: 25}\n";
+  ASSERT_TRUE(Run("output: big\nthreads: 2\nmemory_limit: 1GiB\n" + runs).ok());
+  ASSERT_TRUE(Run("output: small\nthreads: 2\nmemory_limit: 40MiB\n" + runs).ok());
+  EXPECT_EQ(ReadFile(dir_ / "big" / "map.pcd"), ReadFile(dir_ / "small" / "map.pcd"));
+  EXPECT_FALSE(fs::exists(dir_ / "small" / "map.bt"));
+  const nlohmann::json report = nlohmann::json::parse(ReadFile(dir_ / "small" / "report.json"));
+  EXPECT_TRUE(report["map"]["tiled_output"].get<bool>());
+  EXPECT_EQ(report["map"]["memory_budget_bytes"].get<int64_t>(), int64_t{20} << 20);
+  EXPECT_LT(report["map"]["batch_points"].get<int64_t>(), 2'000'000);
+
+  // Occupied and free cells at the finest depth (a pruned leaf of depth d
+  // stands for 8^(16 - d) of them).
+  auto count = [](const octomap::OcTree& tree, int64_t* occupied, int64_t* free) {
+    for (auto it = tree.begin_leafs(), end = tree.end_leafs(); it != end; ++it) {
+      const int64_t cells = int64_t{1} << (3 * (tree.getTreeDepth() - it.getDepth()));
+      (tree.isNodeOccupied(*it) ? *occupied : *free) += cells;
+    }
+  };
+  octomap::OcTree whole(0.1);
+  ASSERT_TRUE(whole.readBinary((dir_ / "big" / "map.bt").string()));
+  int64_t whole_occupied = 0, whole_free = 0;
+  count(whole, &whole_occupied, &whole_free);
+  const nlohmann::json index =
+      nlohmann::json::parse(ReadFile(dir_ / "small" / "map.tiles" / "index.json"));
+  ASSERT_GT(index["tiles"].size(), 1u);
+  int64_t occupied = 0, free = 0;
+  for (const nlohmann::json& tile : index["tiles"]) {
+    octomap::OcTree tree(0.1);
+    ASSERT_TRUE(tree.readBinary(
+        (dir_ / "small" / "map.tiles" / tile["file"].get<std::string>()).string()));
+    count(tree, &occupied, &free);
+  }
+  EXPECT_GT(whole_occupied, 1000);
+  EXPECT_EQ(occupied, whole_occupied);
+  EXPECT_EQ(free, whole_free);
+}
+
+TEST_F(JobMap, ScanChunksFollowTheMemoryLimit) {
+  EXPECT_EQ(ScanChunkBytes(0), int64_t{16} << 20);
+  EXPECT_EQ(ScanChunkBytes(int64_t{64} << 20), int64_t{1} << 20);
+  EXPECT_EQ(ScanChunkBytes(int64_t{1} << 20), int64_t{256} << 10);
+  EXPECT_EQ(ScanChunkBytes(int64_t{64} << 30), int64_t{16} << 20);
+}
+
+TEST_F(JobMap, BadMapSettingsAreErrorsWithTheLine) {
+  const Status status = Run(
+      "output: out\n"
+      "map: {resolution: 0}\n"
+      "runs:\n"
+      "  - {name: a, format: simulate}\n");
+  ASSERT_FALSE(status.ok());
+  EXPECT_NE(status.message().find("job.yaml:2:"), std::string::npos) << status.message();
+  const Status beams = Run(
+      "output: out\n"
+      "runs:\n"
+      "  - name: a\n"
+      "    format: simulate\n"
+      "    simulate: {scans: true, scan_beams: 0}\n");
+  ASSERT_FALSE(beams.ok());
+  EXPECT_NE(beams.message().find("job.yaml:5:"), std::string::npos) << beams.message();
+}
+
+}  // namespace
+}  // namespace graphslam::tools::job

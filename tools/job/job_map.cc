@@ -1,0 +1,235 @@
+#include "tools/job/job_map.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <vector>
+
+#include "storage/atomic_file.h"
+#include "storage/env.h"
+#include "storage/scan_store.h"
+#include "tools/campus_simulator.h"
+#include "tools/job/simulated_scans.h"
+#include "tools/map_builder.h"
+
+namespace graphslam::tools::job {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+// The scans of all runs, chunk after chunk, in run order; scans of a scan
+// folder are moved to the merged pose numbering and get their run id.
+class JobScanSource : public map::ScanSource {
+ public:
+  struct Part {
+    std::unique_ptr<map::DiskScanStore> store;
+    int64_t pose_offset = 0;
+    int32_t run = -1;  // -1: keep the scans' own (simulated: already merged ids)
+  };
+  JobScanSource(std::vector<Part> parts, ProgressDisplay* display)
+      : parts_(std::move(parts)), display_(display) {
+    for (size_t p = 0; p < parts_.size(); ++p) {
+      for (int64_t c = 0; c < parts_[p].store->NumChunks(); ++c) chunks_.emplace_back(p, c);
+      total_scans_ += parts_[p].store->total_scans();
+      total_points_ += parts_[p].store->total_points();
+    }
+  }
+  int64_t NumChunks() const override { return static_cast<int64_t>(chunks_.size()); }
+  Status Load(int64_t index, std::vector<map::Scan>* scans) const override {
+    const auto [p, c] = chunks_[static_cast<size_t>(index)];
+    const Part& part = parts_[p];
+    GS_RETURN_IF_ERROR(part.store->Load(c, scans));
+    for (map::Scan& scan : *scans) {
+      if (scan.pose >= 0) scan.pose += part.pose_offset;
+      if (part.run >= 0) scan.run = part.run;
+    }
+    done_scans_ += static_cast<int64_t>(scans->size());
+    if (display_ != nullptr) display_->Update("map", done_scans_, total_scans_);
+    return Status::Ok();
+  }
+  int64_t total_scans() const { return total_scans_; }
+  int64_t total_points() const { return total_points_; }
+
+ private:
+  std::vector<Part> parts_;
+  std::vector<std::pair<size_t, int64_t>> chunks_;
+  ProgressDisplay* display_;
+  int64_t total_scans_ = 0, total_points_ = 0;
+  mutable int64_t done_scans_ = 0;
+};
+
+std::string SimulatedScanDir(const std::string& work, const std::string& run) {
+  return (fs::path(work) / "scans" / run).string();
+}
+
+// The merged index of the run named `name`, or -1.
+int RunIndex(const JobData& data, const std::string& name) {
+  for (size_t r = 0; r < data.runs.size(); ++r)
+    if (data.runs[r].name == name) return static_cast<int>(r);
+  return -1;
+}
+
+// The first merged run of a job run (a simulate run with runs: N > 1 becomes
+// <name>_1 .. <name>_N).
+int FirstRunOf(const JobData& data, const RunSpec& spec) {
+  const int direct = RunIndex(data, spec.name);
+  return direct >= 0 ? direct : RunIndex(data, spec.name + "_1");
+}
+
+Status CopyAtomically(const std::string& from, const std::string& to) {
+  std::ifstream in(from, std::ios::binary);
+  if (!in) return Status::NotFound(from + ": missing (did the map stage complete?)");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad()) return Status::IOError(from + ": read failed");
+  return storage::WriteStringAtomically(storage::Env::Default(), to, buffer.str());
+}
+
+}  // namespace
+
+int64_t ScanChunkBytes(int64_t memory_limit) {
+  if (memory_limit <= 0) return int64_t{16} << 20;
+  return std::clamp<int64_t>(memory_limit / 64, int64_t{256} << 10, int64_t{16} << 20);
+}
+
+bool JobHasScans(const JobSpec& spec) {
+  for (const RunSpec& run : spec.runs)
+    if (!run.scans.empty() || (run.format == "simulate" && run.simulate_scans.enabled)) return true;
+  return false;
+}
+
+StatusOr<int64_t> WriteSimulatedScans(const JobSpec& spec, const JobData& data,
+                                      const std::string& work) {
+  int64_t written = 0;
+  for (const RunSpec& run : spec.runs) {
+    if (run.format != "simulate" || !run.simulate_scans.enabled) continue;
+    // The 2-D campus again (deterministic in its seed): its true poses and
+    // landmarks are the world the laser sees.
+    StatusOr<SimulatedCampus> campus = SimulateCampus(run.simulate);
+    if (!campus.ok()) return campus.status();
+    const int first_run = FirstRunOf(data, run);
+    if (first_run < 0)
+      return Status::Corruption("run '" + run.name + "' is missing from the ingested runs");
+    const map::Campus3d world = MakeCampusWorld3d(run.simulate, *campus, spec.map.sensor_height);
+    const std::string dir = SimulatedScanDir(work, run.name);
+    StatusOr<std::unique_ptr<map::ScanStoreWriter>> writer =
+        map::ScanStoreWriter::Create(dir, ScanChunkBytes(spec.memory_limit));
+    if (!writer.ok()) return writer.status();
+    GS_RETURN_IF_ERROR(SimulateCampusScans(
+        world, campus->true_poses, campus->run_of_pose, data.runs[first_run].first_pose, first_run,
+        run.simulate_scans, spec.map.sensor_height, run.simulate.seed,
+        [&](map::Scan&& scan) {
+          ++written;
+          return (*writer)->Add(scan);
+        }));
+    GS_RETURN_IF_ERROR((*writer)->Finish());
+  }
+  return written;
+}
+
+StatusOr<json> BuildJobMap(const JobSpec& spec, const JobData& data, const std::string& work,
+                           ProgressDisplay* display) {
+  std::vector<JobScanSource::Part> parts;
+  for (const RunSpec& run : spec.runs) {
+    JobScanSource::Part part;
+    if (run.format == "simulate" && run.simulate_scans.enabled) {
+      StatusOr<std::unique_ptr<map::DiskScanStore>> store =
+          map::DiskScanStore::Open(SimulatedScanDir(work, run.name));
+      if (!store.ok()) return store.status();
+      part.store = std::move(store).value();
+    } else if (!run.scans.empty()) {
+      const int r = RunIndex(data, run.name);
+      if (r < 0) return Status::Corruption("run '" + run.name + "' is missing from the ingested runs");
+      StatusOr<std::unique_ptr<map::DiskScanStore>> store = map::DiskScanStore::Open(run.scans);
+      if (!store.ok())
+        return Status::InvalidArgument(spec.path + ":" + std::to_string(run.line) + ": run '" +
+                                       run.name + "' scans: " + store.status().message());
+      part.store = std::move(store).value();
+      part.pose_offset = data.runs[static_cast<size_t>(r)].first_pose;
+      part.run = r;
+    } else {
+      continue;
+    }
+    parts.push_back(std::move(part));
+  }
+  JobScanSource source(std::move(parts), display);
+
+  std::vector<core::Pose3> poses;
+  poses.reserve(data.problem.poses.size());
+  for (const core::Pose2& pose : data.problem.poses)
+    poses.push_back(LiftPose(pose, spec.map.sensor_height));
+
+  map::MapOptions options;
+  options.fusion.resolution = spec.map.resolution;
+  options.fusion.max_range = spec.map.max_range;
+  options.bt_path = (fs::path(work) / "map.bt").string();
+  options.pcd_path = (fs::path(work) / "map.pcd").string();
+  options.pcd_voxel = spec.map.pcd_voxel;
+  if (spec.memory_limit > 0) {
+    options.memory_budget_bytes = std::max<int64_t>(spec.memory_limit / 2, int64_t{16} << 20);
+    options.batch_points = std::clamp<int64_t>(spec.memory_limit / 2048, 20'000, 2'000'000);
+  }
+  // A restart after kill -9 starts from nothing: no stale spill or tiles.
+  std::error_code error;
+  fs::remove_all(fs::path(work) / "map.spill", error);
+  fs::remove_all(fs::path(work) / "map.tiles", error);
+  StatusOr<map::MapSummary> summary = map::BuildMap(options, source, &poses);
+  if (!summary.ok()) return summary.status();
+  if (display != nullptr) display->Finish();
+
+  json files = json::array();
+  if (summary->tiled_output) {
+    files.push_back("map.tiles/");
+  } else {
+    files.push_back("map.bt");
+  }
+  files.push_back("map.pcd");
+  json result = {{"scans", summary->scans},
+                 {"points", summary->points},
+                 {"pcd_points", summary->pcd_points},
+                 {"occupied_leaves", summary->occupied_leaves},
+                 {"free_leaves", summary->free_leaves},
+                 {"tiles", summary->tiles},
+                 {"tiled_output", summary->tiled_output},
+                 {"tree_bytes", summary->tree_bytes},
+                 {"memory_budget_bytes", options.memory_budget_bytes},
+                 {"batch_points", options.batch_points},
+                 {"resolution_m", options.fusion.resolution},
+                 {"max_range_m", options.fusion.max_range},
+                 {"fusion_seconds", summary->fusion_seconds},
+                 {"points_per_second", summary->points_per_second},
+                 {"files", files}};
+  GS_RETURN_IF_ERROR(storage::WriteStringAtomically(
+      storage::Env::Default(), (fs::path(work) / "map.json").string(), result.dump(1) + "\n"));
+  return result;
+}
+
+StatusOr<std::vector<std::string>> ExportJobMap(const std::string& work, const std::string& output) {
+  std::vector<std::string> written;
+  const fs::path tiles = fs::path(work) / "map.tiles";
+  if (fs::exists(tiles)) {
+    std::error_code error;
+    fs::create_directories(fs::path(output) / "map.tiles", error);
+    if (error) return Status::IOError(output + "/map.tiles: " + error.message());
+    std::vector<fs::path> names;
+    for (const auto& entry : fs::directory_iterator(tiles)) names.push_back(entry.path().filename());
+    std::sort(names.begin(), names.end());
+    for (const fs::path& name : names)
+      GS_RETURN_IF_ERROR(CopyAtomically((tiles / name).string(),
+                                        (fs::path(output) / "map.tiles" / name).string()));
+    written.push_back("map.tiles/");
+  } else {
+    GS_RETURN_IF_ERROR(CopyAtomically((fs::path(work) / "map.bt").string(),
+                                      (fs::path(output) / "map.bt").string()));
+    written.push_back("map.bt");
+  }
+  GS_RETURN_IF_ERROR(CopyAtomically((fs::path(work) / "map.pcd").string(),
+                                    (fs::path(output) / "map.pcd").string()));
+  written.push_back("map.pcd");
+  return written;
+}
+
+}  // namespace graphslam::tools::job
