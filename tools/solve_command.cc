@@ -33,6 +33,7 @@
 #include "tools/progress_display.h"
 #include "tools/resource_usage.h"
 #include "tools/solve_3d_command.h"
+#include "tools/solve_report.h"
 
 namespace graphslam::tools {
 namespace {
@@ -74,27 +75,10 @@ nlohmann::json BuildReport(const SolveCommandOptions& options, const core::Probl
                            double read_seconds, double initialize_seconds,
                            double progressive_seconds, double total_seconds,
                            int64_t num_observations) {
-  nlohmann::json report;
-  report["input"] = options.input;
-  report["format"] = format_name;
-  report["solver"] = core::LinearSolverName(summary.linear_solver_used);
-  report["preconditioner"] = options.preconditioner;
-  report["initial_chi2"] = summary.initial_chi2;
-  report["final_chi2"] = summary.final_chi2;
-  report["iterations"] = summary.iterations;
-  report["converged"] = summary.converged;
-  report["termination"] = summary.termination;
+  nlohmann::json report = SolverReport(options, summary, format_name, total_seconds);
   report["poses"] = problem.num_poses();
   report["features"] = problem.num_features();
   report["observations"] = num_observations;
-  report["observations_used"] = summary.observations_used;
-  report["eliminated_features"] = summary.eliminated_features;
-  report["kept_features"] = summary.kept_features;
-  report["robust_kernel"] = options.robust_kernel;
-  report["initialization"] = options.initialization;
-  report["resumed_from_iteration"] = summary.resumed_from_iteration;
-  report["excluded_features"] = summary.excluded_features;
-  report["unobserved_features"] = summary.unobserved_features;
   report["relative_pose_constraints"] = static_cast<int64_t>(problem.relative_poses.size());
   report["motion_constraints"] = static_cast<int64_t>(problem.motions.size());
   report["gps_constraints"] = static_cast<int64_t>(problem.gps.size());
@@ -106,31 +90,10 @@ nlohmann::json BuildReport(const SolveCommandOptions& options, const core::Probl
   report["residual_dimension"] = residual_dimension;
   report["unknowns"] =
       3 * summary.unknown_poses + 2 * (summary.eliminated_features + summary.kept_features);
-  report["reduced_nonzero_blocks"] = summary.reduced_nonzero_blocks;
-  report["threads"] = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
-  report["seconds"] = total_seconds;
   report["stage_seconds"] = {{"read", read_seconds},
                              {"initialize", initialize_seconds},
                              {"progressive_initialization", progressive_seconds},
                              {"optimize", summary.seconds}};
-  report["peak_rss_bytes"] = PeakRssBytes();
-  nlohmann::json per_iteration = nlohmann::json::array();
-  for (const core::IterationSummary& it : summary.per_iteration) {
-    per_iteration.push_back({{"iteration", it.iteration},
-                             {"chi2", it.chi2},
-                             {"candidate_chi2", it.candidate_chi2},
-                             {"step_norm", it.step_norm},
-                             {"gradient_max_norm", it.gradient_max_norm},
-                             {"linear_solver_iterations", it.linear_iterations},
-                             {"lambda", it.lambda},
-                             {"relative_decrease", it.relative_decrease},
-                             {"accepted", it.accepted},
-                             {"seconds", it.seconds},
-                             {"reduce_seconds", it.reduce_seconds},
-                             {"solve_seconds", it.solve_seconds},
-                             {"recover_seconds", it.recover_seconds}});
-  }
-  report["per_iteration"] = per_iteration;
   return report;
 }
 
@@ -532,12 +495,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                   static_cast<long long>(association_summary.undone),
                   association_summary.rounds.size(), association_summary.seconds);
     }
-    std::printf("  linear solver      %s\n", core::LinearSolverName(summary.linear_solver_used));
-    std::printf("  initial chi2       %.9g\n", summary.initial_chi2);
-    std::printf("  final chi2         %.9g\n", summary.final_chi2);
-    std::printf("  iterations         %d (%s)\n", summary.iterations, summary.termination.c_str());
-    std::printf("  seconds            %.3f\n", total_seconds);
-    std::printf("  peak RSS           %.1f MiB\n", PeakRssBytes() / (1024.0 * 1024.0));
+    PrintSolverSummaryLines(summary, total_seconds);
   }
   return summary.converged ? kExitOk : kExitNotConverged;
 }
