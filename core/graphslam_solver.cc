@@ -8,6 +8,7 @@
 #include "core/angle.h"
 #include "core/block_sparse_matrix.h"
 #include "core/chunk_passes.h"
+#include "core/levenberg_marquardt.h"
 #include "core/logging.h"
 #include "core/pose_factors.h"
 #include "core/reduced_system_solver.h"
@@ -17,11 +18,7 @@ namespace graphslam::core {
 namespace {
 
 constexpr int kDim = UnknownLayout::kPoseDimension;
-using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+using Clock = SolverClock;
 
 std::vector<Pose2> ApplyPoseStep(const std::vector<Pose2>& poses, const UnknownLayout& layout,
                                  const Eigen::VectorXd& step) {
@@ -33,6 +30,102 @@ std::vector<Pose2> ApplyPoseStep(const std::vector<Pose2>& poses, const UnknownL
   }
   return out;
 }
+
+// The planar problem space of RunLevenbergMarquardt (core/levenberg_marquardt.h):
+// SE(2) poses (3 x 3 blocks) and 2-D features (2 x 2 blocks), observations
+// streamed from the ChunkSource chunk by chunk (core/chunk_passes.h).
+class PlanarSpace {
+ public:
+  using Checkpoint = SolverCheckpoint;
+  static constexpr const char* kName = "";
+
+  PlanarSpace(const PassContext& context, const UnknownLayout& layout,
+              const std::vector<uint8_t>& kept, Problem2d* problem, ReducedSystem* system,
+              ReducedSystemSolver* solver, const std::vector<uint8_t>& excluded,
+              const PoseFactorKernels& pose_kernels)
+      : context_(context), layout_(layout), kept_(kept), problem_(*problem), system_(*system),
+        solver_(*solver), excluded_(excluded), pose_kernels_(pose_kernels) {}
+
+  Status Linearize(double lambda, IterationSummary* it, bool* usable) {
+    const int num_rows = system_.matrix.num_rows();
+    system_.matrix.SetZero();
+    system_.rhs.setZero(num_rows);
+    system_.gradient.setZero(num_rows);
+    system_.hessian_diagonal.setZero(num_rows);
+    system_.chi2 = 0.0;
+    LinearizePoseFactors(problem_, problem_.poses, layout_, &system_.matrix, &system_.gradient,
+                         &system_.hessian_diagonal, pose_kernels_);
+    system_.rhs -= system_.gradient;
+    GS_RETURN_IF_ERROR(
+        ReducePass(context_, problem_.poses, problem_.features, lambda, &system_));
+    it->gradient_max_norm = num_rows > 0 ? system_.gradient.cwiseAbs().maxCoeff() : 0.0;
+    *usable = true;
+    return Status::Ok();
+  }
+
+  Status TryStep(double lambda, bool /*usable*/, IterationSummary* it, TrialStep* trial) {
+    const std::vector<Pose2>& poses = problem_.poses;
+    damping_ = system_.hessian_diagonal.cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal);
+    system_.matrix.AddToDiagonal(lambda * damping_);
+
+    // Solve the reduced pose system.
+    const Clock::time_point solve_start = Clock::now();
+    Status solve_status =
+        solver_.Solve(system_.matrix, system_.rhs, &pose_step_, &it->linear_iterations);
+    trial->ok = solve_status.ok();
+    it->solve_seconds = SecondsSince(solve_start);
+    const Clock::time_point recover_start = Clock::now();
+    if (!trial->ok)
+      GS_VLOG(1, "linear solve failed (%s); raising damping", solve_status.ToString().c_str());
+    if (trial->ok) {
+      // Recover the features and evaluate the candidate.
+      RecoveryResult recovery;
+      candidate_poses_ = ApplyPoseStep(poses, layout_, pose_step_);
+      GS_RETURN_IF_ERROR(RecoverPass(context_, poses, problem_.features, lambda, pose_step_,
+                                     candidate_poses_, &candidate_features_, &recovery));
+      trial->candidate_chi2 =
+          PoseFactorsChi2(problem_, candidate_poses_, pose_kernels_) + recovery.candidate_chi2;
+      trial->model_decrease = -(system_.gradient.dot(pose_step_) + recovery.gradient_dot_step) +
+                              lambda * (pose_step_.dot(damping_.cwiseProduct(pose_step_)) +
+                                        recovery.damped_step_norm);
+      it->step_norm = std::sqrt(pose_step_.squaredNorm() + recovery.step_squared_norm);
+      trial->state_norm_squared = recovery.state_squared_norm;
+      for (size_t p = 0; p < poses.size(); ++p)
+        if (layout_.unknown_index[p] >= 0) trial->state_norm_squared += poses[p].squaredNorm();
+    }
+    it->recover_seconds = SecondsSince(recover_start);
+    return Status::Ok();
+  }
+
+  void StepResult(bool accepted) { solver_.StepResult(accepted); }
+
+  void Accept() {
+    problem_.poses = std::move(candidate_poses_);
+    for (size_t g = 0; g < problem_.features.size(); ++g)
+      if (!excluded_[g]) problem_.features[g] = candidate_features_[g];
+  }
+
+  void FillState(Checkpoint* checkpoint) const {
+    checkpoint->poses = problem_.poses;
+    checkpoint->features = problem_.features;
+    checkpoint->excluded = excluded_;
+    checkpoint->kept = kept_;
+  }
+
+ private:
+  const PassContext& context_;
+  const UnknownLayout& layout_;
+  const std::vector<uint8_t>& kept_;
+  Problem2d& problem_;
+  ReducedSystem& system_;
+  ReducedSystemSolver& solver_;
+  const std::vector<uint8_t>& excluded_;
+  const PoseFactorKernels& pose_kernels_;
+  Eigen::VectorXd damping_;
+  Eigen::VectorXd pose_step_;
+  std::vector<Pose2> candidate_poses_;
+  std::vector<Point2> candidate_features_;
+};
 
 }  // namespace
 
@@ -182,162 +275,15 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
   summary->linear_solver_used = type;
   ReducedSystemSolver solver(type, linear_options);
 
-  std::vector<Pose2>& poses = problem->poses;
-  std::vector<Point2>& features = problem->features;
+  PlanarSpace space(context, layout, screening.kept, problem, &system, &solver,
+                    summary->excluded, options.pose_kernels);
   double observations_chi2 = 0.0;
-  GS_RETURN_IF_ERROR(ObservationsChi2(context, poses, features, &observations_chi2));
-  double chi2 = PoseFactorsChi2(*problem, poses) + observations_chi2;
-  summary->initial_chi2 = chi2;
-  summary->final_chi2 = chi2;
-  if (!std::isfinite(chi2)) {
-    return Status::Numerical("initial chi2 is not finite (" + std::to_string(chi2) +
-                             "); check the initial guess and information matrices");
-  }
-
-  double radius = options.initial_trust_region_radius;
-  double decrease_factor = 2.0;
-  int first_iteration = 1;
-  if (resume != nullptr) {
-    // The checkpoint's chi2, not a recomputation: acceptance decisions must
-    // see the very number the interrupted solve saw.
-    chi2 = resume->chi2;
-    summary->final_chi2 = chi2;
-    summary->initial_chi2 = resume->initial_chi2;
-    radius = resume->trust_region_radius;
-    decrease_factor = resume->decrease_factor;
-    first_iteration = resume->iterations + 1;
-    summary->iterations = resume->iterations;
-    if (resume->converged) {
-      summary->converged = true;
-      summary->termination = resume->termination;
-      summary->seconds = SecondsSince(start);
-      return Status::Ok();
-    }
-  }
-  std::vector<Point2> candidate_features;
-  Eigen::VectorXd pose_step;
-  summary->termination = "max_iterations";
-  const int num_rows = system.matrix.num_rows();
-
-  for (int iteration = first_iteration; iteration <= options.max_iterations; ++iteration) {
-    const Clock::time_point iteration_start = Clock::now();
-    IterationSummary it;
-    it.iteration = iteration;
-    it.lambda = 1.0 / radius;
-
-    // 1. Linearize and reduce.
-    system.matrix.SetZero();
-    system.rhs.setZero(num_rows);
-    system.gradient.setZero(num_rows);
-    system.hessian_diagonal.setZero(num_rows);
-    system.chi2 = 0.0;
-    LinearizePoseFactors(*problem, poses, layout, &system.matrix, &system.gradient,
-                         &system.hessian_diagonal);
-    system.rhs -= system.gradient;
-    GS_RETURN_IF_ERROR(ReducePass(context, poses, features, it.lambda, &system));
-    it.reduce_seconds = SecondsSince(iteration_start);
-    it.gradient_max_norm = num_rows > 0 ? system.gradient.cwiseAbs().maxCoeff() : 0.0;
-    if (it.gradient_max_norm <= options.gradient_tolerance) {
-      summary->termination = "gradient_tolerance";
-      summary->converged = true;
-      break;
-    }
-    const Eigen::VectorXd damping =
-        system.hessian_diagonal.cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal);
-    system.matrix.AddToDiagonal(it.lambda * damping);
-
-    // 2. Solve the reduced pose system.
-    const Clock::time_point solve_start = Clock::now();
-    Status solve_status = solver.Solve(system.matrix, system.rhs, &pose_step, &it.linear_iterations);
-    bool step_ok = solve_status.ok();
-    it.solve_seconds = SecondsSince(solve_start);
-    const Clock::time_point recover_start = Clock::now();
-    if (!step_ok) GS_VLOG(1, "linear solve failed (%s); raising damping", solve_status.ToString().c_str());
-
-    double candidate_chi2 = std::numeric_limits<double>::infinity();
-    double model_decrease = 0.0;
-    RecoveryResult recovery;
-    std::vector<Pose2> candidate_poses;
-    if (step_ok) {
-      // 3. Recover the features and evaluate the candidate.
-      candidate_poses = ApplyPoseStep(poses, layout, pose_step);
-      GS_RETURN_IF_ERROR(RecoverPass(context, poses, features, it.lambda, pose_step,
-                                     candidate_poses, &candidate_features, &recovery));
-      candidate_chi2 = PoseFactorsChi2(*problem, candidate_poses) + recovery.candidate_chi2;
-      model_decrease = -(system.gradient.dot(pose_step) + recovery.gradient_dot_step) +
-                       it.lambda * (pose_step.dot(damping.cwiseProduct(pose_step)) +
-                                    recovery.damped_step_norm);
-      it.step_norm = std::sqrt(pose_step.squaredNorm() + recovery.step_squared_norm);
-    }
-    it.recover_seconds = SecondsSince(recover_start);
-    it.candidate_chi2 = candidate_chi2;
-    it.relative_decrease =
-        model_decrease > 0.0 ? (chi2 - candidate_chi2) / model_decrease : -1.0;
-    it.accepted = step_ok && std::isfinite(candidate_chi2) &&
-                  it.relative_decrease > options.min_relative_decrease;
-    if (step_ok) solver.StepResult(it.accepted);
-
-    bool converged = false;
-    if (it.accepted) {
-      const double relative_change = (chi2 - candidate_chi2) / std::max(chi2, 1e-300);
-      double state_norm_squared = recovery.state_squared_norm;
-      for (size_t p = 0; p < poses.size(); ++p)
-        if (layout.unknown_index[p] >= 0) state_norm_squared += poses[p].squaredNorm();
-      poses = std::move(candidate_poses);
-      for (size_t g = 0; g < features.size(); ++g)
-        if (!summary->excluded[g]) features[g] = candidate_features[g];
-      chi2 = candidate_chi2;
-      const double factor = 1.0 - std::pow(2.0 * it.relative_decrease - 1.0, 3);
-      radius = std::min(radius / std::max(1.0 / 3.0, factor), options.max_trust_region_radius);
-      decrease_factor = 2.0;
-      if (relative_change < options.function_tolerance) {
-        summary->termination = "function_tolerance";
-        converged = true;
-      } else if (it.step_norm <= options.parameter_tolerance *
-                                     (std::sqrt(state_norm_squared) + options.parameter_tolerance)) {
-        summary->termination = "parameter_tolerance";
-        converged = true;
-      }
-    } else {
-      radius /= decrease_factor;
-      decrease_factor *= 2.0;
-    }
-    it.chi2 = chi2;
-    it.seconds = SecondsSince(iteration_start);
-    summary->per_iteration.push_back(it);
-    summary->iterations = iteration;
-    summary->final_chi2 = chi2;
-    GS_VLOG(1, "iteration %d: chi2 %.9g candidate %.9g rho %.3g lambda %.3g |step| %.3g cg %d %s",
-            iteration, chi2, candidate_chi2, it.relative_decrease, it.lambda, it.step_norm,
-            it.linear_iterations, it.accepted ? "accepted" : "rejected");
-    if (options.iteration_callback) options.iteration_callback(it);
-    if (options.progress) options.progress("optimize", iteration, options.max_iterations);
-    if (!converged && radius < options.min_trust_region_radius) {
-      summary->termination = "min_trust_region_radius";
-      converged = true;  // no further decrease possible: a (local) minimum
-    }
-    if (options.checkpoint_callback) {
-      SolverCheckpoint checkpoint;
-      checkpoint.iterations = iteration;
-      checkpoint.trust_region_radius = radius;
-      checkpoint.decrease_factor = decrease_factor;
-      checkpoint.initial_chi2 = summary->initial_chi2;
-      checkpoint.chi2 = chi2;
-      checkpoint.converged = converged;
-      checkpoint.termination = converged ? summary->termination : "";
-      checkpoint.poses = poses;
-      checkpoint.features = features;
-      checkpoint.excluded = summary->excluded;
-      checkpoint.kept = screening.kept;
-      GS_RETURN_IF_ERROR(options.checkpoint_callback(checkpoint));
-    }
-    if (converged) {
-      summary->converged = true;
-      break;
-    }
-  }
-  summary->seconds = SecondsSince(start);
-  return Status::Ok();
+  GS_RETURN_IF_ERROR(
+      ObservationsChi2(context, problem->poses, problem->features, &observations_chi2));
+  const double chi2 =
+      PoseFactorsChi2(*problem, problem->poses, options.pose_kernels) + observations_chi2;
+  return RunLevenbergMarquardt(options, chi2, resume, options.checkpoint_callback, start, &space,
+                               summary);
 }
 
 }  // namespace graphslam::core

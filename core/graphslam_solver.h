@@ -68,8 +68,11 @@ struct IterationSummary {
 
 // Everything the loop carries from one iteration to the next: a solve resumed
 // from a checkpoint continues exactly as the uninterrupted one would have
-// (same steps, same damping, bit for bit).
-struct SolverCheckpoint {
+// (same steps, same damping, bit for bit). One template for the planar and
+// the 3-D solver (SolverCheckpoint3d in core/graphslam_solver_3d.h); the
+// control fields are filled by core/levenberg_marquardt.h.
+template <class PoseT, class PointT>
+struct BasicSolverCheckpoint {
   int iterations = 0;  // iterations completed
   double trust_region_radius = 0.0;
   double decrease_factor = 2.0;
@@ -77,11 +80,12 @@ struct SolverCheckpoint {
   double chi2 = 0.0;
   bool converged = false;
   std::string termination;
-  std::vector<Pose2> poses;
-  std::vector<Point2> features;
+  std::vector<PoseT> poses;
+  std::vector<PointT> features;
   std::vector<uint8_t> excluded;  // per feature: kept out of the solve
   std::vector<uint8_t> kept;      // per feature: unknown of the reduced system
 };
+using SolverCheckpoint = BasicSolverCheckpoint<Pose2, Point2>;
 
 struct SolverOptions {
   LinearSolverType linear_solver = LinearSolverType::kAuto;
@@ -112,6 +116,8 @@ struct SolverOptions {
   int64_t max_eliminated_observations = 64;
   // Applied to every observation (IRLS); chi2 is then the robust cost.
   RobustKernel observation_kernel;
+  // Applied to the relative-pose, velocity-motion and GPS constraints (IRLS).
+  PoseFactorKernels pose_kernels;
   // Called after every iteration with the state to continue from; an error
   // (e.g. the disk is full) stops the solve and is returned.
   std::function<Status(const SolverCheckpoint&)> checkpoint_callback;  // optional

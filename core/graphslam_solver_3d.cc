@@ -12,6 +12,7 @@
 #include "core/cholmod_solver.h"
 #include "core/gps3_model.h"
 #include "core/incomplete_cholesky_preconditioner.h"
+#include "core/levenberg_marquardt.h"
 #include "core/logging.h"
 #include "core/point3_observation_model.h"
 #include "core/preconditioned_conjugate_gradient.h"
@@ -23,13 +24,9 @@ namespace {
 
 constexpr int kPoseDim = 6;
 constexpr int kPointDim = 3;
-using Clock = std::chrono::steady_clock;
+using Clock = SolverClock;
 using Matrix36 = Eigen::Matrix<double, 3, 6>;
 using Matrix63 = Eigen::Matrix<double, 6, 3>;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 // Which poses are unknowns (block index) and which are anchors (-1).
 std::vector<int32_t> MakeLayout(const Problem3d& problem, int32_t* num_unknown) {
@@ -54,16 +51,48 @@ struct Linearization {
   std::vector<Eigen::Vector3d> feature_damping;  // D_j
 };
 
-class Solver3d {
+// The 3-D problem space of RunLevenbergMarquardt (core/levenberg_marquardt.h):
+// SE(3) poses (6 x 6 blocks) and 3-D points (3 x 3 blocks), the whole
+// problem in memory.
+class Space3d {
  public:
-  Solver3d(const SolverOptions& options, Problem3d* problem)
+  using Checkpoint = SolverCheckpoint3d;
+  static constexpr const char* kName = "3-D ";
+
+  Space3d(const SolverOptions& options, Problem3d* problem)
       : options_(options), problem_(*problem) {}
 
-  Status Run(SolverSummary* summary);
+  // Layout, feature partition and the pattern of S; takes over `resume`'s
+  // state when given.
+  Status Setup(const SolverCheckpoint3d* resume, SolverSummary* summary);
+
+  Status Linearize(double lambda, IterationSummary* it, bool* usable) {
+    Status status;
+    LinearizeAt(problem_.poses, problem_.features, lambda, &system_, &scratch_, &status);
+    const int rows = system_.matrix.num_rows();
+    it->gradient_max_norm = rows > 0 ? system_.gradient.cwiseAbs().maxCoeff() : 0.0;
+    *usable = status.ok();
+    if (!status.ok()) GS_VLOG(1, "3-D reduce failed (%s); raising damping", status.ToString().c_str());
+    return Status::Ok();
+  }
+
+  Status TryStep(double lambda, bool usable, IterationSummary* it, TrialStep* trial);
+  void StepResult(bool /*accepted*/) {}
+  void Accept() {
+    problem_.poses.swap(candidate_poses_);
+    problem_.features.swap(candidate_features_);
+  }
+  void FillState(Checkpoint* checkpoint) const {
+    checkpoint->poses = problem_.poses;
+    checkpoint->features = problem_.features;
+    checkpoint->excluded = excluded_;
+    checkpoint->kept.assign(problem_.features.size(), 0);  // every feature is eliminated
+  }
 
  private:
-  void Linearize(const std::vector<Pose3>& poses, const std::vector<Point3>& features,
-                 double lambda, Linearization* out, ReducedContribution* scratch, Status* status);
+  void LinearizeAt(const std::vector<Pose3>& poses, const std::vector<Point3>& features,
+                   double lambda, Linearization* out, ReducedContribution* scratch,
+                   Status* status);
   Status SolveReduced(const BlockSparseMatrix& matrix, const Eigen::VectorXd& rhs,
                       Eigen::VectorXd* x, int* iterations);
 
@@ -72,13 +101,19 @@ class Solver3d {
   std::vector<int32_t> unknown_;
   int32_t num_unknown_ = 0;
   std::vector<std::vector<int32_t>> observations_of_feature_;
+  std::vector<uint8_t> excluded_;
   LinearSolverType type_ = LinearSolverType::kCholmod;
   CholmodSolver cholmod_;
   BlockJacobiPreconditioner block_jacobi_;
   IncompleteCholeskyPreconditioner incomplete_cholesky_;
+  Linearization system_;
+  ReducedContribution scratch_;
+  Eigen::VectorXd pose_step_;
+  std::vector<Pose3> candidate_poses_;
+  std::vector<Point3> candidate_features_;
 };
 
-Status Solver3d::SolveReduced(const BlockSparseMatrix& matrix, const Eigen::VectorXd& rhs,
+Status Space3d::SolveReduced(const BlockSparseMatrix& matrix, const Eigen::VectorXd& rhs,
                               Eigen::VectorXd* x, int* iterations) {
   x->setZero(rhs.size());
   *iterations = 0;
@@ -105,9 +140,9 @@ Status Solver3d::SolveReduced(const BlockSparseMatrix& matrix, const Eigen::Vect
   return Status::Ok();
 }
 
-void Solver3d::Linearize(const std::vector<Pose3>& poses, const std::vector<Point3>& features,
-                         double lambda, Linearization* out, ReducedContribution* scratch,
-                         Status* status) {
+void Space3d::LinearizeAt(const std::vector<Pose3>& poses, const std::vector<Point3>& features,
+                          double lambda, Linearization* out, ReducedContribution* scratch,
+                          Status* status) {
   *status = Status::Ok();
   out->matrix.SetZero();
   const int rows = out->matrix.num_rows();
@@ -159,13 +194,17 @@ void Solver3d::Linearize(const std::vector<Pose3>& poses, const std::vector<Poin
       Matrix36 jp;
       Eigen::Matrix3d jm;
       EvaluatePoint3Observation(poses[o.pose], features[f], o.z, &e, &jp, &jm);
-      const Eigen::Matrix3d wjm = o.information * jm;
+      // IRLS (core/robust_kernel.h): the information scaled by rho'(s); the
+      // weight is exactly 1 without a kernel.
+      const Eigen::Matrix3d information =
+          options_.observation_kernel.Weight(e.dot(o.information * e)) * o.information;
+      const Eigen::Matrix3d wjm = information * jm;
       c += jm.transpose() * wjm;
-      g += jm.transpose() * (o.information * e);
+      g += jm.transpose() * (information * e);
       const int32_t u = unknown_[o.pose];
       if (u < 0) continue;
-      out->matrix.AddBlock(u, u, jp.transpose() * o.information * jp);
-      out->gradient.segment<kPoseDim>(kPoseDim * u) += jp.transpose() * (o.information * e);
+      out->matrix.AddBlock(u, u, jp.transpose() * information * jp);
+      out->gradient.segment<kPoseDim>(kPoseDim * u) += jp.transpose() * (information * e);
       const Matrix63 hpm = jp.transpose() * wjm;
       auto it = std::find_if(pose_feature.begin(), pose_feature.end(),
                              [u](const auto& entry) { return entry.first == u; });
@@ -212,20 +251,34 @@ void Solver3d::Linearize(const std::vector<Pose3>& poses, const std::vector<Poin
   }
 }
 
-Status Solver3d::Run(SolverSummary* summary) {
-  const Clock::time_point start = Clock::now();
+Status Space3d::Setup(const SolverCheckpoint3d* resume, SolverSummary* summary) {
   unknown_ = MakeLayout(problem_, &num_unknown_);
   summary->unknown_poses = num_unknown_;
   observations_of_feature_.assign(problem_.features.size(), {});
   for (size_t k = 0; k < problem_.observations.size(); ++k)
     observations_of_feature_[problem_.observations[k].feature].push_back(static_cast<int32_t>(k));
-  summary->excluded.assign(problem_.features.size(), 0);
+  excluded_.assign(problem_.features.size(), 0);
   for (size_t f = 0; f < problem_.features.size(); ++f) {
     if (observations_of_feature_[f].empty()) {
-      summary->excluded[f] = 1;
+      excluded_[f] = 1;
       ++summary->unobserved_features;
     }
   }
+  if (resume != nullptr) {
+    if (resume->poses.size() != problem_.poses.size() ||
+        resume->features.size() != problem_.features.size() ||
+        resume->excluded != excluded_) {
+      return Status::InvalidArgument(
+          "checkpoint does not match the problem: " + std::to_string(resume->poses.size()) +
+          " poses and " + std::to_string(resume->features.size()) +
+          " features (or another set of unobserved features), expected " +
+          std::to_string(problem_.poses.size()) + " and " +
+          std::to_string(problem_.features.size()));
+    }
+    problem_.poses = resume->poses;
+    problem_.features = resume->features;
+  }
+  summary->excluded = excluded_;
   summary->observations_used = static_cast<int64_t>(problem_.observations.size());
   summary->eliminated_features = problem_.num_features() - summary->unobserved_features;
 
@@ -247,144 +300,69 @@ Status Solver3d::Run(SolverSummary* summary) {
     for (size_t a = 0; a < seen.size(); ++a)
       for (size_t b = a + 1; b < seen.size(); ++b) pairs.emplace_back(seen[a], seen[b]);
   }
-  Linearization system;
-  system.matrix = BlockSparseMatrix::FromPattern(kPoseDim, num_unknown_, std::move(pairs));
-  summary->reduced_nonzero_blocks = system.matrix.num_nonzero_blocks();
+  system_.matrix = BlockSparseMatrix::FromPattern(kPoseDim, num_unknown_, std::move(pairs));
+  summary->reduced_nonzero_blocks = system_.matrix.num_nonzero_blocks();
   type_ = options_.linear_solver;
   if (type_ == LinearSolverType::kAuto) {
-    type_ = system.matrix.num_rows() <= options_.auto_cholmod_max_unknowns
+    type_ = system_.matrix.num_rows() <= options_.auto_cholmod_max_unknowns
                 ? LinearSolverType::kCholmod
                 : LinearSolverType::kPcg;
   }
   summary->linear_solver_used = type_;
+  return Status::Ok();
+}
 
-  std::vector<Pose3>& poses = problem_.poses;
-  std::vector<Point3>& features = problem_.features;
-  double chi2 = Chi2Of3d(problem_, poses, features);
-  summary->initial_chi2 = chi2;
-  summary->final_chi2 = chi2;
-  if (!std::isfinite(chi2)) {
-    return Status::Numerical("initial chi2 is not finite (" + std::to_string(chi2) +
-                             "); check the initial guess and information matrices");
+Status Space3d::TryStep(double lambda, bool usable, IterationSummary* it, TrialStep* trial) {
+  const std::vector<Pose3>& poses = problem_.poses;
+  const std::vector<Point3>& features = problem_.features;
+  const Eigen::VectorXd damping =
+      system_.hessian_diagonal.cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal);
+  trial->ok = usable;
+  const Clock::time_point solve_start = Clock::now();
+  if (trial->ok) {
+    system_.matrix.AddToDiagonal(lambda * damping);
+    Status s = SolveReduced(system_.matrix, system_.rhs, &pose_step_, &it->linear_iterations);
+    if (!s.ok()) GS_VLOG(1, "3-D linear solve failed (%s); raising damping", s.ToString().c_str());
+    trial->ok = s.ok();
   }
-  double radius = options_.initial_trust_region_radius;
-  double decrease_factor = 2.0;
-  summary->termination = "max_iterations";
-  ReducedContribution scratch;
-  Eigen::VectorXd pose_step;
-  std::vector<Pose3> candidate_poses;
-  std::vector<Point3> candidate_features;
-
-  for (int iteration = 1; iteration <= options_.max_iterations; ++iteration) {
-    const Clock::time_point iteration_start = Clock::now();
-    IterationSummary it;
-    it.iteration = iteration;
-    it.lambda = 1.0 / radius;
-
-    Status linearize_status;
-    Linearize(poses, features, it.lambda, &system, &scratch, &linearize_status);
-    it.reduce_seconds = SecondsSince(iteration_start);
-    const int rows = system.matrix.num_rows();
-    it.gradient_max_norm = rows > 0 ? system.gradient.cwiseAbs().maxCoeff() : 0.0;
-    if (linearize_status.ok() && it.gradient_max_norm <= options_.gradient_tolerance) {
-      summary->termination = "gradient_tolerance";
-      summary->converged = true;
-      break;
-    }
-    const Eigen::VectorXd damping =
-        system.hessian_diagonal.cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal);
-    bool step_ok = linearize_status.ok();
-    const Clock::time_point solve_start = Clock::now();
-    if (step_ok) {
-      system.matrix.AddToDiagonal(it.lambda * damping);
-      Status s = SolveReduced(system.matrix, system.rhs, &pose_step, &it.linear_iterations);
-      if (!s.ok()) GS_VLOG(1, "3-D linear solve failed (%s); raising damping", s.ToString().c_str());
-      step_ok = s.ok();
-    } else {
-      GS_VLOG(1, "3-D reduce failed (%s); raising damping", linearize_status.ToString().c_str());
-    }
-    it.solve_seconds = SecondsSince(solve_start);
-    const Clock::time_point recover_start = Clock::now();
-    double candidate_chi2 = std::numeric_limits<double>::infinity();
-    double model_decrease = 0.0;
+  it->solve_seconds = SecondsSince(solve_start);
+  const Clock::time_point recover_start = Clock::now();
+  if (trial->ok) {
     double step_squared = 0.0;
     double state_squared = 0.0;
-    if (step_ok) {
-      candidate_poses = poses;
-      for (size_t p = 0; p < poses.size(); ++p) {
-        const int32_t u = unknown_[p];
-        if (u < 0) continue;
-        candidate_poses[p] = RetractPose3(poses[p], pose_step.segment<kPoseDim>(kPoseDim * u));
-        state_squared += LogSE3(poses[p]).squaredNorm();
+    candidate_poses_ = poses;
+    for (size_t p = 0; p < poses.size(); ++p) {
+      const int32_t u = unknown_[p];
+      if (u < 0) continue;
+      candidate_poses_[p] = RetractPose3(poses[p], pose_step_.segment<kPoseDim>(kPoseDim * u));
+      state_squared += LogSE3(poses[p]).squaredNorm();
+    }
+    double model_decrease = -system_.gradient.dot(pose_step_) +
+                            lambda * pose_step_.dot(damping.cwiseProduct(pose_step_));
+    step_squared = pose_step_.squaredNorm();
+    candidate_features_ = features;
+    for (size_t f = 0; f < features.size(); ++f) {
+      if (excluded_[f]) continue;
+      const FeatureBlocks& blocks = system_.features[f];
+      Eigen::VectorXd dm;
+      if (blocks.poses.empty()) {
+        dm = -blocks.feature_information.llt().solve(blocks.feature_gradient);
+      } else {
+        dm = RecoverFeature(blocks, pose_step_);
       }
-      model_decrease = -system.gradient.dot(pose_step) +
-                       it.lambda * pose_step.dot(damping.cwiseProduct(pose_step));
-      step_squared = pose_step.squaredNorm();
-      candidate_features = features;
-      for (size_t f = 0; f < features.size(); ++f) {
-        if (summary->excluded[f]) continue;
-        const FeatureBlocks& blocks = system.features[f];
-        Eigen::VectorXd dm;
-        if (blocks.poses.empty()) {
-          dm = -blocks.feature_information.llt().solve(blocks.feature_gradient);
-        } else {
-          dm = RecoverFeature(blocks, pose_step);
-        }
-        candidate_features[f] = features[f] + dm;
-        model_decrease += -blocks.feature_gradient.dot(dm) +
-                          it.lambda * dm.dot(system.feature_damping[f].cwiseProduct(dm));
-        step_squared += dm.squaredNorm();
-        state_squared += features[f].squaredNorm();
-      }
-      candidate_chi2 = Chi2Of3d(problem_, candidate_poses, candidate_features);
-      it.step_norm = std::sqrt(step_squared);
+      candidate_features_[f] = features[f] + dm;
+      model_decrease += -blocks.feature_gradient.dot(dm) +
+                        lambda * dm.dot(system_.feature_damping[f].cwiseProduct(dm));
+      step_squared += dm.squaredNorm();
+      state_squared += features[f].squaredNorm();
     }
-    it.recover_seconds = SecondsSince(recover_start);
-    it.candidate_chi2 = candidate_chi2;
-    it.relative_decrease = model_decrease > 0.0 ? (chi2 - candidate_chi2) / model_decrease : -1.0;
-    it.accepted = step_ok && std::isfinite(candidate_chi2) &&
-                  it.relative_decrease > options_.min_relative_decrease;
-    bool converged = false;
-    if (it.accepted) {
-      const double relative_change = (chi2 - candidate_chi2) / std::max(chi2, 1e-300);
-      poses.swap(candidate_poses);
-      features.swap(candidate_features);
-      chi2 = candidate_chi2;
-      const double factor = 1.0 - std::pow(2.0 * it.relative_decrease - 1.0, 3);
-      radius = std::min(radius / std::max(1.0 / 3.0, factor), options_.max_trust_region_radius);
-      decrease_factor = 2.0;
-      if (relative_change < options_.function_tolerance) {
-        summary->termination = "function_tolerance";
-        converged = true;
-      } else if (it.step_norm <= options_.parameter_tolerance *
-                                     (std::sqrt(state_squared) + options_.parameter_tolerance)) {
-        summary->termination = "parameter_tolerance";
-        converged = true;
-      }
-    } else {
-      radius /= decrease_factor;
-      decrease_factor *= 2.0;
-    }
-    it.chi2 = chi2;
-    it.seconds = SecondsSince(iteration_start);
-    summary->per_iteration.push_back(it);
-    summary->iterations = iteration;
-    summary->final_chi2 = chi2;
-    GS_VLOG(1, "3-D iteration %d: chi2 %.9g candidate %.9g rho %.3g lambda %.3g |step| %.3g %s",
-            iteration, chi2, candidate_chi2, it.relative_decrease, it.lambda, it.step_norm,
-            it.accepted ? "accepted" : "rejected");
-    if (options_.iteration_callback) options_.iteration_callback(it);
-    if (options_.progress) options_.progress("optimize", iteration, options_.max_iterations);
-    if (!converged && radius < options_.min_trust_region_radius) {
-      summary->termination = "min_trust_region_radius";
-      converged = true;
-    }
-    if (converged) {
-      summary->converged = true;
-      break;
-    }
+    trial->candidate_chi2 =
+        Chi2Of3d(problem_, candidate_poses_, candidate_features_, options_.observation_kernel);
+    trial->model_decrease = model_decrease;
+    trial->state_norm_squared = state_squared;
+    it->step_norm = std::sqrt(step_squared);
   }
-  summary->seconds = SecondsSince(start);
+  it->recover_seconds = SecondsSince(recover_start);
   return Status::Ok();
 }
 
@@ -392,6 +370,11 @@ Status Solver3d::Run(SolverSummary* summary) {
 
 double Chi2Of3d(const Problem3d& problem, const std::vector<Pose3>& poses,
                 const std::vector<Point3>& features) {
+  return Chi2Of3d(problem, poses, features, RobustKernel());
+}
+
+double Chi2Of3d(const Problem3d& problem, const std::vector<Pose3>& poses,
+                const std::vector<Point3>& features, const RobustKernel& kernel) {
   double chi2 = 0.0;
   for (const RelativePose3Constraint& c : problem.relative_poses) {
     Vector6d e;
@@ -406,17 +389,22 @@ double Chi2Of3d(const Problem3d& problem, const std::vector<Pose3>& poses,
   for (const Point3Observation& o : problem.observations) {
     Eigen::Vector3d e;
     EvaluatePoint3Observation(poses[o.pose], features[o.feature], o.z, &e, nullptr, nullptr);
-    chi2 += e.dot(o.information * e);
+    chi2 += kernel.Cost(e.dot(o.information * e));
   }
   return chi2;
 }
 
 Status SolveGraphSlam3d(const SolverOptions& options, Problem3d* problem,
-                        SolverSummary* summary) {
+                        SolverSummary* summary, const Checkpointing3d& checkpointing) {
   GS_RETURN_IF_ERROR(options.Validate());
+  const Clock::time_point start = Clock::now();
   *summary = SolverSummary();
-  Solver3d solver(options, problem);
-  return solver.Run(summary);
+  Space3d space(options, problem);
+  GS_RETURN_IF_ERROR(space.Setup(checkpointing.resume_from, summary));
+  const double chi2 =
+      Chi2Of3d(*problem, problem->poses, problem->features, options.observation_kernel);
+  return RunLevenbergMarquardt(options, chi2, checkpointing.resume_from, checkpointing.callback,
+                               start, &space, summary);
 }
 
 }  // namespace graphslam::core

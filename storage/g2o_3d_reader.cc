@@ -5,6 +5,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "storage/internal/g2o_vertices.h"
 #include "storage/internal/text_reader.h"
 #include "storage/internal/upper_triangle.h"
 
@@ -12,14 +13,7 @@ namespace graphslam::storage {
 namespace {
 
 using internal::LineReader;
-
-enum class VertexKind { kPose, kFeature };
-
-struct Vertex {
-  VertexKind kind;
-  int32_t index;
-  int32_t line;
-};
+using VertexKind = internal::G2oVertexKind;
 
 enum class PendingKind { kRelativePose, kPointObservation, kGps, kFix };
 
@@ -42,10 +36,6 @@ const char* PendingTag(PendingKind kind) {
     case PendingKind::kFix: return "FIX";
   }
   return "?";
-}
-
-const char* KindTag(VertexKind kind) {
-  return kind == VertexKind::kPose ? "VERTEX_SE3:QUAT" : "VERTEX_TRACKXYZ";
 }
 
 constexpr const char* kKnownTags =
@@ -80,7 +70,7 @@ class G2o3dParser {
     GS_RETURN_IF_ERROR(reader->status());
     if (vertices_.empty() && pending_.empty())
       return Status::Corruption(name_ + ": has no vertices or edges; expected a 3-D g2o graph");
-    has_vertices_ = !vertices_.empty();
+    vertices_.Seal();
     for (const Pending& item : pending_) GS_RETURN_IF_ERROR(Resolve(item));
     return std::move(problem_);
   }
@@ -100,16 +90,7 @@ class G2o3dParser {
   }
 
   Status AddVertex(const LineReader& reader, int64_t id, VertexKind kind, int32_t index) {
-    vertices_.emplace(id, Vertex{kind, index, reader.line_number()});
-    return Status::Ok();
-  }
-
-  Status CheckUnique(const LineReader& reader, int64_t id, VertexKind kind) {
-    if (const auto it = vertices_.find(id); it != vertices_.end()) {
-      return reader.Error(std::string(KindTag(kind)) + " id " + std::to_string(id) +
-                          " is already defined at line " + std::to_string(it->second.line) +
-                          "; expected unique vertex ids");
-    }
+    vertices_.Define(id, kind, index, reader.line_number());
     return Status::Ok();
   }
 
@@ -117,7 +98,7 @@ class G2o3dParser {
     GS_RETURN_IF_ERROR(reader.ExpectFieldCount(9));
     GS_ASSIGN_OR_RETURN(const int64_t id, reader.Id(1, "id"));
     GS_ASSIGN_OR_RETURN(const core::Pose3 pose, ReadPose(reader, 2, "estimate"));
-    GS_RETURN_IF_ERROR(CheckUnique(reader, id, VertexKind::kPose));
+    GS_RETURN_IF_ERROR(vertices_.CheckUnique(reader, id, VertexKind::kPose));
     const int32_t index = problem_.AddPose(id, pose, /*initialized=*/true, reader.line_number());
     return AddVertex(reader, id, VertexKind::kPose, index);
   }
@@ -127,7 +108,7 @@ class G2o3dParser {
     GS_ASSIGN_OR_RETURN(const int64_t id, reader.Id(1, "id"));
     double v[3];
     GS_RETURN_IF_ERROR(reader.Doubles(2, 3, "estimate", v));
-    GS_RETURN_IF_ERROR(CheckUnique(reader, id, VertexKind::kFeature));
+    GS_RETURN_IF_ERROR(vertices_.CheckUnique(reader, id, VertexKind::kFeature));
     const int32_t index =
         problem_.AddFeature(id, core::Point3(v[0], v[1], v[2]), /*initialized=*/true);
     return AddVertex(reader, id, VertexKind::kFeature, index);
@@ -196,40 +177,25 @@ class G2o3dParser {
   }
 
   Status ParseFix(const LineReader& reader) {
-    if (reader.fields().size() < 2)
-      return reader.Error("FIX has 1 fields; expected at least 2 (FIX id [id ...])");
-    for (size_t k = 1; k < reader.fields().size(); ++k) {
+    std::vector<int64_t> ids;
+    GS_RETURN_IF_ERROR(internal::ReadFixIds(reader, &ids));
+    for (const int64_t id : ids) {
       Pending item;
       item.kind = PendingKind::kFix;
       item.line = reader.line_number();
-      GS_ASSIGN_OR_RETURN(item.ids[0], reader.Id(k, "vertex id"));
+      item.ids[0] = id;
       pending_.push_back(item);
     }
     return Status::Ok();
   }
 
   StatusOr<int32_t> Lookup(int64_t id, VertexKind kind, const Pending& item) {
-    const auto it = vertices_.find(id);
-    if (it != vertices_.end()) {
-      if (it->second.kind != kind)
-        return internal::CorruptionAt(name_, item.line,
-                                      std::string(PendingTag(item.kind)) + " vertex " +
-                                          std::to_string(id) + " is a " +
-                                          KindTag(it->second.kind) + "; expected a " +
-                                          KindTag(kind));
-      return it->second.index;
-    }
-    if (has_vertices_)
-      return internal::CorruptionAt(name_, item.line,
-                                    std::string(PendingTag(item.kind)) + " refers to vertex " +
-                                        std::to_string(id) +
-                                        ", which no VERTEX line defines; expected a defined "
-                                        "vertex id");
-    const int32_t index = kind == VertexKind::kPose
-                              ? problem_.AddPose(id, core::Pose3::Identity(), false, 0)
-                              : problem_.AddFeature(id, core::Point3::Zero(), false);
-    vertices_.emplace(id, Vertex{kind, index, 0});
-    return index;
+    return vertices_.Lookup(name_, item.line, PendingTag(item.kind), id, kind,
+                            [this, id](VertexKind created) {
+                              return created == VertexKind::kPose
+                                         ? problem_.AddPose(id, core::Pose3::Identity(), false, 0)
+                                         : problem_.AddFeature(id, core::Point3::Zero(), false);
+                            });
   }
 
   Status Resolve(const Pending& item) {
@@ -275,10 +241,9 @@ class G2o3dParser {
   std::string path_;
   std::string name_;
   core::Problem3d problem_;
-  std::unordered_map<int64_t, Vertex> vertices_;
+  internal::G2oVertices vertices_{"VERTEX_SE3:QUAT", "VERTEX_TRACKXYZ"};
   std::unordered_map<int64_t, bool> offsets_;  // id -> is identity
   std::vector<Pending> pending_;
-  bool has_vertices_ = false;
 };
 
 }  // namespace

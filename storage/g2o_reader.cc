@@ -5,20 +5,14 @@
 #include <vector>
 
 #include "core/unidentified_features.h"
+#include "storage/internal/g2o_vertices.h"
 #include "storage/internal/text_reader.h"
 
 namespace graphslam::storage {
 namespace {
 
 using internal::LineReader;
-
-enum class VertexKind { kPose, kFeature };
-
-struct Vertex {
-  VertexKind kind;
-  int32_t index;  // into poses or features
-  int32_t line;   // 0 if created implicitly (edges-only files)
-};
+using VertexKind = internal::G2oVertexKind;
 
 enum class PendingKind { kRelativePose, kPointObservation, kPositionPrior, kFix };
 
@@ -33,10 +27,6 @@ struct Pending {
   Eigen::Matrix3d information3 = Eigen::Matrix3d::Identity();
   Eigen::Matrix2d information2 = Eigen::Matrix2d::Identity();
 };
-
-const char* KindTag(VertexKind kind) {
-  return kind == VertexKind::kPose ? "VERTEX_SE2" : "VERTEX_XY";
-}
 
 const char* PendingTag(PendingKind kind) {
   switch (kind) {
@@ -69,7 +59,7 @@ class G2oParser {
     if (vertices_.empty() && pending_.empty()) {
       return Status::Corruption(name_ + ": has no vertices or edges; expected a g2o graph");
     }
-    has_vertices_ = !vertices_.empty();
+    vertices_.Seal();
     for (const Pending& item : pending_) GS_RETURN_IF_ERROR(Resolve(item));
     return std::move(problem_);
   }
@@ -97,21 +87,16 @@ class G2oParser {
     GS_ASSIGN_OR_RETURN(const int64_t id, reader.Id(1, "id"));
     double values[3] = {0.0, 0.0, 0.0};
     GS_RETURN_IF_ERROR(reader.Doubles(2, pose ? 3 : 2, "estimate", values));
-    if (const auto it = vertices_.find(id); it != vertices_.end()) {
-      return reader.Error(std::string(KindTag(kind)) + " id " + std::to_string(id) +
-                          " is already defined at line " + std::to_string(it->second.line) +
-                          " (" + KindTag(it->second.kind) + "); expected unique vertex ids");
-    }
-    Vertex vertex{kind, 0, reader.line_number()};
+    GS_RETURN_IF_ERROR(vertices_.CheckUnique(reader, id, kind));
+    int32_t index = 0;
     if (pose) {
-      vertex.index = problem_.AddPose(id, core::Pose2(values[0], values[1], values[2]),
-                                      /*initialized=*/true, reader.line_number());
-      last_pose_ = vertex.index;
+      index = problem_.AddPose(id, core::Pose2(values[0], values[1], values[2]),
+                               /*initialized=*/true, reader.line_number());
+      last_pose_ = index;
     } else {
-      vertex.index = problem_.AddFeature(id, core::Point2(values[0], values[1]),
-                                         /*initialized=*/true);
+      index = problem_.AddFeature(id, core::Point2(values[0], values[1]), /*initialized=*/true);
     }
-    vertices_.emplace(id, vertex);
+    vertices_.Define(id, kind, index, reader.line_number());
     return Status::Ok();
   }
 
@@ -204,14 +189,13 @@ class G2oParser {
   }
 
   Status ParseFix(const LineReader& reader) {
-    if (reader.fields().size() < 2) {
-      return reader.Error("FIX has 1 fields; expected at least 2 (FIX id [id ...])");
-    }
-    for (size_t k = 1; k < reader.fields().size(); ++k) {
+    std::vector<int64_t> ids;
+    GS_RETURN_IF_ERROR(internal::ReadFixIds(reader, &ids));
+    for (const int64_t id : ids) {
       Pending item;
       item.kind = PendingKind::kFix;
       item.line = reader.line_number();
-      GS_ASSIGN_OR_RETURN(item.ids[0], reader.Id(k, "vertex id"));
+      item.ids[0] = id;
       pending_.push_back(item);
     }
     return Status::Ok();
@@ -220,34 +204,14 @@ class G2oParser {
   // The dense index of vertex `id`, which must be of `kind`; creates it in
   // edges-only files.
   StatusOr<int32_t> Lookup(int64_t id, VertexKind kind, const Pending& item) {
-    const auto it = vertices_.find(id);
-    if (it != vertices_.end()) {
-      if (it->second.kind != kind) {
-        std::string defined = it->second.line > 0
-                                  ? " (line " + std::to_string(it->second.line) + ")"
-                                  : " (implicitly, by an earlier edge)";
-        return internal::CorruptionAt(
-            name_, item.line,
-            std::string(PendingTag(item.kind)) + " vertex " + std::to_string(id) + " is a " +
-                KindTag(it->second.kind) + defined + "; expected a " + KindTag(kind));
-      }
-      return it->second.index;
-    }
-    if (has_vertices_) {
-      return internal::CorruptionAt(
-          name_, item.line,
-          std::string(PendingTag(item.kind)) + " refers to vertex " + std::to_string(id) +
-              ", which no VERTEX line defines; expected a " + KindTag(kind) + " " +
-              std::to_string(id) + " line");
-    }
-    Vertex vertex{kind, 0, 0};
-    if (kind == VertexKind::kPose) {
-      vertex.index = problem_.AddPose(id, core::Pose2::Zero(), /*initialized=*/false, 0);
-    } else {
-      vertex.index = problem_.AddFeature(id, core::Point2::Zero(), /*initialized=*/false);
-    }
-    vertices_.emplace(id, vertex);
-    return vertex.index;
+    return vertices_.Lookup(name_, item.line, PendingTag(item.kind), id, kind,
+                            [this, id](VertexKind created) {
+                              return created == VertexKind::kPose
+                                         ? problem_.AddPose(id, core::Pose2::Zero(),
+                                                            /*initialized=*/false, 0)
+                                         : problem_.AddFeature(id, core::Point2::Zero(),
+                                                               /*initialized=*/false);
+                            });
   }
 
   Status Resolve(const Pending& item) {
@@ -297,10 +261,9 @@ class G2oParser {
   const std::string path_;
   std::string name_;
   core::Problem2d problem_;
-  std::unordered_map<int64_t, Vertex> vertices_;
+  internal::G2oVertices vertices_{"VERTEX_SE2", "VERTEX_XY"};
   std::vector<Pending> pending_;
   int32_t last_pose_ = -1;  // the VERTEX_SE2 defined last (DATA_FEATURE_POINTXY's pose)
-  bool has_vertices_ = false;
 };
 
 }  // namespace

@@ -6,3 +6,5 @@ target_sources(graphslam_storage PRIVATE
   threedtk_reader.cc)
 target_include_directories(graphslam_storage SYSTEM PRIVATE ${PCL_INCLUDE_DIRS})
 target_link_libraries(graphslam_storage PRIVATE ${PCL_LIBRARIES})
+# SCAN records of native logs: .pcd files per pose (docs/formats/native_log.md).
+target_sources(graphslam_storage PRIVATE native_log_scans.cc)

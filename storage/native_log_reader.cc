@@ -20,12 +20,13 @@ using internal::FormatDouble;
 using internal::LineReader;
 
 constexpr const char* kKnownTags =
-    "POSE, FEATURE, CONTROL, CONTROL_INFO, ODOM, RB, XY, GPS or FIX";
+    "POSE, FEATURE, CONTROL, CONTROL_INFO, ODOM, RB, XY, GPS, FIX or SCAN";
 
 class NativeLogParser {
  public:
-  explicit NativeLogParser(const std::string& path, const ObservationSink* sink = nullptr)
-      : path_(path), sink_(sink) {}
+  explicit NativeLogParser(const std::string& path, const ObservationSink* sink = nullptr,
+                           std::vector<NativeLogScan>* scans = nullptr)
+      : path_(path), sink_(sink), scans_(scans) {}
 
   StatusOr<core::Problem2d> Parse() {
     GS_ASSIGN_OR_RETURN(std::unique_ptr<LineReader> reader, LineReader::Open(path_));
@@ -68,6 +69,7 @@ class NativeLogParser {
     if (tag == "RB" || tag == "XY") return ParseObservation(reader);
     if (tag == "GPS") return ParseGps(reader);
     if (tag == "FIX") return ParseFix(reader);
+    if (tag == "SCAN") return ParseScan(reader);
     if (tag == kNativeLogMagic) {
       return reader.Error("a second header; expected one header, on the first line");
     }
@@ -292,8 +294,19 @@ class NativeLogParser {
     return Status::Ok();
   }
 
+  // SCAN pose file: checked here, kept only for ReadNativeLogScans (the
+  // solver does not use scans).
+  Status ParseScan(const LineReader& reader) {
+    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(3));
+    GS_ASSIGN_OR_RETURN(const int32_t pose, Pose(reader, 1));
+    if (scans_ != nullptr)
+      scans_->push_back({pose, std::string(reader.fields()[2]), reader.line_number()});
+    return Status::Ok();
+  }
+
   const std::string path_;
   const ObservationSink* sink_ = nullptr;
+  std::vector<NativeLogScan>* scans_ = nullptr;
   core::Problem2d problem_;
   std::unordered_map<int64_t, int32_t> poses_;
   std::unordered_map<int64_t, int32_t> features_;
@@ -306,6 +319,12 @@ class NativeLogParser {
 
 StatusOr<core::Problem2d> ReadNativeLog(const std::string& path) {
   return NativeLogParser(path).Parse();
+}
+
+StatusOr<core::Problem2d> ReadNativeLog(const std::string& path,
+                                        std::vector<NativeLogScan>* scans) {
+  scans->clear();
+  return NativeLogParser(path, nullptr, scans).Parse();
 }
 
 StatusOr<core::Problem2d> ReadNativeLogStreaming(const std::string& path,

@@ -8,6 +8,7 @@
 //   RB pose feature range bearing i11 i12 i22   (feature '-': unknown, for --associate)
 //   XY pose feature x y i11 i12 i22
 //   GPS pose x y i11 i12 i22       FIX pose      # comment
+//   SCAN pose file.pcd             (a scan of the pose, path relative to the log)
 //
 // CONTROL without explicit information gets Omega = R^{-1} with
 // R = VelocityMotionCovariance(x_from, u, noise) at the from-pose's guess or
@@ -30,6 +31,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "core/problem.h"
 #include "core/status.h"
@@ -41,6 +43,19 @@ inline constexpr const char* kNativeLogMagic = "GRAPHSLAM_LOG";
 inline constexpr int kNativeLogVersion = 1;
 
 StatusOr<core::Problem2d> ReadNativeLog(const std::string& path);
+
+// A SCAN record: the point cloud of pose `pose` (dense index) is in `file`,
+// a .pcd path as written in the log (relative to the log's folder unless
+// absolute); storage/native_log_scans.h reads them.
+struct NativeLogScan {
+  int32_t pose = -1;
+  std::string file;
+  int32_t line = 0;
+};
+
+// As ReadNativeLog, and every SCAN record, in file order, into *scans.
+StatusOr<core::Problem2d> ReadNativeLog(const std::string& path,
+                                        std::vector<NativeLogScan>* scans);
 
 // Receives the observations of a streamed read, in file order; an error stops
 // the read and is returned by it.

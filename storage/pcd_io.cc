@@ -97,7 +97,48 @@ Status WritePcd(const std::string& path, const VoxelCloud& cloud) {
   return storage::WriteStringAtomically(storage::Env::Default(), path, stream.str());
 }
 
+namespace {
+
+// PCL 1.13's PCDReader crashes on some files that are not PCD at all (a text
+// file without FIELDS): the header is checked first. Required: FIELDS, SIZE,
+// TYPE with as many entries each, WIDTH or POINTS, and DATA.
+Status CheckPcdHeader(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Status::NotFound(path + ": cannot open");
+  size_t fields = 0, sizes = 0, types = 0;
+  bool count = false;
+  std::string line;
+  for (int lines = 0; lines < 64 && std::getline(in, line); ++lines) {
+    std::istringstream tokens(line);
+    std::string key;
+    if (!(tokens >> key) || key[0] == '#') continue;
+    size_t n = 0;
+    for (std::string value; tokens >> value;) ++n;
+    if (key == "FIELDS") fields = n;
+    else if (key == "SIZE") sizes = n;
+    else if (key == "TYPE") types = n;
+    else if (key == "WIDTH" || key == "POINTS") count = true;
+    else if (key == "DATA") {
+      if (fields == 0 || sizes != fields || types != fields || !count)
+        return Status::Corruption(path + ": PCD header has " + std::to_string(fields) +
+                                  " FIELDS, " + std::to_string(sizes) + " SIZE and " +
+                                  std::to_string(types) +
+                                  " TYPE entries; expected FIELDS, SIZE and TYPE of equal length "
+                                  "and WIDTH or POINTS before DATA");
+      return Status::Ok();
+    } else if (key != "VERSION" && key != "COUNT" && key != "HEIGHT" && key != "VIEWPOINT") {
+      return Status::Corruption(path + ": '" + key +
+                                "' is not a PCD header key; expected VERSION, FIELDS, SIZE, TYPE, "
+                                "COUNT, WIDTH, HEIGHT, VIEWPOINT, POINTS or DATA");
+    }
+  }
+  return Status::Corruption(path + ": no DATA line in the PCD header");
+}
+
+}  // namespace
+
 StatusOr<PcdContents> ReadPcd(const std::string& path) {
+  GS_RETURN_IF_ERROR(CheckPcdHeader(path));
   pcl::PCLPointCloud2 blob;
   if (pcl::io::loadPCDFile(path, blob) != 0) {
     return Status::Corruption(path + ": PCL's loadPCDFile failed");

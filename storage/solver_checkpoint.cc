@@ -14,14 +14,45 @@ Status Bad(const std::string& path, const std::string& what) {
   return Status::Corruption(path + ": " + what);
 }
 
-}  // namespace
+// How a pose and a feature of each dimension are stored: a flat array of
+// kValues numbers per element.
+struct Planar {
+  static constexpr int kDimension = 2;
+  static constexpr int kPoseValues = 3;     // x, y, theta
+  static constexpr int kFeatureValues = 2;  // x, y
+  static void AppendPose(const core::Pose2& p, std::vector<double>* out) {
+    out->insert(out->end(), {p.x(), p.y(), p.z()});
+  }
+  static core::Pose2 PoseAt(const double* v) { return core::Pose2(v[0], v[1], v[2]); }
+  static bool Finite(const core::Pose2& p) { return p.allFinite(); }
+};
 
-Status WriteSolverCheckpoint(Env* env, const std::string& path, const std::string& input,
-                             const core::SolverCheckpoint& checkpoint) {
+struct Spatial {
+  static constexpr int kDimension = 3;
+  static constexpr int kPoseValues = 7;     // x, y, z, qx, qy, qz, qw (g2o order)
+  static constexpr int kFeatureValues = 3;  // x, y, z
+  static void AppendPose(const core::Pose3& p, std::vector<double>* out) {
+    out->insert(out->end(),
+                {p.t.x(), p.t.y(), p.t.z(), p.q.x(), p.q.y(), p.q.z(), p.q.w()});
+  }
+  static core::Pose3 PoseAt(const double* v) {
+    core::Pose3 pose;
+    pose.t = Eigen::Vector3d(v[0], v[1], v[2]);
+    pose.q = Eigen::Quaterniond(v[6], v[3], v[4], v[5]);  // stored as written: no renormalization
+    return pose;
+  }
+  static bool Finite(const core::Pose3& p) { return p.t.allFinite() && p.q.coeffs().allFinite(); }
+};
+
+template <class Layout, class Checkpoint>
+Status Write(Env* env, const std::string& path, const std::string& input,
+             const Checkpoint& checkpoint) {
   nlohmann::json json;
   json["format"] = kSolverCheckpointFormat;
   json["version"] = kSolverCheckpointVersion;
   json["input"] = input;
+  // Only 3-D checkpoints carry the key: 2-D files stay as version 1 wrote them.
+  if (Layout::kDimension != 2) json["dimension"] = Layout::kDimension;
   json["iterations"] = checkpoint.iterations;
   json["trust_region_radius"] = checkpoint.trust_region_radius;
   json["decrease_factor"] = checkpoint.decrease_factor;
@@ -30,11 +61,11 @@ Status WriteSolverCheckpoint(Env* env, const std::string& path, const std::strin
   json["converged"] = checkpoint.converged;
   json["termination"] = checkpoint.termination;
   std::vector<double> poses;
-  poses.reserve(3 * checkpoint.poses.size());
-  for (const core::Pose2& p : checkpoint.poses) poses.insert(poses.end(), {p.x(), p.y(), p.z()});
+  poses.reserve(Layout::kPoseValues * checkpoint.poses.size());
+  for (const auto& p : checkpoint.poses) Layout::AppendPose(p, &poses);
   std::vector<double> features;
-  features.reserve(2 * checkpoint.features.size());
-  for (const core::Point2& f : checkpoint.features) features.insert(features.end(), {f.x(), f.y()});
+  features.reserve(Layout::kFeatureValues * checkpoint.features.size());
+  for (const auto& f : checkpoint.features) features.insert(features.end(), f.data(), f.data() + f.size());
   json["poses"] = poses;
   json["features"] = features;
   json["excluded"] = checkpoint.excluded;
@@ -43,8 +74,8 @@ Status WriteSolverCheckpoint(Env* env, const std::string& path, const std::strin
   return WriteStringAtomically(env, path, json.dump() + "\n");
 }
 
-StatusOr<core::SolverCheckpoint> ReadSolverCheckpoint(const std::string& path,
-                                                      const std::string& input) {
+template <class Layout, class Checkpoint>
+StatusOr<Checkpoint> Read(const std::string& path, const std::string& input) {
   std::ifstream in(path);
   if (!in) return Status::NotFound(path + ": cannot open checkpoint");
   nlohmann::json json = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
@@ -61,7 +92,12 @@ StatusOr<core::SolverCheckpoint> ReadSolverCheckpoint(const std::string& path,
   if (json.value("input", "") != input)
     return Status::InvalidArgument(path + ": checkpoint belongs to input '" +
                                    json.value("input", "") + "', expected '" + input + "'");
-  core::SolverCheckpoint checkpoint;
+  const nlohmann::json dimension = json.value("dimension", nlohmann::json(2));
+  if (!dimension.is_number_integer() || dimension.get<int>() != Layout::kDimension)
+    return Status::InvalidArgument(path + ": checkpoint of a " + dimension.dump() +
+                                   "-D solve, expected " + std::to_string(Layout::kDimension) +
+                                   "-D");
+  Checkpoint checkpoint;
   try {
     checkpoint.iterations = json.at("iterations").get<int>();
     checkpoint.trust_region_radius = json.at("trust_region_radius").get<double>();
@@ -74,12 +110,19 @@ StatusOr<core::SolverCheckpoint> ReadSolverCheckpoint(const std::string& path,
     const auto features = json.at("features").get<std::vector<double>>();
     checkpoint.excluded = json.at("excluded").get<std::vector<uint8_t>>();
     checkpoint.kept = json.at("kept").get<std::vector<uint8_t>>();
-    if (poses.size() % 3 != 0) return Bad(path, "'poses' length is not a multiple of 3");
-    if (features.size() % 2 != 0) return Bad(path, "'features' length is not a multiple of 2");
-    for (size_t i = 0; i < poses.size(); i += 3)
-      checkpoint.poses.emplace_back(poses[i], poses[i + 1], poses[i + 2]);
-    for (size_t i = 0; i < features.size(); i += 2)
-      checkpoint.features.emplace_back(features[i], features[i + 1]);
+    if (poses.size() % Layout::kPoseValues != 0)
+      return Bad(path, "'poses' length is not a multiple of " +
+                           std::to_string(Layout::kPoseValues));
+    if (features.size() % Layout::kFeatureValues != 0)
+      return Bad(path, "'features' length is not a multiple of " +
+                           std::to_string(Layout::kFeatureValues));
+    for (size_t i = 0; i < poses.size(); i += Layout::kPoseValues)
+      checkpoint.poses.push_back(Layout::PoseAt(&poses[i]));
+    for (size_t i = 0; i < features.size(); i += Layout::kFeatureValues) {
+      typename decltype(checkpoint.features)::value_type f;
+      for (int k = 0; k < Layout::kFeatureValues; ++k) f[k] = features[i + k];
+      checkpoint.features.push_back(f);
+    }
   } catch (const nlohmann::json::exception& error) {
     return Bad(path, std::string("malformed field: ") + error.what());
   }
@@ -90,11 +133,33 @@ StatusOr<core::SolverCheckpoint> ReadSolverCheckpoint(const std::string& path,
       checkpoint.kept.size() != checkpoint.features.size())
     return Bad(path, "'excluded' and 'kept' must have one entry per feature (" +
                          std::to_string(checkpoint.features.size()) + ")");
-  for (const core::Pose2& p : checkpoint.poses)
-    if (!p.allFinite()) return Bad(path, "a pose is not finite");
-  for (const core::Point2& f : checkpoint.features)
+  for (const auto& p : checkpoint.poses)
+    if (!Layout::Finite(p)) return Bad(path, "a pose is not finite");
+  for (const auto& f : checkpoint.features)
     if (!f.allFinite()) return Bad(path, "a feature is not finite");
   return checkpoint;
+}
+
+}  // namespace
+
+Status WriteSolverCheckpoint(Env* env, const std::string& path, const std::string& input,
+                             const core::SolverCheckpoint& checkpoint) {
+  return Write<Planar>(env, path, input, checkpoint);
+}
+
+Status WriteSolverCheckpoint(Env* env, const std::string& path, const std::string& input,
+                             const core::SolverCheckpoint3d& checkpoint) {
+  return Write<Spatial>(env, path, input, checkpoint);
+}
+
+StatusOr<core::SolverCheckpoint> ReadSolverCheckpoint(const std::string& path,
+                                                      const std::string& input) {
+  return Read<Planar, core::SolverCheckpoint>(path, input);
+}
+
+StatusOr<core::SolverCheckpoint3d> ReadSolverCheckpoint3d(const std::string& path,
+                                                          const std::string& input) {
+  return Read<Spatial, core::SolverCheckpoint3d>(path, input);
 }
 
 }  // namespace graphslam::storage

@@ -1,6 +1,7 @@
-// Solver checkpoints on disk: the state SolveGraphSlam needs to continue an
-// interrupted solve exactly (core::SolverCheckpoint), as one JSON document
-// (docs/formats/solver_checkpoint.md).
+// Solver checkpoints on disk: the state SolveGraphSlam (core::SolverCheckpoint)
+// or SolveGraphSlam3d (core::SolverCheckpoint3d) needs to continue an
+// interrupted solve exactly, as one JSON document
+// (docs/formats/solver_checkpoint.md). 3-D poses are x y z qx qy qz qw.
 //
 // Durability: written through WriteFileAtomically (temp file, fsync, rename,
 // directory fsync), so the previous checkpoint stays readable until the new one
@@ -13,6 +14,7 @@
 #include <string>
 
 #include "core/graphslam_solver.h"
+#include "core/graphslam_solver_3d.h"
 #include "core/status.h"
 #include "storage/env.h"
 
@@ -25,10 +27,14 @@ inline constexpr int kSolverCheckpointVersion = 1;
 // rejects a checkpoint of another input.
 Status WriteSolverCheckpoint(Env* env, const std::string& path, const std::string& input,
                              const core::SolverCheckpoint& checkpoint);
+Status WriteSolverCheckpoint(Env* env, const std::string& path, const std::string& input,
+                             const core::SolverCheckpoint3d& checkpoint);
 
 // Reads and validates a checkpoint: format, version (NotSupported if newer),
-// input, sizes, finite numbers. Errors name the file and the field.
+// input, dimension, sizes, finite numbers. Errors name the file and the field.
 StatusOr<core::SolverCheckpoint> ReadSolverCheckpoint(const std::string& path,
                                                       const std::string& input);
+StatusOr<core::SolverCheckpoint3d> ReadSolverCheckpoint3d(const std::string& path,
+                                                          const std::string& input);
 
 }  // namespace graphslam::storage

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "storage/native_log_scans.h"
 #include "storage/threedtk_reader.h"
 #include "tools/exit_codes.h"
 
@@ -15,12 +16,19 @@ StatusOr<std::unique_ptr<map::ScanSource>> OpenScanSource(const std::string& inp
     GS_ASSIGN_OR_RETURN(std::unique_ptr<map::DiskScanStore> store, map::DiskScanStore::Open(input));
     return std::unique_ptr<map::ScanSource>(std::move(store));
   }
+  if (map::IsNativeLogFile(input)) {  // SCAN records naming .pcd files
+    GS_ASSIGN_OR_RETURN(std::unique_ptr<map::NativeLogScanSource> source,
+                        map::NativeLogScanSource::Open(input));
+    return std::unique_ptr<map::ScanSource>(std::move(source));
+  }
   if (map::List3dtkScans(input).ok()) {
     GS_ASSIGN_OR_RETURN(std::unique_ptr<map::ThreeDtkScanSource> source,
                         map::ThreeDtkScanSource::Open(input));
     return std::unique_ptr<map::ScanSource>(std::move(source));
   }
-  return Status::NotFound(input + ": no scans (expected scans/SCANS.json or 3DTK scanNNN.3d files)");
+  return Status::NotFound(input +
+                          ": no scans (expected scans/SCANS.json, 3DTK scanNNN.3d files or a "
+                          "native log with SCAN records)");
 }
 
 StatusOr<std::vector<core::Pose3>> ReadTumPoses(const std::string& path) {

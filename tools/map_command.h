@@ -3,8 +3,9 @@
 // cloud (tools/map_builder.h, docs/maps.md).
 //
 // INPUT is a folder holding scans/SCANS.json (a chunk store or a
-// `simulate --3d --scans` output; docs/formats/scan_chunk.md) or a 3DTK uos
-// scan folder (scanNNN.3d + scanNNN.pose). --poses FILE.tum replaces each
+// `simulate --3d --scans` output; docs/formats/scan_chunk.md), a 3DTK uos
+// scan folder (scanNNN.3d + scanNNN.pose), or a native log whose SCAN
+// records name .pcd files (storage/native_log_scans.h). --poses FILE.tum replaces each
 // scan's logged pose by row `scan.pose` of FILE (the optimized trajectory).
 //
 // For batch jobs: OpenScanSource + ReadTumPoses + map::BuildMap are the
@@ -32,7 +33,8 @@ struct MapCommandOptions {
   bool quiet = false;
 };
 
-// A folder with scans/SCANS.json, else a 3DTK folder. NotFound if neither.
+// A folder with scans/SCANS.json, a native log with SCAN records, else a 3DTK
+// folder. NotFound if none.
 StatusOr<std::unique_ptr<map::ScanSource>> OpenScanSource(const std::string& input);
 
 // TUM rows "stamp tx ty tz qx qy qz qw" (# comments, blank lines skipped), in

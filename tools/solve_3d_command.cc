@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
 
@@ -15,9 +16,11 @@
 #include "storage/g2o_3d_reader.h"
 #include "storage/g2o_3d_writer.h"
 #include "storage/isam_3d_reader.h"
+#include "storage/solver_checkpoint.h"
 #include "tools/exit_codes.h"
 #include "tools/progress_display.h"
 #include "tools/resource_usage.h"
+#include "tools/solve_report.h"
 
 namespace graphslam::tools {
 namespace {
@@ -32,28 +35,12 @@ nlohmann::json BuildReport3d(const SolveCommandOptions& options, const core::Pro
                              const core::SolverSummary& summary, const char* format_name,
                              double read_seconds, double initialize_seconds,
                              double total_seconds) {
-  nlohmann::json report;
-  report["input"] = options.input;
-  report["format"] = format_name;
+  nlohmann::json report = SolverReport(options, summary, format_name, total_seconds);
   report["dimension"] = 3;
-  report["solver"] = core::LinearSolverName(summary.linear_solver_used);
-  report["preconditioner"] = options.preconditioner;
-  report["initial_chi2"] = summary.initial_chi2;
-  report["final_chi2"] = summary.final_chi2;
-  report["iterations"] = summary.iterations;
-  report["converged"] = summary.converged;
-  report["termination"] = summary.termination;
   report["poses"] = problem.num_poses();
   report["features"] = problem.num_features();
   report["observations"] = static_cast<int64_t>(problem.observations.size());
-  report["observations_used"] = summary.observations_used;
-  report["eliminated_features"] = summary.eliminated_features;
-  report["kept_features"] = summary.kept_features;
-  report["robust_kernel"] = "none";
   report["initialization"] = "odometry";
-  report["resumed_from_iteration"] = 0;
-  report["excluded_features"] = summary.excluded_features;
-  report["unobserved_features"] = summary.unobserved_features;
   report["relative_pose_constraints"] = static_cast<int64_t>(problem.relative_poses.size());
   report["motion_constraints"] = 0;
   report["gps_constraints"] = static_cast<int64_t>(problem.gps.size());
@@ -61,31 +48,10 @@ nlohmann::json BuildReport3d(const SolveCommandOptions& options, const core::Pro
                                  3 * static_cast<int64_t>(problem.gps.size()) +
                                  3 * summary.observations_used;
   report["unknowns"] = 6 * summary.unknown_poses + 3 * summary.eliminated_features;
-  report["reduced_nonzero_blocks"] = summary.reduced_nonzero_blocks;
-  report["threads"] = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
-  report["seconds"] = total_seconds;
   report["stage_seconds"] = {{"read", read_seconds},
                              {"initialize", initialize_seconds},
                              {"progressive_initialization", 0.0},
                              {"optimize", summary.seconds}};
-  report["peak_rss_bytes"] = PeakRssBytes();
-  nlohmann::json per_iteration = nlohmann::json::array();
-  for (const core::IterationSummary& it : summary.per_iteration) {
-    per_iteration.push_back({{"iteration", it.iteration},
-                             {"chi2", it.chi2},
-                             {"candidate_chi2", it.candidate_chi2},
-                             {"step_norm", it.step_norm},
-                             {"gradient_max_norm", it.gradient_max_norm},
-                             {"linear_solver_iterations", it.linear_iterations},
-                             {"lambda", it.lambda},
-                             {"relative_decrease", it.relative_decrease},
-                             {"accepted", it.accepted},
-                             {"seconds", it.seconds},
-                             {"reduce_seconds", it.reduce_seconds},
-                             {"solve_seconds", it.solve_seconds},
-                             {"recover_seconds", it.recover_seconds}});
-  }
-  report["per_iteration"] = per_iteration;
   return report;
 }
 
@@ -119,10 +85,12 @@ int RunSolve3dCommand(const SolveCommandOptions& options, storage::InputFormat f
     std::fprintf(stderr, "graphslam solve: %s\n", status.ToString().c_str());
     return ExitCodeFor(status);
   };
-  if (!options.features_csv.empty() || options.resume || !options.checkpoint.empty() ||
-      options.robust_kernel != "none") {
-    GS_LOG(WARNING, "--features-csv, --checkpoint, --resume and --robust-kernel are ignored for "
-                    "3-D inputs");
+  if (!options.features_csv.empty()) GS_LOG(WARNING, "--features-csv is ignored for 3-D inputs");
+  StatusOr<core::RobustKernel> kernel = core::ParseRobustKernel(options.robust_kernel);
+  if (!kernel.ok()) {
+    std::fprintf(stderr, "graphslam solve: --robust-kernel: %s\n",
+                 kernel.status().ToString().c_str());
+    return kExitUsage;
   }
   StatusOr<core::Problem3d> read = ReadProblem3d(options.input, format);
   if (!read.ok()) return fail(read.status());
@@ -144,9 +112,33 @@ int RunSolve3dCommand(const SolveCommandOptions& options, storage::InputFormat f
   solver_options.max_iterations = options.max_iterations;
   solver_options.function_tolerance = options.function_tolerance;
   solver_options.initial_trust_region_radius = options.initial_trust_region_radius;
+  solver_options.observation_kernel = *kernel;
   solver_options.progress = display.AsCallback();
+  // Checkpoints: one durable file replaced after every iteration; --resume
+  // continues from it, bit-identical to an uninterrupted solve.
+  core::Checkpointing3d checkpointing;
+  core::SolverCheckpoint3d resume_state;
+  if (options.resume && std::filesystem::exists(options.checkpoint)) {
+    StatusOr<core::SolverCheckpoint3d> read_checkpoint =
+        storage::ReadSolverCheckpoint3d(options.checkpoint, options.input);
+    if (!read_checkpoint.ok()) return fail(read_checkpoint.status());
+    resume_state = std::move(read_checkpoint).value();
+    checkpointing.resume_from = &resume_state;
+    GS_LOG(INFO, "resuming from %s after iteration %d (chi2 %.9g)", options.checkpoint.c_str(),
+           resume_state.iterations, resume_state.chi2);
+  } else if (options.resume) {
+    GS_LOG(WARNING, "no checkpoint at %s yet: starting from the beginning",
+           options.checkpoint.c_str());
+  }
+  if (!options.checkpoint.empty()) {
+    checkpointing.callback = [&](const core::SolverCheckpoint3d& checkpoint) {
+      return storage::WriteSolverCheckpoint(storage::Env::Default(), options.checkpoint,
+                                            options.input, checkpoint);
+    };
+  }
   core::SolverSummary summary;
-  if (Status status = core::SolveGraphSlam3d(solver_options, &problem, &summary); !status.ok())
+  if (Status status = core::SolveGraphSlam3d(solver_options, &problem, &summary, checkpointing);
+      !status.ok())
     return fail(status);
   display.Finish();
 
@@ -174,12 +166,7 @@ int RunSolve3dCommand(const SolveCommandOptions& options, storage::InputFormat f
     std::printf("  poses / features   %d / %d\n", problem.num_poses(), problem.num_features());
     std::printf("  relative poses     %zu\n", problem.relative_poses.size());
     std::printf("  observations       %zu\n", problem.observations.size());
-    std::printf("  linear solver      %s\n", core::LinearSolverName(summary.linear_solver_used));
-    std::printf("  initial chi2       %.9g\n", summary.initial_chi2);
-    std::printf("  final chi2         %.9g\n", summary.final_chi2);
-    std::printf("  iterations         %d (%s)\n", summary.iterations, summary.termination.c_str());
-    std::printf("  seconds            %.3f\n", total_seconds);
-    std::printf("  peak RSS           %.1f MiB\n", PeakRssBytes() / (1024.0 * 1024.0));
+    PrintSolverSummaryLines(summary, total_seconds);
   }
   return summary.converged ? kExitOk : kExitNotConverged;
 }

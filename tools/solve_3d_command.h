@@ -1,8 +1,9 @@
 // The 3-D branch of `graphslam solve`: read a 3-D g2o / iSAM input, chain the
 // initial guess (core/initialization_3d.h), run SolveGraphSlam3d and write the
 // same outputs and JSON report keys as the planar solve (-o OUT.g2o in the 3-D
-// g2o records, --tum, --report). --features-csv, --robust-kernel,
-// --checkpoint / --resume and progressive initialization apply to 2-D only.
+// g2o records, --tum, --report), with --robust-kernel on the observations and
+// --checkpoint / --resume (docs/formats/solver_checkpoint.md, 3-D poses).
+// --features-csv and progressive initialization apply to 2-D only.
 //
 // SolvePoses3dFile is the programmatic hook for other tools (e.g. building a
 // map from scans): the optimized pose of every pose id.

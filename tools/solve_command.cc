@@ -26,12 +26,14 @@
 #include "storage/g2o_writer.h"
 #include "storage/tum_writer.h"
 #include "tools/association_report.h"
+#include "tools/association_store.h"
 #include "tools/exit_codes.h"
 #include "tools/memory_size.h"
 #include "tools/out_of_core_solve.h"
 #include "tools/progress_display.h"
 #include "tools/resource_usage.h"
 #include "tools/solve_3d_command.h"
+#include "tools/solve_report.h"
 
 namespace graphslam::tools {
 namespace {
@@ -61,10 +63,6 @@ Status ValidateOptions(const SolveCommandOptions& options) {
     return Status::InvalidArgument("--chunk-observations must be > 0");
   if (options.associate && (options.resume || !options.checkpoint.empty()))
     return Status::InvalidArgument("--associate cannot be combined with --checkpoint/--resume");
-  if (options.associate && storage::IsChunkStore(options.input))
-    return Status::InvalidArgument(
-        "--associate needs a g2o, native or MRCLAM input, not a chunk store (merges rewrite "
-        "the in-memory chunks only)");
   if (options.associate && !options.workdir.empty())
     return Status::InvalidArgument(
         "--associate cannot be combined with --workdir (merges rewrite the in-memory chunks "
@@ -77,27 +75,10 @@ nlohmann::json BuildReport(const SolveCommandOptions& options, const core::Probl
                            double read_seconds, double initialize_seconds,
                            double progressive_seconds, double total_seconds,
                            int64_t num_observations) {
-  nlohmann::json report;
-  report["input"] = options.input;
-  report["format"] = format_name;
-  report["solver"] = core::LinearSolverName(summary.linear_solver_used);
-  report["preconditioner"] = options.preconditioner;
-  report["initial_chi2"] = summary.initial_chi2;
-  report["final_chi2"] = summary.final_chi2;
-  report["iterations"] = summary.iterations;
-  report["converged"] = summary.converged;
-  report["termination"] = summary.termination;
+  nlohmann::json report = SolverReport(options, summary, format_name, total_seconds);
   report["poses"] = problem.num_poses();
   report["features"] = problem.num_features();
   report["observations"] = num_observations;
-  report["observations_used"] = summary.observations_used;
-  report["eliminated_features"] = summary.eliminated_features;
-  report["kept_features"] = summary.kept_features;
-  report["robust_kernel"] = options.robust_kernel;
-  report["initialization"] = options.initialization;
-  report["resumed_from_iteration"] = summary.resumed_from_iteration;
-  report["excluded_features"] = summary.excluded_features;
-  report["unobserved_features"] = summary.unobserved_features;
   report["relative_pose_constraints"] = static_cast<int64_t>(problem.relative_poses.size());
   report["motion_constraints"] = static_cast<int64_t>(problem.motions.size());
   report["gps_constraints"] = static_cast<int64_t>(problem.gps.size());
@@ -109,31 +90,10 @@ nlohmann::json BuildReport(const SolveCommandOptions& options, const core::Probl
   report["residual_dimension"] = residual_dimension;
   report["unknowns"] =
       3 * summary.unknown_poses + 2 * (summary.eliminated_features + summary.kept_features);
-  report["reduced_nonzero_blocks"] = summary.reduced_nonzero_blocks;
-  report["threads"] = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
-  report["seconds"] = total_seconds;
   report["stage_seconds"] = {{"read", read_seconds},
                              {"initialize", initialize_seconds},
                              {"progressive_initialization", progressive_seconds},
                              {"optimize", summary.seconds}};
-  report["peak_rss_bytes"] = PeakRssBytes();
-  nlohmann::json per_iteration = nlohmann::json::array();
-  for (const core::IterationSummary& it : summary.per_iteration) {
-    per_iteration.push_back({{"iteration", it.iteration},
-                             {"chi2", it.chi2},
-                             {"candidate_chi2", it.candidate_chi2},
-                             {"step_norm", it.step_norm},
-                             {"gradient_max_norm", it.gradient_max_norm},
-                             {"linear_solver_iterations", it.linear_iterations},
-                             {"lambda", it.lambda},
-                             {"relative_decrease", it.relative_decrease},
-                             {"accepted", it.accepted},
-                             {"seconds", it.seconds},
-                             {"reduce_seconds", it.reduce_seconds},
-                             {"solve_seconds", it.solve_seconds},
-                             {"recover_seconds", it.recover_seconds}});
-  }
-  report["per_iteration"] = per_iteration;
   return report;
 }
 
@@ -196,7 +156,9 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
                     "features with more observations stay unknowns instead of being eliminated")
       ->capture_default_str();
   solve->add_option("--robust-kernel", options->robust_kernel,
-                    "kernel on observations: none, huber[:c], cauchy[:c]")
+                    "[TYPE=]K, K one of none, huber[:c], cauchy[:c]; TYPE one of observation "
+                    "(the default), odometry, motion, gps; repeatable")
+      ->join(' ')
       ->capture_default_str();
   solve->add_option("--initialization", options->initialization,
                     "initial guess: progressive (solve growing prefixes of the trajectory) or "
@@ -262,9 +224,12 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                  preconditioner.status().ToString().c_str());
     return kExitUsage;
   }
-  StatusOr<core::RobustKernel> kernel = core::ParseRobustKernel(options.robust_kernel);
-  if (!kernel.ok()) {
-    std::fprintf(stderr, "graphslam solve: --robust-kernel: %s\n", kernel.status().ToString().c_str());
+  core::RobustKernel observation_kernel;
+  core::PoseFactorKernels pose_kernels;
+  if (Status kernels = core::ApplyRobustKernelOption(options.robust_kernel, &observation_kernel,
+                                                     &pose_kernels);
+      !kernels.ok()) {
+    std::fprintf(stderr, "graphslam solve: --robust-kernel: %s\n", kernels.ToString().c_str());
     return kExitUsage;
   }
 
@@ -309,8 +274,9 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     if (!read.ok()) return fail(read.status());
     problem = std::move(read).value();
     num_observations = store->total_observations();
-    streaming = problem.num_poses() > options.streaming_poses ||
-                num_observations > options.streaming_observations;
+    // --associate merges in memory (then rewrites the store): never streams.
+    streaming = !options.associate && (problem.num_poses() > options.streaming_poses ||
+                                       num_observations > options.streaming_observations);
     if (streaming) {
       GS_LOG(INFO, "streaming mode: %d poses, %lld observations stay on disk; initial guess "
              "from the ingest (Table 1), no progressive initialization",
@@ -383,7 +349,8 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   solver_options.preconditioner = *preconditioner;
   solver_options.max_iterations = options.max_iterations;
   solver_options.max_eliminated_observations = options.max_eliminated_observations;
-  solver_options.observation_kernel = *kernel;
+  solver_options.observation_kernel = observation_kernel;
+  solver_options.pose_kernels = pose_kernels;
   solver_options.function_tolerance = options.function_tolerance;
   solver_options.initial_trust_region_radius = options.initial_trust_region_radius;
   solver_options.progress = display.AsCallback();
@@ -397,7 +364,8 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   // Checkpoints: one durable file, replaced atomically after every iteration;
   // --resume continues from it (bit-identical to an uninterrupted solve).
   std::string checkpoint_path = options.checkpoint;
-  if (checkpoint_path.empty() && store) checkpoint_path = store_path + "/checkpoint.json";
+  if (checkpoint_path.empty() && store && !options.associate)
+    checkpoint_path = store_path + "/checkpoint.json";
   if (options.resume && checkpoint_path.empty()) {
     std::fprintf(stderr, "graphslam solve: --resume needs --checkpoint FILE (or a chunk store)\n");
     return kExitUsage;
@@ -464,6 +432,14 @@ int RunSolveCommand(const SolveCommandOptions& options) {
         !status.ok())
       return fail(status);
     summary = association_summary.final_solve;
+    // A chunk store gets the associated problem (tools/association_store.h).
+    if (store) {
+      if (Status status = RewriteAssociatedChunkStore(storage::Env::Default(), store_path,
+                                                      problem, options.chunk_observations,
+                                                      store->source());
+          !status.ok())
+        return fail(status);
+    }
   } else if (Status status = core::SolveGraphSlam(solver_options, chunks, &problem, &summary);
              !status.ok()) {
     return fail(status);
@@ -519,12 +495,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                   static_cast<long long>(association_summary.undone),
                   association_summary.rounds.size(), association_summary.seconds);
     }
-    std::printf("  linear solver      %s\n", core::LinearSolverName(summary.linear_solver_used));
-    std::printf("  initial chi2       %.9g\n", summary.initial_chi2);
-    std::printf("  final chi2         %.9g\n", summary.final_chi2);
-    std::printf("  iterations         %d (%s)\n", summary.iterations, summary.termination.c_str());
-    std::printf("  seconds            %.3f\n", total_seconds);
-    std::printf("  peak RSS           %.1f MiB\n", PeakRssBytes() / (1024.0 * 1024.0));
+    PrintSolverSummaryLines(summary, total_seconds);
   }
   return summary.converged ? kExitOk : kExitNotConverged;
 }

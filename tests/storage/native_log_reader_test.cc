@@ -148,7 +148,7 @@ TEST(NativeLogReader, RejectsMalformedRecords) {
   EXPECT_TRUE(unknown.IsNotSupported());
   EXPECT_EQ(unknown.message(),
             "bad.log:4: unknown tag 'LIDAR'; expected POSE, FEATURE, CONTROL, CONTROL_INFO, ODOM, "
-            "RB, XY, GPS or FIX");
+            "RB, XY, GPS, FIX or SCAN");
 }
 
 TEST(NativeLogReader, UnknownCorrespondenceGivesAFeaturePerObservation) {

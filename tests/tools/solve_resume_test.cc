@@ -20,22 +20,15 @@
 #include <thread>
 #include <vector>
 
-#include "tests/testing/subprocess.h"
+#include "tests/testing/kill_nine.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 
 const std::string kGraphslam = graphslam::testing::GraphslamBinary();
-const auto Spawn = &graphslam::testing::SpawnGraphslam;
+using graphslam::testing::ReadWholeFile;
 using graphslam::testing::RunGraphslam;
-
-std::string ReadFile(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
 
 TEST(SolveResume, KillNineMidSolveThenResumeEqualsUninterruptedRun) {
   ASSERT_TRUE(fs::exists(kGraphslam)) << kGraphslam;
@@ -55,32 +48,28 @@ TEST(SolveResume, KillNineMidSolveThenResumeEqualsUninterruptedRun) {
 
   // Killed as soon as the first checkpoint exists.
   const fs::path checkpoint = dir / "checkpoint.json";
-  const pid_t pid = Spawn({"solve", input, "-o", (dir / "resumed.g2o").string(), "--checkpoint",
-                           checkpoint.string(), "-q"});
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  while (!fs::exists(checkpoint) && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  kill(pid, SIGKILL);
-  int status = 0;
-  waitpid(pid, &status, 0);
+  const bool signaled = graphslam::testing::SpawnAndKillWhenFileExists(
+      {"solve", input, "-o", (dir / "resumed.g2o").string(), "--checkpoint", checkpoint.string(),
+       "-q"},
+      checkpoint, std::chrono::seconds(120));
   ASSERT_TRUE(fs::exists(checkpoint)) << "no checkpoint was written";
-  const nlohmann::json at_kill = nlohmann::json::parse(ReadFile(checkpoint));
+  const nlohmann::json at_kill = nlohmann::json::parse(ReadWholeFile(checkpoint));
   // Usually killed mid-solve; if the solve won the race, resuming must still agree.
   std::printf("killed after iteration %d (signaled: %d)\n", at_kill["iterations"].get<int>(),
-              WIFSIGNALED(status) ? 1 : 0);
-  EXPECT_FALSE(fs::exists(dir / "resumed.g2o") && WIFSIGNALED(status))
+              signaled ? 1 : 0);
+  EXPECT_FALSE(fs::exists(dir / "resumed.g2o") && signaled)
       << "a killed solve must not leave its output";
 
   ASSERT_EQ(RunGraphslam({"solve", input, "-o", (dir / "resumed.g2o").string(), "--report",
                  (dir / "resumed.json").string(), "--checkpoint", checkpoint.string(), "--resume",
                  "-q"}),
             0);
-  const nlohmann::json full = nlohmann::json::parse(ReadFile(dir / "full.json"));
-  const nlohmann::json resumed = nlohmann::json::parse(ReadFile(dir / "resumed.json"));
+  const nlohmann::json full = nlohmann::json::parse(ReadWholeFile(dir / "full.json"));
+  const nlohmann::json resumed = nlohmann::json::parse(ReadWholeFile(dir / "resumed.json"));
   EXPECT_EQ(full["final_chi2"].get<double>(), resumed["final_chi2"].get<double>());
   EXPECT_EQ(full["iterations"].get<int>(), resumed["iterations"].get<int>());
   EXPECT_EQ(resumed["resumed_from_iteration"].get<int>(), at_kill["iterations"].get<int>());
-  EXPECT_EQ(ReadFile(dir / "full.g2o"), ReadFile(dir / "resumed.g2o"));
+  EXPECT_EQ(ReadWholeFile(dir / "full.g2o"), ReadWholeFile(dir / "resumed.g2o"));
   fs::remove_all(dir);
 }
 

@@ -1,0 +1,189 @@
+// RunLevenbergMarquardt: the Levenberg-Marquardt control of the GraphSLAM loop
+// (paper Table 5), written once for the planar (core/graphslam_solver.h) and
+// the 3-D (core/graphslam_solver_3d.h) solvers. The problem "space" (a policy
+// class) owns the state, the linearization, the reduced solve and the
+// recovery, with its block sizes (3 / 2 in the plane, 6 / 3 in 3-D) fixed at
+// compile time in its hot loops; this file owns every decision:
+//
+//   lambda = 1 / mu (mu: trust region radius)
+//   gradient test      max |g| <= gradient_tolerance           -> converged
+//   step quality       rho = (chi2 - chi2') / (-g^T d + lambda d^T D d)
+//   accept             rho > min_relative_decrease (and a finite chi2')
+//   Nielsen update     success: mu /= max(1/3, 1 - (2 rho - 1)^3) (<= mu_max), v = 2
+//                      failure: mu /= v, v *= 2
+//   convergence        (chi2 - chi2') / chi2 < function_tolerance, or
+//                      |d| <= parameter_tolerance (|state| + parameter_tolerance),
+//                      or mu < min_trust_region_radius (no further decrease)
+//   after every iteration: summary, iteration callback, progress, and the
+//   checkpoint (control state + the space's state) for a bit-identical resume.
+//
+// A Space provides:
+//   using Checkpoint = BasicSolverCheckpoint<Pose, Point>;
+//   static constexpr const char* kName;  // log prefix
+//   // Linearize and reduce about the current state with damping lambda; sets
+//   // it->gradient_max_norm. A non-OK Status is fatal; *usable = false (e.g.
+//   // a feature block that is not positive definite) asks for more damping.
+//   Status Linearize(double lambda, IterationSummary* it, bool* usable);
+//   // Damp, solve, recover and evaluate the candidate; sets it->step_norm,
+//   // linear_iterations, solve_seconds, recover_seconds. trial->ok = false
+//   // (a failed linear solve) asks for more damping.
+//   Status TryStep(double lambda, bool usable, IterationSummary* it, TrialStep* trial);
+//   void StepResult(bool accepted);          // after every computed step
+//   void Accept();                           // the candidate becomes the state
+//   void FillState(Checkpoint* checkpoint);  // poses, features, excluded, kept
+//
+// THREAD SAFETY: one call per space. ALLOCATION: one IterationSummary per
+// iteration in the summary, one checkpoint copy per iteration when asked.
+#pragma once
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <limits>
+
+#include "core/graphslam_solver.h"
+#include "core/logging.h"
+#include "core/status.h"
+
+namespace graphslam::core {
+
+// What the space reports about one trial step.
+struct TrialStep {
+  bool ok = false;  // a step was computed (else more damping)
+  double candidate_chi2 = std::numeric_limits<double>::infinity();
+  double model_decrease = 0.0;      // -g^T d + lambda d^T D d
+  double state_norm_squared = 0.0;  // |state|^2 at the linearization point
+};
+
+using SolverClock = std::chrono::steady_clock;
+
+inline double SecondsSince(SolverClock::time_point start) {
+  return std::chrono::duration<double>(SolverClock::now() - start).count();
+}
+
+// Runs the iterations from the space's current state, whose chi2 is
+// `initial_chi2` (or from `resume`, whose state the space has already taken
+// over). Fills the control fields of *summary (chi2, iterations,
+// per_iteration, termination, converged, seconds since `start`).
+template <class Space>
+Status RunLevenbergMarquardt(
+    const SolverOptions& options, double initial_chi2, const typename Space::Checkpoint* resume,
+    const std::function<Status(const typename Space::Checkpoint&)>& checkpoint_callback,
+    SolverClock::time_point start, Space* space, SolverSummary* summary) {
+  double chi2 = initial_chi2;
+  summary->initial_chi2 = chi2;
+  summary->final_chi2 = chi2;
+  if (!std::isfinite(chi2)) {
+    return Status::Numerical("initial chi2 is not finite (" + std::to_string(chi2) +
+                             "); check the initial guess and information matrices");
+  }
+  double radius = options.initial_trust_region_radius;
+  double decrease_factor = 2.0;
+  int first_iteration = 1;
+  if (resume != nullptr) {
+    // The checkpoint's chi2, not a recomputation: acceptance decisions must
+    // see the very number the interrupted solve saw.
+    chi2 = resume->chi2;
+    summary->final_chi2 = chi2;
+    summary->initial_chi2 = resume->initial_chi2;
+    radius = resume->trust_region_radius;
+    decrease_factor = resume->decrease_factor;
+    first_iteration = resume->iterations + 1;
+    summary->iterations = resume->iterations;
+    summary->resumed_from_iteration = resume->iterations;
+    if (resume->converged) {
+      summary->converged = true;
+      summary->termination = resume->termination;
+      summary->seconds = SecondsSince(start);
+      return Status::Ok();
+    }
+  }
+  summary->termination = "max_iterations";
+
+  for (int iteration = first_iteration; iteration <= options.max_iterations; ++iteration) {
+    const SolverClock::time_point iteration_start = SolverClock::now();
+    IterationSummary it;
+    it.iteration = iteration;
+    it.lambda = 1.0 / radius;
+
+    // 1. Linearize and reduce.
+    bool usable = true;
+    GS_RETURN_IF_ERROR(space->Linearize(it.lambda, &it, &usable));
+    it.reduce_seconds = SecondsSince(iteration_start);
+    if (usable && it.gradient_max_norm <= options.gradient_tolerance) {
+      summary->termination = "gradient_tolerance";
+      summary->converged = true;
+      break;
+    }
+
+    // 2-3. Solve the reduced system, recover, evaluate the candidate.
+    TrialStep trial;
+    GS_RETURN_IF_ERROR(space->TryStep(it.lambda, usable, &it, &trial));
+    const double candidate_chi2 = trial.ok ? trial.candidate_chi2
+                                           : std::numeric_limits<double>::infinity();
+    it.candidate_chi2 = candidate_chi2;
+    it.relative_decrease =
+        trial.model_decrease > 0.0 ? (chi2 - candidate_chi2) / trial.model_decrease : -1.0;
+    it.accepted = trial.ok && std::isfinite(candidate_chi2) &&
+                  it.relative_decrease > options.min_relative_decrease;
+    if (trial.ok) space->StepResult(it.accepted);
+
+    // 4. Accept or reject; update the trust region.
+    bool converged = false;
+    if (it.accepted) {
+      const double relative_change = (chi2 - candidate_chi2) / std::max(chi2, 1e-300);
+      space->Accept();
+      chi2 = candidate_chi2;
+      const double factor = 1.0 - std::pow(2.0 * it.relative_decrease - 1.0, 3);
+      radius = std::min(radius / std::max(1.0 / 3.0, factor), options.max_trust_region_radius);
+      decrease_factor = 2.0;
+      if (relative_change < options.function_tolerance) {
+        summary->termination = "function_tolerance";
+        converged = true;
+      } else if (it.step_norm <= options.parameter_tolerance *
+                                     (std::sqrt(trial.state_norm_squared) +
+                                      options.parameter_tolerance)) {
+        summary->termination = "parameter_tolerance";
+        converged = true;
+      }
+    } else {
+      radius /= decrease_factor;
+      decrease_factor *= 2.0;
+    }
+    it.chi2 = chi2;
+    it.seconds = SecondsSince(iteration_start);
+    summary->per_iteration.push_back(it);
+    summary->iterations = iteration;
+    summary->final_chi2 = chi2;
+    GS_VLOG(1, "%siteration %d: chi2 %.9g candidate %.9g rho %.3g lambda %.3g |step| %.3g cg %d %s",
+            Space::kName, iteration, chi2, candidate_chi2, it.relative_decrease, it.lambda,
+            it.step_norm, it.linear_iterations, it.accepted ? "accepted" : "rejected");
+    if (options.iteration_callback) options.iteration_callback(it);
+    if (options.progress) options.progress("optimize", iteration, options.max_iterations);
+    if (!converged && radius < options.min_trust_region_radius) {
+      summary->termination = "min_trust_region_radius";
+      converged = true;  // no further decrease possible: a (local) minimum
+    }
+    if (checkpoint_callback) {
+      typename Space::Checkpoint checkpoint;
+      checkpoint.iterations = iteration;
+      checkpoint.trust_region_radius = radius;
+      checkpoint.decrease_factor = decrease_factor;
+      checkpoint.initial_chi2 = summary->initial_chi2;
+      checkpoint.chi2 = chi2;
+      checkpoint.converged = converged;
+      checkpoint.termination = converged ? summary->termination : "";
+      space->FillState(&checkpoint);
+      GS_RETURN_IF_ERROR(checkpoint_callback(checkpoint));
+    }
+    if (converged) {
+      summary->converged = true;
+      break;
+    }
+  }
+  summary->seconds = SecondsSince(start);
+  return Status::Ok();
+}
+
+}  // namespace graphslam::core

@@ -1,0 +1,64 @@
+#include "tools/solve_report.h"
+
+#include <tbb/info.h>
+
+#include <cstdio>
+
+#include "tools/resource_usage.h"
+
+namespace graphslam::tools {
+
+nlohmann::json SolverReport(const SolveCommandOptions& options, const core::SolverSummary& summary,
+                            const char* format_name, double total_seconds) {
+  nlohmann::json report;
+  report["input"] = options.input;
+  report["format"] = format_name;
+  report["solver"] = core::LinearSolverName(summary.linear_solver_used);
+  report["preconditioner"] = options.preconditioner;
+  report["initial_chi2"] = summary.initial_chi2;
+  report["final_chi2"] = summary.final_chi2;
+  report["iterations"] = summary.iterations;
+  report["converged"] = summary.converged;
+  report["termination"] = summary.termination;
+  report["observations_used"] = summary.observations_used;
+  report["eliminated_features"] = summary.eliminated_features;
+  report["kept_features"] = summary.kept_features;
+  report["robust_kernel"] = options.robust_kernel;
+  report["initialization"] = options.initialization;
+  report["resumed_from_iteration"] = summary.resumed_from_iteration;
+  report["excluded_features"] = summary.excluded_features;
+  report["unobserved_features"] = summary.unobserved_features;
+  report["reduced_nonzero_blocks"] = summary.reduced_nonzero_blocks;
+  report["threads"] = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
+  report["seconds"] = total_seconds;
+  report["peak_rss_bytes"] = PeakRssBytes();
+  nlohmann::json per_iteration = nlohmann::json::array();
+  for (const core::IterationSummary& it : summary.per_iteration) {
+    per_iteration.push_back({{"iteration", it.iteration},
+                             {"chi2", it.chi2},
+                             {"candidate_chi2", it.candidate_chi2},
+                             {"step_norm", it.step_norm},
+                             {"gradient_max_norm", it.gradient_max_norm},
+                             {"linear_solver_iterations", it.linear_iterations},
+                             {"lambda", it.lambda},
+                             {"relative_decrease", it.relative_decrease},
+                             {"accepted", it.accepted},
+                             {"seconds", it.seconds},
+                             {"reduce_seconds", it.reduce_seconds},
+                             {"solve_seconds", it.solve_seconds},
+                             {"recover_seconds", it.recover_seconds}});
+  }
+  report["per_iteration"] = per_iteration;
+  return report;
+}
+
+void PrintSolverSummaryLines(const core::SolverSummary& summary, double total_seconds) {
+  std::printf("  linear solver      %s\n", core::LinearSolverName(summary.linear_solver_used));
+  std::printf("  initial chi2       %.9g\n", summary.initial_chi2);
+  std::printf("  final chi2         %.9g\n", summary.final_chi2);
+  std::printf("  iterations         %d (%s)\n", summary.iterations, summary.termination.c_str());
+  std::printf("  seconds            %.3f\n", total_seconds);
+  std::printf("  peak RSS           %.1f MiB\n", PeakRssBytes() / (1024.0 * 1024.0));
+}
+
+}  // namespace graphslam::tools

@@ -1,0 +1,29 @@
+// The parts of `graphslam solve`'s JSON report and terminal summary that the
+// planar (tools/solve_command.cc) and the 3-D (tools/solve_3d_command.cc)
+// branches share: the solver's outcome, the feature partition, timings,
+// resources and one entry per Levenberg-Marquardt iteration
+// (docs/formats/report.md lists the keys). Each branch adds its own counts
+// (constraints, residual dimension, unknowns) and stage timings.
+//
+// THREAD SAFETY: plain functions. ALLOCATION: O(iterations).
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include "core/graphslam_solver.h"
+#include "tools/solve_command.h"
+
+namespace graphslam::tools {
+
+// input, format, solver, preconditioner, chi2s, iterations, convergence,
+// observations_used, eliminated / kept / excluded / unobserved features,
+// robust_kernel, initialization, resumed_from_iteration, reduced_nonzero_blocks,
+// threads, seconds, peak_rss_bytes and per_iteration.
+nlohmann::json SolverReport(const SolveCommandOptions& options, const core::SolverSummary& summary,
+                            const char* format_name, double total_seconds);
+
+// The terminal summary's closing lines: linear solver, chi2s, iterations,
+// seconds, peak RSS.
+void PrintSolverSummaryLines(const core::SolverSummary& summary, double total_seconds);
+
+}  // namespace graphslam::tools
