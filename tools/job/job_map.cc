@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <set>
 #include <sstream>
 #include <vector>
 
@@ -29,8 +30,10 @@ class JobScanSource : public map::ScanSource {
     int64_t pose_offset = 0;
     int32_t run = -1;  // -1: keep the scans' own (simulated: already merged ids)
   };
-  JobScanSource(std::vector<Part> parts, ProgressDisplay* display)
-      : parts_(std::move(parts)), display_(display) {
+  // Only the scans of runs in `component` (runs[r].component) are returned.
+  JobScanSource(std::vector<Part> parts, const std::vector<RunInfo>* runs, int32_t component,
+                ProgressDisplay* display)
+      : parts_(std::move(parts)), runs_(runs), component_(component), display_(display) {
     for (size_t p = 0; p < parts_.size(); ++p) {
       for (int64_t c = 0; c < parts_[p].store->NumChunks(); ++c) chunks_.emplace_back(p, c);
       total_scans_ += parts_[p].store->total_scans();
@@ -47,6 +50,10 @@ class JobScanSource : public map::ScanSource {
       if (part.run >= 0) scan.run = part.run;
     }
     done_scans_ += static_cast<int64_t>(scans->size());
+    std::erase_if(*scans, [&](const map::Scan& scan) {
+      return scan.run < 0 || scan.run >= static_cast<int32_t>(runs_->size()) ||
+             (*runs_)[static_cast<size_t>(scan.run)].component != component_;
+    });
     if (display_ != nullptr) display_->Update("map", done_scans_, total_scans_);
     return Status::Ok();
   }
@@ -56,6 +63,8 @@ class JobScanSource : public map::ScanSource {
  private:
   std::vector<Part> parts_;
   std::vector<std::pair<size_t, int64_t>> chunks_;
+  const std::vector<RunInfo>* runs_;
+  int32_t component_;
   ProgressDisplay* display_;
   int64_t total_scans_ = 0, total_points_ = 0;
   mutable int64_t done_scans_ = 0;
@@ -130,9 +139,13 @@ StatusOr<int64_t> WriteSimulatedScans(const JobSpec& spec, const JobData& data,
   return written;
 }
 
-StatusOr<json> BuildJobMap(const JobSpec& spec, const JobData& data, const std::string& work,
-                           ProgressDisplay* display) {
-  std::vector<JobScanSource::Part> parts;
+namespace {
+
+// The scan stores of the job (opened afresh for every component's pass), and
+// the components whose runs have scans.
+Status OpenScanParts(const JobSpec& spec, const JobData& data, const std::string& work,
+                     std::vector<JobScanSource::Part>* parts, std::set<int32_t>* components) {
+  parts->clear();
   for (const RunSpec& run : spec.runs) {
     JobScanSource::Part part;
     if (run.format == "simulate" && run.simulate_scans.enabled) {
@@ -140,9 +153,15 @@ StatusOr<json> BuildJobMap(const JobSpec& spec, const JobData& data, const std::
           map::DiskScanStore::Open(SimulatedScanDir(work, run.name));
       if (!store.ok()) return store.status();
       part.store = std::move(store).value();
+      const int first = FirstRunOf(data, run);
+      if (first < 0) return Status::Corruption("run '" + run.name + "' is missing from the ingested runs");
+      for (int k = 0; k < std::max(1, run.simulate.runs); ++k)
+        components->insert(data.runs[static_cast<size_t>(first + k)].component);
     } else if (!run.scans.empty()) {
       const int r = RunIndex(data, run.name);
-      if (r < 0) return Status::Corruption("run '" + run.name + "' is missing from the ingested runs");
+      if (r < 0)
+        return Status::InvalidArgument(spec.path + ":" + std::to_string(run.line) + ": run '" +
+                                       run.name + "': a scan folder needs a single-run input");
       StatusOr<std::unique_ptr<map::DiskScanStore>> store = map::DiskScanStore::Open(run.scans);
       if (!store.ok())
         return Status::InvalidArgument(spec.path + ":" + std::to_string(run.line) + ": run '" +
@@ -150,85 +169,129 @@ StatusOr<json> BuildJobMap(const JobSpec& spec, const JobData& data, const std::
       part.store = std::move(store).value();
       part.pose_offset = data.runs[static_cast<size_t>(r)].first_pose;
       part.run = r;
+      components->insert(data.runs[static_cast<size_t>(r)].component);
     } else {
       continue;
     }
-    parts.push_back(std::move(part));
+    parts->push_back(std::move(part));
   }
-  JobScanSource source(std::move(parts), display);
+  return Status::Ok();
+}
+
+}  // namespace
+
+StatusOr<json> BuildJobMap(const JobSpec& spec, const JobData& data, const std::string& work,
+                           ProgressDisplay* display) {
+  std::vector<JobScanSource::Part> parts;
+  std::set<int32_t> components;
+  GS_RETURN_IF_ERROR(OpenScanParts(spec, data, work, &parts, &components));
 
   std::vector<core::Pose3> poses;
   poses.reserve(data.problem.poses.size());
   for (const core::Pose2& pose : data.problem.poses)
     poses.push_back(LiftPose(pose, spec.map.sensor_height));
 
-  map::MapOptions options;
-  options.fusion.resolution = spec.map.resolution;
-  options.fusion.max_range = spec.map.max_range;
-  options.bt_path = (fs::path(work) / "map.bt").string();
-  options.pcd_path = (fs::path(work) / "map.pcd").string();
-  options.pcd_voxel = spec.map.pcd_voxel;
-  if (spec.memory_limit > 0) {
-    options.memory_budget_bytes = std::max<int64_t>(spec.memory_limit / 2, int64_t{16} << 20);
-    options.batch_points = std::clamp<int64_t>(spec.memory_limit / 2048, 20'000, 2'000'000);
-  }
-  // A restart after kill -9 starts from nothing: no stale spill or tiles.
-  std::error_code error;
-  fs::remove_all(fs::path(work) / "map.spill", error);
-  fs::remove_all(fs::path(work) / "map.tiles", error);
-  StatusOr<map::MapSummary> summary = map::BuildMap(options, source, &poses);
-  if (!summary.ok()) return summary.status();
-  if (display != nullptr) display->Finish();
-
+  json maps = json::array();
   json files = json::array();
-  if (summary->tiled_output) {
-    files.push_back("map.tiles/");
-  } else {
-    files.push_back("map.bt");
+  for (const int32_t component : components) {
+    // Each component is in its own frame: its own map (component 0: map.*).
+    const std::string stem = component == 0 ? "map" : "map_c" + std::to_string(component);
+    std::set<int32_t> same;
+    if (parts.empty()) GS_RETURN_IF_ERROR(OpenScanParts(spec, data, work, &parts, &same));
+    JobScanSource source(std::move(parts), &data.runs, component, display);
+    parts.clear();
+
+    map::MapOptions options;
+    options.fusion.resolution = spec.map.resolution;
+    options.fusion.max_range = spec.map.max_range;
+    options.bt_path = (fs::path(work) / (stem + ".bt")).string();
+    options.pcd_path = (fs::path(work) / (stem + ".pcd")).string();
+    options.pcd_voxel = spec.map.pcd_voxel;
+    if (spec.memory_limit > 0) {
+      options.memory_budget_bytes = std::max<int64_t>(spec.memory_limit / 2, int64_t{16} << 20);
+      options.batch_points = std::clamp<int64_t>(spec.memory_limit / 2048, 20'000, 2'000'000);
+    }
+    // A restart after kill -9 starts from nothing: no stale spill or tiles.
+    std::error_code error;
+    fs::remove_all(fs::path(work) / (stem + ".spill"), error);
+    fs::remove_all(fs::path(work) / (stem + ".tiles"), error);
+    StatusOr<map::MapSummary> summary = map::BuildMap(options, source, &poses);
+    if (!summary.ok()) return summary.status();
+    if (display != nullptr) display->Finish();
+
+    json map_files = json::array();
+    map_files.push_back(summary->tiled_output ? stem + ".tiles/" : stem + ".bt");
+    map_files.push_back(stem + ".pcd");
+    for (const json& f : map_files) files.push_back(f);
+    json runs = json::array();
+    for (const RunInfo& run : data.runs)
+      if (run.component == component) runs.push_back(run.name);
+    maps.push_back({{"component", component},
+                    {"runs", runs},
+                    {"scans", summary->scans},
+                    {"points", summary->points},
+                    {"pcd_points", summary->pcd_points},
+                    {"occupied_leaves", summary->occupied_leaves},
+                    {"free_leaves", summary->free_leaves},
+                    {"tiles", summary->tiles},
+                    {"tiled_output", summary->tiled_output},
+                    {"tree_bytes", summary->tree_bytes},
+                    {"memory_budget_bytes", options.memory_budget_bytes},
+                    {"batch_points", options.batch_points},
+                    {"resolution_m", options.fusion.resolution},
+                    {"max_range_m", options.fusion.max_range},
+                    {"fusion_seconds", summary->fusion_seconds},
+                    {"points_per_second", summary->points_per_second},
+                    {"files", map_files}});
   }
-  files.push_back("map.pcd");
-  json result = {{"scans", summary->scans},
-                 {"points", summary->points},
-                 {"pcd_points", summary->pcd_points},
-                 {"occupied_leaves", summary->occupied_leaves},
-                 {"free_leaves", summary->free_leaves},
-                 {"tiles", summary->tiles},
-                 {"tiled_output", summary->tiled_output},
-                 {"tree_bytes", summary->tree_bytes},
-                 {"memory_budget_bytes", options.memory_budget_bytes},
-                 {"batch_points", options.batch_points},
-                 {"resolution_m", options.fusion.resolution},
-                 {"max_range_m", options.fusion.max_range},
-                 {"fusion_seconds", summary->fusion_seconds},
-                 {"points_per_second", summary->points_per_second},
-                 {"files", files}};
+  // The first map's figures at the top; every map (one per component with
+  // scans) in `maps`; all files in `files`.
+  json result = maps.empty() ? json::object() : maps[0];
+  result["files"] = files;
+  result["maps"] = maps;
+  int64_t scans = 0, points = 0;
+  for (const json& m : maps) {
+    scans += m["scans"].get<int64_t>();
+    points += m["points"].get<int64_t>();
+  }
+  result["scans_all_maps"] = scans;
+  result["points_all_maps"] = points;
   GS_RETURN_IF_ERROR(storage::WriteStringAtomically(
       storage::Env::Default(), (fs::path(work) / "map.json").string(), result.dump(1) + "\n"));
   return result;
 }
 
 StatusOr<std::vector<std::string>> ExportJobMap(const std::string& work, const std::string& output) {
-  std::vector<std::string> written;
-  const fs::path tiles = fs::path(work) / "map.tiles";
-  if (fs::exists(tiles)) {
-    std::error_code error;
-    fs::create_directories(fs::path(output) / "map.tiles", error);
-    if (error) return Status::IOError(output + "/map.tiles: " + error.message());
-    std::vector<fs::path> names;
-    for (const auto& entry : fs::directory_iterator(tiles)) names.push_back(entry.path().filename());
-    std::sort(names.begin(), names.end());
-    for (const fs::path& name : names)
-      GS_RETURN_IF_ERROR(CopyAtomically((tiles / name).string(),
-                                        (fs::path(output) / "map.tiles" / name).string()));
-    written.push_back("map.tiles/");
-  } else {
-    GS_RETURN_IF_ERROR(CopyAtomically((fs::path(work) / "map.bt").string(),
-                                      (fs::path(output) / "map.bt").string()));
-    written.push_back("map.bt");
+  json summary;
+  {
+    std::ifstream in((fs::path(work) / "map.json").string(), std::ios::binary);
+    if (!in) return Status::NotFound(work + "/map.json: missing (did the map stage complete?)");
+    std::stringstream buffer;
+    buffer << in.rdbuf();
+    summary = json::parse(buffer.str(), nullptr, false);
+    if (summary.is_discarded() || !summary.contains("files"))
+      return Status::Corruption(work + "/map.json: not a map summary");
   }
-  GS_RETURN_IF_ERROR(CopyAtomically((fs::path(work) / "map.pcd").string(),
-                                    (fs::path(output) / "map.pcd").string()));
-  written.push_back("map.pcd");
+  std::vector<std::string> written;
+  for (const json& entry : summary["files"]) {
+    const std::string name = entry.get<std::string>();
+    if (!name.empty() && name.back() == '/') {  // a tiled map
+      const fs::path tiles = fs::path(work) / name;
+      std::error_code error;
+      fs::create_directories(fs::path(output) / name, error);
+      if (error) return Status::IOError(output + "/" + name + ": " + error.message());
+      std::vector<fs::path> names;
+      for (const auto& file : fs::directory_iterator(tiles)) names.push_back(file.path().filename());
+      std::sort(names.begin(), names.end());
+      for (const fs::path& file : names)
+        GS_RETURN_IF_ERROR(CopyAtomically((tiles / file).string(),
+                                          (fs::path(output) / name / file).string()));
+    } else {
+      GS_RETURN_IF_ERROR(CopyAtomically((fs::path(work) / name).string(),
+                                        (fs::path(output) / name).string()));
+    }
+    written.push_back(name);
+  }
   return written;
 }
 

@@ -117,9 +117,10 @@ std::string RenderReportHtml(const nlohmann::json& report,
     for (const nlohmann::json& f : report["map"].value("files", nlohmann::json::array()))
       out << "<code>" << Cell(f) << "</code> ";
     out << "</p>\n"
-        << Table(nlohmann::json::array({report["map"]}),
-                 {"scans", "points", "occupied_leaves", "free_leaves", "pcd_points",
-                  "resolution_m", "max_range_m", "tiles", "fusion_seconds"});
+        << Table(report["map"].contains("maps") ? report["map"]["maps"]
+                                                : nlohmann::json::array({report["map"]}),
+                 {"component", "runs", "scans", "points", "occupied_leaves", "free_leaves",
+                  "pcd_points", "resolution_m", "max_range_m", "tiles", "fusion_seconds"});
   }
   out << "<h2>Stages</h2>\n" << Table(report["stages"], {"stage", "seconds", "peak_rss_bytes", "note"});
   for (const auto& [caption, png] : images) {

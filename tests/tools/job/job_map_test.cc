@@ -261,6 +261,65 @@ TEST_F(JobMap, TheMemoryLimitBoundsTheFusionAndTilesTheMap) {
   EXPECT_EQ(free, whole_free);
 }
 
+// A run tied to nothing is in its own frame: it gets a map of its own
+// (map_c1.*), and the main map holds only the tied runs' scans.
+TEST_F(JobMap, ARunTiedToNothingIsMappedOnItsOwn) {
+  ASSERT_TRUE(Run("output: out\nthreads: 2\n"
+                  "map: {resolution: 0.3, max_range: 20}\n"
+                  "runs:\n"
+                  "  - name: campus\n"
+                  "    format: simulate\n"
+                  "    simulate: {poses: 300, runs: 2, gps_every: 10, seed: 4, scans: true,\n"
+                  "               scan_beams: 30, scan_max_range: 20}\n"
+                  "  - name: lonely\n"
+                  "    format: simulate\n"
+                  "    simulate: {poses: 150, seed: 5, feature_id_base: 5000000, scans: true,\n"
+                  "               scan_beams: 30, scan_max_range: 20}\n")
+                  .ok());
+  const fs::path out = dir_ / "out";
+  StatusOr<map::PcdContents> main = map::ReadPcd((out / "map.pcd").string());
+  StatusOr<map::PcdContents> lonely = map::ReadPcd((out / "map_c1.pcd").string());
+  ASSERT_TRUE(main.ok()) << main.status().ToString();
+  ASSERT_TRUE(lonely.ok()) << lonely.status().ToString();
+  EXPECT_EQ(std::set<float>(main->run.begin(), main->run.end()), (std::set<float>{0.0f, 1.0f}));
+  EXPECT_EQ(std::set<float>(lonely->run.begin(), lonely->run.end()), (std::set<float>{2.0f}));
+  octomap::OcTree tree(0.1);
+  EXPECT_TRUE(tree.readBinary((out / "map_c1.bt").string()));
+  const nlohmann::json report = nlohmann::json::parse(ReadFile(out / "report.json"));
+  EXPECT_EQ(report["map"]["files"],
+            nlohmann::json({"map.bt", "map.pcd", "map_c1.bt", "map_c1.pcd"}));
+  ASSERT_EQ(report["map"]["maps"].size(), 2u);
+  EXPECT_EQ(report["map"]["maps"][0]["scans"].get<int64_t>(), 300);
+  EXPECT_EQ(report["map"]["maps"][1]["scans"].get<int64_t>(), 150);
+  EXPECT_EQ(report["map"]["maps"][1]["runs"], nlohmann::json({"lonely"}));
+}
+
+// A run's `scans:` folder (a scan store whose scans' pose is the index within
+// the run) is fused like generated scans: the same map, byte for byte.
+TEST_F(JobMap, AScanFolderOfARunIsFusedAtItsOptimizedPoses) {
+  const std::string simulate = "    simulate: {poses: 200, gps_every: 10, seed: 6";
+  ASSERT_TRUE(Run("output: generated\nmap: {resolution: 0.3, max_range: 20}\nruns:\n"
+                  "  - name: solo\n    format: simulate\n" +
+                  simulate + ", scans: true, scan_beams: 30, scan_max_range: 20}\n")
+                  .ok());
+  fs::copy(dir_ / "generated" / ".job" / "scans" / "solo", dir_ / "folder",
+           fs::copy_options::recursive);
+  ASSERT_TRUE(Run("output: given\nmap: {resolution: 0.3, max_range: 20}\nruns:\n"
+                  "  - name: solo\n    format: simulate\n    scans: folder\n" +
+                  simulate + "}\n")
+                  .ok());
+  EXPECT_FALSE(fs::exists(dir_ / "given" / ".job" / "scans"));
+  ASSERT_TRUE(fs::exists(dir_ / "given" / "map.bt"));
+  EXPECT_EQ(ReadFile(dir_ / "given" / "map.bt"), ReadFile(dir_ / "generated" / "map.bt"));
+  EXPECT_EQ(ReadFile(dir_ / "given" / "map.pcd"), ReadFile(dir_ / "generated" / "map.pcd"));
+  // A folder that is not a scan store: an error naming the job file's line.
+  const Status missing = Run("output: bad\nruns:\n  - name: solo\n    format: simulate\n"
+                             "    scans: nowhere\n" + simulate + "}\n");
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.message().find("job.yaml:3: run 'solo' scans:"), std::string::npos)
+      << missing.message();
+}
+
 TEST_F(JobMap, ScanChunksFollowTheMemoryLimit) {
   EXPECT_EQ(ScanChunkBytes(0), int64_t{16} << 20);
   EXPECT_EQ(ScanChunkBytes(int64_t{64} << 20), int64_t{1} << 20);
