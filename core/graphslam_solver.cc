@@ -40,10 +40,11 @@ class PlanarSpace {
   static constexpr const char* kName = "";
 
   PlanarSpace(const PassContext& context, const UnknownLayout& layout,
-              const std::vector<uint8_t>& kept, Problem2d* problem, ReducedSystem* system,
-              ReducedSystemSolver* solver, const std::vector<uint8_t>& excluded)
-      : context_(context), layout_(layout), kept_(kept), problem_(*problem), system_(*system),
-        solver_(*solver), excluded_(excluded) {}
+              const std::vector<uint8_t>& kept, const PoseFactorKernels& pose_kernels,
+              Problem2d* problem, ReducedSystem* system, ReducedSystemSolver* solver,
+              const std::vector<uint8_t>& excluded)
+      : context_(context), layout_(layout), kept_(kept), pose_kernels_(pose_kernels),
+        problem_(*problem), system_(*system), solver_(*solver), excluded_(excluded) {}
 
   Status Linearize(double lambda, IterationSummary* it, bool* usable) {
     const int num_rows = system_.matrix.num_rows();
@@ -53,7 +54,7 @@ class PlanarSpace {
     system_.hessian_diagonal.setZero(num_rows);
     system_.chi2 = 0.0;
     LinearizePoseFactors(problem_, problem_.poses, layout_, &system_.matrix, &system_.gradient,
-                         &system_.hessian_diagonal);
+                         &system_.hessian_diagonal, pose_kernels_);
     system_.rhs -= system_.gradient;
     GS_RETURN_IF_ERROR(
         ReducePass(context_, problem_.poses, problem_.features, lambda, &system_));
@@ -82,7 +83,8 @@ class PlanarSpace {
       candidate_poses_ = ApplyPoseStep(poses, layout_, pose_step_);
       GS_RETURN_IF_ERROR(RecoverPass(context_, poses, problem_.features, lambda, pose_step_,
                                      candidate_poses_, &candidate_features_, &recovery));
-      trial->candidate_chi2 = PoseFactorsChi2(problem_, candidate_poses_) + recovery.candidate_chi2;
+      trial->candidate_chi2 =
+          PoseFactorsChi2(problem_, candidate_poses_, pose_kernels_) + recovery.candidate_chi2;
       trial->model_decrease = -(system_.gradient.dot(pose_step_) + recovery.gradient_dot_step) +
                               lambda * (pose_step_.dot(damping_.cwiseProduct(pose_step_)) +
                                         recovery.damped_step_norm);
@@ -114,6 +116,7 @@ class PlanarSpace {
   const PassContext& context_;
   const UnknownLayout& layout_;
   const std::vector<uint8_t>& kept_;
+  const PoseFactorKernels& pose_kernels_;
   Problem2d& problem_;
   ReducedSystem& system_;
   ReducedSystemSolver& solver_;
@@ -272,12 +275,13 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
   summary->linear_solver_used = type;
   ReducedSystemSolver solver(type, linear_options);
 
-  PlanarSpace space(context, layout, screening.kept, problem, &system, &solver,
-                    summary->excluded);
+  PlanarSpace space(context, layout, screening.kept, options.pose_kernels, problem, &system,
+                    &solver, summary->excluded);
   double observations_chi2 = 0.0;
   GS_RETURN_IF_ERROR(
       ObservationsChi2(context, problem->poses, problem->features, &observations_chi2));
-  const double chi2 = PoseFactorsChi2(*problem, problem->poses) + observations_chi2;
+  const double chi2 =
+      PoseFactorsChi2(*problem, problem->poses, options.pose_kernels) + observations_chi2;
   return RunLevenbergMarquardt(options, chi2, resume, options.checkpoint_callback, start, &space,
                                summary);
 }

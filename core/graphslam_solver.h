@@ -116,6 +116,8 @@ struct SolverOptions {
   int64_t max_eliminated_observations = 64;
   // Applied to every observation (IRLS); chi2 is then the robust cost.
   RobustKernel observation_kernel;
+  // Applied to the relative-pose, velocity-motion and GPS constraints (IRLS).
+  PoseFactorKernels pose_kernels;
   // Called after every iteration with the state to continue from; an error
   // (e.g. the disk is full) stops the solve and is returned.
   std::function<Status(const SolverCheckpoint&)> checkpoint_callback;  // optional

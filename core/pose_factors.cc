@@ -44,58 +44,74 @@ void AddBinary(const UnknownLayout& layout, int32_t pose_a, int32_t pose_b,
   }
 }
 
+// The cost of one constraint, rho(e^T W e), and the information to linearize
+// it with, rho'(e^T W e) W. kNone leaves W untouched (no multiply by 1.0).
+template <int kResidual>
+double RobustTerm(const RobustKernel& kernel, const Eigen::Matrix<double, kResidual, 1>& residual,
+                  const Eigen::Matrix<double, kResidual, kResidual>& information,
+                  Eigen::Matrix<double, kResidual, kResidual>* weighted) {
+  const double squared = residual.dot(information * residual);
+  if (kernel.type == RobustKernel::Type::kNone) {
+    if (weighted != nullptr) *weighted = information;
+    return squared;
+  }
+  if (weighted != nullptr) *weighted = kernel.Weight(squared) * information;
+  return kernel.Cost(squared);
+}
+
 }  // namespace
 
-double PoseFactorsChi2(const Problem2d& problem, const std::vector<Pose2>& poses) {
+double PoseFactorsChi2(const Problem2d& problem, const std::vector<Pose2>& poses,
+                       const PoseFactorKernels& kernels) {
   double chi2 = 0.0;
   Eigen::Vector3d e3;
   for (const RelativePoseConstraint& c : problem.relative_poses) {
     EvaluateRelativePose(poses[c.from], poses[c.to], c.z, &e3, nullptr, nullptr);
-    chi2 += e3.dot(c.information * e3);
+    chi2 += RobustTerm<3>(kernels.relative_pose, e3, c.information, nullptr);
   }
   for (const VelocityMotionConstraint& c : problem.motions) {
     EvaluateVelocityMotion(poses[c.from], poses[c.to], c.control, &e3, nullptr, nullptr);
-    chi2 += e3.dot(c.information * e3);
+    chi2 += RobustTerm<3>(kernels.motion, e3, c.information, nullptr);
   }
   Eigen::Vector2d e2;
   for (const GpsConstraint& c : problem.gps) {
     EvaluateGps(poses[c.pose], c.z, &e2, nullptr);
-    chi2 += e2.dot(c.information * e2);
+    chi2 += RobustTerm<2>(kernels.gps, e2, c.information, nullptr);
   }
   return chi2;
 }
 
 double LinearizePoseFactors(const Problem2d& problem, const std::vector<Pose2>& poses,
                             const UnknownLayout& layout, BlockSparseMatrix* hessian,
-                            Eigen::VectorXd* gradient, Eigen::VectorXd* hessian_diagonal) {
+                            Eigen::VectorXd* gradient, Eigen::VectorXd* hessian_diagonal,
+                            const PoseFactorKernels& kernels) {
   double chi2 = 0.0;
   Eigen::Vector3d e3;
-  Eigen::Matrix3d ja, jb;
+  Eigen::Matrix3d ja, jb, w3;
   for (const RelativePoseConstraint& c : problem.relative_poses) {
     EvaluateRelativePose(poses[c.from], poses[c.to], c.z, &e3, &ja, &jb);
-    chi2 += e3.dot(c.information * e3);
+    chi2 += RobustTerm<3>(kernels.relative_pose, e3, c.information, &w3);
     ja = ja * RetractionJacobian(poses[c.from]);
     jb = jb * RetractionJacobian(poses[c.to]);
-    AddBinary<3>(layout, c.from, c.to, ja, jb, c.information, e3, hessian, gradient,
-                 hessian_diagonal);
+    AddBinary<3>(layout, c.from, c.to, ja, jb, w3, e3, hessian, gradient, hessian_diagonal);
   }
   for (const VelocityMotionConstraint& c : problem.motions) {
     EvaluateVelocityMotion(poses[c.from], poses[c.to], c.control, &e3, &ja, &jb);
-    chi2 += e3.dot(c.information * e3);
+    chi2 += RobustTerm<3>(kernels.motion, e3, c.information, &w3);
     ja = ja * RetractionJacobian(poses[c.from]);
     jb = jb * RetractionJacobian(poses[c.to]);
-    AddBinary<3>(layout, c.from, c.to, ja, jb, c.information, e3, hessian, gradient,
-                 hessian_diagonal);
+    AddBinary<3>(layout, c.from, c.to, ja, jb, w3, e3, hessian, gradient, hessian_diagonal);
   }
   Eigen::Vector2d e2;
   Eigen::Matrix<double, 2, 3> j2;
+  Eigen::Matrix2d w2;
   for (const GpsConstraint& c : problem.gps) {
     EvaluateGps(poses[c.pose], c.z, &e2, &j2);
-    chi2 += e2.dot(c.information * e2);
+    chi2 += RobustTerm<2>(kernels.gps, e2, c.information, &w2);
     j2 = j2 * RetractionJacobian(poses[c.pose]);
     const int32_t u = layout.unknown_index[c.pose];
     if (u < 0) continue;
-    const Eigen::Matrix<double, 3, 2> w = j2.transpose() * c.information;
+    const Eigen::Matrix<double, 3, 2> w = j2.transpose() * w2;
     const Eigen::Matrix3d h = w * j2;
     GS_CHECK(hessian->AddBlock(u, u, h));
     gradient->segment<kDim>(kDim * u) += w * e2;

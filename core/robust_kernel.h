@@ -16,6 +16,13 @@
 // Ceres does for s where rho'' < 0 would make the model indefinite).
 // chi2 reported with a kernel is the robust cost sum rho(s).
 //
+// Kernels are chosen per constraint type (issue 6, item 3): observations
+// (feature_linearizer.h) and the pose-only constraints (pose_factors.h):
+// relative-pose edges (odometry and loop closures), velocity motion and GPS.
+// A wrong loop closure or a GPS multipath fix is the pose-graph analogue of a
+// misread barcode. kNone is exactly the plain least-squares term (the solver
+// skips the scaling, so results without kernels are bit for bit unchanged).
+//
 // THREAD SAFETY: a plain value. ALLOCATION: none.
 #pragma once
 
@@ -50,8 +57,30 @@ struct RobustKernel {
   }
 };
 
+// Kernels of the pose-only constraints (core/pose_factors.h).
+struct PoseFactorKernels {
+  RobustKernel relative_pose;  // odometry and loop-closure edges
+  RobustKernel motion;         // velocity motion (paper Table 2 l.4-9)
+  RobustKernel gps;            // GPS position fixes
+  bool AllNone() const {
+    return relative_pose.type == RobustKernel::Type::kNone &&
+           motion.type == RobustKernel::Type::kNone && gps.type == RobustKernel::Type::kNone;
+  }
+};
+
 // Parses "none", "huber[:c]" or "cauchy[:c]" (c > 0, default 1).
 StatusOr<RobustKernel> ParseRobustKernel(std::string_view text);
 std::string RobustKernelName(const RobustKernel& kernel);
+
+// Applies `--robust-kernel` values, separated by spaces, commas or newlines:
+// "K" alone (the old form) or "observation=K" sets `*observation`;
+// "odometry=K" sets the relative-pose edges and the velocity motion;
+// "motion=K" the velocity motion only; "gps=K" the GPS fixes. Values apply
+// left to right, later ones win. On error nothing is changed.
+Status ApplyRobustKernelOption(std::string_view text, RobustKernel* observation,
+                               PoseFactorKernels* pose_factors);
+// "observation=cauchy:1 odometry=huber:1.5 ..." (types with a kernel only;
+// "none" when there is none).
+std::string RobustKernelsName(const RobustKernel& observation, const PoseFactorKernels& pose);
 
 }  // namespace graphslam::core

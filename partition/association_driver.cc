@@ -9,6 +9,10 @@
 #include <set>
 #include <unordered_map>
 
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
 #include "core/chunk_passes.h"
 #include "core/correspondence_test.h"
 #include "core/feature_linearizer.h"
@@ -54,6 +58,54 @@ double ChiSquareQuantile(double dof, double z) {
   return dof * c * c * c;
 }
 
+// Gauss-Newton on one feature's position with the poses held, step halving
+// while the cost does not decrease: the cheap stand-in for a full re-solve
+// after an undo changed which observations the feature has.
+void RefitFeature(const core::Problem2d& problem, const std::vector<int32_t>& observations,
+                  core::Point2* feature) {
+  auto cost = [&](const core::Point2& m) {
+    double sum = 0.0;
+    for (int32_t o : observations) {
+      const core::Observation& obs = problem.observations[o];
+      sum += ObservationChi2(obs, problem.poses[obs.pose], m);
+    }
+    return sum;
+  };
+  double current = cost(*feature);
+  for (int iteration = 0; iteration < 10 && std::isfinite(current); ++iteration) {
+    Eigen::Matrix2d h = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d g = Eigen::Vector2d::Zero();
+    for (int32_t o : observations) {
+      const core::Observation& obs = problem.observations[o];
+      Eigen::Vector2d e;
+      Eigen::Matrix2d j;
+      if (obs.kind == core::ObservationKind::kRangeBearing) {
+        if (!core::EvaluateRangeBearing(problem.poses[obs.pose], *feature, obs.z, &e, nullptr, &j))
+          continue;
+      } else {
+        core::EvaluatePointObservation(problem.poses[obs.pose], *feature, obs.z, &e, nullptr, &j);
+      }
+      h += j.transpose() * obs.information * j;
+      g += j.transpose() * obs.information * e;
+    }
+    const Eigen::LLT<Eigen::Matrix2d> llt(h);
+    if (llt.info() != Eigen::Success) return;
+    const Eigen::Vector2d step = -llt.solve(g);
+    bool improved = false;
+    for (double t = 1.0; t > 1e-3; t *= 0.5) {
+      const core::Point2 candidate = *feature + t * step;
+      const double c = cost(candidate);
+      if (c < current) {
+        *feature = candidate;
+        improved = current - c > 1e-9 * current;
+        current = c;
+        break;
+      }
+    }
+    if (!improved) return;
+  }
+}
+
 struct UnionFind {
   std::vector<int32_t> parent;
   explicit UnionFind(int32_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
@@ -97,7 +149,7 @@ Status LinearizeAtSolution(const core::SolverOptions& solver_options,
   system.gradient.setZero(n);
   system.hessian_diagonal.setZero(n);
   core::LinearizePoseFactors(problem, problem.poses, layout, &system.matrix, &system.gradient,
-                             &system.hessian_diagonal);
+                             &system.hessian_diagonal, solver_options.pose_kernels);
   GS_RETURN_IF_ERROR(core::ReducePass(context, problem.poses, problem.features, 0.0, &system));
   GS_RETURN_IF_ERROR(marginals->Factorize(system.matrix));
 
@@ -149,52 +201,54 @@ struct Candidate {
   core::CorrespondenceResult result;
 };
 
-// Gamma of feature `state` at `block`, or nullptr.
-const Eigen::Matrix<double, 3, 2>* GainAt(const core::FeatureGain& gain, int block) {
-  const auto it = std::lower_bound(gain.blocks.begin(), gain.blocks.end(), block);
-  if (it == gain.blocks.end() || *it != block) return nullptr;
-  return &gain.gains[it - gain.blocks.begin()];
-}
-
-// Joint covariances of every candidate: own noise plus sum Gamma^T Sigma Gamma,
-// streaming the needed covariance column blocks once.
-Status JointCovariances(const core::PoseMarginals& marginals, int batch,
+// Joint covariances of every candidate: own noise plus Gamma_j^T Sigma Gamma_k.
+// Each feature's gains are whitened once, y_j = L^{-1} P Gamma_j (sparse: the
+// elimination-tree reach of its poses), so Gamma_j^T Sigma Gamma_k = y_j^T y_k
+// is a sparse dot product per pair (core/pose_marginals.h). Features and
+// pairs are processed in parallel (TBB), each thread with its own workspace.
+Status JointCovariances(const core::PoseMarginals& marginals, int /*batch*/,
                         const std::vector<FeatureState>& states,
                         std::vector<Candidate>* candidates) {
-  const int b = core::UnknownLayout::kPoseDimension;
-  const int num_blocks = marginals.num_rows() / b;
-  std::vector<std::vector<int32_t>> pairs_of_block(num_blocks);
-  for (size_t c = 0; c < candidates->size(); ++c) {
-    Candidate& candidate = (*candidates)[c];
-    candidate.joint.setZero();
-    candidate.joint.topLeftCorner<2, 2>() = states[candidate.j].gain.own_covariance;
-    candidate.joint.bottomRightCorner<2, 2>() = states[candidate.k].gain.own_covariance;
-    for (int block : states[candidate.j].gain.blocks) pairs_of_block[block].push_back(c);
-    for (int block : states[candidate.k].gain.blocks)
-      if (GainAt(states[candidate.j].gain, block) == nullptr) pairs_of_block[block].push_back(c);
+  std::vector<int32_t> slot(states.size(), -1);
+  std::vector<int32_t> features;
+  for (const Candidate& candidate : *candidates) {
+    for (int32_t f : {candidate.j, candidate.k}) {
+      if (slot[f] < 0) {
+        slot[f] = static_cast<int32_t>(features.size());
+        features.push_back(f);
+      }
+    }
   }
-  std::vector<int> needed;
-  for (int block = 0; block < num_blocks; ++block)
-    if (!pairs_of_block[block].empty()) needed.push_back(block);
-  return marginals.ForEachColumnBlock(
-      needed, batch, [&](int p, const Eigen::Ref<const Eigen::MatrixXd>& columns) {
-        for (int32_t c : pairs_of_block[p]) {
-          Candidate& candidate = (*candidates)[c];
-          const core::FeatureGain& gj = states[candidate.j].gain;
-          const core::FeatureGain& gk = states[candidate.k].gain;
-          Eigen::Matrix<double, 3, 4> gamma_p = Eigen::Matrix<double, 3, 4>::Zero();
-          if (const auto* g = GainAt(gj, p)) gamma_p.leftCols<2>() = *g;
-          if (const auto* g = GainAt(gk, p)) gamma_p.rightCols<2>() = *g;
-          // R = sum_q Gamma_q^T Sigma_qp (4 x 3).
-          Eigen::Matrix<double, 4, 3> r = Eigen::Matrix<double, 4, 3>::Zero();
-          for (size_t i = 0; i < gj.blocks.size(); ++i)
-            r.topRows<2>() += gj.gains[i].transpose() * columns.block(gj.blocks[i] * b, 0, b, b);
-          for (size_t i = 0; i < gk.blocks.size(); ++i)
-            r.bottomRows<2>() +=
-                gk.gains[i].transpose() * columns.block(gk.blocks[i] * b, 0, b, b);
-          candidate.joint += r * gamma_p;
-        }
-      });
+  std::vector<core::PoseMarginals::WhitenedColumns> whitened(features.size());
+  std::vector<Eigen::Matrix2d> own(features.size());
+  tbb::enumerable_thread_specific<core::PoseMarginals::WhitenWorkspace> workspaces;
+  std::vector<Status> errors(features.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, features.size(), 64),
+                    [&](const tbb::blocked_range<size_t>& range) {
+                      core::PoseMarginals::WhitenWorkspace& workspace = workspaces.local();
+                      for (size_t i = range.begin(); i != range.end(); ++i) {
+                        const core::FeatureGain& gain = states[features[i]].gain;
+                        errors[i] = marginals.Whiten(gain.blocks, gain.gains, &whitened[i],
+                                                     &workspace);
+                        own[i] = gain.own_covariance +
+                                 core::PoseMarginals::Dot(whitened[i], whitened[i]);
+                      }
+                    });
+  for (const Status& error : errors) GS_RETURN_IF_ERROR(error);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates->size(), 256),
+                    [&](const tbb::blocked_range<size_t>& range) {
+                      for (size_t c = range.begin(); c != range.end(); ++c) {
+                        Candidate& candidate = (*candidates)[c];
+                        const int32_t a = slot[candidate.j], b = slot[candidate.k];
+                        const Eigen::Matrix2d cross =
+                            core::PoseMarginals::Dot(whitened[a], whitened[b]);
+                        candidate.joint.topLeftCorner<2, 2>() = own[a];
+                        candidate.joint.bottomRightCorner<2, 2>() = own[b];
+                        candidate.joint.topRightCorner<2, 2>() = cross;
+                        candidate.joint.bottomLeftCorner<2, 2>() = cross.transpose();
+                      }
+                    });
+  return Status::Ok();
 }
 
 bool SortedIntersect(const std::vector<int32_t>& a, const std::vector<int32_t>& b) {
@@ -290,6 +344,8 @@ Status AssociationOptions::Validate() const {
     return Status::InvalidArgument("association: max_mahalanobis_squared must be > 0");
   if (max_rounds < 1) return Status::InvalidArgument("association: max_rounds must be >= 1");
   if (marginal_batch < 1) return Status::InvalidArgument("association: marginal_batch must be >= 1");
+  if (mutual_best_rounds < 0)
+    return Status::InvalidArgument("association: mutual_best_rounds must be >= 0");
   if (chunk_observations < 1)
     return Status::InvalidArgument("association: chunk_observations must be >= 1");
   return Status::Ok();
@@ -423,7 +479,10 @@ Status AssociateAndSolve(const AssociationOptions& options,
   for (int round = 1; round <= options.max_rounds; ++round) {
     AssociationRound stats;
     stats.round = round;
-    // Solve, then undo merges the solution contradicts, re-solving after undo.
+    // Solve, then undo merges the solution contradicts. Between undo passes
+    // only the features concerned are re-fitted (poses held, RefitFeature);
+    // the full re-solve comes once a pass undoes nothing, and the passes
+    // repeat until a full solve leaves nothing to undo.
     for (;;) {
       const Clock::time_point solve_start = Clock::now();
       InMemoryChunkSource chunks(*problem, chunking);
@@ -431,6 +490,10 @@ Status AssociateAndSolve(const AssociationOptions& options,
           core::SolveGraphSlam(solver_options, chunks, problem, &summary->final_solve));
       stats.solve_seconds += SecondsSince(solve_start);
       stats.chi2 = summary->final_solve.final_chi2;
+      ++stats.solves;
+      stats.solver_iterations += summary->final_solve.iterations;
+      bool undone_since_solve = false;
+     for (;;) {
       const std::vector<std::vector<int32_t>> members = observations_by_feature();
       int64_t undone = 0;
       // Newest merges first; at most one undo per feature per re-solve (its
@@ -485,6 +548,15 @@ Status AssociateAndSolve(const AssociationOptions& options,
       stats.undone += undone;
       summary->undone += undone;
       if (undone == 0) break;
+      undone_since_solve = true;
+      // Re-fit the features that lost a side and the sides split off.
+      const std::vector<std::vector<int32_t>> after = observations_by_feature();
+      for (int32_t f = 0; f < problem->num_features(); ++f) {
+        if (f < static_cast<int32_t>(members.size()) && !touched[f]) continue;
+        RefitFeature(*problem, after[f], &problem->features[f]);
+      }
+     }
+      if (!undone_since_solve) break;
     }
     stats.features = problem->num_features();
 
@@ -557,6 +629,17 @@ Status AssociateAndSolve(const AssociationOptions& options,
     std::stable_sort(accepted.begin(), accepted.end(), [&](int32_t a, int32_t b) {
       return candidates[a].result.probability > candidates[b].result.probability;
     });
+    if (round <= options.mutual_best_rounds) {
+      // Keep a pair only if it is both features' most probable accepted pair.
+      std::vector<int32_t> best(problem->num_features(), -1);
+      for (int32_t c : accepted) {
+        if (best[candidates[c].j] < 0) best[candidates[c].j] = c;
+        if (best[candidates[c].k] < 0) best[candidates[c].k] = c;
+      }
+      std::erase_if(accepted, [&](int32_t c) {
+        return best[candidates[c].j] != c || best[candidates[c].k] != c;
+      });
+    }
 
     // Batch merge with union-find, clusters kept pose-exclusive.
     UnionFind sets(problem->num_features());
@@ -592,10 +675,12 @@ Status AssociateAndSolve(const AssociationOptions& options,
     if (stats.merges > 0) apply_unions(&sets, &states);
     stats.association_seconds += SecondsSince(test_start);
     GS_LOG(INFO, "association round %d: %lld features, %lld candidates, %lld accepted, "
-           "%lld merges, %lld undone, chi2 %.9g (solve %.2f s, marginals %.2f s, tests %.2f s)",
+           "%lld merges, %lld undone, chi2 %.9g (solve %.2f s in %lld solves / %lld iterations, "
+           "marginals %.2f s, tests %.2f s)",
            round, static_cast<long long>(stats.features), static_cast<long long>(stats.candidates),
            static_cast<long long>(stats.accepted), static_cast<long long>(stats.merges),
            static_cast<long long>(stats.undone), stats.chi2, stats.solve_seconds,
+           static_cast<long long>(stats.solves), static_cast<long long>(stats.solver_iterations),
            stats.marginal_seconds, stats.association_seconds);
     summary->rounds.push_back(stats);
     if (stats.merges == 0) {

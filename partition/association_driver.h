@@ -52,6 +52,10 @@ struct AssociationOptions {
   bool exclusive_per_pose = true;
   double undo_z = 3.09;  // undo when a side's chi2 exceeds the quantile at this normal z
   int marginal_batch = 64;                 // covariance column blocks solved together
+  // In rounds 1..mutual_best_rounds a pair merges only if each feature is the
+  // other's most probable accepted partner (no chaining of neighbours through
+  // a greedy batch); later rounds merge every accepted pair. 0: off.
+  int mutual_best_rounds = 0;
   int64_t chunk_observations = 4096;
   // Merged before the first round regardless of the test (tests of the undo).
   std::vector<std::pair<int32_t, int32_t>> forced_merges;
@@ -83,6 +87,8 @@ struct AssociationRound {
   double solve_seconds = 0.0;
   double marginal_seconds = 0.0;  // reduced system, factorization, covariance columns
   double association_seconds = 0.0;  // candidates + tests + merges (excluding solves)
+  int64_t solves = 0;                // Levenberg-Marquardt solves (1 + re-solves after undos)
+  int64_t solver_iterations = 0;     // their iterations
 };
 
 struct AssociationSummary {

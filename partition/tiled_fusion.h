@@ -83,8 +83,9 @@ class TiledFusion {
   explicit TiledFusion(const FusionOptions& options);
   ~TiledFusion();
 
-  // Keeps the tiles in memory within `budget_bytes`: after a batch, the least
-  // recently touched tiles are written to `dir` (OctoMap's writeData: every
+  // Keeps the tiles in memory within `budget_bytes` (heap bytes, see
+  // MemoryUsage): before a batch reads spilled tiles back and after it, the
+  // least recently touched tiles are written to `dir` (OctoMap's writeData: every
   // node with its float log-odds, so reading back is bit-exact) and freed;
   // a batch that touches a spilled tile reads it back first. The files are
   // scratch (removed when read back or when the fusion ends).
@@ -96,8 +97,9 @@ class TiledFusion {
   int64_t points_inserted() const { return points_; }
   size_t num_tiles() const { return tiles_.size(); }
   int64_t spills() const { return spills_; }
-  // Bytes of all tile trees, spilled ones included (OcTree::memoryUsage as of
-  // the batch that last touched each).
+  // Heap bytes of all tile trees, spilled ones included (nodes and child
+  // arrays as glibc allocates them, as of the batch that last touched each;
+  // about twice OcTree::memoryUsage, which counts the payload only).
   size_t MemoryUsage() const;
 
   // Moves every tile into one tree (the tiles are freed one by one as they are
@@ -121,6 +123,10 @@ class TiledFusion {
   std::string SpillPath(uint64_t tile_id) const;
   [[nodiscard]] Status Load(uint64_t tile_id, Tile* tile) const;
   [[nodiscard]] Status Spill(uint64_t tile_id, Tile* tile);
+  // Spills resident tiles, least recently touched first, down to
+  // target_bytes once they exceed twice that; with keep_current_batch the
+  // tiles of the batch being fused are kept.
+  [[nodiscard]] Status SpillLeastRecent(size_t target_bytes, bool keep_current_batch);
 
   FusionOptions options_;
   std::unique_ptr<octomap::OcTree> keyer_;  // computeRayKeys (const) only

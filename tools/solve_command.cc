@@ -26,6 +26,7 @@
 #include "storage/g2o_writer.h"
 #include "storage/tum_writer.h"
 #include "tools/association_report.h"
+#include "tools/association_store.h"
 #include "tools/exit_codes.h"
 #include "tools/memory_size.h"
 #include "tools/out_of_core_solve.h"
@@ -62,10 +63,6 @@ Status ValidateOptions(const SolveCommandOptions& options) {
     return Status::InvalidArgument("--chunk-observations must be > 0");
   if (options.associate && (options.resume || !options.checkpoint.empty()))
     return Status::InvalidArgument("--associate cannot be combined with --checkpoint/--resume");
-  if (options.associate && storage::IsChunkStore(options.input))
-    return Status::InvalidArgument(
-        "--associate needs a g2o, native or MRCLAM input, not a chunk store (merges rewrite "
-        "the in-memory chunks only)");
   if (options.associate && !options.workdir.empty())
     return Status::InvalidArgument(
         "--associate cannot be combined with --workdir (merges rewrite the in-memory chunks "
@@ -159,7 +156,9 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
                     "features with more observations stay unknowns instead of being eliminated")
       ->capture_default_str();
   solve->add_option("--robust-kernel", options->robust_kernel,
-                    "kernel on observations: none, huber[:c], cauchy[:c]")
+                    "[TYPE=]K, K one of none, huber[:c], cauchy[:c]; TYPE one of observation "
+                    "(the default), odometry, motion, gps; repeatable")
+      ->join(' ')
       ->capture_default_str();
   solve->add_option("--initialization", options->initialization,
                     "initial guess: progressive (solve growing prefixes of the trajectory) or "
@@ -225,9 +224,12 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                  preconditioner.status().ToString().c_str());
     return kExitUsage;
   }
-  StatusOr<core::RobustKernel> kernel = core::ParseRobustKernel(options.robust_kernel);
-  if (!kernel.ok()) {
-    std::fprintf(stderr, "graphslam solve: --robust-kernel: %s\n", kernel.status().ToString().c_str());
+  core::RobustKernel observation_kernel;
+  core::PoseFactorKernels pose_kernels;
+  if (Status kernels = core::ApplyRobustKernelOption(options.robust_kernel, &observation_kernel,
+                                                     &pose_kernels);
+      !kernels.ok()) {
+    std::fprintf(stderr, "graphslam solve: --robust-kernel: %s\n", kernels.ToString().c_str());
     return kExitUsage;
   }
 
@@ -272,8 +274,9 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     if (!read.ok()) return fail(read.status());
     problem = std::move(read).value();
     num_observations = store->total_observations();
-    streaming = problem.num_poses() > options.streaming_poses ||
-                num_observations > options.streaming_observations;
+    // --associate merges in memory (then rewrites the store): never streams.
+    streaming = !options.associate && (problem.num_poses() > options.streaming_poses ||
+                                       num_observations > options.streaming_observations);
     if (streaming) {
       GS_LOG(INFO, "streaming mode: %d poses, %lld observations stay on disk; initial guess "
              "from the ingest (Table 1), no progressive initialization",
@@ -346,7 +349,8 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   solver_options.preconditioner = *preconditioner;
   solver_options.max_iterations = options.max_iterations;
   solver_options.max_eliminated_observations = options.max_eliminated_observations;
-  solver_options.observation_kernel = *kernel;
+  solver_options.observation_kernel = observation_kernel;
+  solver_options.pose_kernels = pose_kernels;
   solver_options.function_tolerance = options.function_tolerance;
   solver_options.initial_trust_region_radius = options.initial_trust_region_radius;
   solver_options.progress = display.AsCallback();
@@ -360,7 +364,8 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   // Checkpoints: one durable file, replaced atomically after every iteration;
   // --resume continues from it (bit-identical to an uninterrupted solve).
   std::string checkpoint_path = options.checkpoint;
-  if (checkpoint_path.empty() && store) checkpoint_path = store_path + "/checkpoint.json";
+  if (checkpoint_path.empty() && store && !options.associate)
+    checkpoint_path = store_path + "/checkpoint.json";
   if (options.resume && checkpoint_path.empty()) {
     std::fprintf(stderr, "graphslam solve: --resume needs --checkpoint FILE (or a chunk store)\n");
     return kExitUsage;
@@ -427,6 +432,14 @@ int RunSolveCommand(const SolveCommandOptions& options) {
         !status.ok())
       return fail(status);
     summary = association_summary.final_solve;
+    // A chunk store gets the associated problem (tools/association_store.h).
+    if (store) {
+      if (Status status = RewriteAssociatedChunkStore(storage::Env::Default(), store_path,
+                                                      problem, options.chunk_observations,
+                                                      store->source());
+          !status.ok())
+        return fail(status);
+    }
   } else if (Status status = core::SolveGraphSlam(solver_options, chunks, &problem, &summary);
              !status.ok()) {
     return fail(status);

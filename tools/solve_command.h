@@ -27,7 +27,10 @@ struct SolveCommandOptions {
   int robot = 1;                    // MRCLAM robot number
   int64_t chunk_observations = 4096;
   int64_t max_eliminated_observations = 64;
-  std::string robust_kernel = "none";  // none, huber[:c], cauchy[:c]
+  // none, huber[:c], cauchy[:c] (observations), or TYPE=K with TYPE one of
+  // observation, odometry, motion, gps; several separated by spaces or commas
+  // (core/robust_kernel.h ApplyRobustKernelOption).
+  std::string robust_kernel = "none";
   std::string initialization = "progressive";  // progressive, odometry
   int64_t progressive_max_new_poses = 500;     // poses added per progressive stage
   std::string checkpoint;  // --checkpoint FILE (default STORE/checkpoint.json for stores)

@@ -95,5 +95,66 @@ TEST(PoseMarginals, ColumnBlocksEqualTheDenseInverse) {
   EXPECT_TRUE(marginals.ForEachColumnBlock({40}, 1, [](int, const auto&) {}).IsInvalidArgument());
 }
 
+// y_a^T y_b = B_a^T S^{-1} B_b for sparse block combinations (a feature's
+// gains), against the dense inverse; a block may repeat and blocks come in
+// any order.
+TEST(PoseMarginals, WhitenedDotProductsEqualTheDenseInverse) {
+  for (int seed : {1, 2}) {
+    const BlockSparseMatrix s = testing::RandomSpdMatrix(seed, 3, 60);
+    const Eigen::MatrixXd inverse = s.ToDense().inverse();
+    PoseMarginals marginals;
+    ASSERT_TRUE(marginals.Factorize(s).ok());
+    EXPECT_GE(marginals.MeanReach(), 1.0);
+    EXPECT_LE(marginals.MeanReach(), 180.0);
+    std::mt19937 rng(seed);
+    std::uniform_int_distribution<int> block(0, 59);
+    auto random_b = [&](int count, std::vector<int32_t>* blocks,
+                        std::vector<Eigen::Matrix<double, 3, 2>>* values) {
+      Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(180, 2);
+      for (int i = 0; i < count; ++i) {
+        blocks->push_back(block(rng));
+        values->push_back(Eigen::Matrix<double, 3, 2>::Random());
+        dense.middleRows(3 * blocks->back(), 3) += values->back();
+      }
+      return dense;
+    };
+    PoseMarginals::WhitenWorkspace workspace;
+    for (int trial = 0; trial < 20; ++trial) {
+      std::vector<int32_t> blocks_a, blocks_b;
+      std::vector<Eigen::Matrix<double, 3, 2>> values_a, values_b;
+      const Eigen::MatrixXd a = random_b(1 + trial % 4, &blocks_a, &values_a);
+      const Eigen::MatrixXd b = random_b(1 + trial % 3, &blocks_b, &values_b);
+      PoseMarginals::WhitenedColumns ya, yb;
+      ASSERT_TRUE(marginals.Whiten(blocks_a, values_a, &ya, &workspace).ok());
+      ASSERT_TRUE(marginals.Whiten(blocks_b, values_b, &yb, &workspace).ok());
+      EXPECT_TRUE(std::is_sorted(ya.rows.begin(), ya.rows.end()));
+      const Eigen::Matrix2d expected_ab = a.transpose() * inverse * b;
+      const Eigen::Matrix2d expected_aa = a.transpose() * inverse * a;
+      EXPECT_LT((PoseMarginals::Dot(ya, yb) - expected_ab).norm(), 1e-9 * expected_aa.norm())
+          << "seed " << seed << " trial " << trial;
+      EXPECT_LT((PoseMarginals::Dot(ya, ya) - expected_aa).norm(), 1e-9 * expected_aa.norm());
+    }
+    std::vector<int32_t> outside = {60};
+    std::vector<Eigen::Matrix<double, 3, 2>> one(1, Eigen::Matrix<double, 3, 2>::Ones());
+    PoseMarginals::WhitenedColumns y;
+    EXPECT_TRUE(marginals.Whiten(outside, one, &y, &workspace).IsInvalidArgument());
+  }
+}
+
+// A pose chain (block tridiagonal): nested dissection keeps the elimination
+// tree shallow, so a unit vector's reach is far below the chain length.
+TEST(PoseMarginals, ChainReachIsShallow) {
+  const int n = 2000;
+  std::vector<std::pair<int, int>> pairs;
+  for (int i = 0; i + 1 < n; ++i) pairs.emplace_back(i, i + 1);
+  BlockSparseMatrix s = BlockSparseMatrix::FromPattern(3, n, pairs);
+  for (int i = 0; i < n; ++i) ASSERT_TRUE(s.AddBlock(i, i, 4.0 * Eigen::Matrix3d::Identity()));
+  for (int i = 0; i + 1 < n; ++i)
+    ASSERT_TRUE(s.AddBlock(i, i + 1, -1.0 * Eigen::Matrix3d::Identity()));
+  PoseMarginals marginals;
+  ASSERT_TRUE(marginals.Factorize(s).ok());
+  EXPECT_LT(marginals.MeanReach(), 0.05 * 3 * n) << "mean reach " << marginals.MeanReach();
+}
+
 }  // namespace
 }  // namespace graphslam::core

@@ -44,5 +44,47 @@ TEST(RobustKernel, ParsesNamesAndRejectsBadOnes) {
   EXPECT_TRUE(ParseRobustKernel("cauchy:x").status().IsInvalidArgument());
 }
 
+TEST(RobustKernel, PerConstraintTypeOptions) {
+  RobustKernel observation;
+  PoseFactorKernels pose;
+  // The old single form keeps meaning observations.
+  ASSERT_TRUE(ApplyRobustKernelOption("huber:2", &observation, &pose).ok());
+  EXPECT_EQ(observation.type, RobustKernel::Type::kHuber);
+  EXPECT_DOUBLE_EQ(observation.scale, 2.0);
+  EXPECT_TRUE(pose.AllNone());
+  ASSERT_TRUE(ApplyRobustKernelOption("observation=cauchy:1 odometry=huber:1.5,gps=huber:2",
+                                      &observation, &pose)
+                  .ok());
+  EXPECT_EQ(observation.type, RobustKernel::Type::kCauchy);
+  EXPECT_EQ(pose.relative_pose.type, RobustKernel::Type::kHuber);
+  EXPECT_DOUBLE_EQ(pose.relative_pose.scale, 1.5);
+  EXPECT_EQ(pose.motion.type, RobustKernel::Type::kHuber);  // odometry= covers motion
+  EXPECT_DOUBLE_EQ(pose.gps.scale, 2.0);
+  EXPECT_EQ(RobustKernelsName(observation, pose),
+            "observation=cauchy:1 odometry=huber:1.5 gps=huber:2");
+  ASSERT_TRUE(ApplyRobustKernelOption("motion=none", &observation, &pose).ok());
+  EXPECT_EQ(pose.motion.type, RobustKernel::Type::kNone);
+  EXPECT_EQ(pose.relative_pose.type, RobustKernel::Type::kHuber);
+  // The name round-trips.
+  RobustKernel observation2;
+  PoseFactorKernels pose2;
+  ASSERT_TRUE(
+      ApplyRobustKernelOption(RobustKernelsName(observation, pose), &observation2, &pose2).ok());
+  EXPECT_EQ(RobustKernelsName(observation2, pose2), RobustKernelsName(observation, pose));
+  EXPECT_EQ(pose2.motion.type, RobustKernel::Type::kNone);
+  EXPECT_EQ(RobustKernelsName(RobustKernel(), PoseFactorKernels()), "none");
+
+  // Errors name the value and change nothing.
+  const RobustKernel before = observation;
+  Status bad = ApplyRobustKernelOption("observation=huber wheel=cauchy", &observation, &pose);
+  EXPECT_TRUE(bad.IsInvalidArgument());
+  EXPECT_EQ(bad.message(),
+            "robust kernel 'wheel=cauchy': unknown constraint type 'wheel'; expected "
+            "observation, odometry, motion or gps");
+  EXPECT_EQ(observation.type, before.type);
+  EXPECT_TRUE(ApplyRobustKernelOption("gps=cauchy:0", &observation, &pose).IsInvalidArgument());
+  EXPECT_TRUE(ApplyRobustKernelOption("gps=", &observation, &pose).IsInvalidArgument());
+}
+
 }  // namespace
 }  // namespace graphslam::core

@@ -1,7 +1,8 @@
 # The libFuzzer executables, one per input parser; built only with
 # GRAPHSLAM_BUILD_FUZZERS=ON (tests/fuzz/run_fuzzers.sh), never by default.
 set(GRAPHSLAM_FUZZ_TARGETS
-  g2o_reader isam_reader native_log_reader mrclam_reader job_spec chunk_reader)
+  g2o_reader isam_reader native_log_reader mrclam_reader job_spec chunk_reader
+  g2o_3d_reader isam_3d_reader threedtk_reader scan_store)
 if(GRAPHSLAM_BUILD_FUZZERS)
   foreach(target ${GRAPHSLAM_FUZZ_TARGETS})
     add_executable(${target}_fuzzer ${PROJECT_SOURCE_DIR}/tests/fuzz/${target}_fuzzer.cc)

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets of every input parser (g2o, iSAM, MRCLAM,
-# native log, job YAML, observation chunk) with clang + ASan + UBSan in
+# native log, job YAML, observation chunk; 3-D g2o, 3-D iSAM, 3DTK scans,
+# scan store) with clang + ASan + UBSan in
 # build-fuzz/, and runs each for a bounded time from its seed corpus
 # (tests/fuzz/corpus/<target>/). Fails on any crash, hang (> 10 s for one
 # input), leak or sanitizer report. Installs clang and libclang-rt-14-dev if
@@ -25,7 +26,8 @@ fi
 
 targets=("$@")
 if ((${#targets[@]} == 0)); then
-  targets=(g2o_reader isam_reader native_log_reader mrclam_reader job_spec chunk_reader)
+  targets=(g2o_reader isam_reader native_log_reader mrclam_reader job_spec chunk_reader
+           g2o_3d_reader isam_3d_reader threedtk_reader scan_store)
 fi
 
 launcher=()

@@ -7,11 +7,17 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <tuple>
 
+#include "storage/chunk_store.h"
 #include "storage/g2o_reader.h"
+#include "storage/g2o_writer.h"
+#include "tools/campus_simulator.h"
 #include "tools/exit_codes.h"
+#include "tools/ingest_command.h"
 #include "tools/solve_command.h"
 
 namespace graphslam::tools {
@@ -94,6 +100,109 @@ TEST_F(SolveAssociateTest, AssociatesIdLessObservations) {
   EXPECT_EQ(report["association"]["merges"], 6);
   ASSERT_FALSE(report["association"]["merge_list"].empty());
   EXPECT_GT(report["association"]["merge_list"][0]["probability"].get<double>(), 1e-3);
+}
+
+double FinalChi2(const std::string& report_path) {
+  std::ifstream file(report_path);
+  return nlohmann::json::parse(file)["final_chi2"].get<double>();
+}
+
+// `graphslam solve STORE/ --associate` on a chunk store made by `graphslam
+// ingest`: the same association as the in-memory solve of the same input,
+// and the store is rewritten to the associated problem (fewer features, every
+// chunk feature-complete, no staging directory left), so a plain solve of it
+// continues from the associated optimum.
+TEST_F(SolveAssociateTest, ChunkStoreIsAssociatedLikeTheInMemoryProblemAndRewritten) {
+  // A small simulated campus where the observations from odd poses see a copy
+  // of each landmark (another id): association must merge the copies back.
+  CampusSimulatorOptions campus;
+  campus.poses = 300;
+  campus.gps_every = 25;
+  campus.seed = 3;
+  StatusOr<SimulatedCampus> simulated = SimulateCampus(campus);
+  ASSERT_TRUE(simulated.ok()) << simulated.status().ToString();
+  core::Problem2d problem = simulated->problem;
+  const int32_t originals = problem.num_features();
+  for (int32_t f = 0; f < originals; ++f)
+    problem.AddFeature(problem.feature_ids[f] + 500000, problem.features[f], true);
+  for (core::Observation& o : problem.observations)
+    if (o.pose % 2 == 1) o.feature += originals;
+  const std::string input = (dir_ / "copies.g2o").string();
+  ASSERT_TRUE(storage::WriteG2o(problem, input).ok());
+
+  const std::string store = (dir_ / "store").string();
+  IngestCommandOptions ingest;
+  ingest.input = input;
+  ingest.output_dir = store;
+  ingest.chunk_observations = 150;
+  ingest.quiet = true;
+  ASSERT_EQ(RunIngestCommand(ingest), kExitOk);
+  const int64_t chunks_before = (*storage::DiskChunkSource::Open(store))->NumChunks();
+
+  auto associate = [&](const std::string& in, const std::string& name) {
+    SolveCommandOptions options;
+    options.input = in;
+    options.output_g2o = (dir_ / (name + ".g2o")).string();
+    options.report = (dir_ / (name + ".json")).string();
+    options.associate = true;
+    options.chunk_observations = 150;
+    options.quiet = true;
+    EXPECT_EQ(RunSolveCommand(options), kExitOk) << name;
+    StatusOr<core::Problem2d> out = storage::ReadG2o(options.output_g2o);
+    EXPECT_TRUE(out.ok()) << out.status().ToString();
+    return std::move(out).value();
+  };
+  const core::Problem2d memory = associate(input, "memory");
+  const core::Problem2d stored = associate(store, "stored");
+
+  // Same clustering of the observations (matched by pose and measurement;
+  // the two paths may list them in different orders), same poses and chi2.
+  ASSERT_EQ(memory.observations.size(), problem.observations.size());
+  ASSERT_EQ(stored.observations.size(), problem.observations.size());
+  EXPECT_LT(memory.num_features(), problem.num_features() * 3 / 4) << "copies were merged";
+  EXPECT_EQ(memory.num_features(), stored.num_features());
+  auto key = [](const core::Problem2d& p, const core::Observation& o) {
+    return std::make_tuple(p.pose_ids[o.pose], o.z.x(), o.z.y());
+  };
+  std::map<std::tuple<int64_t, double, double>, int64_t> memory_feature;
+  for (const core::Observation& o : memory.observations)
+    memory_feature[key(memory, o)] = memory.feature_ids[o.feature];
+  std::map<int64_t, int64_t> stored_to_memory, memory_to_stored;
+  for (const core::Observation& o : stored.observations) {
+    const auto it = memory_feature.find(key(stored, o));
+    ASSERT_NE(it, memory_feature.end()) << "observation of pose " << stored.pose_ids[o.pose];
+    const int64_t s = stored.feature_ids[o.feature];
+    EXPECT_EQ(stored_to_memory.emplace(s, it->second).first->second, it->second);
+    EXPECT_EQ(memory_to_stored.emplace(it->second, s).first->second, s);
+  }
+  ASSERT_EQ(memory.num_poses(), stored.num_poses());
+  for (int32_t i = 0; i < memory.num_poses(); ++i)
+    EXPECT_LT((memory.poses[i] - stored.poses[i]).norm(), 1e-6) << "pose " << i;
+  const double chi2 = FinalChi2((dir_ / "memory.json").string());
+  EXPECT_NEAR(FinalChi2((dir_ / "stored.json").string()), chi2, 1e-8 * chi2);
+
+  // The store now holds the associated problem.
+  EXPECT_FALSE(std::filesystem::exists(store + ".associating"));
+  StatusOr<std::unique_ptr<storage::DiskChunkSource>> reopened =
+      storage::DiskChunkSource::Open(store);
+  ASSERT_TRUE(reopened.ok()) << reopened.status().ToString();
+  EXPECT_EQ((*reopened)->total_observations(), static_cast<int64_t>(problem.observations.size()));
+  // Chunks hold the observed features (the store's problem lists all).
+  EXPECT_EQ((*reopened)->total_features(), static_cast<int64_t>(memory_to_stored.size()));
+  EXPECT_LE((*reopened)->NumChunks(), chunks_before);
+  for (int64_t k = 0; k < (*reopened)->NumChunks(); ++k) {
+    core::ObservationChunk chunk;
+    ASSERT_TRUE((*reopened)->Load(k, &chunk).ok()) << "chunk " << k;
+  }
+  StatusOr<core::Problem2d> store_problem = storage::ReadChunkStoreProblem(store);
+  ASSERT_TRUE(store_problem.ok());
+  EXPECT_EQ(store_problem->num_features(), memory.num_features());
+  SolveCommandOptions again;
+  again.input = store;
+  again.report = (dir_ / "again.json").string();
+  again.quiet = true;
+  ASSERT_EQ(RunSolveCommand(again), kExitOk);
+  EXPECT_NEAR(FinalChi2(again.report), chi2, 1e-6 * chi2);
 }
 
 }  // namespace

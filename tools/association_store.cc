@@ -1,0 +1,71 @@
+#include "tools/association_store.h"
+
+#include <fcntl.h>
+#include <stdio.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+
+#include "core/logging.h"
+#include "partition/in_memory_chunk_source.h"
+#include "storage/chunk_store.h"
+
+namespace graphslam::tools {
+namespace {
+
+// Exchanges two directories atomically. False (errno set) where unsupported.
+bool ExchangeDirectories(const std::string& a, const std::string& b) {
+#ifdef RENAME_EXCHANGE
+  return ::renameat2(AT_FDCWD, a.c_str(), AT_FDCWD, b.c_str(), RENAME_EXCHANGE) == 0;
+#else
+  errno = ENOSYS;
+  return false;
+#endif
+}
+
+}  // namespace
+
+Status RewriteAssociatedChunkStore(storage::Env* env, const std::string& store,
+                                   const core::Problem2d& problem, int64_t chunk_observations,
+                                   const std::string& source) {
+  std::string dir = store;
+  while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
+  partition::ChunkingOptions chunking;
+  chunking.max_observations_per_chunk = chunk_observations;
+  const partition::InMemoryChunkSource chunks(problem, chunking);
+  storage::ChunkStoreWriteOptions options;
+  options.source = source;
+
+  const std::string staging = dir + ".associating";
+  std::error_code error;
+  std::filesystem::remove_all(staging, error);
+  if (error) return Status::IOError(staging + ": remove stale staging store: " + error.message());
+  GS_RETURN_IF_ERROR(storage::WriteChunkStore(env, staging, problem, chunks, options));
+  if (ExchangeDirectories(staging, dir)) {
+    const std::filesystem::path parent = std::filesystem::absolute(dir).parent_path();
+    GS_RETURN_IF_ERROR(env->SyncDirectory(parent.string()));
+    std::filesystem::remove_all(staging, error);
+    if (error) {
+      GS_LOG(WARNING, "%s: could not remove the old store after the rewrite: %s",
+             staging.c_str(), error.message().c_str());
+    }
+    return Status::Ok();
+  }
+  const int exchange_errno = errno;
+  GS_LOG(WARNING, "%s: cannot exchange directories (%s); rewriting the store in place",
+         dir.c_str(), std::strerror(exchange_errno));
+  std::filesystem::remove_all(staging, error);
+  // In place: the commit rule of WriteChunkStore; chunk files beyond the new
+  // count are removed after the new manifest is durable.
+  GS_RETURN_IF_ERROR(storage::WriteChunkStore(env, dir, problem, chunks, options));
+  for (int64_t k = chunks.NumChunks();; ++k) {
+    const std::string path = dir + "/" + storage::kChunkStoreChunkDirectory + "/" +
+                             storage::ChunkStoreFileName(k);
+    if (!env->FileExists(path)) break;
+    GS_RETURN_IF_ERROR(env->RemoveFile(path));
+  }
+  return Status::Ok();
+}
+
+}  // namespace graphslam::tools
