@@ -40,11 +40,11 @@ class PlanarSpace {
   static constexpr const char* kName = "";
 
   PlanarSpace(const PassContext& context, const UnknownLayout& layout,
-              const std::vector<uint8_t>& kept, Problem2d* problem, ReducedSystem* system,
-              ReducedSystemSolver* solver, const std::vector<uint8_t>& excluded,
-              const PoseFactorKernels& pose_kernels)
-      : context_(context), layout_(layout), kept_(kept), problem_(*problem), system_(*system),
-        solver_(*solver), excluded_(excluded), pose_kernels_(pose_kernels) {}
+              const std::vector<uint8_t>& kept, const PoseFactorKernels& pose_kernels,
+              Problem2d* problem, ReducedSystem* system, ReducedSystemSolver* solver,
+              const std::vector<uint8_t>& excluded)
+      : context_(context), layout_(layout), kept_(kept), pose_kernels_(pose_kernels),
+        problem_(*problem), system_(*system), solver_(*solver), excluded_(excluded) {}
 
   Status Linearize(double lambda, IterationSummary* it, bool* usable) {
     const int num_rows = system_.matrix.num_rows();
@@ -116,11 +116,11 @@ class PlanarSpace {
   const PassContext& context_;
   const UnknownLayout& layout_;
   const std::vector<uint8_t>& kept_;
+  const PoseFactorKernels& pose_kernels_;
   Problem2d& problem_;
   ReducedSystem& system_;
   ReducedSystemSolver& solver_;
   const std::vector<uint8_t>& excluded_;
-  const PoseFactorKernels& pose_kernels_;
   Eigen::VectorXd damping_;
   Eigen::VectorXd pose_step_;
   std::vector<Pose2> candidate_poses_;
@@ -275,8 +275,8 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
   summary->linear_solver_used = type;
   ReducedSystemSolver solver(type, linear_options);
 
-  PlanarSpace space(context, layout, screening.kept, problem, &system, &solver,
-                    summary->excluded, options.pose_kernels);
+  PlanarSpace space(context, layout, screening.kept, options.pose_kernels, problem, &system,
+                    &solver, summary->excluded);
   double observations_chi2 = 0.0;
   GS_RETURN_IF_ERROR(
       ObservationsChi2(context, problem->poses, problem->features, &observations_chi2));

@@ -155,14 +155,18 @@ void Space3d::LinearizeAt(const std::vector<Pose3>& poses, const std::vector<Poi
     Matrix6d ji, jj;
     EvaluateRelativePose3(poses[c.from], poses[c.to], c.z, &e, &ji, &jj);
     const int32_t ui = unknown_[c.from], uj = unknown_[c.to];
-    const Matrix6d wji = c.information * ji, wjj = c.information * jj;
+    // IRLS on the pose constraints too (SolverOptions::pose_kernels); the
+    // weight is exactly 1 without a kernel.
+    const Matrix6d information =
+        options_.pose_kernels.relative_pose.Weight(e.dot(c.information * e)) * c.information;
+    const Matrix6d wji = information * ji, wjj = information * jj;
     if (ui >= 0) {
       out->matrix.AddBlock(ui, ui, ji.transpose() * wji);
-      out->gradient.segment<kPoseDim>(kPoseDim * ui) += ji.transpose() * (c.information * e);
+      out->gradient.segment<kPoseDim>(kPoseDim * ui) += ji.transpose() * (information * e);
     }
     if (uj >= 0) {
       out->matrix.AddBlock(uj, uj, jj.transpose() * wjj);
-      out->gradient.segment<kPoseDim>(kPoseDim * uj) += jj.transpose() * (c.information * e);
+      out->gradient.segment<kPoseDim>(kPoseDim * uj) += jj.transpose() * (information * e);
     }
     if (ui >= 0 && uj >= 0 && ui != uj) out->matrix.AddBlock(ui, uj, ji.transpose() * wjj);
   }
@@ -173,8 +177,10 @@ void Space3d::LinearizeAt(const std::vector<Pose3>& poses, const std::vector<Poi
     Eigen::Vector3d e;
     Matrix36 j;
     EvaluateGps3(poses[c.pose], c.z, &e, &j);
-    out->matrix.AddBlock(u, u, j.transpose() * c.information * j);
-    out->gradient.segment<kPoseDim>(kPoseDim * u) += j.transpose() * (c.information * e);
+    const Eigen::Matrix3d information =
+        options_.pose_kernels.gps.Weight(e.dot(c.information * e)) * c.information;
+    out->matrix.AddBlock(u, u, j.transpose() * information * j);
+    out->gradient.segment<kPoseDim>(kPoseDim * u) += j.transpose() * (information * e);
   }
   // Observations: pose blocks, then each feature's Schur complement.
   out->features.resize(problem_.features.size());
@@ -357,7 +363,8 @@ Status Space3d::TryStep(double lambda, bool usable, IterationSummary* it, TrialS
       state_squared += features[f].squaredNorm();
     }
     trial->candidate_chi2 =
-        Chi2Of3d(problem_, candidate_poses_, candidate_features_, options_.observation_kernel);
+        Chi2Of3d(problem_, candidate_poses_, candidate_features_, options_.observation_kernel,
+                 options_.pose_kernels);
     trial->model_decrease = model_decrease;
     trial->state_norm_squared = state_squared;
     it->step_norm = std::sqrt(step_squared);
@@ -374,17 +381,18 @@ double Chi2Of3d(const Problem3d& problem, const std::vector<Pose3>& poses,
 }
 
 double Chi2Of3d(const Problem3d& problem, const std::vector<Pose3>& poses,
-                const std::vector<Point3>& features, const RobustKernel& kernel) {
+                const std::vector<Point3>& features, const RobustKernel& kernel,
+                const PoseFactorKernels& pose_kernels) {
   double chi2 = 0.0;
   for (const RelativePose3Constraint& c : problem.relative_poses) {
     Vector6d e;
     EvaluateRelativePose3(poses[c.from], poses[c.to], c.z, &e, nullptr, nullptr);
-    chi2 += e.dot(c.information * e);
+    chi2 += pose_kernels.relative_pose.Cost(e.dot(c.information * e));
   }
   for (const Gps3Constraint& c : problem.gps) {
     Eigen::Vector3d e;
     EvaluateGps3(poses[c.pose], c.z, &e, nullptr);
-    chi2 += e.dot(c.information * e);
+    chi2 += pose_kernels.gps.Cost(e.dot(c.information * e));
   }
   for (const Point3Observation& o : problem.observations) {
     Eigen::Vector3d e;
@@ -402,7 +410,8 @@ Status SolveGraphSlam3d(const SolverOptions& options, Problem3d* problem,
   Space3d space(options, problem);
   GS_RETURN_IF_ERROR(space.Setup(checkpointing.resume_from, summary));
   const double chi2 =
-      Chi2Of3d(*problem, problem->poses, problem->features, options.observation_kernel);
+      Chi2Of3d(*problem, problem->poses, problem->features, options.observation_kernel,
+               options.pose_kernels);
   return RunLevenbergMarquardt(options, chi2, checkpointing.resume_from, checkpointing.callback,
                                start, &space, summary);
 }

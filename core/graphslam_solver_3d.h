@@ -15,7 +15,9 @@
 //      iteration callback, checkpoints).
 // D = clamp(diag H) as in 2-D. Observations take the same robust kernel as in
 // 2-D (SolverOptions::observation_kernel, IRLS: information scaled by
-// rho'(s), chi2 the robust cost). The gauge is fixed by removing anchor poses
+// rho'(s), chi2 the robust cost), and the relative-pose and GPS constraints
+// take pose_kernels.relative_pose / .gps (pose_kernels.motion has no 3-D
+// constraint). The gauge is fixed by removing anchor poses
 // from the unknowns: fixed poses, else pose 0 unless a GPS constraint ties
 // the map to the world.
 //
@@ -55,17 +57,19 @@ struct Checkpointing3d {
 };
 
 // chi2 = sum e^T Omega e of every constraint of `problem` at (poses, features);
-// with `kernel`, observations add rho(e^T Omega e) instead.
+// with `kernel`, observations add rho(e^T Omega e) instead, and relative
+// poses and GPS fixes with `pose_kernels.relative_pose` / `.gps`.
 double Chi2Of3d(const Problem3d& problem, const std::vector<Pose3>& poses,
                 const std::vector<Point3>& features);
 double Chi2Of3d(const Problem3d& problem, const std::vector<Pose3>& poses,
-                const std::vector<Point3>& features, const RobustKernel& kernel);
+                const std::vector<Point3>& features, const RobustKernel& kernel,
+                const PoseFactorKernels& pose_kernels = {});
 
 // Optimizes problem->poses and problem->features in place. Uses from
 // `options`: linear_solver, preconditioner, pcg_max_iterations,
 // pcg_relative_tolerance, auto_cholmod_max_unknowns, max_iterations,
 // tolerances, trust region radii, min_relative_decrease, observation_kernel,
-// progress and iteration_callback; checkpoint_callback and resume_from are
+// pose_kernels, progress and iteration_callback; checkpoint_callback and resume_from are
 // 2-D states and are ignored (use `checkpointing`).
 Status SolveGraphSlam3d(const SolverOptions& options, Problem3d* problem,
                         SolverSummary* summary, const Checkpointing3d& checkpointing = {});

@@ -86,10 +86,12 @@ int RunSolve3dCommand(const SolveCommandOptions& options, storage::InputFormat f
     return ExitCodeFor(status);
   };
   if (!options.features_csv.empty()) GS_LOG(WARNING, "--features-csv is ignored for 3-D inputs");
-  StatusOr<core::RobustKernel> kernel = core::ParseRobustKernel(options.robust_kernel);
-  if (!kernel.ok()) {
-    std::fprintf(stderr, "graphslam solve: --robust-kernel: %s\n",
-                 kernel.status().ToString().c_str());
+  core::RobustKernel observation_kernel;
+  core::PoseFactorKernels pose_kernels;
+  if (Status kernels = core::ApplyRobustKernelOption(options.robust_kernel, &observation_kernel,
+                                                     &pose_kernels);
+      !kernels.ok()) {
+    std::fprintf(stderr, "graphslam solve: --robust-kernel: %s\n", kernels.ToString().c_str());
     return kExitUsage;
   }
   StatusOr<core::Problem3d> read = ReadProblem3d(options.input, format);
@@ -112,7 +114,8 @@ int RunSolve3dCommand(const SolveCommandOptions& options, storage::InputFormat f
   solver_options.max_iterations = options.max_iterations;
   solver_options.function_tolerance = options.function_tolerance;
   solver_options.initial_trust_region_radius = options.initial_trust_region_radius;
-  solver_options.observation_kernel = *kernel;
+  solver_options.observation_kernel = observation_kernel;
+  solver_options.pose_kernels = pose_kernels;
   solver_options.progress = display.AsCallback();
   // Checkpoints: one durable file replaced after every iteration; --resume
   // continues from it, bit-identical to an uninterrupted solve.
