@@ -479,10 +479,11 @@ Status AssociateAndSolve(const AssociationOptions& options,
   for (int round = 1; round <= options.max_rounds; ++round) {
     AssociationRound stats;
     stats.round = round;
-    // Solve, then undo merges the solution contradicts. Between undo passes
-    // only the features concerned are re-fitted (poses held, RefitFeature);
-    // the full re-solve comes once a pass undoes nothing, and the passes
-    // repeat until a full solve leaves nothing to undo.
+    // Solve, then undo merges the solution contradicts, with a full re-solve
+    // after every undo pass. With refit_between_undos only the features
+    // concerned are re-fitted between passes (poses held, RefitFeature); the
+    // full re-solve comes once a pass undoes nothing, and the passes repeat
+    // until a full solve leaves nothing to undo.
     for (;;) {
       const Clock::time_point solve_start = Clock::now();
       InMemoryChunkSource chunks(*problem, chunking);
@@ -527,7 +528,10 @@ Status AssociateAndSolve(const AssociationOptions& options,
         record.undone = true;
         record.undone_round = round;
         ++undone;
-        forbidden.insert(std::minmax(record.origins_a.front(), record.origins_b.front()));
+        // A pair undone on re-fitted features (poses held) may come back once a
+        // full solve has moved the poses; one undone after a full solve not.
+        if (!undone_since_solve)
+          forbidden.insert(std::minmax(record.origins_a.front(), record.origins_b.front()));
         // Split side b off into a new feature at the mean of its first sights.
         Eigen::Vector2d sum = Eigen::Vector2d::Zero();
         int64_t count = 0;
@@ -549,6 +553,7 @@ Status AssociateAndSolve(const AssociationOptions& options,
       summary->undone += undone;
       if (undone == 0) break;
       undone_since_solve = true;
+      if (!options.refit_between_undos) break;  // a full re-solve after every pass
       // Re-fit the features that lost a side and the sides split off.
       const std::vector<std::vector<int32_t>> after = observations_by_feature();
       for (int32_t f = 0; f < problem->num_features(); ++f) {

@@ -56,6 +56,12 @@ struct AssociationOptions {
   // other's most probable accepted partner (no chaining of neighbours through
   // a greedy batch); later rounds merge every accepted pair. 0: off.
   int mutual_best_rounds = 0;
+  // Between undo passes re-fit only the affected features with the poses held
+  // instead of a full re-solve per pass (fewer solves). Pairs undone on such
+  // re-fitted features are not forbidden for later rounds. Measured: better
+  // on the simulated campus (GPS holds the poses), worse on Victoria Park
+  // (no GPS: poses move between solves); docs/benchmarks.md.
+  bool refit_between_undos = false;
   int64_t chunk_observations = 4096;
   // Merged before the first round regardless of the test (tests of the undo).
   std::vector<std::pair<int32_t, int32_t>> forced_merges;

@@ -2,15 +2,15 @@
 // input and scores the result against an answer key by pairwise precision and
 // recall (partition/association_driver.h), with seconds per round.
 //
-//   association_benchmark victoria [chi] [radius] [mutual]
+//   association_benchmark victoria [chi] [radius] [mutual] [refit]
 //       victoriaPark-noassoc.g2o, key: victoriaPark-full.g2o (same observation
 //       order); also the known-correspondence chi2 of victoriaPark-full.g2o.
-//   association_benchmark mrclam [chi] [radius] [mutual]
+//   association_benchmark mrclam [chi] [radius] [mutual] [refit]
 //       MRCLAM dataset 1 robot 1 with barcodes ignored, key: the barcodes.
-//   association_benchmark campus POSES RUNS SEED [chi] [radius] [mutual]
+//   association_benchmark campus POSES RUNS SEED [chi] [radius] [mutual] [refit]
 //       simulated campus (GPS every 25 poses), key: the simulator's ids.
 // [mutual]: rounds with mutual-best-match merging (AssociationOptions::
-// mutual_best_rounds, default 0). GS_SKIP_KNOWN=1 skips the
+// mutual_best_rounds, default 0); [refit]: 1 for refit_between_undos. GS_SKIP_KNOWN=1 skips the
 // known-correspondence reference solve (printed as -1).
 // Prints one line per round and a summary; the commands and figures are in
 // docs/benchmarks.md.
@@ -133,6 +133,7 @@ int main(int argc, char** argv) {
   if (argc > next_arg) options.chi = std::atof(argv[next_arg]);
   if (argc > next_arg + 1) options.search_radius = std::atof(argv[next_arg + 1]);
   if (argc > next_arg + 2) options.mutual_best_rounds = std::atoi(argv[next_arg + 2]);
+  if (argc > next_arg + 3) options.refit_between_undos = std::atoi(argv[next_arg + 3]) != 0;
 
   // Key of each input feature (one per observation in id-less inputs).
   std::vector<int64_t> origin_key(problem.num_features(), -1);

@@ -154,11 +154,14 @@ TEST(AssociationDriver, WrongForcedMergeIsUndone) {
         a = j;
         b = k;
       }
+  for (bool refit : {false, true}) {
+  SCOPED_TRACE(refit ? "refit between undos" : "full re-solve between undos");
   core::Problem2d problem = random.problem;
   ASSERT_TRUE(core::InitializeProblem(&problem).ok());
   AssociationOptions options;
   options.search_radius = 0.5;
   options.forced_merges = {{a, b}};
+  options.refit_between_undos = refit;
   AssociationSummary summary;
   ASSERT_TRUE(AssociateAndSolve(options, TightSolverOptions(), &problem, &summary).ok());
   ASSERT_FALSE(summary.merge_log.empty());
@@ -173,6 +176,7 @@ TEST(AssociationDriver, WrongForcedMergeIsUndone) {
     if (random.problem.observations[i].feature == b) fb = problem.observations[i].feature;
   }
   EXPECT_NE(fa, fb);
+  }
 }
 
 TEST(AssociationDriver, IdLessSimulationIsAssociatedAccurately) {
@@ -188,8 +192,15 @@ TEST(AssociationDriver, IdLessSimulationIsAssociatedAccurately) {
     o.feature = problem.AddFeature(core::kNoFeatureId, core::Point2::Zero(), false);
   }
   ASSERT_TRUE(core::InitializeProblem(&problem).ok());
+  const core::Problem2d initialized = problem;
+  // Default; mutual-best-match first rounds; re-fits between undo passes.
+  for (const auto& [mutual, refit] : {std::pair{0, false}, std::pair{2, false}, std::pair{0, true}}) {
+  SCOPED_TRACE("mutual_best_rounds " + std::to_string(mutual) + " refit " + std::to_string(refit));
+  problem = initialized;
   AssociationOptions options;
   options.search_radius = 2.0;
+  options.mutual_best_rounds = mutual;
+  options.refit_between_undos = refit;
   AssociationSummary summary;
   ASSERT_TRUE(AssociateAndSolve(options, TightSolverOptions(), &problem, &summary).ok());
   std::vector<int64_t> assigned;
@@ -199,6 +210,7 @@ TEST(AssociationDriver, IdLessSimulationIsAssociatedAccurately) {
   EXPECT_GE(score.recall(), 0.95) << score.true_positive << "/" << score.actual;
   // Fresh ids above the pose ids for id-less inputs.
   for (int64_t id : problem.feature_ids) EXPECT_GE(id, problem.num_poses());
+  }
 }
 
 TEST(AssociationDriver, ScorePairwiseCountsPairs) {
