@@ -3,11 +3,13 @@
 // uninterrupted run.
 #pragma once
 
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 
 #include <chrono>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -40,6 +42,27 @@ inline std::string ReadWholeFile(const std::filesystem::path& path) {
   std::stringstream buffer;
   buffer << in.rdbuf();
   return buffer.str();
+}
+
+// Resumes `graphslam solve input` from `checkpoint` into DIR/resumed.g2o and
+// DIR/resumed.json, and expects what the uninterrupted run wrote to
+// DIR/full.g2o and DIR/full.json: the same final chi2 and iteration count
+// (bit for bit), the same graph byte for byte, and a report saying it resumed
+// after iteration `killed_at_iteration`.
+inline void ExpectResumeEqualsUninterrupted(const std::string& input,
+                                            const std::filesystem::path& dir,
+                                            const std::filesystem::path& checkpoint,
+                                            int killed_at_iteration) {
+  ASSERT_EQ(RunGraphslam({"solve", input, "-o", (dir / "resumed.g2o").string(), "--report",
+                          (dir / "resumed.json").string(), "--checkpoint", checkpoint.string(),
+                          "--resume", "-q"}),
+            0);
+  const nlohmann::json full = nlohmann::json::parse(ReadWholeFile(dir / "full.json"));
+  const nlohmann::json resumed = nlohmann::json::parse(ReadWholeFile(dir / "resumed.json"));
+  EXPECT_EQ(full["final_chi2"].get<double>(), resumed["final_chi2"].get<double>());
+  EXPECT_EQ(full["iterations"].get<int>(), resumed["iterations"].get<int>());
+  EXPECT_EQ(resumed["resumed_from_iteration"].get<int>(), killed_at_iteration);
+  EXPECT_EQ(ReadWholeFile(dir / "full.g2o"), ReadWholeFile(dir / "resumed.g2o"));
 }
 
 }  // namespace graphslam::testing

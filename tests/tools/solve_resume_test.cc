@@ -27,6 +27,7 @@ namespace {
 namespace fs = std::filesystem;
 
 const std::string kGraphslam = graphslam::testing::GraphslamBinary();
+using graphslam::testing::ExpectResumeEqualsUninterrupted;
 using graphslam::testing::ReadWholeFile;
 using graphslam::testing::RunGraphslam;
 
@@ -60,16 +61,7 @@ TEST(SolveResume, KillNineMidSolveThenResumeEqualsUninterruptedRun) {
   EXPECT_FALSE(fs::exists(dir / "resumed.g2o") && signaled)
       << "a killed solve must not leave its output";
 
-  ASSERT_EQ(RunGraphslam({"solve", input, "-o", (dir / "resumed.g2o").string(), "--report",
-                 (dir / "resumed.json").string(), "--checkpoint", checkpoint.string(), "--resume",
-                 "-q"}),
-            0);
-  const nlohmann::json full = nlohmann::json::parse(ReadWholeFile(dir / "full.json"));
-  const nlohmann::json resumed = nlohmann::json::parse(ReadWholeFile(dir / "resumed.json"));
-  EXPECT_EQ(full["final_chi2"].get<double>(), resumed["final_chi2"].get<double>());
-  EXPECT_EQ(full["iterations"].get<int>(), resumed["iterations"].get<int>());
-  EXPECT_EQ(resumed["resumed_from_iteration"].get<int>(), at_kill["iterations"].get<int>());
-  EXPECT_EQ(ReadWholeFile(dir / "full.g2o"), ReadWholeFile(dir / "resumed.g2o"));
+  ExpectResumeEqualsUninterrupted(input, dir, checkpoint, at_kill["iterations"].get<int>());
   fs::remove_all(dir);
 }
 
