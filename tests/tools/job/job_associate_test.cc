@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "tools/campus_simulator.h"
+#include "tests/tools/job/job_test_folder.h"
 #include "tools/job/job_runner.h"
 
 namespace graphslam::tools::job {
@@ -20,32 +21,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-nlohmann::json ReadJsonFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return nlohmann::json::parse(buffer.str());
-}
-
-class JobAssociate : public ::testing::Test {
- protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("graphslam_job_assoc_" + std::to_string(getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  Status Run(const std::string& yaml) {
-    std::ofstream((dir_ / "job.yaml").string()) << yaml;
-    RunJobOptions options;
-    options.job_path = (dir_ / "job.yaml").string();
-    options.quiet = true;
-    return RunJob(options);
-  }
-
-  fs::path dir_;
-};
+using JobAssociate = JobTestFolder;
 
 // Both runs start at their true first pose (a known start), so the merged
 // landmarks are the only tie between them.

@@ -17,6 +17,7 @@
 #include "storage/format_detection.h"
 #include "storage/native_log_reader.h"
 #include "tools/campus_simulator.h"
+#include "tests/tools/job/job_test_folder.h"
 #include "tools/job/job_runner.h"
 #include "tools/trajectory_metrics.h"
 
@@ -26,32 +27,7 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-std::string ReadFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
-class JobEndToEnd : public ::testing::Test {
- protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("graphslam_job_e2e_" + std::to_string(getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  Status Run(const std::string& yaml, const std::string& name = "job.yaml") {
-    std::ofstream((dir_ / name).string()) << yaml;
-    RunJobOptions options;
-    options.job_path = (dir_ / name).string();
-    options.quiet = true;
-    return RunJob(options);
-  }
-
-  fs::path dir_;
-};
+using JobEndToEnd = JobTestFolder;
 
 constexpr const char* kJob =
     "output: out\n"

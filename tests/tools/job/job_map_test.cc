@@ -22,6 +22,7 @@
 #include "storage/scan_store.h"
 #include "tools/campus_simulator.h"
 #include "tools/job/job_map.h"
+#include "tests/tools/job/job_test_folder.h"
 #include "tools/job/job_runner.h"
 #include "tools/job/simulated_scans.h"
 #include "tools/trajectory_metrics.h"
@@ -30,13 +31,6 @@ namespace graphslam::tools::job {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string ReadFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
 
 constexpr int kBeams = 60;
 constexpr double kMaxRange = 25.0;
@@ -52,25 +46,7 @@ CampusSimulatorOptions CampusOptions() {
   return o;
 }
 
-class JobMap : public ::testing::Test {
- protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("graphslam_job_map_" + std::to_string(getpid()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  Status Run(const std::string& yaml) {
-    std::ofstream((dir_ / "job.yaml").string()) << yaml;
-    RunJobOptions options;
-    options.job_path = (dir_ / "job.yaml").string();
-    options.quiet = true;
-    return RunJob(options);
-  }
-
-  fs::path dir_;
-};
+using JobMap = JobTestFolder;
 
 TEST_F(JobMap, ScansAreFusedAtTheOptimizedPosesIntoAMapOfTheTrueWorld) {
   const Status status =
