@@ -66,11 +66,12 @@ def write_atomically(path, text):
     os.replace(temp, path)
 
 
-def command(run, binaries, path, report, threads):
+def command(run, binaries, path, report, threads, max_iterations=200):
     ours = [f"{binaries}/graphslam", "solve", path, "--initialization", "odometry",
-            "--max-iterations", "200", "--threads", str(threads), "--report", report, "-q"]
+            "--max-iterations", str(max_iterations), "--threads", str(threads), "--report",
+            report, "-q"]
     ceres = [f"{binaries}/graphslam_ceres_peer", path, "--threads", str(threads),
-             "--report", report, "-q"]
+             "--max-iterations", str(max_iterations), "--report", report, "-q"]
     return {
         "ours/cholmod": ours + ["--solver", "cholmod"],
         "ours/pcg": ours + ["--solver", "pcg", "--preconditioner", "subgraph"],
@@ -105,6 +106,8 @@ def main():
     parser.add_argument("--threads", type=int, default=1,
                         help="threads for both (1: least exposed to other load; 0: all cores)")
     parser.add_argument("--timeout", type=float, default=1200.0, help="seconds per run")
+    parser.add_argument("--max-iterations", type=int, default=200,
+                        help="Levenberg-Marquardt iteration cap of every run (large problems)")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     skip = set(filter(None, args.skip.split(",")))
@@ -115,7 +118,7 @@ def main():
             if run in skip:
                 continue
             report = os.path.join(args.out, f"{name}_{run.replace('/', '_')}.json")
-            cmd = command(run, args.bin, path, report, args.threads)
+            cmd = command(run, args.bin, path, report, args.threads, args.max_iterations)
             start = time.monotonic()
             try:
                 result = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
