@@ -75,6 +75,11 @@ void AddSimulateCommand(CLI::App* app, SimulateCommandOptions* options, int* exi
   simulate->add_option("--bearing-sigma", sim.bearing_sigma, "bearing noise [rad]")
       ->capture_default_str();
   simulate->add_option("--gps-sigma", sim.gps_sigma, "GPS noise [m]")->capture_default_str();
+  simulate->add_option("--landmark-spacing", options->landmark_spacing,
+                       "MIN MAX: landmarks stand U(MIN, MAX) m apart along each side of a "
+                       "street (default 6 10); a small spacing makes the dense landmark fields "
+                       "of scaling runs (10^8 features over 10^6 poses)")
+      ->expected(2);
   simulate->add_option("--alpha", options->alpha,
                        "control noise a1..a6 (Probabilistic Robotics Table 5.3; default "
                        "0.01 0.001 0.00003 0.01 0.00003 0.01)")
@@ -110,6 +115,14 @@ int RunSimulateCommand(const SimulateCommandOptions& options) {
       return usage("--alpha takes 6 values a1..a6, got " + std::to_string(options.alpha.size()));
     }
     for (int i = 0; i < 6; ++i) simulator.noise.alpha[i] = options.alpha[static_cast<size_t>(i)];
+  }
+  if (!options.landmark_spacing.empty()) {
+    if (options.landmark_spacing.size() != 2) {
+      return usage("--landmark-spacing takes 2 values MIN MAX, got " +
+                   std::to_string(options.landmark_spacing.size()));
+    }
+    simulator.min_landmark_spacing = options.landmark_spacing[0];
+    simulator.max_landmark_spacing = options.landmark_spacing[1];
   }
   if (Status status = simulator.Validate(); !status.ok()) return usage(status.message());
 

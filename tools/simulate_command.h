@@ -29,6 +29,7 @@ struct SimulateCommandOptions {
   std::string format = "native";  // native, g2o
   CampusSimulatorOptions simulator;
   std::vector<double> alpha;  // --alpha a1..a6: replaces simulator.noise.alpha when given
+  std::vector<double> landmark_spacing;  // --landmark-spacing MIN MAX (m)
   bool quiet = false;
   Simulate3dOptions sim3d;  // --3d --scans (tools/simulate3d_command.h)
   bool streaming = false;  // --streaming: tools/streaming_campus_simulator.h (native only)

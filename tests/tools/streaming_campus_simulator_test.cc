@@ -159,6 +159,34 @@ TEST_F(StreamingCampusSimulatorTest, SameDistributionAsTheInMemorySimulator) {
   EXPECT_NEAR(bearing_chi2 / n, 1.0, 5.0 * std::sqrt(2.0 / n));
 }
 
+// `simulate --landmark-spacing` for scaling runs: the same campus with
+// landmarks 0.1 m apart holds 2 (28 / 0.1 + 0.5) per street segment instead
+// of ~7, and each pose sees tens of them instead of a few.
+TEST_F(StreamingCampusSimulatorTest, DenseLandmarkSpacingFillsTheStreets) {
+  CampusSimulatorOptions options = Options(3);
+  options.features = 0;  // campus sized by the path, as for the default spacing
+  options.poses = 400;
+  StreamingCampusSummary sparse;
+  Run(options, "sparse", &sparse);
+  options.min_landmark_spacing = options.max_landmark_spacing = 0.1;
+  options.sensor_range = 8;
+  StreamingCampusSummary dense;
+  Run(options, "dense", &dense);
+  ASSERT_EQ(dense.grid_columns, sparse.grid_columns);
+  ASSERT_EQ(dense.grid_rows, sparse.grid_rows);
+  const int64_t segments =
+      static_cast<int64_t>(dense.grid_columns) * (dense.grid_rows - 1) +
+      static_cast<int64_t>(dense.grid_rows) * (dense.grid_columns - 1);
+  // Per side: slots at t0 + 0.1 k for t0 in [6, 6.05], t <= 34: 280 or 281.
+  EXPECT_GE(dense.landmarks, segments * 2 * 280);
+  EXPECT_LE(dense.landmarks, segments * 2 * 281);
+  const double sparse_per_pose = static_cast<double>(sparse.observations) / sparse.poses;
+  const double dense_per_pose = static_cast<double>(dense.observations) / dense.poses;
+  EXPECT_GT(dense_per_pose, 20.0 * sparse_per_pose) << sparse_per_pose << " " << dense_per_pose;
+  // Each observed landmark is seen from a few poses as the robot passes it.
+  EXPECT_GT(static_cast<double>(dense.observations) / dense.observed_features, 2.0);
+}
+
 TEST_F(StreamingCampusSimulatorTest, InvalidOptionsAreRejectedBeforeWriting) {
   CampusSimulatorOptions options = Options(1);
   options.runs = 0;
