@@ -110,6 +110,7 @@ class PlanarSpace {
     checkpoint->features = problem_.features;
     checkpoint->excluded = excluded_;
     checkpoint->kept = kept_;
+    solver_.SaveState(&checkpoint->pcg);
   }
 
  private:
@@ -274,6 +275,8 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
   }
   summary->linear_solver_used = type;
   ReducedSystemSolver solver(type, linear_options);
+  // The PCG's forcing term, warm start and forest of the interrupted solve.
+  if (resume != nullptr) GS_RETURN_IF_ERROR(solver.RestoreState(resume->pcg, system.matrix));
 
   PlanarSpace space(context, layout, screening.kept, options.pose_kernels, problem, &system,
                     &solver, summary->excluded);

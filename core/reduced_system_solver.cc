@@ -94,6 +94,55 @@ void ReducedSystemSolver::StepResult(bool accepted) {
   have_previous_ = true;
 }
 
+void ReducedSystemSolver::SaveState(PcgSolverState* state) const {
+  *state = PcgSolverState();
+  if (type_ != LinearSolverType::kPcg) return;
+  state->present = true;
+  state->eta = eta_;
+  state->previous_rhs_norm = previous_rhs_norm_;
+  state->last_rhs_norm = last_rhs_norm_;
+  state->have_previous = have_previous_;
+  state->previous_x.assign(previous_x_.data(), previous_x_.data() + previous_x_.size());
+  if (options_.preconditioner == PreconditionerType::kSubgraph) {
+    state->forest_order = subgraph_.forest_order();
+    state->forest_parent = subgraph_.forest_parent();
+  }
+}
+
+Status ReducedSystemSolver::RestoreState(const PcgSolverState& state,
+                                         const BlockSparseMatrix& pattern) {
+  if (!state.present || type_ != LinearSolverType::kPcg) return Status::Ok();
+  if (!std::isfinite(state.eta) || !(state.eta > 0.0) || !std::isfinite(state.previous_rhs_norm) ||
+      !std::isfinite(state.last_rhs_norm)) {
+    return Status::InvalidArgument(fmt::format(
+        "PCG state: eta {:g}, previous_rhs_norm {:g} and last_rhs_norm {:g} must be finite "
+        "(eta > 0)",
+        state.eta, state.previous_rhs_norm, state.last_rhs_norm));
+  }
+  const size_t n = static_cast<size_t>(pattern.num_rows());
+  if (!state.previous_x.empty() && state.previous_x.size() != n) {
+    return Status::InvalidArgument(fmt::format(
+        "PCG state: previous_x has {} entries, the reduced system {} unknowns",
+        state.previous_x.size(), n));
+  }
+  for (double v : state.previous_x) {
+    if (!std::isfinite(v)) return Status::InvalidArgument("PCG state: previous_x is not finite");
+  }
+  // A forest is ignored by another preconditioner (resumed with a different
+  // --preconditioner: a different solve from here on, as with --solver).
+  if (options_.preconditioner == PreconditionerType::kSubgraph &&
+      (!state.forest_order.empty() || !state.forest_parent.empty())) {
+    GS_RETURN_IF_ERROR(subgraph_.SetForest(pattern, state.forest_order, state.forest_parent));
+  }
+  eta_ = state.eta;
+  previous_rhs_norm_ = state.previous_rhs_norm;
+  last_rhs_norm_ = state.last_rhs_norm;
+  have_previous_ = state.have_previous;
+  previous_x_ = Eigen::Map<const Eigen::VectorXd>(
+      state.previous_x.data(), static_cast<Eigen::Index>(state.previous_x.size()));
+  return Status::Ok();
+}
+
 const LinearOperator* ReducedSystemSolver::UpdatePreconditioner(const BlockSparseMatrix& s,
                                                                 Status* status) {
   switch (options_.preconditioner) {

@@ -55,6 +55,7 @@
 #include "core/cholmod_solver.h"
 #include "core/graphslam_solver.h"
 #include "core/incomplete_cholesky_preconditioner.h"
+#include "core/pcg_solver_state.h"
 #include "core/status.h"
 #include "core/subgraph_preconditioner.h"
 
@@ -105,6 +106,18 @@ class ReducedSystemSolver {
 
   // The LM driver tells whether the last solve's step was accepted.
   void StepResult(bool accepted);
+
+  // Checkpointing (core/pcg_solver_state.h). SaveState fills *state with
+  // everything the next PCG solve depends on (present = false for CHOLMOD).
+  // RestoreState takes over a saved state before the first Solve, for
+  // matrices with the pattern of `pattern`; a state that is not present is
+  // ignored (a fresh start), and so is what does not apply to this solver
+  // (a PCG state given to CHOLMOD, a forest to another preconditioner).
+  // InvalidArgument naming the field if it does not fit the pattern or is
+  // not finite; the solver is then unchanged.
+  void SaveState(PcgSolverState* state) const;
+  [[nodiscard]] Status RestoreState(const PcgSolverState& state,
+                                    const BlockSparseMatrix& pattern);
 
   LinearSolverType type() const { return type_; }
   double eta() const { return eta_; }
