@@ -36,6 +36,18 @@ Status ReducedSystemSolverOptions::Validate() const {
   return Status::Ok();
 }
 
+void ChooseFromAnalysis(double nonzeros, double n, double b,
+                        const ReducedSystemSolverOptions& options, SolverChoice* choice) {
+  const double crossover = options.eliminated_features ? kLandmarkCrossover : kPoseGraphCrossover;
+  choice->pcg_cost = crossover * (2.0 * nonzeros + 4.0 * n * b);
+  const double factor_bytes = 8.0 * choice->factor_nonzeros;
+  const double cholmod_cost = choice->factor_flops + 4.0 * choice->factor_nonzeros;
+  choice->type = factor_bytes <= static_cast<double>(options.max_factor_bytes) &&
+                         cholmod_cost <= choice->pcg_cost
+                     ? LinearSolverType::kCholmod
+                     : LinearSolverType::kPcg;
+}
+
 StatusOr<SolverChoice> ChooseLinearSolver(const BlockSparseMatrix& s,
                                           const ReducedSystemSolverOptions& options) {
   SolverChoice choice;
@@ -46,7 +58,6 @@ StatusOr<SolverChoice> ChooseLinearSolver(const BlockSparseMatrix& s,
   const double n = s.num_rows();
   const double b = s.block_size();
   const double nnz = static_cast<double>(s.num_nonzero_blocks()) * b * b;
-  choice.pcg_cost = ReducedSystemSolver::kAssumedPcgIterations * (2.0 * nnz + 4.0 * n * b);
   if (s.num_rows() == 0) {
     choice.type = LinearSolverType::kCholmod;
     return choice;
@@ -69,12 +80,7 @@ StatusOr<SolverChoice> ChooseLinearSolver(const BlockSparseMatrix& s,
   choice.analyzed = true;
   choice.factor_nonzeros = common.lnz;
   choice.factor_flops = common.fl;
-  const double factor_bytes = 8.0 * common.lnz;
-  const double cholmod_cost = common.fl + 4.0 * common.lnz;
-  choice.type = factor_bytes <= static_cast<double>(options.max_factor_bytes) &&
-                        cholmod_cost <= choice.pcg_cost
-                    ? LinearSolverType::kCholmod
-                    : LinearSolverType::kPcg;
+  ChooseFromAnalysis(nnz, n, b, options, &choice);
   return choice;
 }
 

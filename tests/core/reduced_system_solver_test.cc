@@ -182,6 +182,9 @@ TEST(ReducedSystemSolver, AutoChoiceFollowsCholmodAnalysisAndBudget) {
   EXPECT_EQ(choice->type, choice->factor_flops + 4 * choice->factor_nonzeros <= choice->pcg_cost
                               ? LinearSolverType::kCholmod
                               : LinearSolverType::kPcg);
+  // A pose graph (no eliminated features): the pose-graph crossover.
+  EXPECT_DOUBLE_EQ(choice->pcg_cost,
+                   kPoseGraphCrossover * (2.0 * 9 * a.num_nonzero_blocks() + 4.0 * n * 3));
   // A budget smaller than the factor forces PCG.
   options.max_factor_bytes = static_cast<int64_t>(8 * choice->factor_nonzeros) - 1;
   choice = ChooseLinearSolver(a, options);
@@ -199,6 +202,50 @@ TEST(ReducedSystemSolver, AutoChoiceFollowsCholmodAnalysisAndBudget) {
   choice = ChooseLinearSolver(a, options);
   ASSERT_TRUE(choice.ok());
   EXPECT_EQ(choice->type, LinearSolverType::kCholmod);
+}
+
+// The kAuto rule on the analysis figures of the problems measured in
+// docs/benchmarks.md (issue 4, "crossover"): CHOLMOD's lnz and fl (from
+// `graphslam solve -v`), S's nonzero 3x3 blocks and rows, and whether
+// features were eliminated. Each must pick the solver that was faster in
+// total there.
+TEST(ReducedSystemSolver, AutoRulePicksTheMeasuredWinner) {
+  struct Measured {
+    const char* name;
+    double lnz, flops, blocks, rows;
+    bool eliminated_features;
+    LinearSolverType faster;
+  };
+  const Measured problems[] = {
+      {"intel", 1.47e5, 8.56e6, 11385, 5181, false, LinearSolverType::kCholmod},
+      {"M3500", 1.87e5, 6.49e6, 14399, 10497, false, LinearSolverType::kCholmod},
+      {"city10000", 1.05e6, 8.42e7, 51363, 29997, false, LinearSolverType::kCholmod},
+      {"victoria", 6.26e5, 5.39e7, 94160, 20952, true, LinearSolverType::kCholmod},
+      {"sim1e4", 2.11e6, 2.09e8, 337707, 30003, true, LinearSolverType::kCholmod},
+      {"sim1e5", 5.70e6, 7.85e8, 848455, 60021, true, LinearSolverType::kPcg},
+      {"sim1e6", 6.03e7, 9.10e9, 8.66e6, 600000, true, LinearSolverType::kPcg},
+  };
+  for (const Measured& p : problems) {
+    SCOPED_TRACE(p.name);
+    ReducedSystemSolverOptions options;
+    options.eliminated_features = p.eliminated_features;
+    SolverChoice choice;
+    choice.factor_nonzeros = p.lnz;
+    choice.factor_flops = p.flops;
+    ChooseFromAnalysis(9 * p.blocks, p.rows, 3, options, &choice);
+    EXPECT_EQ(choice.type, p.faster) << LinearSolverName(choice.type);
+    // The same figures under a factor budget below 8 lnz bytes: PCG.
+    options.max_factor_bytes = static_cast<int64_t>(8 * p.lnz) - 1;
+    ChooseFromAnalysis(9 * p.blocks, p.rows, 3, options, &choice);
+    EXPECT_EQ(choice.type, LinearSolverType::kPcg);
+  }
+  // The class matters: the sim1e5 figures as a pose graph go to CHOLMOD.
+  ReducedSystemSolverOptions pose_graph;
+  SolverChoice choice;
+  choice.factor_nonzeros = 5.70e6;
+  choice.factor_flops = 7.85e8;
+  ChooseFromAnalysis(9 * 848455.0, 60021, 3, pose_graph, &choice);
+  EXPECT_EQ(choice.type, LinearSolverType::kCholmod);
 }
 
 double SolveDataset(const std::string& relative, LinearSolverType type, int* iterations,
