@@ -110,6 +110,7 @@ class PlanarSpace {
     checkpoint->features = problem_.features;
     checkpoint->excluded = excluded_;
     checkpoint->kept = kept_;
+    solver_.SaveState(&checkpoint->pcg);
   }
 
  private:
@@ -263,17 +264,21 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
   linear_options.warm_start = options.pcg_warm_start;
   linear_options.max_analysis_unknowns = options.auto_cholmod_max_unknowns;
   linear_options.max_factor_bytes = options.auto_cholmod_max_factor_bytes;
+  linear_options.eliminated_features = summary->eliminated_features > 0;
   GS_RETURN_IF_ERROR(linear_options.Validate());
   StatusOr<SolverChoice> choice = ChooseLinearSolver(system.matrix, linear_options);
   GS_RETURN_IF_ERROR(choice.status());
   const LinearSolverType type = choice->type;
   if (choice->analyzed) {
     GS_VLOG(1, "solver choice: CHOLMOD factor %.3g nonzeros, %.3g flops; PCG estimate %.3g "
-            "flops -> %s", choice->factor_nonzeros, choice->factor_flops, choice->pcg_cost,
+            "flops (%s crossover) -> %s", choice->factor_nonzeros, choice->factor_flops,
+            choice->pcg_cost, linear_options.eliminated_features ? "landmark" : "pose-graph",
             LinearSolverName(type));
   }
   summary->linear_solver_used = type;
   ReducedSystemSolver solver(type, linear_options);
+  // The PCG's forcing term, warm start and forest of the interrupted solve.
+  if (resume != nullptr) GS_RETURN_IF_ERROR(solver.RestoreState(resume->pcg, system.matrix));
 
   PlanarSpace space(context, layout, screening.kept, options.pose_kernels, problem, &system,
                     &solver, summary->excluded);

@@ -36,6 +36,7 @@
 #include <vector>
 
 #include "core/chunk_source.h"
+#include "core/pcg_solver_state.h"
 #include "core/problem.h"
 #include "core/progress.h"
 #include "core/robust_kernel.h"
@@ -84,6 +85,8 @@ struct BasicSolverCheckpoint {
   std::vector<PointT> features;
   std::vector<uint8_t> excluded;  // per feature: kept out of the solve
   std::vector<uint8_t> kept;      // per feature: unknown of the reduced system
+  // The PCG's forcing term, warm start and forest (not present for CHOLMOD).
+  PcgSolverState pcg;
 };
 using SolverCheckpoint = BasicSolverCheckpoint<Pose2, Point2>;
 
@@ -103,7 +106,7 @@ struct SolverOptions {
   // PCG: Eisenstat-Walker forcing sequence and warm starts
   // (core/reduced_system_solver.h).
   bool pcg_forcing_sequence = true;
-  double pcg_eta_max = 0.1;  // the loosest forcing term
+  double pcg_eta_max = 0.01;  // the loosest forcing term (measured, issue 4)
   bool pcg_warm_start = true;
   // kAuto: CHOLMOD when its factor (from its symbolic analysis) fits in
   // auto_cholmod_max_factor_bytes and is estimated cheaper than PCG; PCG

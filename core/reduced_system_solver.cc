@@ -36,6 +36,18 @@ Status ReducedSystemSolverOptions::Validate() const {
   return Status::Ok();
 }
 
+void ChooseFromAnalysis(double nonzeros, double n, double b,
+                        const ReducedSystemSolverOptions& options, SolverChoice* choice) {
+  const double crossover = options.eliminated_features ? kLandmarkCrossover : kPoseGraphCrossover;
+  choice->pcg_cost = crossover * (2.0 * nonzeros + 4.0 * n * b);
+  const double factor_bytes = 8.0 * choice->factor_nonzeros;
+  const double cholmod_cost = choice->factor_flops + 4.0 * choice->factor_nonzeros;
+  choice->type = factor_bytes <= static_cast<double>(options.max_factor_bytes) &&
+                         cholmod_cost <= choice->pcg_cost
+                     ? LinearSolverType::kCholmod
+                     : LinearSolverType::kPcg;
+}
+
 StatusOr<SolverChoice> ChooseLinearSolver(const BlockSparseMatrix& s,
                                           const ReducedSystemSolverOptions& options) {
   SolverChoice choice;
@@ -46,7 +58,6 @@ StatusOr<SolverChoice> ChooseLinearSolver(const BlockSparseMatrix& s,
   const double n = s.num_rows();
   const double b = s.block_size();
   const double nnz = static_cast<double>(s.num_nonzero_blocks()) * b * b;
-  choice.pcg_cost = ReducedSystemSolver::kAssumedPcgIterations * (2.0 * nnz + 4.0 * n * b);
   if (s.num_rows() == 0) {
     choice.type = LinearSolverType::kCholmod;
     return choice;
@@ -69,12 +80,7 @@ StatusOr<SolverChoice> ChooseLinearSolver(const BlockSparseMatrix& s,
   choice.analyzed = true;
   choice.factor_nonzeros = common.lnz;
   choice.factor_flops = common.fl;
-  const double factor_bytes = 8.0 * common.lnz;
-  const double cholmod_cost = common.fl + 4.0 * common.lnz;
-  choice.type = factor_bytes <= static_cast<double>(options.max_factor_bytes) &&
-                        cholmod_cost <= choice.pcg_cost
-                    ? LinearSolverType::kCholmod
-                    : LinearSolverType::kPcg;
+  ChooseFromAnalysis(nnz, n, b, options, &choice);
   return choice;
 }
 
@@ -92,6 +98,55 @@ void ReducedSystemSolver::StepResult(bool accepted) {
   // at the next Solve. last_rhs_norm_ is the norm this step was solved for.
   previous_rhs_norm_ = last_rhs_norm_;
   have_previous_ = true;
+}
+
+void ReducedSystemSolver::SaveState(PcgSolverState* state) const {
+  *state = PcgSolverState();
+  if (type_ != LinearSolverType::kPcg) return;
+  state->present = true;
+  state->eta = eta_;
+  state->previous_rhs_norm = previous_rhs_norm_;
+  state->last_rhs_norm = last_rhs_norm_;
+  state->have_previous = have_previous_;
+  state->previous_x.assign(previous_x_.data(), previous_x_.data() + previous_x_.size());
+  if (options_.preconditioner == PreconditionerType::kSubgraph) {
+    state->forest_order = subgraph_.forest_order();
+    state->forest_parent = subgraph_.forest_parent();
+  }
+}
+
+Status ReducedSystemSolver::RestoreState(const PcgSolverState& state,
+                                         const BlockSparseMatrix& pattern) {
+  if (!state.present || type_ != LinearSolverType::kPcg) return Status::Ok();
+  if (!std::isfinite(state.eta) || !(state.eta > 0.0) || !std::isfinite(state.previous_rhs_norm) ||
+      !std::isfinite(state.last_rhs_norm)) {
+    return Status::InvalidArgument(fmt::format(
+        "PCG state: eta {:g}, previous_rhs_norm {:g} and last_rhs_norm {:g} must be finite "
+        "(eta > 0)",
+        state.eta, state.previous_rhs_norm, state.last_rhs_norm));
+  }
+  const size_t n = static_cast<size_t>(pattern.num_rows());
+  if (!state.previous_x.empty() && state.previous_x.size() != n) {
+    return Status::InvalidArgument(fmt::format(
+        "PCG state: previous_x has {} entries, the reduced system {} unknowns",
+        state.previous_x.size(), n));
+  }
+  for (double v : state.previous_x) {
+    if (!std::isfinite(v)) return Status::InvalidArgument("PCG state: previous_x is not finite");
+  }
+  // A forest is ignored by another preconditioner (resumed with a different
+  // --preconditioner: a different solve from here on, as with --solver).
+  if (options_.preconditioner == PreconditionerType::kSubgraph &&
+      (!state.forest_order.empty() || !state.forest_parent.empty())) {
+    GS_RETURN_IF_ERROR(subgraph_.SetForest(pattern, state.forest_order, state.forest_parent));
+  }
+  eta_ = state.eta;
+  previous_rhs_norm_ = state.previous_rhs_norm;
+  last_rhs_norm_ = state.last_rhs_norm;
+  have_previous_ = state.have_previous;
+  previous_x_ = Eigen::Map<const Eigen::VectorXd>(
+      state.previous_x.data(), static_cast<Eigen::Index>(state.previous_x.size()));
+  return Status::Ok();
 }
 
 const LinearOperator* ReducedSystemSolver::UpdatePreconditioner(const BlockSparseMatrix& s,

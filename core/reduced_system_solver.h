@@ -8,12 +8,21 @@
 //    from CHOLMOD's own symbolic analysis of S's pattern (AMD ordering):
 //      factor bytes   = 8 lnz                  (nonzeros of L)
 //      cholmod cost   = fl + 4 lnz             (factor flops + two solves)
-//      pcg cost       = kAssumedPcgIterations (2 nnz(S) + 4 n b)  per solve
+//      pcg cost       = K (2 nnz(S) + 4 n b)   per solve (K products with S)
 //    CHOLMOD if factor bytes <= max_factor_bytes and cholmod cost <=
-//    pcg cost, else PCG. Above max_analysis_unknowns the analysis itself is
-//    skipped (it costs O(nnz) memory and an AMD pass) and PCG is used.
-//    kAssumedPcgIterations was calibrated on the measured runs of
-//    docs/benchmarks.md (issue 4 section). `--solver pcg|cholmod` overrides.
+//    pcg cost, else PCG (ChooseFromAnalysis). Above max_analysis_unknowns
+//    the analysis itself is skipped (it costs O(nnz) memory and an AMD pass)
+//    and PCG is used. K is the measured crossover, not a CG count: it folds
+//    in CG iterations per solve, the preconditioner, the flop rates of a
+//    supernodal factorization against a sparse product, and the extra LM
+//    iterations of inexact steps. It differs by problem class
+//    (docs/benchmarks.md, issue 4, "crossover"): pose graphs (no eliminated
+//    features) need hundreds of CG iterations per solve on loop closures and
+//    CHOLMOD won on every one measured (cost ratio up to 69), so
+//    K = kPoseGraphCrossover; on landmark problems (features eliminated into
+//    S, here with GPS) the subgraph-preconditioned CG converges in ~50
+//    iterations per solve and PCG won from a ratio of 50 (sim1e5) on, so
+//    K = kLandmarkCrossover. `--solver pcg|cholmod` overrides.
 //
 // 2. For PCG, an inexact-Newton forcing sequence (Eisenstat & Walker,
 //    "Choosing the forcing terms in an inexact Newton method", SIAM J. Sci.
@@ -27,7 +36,11 @@
 //    step (eta 0.1) is as good as an exact one, near it the tolerance tightens
 //    quadratically and the iteration keeps Newton's local convergence. After a
 //    rejected step the linearization is the same and eta is kept.
-//    eta_max = 0.1 (Ceres' default), eta_min = the exact-solve tolerance.
+//    eta_max = 0.01, eta_min = the exact-solve tolerance. eta_max was
+//    measured (docs/benchmarks.md, issue 4): Ceres' 0.1 saves CG iterations
+//    per step but costs LM iterations, each a pass over the observations, and
+//    0.01 took 20-30 % less time on M3500, city10000 and the simulated
+//    landmark problems (10^4, 10^5) and equal (within 10 %) on intel.
 //
 // 3. Warm start: x0 = alpha x_prev, the previous solution scaled to minimize
 //    the quadratic model q(x) = x^T S x / 2 - rhs^T x along it,
@@ -55,6 +68,7 @@
 #include "core/cholmod_solver.h"
 #include "core/graphslam_solver.h"
 #include "core/incomplete_cholesky_preconditioner.h"
+#include "core/pcg_solver_state.h"
 #include "core/status.h"
 #include "core/subgraph_preconditioner.h"
 
@@ -67,12 +81,15 @@ struct ReducedSystemSolverOptions {
   // The tolerance of an exact solve, and eta_min of the forcing sequence.
   double pcg_relative_tolerance = 1e-10;
   bool forcing_sequence = true;
-  double eta_max = 0.1;
+  double eta_max = 0.01;
   bool warm_start = true;
   // kAuto: CHOLMOD only if its factor fits in this many bytes.
   int64_t max_factor_bytes = int64_t{4} << 30;
   // kAuto: above this many scalar unknowns, PCG without analysing.
   int64_t max_analysis_unknowns = 3'000'000;
+  // kAuto: S has features eliminated into it (a landmark problem, not a
+  // pose graph); selects the crossover constant of item 1.
+  bool eliminated_features = false;
 
   [[nodiscard]] Status Validate() const;
 };
@@ -90,11 +107,20 @@ struct SolverChoice {
 StatusOr<SolverChoice> ChooseLinearSolver(const BlockSparseMatrix& s,
                                           const ReducedSystemSolverOptions& options);
 
+// The kAuto rule of item 1 on the analysis figures, apart so that it can be
+// checked on the figures of the measured problems. Fills choice->type and
+// choice->pcg_cost from choice->factor_nonzeros and factor_flops; `nonzeros`
+// are S's scalar nonzeros (both triangles), n its rows, b its block size.
+void ChooseFromAnalysis(double nonzeros, double n, double b,
+                        const ReducedSystemSolverOptions& options, SolverChoice* choice);
+
+// Products with S per solve at which PCG and CHOLMOD cost the same (item 1),
+// measured in docs/benchmarks.md (issue 4).
+inline constexpr double kPoseGraphCrossover = 100.0;
+inline constexpr double kLandmarkCrossover = 40.0;
+
 class ReducedSystemSolver {
  public:
-  // PCG iterations the kAuto rule assumes per solve (see item 1).
-  static constexpr double kAssumedPcgIterations = 100.0;
-
   // Requires options.Validate().ok(). type must not be kAuto (call
   // ChooseLinearSolver first).
   ReducedSystemSolver(LinearSolverType type, const ReducedSystemSolverOptions& options);
@@ -105,6 +131,18 @@ class ReducedSystemSolver {
 
   // The LM driver tells whether the last solve's step was accepted.
   void StepResult(bool accepted);
+
+  // Checkpointing (core/pcg_solver_state.h). SaveState fills *state with
+  // everything the next PCG solve depends on (present = false for CHOLMOD).
+  // RestoreState takes over a saved state before the first Solve, for
+  // matrices with the pattern of `pattern`; a state that is not present is
+  // ignored (a fresh start), and so is what does not apply to this solver
+  // (a PCG state given to CHOLMOD, a forest to another preconditioner).
+  // InvalidArgument naming the field if it does not fit the pattern or is
+  // not finite; the solver is then unchanged.
+  void SaveState(PcgSolverState* state) const;
+  [[nodiscard]] Status RestoreState(const PcgSolverState& state,
+                                    const BlockSparseMatrix& pattern);
 
   LinearSolverType type() const { return type_; }
   double eta() const { return eta_; }

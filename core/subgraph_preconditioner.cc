@@ -235,6 +235,61 @@ Status SubgraphPreconditioner::Update(const BlockSparseMatrix& a) {
   return Status::Ok();
 }
 
+Status SubgraphPreconditioner::SetForest(const BlockSparseMatrix& pattern,
+                                         const std::vector<int>& order,
+                                         const std::vector<int>& parent_block) {
+  const int n = pattern.num_block_rows();
+  if (static_cast<int>(order.size()) != n || static_cast<int>(parent_block.size()) != n) {
+    return Status::InvalidArgument(fmt::format(
+        "subgraph forest: {} order and {} parent entries for {} block rows", order.size(),
+        parent_block.size(), n));
+  }
+  if (pattern.block_size() > kMaxFixedBlockSize) {
+    return Status::InvalidArgument(fmt::format(
+        "subgraph preconditioner: block size {} exceeds {}", pattern.block_size(),
+        kMaxFixedBlockSize));
+  }
+  std::vector<int> position(static_cast<size_t>(n), -1);
+  for (int t = 0; t < n; ++t) {
+    const int i = order[t];
+    if (i < 0 || i >= n || position[i] >= 0) {
+      return Status::InvalidArgument(fmt::format(
+          "subgraph forest: order entry {} is {}, not a permutation of 0..{}", t, i, n - 1));
+    }
+    position[i] = t;
+  }
+  std::vector<int> parent(static_cast<size_t>(n));
+  int tree_edges = 0;
+  for (int t = 0; t < n; ++t) {
+    const int i = order[t], p = parent_block[i];
+    if (p == -1) {
+      parent[t] = -1;
+      continue;
+    }
+    if (p < 0 || p >= n || position[p] <= t || pattern.Block(i, p) == nullptr) {
+      return Status::InvalidArgument(fmt::format(
+          "subgraph forest: block row {} has parent {}, which is not a later-eliminated "
+          "neighbour in the matrix",
+          i, p));
+    }
+    parent[t] = position[p];
+    ++tree_edges;
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  num_blocks_ = n;
+  block_size_ = pattern.block_size();
+  num_tree_edges_ = tree_edges;
+  pattern_blocks_ = pattern.num_nonzero_blocks();
+  order_ = order;
+  parent_ = std::move(parent);
+  parent_block_ = parent_block;
+  pivot_inverse_.clear();  // factored by the next Update
+  lower_.clear();
+  compensated_ = false;
+  scratch_.assign(static_cast<size_t>(n) * block_size_, 0.0);
+  return Status::Ok();
+}
+
 void SubgraphPreconditioner::RightMultiplyAndAccumulate(const double* x, double* y) const {
   const int n = num_blocks_;
   const int b = block_size_;

@@ -79,6 +79,21 @@ class SubgraphPreconditioner : public LinearOperator {
   // Whether the last Update needed the diagonal compensation.
   bool compensated() const { return compensated_; }
 
+  // The forest, for a checkpoint (core/pcg_solver_state.h): block rows in
+  // elimination order, and each block row's parent block row (-1: a root).
+  // Both empty before the first Update.
+  const std::vector<int>& forest_order() const { return order_; }
+  const std::vector<int>& forest_parent() const { return parent_block_; }
+
+  // Takes over a forest saved from forest_order() / forest_parent() for
+  // matrices with the pattern of `pattern`, so that the next Update factors
+  // it instead of choosing one from its values (a resumed solve must use the
+  // forest of the interrupted one). InvalidArgument, with the state
+  // unchanged, if the forest does not fit the pattern: sizes, a permutation,
+  // parents eliminated after their children, tree edges that are blocks.
+  [[nodiscard]] Status SetForest(const BlockSparseMatrix& pattern, const std::vector<int>& order,
+                                 const std::vector<int>& parent_block);
+
  private:
   // Factors M into `out` with or without compensation; false if a pivot is
   // not positive definite (then *failed_block is its block row).

@@ -15,13 +15,15 @@ all with at most 200 Levenberg-Marquardt iterations, from the same odometry
 guess (paper Table 1), every report written with --report. It writes
 OUT/solver_comparison.csv (one row per run) and OUT/solver_comparison.md (the
 table of docs/benchmarks.md): ms per iteration (mean of per_iteration[].seconds),
-total seconds (the report's `seconds`: read to report), final chi2, peak RSS,
+total seconds (the report's `seconds`: read to report), CPU seconds of the
+whole process (user + system; the fairer figure on a loaded machine), final
+chi2, peak RSS,
 and the ratios of ours/pcg to Ceres ITERATIVE_SCHUR: time per iteration, and
 final chi2 (the target: <= 0.5 at the same chi2 within 0.1 %).
 
   perf/solver_comparison.py --bin build/bin --out /tmp/cmp \
       [--problems intel,M3500,city10000,victoria,sim1e5] [--skip RUN,...] [--threads N]
-      [--timeout S]
+      [--timeout S] [--max-iterations N] [--pcg-eta-max E]
 
 Simulated problems (sim1e4, sim1e5, sim1e6) are generated once into OUT with
 `graphslam simulate -o DIR --poses N --features M --format g2o --gps-every 25
@@ -31,6 +33,7 @@ import argparse
 import csv
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -66,16 +69,17 @@ def write_atomically(path, text):
     os.replace(temp, path)
 
 
-def command(run, binaries, path, report, threads, max_iterations=200):
+def command(run, binaries, path, report, threads, max_iterations=200, pcg_eta_max=None):
     ours = [f"{binaries}/graphslam", "solve", path, "--initialization", "odometry",
             "--max-iterations", str(max_iterations), "--threads", str(threads), "--report",
             report, "-q"]
+    eta = [] if pcg_eta_max is None else ["--pcg-eta-max", str(pcg_eta_max)]
     ceres = [f"{binaries}/graphslam_ceres_peer", path, "--threads", str(threads),
              "--max-iterations", str(max_iterations), "--report", report, "-q"]
     return {
         "ours/cholmod": ours + ["--solver", "cholmod"],
-        "ours/pcg": ours + ["--solver", "pcg", "--preconditioner", "subgraph"],
-        "ours/auto": ours,
+        "ours/pcg": ours + ["--solver", "pcg", "--preconditioner", "subgraph"] + eta,
+        "ours/auto": ours + eta,
         "ceres/sparse_schur": ceres + ["--linear-solver", "sparse_schur"],
         "ceres/iterative_schur": ceres + ["--linear-solver", "iterative_schur"],
         "ceres/iterative_schur_tight": ceres + ["--linear-solver", "iterative_schur", "--eta",
@@ -108,6 +112,8 @@ def main():
     parser.add_argument("--timeout", type=float, default=1200.0, help="seconds per run")
     parser.add_argument("--max-iterations", type=int, default=200,
                         help="Levenberg-Marquardt iteration cap of every run (large problems)")
+    parser.add_argument("--pcg-eta-max", type=float, default=None,
+                        help="ours/pcg and ours/auto: --pcg-eta-max (default: graphslam's)")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     skip = set(filter(None, args.skip.split(",")))
@@ -118,8 +124,13 @@ def main():
             if run in skip:
                 continue
             report = os.path.join(args.out, f"{name}_{run.replace('/', '_')}.json")
-            cmd = command(run, args.bin, path, report, args.threads, args.max_iterations)
+            cmd = command(run, args.bin, path, report, args.threads, args.max_iterations,
+                          args.pcg_eta_max)
             start = time.monotonic()
+            # CPU seconds of the child (user + system, whole process: reading
+            # the input included): on a shared, loaded machine the fairer
+            # figure than wall-clock time, which counts the waits for a core.
+            children_before = resource.getrusage(resource.RUSAGE_CHILDREN)
             try:
                 result = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                                         text=True, timeout=args.timeout)
@@ -127,8 +138,11 @@ def main():
             except subprocess.TimeoutExpired:
                 exit_code = "timeout"
             wall = time.monotonic() - start
+            children_after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            cpu = (children_after.ru_utime - children_before.ru_utime +
+                   children_after.ru_stime - children_before.ru_stime)
             row = {"problem": name, "run": run, "exit": exit_code, "wall_s": round(wall, 3),
-                   "command": " ".join(cmd)}
+                   "cpu_s": round(cpu, 3), "command": " ".join(cmd)}
             if exit_code in (0, 4) and os.path.exists(report):
                 with open(report) as f:
                     r = json.load(f)
@@ -152,7 +166,8 @@ def main():
 def write_outputs(rows, out):
     fields = ["problem", "run", "solver", "exit", "iterations", "termination", "ms_per_iteration",
               "linear_iterations", "total_s", "final_chi2", "peak_rss_mib",
-              "ms_ratio_vs_ceres_iterative", "chi2_ratio_vs_ceres_iterative", "wall_s", "command"]
+              "ms_ratio_vs_ceres_iterative", "chi2_ratio_vs_ceres_iterative", "wall_s", "cpu_s",
+              "command"]
     # Ratios of every run to Ceres ITERATIVE_SCHUR on the same problem: the
     # tight run if it finished, else the default one.
     by_problem = {}
@@ -175,9 +190,9 @@ def write_outputs(rows, out):
         writer.writerow(row)
     write_atomically(os.path.join(out, "solver_comparison.csv"), buffer.getvalue())
     lines.append("| problem | run | solver | LM iterations (termination) | ms/iter | CG it. | "
-                 "total s | final chi2 | peak RSS MiB | ms/iter ÷ Ceres iterative | "
+                 "total s | CPU s | final chi2 | peak RSS MiB | ms/iter ÷ Ceres iterative | "
                  "chi2 ÷ Ceres iterative |")
-    lines.append("|---|---|---|---|---|---|---|---|---|---|---|")
+    lines.append("|---|---|---|---|---|---|---|---|---|---|---|---|")
 
     def number(row, key, fmt):
         return fmt.format(row[key]) if row.get(key) is not None else "—"
@@ -185,12 +200,13 @@ def write_outputs(rows, out):
     for row in rows:
         if "ms_per_iteration" not in row:
             lines.append(f"| {row['problem']} | {row['run']} | — | failed ({row['exit']}) "
-                         "| — | — | — | — | — | — | — |")
+                         "| — | — | — | — | — | — | — | — |")
             continue
         lines.append(
             f"| {row['problem']} | {row['run']} | {row['solver']} | {row['iterations']} "
             f"({row['termination']}) | {row['ms_per_iteration']:.1f} | {row['linear_iterations']} "
-            f"| {row['total_s']:.2f} | {row['final_chi2']:.6f} | {row['peak_rss_mib']:.1f} | "
+            f"| {row['total_s']:.2f} | {row['cpu_s']:.1f} | {row['final_chi2']:.6f} | "
+            f"{row['peak_rss_mib']:.1f} | "
             f"{number(row, 'ms_ratio_vs_ceres_iterative', '{:.3f}')} | "
             f"{number(row, 'chi2_ratio_vs_ceres_iterative', '{:.6f}')} |")
     write_atomically(os.path.join(out, "solver_comparison.md"), "\n".join(lines) + "\n")

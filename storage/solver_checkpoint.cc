@@ -44,12 +44,42 @@ struct Spatial {
   static bool Finite(const core::Pose3& p) { return p.t.allFinite() && p.q.coeffs().allFinite(); }
 };
 
+nlohmann::json PcgStateToJson(const core::PcgSolverState& state) {
+  nlohmann::json json;
+  json["eta"] = state.eta;
+  json["previous_rhs_norm"] = state.previous_rhs_norm;
+  json["last_rhs_norm"] = state.last_rhs_norm;
+  json["have_previous"] = state.have_previous;
+  json["previous_x"] = state.previous_x;
+  json["forest_order"] = state.forest_order;
+  json["forest_parent"] = state.forest_parent;
+  return json;
+}
+
+// Throws nlohmann::json::exception on a missing or mistyped field; the sizes
+// and the forest are checked against the problem by the solver.
+core::PcgSolverState PcgStateFromJson(const nlohmann::json& json) {
+  core::PcgSolverState state;
+  state.present = true;
+  state.eta = json.at("eta").get<double>();
+  state.previous_rhs_norm = json.at("previous_rhs_norm").get<double>();
+  state.last_rhs_norm = json.at("last_rhs_norm").get<double>();
+  state.have_previous = json.at("have_previous").get<bool>();
+  state.previous_x = json.at("previous_x").get<std::vector<double>>();
+  state.forest_order = json.at("forest_order").get<std::vector<int>>();
+  state.forest_parent = json.at("forest_parent").get<std::vector<int>>();
+  return state;
+}
+
 template <class Layout, class Checkpoint>
 Status Write(Env* env, const std::string& path, const std::string& input,
              const Checkpoint& checkpoint) {
   nlohmann::json json;
   json["format"] = kSolverCheckpointFormat;
-  json["version"] = kSolverCheckpointVersion;
+  // Version 2 only with the "pcg" object: a CHOLMOD checkpoint stays readable
+  // by version-1 builds, while a version-1 build, which would resume a PCG
+  // solve without its state (not bit-identical), refuses a PCG checkpoint.
+  json["version"] = checkpoint.pcg.present ? kSolverCheckpointVersion : 1;
   json["input"] = input;
   // Only 3-D checkpoints carry the key: 2-D files stay as version 1 wrote them.
   if (Layout::kDimension != 2) json["dimension"] = Layout::kDimension;
@@ -70,6 +100,7 @@ Status Write(Env* env, const std::string& path, const std::string& input,
   json["features"] = features;
   json["excluded"] = checkpoint.excluded;
   json["kept"] = checkpoint.kept;
+  if (checkpoint.pcg.present) json["pcg"] = PcgStateToJson(checkpoint.pcg);
   // nlohmann writes doubles with max_digits10: they read back bit for bit.
   return WriteStringAtomically(env, path, json.dump() + "\n");
 }
@@ -110,6 +141,8 @@ StatusOr<Checkpoint> Read(const std::string& path, const std::string& input) {
     const auto features = json.at("features").get<std::vector<double>>();
     checkpoint.excluded = json.at("excluded").get<std::vector<uint8_t>>();
     checkpoint.kept = json.at("kept").get<std::vector<uint8_t>>();
+    // Absent in version 1 and in CHOLMOD checkpoints: a fresh PCG state.
+    if (json.contains("pcg")) checkpoint.pcg = PcgStateFromJson(json.at("pcg"));
     if (poses.size() % Layout::kPoseValues != 0)
       return Bad(path, "'poses' length is not a multiple of " +
                            std::to_string(Layout::kPoseValues));
@@ -137,6 +170,18 @@ StatusOr<Checkpoint> Read(const std::string& path, const std::string& input) {
     if (!Layout::Finite(p)) return Bad(path, "a pose is not finite");
   for (const auto& f : checkpoint.features)
     if (!f.allFinite()) return Bad(path, "a feature is not finite");
+  const core::PcgSolverState& pcg = checkpoint.pcg;
+  if (pcg.present) {
+    if (!std::isfinite(pcg.eta) || !(pcg.eta > 0) || !std::isfinite(pcg.previous_rhs_norm) ||
+        !std::isfinite(pcg.last_rhs_norm))
+      return Bad(path, "'pcg': eta must be positive and finite, the norms finite");
+    for (double v : pcg.previous_x)
+      if (!std::isfinite(v)) return Bad(path, "'pcg.previous_x' is not finite");
+    if (pcg.forest_order.size() != pcg.forest_parent.size())
+      return Bad(path, "'pcg.forest_order' has " + std::to_string(pcg.forest_order.size()) +
+                           " entries, 'pcg.forest_parent' " +
+                           std::to_string(pcg.forest_parent.size()));
+  }
   return checkpoint;
 }
 

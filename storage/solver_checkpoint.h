@@ -21,7 +21,9 @@
 namespace graphslam::storage {
 
 inline constexpr const char* kSolverCheckpointFormat = "graphslam-solver-checkpoint";
-inline constexpr int kSolverCheckpointVersion = 1;
+// Version 2 added the optional "pcg" object (core/pcg_solver_state.h); a
+// checkpoint without it is still written as version 1, and both are read.
+inline constexpr int kSolverCheckpointVersion = 2;
 
 // `input` names the problem the checkpoint belongs to; ReadSolverCheckpoint
 // rejects a checkpoint of another input.

@@ -135,6 +135,9 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
   solve->add_option("--preconditioner", options->preconditioner,
                     "PCG preconditioner: block-jacobi, incomplete-cholesky, subgraph")
       ->capture_default_str();
+  solve->add_option("--pcg-eta-max", options->pcg_eta_max,
+                    "PCG: the loosest relative residual of the forcing sequence, in (0, 1)")
+      ->capture_default_str();
   solve->add_option("--max-iterations", options->max_iterations, "Levenberg-Marquardt iterations")
       ->capture_default_str();
   solve->add_option("--function-tolerance", options->function_tolerance,
@@ -222,6 +225,13 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   if (!preconditioner.ok()) {
     std::fprintf(stderr, "graphslam solve: --preconditioner: %s\n",
                  preconditioner.status().ToString().c_str());
+    return kExitUsage;
+  }
+  // The exact-solve tolerance (1e-10) is the tightest forcing term.
+  if (!(options.pcg_eta_max >= core::SolverOptions().pcg_relative_tolerance) ||
+      !(options.pcg_eta_max < 1.0)) {
+    std::fprintf(stderr, "graphslam solve: --pcg-eta-max must be in [1e-10, 1), got %g\n",
+                 options.pcg_eta_max);
     return kExitUsage;
   }
   core::RobustKernel observation_kernel;
@@ -347,6 +357,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   core::SolverOptions solver_options;
   solver_options.linear_solver = *solver_type;
   solver_options.preconditioner = *preconditioner;
+  solver_options.pcg_eta_max = options.pcg_eta_max;
   solver_options.max_iterations = options.max_iterations;
   solver_options.max_eliminated_observations = options.max_eliminated_observations;
   solver_options.observation_kernel = observation_kernel;

@@ -9,6 +9,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "core/graphslam_solver.h"
+
 namespace graphslam::tools {
 
 struct SolveCommandOptions {
@@ -20,6 +22,7 @@ struct SolveCommandOptions {
   std::string features_csv;         // --features-csv
   std::string solver = "auto";      // auto, pcg, cholmod
   std::string preconditioner = "subgraph";  // for pcg: subgraph, block-jacobi, incomplete-cholesky
+  double pcg_eta_max = core::SolverOptions().pcg_eta_max;  // loosest PCG forcing term
   int max_iterations = 100;
   double function_tolerance = 1e-6;
   double initial_trust_region_radius = 1e4;

@@ -82,6 +82,93 @@ TEST(ReducedSystemSolver, WarmStartedInexactSolvesKeepTheModelIdentity) {
   EXPECT_LE(RelativeError(x, a.ToDense().ldlt().solve(small)), 1e-2);
 }
 
+// Checkpointing: a solver restored from SaveState continues exactly as the
+// original (same steps bit for bit, same CG counts), while a fresh solver
+// (what a resume without the state got) does not.
+TEST(ReducedSystemSolver, RestoredStateContinuesBitIdentically) {
+  for (const PreconditionerType preconditioner :
+       {PreconditionerType::kSubgraph, PreconditionerType::kBlockJacobi}) {
+    SCOPED_TRACE(PreconditionerName(preconditioner));
+    ReducedSystemSolverOptions options;
+    options.preconditioner = preconditioner;
+    ReducedSystemSolver original(LinearSolverType::kPcg, options);
+    const BlockSparseMatrix first = RandomSpdMatrix(31, 3, 150);
+    Eigen::VectorXd x;
+    int iterations = 0;
+    ASSERT_TRUE(original.Solve(first, RandomVector(32, first.num_rows()), &x, &iterations).ok());
+    original.StepResult(true);
+    PcgSolverState state;
+    original.SaveState(&state);
+    ASSERT_TRUE(state.present);
+    EXPECT_EQ(state.previous_x.size(), static_cast<size_t>(first.num_rows()));
+    EXPECT_EQ(state.forest_order.empty(), preconditioner != PreconditionerType::kSubgraph);
+
+    ReducedSystemSolver restored(LinearSolverType::kPcg, options);
+    ASSERT_TRUE(restored.RestoreState(state, first).ok());
+    ReducedSystemSolver fresh(LinearSolverType::kPcg, options);
+    // Two more linearizations with the same pattern and new values.
+    for (uint32_t seed = 33; seed <= 34; ++seed) {
+      BlockSparseMatrix next = first;
+      next.AddToDiagonal(RandomVector(seed, first.num_rows()).cwiseAbs());
+      const Eigen::VectorXd rhs = 0.1 * RandomVector(seed + 100, next.num_rows());
+      Eigen::VectorXd x_original, x_restored, x_fresh;
+      int it_original = 0, it_restored = 0, it_fresh = 0;
+      ASSERT_TRUE(original.Solve(next, rhs, &x_original, &it_original).ok());
+      ASSERT_TRUE(restored.Solve(next, rhs, &x_restored, &it_restored).ok());
+      ASSERT_TRUE(fresh.Solve(next, rhs, &x_fresh, &it_fresh).ok());
+      EXPECT_EQ(original.eta(), restored.eta());
+      EXPECT_EQ(it_original, it_restored);
+      EXPECT_EQ((x_original - x_restored).norm(), 0.0);
+      if (seed == 33) {
+        EXPECT_NE(original.eta(), fresh.eta());  // the forcing term was lost
+      }
+      original.StepResult(true);
+      restored.StepResult(true);
+      fresh.StepResult(true);
+    }
+  }
+}
+
+TEST(ReducedSystemSolver, RestoreRejectsAStateOfAnotherSystem) {
+  ReducedSystemSolverOptions options;
+  ReducedSystemSolver solver(LinearSolverType::kPcg, options);
+  const BlockSparseMatrix a = RandomSpdMatrix(41, 3, 40);
+  Eigen::VectorXd x;
+  int iterations = 0;
+  ASSERT_TRUE(solver.Solve(a, RandomVector(42, a.num_rows()), &x, &iterations).ok());
+  PcgSolverState state;
+  solver.SaveState(&state);
+  const BlockSparseMatrix other = RandomSpdMatrix(43, 3, 41);
+  ReducedSystemSolver target(LinearSolverType::kPcg, options);
+  Status status = target.RestoreState(state, other);
+  EXPECT_FALSE(status.ok());
+  EXPECT_NE(status.ToString().find("previous_x has 120 entries"), std::string::npos)
+      << status.ToString();
+  // A forest that is not a permutation.
+  PcgSolverState bad = state;
+  bad.forest_order[1] = bad.forest_order[0];
+  status = target.RestoreState(bad, a);
+  EXPECT_FALSE(status.ok());
+  EXPECT_NE(status.ToString().find("not a permutation"), std::string::npos) << status.ToString();
+  // A parent that is not a neighbour in the matrix: the first block row in
+  // elimination order gets the last one (not adjacent in this sparse pattern).
+  bad = state;
+  const int leaf = bad.forest_order.front();
+  const int root = bad.forest_order.back();
+  ASSERT_EQ(a.Block(leaf, root), nullptr);
+  bad.forest_parent[leaf] = root;
+  status = target.RestoreState(bad, a);
+  EXPECT_FALSE(status.ok());
+  EXPECT_NE(status.ToString().find("not a later-eliminated neighbour"), std::string::npos)
+      << status.ToString();
+  // Not present, or given to CHOLMOD: ignored.
+  ReducedSystemSolver cholmod(LinearSolverType::kCholmod, options);
+  EXPECT_TRUE(cholmod.RestoreState(state, other).ok());
+  EXPECT_TRUE(target.RestoreState(PcgSolverState(), other).ok());
+  // And the valid state restores.
+  EXPECT_TRUE(target.RestoreState(state, a).ok());
+}
+
 TEST(ReducedSystemSolver, AutoChoiceFollowsCholmodAnalysisAndBudget) {
   const BlockSparseMatrix a = RandomSpdMatrix(21, 3, 300);
   ReducedSystemSolverOptions options;
@@ -95,6 +182,9 @@ TEST(ReducedSystemSolver, AutoChoiceFollowsCholmodAnalysisAndBudget) {
   EXPECT_EQ(choice->type, choice->factor_flops + 4 * choice->factor_nonzeros <= choice->pcg_cost
                               ? LinearSolverType::kCholmod
                               : LinearSolverType::kPcg);
+  // A pose graph (no eliminated features): the pose-graph crossover.
+  EXPECT_DOUBLE_EQ(choice->pcg_cost,
+                   kPoseGraphCrossover * (2.0 * 9 * a.num_nonzero_blocks() + 4.0 * n * 3));
   // A budget smaller than the factor forces PCG.
   options.max_factor_bytes = static_cast<int64_t>(8 * choice->factor_nonzeros) - 1;
   choice = ChooseLinearSolver(a, options);
@@ -112,6 +202,50 @@ TEST(ReducedSystemSolver, AutoChoiceFollowsCholmodAnalysisAndBudget) {
   choice = ChooseLinearSolver(a, options);
   ASSERT_TRUE(choice.ok());
   EXPECT_EQ(choice->type, LinearSolverType::kCholmod);
+}
+
+// The kAuto rule on the analysis figures of the problems measured in
+// docs/benchmarks.md (issue 4, "crossover"): CHOLMOD's lnz and fl (from
+// `graphslam solve -v`), S's nonzero 3x3 blocks and rows, and whether
+// features were eliminated. Each must pick the solver that was faster in
+// total there.
+TEST(ReducedSystemSolver, AutoRulePicksTheMeasuredWinner) {
+  struct Measured {
+    const char* name;
+    double lnz, flops, blocks, rows;
+    bool eliminated_features;
+    LinearSolverType faster;
+  };
+  const Measured problems[] = {
+      {"intel", 1.47e5, 8.56e6, 11385, 5181, false, LinearSolverType::kCholmod},
+      {"M3500", 1.87e5, 6.49e6, 14399, 10497, false, LinearSolverType::kCholmod},
+      {"city10000", 1.05e6, 8.42e7, 51363, 29997, false, LinearSolverType::kCholmod},
+      {"victoria", 6.26e5, 5.39e7, 94160, 20952, true, LinearSolverType::kCholmod},
+      {"sim1e4", 2.11e6, 2.09e8, 337707, 30003, true, LinearSolverType::kCholmod},
+      {"sim1e5", 5.70e6, 7.85e8, 848455, 60021, true, LinearSolverType::kPcg},
+      {"sim1e6", 6.03e7, 9.10e9, 8645190, 600000, true, LinearSolverType::kPcg},
+  };
+  for (const Measured& p : problems) {
+    SCOPED_TRACE(p.name);
+    ReducedSystemSolverOptions options;
+    options.eliminated_features = p.eliminated_features;
+    SolverChoice choice;
+    choice.factor_nonzeros = p.lnz;
+    choice.factor_flops = p.flops;
+    ChooseFromAnalysis(9 * p.blocks, p.rows, 3, options, &choice);
+    EXPECT_EQ(choice.type, p.faster) << LinearSolverName(choice.type);
+    // The same figures under a factor budget below 8 lnz bytes: PCG.
+    options.max_factor_bytes = static_cast<int64_t>(8 * p.lnz) - 1;
+    ChooseFromAnalysis(9 * p.blocks, p.rows, 3, options, &choice);
+    EXPECT_EQ(choice.type, LinearSolverType::kPcg);
+  }
+  // The class matters: the sim1e5 figures as a pose graph go to CHOLMOD.
+  ReducedSystemSolverOptions pose_graph;
+  SolverChoice choice;
+  choice.factor_nonzeros = 5.70e6;
+  choice.factor_flops = 7.85e8;
+  ChooseFromAnalysis(9 * 848455.0, 60021, 3, pose_graph, &choice);
+  EXPECT_EQ(choice.type, LinearSolverType::kCholmod);
 }
 
 double SolveDataset(const std::string& relative, LinearSolverType type, int* iterations,

@@ -117,5 +117,101 @@ TEST(SolverCheckpoint, TruncatedSpatialPosesAreCorruption) {
   std::filesystem::remove(path);
 }
 
+TEST(SolverCheckpoint, PcgStateReadsBackBitForBitAsVersion2) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n(0.0, 1.0);
+  core::SolverCheckpoint c;
+  FillControl(&c);
+  for (int i = 0; i < 4; ++i) c.poses.emplace_back(n(rng), n(rng), n(rng));
+  c.pcg.present = true;
+  c.pcg.eta = std::nextafter(0.0123, 1.0);
+  c.pcg.previous_rhs_norm = 1.0 / 7.0;
+  c.pcg.last_rhs_norm = 3.0 / 7.0;
+  c.pcg.have_previous = true;
+  for (int i = 0; i < 9; ++i) c.pcg.previous_x.push_back(n(rng) * 1e-7);
+  c.pcg.forest_order = {2, 0, 1};
+  c.pcg.forest_parent = {1, -1, 0};
+  const std::string path = TempPath("pcg.json");
+  ASSERT_TRUE(WriteSolverCheckpoint(Env::Default(), path, "in.g2o", c).ok());
+  std::ifstream in(path);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("\"version\":2"), std::string::npos) << text;
+  StatusOr<core::SolverCheckpoint> read = ReadSolverCheckpoint(path, "in.g2o");
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  ExpectSameControl(c, *read);
+  EXPECT_TRUE(read->pcg.present);
+  EXPECT_EQ(read->pcg.eta, c.pcg.eta);
+  EXPECT_EQ(read->pcg.previous_rhs_norm, c.pcg.previous_rhs_norm);
+  EXPECT_EQ(read->pcg.last_rhs_norm, c.pcg.last_rhs_norm);
+  EXPECT_EQ(read->pcg.have_previous, c.pcg.have_previous);
+  EXPECT_EQ(read->pcg.previous_x, c.pcg.previous_x);
+  EXPECT_EQ(read->pcg.forest_order, c.pcg.forest_order);
+  EXPECT_EQ(read->pcg.forest_parent, c.pcg.forest_parent);
+  std::filesystem::remove(path);
+}
+
+TEST(SolverCheckpoint, CholmodCheckpointStaysVersion1AndVersion1LoadsWithoutPcgState) {
+  core::SolverCheckpoint c;
+  FillControl(&c);
+  c.poses.emplace_back(1.0, 2.0, 0.5);
+  const std::string path = TempPath("v1.json");
+  ASSERT_TRUE(WriteSolverCheckpoint(Env::Default(), path, "in.g2o", c).ok());
+  std::ifstream in(path);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("\"version\":1"), std::string::npos) << text;
+  EXPECT_EQ(text.find("pcg"), std::string::npos) << text;
+  // A file as version 1 wrote it (before the pcg state existed).
+  {
+    std::ofstream out(path);
+    out << R"({"format":"graphslam-solver-checkpoint","version":1,"input":"x",)"
+        << R"("iterations":3,"trust_region_radius":2.5,"decrease_factor":2.0,"initial_chi2":9.0,)"
+        << R"("chi2":4.0,"converged":false,"termination":"","poses":[0,0,0,1,0,0],)"
+        << R"("features":[],"excluded":[],"kept":[]})";
+  }
+  StatusOr<core::SolverCheckpoint> read = ReadSolverCheckpoint(path, "x");
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  EXPECT_EQ(read->iterations, 3);
+  EXPECT_FALSE(read->pcg.present);
+  EXPECT_TRUE(read->pcg.previous_x.empty());
+  EXPECT_TRUE(read->pcg.forest_order.empty());
+  std::filesystem::remove(path);
+}
+
+TEST(SolverCheckpoint, MalformedPcgStateIsCorruption) {
+  const std::string path = TempPath("badpcg.json");
+  const std::string head =
+      R"({"format":"graphslam-solver-checkpoint","version":2,"input":"x","iterations":1,)"
+      R"("trust_region_radius":1.0,"decrease_factor":2.0,"initial_chi2":1.0,"chi2":1.0,)"
+      R"("converged":false,"termination":"","poses":[0,0,0],"features":[],"excluded":[],)"
+      R"("kept":[],"pcg":)";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {R"({"eta":0.1,"previous_rhs_norm":-1,"last_rhs_norm":-1,"have_previous":false,)"
+       R"("previous_x":[],"forest_order":[0]})",
+       "forest_parent"},
+      {R"({"eta":0.0,"previous_rhs_norm":-1,"last_rhs_norm":-1,"have_previous":false,)"
+       R"("previous_x":[],"forest_order":[],"forest_parent":[]})",
+       "eta must be positive"},
+      {R"({"eta":0.1,"previous_rhs_norm":-1,"last_rhs_norm":-1,"have_previous":false,)"
+       R"("previous_x":[null],"forest_order":[],"forest_parent":[]})",
+       "malformed field"},
+      {R"({"eta":0.1,"previous_rhs_norm":-1,"last_rhs_norm":-1,"have_previous":false,)"
+       R"("previous_x":[],"forest_order":[0,1],"forest_parent":[-1]})",
+       "'pcg.forest_parent' 1"},
+  };
+  for (const auto& [pcg, message] : cases) {
+    {
+      std::ofstream out(path);
+      out << head << pcg << "}";
+    }
+    StatusOr<core::SolverCheckpoint> read = ReadSolverCheckpoint(path, "x");
+    ASSERT_FALSE(read.ok()) << pcg;
+    EXPECT_TRUE(read.status().IsCorruption()) << read.status().ToString();
+    EXPECT_NE(read.status().ToString().find(message), std::string::npos)
+        << read.status().ToString();
+    EXPECT_NE(read.status().ToString().find(path), std::string::npos);
+  }
+  std::filesystem::remove(path);
+}
+
 }  // namespace
 }  // namespace graphslam::storage

@@ -48,15 +48,18 @@ inline std::string ReadWholeFile(const std::filesystem::path& path) {
 // DIR/resumed.json, and expects what the uninterrupted run wrote to
 // DIR/full.g2o and DIR/full.json: the same final chi2 and iteration count
 // (bit for bit), the same graph byte for byte, and a report saying it resumed
-// after iteration `killed_at_iteration`.
+// after iteration `killed_at_iteration`. `solve_options` (e.g. --solver pcg)
+// are passed as they were to the interrupted and the uninterrupted runs.
 inline void ExpectResumeEqualsUninterrupted(const std::string& input,
                                             const std::filesystem::path& dir,
                                             const std::filesystem::path& checkpoint,
-                                            int killed_at_iteration) {
-  ASSERT_EQ(RunGraphslam({"solve", input, "-o", (dir / "resumed.g2o").string(), "--report",
-                          (dir / "resumed.json").string(), "--checkpoint", checkpoint.string(),
-                          "--resume", "-q"}),
-            0);
+                                            int killed_at_iteration,
+                                            const std::vector<std::string>& solve_options = {}) {
+  std::vector<std::string> args = {"solve", input, "-o", (dir / "resumed.g2o").string(),
+                                   "--report", (dir / "resumed.json").string(), "--checkpoint",
+                                   checkpoint.string(), "--resume", "-q"};
+  args.insert(args.end(), solve_options.begin(), solve_options.end());
+  ASSERT_EQ(RunGraphslam(args), 0);
   const nlohmann::json full = nlohmann::json::parse(ReadWholeFile(dir / "full.json"));
   const nlohmann::json resumed = nlohmann::json::parse(ReadWholeFile(dir / "resumed.json"));
   EXPECT_EQ(full["final_chi2"].get<double>(), resumed["final_chi2"].get<double>());

@@ -65,6 +65,51 @@ TEST(SolveResume, KillNineMidSolveThenResumeEqualsUninterruptedRun) {
   fs::remove_all(dir);
 }
 
+// The same with PCG (subgraph preconditioner): the forcing term, the warm
+// start and the spanning forest are checkpointed too (docs/formats/
+// solver_checkpoint.md, "pcg"), so the resumed solve is the same solve.
+TEST(SolveResume, KillNineMidPcgSolveThenResumeEqualsUninterruptedRun) {
+  ASSERT_TRUE(fs::exists(kGraphslam)) << kGraphslam;
+  const fs::path dir =
+      fs::temp_directory_path() / ("graphslam_resume_pcg_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  ASSERT_EQ(RunGraphslam({"simulate", "-o", (dir / "sim").string(), "--poses", "2000", "--runs",
+                          "2", "--gps-every", "25", "--seed", "4", "-q"}),
+            0);
+  const std::string input = (dir / "sim" / "log.graphslam").string();
+  const std::vector<std::string> pcg = {"--solver", "pcg", "--preconditioner", "subgraph"};
+  auto with_pcg = [&](std::vector<std::string> args) {
+    args.insert(args.end(), pcg.begin(), pcg.end());
+    return args;
+  };
+
+  ASSERT_EQ(RunGraphslam(with_pcg({"solve", input, "-o", (dir / "full.g2o").string(), "--report",
+                                   (dir / "full.json").string(), "-q"})),
+            0);
+  const nlohmann::json full = nlohmann::json::parse(ReadWholeFile(dir / "full.json"));
+  ASSERT_EQ(full["solver"].get<std::string>(), "pcg");
+  // Enough iterations after the kill for the state to matter.
+  ASSERT_GE(full["iterations"].get<int>(), 4);
+
+  const fs::path checkpoint = dir / "checkpoint.json";
+  const bool signaled = graphslam::testing::SpawnAndKillWhenFileExists(
+      with_pcg({"solve", input, "-o", (dir / "resumed.g2o").string(), "--checkpoint",
+                checkpoint.string(), "-q"}),
+      checkpoint, std::chrono::seconds(120));
+  ASSERT_TRUE(fs::exists(checkpoint)) << "no checkpoint was written";
+  const nlohmann::json at_kill = nlohmann::json::parse(ReadWholeFile(checkpoint));
+  std::printf("killed after iteration %d (signaled: %d)\n", at_kill["iterations"].get<int>(),
+              signaled ? 1 : 0);
+  ASSERT_TRUE(at_kill.contains("pcg"));
+  EXPECT_EQ(at_kill["version"].get<int>(), 2);
+  EXPECT_FALSE(at_kill["pcg"]["forest_order"].empty());
+  EXPECT_FALSE(at_kill["pcg"]["previous_x"].empty());
+
+  ExpectResumeEqualsUninterrupted(input, dir, checkpoint, at_kill["iterations"].get<int>(), pcg);
+  fs::remove_all(dir);
+}
+
 TEST(SolveResume, ResumeWithoutCheckpointPathIsAUsageError) {
   EXPECT_EQ(RunGraphslam({"solve", "/nonexistent.g2o", "--resume", "-q"}), 1);
 }
