@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numeric>
 #include <set>
 #include <unordered_map>
@@ -23,11 +24,16 @@
 #include "core/range_bearing_model.h"
 #include "core/unknown_layout.h"
 #include "partition/in_memory_chunk_source.h"
+#include "partition/singleton_solve.h"
 
 namespace graphslam::partition {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// A pair of input features undone this many times is never proposed again,
+// whatever the kind of pass that undid it (no merge/undo oscillation).
+constexpr int kMaxUndosPerPair = 2;
 double SecondsSince(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
@@ -414,6 +420,10 @@ Status AssociateAndSolve(const AssociationOptions& options,
   ChunkingOptions chunking;
   chunking.max_observations_per_chunk = options.chunk_observations;
   std::set<std::pair<int32_t, int32_t>> forbidden;  // origin pairs never to merge again
+  // Undos per origin pair within this call: a pair undone on re-fitted
+  // features is forgiven once, not forever (else it can be merged after every
+  // full solve and undone after every re-fit until max_rounds: oscillation).
+  std::map<std::pair<int32_t, int32_t>, int> undo_count;
 
   // Observations of each current feature, for exclusivity and undo.
   auto observations_by_feature = [&]() {
@@ -486,9 +496,10 @@ Status AssociateAndSolve(const AssociationOptions& options,
     // until a full solve leaves nothing to undo.
     for (;;) {
       const Clock::time_point solve_start = Clock::now();
-      InMemoryChunkSource chunks(*problem, chunking);
+      // Features still seen once are left out of the solve (exact, and their
+      // linear recovery would spoil the steps: partition/singleton_solve.h).
       GS_RETURN_IF_ERROR(
-          core::SolveGraphSlam(solver_options, chunks, problem, &summary->final_solve));
+          SolveWithoutSingletons(solver_options, chunking, problem, &summary->final_solve));
       stats.solve_seconds += SecondsSince(solve_start);
       stats.chi2 = summary->final_solve.final_chi2;
       ++stats.solves;
@@ -529,9 +540,11 @@ Status AssociateAndSolve(const AssociationOptions& options,
         record.undone_round = round;
         ++undone;
         // A pair undone on re-fitted features (poses held) may come back once a
-        // full solve has moved the poses; one undone after a full solve not.
-        if (!undone_since_solve)
-          forbidden.insert(std::minmax(record.origins_a.front(), record.origins_b.front()));
+        // full solve has moved the poses, but only once; one undone after a
+        // full solve never.
+        const std::pair<int32_t, int32_t> pair =
+            std::minmax(record.origins_a.front(), record.origins_b.front());
+        if (!undone_since_solve || ++undo_count[pair] >= kMaxUndosPerPair) forbidden.insert(pair);
         // Split side b off into a new feature at the mean of its first sights.
         Eigen::Vector2d sum = Eigen::Vector2d::Zero();
         int64_t count = 0;
@@ -695,9 +708,8 @@ Status AssociateAndSolve(const AssociationOptions& options,
   }
   if (!summary->converged) {
     // The last round merged: solve once more so the returned state is solved.
-    InMemoryChunkSource chunks(*problem, chunking);
     GS_RETURN_IF_ERROR(
-        core::SolveGraphSlam(solver_options, chunks, problem, &summary->final_solve));
+        SolveWithoutSingletons(solver_options, chunking, problem, &summary->final_solve));
   }
   AssignFeatureIds(labels, problem);
   summary->final_features = problem->num_features();
