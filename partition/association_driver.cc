@@ -5,7 +5,6 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <map>
 #include <numeric>
 #include <set>
 #include <unordered_map>
@@ -24,6 +23,7 @@
 #include "core/range_bearing_model.h"
 #include "core/unknown_layout.h"
 #include "partition/in_memory_chunk_source.h"
+#include "partition/internal/rejected_pairs.h"
 #include "partition/singleton_solve.h"
 
 namespace graphslam::partition {
@@ -31,9 +31,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// A pair of input features undone this many times is never proposed again,
-// whatever the kind of pass that undid it (no merge/undo oscillation).
-constexpr int kMaxUndosPerPair = 2;
 double SecondsSince(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
@@ -419,11 +416,7 @@ Status AssociateAndSolve(const AssociationOptions& options,
   Labels labels(*problem);
   ChunkingOptions chunking;
   chunking.max_observations_per_chunk = options.chunk_observations;
-  std::set<std::pair<int32_t, int32_t>> forbidden;  // origin pairs never to merge again
-  // Undos per origin pair within this call: a pair undone on re-fitted
-  // features is forgiven once, not forever (else it can be merged after every
-  // full solve and undone after every re-fit until max_rounds: oscillation).
-  std::map<std::pair<int32_t, int32_t>, int> undo_count;
+  internal::RejectedPairs rejected;  // origin pairs never to merge again
 
   // Observations of each current feature, for exclusivity and undo.
   auto observations_by_feature = [&]() {
@@ -540,11 +533,10 @@ Status AssociateAndSolve(const AssociationOptions& options,
         record.undone_round = round;
         ++undone;
         // A pair undone on re-fitted features (poses held) may come back once a
-        // full solve has moved the poses, but only once; one undone after a
-        // full solve never.
-        const std::pair<int32_t, int32_t> pair =
-            std::minmax(record.origins_a.front(), record.origins_b.front());
-        if (!undone_since_solve || ++undo_count[pair] >= kMaxUndosPerPair) forbidden.insert(pair);
+        // full solve has moved the poses, but not forever; one undone after a
+        // full solve never (partition/internal/rejected_pairs.h).
+        rejected.RecordUndo(record.origins_a.front(), record.origins_b.front(),
+                            !undone_since_solve);
         // Split side b off into a new feature at the mean of its first sights.
         Eigen::Vector2d sum = Eigen::Vector2d::Zero();
         int64_t count = 0;
@@ -590,7 +582,7 @@ Status AssociateAndSolve(const AssociationOptions& options,
     const Clock::time_point association_start = Clock::now();
     const std::vector<std::vector<int32_t>> poses_of = poses_by_feature();
     std::set<std::pair<int32_t, int32_t>> forbidden_features;
-    for (const auto& [a, b] : forbidden)
+    for (const auto& [a, b] : rejected.forbidden())
       forbidden_features.insert(std::minmax(labels.label()[a], labels.label()[b]));
     const double cell = options.search_radius;
     auto key = [](int64_t x, int64_t y) { return (x << 32) ^ (y & 0xffffffffLL); };
