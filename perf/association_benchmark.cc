@@ -14,7 +14,10 @@
 // known-correspondence reference solve (printed as -1); GS_FEATURES=N gives the
 // campus N landmarks (CampusSimulatorOptions::features); GS_MAX_ROUNDS=N caps
 // the association rounds (diagnosis of a single round); GS_VERBOSE=1 logs
-// every solver iteration.
+// every solver iteration; GS_INIT_ONLY=1 stops after the initialization (its
+// worst pose error is printed for the campus); GS_STAGE_ITERATIONS,
+// GS_STAGE_POSES and GS_INITIAL_RADIUS override the progressive stages'
+// iterations and new poses and the initial trust region radius.
 // Prints one line per round and a summary; the commands and figures are in
 // docs/benchmarks.md.
 #include <algorithm>
