@@ -23,11 +23,14 @@
 #include "core/range_bearing_model.h"
 #include "core/unknown_layout.h"
 #include "partition/in_memory_chunk_source.h"
+#include "partition/internal/rejected_pairs.h"
+#include "partition/singleton_solve.h"
 
 namespace graphslam::partition {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
 double SecondsSince(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
@@ -413,7 +416,7 @@ Status AssociateAndSolve(const AssociationOptions& options,
   Labels labels(*problem);
   ChunkingOptions chunking;
   chunking.max_observations_per_chunk = options.chunk_observations;
-  std::set<std::pair<int32_t, int32_t>> forbidden;  // origin pairs never to merge again
+  internal::RejectedPairs rejected;  // origin pairs never to merge again
 
   // Observations of each current feature, for exclusivity and undo.
   auto observations_by_feature = [&]() {
@@ -486,9 +489,10 @@ Status AssociateAndSolve(const AssociationOptions& options,
     // until a full solve leaves nothing to undo.
     for (;;) {
       const Clock::time_point solve_start = Clock::now();
-      InMemoryChunkSource chunks(*problem, chunking);
+      // Features still seen once are left out of the solve (exact, and their
+      // linear recovery would spoil the steps: partition/singleton_solve.h).
       GS_RETURN_IF_ERROR(
-          core::SolveGraphSlam(solver_options, chunks, problem, &summary->final_solve));
+          SolveWithoutSingletons(solver_options, chunking, problem, &summary->final_solve));
       stats.solve_seconds += SecondsSince(solve_start);
       stats.chi2 = summary->final_solve.final_chi2;
       ++stats.solves;
@@ -529,9 +533,10 @@ Status AssociateAndSolve(const AssociationOptions& options,
         record.undone_round = round;
         ++undone;
         // A pair undone on re-fitted features (poses held) may come back once a
-        // full solve has moved the poses; one undone after a full solve not.
-        if (!undone_since_solve)
-          forbidden.insert(std::minmax(record.origins_a.front(), record.origins_b.front()));
+        // full solve has moved the poses, but not forever; one undone after a
+        // full solve never (partition/internal/rejected_pairs.h).
+        rejected.RecordUndo(record.origins_a.front(), record.origins_b.front(),
+                            !undone_since_solve);
         // Split side b off into a new feature at the mean of its first sights.
         Eigen::Vector2d sum = Eigen::Vector2d::Zero();
         int64_t count = 0;
@@ -577,7 +582,7 @@ Status AssociateAndSolve(const AssociationOptions& options,
     const Clock::time_point association_start = Clock::now();
     const std::vector<std::vector<int32_t>> poses_of = poses_by_feature();
     std::set<std::pair<int32_t, int32_t>> forbidden_features;
-    for (const auto& [a, b] : forbidden)
+    for (const auto& [a, b] : rejected.forbidden())
       forbidden_features.insert(std::minmax(labels.label()[a], labels.label()[b]));
     const double cell = options.search_radius;
     auto key = [](int64_t x, int64_t y) { return (x << 32) ^ (y & 0xffffffffLL); };
@@ -695,9 +700,8 @@ Status AssociateAndSolve(const AssociationOptions& options,
   }
   if (!summary->converged) {
     // The last round merged: solve once more so the returned state is solved.
-    InMemoryChunkSource chunks(*problem, chunking);
     GS_RETURN_IF_ERROR(
-        core::SolveGraphSlam(solver_options, chunks, problem, &summary->final_solve));
+        SolveWithoutSingletons(solver_options, chunking, problem, &summary->final_solve));
   }
   AssignFeatureIds(labels, problem);
   summary->final_features = problem->num_features();

@@ -11,11 +11,16 @@
 #include "core/se2.h"
 #include "core/velocity_motion_model.h"
 #include "partition/in_memory_chunk_source.h"
+#include "partition/singleton_solve.h"
 
 namespace graphslam::partition {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// A stage stopped by its iteration cap whose last iteration still lowered
+// chi2 by more than this fraction is "unsettled" (header: A_{k+1}).
+constexpr double kUnsettledDecrease = 1e-2;
 using core::Point2;
 using core::Pose2;
 
@@ -74,19 +79,14 @@ Status CheckIndices(const core::Problem2d& problem) {
   return Status::Ok();
 }
 
-// Prefix lengths T_0 < T_1 < ... < T_K = n (header).
-std::vector<int32_t> StageSizes(const ProgressiveInitializationOptions& options, int32_t n) {
-  std::vector<int32_t> sizes;
-  int64_t t = std::min<int64_t>(options.first_poses, n);
-  sizes.push_back(static_cast<int32_t>(t));
-  while (t < n) {
-    const double grown = std::ceil(options.growth * static_cast<double>(t));
-    int64_t next = grown >= static_cast<double>(n) ? n : static_cast<int64_t>(grown);
-    if (options.max_new_poses > 0) next = std::min(next, t + options.max_new_poses);
-    t = std::min<int64_t>(n, std::max<int64_t>(t + 1, next));
-    sizes.push_back(static_cast<int32_t>(t));
-  }
-  return sizes;
+// The prefix length after t poses (header): geometric growth, at most
+// `allowed` new poses, at least one.
+int32_t NextStageSize(const ProgressiveInitializationOptions& options, int64_t allowed, int32_t t,
+                      int32_t n) {
+  const double grown = std::ceil(options.growth * static_cast<double>(t));
+  int64_t next = grown >= static_cast<double>(n) ? n : static_cast<int64_t>(grown);
+  if (allowed > 0) next = std::min<int64_t>(next, t + allowed);
+  return static_cast<int32_t>(std::min<int64_t>(n, std::max<int64_t>(t + 1, next)));
 }
 
 // The pose `p` predicted through `edge` from the placed pose edge.other.
@@ -108,35 +108,43 @@ void PlacePoses(const core::Problem2d& problem, const std::vector<std::vector<Po
   std::vector<int32_t> pending;
   for (int32_t p = begin; p < end; ++p)
     if (!(*placed)[p]) pending.push_back(p);
-  // Increasing index, so a pose's odometry predecessor is placed first; more
-  // passes only for poses reached backwards (edges to a later pose).
-  bool progress = true;
-  while (progress && !pending.empty()) {
-    progress = false;
-    std::vector<int32_t> still_pending;
-    for (int32_t p : pending) {
-      const PoseEdge* best = nullptr;
-      for (const PoseEdge& edge : adjacency[p]) {
-        if (edge.other >= end || !(*placed)[edge.other]) continue;
-        if (best == nullptr || edge.other > best->other) best = &edge;
+  while (!pending.empty()) {
+    // Increasing index, so a pose's odometry predecessor is placed first; more
+    // passes only for poses reached backwards (edges to a later pose).
+    bool progress = true;
+    while (progress && !pending.empty()) {
+      progress = false;
+      std::vector<int32_t> still_pending;
+      for (int32_t p : pending) {
+        const PoseEdge* best = nullptr;
+        for (const PoseEdge& edge : adjacency[p]) {
+          if (edge.other >= end || !(*placed)[edge.other]) continue;
+          if (best == nullptr || edge.other > best->other) best = &edge;
+        }
+        if (best == nullptr) {
+          still_pending.push_back(p);
+          continue;
+        }
+        (*poses)[p] = Chain(problem, *poses, *best);
+        (*placed)[p] = 1;
+        progress = true;
       }
-      if (best == nullptr) {
-        still_pending.push_back(p);
-        continue;
-      }
-      (*poses)[p] = Chain(problem, *poses, *best);
-      (*placed)[p] = 1;
-      progress = true;
+      pending = std::move(still_pending);
     }
-    pending = std::move(still_pending);
-  }
-  // Reached by no odometry (only through features or GPS): keep the input
-  // offset from the nearest lower placed pose (pose 0 is always placed).
-  for (int32_t p : pending) {
-    int32_t q = p - 1;
-    while (q > 0 && !(*placed)[q]) --q;
-    (*poses)[p] = core::Compose((*poses)[q], core::Between(problem.poses[q], problem.poses[p]));
-    (*placed)[p] = 1;
+    if (pending.empty()) break;
+    // The lowest pose no odometry reaches from a placed pose starts another
+    // odometry chain (the first pose of a later run): nothing ties it to the
+    // poses placed so far, so it keeps its input guess, which is in the frame
+    // of the stage solutions (their gauge is the input's: pose 0 or the fixed
+    // poses held at their input values, or GPS). An offset from the input
+    // guess of an earlier pose would carry that pose's dead-reckoning drift
+    // over to an unrelated chain (a 10 000-pose run: tens of metres and a
+    // rotation, which left the full solve stuck far from its optimum).
+    // The poses after it then chain from it.
+    const int32_t start = pending.front();
+    (*poses)[start] = problem.poses[start];
+    (*placed)[start] = 1;
+    pending.erase(pending.begin());
   }
 }
 
@@ -177,8 +185,10 @@ core::Problem2d BuildPrefix(const core::Problem2d& problem, const std::vector<Po
 
 Status SolvePass(const core::SolverOptions& options, const ChunkingOptions& chunking,
                  core::Problem2d* sub, core::SolverSummary* summary) {
-  InMemoryChunkSource chunks(*sub, chunking);
-  return core::SolveGraphSlam(options, chunks, sub, summary);
+  // Features seen once so far (every feature of an id-less input) are left
+  // out and placed from their observation: exact, and kept in they spoil the
+  // steps (partition/singleton_solve.h).
+  return SolveWithoutSingletons(options, chunking, sub, summary);
 }
 
 }  // namespace
@@ -194,6 +204,9 @@ Status ProgressiveInitializationOptions::Validate() const {
     return Status::InvalidArgument(
         "progressive initialization: max_new_poses must be >= 0 (0: no cap), got " +
         std::to_string(max_new_poses));
+  if (min_new_poses < 1)
+    return Status::InvalidArgument("progressive initialization: min_new_poses must be >= 1, got " +
+                                   std::to_string(min_new_poses));
   if (max_iterations_per_stage < 0)
     return Status::InvalidArgument(
         "progressive initialization: max_iterations_per_stage must be >= 0, got " +
@@ -252,11 +265,16 @@ Status InitializeProgressively(const ProgressiveInitializationOptions& options,
   stage_options.progress = nullptr;
   stage_options.iteration_callback = nullptr;
 
-  const std::vector<int32_t> sizes = StageSizes(options, n);
+  // New poses a stage may add: max_new_poses, halved after a stage that did
+  // not converge in its iterations (its chained segment was too far from the
+  // optimum: dead-reckoning drift grows with the segment), doubled back after
+  // one that did (header).
+  int64_t allowed = options.max_new_poses;
   int32_t previous = 0;
-  for (size_t stage = 0; stage < sizes.size(); ++stage) {
+  int32_t t = static_cast<int32_t>(std::min<int64_t>(options.first_poses, n));
+  for (size_t stage = 0;; ++stage) {
+    if (stage > 0) t = NextStageSize(options, allowed, previous, n);
     const Clock::time_point stage_start = Clock::now();
-    const int32_t t = sizes[stage];
     if (stage == 0) {
       for (int32_t p = 0; p < t; ++p) placed[p] = 1;  // the input guess
     } else {
@@ -300,6 +318,21 @@ Status InitializeProgressively(const ProgressiveInitializationOptions& options,
             stage_summary.seconds);
     summary->stages.push_back(std::move(stage_summary));
     if (base.progress) base.progress("progressive initialization", t, n);
+    if (t == n) break;
+    if (options.max_new_poses > 0 && options.max_iterations_per_stage > 0) {
+      // Unsettled: stopped by the iteration cap while its last iteration still
+      // lowered chi2 by more than 1 % (far from the stage optimum, not merely
+      // short of the tight function tolerance).
+      const auto& iterations = solver_summary.per_iteration;
+      const double last_before = iterations.empty() ? 0.0
+                                 : iterations.size() == 1 ? solver_summary.initial_chi2
+                                                          : iterations[iterations.size() - 2].chi2;
+      const bool unsettled = !solver_summary.converged && !iterations.empty() &&
+                             last_before - solver_summary.final_chi2 >
+                                 kUnsettledDecrease * solver_summary.final_chi2;
+      allowed = unsettled ? std::max<int64_t>(options.min_new_poses, allowed / 2)
+                          : std::min(options.max_new_poses, 2 * allowed);
+    }
   }
 
   problem->poses = std::move(poses);

@@ -13,10 +13,20 @@
 // Stages. With N poses (index order = time order in every importer), the
 // prefix lengths are
 //   T_0 = min(first_poses, N),
-//   T_{k+1} = min(N, max(T_k + 1, min(ceil(growth T_k), T_k + max_new_poses)))
-// up to T_K = N. Stage k optimizes the sub-problem P_k of
+//   T_{k+1} = min(N, max(T_k + 1, min(ceil(growth T_k), T_k + A_k)))
+// up to T_K = N, where A_0 = max_new_poses and A_{k+1} = max(min_new_poses,
+// A_k / 2) when stage k was unsettled (stopped by max_iterations_per_stage
+// while its last iteration still lowered chi2 by more than 1 %: the chained
+// segment was too far from the optimum for a few iterations), else
+// min(max_new_poses, 2 A_k). Without that control a 20 000-pose
+// campus with GPS every 25 poses (500-pose segments, 10 iterations) ended
+// stage after stage unconverged, each chained off a worse end, and the
+// initial guess was 674 m from the truth (docs/benchmarks.md, issue 6).
+// Stage k optimizes the sub-problem P_k of
 //   poses      x_0 .. x_{T_k - 1}
-//   features   every m_j observed from some pose p < T_k (keeping its id)
+//   features   every m_j observed from some pose p < T_k (keeping its id;
+//              those seen once are left out of the solve and placed from
+//              their observation, exactly: partition/singleton_solve.h)
 //   edges      relative poses / motions with both ends < T_k, GPS of p < T_k,
 //              observations from p < T_k
 // for at most max_iterations_per_stage LM iterations (SolveGraphSlam with the
@@ -26,8 +36,9 @@
 //                                  x_p = g(u, x_q)           (motion q->p, Table 1)
 //                                  x_p = g^{-1}(u, x_q)      (motion p->q)
 //     with q the placed neighbour of highest index (the odometry predecessor);
-//     a pose no such edge reaches keeps its input offset from the nearest
-//     lower placed pose: x_p = x_q (+) (x_q^in (-) x_p^in).
+//     the lowest pose no such edge reaches (the start of another odometry
+//     chain, e.g. the first pose of a later run) keeps its input guess,
+//     x_p = x_p^in, and the poses after it chain from it.
 //   new feature j (first observed from p in the new range, lowest pose index
 //     first, then input order):  m_j = h^{-1}(x_p, z)
 //     (range-bearing: t + r (cos(th + phi), sin(th + phi)); point: t + R(th) z).
@@ -72,6 +83,8 @@ struct ProgressiveInitializationOptions {
   // At most this many new poses per stage (0: no cap). Odometry drift grows
   // with the length of the chained segment, so late stages must stay short.
   int64_t max_new_poses = 500;
+  // The fewest new poses a stage adds after stages that did not converge.
+  int64_t min_new_poses = 25;
   // LM iterations per stage (each sub-problem solve).
   int max_iterations_per_stage = 10;
   // Solve the last stage (all poses) too. By default the last stage only

@@ -11,11 +11,18 @@
 //       simulated campus (GPS every 25 poses), key: the simulator's ids.
 // [mutual]: rounds with mutual-best-match merging (AssociationOptions::
 // mutual_best_rounds, default 0); [refit]: 1 for refit_between_undos. GS_SKIP_KNOWN=1 skips the
-// known-correspondence reference solve (printed as -1).
+// known-correspondence reference solve (printed as -1); GS_FEATURES=N gives the
+// campus N landmarks (CampusSimulatorOptions::features); GS_MAX_ROUNDS=N caps
+// the association rounds (diagnosis of a single round); GS_VERBOSE=1 logs
+// every solver iteration; GS_INIT_ONLY=1 stops after the initialization (its
+// worst pose error is printed for the campus); GS_STAGE_ITERATIONS,
+// GS_STAGE_POSES and GS_INITIAL_RADIUS override the progressive stages'
+// iterations and new poses and the initial trust region radius.
 // Prints one line per round and a summary; the commands and figures are in
 // docs/benchmarks.md.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <map>
@@ -23,6 +30,7 @@
 #include <tuple>
 
 #include "core/initialization.h"
+#include "core/logging.h"
 #include "core/unidentified_features.h"
 #include "partition/association_driver.h"
 #include "partition/in_memory_chunk_source.h"
@@ -75,12 +83,14 @@ int main(int argc, char** argv) {
     return 2;
   }
   const std::string which = argv[1];
+  if (const char* verbose = std::getenv("GS_VERBOSE")) gs::SetLogVerbosity(std::atoi(verbose));
   const std::string datasets = GRAPHSLAM_DATASETS_DIR;
   gs::core::Problem2d problem;
   std::vector<int64_t> key;
   gs::core::SolverOptions solver;
   gs::partition::AssociationOptions options;
   double known_chi2 = -1.0;
+  std::vector<gs::core::Pose2> true_poses;  // campus only: to score the initial guess
   int next_arg = 2;
   if (which == "victoria") {
     auto unknown = gs::storage::ReadG2o(datasets + "/victoria_park/victoriaPark-noassoc.g2o");
@@ -119,10 +129,12 @@ int main(int argc, char** argv) {
     campus.runs = std::atoi(argv[3]);
     campus.seed = static_cast<uint32_t>(std::atoi(argv[4]));
     campus.gps_every = 25;
+    if (const char* v = std::getenv("GS_FEATURES")) campus.features = std::atoll(v);
     next_arg = 5;
     auto simulated = gs::tools::SimulateCampus(campus);
     if (!simulated.ok()) return Fail(simulated.status());
     gs::core::Problem2d known = simulated->problem;
+    true_poses = simulated->true_poses;
     problem = std::move(simulated->problem);
     key = ForgetIds(&problem);
     known_chi2 = SolveKnown(known, solver);
@@ -143,11 +155,30 @@ int main(int argc, char** argv) {
   if (gs::Status status = gs::core::InitializeProblem(&problem); !status.ok()) return Fail(status);
   gs::partition::ProgressiveInitializationOptions progressive;
   progressive.enabled = which != "mrclam";
+  if (const char* v = std::getenv("GS_STAGE_ITERATIONS")) progressive.max_iterations_per_stage = std::atoi(v);
+  if (const char* v = std::getenv("GS_STAGE_POSES")) progressive.max_new_poses = std::atoll(v);
+  if (const char* v = std::getenv("GS_INITIAL_RADIUS")) solver.initial_trust_region_radius = std::atof(v);
   gs::partition::ProgressiveSummary progressive_summary;
   if (gs::Status status = gs::partition::InitializeProgressively(progressive, solver, &problem,
                                                                  &progressive_summary);
       !status.ok())
     return Fail(status);
+  if (!true_poses.empty()) {
+    // How far the initial guess (progressive initialization) is from the
+    // truth: a guess far off makes the round-1 solve slow or stuck.
+    double worst_position = 0.0, worst_heading = 0.0;
+    for (size_t p = 0; p < true_poses.size(); ++p) {
+      worst_position = std::max(
+          worst_position, (problem.poses[p].head<2>() - true_poses[p].head<2>()).norm());
+      worst_heading = std::max(worst_heading, std::abs(std::remainder(
+                                                  problem.poses[p].z() - true_poses[p].z(),
+                                                  2.0 * 3.141592653589793)));
+    }
+    std::printf("initial guess: worst position error %.3f m, worst heading error %.4f rad\n",
+                worst_position, worst_heading);
+  }
+  if (std::getenv("GS_INIT_ONLY") != nullptr) return 0;
+  if (const char* rounds = std::getenv("GS_MAX_ROUNDS")) options.max_rounds = std::atoi(rounds);
   gs::partition::AssociationSummary summary;
   if (gs::Status status = gs::partition::AssociateAndSolve(options, solver, &problem, &summary);
       !status.ok())

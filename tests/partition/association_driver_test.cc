@@ -10,6 +10,7 @@
 #include <Eigen/Dense>
 #include <cmath>
 #include <numbers>
+#include <random>
 
 #include "core/initialization.h"
 #include "core/unidentified_features.h"
@@ -176,6 +177,63 @@ TEST(AssociationDriver, WrongForcedMergeIsUndone) {
     if (random.problem.observations[i].feature == b) fb = problem.observations[i].feature;
   }
   EXPECT_NE(fa, fb);
+  }
+}
+
+// Two landmarks 1 m apart, A seen from poses 0..9 and B from 10..19 (never
+// from a common pose), point observations with sigma 0.1 m. A forced merge of
+// A and B is wrong and undone; with an acceptance so loose that the test
+// would accept the pair again (chi ~ 0, no Mahalanobis gate), only the memory
+// of undone pairs keeps it from being merged and undone every round until
+// max_rounds.
+TEST(AssociationDriver, WrongMergeIsUndoneAndStaysUndone) {
+  core::Problem2d base;
+  std::mt19937 rng(21);
+  std::normal_distribution<double> noise(0.0, 0.1);
+  for (int p = 0; p < 20; ++p) base.AddPose(p, core::Pose2(p, 0.0, 0.0), true, 0, p);
+  base.pose_fixed[0] = 1;
+  for (int p = 0; p + 1 < 20; ++p) {
+    core::RelativePoseConstraint c;
+    c.from = p;
+    c.to = p + 1;
+    c.z = core::Pose2(1.0, 0.0, 0.0) + core::Pose2(0.01 * noise(rng), 0.01 * noise(rng), 0.001 * noise(rng));
+    c.information = Eigen::Vector3d(1e4, 1e4, 1e6).asDiagonal();
+    base.relative_poses.push_back(c);
+  }
+  const core::Point2 landmark[2] = {core::Point2(9.0, 2.0), core::Point2(10.0, 2.0)};
+  const int32_t a = base.AddFeature(1000, landmark[0], true);
+  const int32_t b = base.AddFeature(1001, landmark[1], true);
+  for (int p = 0; p < 20; ++p) {
+    core::Observation o;
+    o.pose = p;
+    o.feature = p < 10 ? a : b;
+    o.kind = core::ObservationKind::kPointXY;
+    o.z = landmark[p < 10 ? 0 : 1] - core::Point2(p, 0.0) + core::Point2(noise(rng), noise(rng));
+    o.information = 100.0 * Eigen::Matrix2d::Identity();
+    base.observations.push_back(o);
+  }
+  for (bool refit : {false, true}) {
+    SCOPED_TRACE(refit ? "refit between undos" : "full re-solve between undos");
+    core::Problem2d problem = base;
+    AssociationOptions options;
+    options.chi = 1e-300;
+    options.max_mahalanobis_squared = 1e12;
+    options.forced_merges = {{a, b}};
+    options.refit_between_undos = refit;
+    options.max_rounds = 6;
+    AssociationSummary summary;
+    ASSERT_TRUE(AssociateAndSolve(options, TightSolverOptions(), &problem, &summary).ok());
+    // Merged once (the forced merge), undone, never merged again.
+    ASSERT_EQ(summary.merge_log.size(), 1u);
+    EXPECT_TRUE(summary.merge_log.front().forced);
+    EXPECT_TRUE(summary.merge_log.front().undone);
+    EXPECT_EQ(summary.undone, 1);
+    EXPECT_EQ(summary.merges, 0);
+    EXPECT_TRUE(summary.converged) << "stopped by max_rounds: the pair kept coming back";
+    EXPECT_EQ(problem.num_features(), 2);
+    EXPECT_NE(problem.observations[0].feature, problem.observations[19].feature);
+    for (int p = 0; p < 20; ++p)
+      EXPECT_EQ(problem.observations[p].feature, problem.observations[p < 10 ? 0 : 19].feature);
   }
 }
 

@@ -125,6 +125,52 @@ TEST(ProgressiveInitialization, ChainsOdometryAndPlacesFeaturesByFirstSight) {
   EXPECT_EQ(summary.stages[3].poses, 5);
 }
 
+TEST(ProgressiveInitialization, SecondRunStartsFromItsOwnInputGuess) {
+  // Two runs (poses 0..11 and 12..24) with no odometry between them, noise-free
+  // measurements and zero iterations per stage. Run 0's poses have a garbage
+  // input guess (a dead-reckoning drift: shifted and rotated), run 1's first
+  // pose the truth. Chaining places run 0 exactly; run 1 must start at its
+  // own input guess, not at an offset from run 0's garbage guess (which would
+  // carry run 0's drift over to run 1), and chain from there.
+  testing::RandomProblemOptions random_options;
+  random_options.num_poses = 25;
+  random_options.num_features = 10;
+  random_options.seed = 6;
+  testing::RandomProblem random = testing::MakeRandomProblem(random_options);
+  core::Problem2d& p = random.problem;
+  constexpr int kSecondRun = 12;
+  std::vector<core::RelativePoseConstraint> odometry;
+  for (const core::RelativePoseConstraint& c : p.relative_poses) {
+    if (c.to != c.from + 1 || c.to == kSecondRun) continue;  // no loop closures, no link
+    odometry.push_back(c);
+    odometry.back().z = core::Between(random.true_poses[c.from], random.true_poses[c.to]);
+  }
+  ASSERT_EQ(odometry.size(), 23u);
+  p.relative_poses = odometry;
+  for (core::Observation& o : p.observations) {
+    const core::Pose2& x = random.true_poses[o.pose];
+    const Eigen::Vector2d delta = random.true_features[o.feature] - x.head<2>();
+    o.z = Eigen::Vector2d(delta.norm(), core::WrapAngle(std::atan2(delta.y(), delta.x()) - x.z()));
+  }
+  p.poses[0] = random.true_poses[0];
+  for (int i = 1; i < p.num_poses(); ++i)
+    p.poses[i] = random.true_poses[i] + core::Pose2(30.0 + i, -20.0, 0.7);
+  p.poses[kSecondRun] = random.true_poses[kSecondRun];
+
+  ProgressiveInitializationOptions options;
+  options.first_poses = 1;
+  options.growth = 1.5;
+  options.max_iterations_per_stage = 0;
+  options.solve_last_stage = true;
+  ProgressiveSummary summary;
+  ASSERT_TRUE(InitializeProgressively(options, core::SolverOptions(), &p, &summary).ok());
+  for (int i = 0; i < p.num_poses(); ++i) {
+    EXPECT_LT((p.poses[i].head<2>() - random.true_poses[i].head<2>()).norm(), 1e-9) << "pose " << i;
+    EXPECT_LT(std::abs(core::WrapAngle(p.poses[i].z() - random.true_poses[i].z())), 1e-9)
+        << "pose " << i;
+  }
+}
+
 TEST(ProgressiveInitialization, DisabledLeavesTheProblemAlone) {
   testing::RandomProblem random = BadlyInitializedProblem(2, true, false);
   core::Problem2d problem = random.problem;
