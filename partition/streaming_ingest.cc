@@ -211,6 +211,7 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
       storage::NativeLogReplayOptions replay_options;
       replay_options.start_offset = progress.spill.input_offset;
       replay_options.start_line = progress.spill.input_line;
+      replay_options.block_bytes = options.replay_block_bytes;
       return storage::ReplayNativeLogObservations(
           input, pass1.pose_ids, pass1.feature_ids, replay_options,
           [&sink](const storage::NativeLogObservationBlock& block) {

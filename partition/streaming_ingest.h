@@ -63,6 +63,8 @@ struct StreamingIngestOptions {
   // Least time between two pass-2 checkpoints (each fsyncs the bucket files
   // appended since the last); 0: at every buffer spill.
   double checkpoint_seconds = 30.0;
+  // Text read per block by pass 2 (a checkpoint falls between blocks).
+  int64_t replay_block_bytes = int64_t{1} << 20;
 };
 
 struct IngestSummary {
