@@ -1,6 +1,12 @@
 #include "partition/external_bucketing.h"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <thread>
 #include <cerrno>
 #include <cinttypes>
 #include <cstdio>
@@ -97,9 +103,8 @@ void InitializationObservations::Add(const core::Observation& observation) {
   kept_.push_back(observation);
 }
 
-StatusOr<std::unique_ptr<BucketChunkSource>> BucketChunkSource::Build(
-    const FeatureIndex& index, const ObservationReplay& replay,
-    const ExternalBucketingOptions& options) {
+StatusOr<std::unique_ptr<BucketChunkSource>> BucketChunkSource::Plan(
+    const FeatureIndex& index, const ExternalBucketingOptions& options) {
   GS_RETURN_IF_ERROR(options.Validate());
   std::unique_ptr<BucketChunkSource> source(new BucketChunkSource());
   source->options_ = options;
@@ -115,6 +120,7 @@ StatusOr<std::unique_ptr<BucketChunkSource>> BucketChunkSource::Build(
   std::stable_sort(order.begin(), order.end(),
                    [&](int32_t a, int32_t b) { return first_pose[a] < first_pose[b]; });
   source->feature_chunk_.assign(num_features, -1);
+  source->feature_slot_.assign(num_features, -1);
   const int64_t budget = options.max_observations_per_chunk;
   std::vector<int32_t> members;
   int64_t members_observations = 0;
@@ -122,7 +128,10 @@ StatusOr<std::unique_ptr<BucketChunkSource>> BucketChunkSource::Build(
     if (members.empty()) return;
     std::sort(members.begin(), members.end());
     const int32_t chunk = static_cast<int32_t>(source->chunk_features_.size());
-    for (int32_t f : members) source->feature_chunk_[f] = chunk;
+    for (size_t i = 0; i < members.size(); ++i) {
+      source->feature_chunk_[members[i]] = chunk;
+      source->feature_slot_[members[i]] = static_cast<int32_t>(i);
+    }
     source->chunk_features_.push_back(members);
     source->chunk_observations_.push_back(members_observations);
     members.clear();
@@ -137,71 +146,211 @@ StatusOr<std::unique_ptr<BucketChunkSource>> BucketChunkSource::Build(
 
   // Buckets: runs of consecutive chunks of at most K observations.
   const int64_t capacity = options.buffer_observations;
+  int64_t slot_in_bucket = 0;
   for (size_t k = 0; k < source->chunk_observations_.size(); ++k) {
     const int64_t n = source->chunk_observations_[k];
     if (source->bucket_observations_.empty() ||
         (source->bucket_observations_.back() > 0 &&
-         source->bucket_observations_.back() + n > capacity))
+         source->bucket_observations_.back() + n > capacity)) {
       source->bucket_observations_.push_back(0);
+      source->bucket_first_chunk_.push_back(static_cast<int64_t>(k));
+      slot_in_bucket = 0;
+    }
+    source->chunk_offset_.push_back(source->bucket_observations_.back());
+    source->chunk_slot_.push_back(slot_in_bucket);
+    slot_in_bucket += static_cast<int64_t>(source->chunk_features_[k].size());
     source->bucket_observations_.back() += n;
     source->chunk_bucket_.push_back(static_cast<int64_t>(source->bucket_observations_.size()) - 1);
   }
-  BucketingStats& stats = source->stats_;
-  stats.chunks = source->NumChunks();
-  stats.buckets = static_cast<int64_t>(source->bucket_observations_.size());
+  source->stats_.chunks = source->NumChunks();
+  source->stats_.buckets = source->NumBuckets();
+  return source;
+}
 
-  // Pass 2: spill through a buffer of K observations.
+namespace {
+
+// fsync of a scratch file by path (bucket files are plain stdio appends).
+Status SyncPath(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+  if (fd < 0) return IoError(path, "open for fsync");
+  Status status;
+  if (::fsync(fd) != 0) status = IoError(path, "fsync");
+  ::close(fd);
+  return status;
+}
+
+// fsyncs `paths` concurrently (the file system folds the journal commits).
+Status SyncPaths(const std::vector<std::string>& paths) {
+  std::vector<Status> statuses(paths.size());
+  std::atomic<size_t> next{0};
+  auto work = [&]() {
+    for (size_t i = next++; i < paths.size(); i = next++) statuses[i] = SyncPath(paths[i]);
+  };
+  std::vector<std::thread> pool;
+  for (size_t t = 1; t < std::min<size_t>(paths.size(), 16); ++t) pool.emplace_back(work);
+  work();
+  for (std::thread& thread : pool) thread.join();
+  for (const Status& status : statuses) GS_RETURN_IF_ERROR(status);
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgress* progress,
+                                const SpillCheckpoint& checkpoint, double checkpoint_seconds) {
+  GS_CHECK(progress != nullptr);
+  const int64_t num_buckets = NumBuckets();
+  const int32_t num_features = static_cast<int32_t>(feature_chunk_.size());
+  BucketingStats& stats = stats_;
+  if (progress->bucket_observations.empty())
+    progress->bucket_observations.assign(static_cast<size_t>(num_buckets), 0);
+  if (static_cast<int64_t>(progress->bucket_observations.size()) != num_buckets)
+    return Status::Corruption("spill progress lists " +
+                              std::to_string(progress->bucket_observations.size()) +
+                              " buckets; the plan has " + std::to_string(num_buckets));
+  // Back to the last checkpoint: what a killed run appended after it goes.
+  for (int64_t b = 0; b < num_buckets; ++b) {
+    const std::string path = BucketPath(b);
+    const auto keep = static_cast<std::uintmax_t>(progress->bucket_observations[b]) *
+                      sizeof(core::Observation);
+    std::error_code error;
+    const bool exists = std::filesystem::exists(path, error);
+    if (!exists && keep == 0) continue;
+    if (!exists || std::filesystem::file_size(path, error) < keep)
+      return Status::Corruption(path + ": shorter than the " +
+                                std::to_string(progress->bucket_observations[b]) +
+                                " observations the spill progress records");
+    std::filesystem::resize_file(path, keep, error);
+    if (error) return Status::IOError(path + ": truncate: " + error.message());
+  }
+  stats.observations = progress->observations;
+
+  const int64_t capacity = options_.buffer_observations;
   std::vector<core::Observation> buffer;
-  buffer.reserve(static_cast<size_t>(std::min<int64_t>(capacity, index.observations())));
-  std::vector<int64_t> seen(source->bucket_observations_.size(), 0);
+  buffer.reserve(static_cast<size_t>(capacity));
+  std::vector<core::Observation> scratch;
+  std::vector<int64_t> run(static_cast<size_t>(num_buckets) + 1, 0);
+  std::vector<char> touched(static_cast<size_t>(num_buckets), 0);
+  auto last_checkpoint = std::chrono::steady_clock::now();
+  const auto bucket_of = [&](const core::Observation& o) {
+    return chunk_bucket_[feature_chunk_[o.feature]];
+  };
   auto spill = [&]() -> Status {
     if (buffer.empty()) return Status::Ok();
-    const auto bucket_of = [&](const core::Observation& o) {
-      return source->chunk_bucket_[source->feature_chunk_[o.feature]];
-    };
-    std::stable_sort(buffer.begin(), buffer.end(),
-                     [&](const core::Observation& a, const core::Observation& b) {
-                       return bucket_of(a) < bucket_of(b);
-                     });
-    for (size_t begin = 0; begin < buffer.size();) {
-      const int64_t bucket = bucket_of(buffer[begin]);
-      size_t end = begin;
-      while (end < buffer.size() && bucket_of(buffer[end]) == bucket) ++end;
-      const std::string path = source->BucketPath(bucket);
+    // Counting sort by bucket: stable, so each run keeps input order.
+    std::fill(run.begin(), run.end(), 0);
+    for (const core::Observation& o : buffer) ++run[static_cast<size_t>(bucket_of(o)) + 1];
+    for (size_t b = 1; b < run.size(); ++b) run[b] += run[b - 1];
+    scratch.resize(buffer.size());
+    {
+      std::vector<int64_t> next(run.begin(), run.end() - 1);
+      for (const core::Observation& o : buffer) scratch[next[bucket_of(o)]++] = o;
+    }
+    for (int64_t b = 0; b < num_buckets; ++b) {
+      const auto begin = static_cast<size_t>(run[b]), end = static_cast<size_t>(run[b + 1]);
+      if (begin == end) continue;
+      const std::string path = BucketPath(b);
       File file(std::fopen(path.c_str(), "ab"));
       if (!file) return IoError(path, "open for append");
       const size_t n = end - begin;
-      if (std::fwrite(buffer.data() + begin, sizeof(core::Observation), n, file.get()) != n)
+      if (std::fwrite(scratch.data() + begin, sizeof(core::Observation), n, file.get()) != n)
         return IoError(path, "write");
       if (std::fclose(file.release()) != 0) return IoError(path, "close");
       stats.spilled_bytes += static_cast<int64_t>(n * sizeof(core::Observation));
-      seen[bucket] += static_cast<int64_t>(n);
-      begin = end;
+      progress->bucket_observations[b] += static_cast<int64_t>(n);
+      touched[b] = 1;
     }
+    progress->observations += static_cast<int64_t>(buffer.size());
     ++stats.spills;
     buffer.clear();
     return Status::Ok();
   };
-  GS_RETURN_IF_ERROR(replay([&](const core::Observation& observation) -> Status {
-    if (observation.feature < 0 || observation.feature >= num_features ||
-        source->feature_chunk_[observation.feature] < 0)
-      return Status::Corruption("observation of feature " + std::to_string(observation.feature) +
-                                " in the second pass was not seen in the first; expected the "
-                                "same input twice");
-    buffer.push_back(observation);
-    ++stats.observations;
-    stats.peak_observations_in_memory =
-        std::max(stats.peak_observations_in_memory, static_cast<int64_t>(buffer.size()));
-    if (static_cast<int64_t>(buffer.size()) >= capacity) return spill();
+  // Makes the touched bucket files durable, then reports *progress.
+  auto take_checkpoint = [&]() -> Status {
+    std::vector<std::string> paths;
+    for (int64_t b = 0; b < num_buckets; ++b)
+      if (touched[b]) paths.push_back(BucketPath(b));
+    GS_RETURN_IF_ERROR(SyncPaths(paths));
+    std::fill(touched.begin(), touched.end(), 0);
+    last_checkpoint = std::chrono::steady_clock::now();
+    return checkpoint ? checkpoint(*progress) : Status::Ok();
+  };
+  int64_t resumable_offset = progress->input_offset;
+  int32_t resumable_line = progress->input_line;
+  GS_RETURN_IF_ERROR(replay([&](const ObservationBlock& block) -> Status {
+    for (size_t i = 0; i < block.size; ++i) {
+      const core::Observation& observation = block.observations[i];
+      if (observation.feature < 0 || observation.feature >= num_features ||
+          feature_chunk_[observation.feature] < 0)
+        return Status::Corruption("observation of feature " + std::to_string(observation.feature) +
+                                  " in the second pass was not seen in the first; expected the "
+                                  "same input twice");
+    }
+    // A block that does not fit is preceded by a spill at the block boundary:
+    // the resumable point where the previous block ended.
+    if (!buffer.empty() && static_cast<int64_t>(buffer.size() + block.size) > capacity) {
+      GS_RETURN_IF_ERROR(spill());
+      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() -
+                                                           last_checkpoint).count();
+      if (checkpoint && resumable_offset >= 0 && elapsed >= checkpoint_seconds) {
+        progress->input_offset = resumable_offset;
+        progress->input_line = resumable_line;
+        GS_RETURN_IF_ERROR(take_checkpoint());
+      }
+    }
+    for (size_t i = 0; i < block.size; ++i) {
+      buffer.push_back(block.observations[i]);
+      stats.peak_observations_in_memory =
+          std::max(stats.peak_observations_in_memory, static_cast<int64_t>(buffer.size()));
+      if (static_cast<int64_t>(buffer.size()) >= capacity) GS_RETURN_IF_ERROR(spill());
+    }
+    stats.observations += static_cast<int64_t>(block.size);
+    resumable_offset = block.end_offset;
+    resumable_line = block.end_line;
     return Status::Ok();
   }));
   GS_RETURN_IF_ERROR(spill());
-  buffer.shrink_to_fit();
-  for (size_t b = 0; b < seen.size(); ++b)
-    if (seen[b] != source->bucket_observations_[b])
-      return Status::Corruption(source->BucketPath(static_cast<int64_t>(b)) + ": " +
-                                std::to_string(seen[b]) + " observations spilled; the first "
-                                "pass counted " + std::to_string(source->bucket_observations_[b]));
+  buffer = std::vector<core::Observation>();
+  scratch = std::vector<core::Observation>();
+  for (int64_t b = 0; b < num_buckets; ++b)
+    if (progress->bucket_observations[b] != bucket_observations_[b])
+      return Status::Corruption(BucketPath(b) + ": " +
+                                std::to_string(progress->bucket_observations[b]) +
+                                " observations spilled; the first pass counted " +
+                                std::to_string(bucket_observations_[b]));
+  progress->input_offset = resumable_offset;
+  progress->input_line = resumable_line;
+  // Durable before the caller records that pass 2 is over.
+  std::vector<std::string> paths;
+  for (int64_t b = 0; b < num_buckets; ++b)
+    if (touched[b]) paths.push_back(BucketPath(b));
+  return SyncPaths(paths);
+}
+
+StatusOr<std::unique_ptr<BucketChunkSource>> BucketChunkSource::Build(
+    const FeatureIndex& index, const ObservationReplay& replay,
+    const ExternalBucketingOptions& options) {
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<BucketChunkSource> source, Plan(index, options));
+  // Per-observation replay -> blocks of up to 4096 (not resumable points).
+  const ObservationBlockReplay blocks = [&replay](const ObservationBlockSink& sink) -> Status {
+    std::vector<core::Observation> block;
+    auto deliver = [&]() -> Status {
+      if (block.empty()) return Status::Ok();
+      ObservationBlock view;
+      view.observations = block.data();
+      view.size = block.size();
+      Status status = sink(view);
+      block.clear();
+      return status;
+    };
+    GS_RETURN_IF_ERROR(replay([&](const core::Observation& observation) -> Status {
+      block.push_back(observation);
+      return block.size() >= 4096 ? deliver() : Status::Ok();
+    }));
+    return deliver();
+  };
+  SpillProgress progress;
+  GS_RETURN_IF_ERROR(source->Spill(blocks, &progress, nullptr, 0.0));
   return source;
 }
 
@@ -216,25 +365,50 @@ Status BucketChunkSource::LoadBucket(int64_t bucket) const {
   const int64_t n = bucket_observations_[bucket];
   bucket_.clear();
   bucket_.shrink_to_fit();  // the previous bucket's memory goes before the next one's
-  bucket_.resize(static_cast<size_t>(n));
+  std::vector<core::Observation> read(static_cast<size_t>(n));
   File file(std::fopen(path.c_str(), "rb"));
   if (!file) return IoError(path, "open for reading");
-  if (std::fread(bucket_.data(), sizeof(core::Observation), static_cast<size_t>(n), file.get()) !=
+  if (std::fread(read.data(), sizeof(core::Observation), static_cast<size_t>(n), file.get()) !=
       static_cast<size_t>(n))
     return Status::Corruption(path + ": shorter than the " + std::to_string(n) +
                               " observations spilled into it");
-  // Grouped by (chunk, feature); stable, so each feature keeps its input order.
-  std::stable_sort(bucket_.begin(), bucket_.end(),
-                   [&](const core::Observation& a, const core::Observation& b) {
-                     const int32_t ca = feature_chunk_[a.feature], cb = feature_chunk_[b.feature];
-                     return ca != cb ? ca < cb : a.feature < b.feature;
-                   });
+  // Grouped by (chunk, feature) = by feature slot within the bucket: a
+  // counting sort, stable, so each feature keeps its input order.
+  const int64_t first_chunk = bucket_first_chunk_[bucket];
+  const int64_t last_chunk =
+      bucket + 1 < NumBuckets() ? bucket_first_chunk_[bucket + 1] : NumChunks();
+  const int64_t slots = chunk_slot_[last_chunk - 1] +
+                        static_cast<int64_t>(chunk_features_[last_chunk - 1].size());
+  const auto slot_of = [&](const core::Observation& o) {
+    return chunk_slot_[feature_chunk_[o.feature]] + feature_slot_[o.feature];
+  };
+  std::vector<int64_t> next(static_cast<size_t>(slots) + 1, 0);
+  for (const core::Observation& o : read) {
+    const int32_t chunk = feature_chunk_[o.feature];
+    if (chunk < first_chunk || chunk >= last_chunk)
+      return Status::Corruption(path + ": an observation of feature " + std::to_string(o.feature) +
+                                " (chunk " + std::to_string(chunk) + ") in bucket " +
+                                std::to_string(bucket) + "; expected chunks " +
+                                std::to_string(first_chunk) + ".." + std::to_string(last_chunk - 1));
+    ++next[static_cast<size_t>(slot_of(o)) + 1];
+  }
+  for (size_t s = 1; s < next.size(); ++s) next[s] += next[s - 1];
+  bucket_.resize(static_cast<size_t>(n));
+  for (const core::Observation& o : read) bucket_[next[slot_of(o)]++] = o;
   loaded_bucket_ = bucket;
-  bucket_cursor_ = 0;
-  // The spill file is not needed once read (frees disk as the store grows).
-  std::error_code error;
-  std::filesystem::remove(path, error);
   return Status::Ok();
+}
+
+void BucketChunkSource::ReleaseBucketsBefore(int64_t chunk) {
+  while (released_buckets_ < NumBuckets()) {
+    const int64_t end = released_buckets_ + 1 < NumBuckets()
+                            ? bucket_first_chunk_[released_buckets_ + 1]
+                            : NumChunks();
+    if (end > chunk) break;
+    std::error_code error;  // scratch: a leftover is harmless
+    std::filesystem::remove(BucketPath(released_buckets_), error);
+    ++released_buckets_;
+  }
 }
 
 Status BucketChunkSource::Load(int64_t index, core::ObservationChunk* chunk) const {
@@ -252,21 +426,20 @@ Status BucketChunkSource::Load(int64_t index, core::ObservationChunk* chunk) con
     GS_RETURN_IF_ERROR(LoadBucket(bucket));
   }
   const size_t n = static_cast<size_t>(chunk_observations_[index]);
-  // Chunks of a bucket are loaded in order: chunk `index` is the next run.
-  GS_CHECK(bucket_cursor_ + n <= bucket_.size());
-  GS_CHECK(feature_chunk_[bucket_[bucket_cursor_].feature] == index);
+  const auto begin = static_cast<size_t>(chunk_offset_[index]);
+  GS_CHECK(begin + n <= bucket_.size());
+  GS_CHECK(feature_chunk_[bucket_[begin].feature] == index);
   chunk->Clear();
   chunk->index = index;
   chunk->features = chunk_features_[index];
-  chunk->observations.assign(bucket_.begin() + static_cast<std::ptrdiff_t>(bucket_cursor_),
-                             bucket_.begin() + static_cast<std::ptrdiff_t>(bucket_cursor_ + n));
+  chunk->observations.assign(bucket_.begin() + static_cast<std::ptrdiff_t>(begin),
+                             bucket_.begin() + static_cast<std::ptrdiff_t>(begin + n));
   chunk->feature_begin.reserve(chunk->features.size() + 1);
   for (size_t i = 0; i < chunk->observations.size(); ++i)
     if (i == 0 || chunk->observations[i].feature != chunk->observations[i - 1].feature)
       chunk->feature_begin.push_back(static_cast<int64_t>(i));
   chunk->feature_begin.push_back(static_cast<int64_t>(chunk->observations.size()));
   GS_CHECK(chunk->feature_begin.size() == chunk->features.size() + 1);
-  bucket_cursor_ += n;
   stats_.peak_observations_in_memory = std::max(
       stats_.peak_observations_in_memory, static_cast<int64_t>(bucket_.size() + n));
   return Status::Ok();

@@ -15,26 +15,29 @@
 //     a chunk larger than K, i.e. one feature with more than K observations,
 //     is a bucket of its own).
 //   pass 2 (spill): observations are appended to an in-memory buffer of K
-//     observations; when it is full it is stable-sorted by bucket and each
-//     bucket's run is appended to WORK/bucket_NNNNNN.bin. Files are opened for
-//     the duration of one append only, so any number of buckets works.
+//     observations; when it is full it is grouped by bucket (a counting sort:
+//     stable, O(K)) and each bucket's run is appended to
+//     WORK/bucket_NNNNNN.bin. Files are opened for the duration of one append
+//     only, so any number of buckets works. Where the buffer is cut does not
+//     matter: a bucket file is its bucket's observations in input order.
 //   emit (BucketChunkSource::Load, chunks in order): bucket b is read back
-//     whole (<= K observations), stable-sorted by (chunk, feature) -- stable,
-//     so each feature's observations keep their input order -- and chunk k is
-//     cut from it.
+//     whole (<= K observations), grouped by (chunk, feature) -- a counting
+//     sort over the bucket's feature slots, stable, so each feature's
+//     observations keep their input order -- and chunk k is cut from it.
 //
 // The chunks are therefore identical, record for record, to those of
 // InMemoryChunkSource on the same observations (tested), and memory is
 //   O(poses + features) for the index + at most K + B observations
 // (the buffer, or a bucket plus one chunk copy; the spill buffer is freed
-// before the first bucket is read) and std::stable_sort's scratch (up to as
-// many again), independent of the number of
+// before the first bucket is read) and the counting sorts' scratch (as many
+// again), independent of the number of
 // observations. The peak is measured by a counter
 // (BucketingStats::peak_observations_in_memory), which the tests bound.
 //
 // Work files are scratch, not outputs: they are plain appends in WORK, which
 // the caller creates, empties before a run and removes after it; a killed run
-// leaves only scratch there.
+// leaves only scratch there, which a resumed run (Spill from a SpillProgress)
+// truncates back to the last checkpoint.
 //
 // THREAD SAFETY: one BucketChunkSource is used by one thread (Load must be
 // called with ascending indices, as WriteChunkStore does). ALLOCATION: above.
@@ -43,6 +46,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/chunk_source.h"
@@ -80,6 +84,13 @@ class FeatureIndex {
   void Add(const core::Observation& observation);
   // Makes the index cover `num_features` features (unobserved ones count 0).
   void Resize(int32_t num_features);
+  // An index recorded earlier (partition/ingest_progress.h, resumed ingest).
+  void Assign(std::vector<int32_t> counts, std::vector<int32_t> first_pose, int64_t observations) {
+    GS_CHECK(counts.size() == first_pose.size());
+    counts_ = std::move(counts);
+    first_pose_ = std::move(first_pose);
+    observations_ = observations;
+  }
 
   const std::vector<int32_t>& counts() const { return counts_; }
   const std::vector<int32_t>& first_pose() const { return first_pose_; }
@@ -112,6 +123,32 @@ class InitializationObservations {
   std::vector<core::Observation> kept_;
 };
 
+// A block of observations of pass 2, in input order, and where the input
+// stands after it (end_offset < 0: not a resumable point).
+struct ObservationBlock {
+  const core::Observation* observations = nullptr;
+  size_t size = 0;
+  int64_t end_offset = -1;
+  int32_t end_line = 0;
+};
+using ObservationBlockSink = std::function<Status(const ObservationBlock&)>;
+// Calls the sink for every block from the resume point on, in input order.
+using ObservationBlockReplay = std::function<Status(const ObservationBlockSink& sink)>;
+
+// How far pass 2 got: every observation of the input before byte
+// `input_offset` (line `input_line`) is in the bucket files, which hold
+// `bucket_observations[b]` observations each (durable when reported to a
+// SpillCheckpoint). The resume point of an interrupted spill.
+struct SpillProgress {
+  int64_t input_offset = 0;
+  int32_t input_line = 0;
+  int64_t observations = 0;
+  std::vector<int64_t> bucket_observations;
+};
+// Called after a spill that ended at a resumable point, once the bucket files
+// are fsynced; an error stops the spill.
+using SpillCheckpoint = std::function<Status(const SpillProgress&)>;
+
 // The chunks of the plan above, built from bucket files in WORK.
 class BucketChunkSource : public core::ChunkSource {
  public:
@@ -123,9 +160,28 @@ class BucketChunkSource : public core::ChunkSource {
                                                             const ObservationReplay& replay,
                                                             const ExternalBucketingOptions& options);
 
+  // The plan alone (no file is touched); then Spill, or, when the bucket
+  // files are complete already (a resumed ingest past pass 2), Load directly.
+  static StatusOr<std::unique_ptr<BucketChunkSource>> Plan(const FeatureIndex& index,
+                                                           const ExternalBucketingOptions& options);
+  // Pass 2 from `*progress` (all zero: from the start; else the bucket files
+  // are first truncated back to progress->bucket_observations, dropping what
+  // a killed run appended after its last checkpoint). Updates *progress.
+  // Checkpoints are taken after a buffer spill at a block boundary when at
+  // least `checkpoint_seconds` passed since the last one (0: every such
+  // spill); with an empty `checkpoint`, none. On OK every bucket file is
+  // complete and fsynced.
+  [[nodiscard]] Status Spill(const ObservationBlockReplay& replay, SpillProgress* progress,
+                             const SpillCheckpoint& checkpoint, double checkpoint_seconds);
+
   int64_t NumChunks() const override { return static_cast<int64_t>(chunk_features_.size()); }
-  // Sequential only (ascending index); reads a bucket file when `index` enters it.
+  int64_t NumBuckets() const { return static_cast<int64_t>(bucket_observations_.size()); }
+  // Ascending indices (any start: a resumed writer starts mid-way); reads a
+  // bucket file when `index` enters it.
   Status Load(int64_t index, core::ObservationChunk* chunk) const override;
+  // Deletes the bucket files all of whose chunks lie before `chunk` (they are
+  // durable in the store): frees disk as the store grows.
+  void ReleaseBucketsBefore(int64_t chunk);
 
   const BucketingStats& stats() const { return stats_; }
 
@@ -137,15 +193,19 @@ class BucketChunkSource : public core::ChunkSource {
   ExternalBucketingOptions options_;
   std::vector<std::vector<int32_t>> chunk_features_;  // per chunk: features, ascending
   std::vector<int64_t> chunk_observations_;           // per chunk
+  std::vector<int64_t> chunk_offset_;                 // per chunk: first observation in its bucket
+  std::vector<int64_t> chunk_slot_;                   // per chunk: first feature slot in its bucket
   std::vector<int32_t> feature_chunk_;                // per feature: chunk, -1 if unobserved
+  std::vector<int32_t> feature_slot_;                 // per feature: position in its chunk
   std::vector<int64_t> chunk_bucket_;                 // per chunk: its bucket
   std::vector<int64_t> bucket_observations_;          // per bucket
+  std::vector<int64_t> bucket_first_chunk_;           // per bucket
+  int64_t released_buckets_ = 0;                      // bucket files [0, this) deleted
 
   // The bucket loaded last, sorted by (chunk, feature); mutable: Load is a
   // sequential cursor over the buckets behind the const ChunkSource interface.
   mutable int64_t loaded_bucket_ = -1;
   mutable std::vector<core::Observation> bucket_;
-  mutable size_t bucket_cursor_ = 0;
   mutable BucketingStats stats_;
 };
 

@@ -1,5 +1,7 @@
 # Out of core (issue 3): external bucketing and the bounded-memory ingest.
 target_sources(graphslam_partition PRIVATE
   external_bucketing.cc
+  ingest_progress.cc
   streaming_ingest.cc
   pose_graph_initialization.cc)
+target_link_libraries(graphslam_partition PRIVATE nlohmann_json::nlohmann_json)

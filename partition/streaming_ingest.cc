@@ -7,59 +7,61 @@
 #include <vector>
 
 #include "core/initialization.h"
+#include "core/logging.h"
 #include "core/unidentified_features.h"
+#include "partition/ingest_progress.h"
+#include "storage/chunk_store_writer.h"
+#include "storage/native_log_observation_replay.h"
 #include "storage/native_log_reader.h"
 
 namespace graphslam::partition {
+namespace {
 
-Status IngestToStore(storage::Env* env, const std::string& input, const std::string& store_dir,
-                     const StreamingIngestOptions& options, IngestSummary* summary) {
-  GS_CHECK(env != nullptr && summary != nullptr);
-  *summary = IngestSummary();
-  GS_RETURN_IF_ERROR(options.store.Validate());
-  const std::filesystem::path dir(store_dir);
-  const std::string work = (dir / kIngestWorkDirectory).string();
-  ExternalBucketingOptions bucketing;
-  bucketing.max_observations_per_chunk = options.max_observations_per_chunk;
-  bucketing.buffer_observations = options.buffer_observations;
-  bucketing.work_dir = work;
-  GS_RETURN_IF_ERROR(bucketing.Validate());
+// The identity and options a progress record must match to be resumed.
+StatusOr<IngestProgress> ThisIngest(const std::string& input, const StreamingIngestOptions& options) {
+  IngestProgress progress;
+  progress.input = input;
+  GS_RETURN_IF_ERROR(InputIdentity(input, &progress.input_bytes, &progress.input_mtime_ns));
+  progress.chunk_observations = options.max_observations_per_chunk;
+  progress.buffer_observations = options.buffer_observations;
+  progress.compression = static_cast<int>(options.store.chunk.compression);
+  progress.zstd_level = options.store.chunk.zstd_level;
+  progress.target_record_bytes = options.store.chunk.target_record_bytes;
+  progress.source = options.store.source;
+  return progress;
+}
 
-  // 1. Un-commit before reading anything: a kill from here on leaves a
-  // directory without MANIFEST.json, i.e. an incomplete store.
-  std::error_code error;
-  std::filesystem::create_directories(dir, error);
-  if (error) return Status::IOError(store_dir + ": mkdir: " + error.message());
-  const std::string manifest = (dir / storage::kChunkStoreManifestName).string();
-  if (env->FileExists(manifest)) {
-    GS_RETURN_IF_ERROR(env->RemoveFile(manifest));
-    GS_RETURN_IF_ERROR(env->SyncDirectory(store_dir));
-  }
-  std::filesystem::remove_all(work, error);
-  if (error) return Status::IOError(work + ": remove: " + error.message());
-  std::filesystem::create_directories(work, error);
-  if (error) return Status::IOError(work + ": mkdir: " + error.message());
-
-  // 2. Pass 1.
+// Pass 1 and the initialization: the pose-only, initialized problem, the
+// FeatureIndex, and (other formats) the replay of their observations.
+struct FirstPass {
+  core::Problem2d problem;
   FeatureIndex index;
+  ObservationReplay replay;  // set for formats read whole
+};
+
+StatusOr<FirstPass> RunFirstPass(const std::string& input, const StreamingIngestOptions& options) {
+  FirstPass pass;
   InitializationObservations init;
   const storage::ObservationSink pass1 = [&](const core::Observation& observation) {
-    index.Add(observation);
+    pass.index.Add(observation);
     init.Add(observation);
     return Status::Ok();
   };
-  core::Problem2d problem;
-  ObservationReplay replay;
   if (options.format == storage::InputFormat::kNative) {
-    GS_ASSIGN_OR_RETURN(problem, storage::ReadNativeLogStreaming(input, pass1));
-    replay = [&input](const storage::ObservationSink& sink) {
-      return storage::ReadNativeLogStreaming(input, sink).status();
-    };
-    summary->streamed = true;
+    GS_ASSIGN_OR_RETURN(pass.problem, storage::ReadNativeLogStreaming(input, pass1));
+    // The streaming native reader has no lines to give here; the count says enough.
+    int64_t unidentified = 0;
+    for (const int64_t id : pass.problem.feature_ids) unidentified += id == core::kNoFeatureId;
+    if (unidentified > 0)
+      return Status::NotSupported(
+          input + ": " + std::to_string(unidentified) +
+          " observations have no feature id ('-'); expected ids (a chunk store needs "
+          "feature-complete chunks; use graphslam solve --associate on the input instead)");
   } else {
-    GS_ASSIGN_OR_RETURN(problem, storage::ReadProblem(input, options.format, options.mrclam));
+    GS_ASSIGN_OR_RETURN(pass.problem,
+                        storage::ReadProblem(input, options.format, options.mrclam));
     if (const core::UnidentifiedObservations unidentified =
-            core::CountUnidentifiedObservations(problem);
+            core::CountUnidentifiedObservations(pass.problem);
         unidentified.count > 0) {
       return Status::NotSupported(
           input + ":" + std::to_string(unidentified.first_line) + ": " +
@@ -68,42 +70,191 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
           "chunks; use graphslam solve --associate on the input instead)");
     }
     auto observations =
-        std::make_shared<std::vector<core::Observation>>(std::move(problem.observations));
-    problem.observations.clear();
+        std::make_shared<std::vector<core::Observation>>(std::move(pass.problem.observations));
+    pass.problem.observations.clear();
     for (const core::Observation& observation : *observations)
       GS_RETURN_IF_ERROR(pass1(observation));
-    replay = [observations](const storage::ObservationSink& sink) {
+    pass.replay = [observations](const storage::ObservationSink& sink) {
       for (const core::Observation& observation : *observations)
         GS_RETURN_IF_ERROR(sink(observation));
       return Status::Ok();
     };
   }
-  // The streaming native reader has no lines to give here; the count says enough.
-  if (summary->streamed) {
-    int64_t unidentified = 0;
-    for (const int64_t id : problem.feature_ids) unidentified += id == core::kNoFeatureId;
-    if (unidentified > 0)
-      return Status::NotSupported(
-          input + ": " + std::to_string(unidentified) +
-          " observations have no feature id ('-'); expected ids (a chunk store needs "
-          "feature-complete chunks; use graphslam solve --associate on the input instead)");
+  // Exactly one entry per feature (Add grows geometrically): a resumed
+  // ingest reads back the same index.
+  const auto num_features = static_cast<size_t>(pass.problem.num_features());
+  pass.index.Resize(pass.problem.num_features());
+  if (pass.index.counts().size() > num_features) {
+    std::vector<int32_t> counts(pass.index.counts().begin(),
+                                pass.index.counts().begin() + num_features);
+    std::vector<int32_t> first_pose(pass.index.first_pose().begin(),
+                                    pass.index.first_pose().begin() + num_features);
+    pass.index.Assign(std::move(counts), std::move(first_pose), pass.index.observations());
   }
-  index.Resize(problem.num_features());
 
-  // 3. Initialization on the kept observations, then back to pose-only.
-  problem.observations = init.kept();
-  GS_RETURN_IF_ERROR(core::InitializeProblem(&problem));
-  problem.observations.clear();
-  problem.observations.shrink_to_fit();
+  // Initialization on the kept observations, then back to pose-only.
+  pass.problem.observations = init.kept();
+  GS_RETURN_IF_ERROR(core::InitializeProblem(&pass.problem));
+  pass.problem.observations.clear();
+  pass.problem.observations.shrink_to_fit();
+  return pass;
+}
 
-  // 4. Pass 2 and 5. the store.
+}  // namespace
+
+Status IngestToStore(storage::Env* env, const std::string& input, const std::string& store_dir,
+                     const StreamingIngestOptions& options, IngestSummary* summary) {
+  GS_CHECK(env != nullptr && summary != nullptr);
+  *summary = IngestSummary();
+  GS_RETURN_IF_ERROR(options.store.Validate());
+  const std::filesystem::path dir(store_dir);
+  const std::string work = (dir / kIngestWorkDirectory).string();
+  const std::string progress_path = (dir / kIngestWorkDirectory / kIngestProgressName).string();
+  const std::string pass1_path = (dir / kIngestWorkDirectory / kPass1RecordName).string();
+  ExternalBucketingOptions bucketing;
+  bucketing.max_observations_per_chunk = options.max_observations_per_chunk;
+  bucketing.buffer_observations = options.buffer_observations;
+  bucketing.work_dir = work;
+  GS_RETURN_IF_ERROR(bucketing.Validate());
+  const bool native = options.format == storage::InputFormat::kNative;
+
+  // 1. Un-commit before reading anything: a kill from here on leaves a
+  // directory without MANIFEST.json, i.e. an incomplete store.
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  if (error) return Status::IOError(store_dir + ": mkdir: " + error.message());
+  storage::ChunkStoreWriter writer(env, store_dir, options.store);
+  GS_RETURN_IF_ERROR(writer.Uncommit());
+
+  // A resumable record of this very ingest, or a fresh start.
+  IngestProgress progress;
+  Pass1Record pass1;
+  bool resuming = false;
+  if (native) {
+    GS_ASSIGN_OR_RETURN(progress, ThisIngest(input, options));
+    if (options.resume) {
+      StatusOr<IngestProgress> recorded = ReadIngestProgress(progress_path);
+      StatusOr<Pass1Record> record = ReadPass1Record(pass1_path);
+      if (recorded.ok() && recorded->SameIngest(progress) && record.ok()) {
+        progress = std::move(recorded).value();
+        pass1 = std::move(record).value();
+        resuming = true;
+      } else {
+        GS_LOG(WARNING, "%s: nothing to resume (%s); ingesting from the start", store_dir.c_str(),
+               !recorded.ok()  ? recorded.status().ToString().c_str()
+               : !record.ok() ? record.status().ToString().c_str()
+                              : "the input or the options changed");
+      }
+    }
+  }
+  if (!resuming) {
+    std::filesystem::remove_all(work, error);
+    if (error) return Status::IOError(work + ": remove: " + error.message());
+    std::filesystem::create_directories(work, error);
+    if (error) return Status::IOError(work + ": mkdir: " + error.message());
+  }
+
+  // 2.-3. Pass 1, the initialization and the problem file.
+  FeatureIndex index;
+  ObservationReplay replay;
+  if (resuming) {
+    index.Assign(std::move(pass1.counts), std::move(pass1.first_pose), pass1.observations);
+    summary->resumed_stage = progress.stage;
+  } else {
+    GS_ASSIGN_OR_RETURN(FirstPass first, RunFirstPass(input, options));
+    GS_RETURN_IF_ERROR(writer.WriteProblem(first.problem));
+    index = std::move(first.index);
+    replay = std::move(first.replay);
+    progress.poses = first.problem.num_poses();
+    progress.features = first.problem.num_features();
+    progress.observations = index.observations();
+    if (native) {
+      pass1.pose_ids = std::move(first.problem.pose_ids);
+      pass1.feature_ids = std::move(first.problem.feature_ids);
+      pass1.counts = index.counts();
+      pass1.first_pose = index.first_pose();
+      pass1.observations = index.observations();
+      GS_RETURN_IF_ERROR(WritePass1Record(env, pass1_path, pass1));
+      pass1.counts.clear();
+      pass1.first_pose.clear();
+      progress.stage = "spill";
+      GS_RETURN_IF_ERROR(WriteIngestProgress(env, progress_path, progress));
+    }
+  }
+  summary->streamed = native;
+
+  // 4. Pass 2.
   GS_ASSIGN_OR_RETURN(std::unique_ptr<BucketChunkSource> chunks,
-                      BucketChunkSource::Build(index, replay, bucketing));
-  GS_RETURN_IF_ERROR(storage::WriteChunkStore(env, store_dir, problem, *chunks, options.store));
+                      BucketChunkSource::Plan(index, bucketing));
+  if (!native) {
+    SpillProgress spill;
+    const ObservationBlockReplay blocks = [&replay](const ObservationBlockSink& sink) -> Status {
+      std::vector<core::Observation> block;
+      auto deliver = [&]() -> Status {
+        ObservationBlock view;
+        view.observations = block.data();
+        view.size = block.size();
+        Status status = block.empty() ? Status::Ok() : sink(view);
+        block.clear();
+        return status;
+      };
+      GS_RETURN_IF_ERROR(replay([&](const core::Observation& observation) -> Status {
+        block.push_back(observation);
+        return block.size() >= 4096 ? deliver() : Status::Ok();
+      }));
+      return deliver();
+    };
+    GS_RETURN_IF_ERROR(chunks->Spill(blocks, &spill, nullptr, 0.0));
+  } else if (progress.stage == "spill") {
+    summary->resumed_from_offset = resuming ? progress.spill.input_offset : 0;
+    const ObservationBlockReplay blocks = [&](const ObservationBlockSink& sink) -> Status {
+      storage::NativeLogReplayOptions replay_options;
+      replay_options.start_offset = progress.spill.input_offset;
+      replay_options.start_line = progress.spill.input_line;
+      replay_options.block_bytes = options.replay_block_bytes;
+      return storage::ReplayNativeLogObservations(
+          input, pass1.pose_ids, pass1.feature_ids, replay_options,
+          [&sink](const storage::NativeLogObservationBlock& block) {
+            ObservationBlock view;
+            view.observations = block.observations;
+            view.size = block.size;
+            view.end_offset = block.end_offset;
+            view.end_line = block.end_line;
+            return sink(view);
+          });
+    };
+    const SpillCheckpoint checkpoint = [&](const SpillProgress& spilled) {
+      progress.spill = spilled;
+      return WriteIngestProgress(env, progress_path, progress);
+    };
+    GS_RETURN_IF_ERROR(chunks->Spill(blocks, &progress.spill, checkpoint,
+                                     options.checkpoint_seconds));
+    progress.stage = "chunks";
+    progress.chunks_durable = 0;
+    GS_RETURN_IF_ERROR(WriteIngestProgress(env, progress_path, progress));
+  }
+  pass1 = Pass1Record();
+
+  // 5. Chunks, then the manifest.
+  int64_t first_chunk = 0;
+  if (resuming && progress.stage == "chunks") {
+    first_chunk = progress.chunks_durable;
+    summary->resumed_from_chunk = first_chunk;
+    GS_RETURN_IF_ERROR(writer.RecoverEntries(first_chunk));
+  }
+  GS_RETURN_IF_ERROR(writer.WriteChunks(*chunks, first_chunk, [&](int64_t durable) -> Status {
+    if (native) {
+      progress.chunks_durable = durable;
+      GS_RETURN_IF_ERROR(WriteIngestProgress(env, progress_path, progress));
+    }
+    chunks->ReleaseBucketsBefore(durable);
+    return Status::Ok();
+  }));
+  GS_RETURN_IF_ERROR(writer.Commit());
   std::filesystem::remove_all(work, error);  // scratch only; a leftover is harmless
 
-  summary->poses = problem.num_poses();
-  summary->features = problem.num_features();
+  summary->poses = progress.poses;
+  summary->features = progress.features;
   summary->observations = index.observations();
   summary->chunks = chunks->NumChunks();
   summary->bucketing = chunks->stats();

@@ -12,6 +12,7 @@
 
 #include "storage/atomic_file.h"
 #include "storage/chunk_reader.h"
+#include "storage/chunk_store_writer.h"
 #include "storage/native_log_reader.h"
 
 namespace graphslam::storage {
@@ -61,60 +62,11 @@ Status WriteChunkStore(Env* env, const std::string& dir, const core::Problem2d& 
                        const core::ChunkSource& chunks, const ChunkStoreWriteOptions& options) {
   GS_CHECK(env != nullptr);
   GS_RETURN_IF_ERROR(options.Validate());
-  const std::string manifest_path = Join(dir, kChunkStoreManifestName);
-  const std::string chunk_dir = Join(dir, kChunkStoreChunkDirectory);
-  std::error_code error;
-  std::filesystem::create_directories(chunk_dir, error);
-  if (error) return Status::IOError(chunk_dir + ": mkdir: " + error.message());
-  // Un-commit an older store first: from here until the new manifest is
-  // durable, the directory is an incomplete store.
-  if (env->FileExists(manifest_path)) {
-    GS_RETURN_IF_ERROR(env->RemoveFile(manifest_path));
-    GS_RETURN_IF_ERROR(env->SyncDirectory(dir));
-  }
-
-  core::Problem2d pose_only = problem;
-  pose_only.observations.clear();
-  pose_only.observations.shrink_to_fit();
-  GS_RETURN_IF_ERROR(WriteNativeLog(pose_only, Join(dir, kChunkStoreProblemName), env));
-
-  nlohmann::json entries = nlohmann::json::array();
-  int64_t total_features = 0, total_observations = 0, total_bytes = 0;
-  core::ObservationChunk chunk;
-  for (int64_t k = 0; k < chunks.NumChunks(); ++k) {
-    GS_RETURN_IF_ERROR(chunks.Load(k, &chunk));
-    if (chunk.index != k)
-      return Status::InvalidArgument("chunk at position " + std::to_string(k) + " has index " +
-                                     std::to_string(chunk.index) + "; expected " +
-                                     std::to_string(k));
-    const std::string file = ChunkStoreFileName(k);
-    const std::string path = ChunkPath(dir, file);
-    GS_RETURN_IF_ERROR(WriteObservationChunk(env, path, chunk, options.chunk));
-    const std::uintmax_t bytes = std::filesystem::file_size(path, error);
-    if (error) return Status::IOError(path + ": stat: " + error.message());
-    const int64_t features = chunk.num_features();
-    const int64_t observations = static_cast<int64_t>(chunk.observations.size());
-    entries.push_back({{"file", file},
-                       {"features", features},
-                       {"observations", observations},
-                       {"bytes", static_cast<int64_t>(bytes)}});
-    total_features += features;
-    total_observations += observations;
-    total_bytes += static_cast<int64_t>(bytes);
-  }
-  GS_RETURN_IF_ERROR(env->SyncDirectory(chunk_dir));
-
-  nlohmann::json manifest;
-  manifest["format"] = kChunkStoreFormatName;
-  manifest["version"] = kChunkStoreVersion;
-  manifest["source"] = options.source;
-  manifest["problem"] = kChunkStoreProblemName;
-  manifest["num_chunks"] = chunks.NumChunks();
-  manifest["total_features"] = total_features;
-  manifest["total_observations"] = total_observations;
-  manifest["total_bytes"] = total_bytes;
-  manifest["chunks"] = std::move(entries);
-  return WriteStringAtomically(env, manifest_path, manifest.dump(2) + "\n");
+  ChunkStoreWriter writer(env, dir, options);
+  GS_RETURN_IF_ERROR(writer.Uncommit());
+  GS_RETURN_IF_ERROR(writer.WriteProblem(problem));
+  GS_RETURN_IF_ERROR(writer.WriteChunks(chunks, 0, nullptr));
+  return writer.Commit();
 }
 
 bool IsChunkStore(const std::string& path) {

@@ -53,8 +53,16 @@ inline constexpr const char* kChunkStoreChunkDirectory = "chunks";
 struct ChunkStoreWriteOptions {
   ChunkWriteOptions chunk;  // compression etc. of every chunk file
   std::string source;       // the input the store was made from (manifest only)
+  // Chunks made durable together (one directory fsync per group, the files'
+  // fsyncs concurrent; storage/chunk_store_writer.h). Changes no byte.
+  int64_t sync_group_chunks = 64;
 
-  [[nodiscard]] Status Validate() const { return chunk.Validate(); }
+  [[nodiscard]] Status Validate() const {
+    if (sync_group_chunks < 1)
+      return Status::InvalidArgument("sync_group_chunks is " + std::to_string(sync_group_chunks) +
+                                     ", expected >= 1");
+    return chunk.Validate();
+  }
 };
 
 // One MANIFEST.json entry.

@@ -266,4 +266,35 @@ Status WriteObservationChunk(Env* env, const std::string& path,
                              [&encoder](WritableFile* file) { return encoder.Write(file); });
 }
 
+namespace {
+
+// Collects what ChunkEncoder appends (EncodeObservationChunk).
+class StringFile final : public WritableFile {
+ public:
+  explicit StringFile(std::string* out) : out_(out) {}
+  Status Append(std::string_view data) override {
+    out_->append(data);
+    return Status::Ok();
+  }
+  Status Sync() override { return Status::Ok(); }
+  Status Close() override { return Status::Ok(); }
+
+ private:
+  std::string* out_;
+};
+
+}  // namespace
+
+Status EncodeObservationChunk(const core::ObservationChunk& chunk, const ChunkWriteOptions& options,
+                              std::string* out) {
+  GS_CHECK(out != nullptr);
+  out->clear();
+  GS_RETURN_IF_ERROR(options.Validate());
+  GS_RETURN_IF_ERROR(
+      ValidateObservationChunk(chunk).WithContext("chunk " + std::to_string(chunk.index)));
+  ChunkEncoder encoder(chunk, options);
+  StringFile file(out);
+  return encoder.Write(&file);
+}
+
 }  // namespace graphslam::storage

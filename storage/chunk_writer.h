@@ -64,4 +64,11 @@ struct ChunkWriteOptions {
                                            const core::ObservationChunk& chunk,
                                            const ChunkWriteOptions& options = {});
 
+// The bytes WriteObservationChunk would write for `chunk`, into *out (not
+// null; replaced), for writers that encode in parallel and write in order
+// (storage/chunk_store_writer.h). Same errors as WriteObservationChunk,
+// without the path; nothing is touched on disk.
+[[nodiscard]] Status EncodeObservationChunk(const core::ObservationChunk& chunk,
+                                            const ChunkWriteOptions& options, std::string* out);
+
 }  // namespace graphslam::storage

@@ -10,6 +10,7 @@ target_sources(graphslam_storage PRIVATE
   internal/text_reader.cc
   isam_reader.cc
   mrclam_reader.cc
+  native_log_observation_replay.cc
   native_log_reader.cc
   tum_writer.cc)
 # Observation chunk files (docs/formats/observation_chunk.md).
@@ -17,5 +18,5 @@ target_sources(graphslam_storage PRIVATE
   chunk_reader.cc
   chunk_writer.cc
   crc32c.cc)
-target_sources(graphslam_storage PRIVATE chunk_store.cc)
+target_sources(graphslam_storage PRIVATE chunk_store.cc chunk_store_writer.cc)
 target_sources(graphslam_storage PRIVATE solver_checkpoint.cc)

@@ -32,6 +32,12 @@ void AddIngestCommand(CLI::App* app, IngestCommandOptions* options, int* exit_co
   ingest->add_option("--buffer-observations", options->buffer_observations,
                      "observations held in memory at once (overrides --memory-limit)");
   ingest->add_flag("--compress", options->compress, "zstd-compress chunk blocks");
+  ingest->add_flag("--resume", options->resume,
+                   "continue an interrupted ingest of the same native log into STORE from its "
+                   "last checkpoint (else start afresh)");
+  ingest->add_option("--checkpoint-seconds", options->checkpoint_seconds,
+                     "least time between two checkpoints of the second pass (0: every spill)")
+      ->capture_default_str();
   ingest->add_flag("-q,--quiet", options->quiet, "no summary on the terminal");
   ingest->callback([options, exit_code]() { *exit_code = RunIngestCommand(*options); });
 }
@@ -74,6 +80,11 @@ int RunIngestCommand(const IngestCommandOptions& options) {
   ingest.buffer_observations = std::max(ingest.buffer_observations, options.chunk_observations);
   ingest.store.source = options.input;
   if (options.compress) ingest.store.chunk.compression = storage::ChunkCompression::kZstd;
+  if (options.checkpoint_seconds < 0)
+    return usage("--checkpoint-seconds must be >= 0, got " +
+                 std::to_string(options.checkpoint_seconds));
+  ingest.resume = options.resume;
+  ingest.checkpoint_seconds = options.checkpoint_seconds;
   partition::IngestSummary summary;
   if (Status status = partition::IngestToStore(storage::Env::Default(), options.input,
                                                options.output_dir, ingest, &summary);
@@ -85,6 +96,12 @@ int RunIngestCommand(const IngestCommandOptions& options) {
     std::printf("  input              %s (%s%s)\n", options.input.c_str(),
                 storage::InputFormatName(format), summary.streamed ? ", streamed" : ", read whole");
     std::printf("  store              %s\n", options.output_dir.c_str());
+    if (summary.resumed_stage == "spill")
+      std::printf("  resumed            second pass, at input byte %lld\n",
+                  static_cast<long long>(summary.resumed_from_offset));
+    else if (summary.resumed_stage == "chunks")
+      std::printf("  resumed            after %lld durable chunks\n",
+                  static_cast<long long>(summary.resumed_from_chunk));
     std::printf("  poses / features   %d / %d\n", summary.poses, summary.features);
     std::printf("  observations       %lld in %lld chunks\n",
                 static_cast<long long>(summary.observations),

@@ -8,6 +8,9 @@
 // Bad options exit with kExitUsage and bad input with kExitBadInput before
 // anything is written; the store's MANIFEST.json is written last, so an
 // interrupted ingest leaves a store every reader rejects (tools/exit_codes.h).
+// --resume continues an interrupted ingest of a native log from its last
+// checkpoint (STORE/work/, docs/formats/ingest_progress.md) and gives the
+// store an uninterrupted ingest gives, byte for byte.
 //
 // Memory: for native logs O(poses + features) plus a bounded buffer of
 // observations (--memory-limit, or --buffer-observations); other formats are
@@ -30,6 +33,8 @@ struct IngestCommandOptions {
   int64_t buffer_observations = 0;  // 0: from memory_limit
   std::string memory_limit = "1G";  // budget of the observation buffer (half of it)
   bool compress = false;         // zstd per block
+  bool resume = false;           // continue a killed ingest (native logs)
+  double checkpoint_seconds = 30.0;  // least time between pass-2 checkpoints
   bool quiet = false;
 };
 

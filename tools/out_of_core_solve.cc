@@ -48,7 +48,7 @@ bool WorkdirStoreIsCurrent(const std::string& input, const std::string& workdir)
 
 Status IngestIntoWorkdir(const std::string& input, const std::string& format, int robot,
                          const std::string& workdir, int64_t chunk_observations,
-                         int64_t memory_limit_bytes) {
+                         int64_t memory_limit_bytes, bool resume) {
   partition::StreamingIngestOptions options;
   if (format == "auto") {
     GS_ASSIGN_OR_RETURN(options.format, storage::DetectInputFormat(input));
@@ -59,6 +59,7 @@ Status IngestIntoWorkdir(const std::string& input, const std::string& format, in
   options.max_observations_per_chunk = chunk_observations;
   options.buffer_observations = IngestBufferObservations(memory_limit_bytes, chunk_observations);
   options.store.source = input;
+  options.resume = resume;
   partition::IngestSummary summary;
   GS_RETURN_IF_ERROR(
       partition::IngestToStore(storage::Env::Default(), input, workdir, options, &summary));

@@ -56,9 +56,11 @@ int64_t IngestBufferObservations(int64_t limit_bytes, int64_t chunk_observations
 bool WorkdirStoreIsCurrent(const std::string& input, const std::string& workdir);
 
 // Ingests `input` (format "auto" or a name) into the store `workdir` with
-// `chunk_observations` per chunk. Errors from detection, readers, the ingest.
+// `chunk_observations` per chunk; `resume` continues an interrupted ingest
+// (partition/streaming_ingest.h). Errors from detection, readers, the ingest.
 [[nodiscard]] Status IngestIntoWorkdir(const std::string& input, const std::string& format,
                                        int robot, const std::string& workdir,
-                                       int64_t chunk_observations, int64_t memory_limit_bytes);
+                                       int64_t chunk_observations, int64_t memory_limit_bytes,
+                                       bool resume = false);
 
 }  // namespace graphslam::tools

@@ -267,7 +267,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     if (!(options.resume && WorkdirStoreIsCurrent(options.input, options.workdir))) {
       if (Status status = IngestIntoWorkdir(options.input, options.format, options.robot,
                                             options.workdir, options.chunk_observations,
-                                            memory_limit);
+                                            memory_limit, options.resume);
           !status.ok())
         return fail(status);
     }

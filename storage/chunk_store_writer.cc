@@ -1,0 +1,277 @@
+#include "storage/chunk_store_writer.h"
+
+#include <tbb/parallel_pipeline.h>
+
+#include <algorithm>
+#include <atomic>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <system_error>
+#include <thread>
+#include <utility>
+
+#include "core/logging.h"
+#include "storage/atomic_file.h"
+#include "storage/chunk_format.h"
+#include "storage/chunk_writer.h"
+#include "storage/crc32c.h"
+#include "storage/native_log_reader.h"
+
+namespace graphslam::storage {
+namespace {
+
+std::string Join(const std::string& dir, const std::string& name) {
+  return (std::filesystem::path(dir) / name).string();
+}
+
+// A chunk file written but not yet durable.
+struct PendingFile {
+  std::string path;
+  std::string temporary;
+  std::unique_ptr<WritableFile> file;
+};
+
+// Sync and Close every file of `group`, up to kMaxSyncThreads at a time;
+// returns the first error in group order.
+Status SyncAndCloseConcurrently(std::vector<PendingFile>* group, int max_threads) {
+  std::vector<Status> statuses(group->size());
+  std::atomic<size_t> next{0};
+  auto work = [&]() {
+    for (size_t i = next++; i < group->size(); i = next++) {
+      WritableFile* file = (*group)[i].file.get();
+      Status status = file->Sync();
+      if (status.ok()) {
+        status = file->Close();
+      } else {
+        (void)file->Close();  // the first error is the one reported
+      }
+      statuses[i] = std::move(status);
+    }
+  };
+  const size_t threads = std::min<size_t>(group->size(), static_cast<size_t>(max_threads));
+  std::vector<std::thread> pool;
+  for (size_t t = 1; t < threads; ++t) pool.emplace_back(work);
+  work();
+  for (std::thread& thread : pool) thread.join();
+  for (size_t i = 0; i < group->size(); ++i) {
+    (*group)[i].file.reset();
+    if (!statuses[i].ok()) return statuses[i].WithContext("writing " + (*group)[i].path);
+  }
+  return Status::Ok();
+}
+
+void RemoveTemporaries(Env* env, std::vector<PendingFile>* group) {
+  for (PendingFile& pending : *group) {
+    pending.file.reset();
+    if (env->FileExists(pending.temporary) && !env->RemoveFile(pending.temporary).ok())
+      GS_LOG(WARNING, "could not remove temporary file %s", pending.temporary.c_str());
+  }
+  group->clear();
+}
+
+}  // namespace
+
+ChunkStoreWriter::ChunkStoreWriter(Env* env, std::string dir, ChunkStoreWriteOptions options)
+    : env_(env), dir_(std::move(dir)), options_(std::move(options)) {
+  GS_CHECK(env_ != nullptr);
+}
+
+Status ChunkStoreWriter::Uncommit() {
+  GS_RETURN_IF_ERROR(options_.Validate());
+  const std::string chunk_dir = Join(dir_, kChunkStoreChunkDirectory);
+  std::error_code error;
+  std::filesystem::create_directories(chunk_dir, error);
+  if (error) return Status::IOError(chunk_dir + ": mkdir: " + error.message());
+  // From here until the new manifest is durable the directory is an
+  // incomplete store.
+  const std::string manifest = Join(dir_, kChunkStoreManifestName);
+  if (env_->FileExists(manifest)) {
+    GS_RETURN_IF_ERROR(env_->RemoveFile(manifest));
+    GS_RETURN_IF_ERROR(env_->SyncDirectory(dir_));
+  }
+  return Status::Ok();
+}
+
+Status ChunkStoreWriter::WriteProblem(const core::Problem2d& problem) {
+  const std::string path = Join(dir_, kChunkStoreProblemName);
+  if (problem.observations.empty()) return WriteNativeLog(problem, path, env_);
+  core::Problem2d pose_only = problem;
+  pose_only.observations.clear();
+  pose_only.observations.shrink_to_fit();
+  return WriteNativeLog(pose_only, path, env_);
+}
+
+Status ChunkStoreWriter::WriteChunks(const core::ChunkSource& chunks, int64_t first,
+                                     const std::function<Status(int64_t)>& on_durable) {
+  GS_RETURN_IF_ERROR(options_.Validate());
+  GS_CHECK(first >= 0 && static_cast<int64_t>(entries_.size()) == first);
+  const std::string chunk_dir = Join(dir_, kChunkStoreChunkDirectory);
+  const int64_t num_chunks = chunks.NumChunks();
+
+  struct Item {
+    int64_t index = 0;
+    core::ObservationChunk chunk;
+    std::string bytes;
+    Status status;
+  };
+  Status failure;  // the first error, in chunk order (set by serial stages only)
+  std::atomic<bool> failed{false};
+  std::vector<PendingFile> group;
+  int64_t next = first;
+
+  auto flush_group = [&]() -> Status {
+    Status status = SyncAndCloseConcurrently(&group, kMaxSyncThreads);
+    for (size_t i = 0; status.ok() && i < group.size(); ++i) {
+      status = env_->Rename(group[i].temporary, group[i].path);
+      if (!status.ok()) status = status.WithContext("writing " + group[i].path);
+    }
+    if (!status.ok()) {
+      RemoveTemporaries(env_, &group);
+      return status;
+    }
+    group.clear();
+    GS_RETURN_IF_ERROR(env_->SyncDirectory(chunk_dir));
+    if (on_durable) GS_RETURN_IF_ERROR(on_durable(static_cast<int64_t>(entries_.size())));
+    return Status::Ok();
+  };
+
+  tbb::parallel_pipeline(
+      kChunksInFlight,
+      tbb::make_filter<void, Item*>(
+          tbb::filter_mode::serial_in_order,
+          [&](tbb::flow_control& control) -> Item* {
+            if (next >= num_chunks || failed.load()) {
+              control.stop();
+              return nullptr;
+            }
+            auto item = std::make_unique<Item>();
+            item->index = next++;
+            item->status = chunks.Load(item->index, &item->chunk);
+            if (item->status.ok() && item->chunk.index != item->index)
+              item->status = Status::InvalidArgument(
+                  "chunk at position " + std::to_string(item->index) + " has index " +
+                  std::to_string(item->chunk.index) + "; expected " +
+                  std::to_string(item->index));
+            if (!item->status.ok()) failed = true;
+            return item.release();
+          }) &
+          tbb::make_filter<Item*, Item*>(
+              tbb::filter_mode::parallel,
+              [&](Item* item) -> Item* {
+                if (item->status.ok()) {
+                  item->status =
+                      EncodeObservationChunk(item->chunk, options_.chunk, &item->bytes)
+                          .WithContext("writing " +
+                                       Join(chunk_dir, ChunkStoreFileName(item->index)));
+                }
+                item->chunk = core::ObservationChunk();  // its memory goes now
+                return item;
+              }) &
+          tbb::make_filter<Item*, void>(
+              tbb::filter_mode::serial_in_order, [&](Item* raw) {
+                std::unique_ptr<Item> item(raw);
+                if (!failure.ok()) return;
+                if (!item->status.ok()) {
+                  failure = item->status;
+                  failed = true;
+                  return;
+                }
+                const std::string file = ChunkStoreFileName(item->index);
+                PendingFile pending;
+                pending.path = Join(chunk_dir, file);
+                pending.temporary = TemporaryFileName(pending.path);
+                Status status = [&]() -> Status {
+                  GS_ASSIGN_OR_RETURN(pending.file, env_->NewWritableFile(pending.temporary));
+                  return pending.file->Append(item->bytes);
+                }();
+                // Counted before the error check so that RemoveTemporaries
+                // finds this file too.
+                group.push_back(std::move(pending));
+                if (status.ok()) {
+                  int64_t features = 0;
+                  int64_t observations = 0;
+                  features = static_cast<int64_t>(chunk_format::DecodeFixed64(
+                      item->bytes.data() + 24));
+                  observations = static_cast<int64_t>(chunk_format::DecodeFixed64(
+                      item->bytes.data() + 32));
+                  entries_.push_back({file, features, observations,
+                                      static_cast<int64_t>(item->bytes.size())});
+                  if (static_cast<int64_t>(group.size()) >= options_.sync_group_chunks ||
+                      item->index + 1 == num_chunks)
+                    status = flush_group();
+                } else {
+                  status = status.WithContext("writing " + group.back().path);
+                  RemoveTemporaries(env_, &group);
+                }
+                if (!status.ok()) {
+                  failure = status;
+                  failed = true;
+                }
+              }));
+  if (!failure.ok()) {
+    RemoveTemporaries(env_, &group);
+    return failure;
+  }
+  GS_CHECK(group.empty());
+  if (first == num_chunks) GS_RETURN_IF_ERROR(env_->SyncDirectory(chunk_dir));
+  return Status::Ok();
+}
+
+Status ChunkStoreWriter::RecoverEntries(int64_t count) {
+  entries_.clear();
+  const std::string chunk_dir = Join(dir_, kChunkStoreChunkDirectory);
+  for (int64_t k = 0; k < count; ++k) {
+    const std::string file = ChunkStoreFileName(k);
+    const std::string path = Join(chunk_dir, file);
+    std::ifstream in(path, std::ios::binary);
+    char header[chunk_format::kHeaderSize];
+    if (!in || !in.read(header, sizeof(header)))
+      return Status::Corruption(path + ": missing or shorter than a chunk header; expected a "
+                                "durable chunk (the ingest progress says it was written)");
+    const uint32_t stored = crc32c::Unmask(
+        chunk_format::DecodeFixed32(header + chunk_format::kHeaderCrcOffset));
+    const uint32_t actual = crc32c::Value(header, chunk_format::kHeaderCrcOffset);
+    if (chunk_format::DecodeFixed64(header) != chunk_format::kMagic || stored != actual)
+      return Status::Corruption(path + ": bad chunk header (magic or crc)");
+    const auto index = static_cast<int64_t>(chunk_format::DecodeFixed64(header + 16));
+    if (index != k)
+      return Status::Corruption(path + ": header chunk index is " + std::to_string(index) +
+                                "; expected " + std::to_string(k));
+    std::error_code error;
+    const std::uintmax_t bytes = std::filesystem::file_size(path, error);
+    if (error) return Status::IOError(path + ": stat: " + error.message());
+    entries_.push_back({file, static_cast<int64_t>(chunk_format::DecodeFixed64(header + 24)),
+                        static_cast<int64_t>(chunk_format::DecodeFixed64(header + 32)),
+                        static_cast<int64_t>(bytes)});
+  }
+  return Status::Ok();
+}
+
+Status ChunkStoreWriter::Commit() {
+  nlohmann::json entries = nlohmann::json::array();
+  int64_t total_features = 0, total_observations = 0, total_bytes = 0;
+  for (const ChunkStoreEntry& entry : entries_) {
+    entries.push_back({{"file", entry.file},
+                       {"features", entry.features},
+                       {"observations", entry.observations},
+                       {"bytes", entry.bytes}});
+    total_features += entry.features;
+    total_observations += entry.observations;
+    total_bytes += entry.bytes;
+  }
+  nlohmann::json manifest;
+  manifest["format"] = kChunkStoreFormatName;
+  manifest["version"] = kChunkStoreVersion;
+  manifest["source"] = options_.source;
+  manifest["problem"] = kChunkStoreProblemName;
+  manifest["num_chunks"] = static_cast<int64_t>(entries_.size());
+  manifest["total_features"] = total_features;
+  manifest["total_observations"] = total_observations;
+  manifest["total_bytes"] = total_bytes;
+  manifest["chunks"] = std::move(entries);
+  return WriteStringAtomically(env_, Join(dir_, kChunkStoreManifestName), manifest.dump(2) + "\n");
+}
+
+}  // namespace graphslam::storage
