@@ -28,10 +28,13 @@
 //   // linear_iterations, solve_seconds, recover_seconds. trial->ok = false
 //   // (a failed linear solve) asks for more damping. speculative_lambda > 0
 //   // is the lambda of the next iteration if this step is accepted with
-//   // rho >= kSpeculationRho (0 on the last iteration): a space may linearize
-//   // and reduce at the candidate with it during its recovery (the planar
-//   // space's one-pass iteration) and reuse that in the next Linearize if
-//   // Accept() was called and the lambda it gets is that very number.
+//   // rho >= kSpeculationRho: a space may linearize and reduce at the
+//   // candidate with it during its recovery (the planar space's one-pass
+//   // iteration) and reuse that in the next Linearize if Accept() was called
+//   // and the lambda it gets is that very number. It is 0 (do not speculate)
+//   // on the last iteration and when the previous step was rejected or had
+//   // rho < kSpeculationRho: a wasted speculation costs a reduction, a hit
+//   // saves a read of the chunks, and rho tends to stay high once it is.
 //   Status TryStep(double lambda, double speculative_lambda, bool usable,
 //                  IterationSummary* it, TrialStep* trial);
 //   void StepResult(bool accepted);          // after every computed step
@@ -99,6 +102,9 @@ Status RunLevenbergMarquardt(
   double radius = options.initial_trust_region_radius;
   double decrease_factor = 2.0;
   int first_iteration = 1;
+  // Whether this iteration's step is likely to give rho >= kSpeculationRho:
+  // optimistic at the start (and after a resume), then the last rho.
+  bool speculate = true;
   if (resume != nullptr) {
     // The checkpoint's chi2, not a recomputation: acceptance decisions must
     // see the very number the interrupted solve saw.
@@ -138,7 +144,7 @@ Status RunLevenbergMarquardt(
     // 2-3. Solve the reduced system, recover, evaluate the candidate.
     TrialStep trial;
     const double speculative_lambda =
-        iteration < options.max_iterations
+        speculate && iteration < options.max_iterations
             ? 1.0 / RadiusAfterAcceptedStep(radius, 1.0, options)
             : 0.0;
     GS_RETURN_IF_ERROR(space->TryStep(it.lambda, speculative_lambda, usable, &it, &trial));
@@ -150,6 +156,7 @@ Status RunLevenbergMarquardt(
     it.accepted = trial.ok && std::isfinite(candidate_chi2) &&
                   it.relative_decrease > options.min_relative_decrease;
     if (trial.ok) space->StepResult(it.accepted);
+    speculate = it.accepted && it.relative_decrease >= kSpeculationRho;
 
     // 4. Accept or reject; update the trust region.
     bool converged = false;
