@@ -2,22 +2,19 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <atomic>
+#include <string>
 
 #include "core/feature_linearizer.h"
+#include "core/internal/chunk_pass_kernels.h"
 #include "core/internal/ordered_chunk_pipeline.h"
 #include "core/schur_eliminator.h"
 
 namespace graphslam::core {
 namespace {
 
-constexpr int kDim = UnknownLayout::kPoseDimension;
-
 bool Excluded(const PassContext& context, int32_t feature) {
   return context.excluded != nullptr && (*context.excluded)[feature] != 0;
-}
-
-Eigen::Vector2d DampingDiagonal(const Eigen::MatrixXd& information) {
-  return information.diagonal().cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal);
 }
 
 void Report(const PassContext& context, const char* stage, int64_t done) {
@@ -126,79 +123,13 @@ Status CollectReducedPattern(const PassContext& context,
 
 Status ReducePass(const PassContext& context, const std::vector<Pose2>& poses,
                   const std::vector<Point2>& features, double lambda, ReducedSystem* system) {
-  // Blocks added to S as they are (not through elimination): direct pose
-  // terms H_pp, and every block of a kept feature, with their gradient.
-  struct Direct {
-    int row = 0;
-    int col = 0;
-    Eigen::Matrix3d block;
-  };
-  struct DirectGradient {
-    int row = 0;
-    Eigen::Vector3d gradient;
-    Eigen::Vector3d diagonal;
-  };
-  struct Output {
-    LinearizedFeature scratch;
-    ReducedContribution contribution;
-    std::vector<Direct> blocks;
-    std::vector<DirectGradient> gradients;
-    double chi2 = 0.0;
-  };
-  return internal::RunOrderedChunkPipeline<Output>(
+  return internal::RunOrderedChunkPipeline<internal::ReduceOutput>(
       *context.chunks, context.max_in_flight,
-      [&](const ObservationChunk& chunk, Output* out) -> Status {
-        out->contribution.Clear();
-        out->blocks.clear();
-        out->gradients.clear();
-        out->chi2 = 0.0;
-        for (int64_t k = 0; k < chunk.num_features(); ++k) {
-          const int32_t g = chunk.features[k];
-          if (Excluded(context, g)) continue;
-          LinearizedFeature& f = out->scratch;
-          LinearizeFeature(chunk, k, poses, features[g], *context.layout, context.kernel, &f);
-          out->chi2 += f.chi2;
-          for (size_t slot = 0; slot < f.blocks.poses.size(); ++slot) {
-            const int u = f.blocks.poses[slot];
-            out->blocks.push_back({u, u, f.pose_hessian[slot]});
-            out->gradients.push_back({u, f.pose_gradient[slot], f.pose_hessian[slot].diagonal()});
-          }
-          if (context.layout->IsKept(g)) {
-            // Padded to the pose block size: third component decoupled.
-            const int fu = context.layout->feature_unknown_index[g];
-            Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
-            c.topLeftCorner<2, 2>() = f.blocks.feature_information;
-            c(2, 2) = 1.0;
-            Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
-            gradient.head<2>() = f.blocks.feature_gradient;
-            out->blocks.push_back({fu, fu, c});
-            out->gradients.push_back({fu, gradient, c.diagonal()});
-            for (size_t slot = 0; slot < f.blocks.poses.size(); ++slot) {
-              Eigen::Matrix3d coupling = Eigen::Matrix3d::Zero();
-              coupling.leftCols<2>() = f.blocks.pose_feature[slot];
-              out->blocks.push_back({f.blocks.poses[slot], fu, coupling});
-            }
-            continue;
-          }
-          const Eigen::Vector2d damping = DampingDiagonal(f.blocks.feature_information);
-          f.blocks.feature_information.diagonal() += lambda * damping;
-          Status status = EliminateFeature(f.blocks, &out->contribution);
-          if (!status.ok()) {
-            return status.WithContext("chunk " + std::to_string(chunk.index) + ", feature " +
-                                      std::to_string(g));
-          }
-        }
-        return Status::Ok();
+      [&](const ObservationChunk& chunk, internal::ReduceOutput* out) {
+        return internal::ReduceChunk(context, chunk, poses, features, lambda, out);
       },
-      [&](const ObservationChunk& chunk, Output& out) {
-        AccumulateContribution(out.contribution, &system->matrix, &system->rhs);
-        for (const Direct& d : out.blocks) GS_CHECK(system->matrix.AddBlock(d.row, d.col, d.block));
-        for (const DirectGradient& d : out.gradients) {
-          system->gradient.segment<kDim>(kDim * d.row) += d.gradient;
-          system->rhs.segment<kDim>(kDim * d.row) -= d.gradient;
-          system->hessian_diagonal.segment<kDim>(kDim * d.row) += d.diagonal;
-        }
-        system->chi2 += out.chi2;
+      [&](const ObservationChunk& chunk, internal::ReduceOutput& out) {
+        internal::MergeReduced(out, system);
         Report(context, "reduce", chunk.index + 1);
       });
 }
@@ -207,50 +138,69 @@ Status RecoverPass(const PassContext& context, const std::vector<Pose2>& poses,
                    const std::vector<Point2>& features, double lambda,
                    const Eigen::VectorXd& step, const std::vector<Pose2>& candidate_poses,
                    std::vector<Point2>* candidate_features, RecoveryResult* result) {
-  struct Output {
-    LinearizedFeature scratch;
-    RecoveryResult sums;
-  };
   *result = RecoveryResult();
   candidate_features->resize(features.size());
+  return internal::RunOrderedChunkPipeline<internal::RecoverOutput>(
+      *context.chunks, context.max_in_flight,
+      [&](const ObservationChunk& chunk, internal::RecoverOutput* out) {
+        internal::RecoverChunk(context, chunk, poses, features, lambda, step, candidate_poses,
+                               candidate_features, out);
+        return Status::Ok();
+      },
+      [&](const ObservationChunk& chunk, internal::RecoverOutput& out) {
+        internal::MergeRecovered(out, result);
+        Report(context, "recover", chunk.index + 1);
+      });
+}
+
+Status RecoverAndReducePass(const PassContext& context, const std::vector<Pose2>& poses,
+                            const std::vector<Point2>& features, double lambda,
+                            const Eigen::VectorXd& step, const std::vector<Pose2>& candidate_poses,
+                            std::vector<Point2>* candidate_features, RecoveryResult* result,
+                            double next_lambda, ReducedSystem* next, Status* next_status) {
+  struct Output {
+    internal::RecoverOutput recover;
+    internal::ReduceOutput reduce;
+    Status reduce_status;
+    bool reduced = false;
+  };
+  *result = RecoveryResult();
+  *next_status = Status::Ok();
+  candidate_features->resize(features.size());
+  // Once a chunk's speculative elimination failed, the next system is lost:
+  // later chunks skip that half of the work (the recovery goes on).
+  std::atomic<bool> next_failed{false};
   return internal::RunOrderedChunkPipeline<Output>(
       *context.chunks, context.max_in_flight,
-      [&](const ObservationChunk& chunk, Output* out) -> Status {
-        out->sums = RecoveryResult();
-        for (int64_t k = 0; k < chunk.num_features(); ++k) {
-          const int32_t g = chunk.features[k];
-          if (Excluded(context, g)) continue;
-          if (context.layout->IsKept(g)) {
-            // Solved in the reduced system; its model terms are in the pose part.
-            const int fu = context.layout->feature_unknown_index[g];
-            (*candidate_features)[g] = features[g] + step.segment<2>(kDim * fu);
-            out->sums.candidate_chi2 +=
-                FeatureChi2(chunk, k, candidate_poses, (*candidate_features)[g], context.kernel);
-            continue;
-          }
-          LinearizedFeature& f = out->scratch;
-          LinearizeFeature(chunk, k, poses, features[g], *context.layout, context.kernel, &f);
-          const Eigen::Vector2d damping = DampingDiagonal(f.blocks.feature_information);
-          f.blocks.feature_information.diagonal() += lambda * damping;
-          const Eigen::Vector2d feature_step = RecoverFeature(f.blocks, step);
-          // Each feature lives in exactly one chunk: no two tasks write one slot.
-          (*candidate_features)[g] = features[g] + feature_step;
-          out->sums.candidate_chi2 +=
-              FeatureChi2(chunk, k, candidate_poses, (*candidate_features)[g], context.kernel);
-          out->sums.gradient_dot_step += f.blocks.feature_gradient.dot(feature_step);
-          out->sums.damped_step_norm += feature_step.dot(damping.cwiseProduct(feature_step));
-          out->sums.step_squared_norm += feature_step.squaredNorm();
-          out->sums.state_squared_norm += features[g].squaredNorm();
+      [&](const ObservationChunk& chunk, Output* out) {
+        // Recovery first: it writes the candidates of this chunk's features,
+        // which are exactly the features the reduce half reads.
+        internal::RecoverChunk(context, chunk, poses, features, lambda, step, candidate_poses,
+                               candidate_features, &out->recover);
+        out->reduce_status = Status::Ok();
+        out->reduced = !next_failed.load();
+        if (out->reduced) {
+          out->reduce_status = internal::ReduceChunk(context, chunk, candidate_poses,
+                                                     *candidate_features, next_lambda,
+                                                     &out->reduce);
+          if (!out->reduce_status.ok()) next_failed = true;
         }
         return Status::Ok();
       },
       [&](const ObservationChunk& chunk, Output& out) {
-        result->candidate_chi2 += out.sums.candidate_chi2;
-        result->gradient_dot_step += out.sums.gradient_dot_step;
-        result->damped_step_norm += out.sums.damped_step_norm;
-        result->step_squared_norm += out.sums.step_squared_norm;
-        result->state_squared_norm += out.sums.state_squared_norm;
-        Report(context, "recover", chunk.index + 1);
+        internal::MergeRecovered(out.recover, result);
+        if (next_status->ok()) {
+          if (!out.reduce_status.ok()) {
+            *next_status = out.reduce_status;
+          } else if (!out.reduced) {
+            // Skipped after a later chunk failed first (in time).
+            *next_status = Status::Numerical("chunk " + std::to_string(chunk.index) +
+                                             ": speculative reduce abandoned after a failure");
+          } else {
+            internal::MergeReduced(out.reduce, next);
+          }
+        }
+        Report(context, "recover+reduce", chunk.index + 1);
       });
 }
 

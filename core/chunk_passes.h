@@ -17,11 +17,18 @@
 //   RecoverPass (Table 4): dm = -C_d^{-1}(g_m + sum_p H_pm^T dx_p), the
 //     candidate feature m + dm, and its chi2 at the candidate poses; plus the
 //     terms g_m^T dm and dm^T D_m dm of the Levenberg-Marquardt model decrease.
+//   RecoverAndReducePass: RecoverPass and, in the same visit of each chunk, a
+//     ReducePass at the candidate (poses x + dx, features m + dm) with the
+//     damping lambda' the next iteration will use if the step is accepted: one
+//     read of the chunks per Gauss-Newton iteration instead of two. Both halves
+//     run the code of the separate passes (core/internal/chunk_pass_kernels.h),
+//     so the speculative system equals ReducePass at the candidate bit for bit.
 // D_m is diag(C) clamped to [kMinDiagonal, kMaxDiagonal] (as Ceres does).
 //
 // THREAD SAFETY: each pass runs chunks in parallel (TBB) and merges their
 // results in chunk order, so results do not depend on the thread count.
-// ALLOCATION: bounded by max_in_flight chunks plus the caller's outputs.
+// ALLOCATION: bounded by max_in_flight chunks plus the caller's outputs (the
+// fused pass: a second ReducedSystem, which the caller owns).
 #pragma once
 
 #include <Eigen/Core>
@@ -92,6 +99,18 @@ Status RecoverPass(const PassContext& context, const std::vector<Pose2>& poses,
                    const std::vector<Point2>& features, double lambda,
                    const Eigen::VectorXd& step, const std::vector<Pose2>& candidate_poses,
                    std::vector<Point2>* candidate_features, RecoveryResult* result);
+
+// RecoverPass plus ReducePass(candidate_poses, *candidate_features,
+// next_lambda) into *next, which the caller has zeroed and into which it may
+// already have added the pose-only factors at the candidate poses. A failed
+// elimination at the candidate is not an error of the pass (the step may be
+// rejected anyway): it is returned in *next_status and *next is then partial.
+// The returned Status is the recovery's (chunk loading).
+Status RecoverAndReducePass(const PassContext& context, const std::vector<Pose2>& poses,
+                            const std::vector<Point2>& features, double lambda,
+                            const Eigen::VectorXd& step, const std::vector<Pose2>& candidate_poses,
+                            std::vector<Point2>* candidate_features, RecoveryResult* result,
+                            double next_lambda, ReducedSystem* next, Status* next_status);
 
 // chi2 of all observations of eliminable features at (poses, features).
 Status ObservationsChi2(const PassContext& context, const std::vector<Pose2>& poses,

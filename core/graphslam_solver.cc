@@ -39,34 +39,42 @@ class PlanarSpace {
   using Checkpoint = SolverCheckpoint;
   static constexpr const char* kName = "";
 
+  // `next_system` (may be null: two passes per iteration) is the buffer of
+  // the speculative reduction; it has system's pattern.
   PlanarSpace(const PassContext& context, const UnknownLayout& layout,
               const std::vector<uint8_t>& kept, const PoseFactorKernels& pose_kernels,
-              Problem2d* problem, ReducedSystem* system, ReducedSystemSolver* solver,
-              const std::vector<uint8_t>& excluded)
+              Problem2d* problem, ReducedSystem* system, ReducedSystem* next_system,
+              ReducedSystemSolver* solver, const std::vector<uint8_t>& excluded)
       : context_(context), layout_(layout), kept_(kept), pose_kernels_(pose_kernels),
-        problem_(*problem), system_(*system), solver_(*solver), excluded_(excluded) {}
+        problem_(*problem), system_(*system), next_system_(next_system), solver_(*solver),
+        excluded_(excluded) {}
 
   Status Linearize(double lambda, IterationSummary* it, bool* usable) {
     const int num_rows = system_.matrix.num_rows();
-    system_.matrix.SetZero();
-    system_.rhs.setZero(num_rows);
-    system_.gradient.setZero(num_rows);
-    system_.hessian_diagonal.setZero(num_rows);
-    system_.chi2 = 0.0;
-    LinearizePoseFactors(problem_, problem_.poses, layout_, &system_.matrix, &system_.gradient,
-                         &system_.hessian_diagonal, pose_kernels_);
-    system_.rhs -= system_.gradient;
+    *usable = true;
+    if (speculation_ready_ && lambda == speculative_lambda_) {
+      // The previous iteration's fused pass reduced at this very state with
+      // this very lambda (RecoverAndReducePass): no pass over the chunks.
+      speculation_ready_ = false;
+      std::swap(system_, *next_system_);
+      it->gradient_max_norm = num_rows > 0 ? system_.gradient.cwiseAbs().maxCoeff() : 0.0;
+      return Status::Ok();
+    }
+    speculation_ready_ = false;
+    ResetSystem(problem_.poses, &system_);
     GS_RETURN_IF_ERROR(
         ReducePass(context_, problem_.poses, problem_.features, lambda, &system_));
+    ++it->chunk_passes;
     it->gradient_max_norm = num_rows > 0 ? system_.gradient.cwiseAbs().maxCoeff() : 0.0;
-    *usable = true;
     return Status::Ok();
   }
 
-  Status TryStep(double lambda, bool /*usable*/, IterationSummary* it, TrialStep* trial) {
+  Status TryStep(double lambda, double speculative_lambda, bool /*usable*/, IterationSummary* it,
+                 TrialStep* trial) {
     const std::vector<Pose2>& poses = problem_.poses;
     damping_ = system_.hessian_diagonal.cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal);
     system_.matrix.AddToDiagonal(lambda * damping_);
+    speculation_built_ = false;
 
     // Solve the reduced pose system.
     const Clock::time_point solve_start = Clock::now();
@@ -78,11 +86,25 @@ class PlanarSpace {
     if (!trial->ok)
       GS_VLOG(1, "linear solve failed (%s); raising damping", solve_status.ToString().c_str());
     if (trial->ok) {
-      // Recover the features and evaluate the candidate.
+      // Recover the features and evaluate the candidate; in the same pass,
+      // reduce at the candidate for the next iteration when there is one.
       RecoveryResult recovery;
       candidate_poses_ = ApplyPoseStep(poses, layout_, pose_step_);
-      GS_RETURN_IF_ERROR(RecoverPass(context_, poses, problem_.features, lambda, pose_step_,
-                                     candidate_poses_, &candidate_features_, &recovery));
+      if (next_system_ != nullptr && speculative_lambda > 0.0) {
+        ResetSystem(candidate_poses_, next_system_);
+        Status next_status;
+        GS_RETURN_IF_ERROR(RecoverAndReducePass(
+            context_, poses, problem_.features, lambda, pose_step_, candidate_poses_,
+            &candidate_features_, &recovery, speculative_lambda, next_system_, &next_status));
+        speculation_built_ = next_status.ok();
+        speculative_lambda_ = speculative_lambda;
+        if (!next_status.ok())
+          GS_VLOG(1, "speculative reduce failed (%s)", next_status.ToString().c_str());
+      } else {
+        GS_RETURN_IF_ERROR(RecoverPass(context_, poses, problem_.features, lambda, pose_step_,
+                                       candidate_poses_, &candidate_features_, &recovery));
+      }
+      ++it->chunk_passes;
       trial->candidate_chi2 =
           PoseFactorsChi2(problem_, candidate_poses_, pose_kernels_) + recovery.candidate_chi2;
       trial->model_decrease = -(system_.gradient.dot(pose_step_) + recovery.gradient_dot_step) +
@@ -100,6 +122,8 @@ class PlanarSpace {
   void StepResult(bool accepted) { solver_.StepResult(accepted); }
 
   void Accept() {
+    // The speculative system was reduced at exactly the state taken here.
+    speculation_ready_ = speculation_built_;
     problem_.poses = std::move(candidate_poses_);
     for (size_t g = 0; g < problem_.features.size(); ++g)
       if (!excluded_[g]) problem_.features[g] = candidate_features_[g];
@@ -114,18 +138,37 @@ class PlanarSpace {
   }
 
  private:
+  // Zeroes *system and adds the pose-only factors at `poses`: the state
+  // ReducePass (or the reduce half of the fused pass) starts from.
+  void ResetSystem(const std::vector<Pose2>& poses, ReducedSystem* system) const {
+    const int num_rows = system->matrix.num_rows();
+    system->matrix.SetZero();
+    system->rhs.setZero(num_rows);
+    system->gradient.setZero(num_rows);
+    system->hessian_diagonal.setZero(num_rows);
+    system->chi2 = 0.0;
+    LinearizePoseFactors(problem_, poses, layout_, &system->matrix, &system->gradient,
+                         &system->hessian_diagonal, pose_kernels_);
+    system->rhs -= system->gradient;
+  }
+
   const PassContext& context_;
   const UnknownLayout& layout_;
   const std::vector<uint8_t>& kept_;
   const PoseFactorKernels& pose_kernels_;
   Problem2d& problem_;
   ReducedSystem& system_;
+  ReducedSystem* next_system_;  // null: no speculation
   ReducedSystemSolver& solver_;
   const std::vector<uint8_t>& excluded_;
   Eigen::VectorXd damping_;
   Eigen::VectorXd pose_step_;
   std::vector<Pose2> candidate_poses_;
   std::vector<Point2> candidate_features_;
+  // Speculation: built by the last TryStep; ready once that step was accepted.
+  bool speculation_built_ = false;
+  bool speculation_ready_ = false;
+  double speculative_lambda_ = 0.0;
 };
 
 }  // namespace
@@ -280,8 +323,12 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
   // The PCG's forcing term, warm start and forest of the interrupted solve.
   if (resume != nullptr) GS_RETURN_IF_ERROR(solver.RestoreState(resume->pcg, system.matrix));
 
+  // The fused pass's second buffer: same pattern, values filled per pass.
+  std::unique_ptr<ReducedSystem> next_system;
+  if (options.fused_chunk_pass && options.max_iterations > 1)
+    next_system = std::make_unique<ReducedSystem>(system);
   PlanarSpace space(context, layout, screening.kept, options.pose_kernels, problem, &system,
-                    &solver, summary->excluded);
+                    next_system.get(), &solver, summary->excluded);
   double observations_chi2 = 0.0;
   GS_RETURN_IF_ERROR(
       ObservationsChi2(context, problem->poses, problem->features, &observations_chi2));

@@ -14,6 +14,17 @@
 //      model's, rho = (chi2 - chi2') / (-g^T d + lambda d^T D d) > 1e-3, and
 //      update the trust region radius mu = 1/lambda as Ceres does (Nielsen):
 //      success mu /= max(1/3, 1 - (2 rho - 1)^3); failure mu /= v, v *= 2.
+// One pass over the chunks per iteration (fused_chunk_pass): step 3 and, in the
+// same visit of every chunk, step 1 of the next iteration at the candidate
+// (RecoverAndReducePass), with the lambda an accepted step of rho >= 0.9368
+// gives (mu * 3, core/levenberg_marquardt.h). That system is used when the
+// step is accepted and the next lambda is that very number (the common case
+// near the optimum); otherwise (rejected step, 1e-3 < rho < 0.9368) it is
+// dropped and step 1 reduces as usual: two passes on those iterations only.
+// The driver speculates only while steps keep rho >= 0.9368 (a miss costs a
+// reduction, a hit saves a read of the chunks).
+// Either way every iteration solves the same system as with two passes, bit
+// for bit, so results do not depend on the option.
 // Convergence (Ceres' criteria): relative chi2 decrease below
 // function_tolerance, |dx| below parameter_tolerance (|x| + tol), or
 // max |g| below gradient_tolerance.
@@ -26,7 +37,7 @@
 // THREAD SAFETY: one call at a time per problem; internally parallel (TBB,
 // bounded by the caller's tbb::global_control). Results do not depend on the
 // number of threads. ALLOCATION: O(poses + features + nonzero blocks of S)
-// plus max_chunks_in_flight chunks.
+// plus max_chunks_in_flight chunks; the fused pass holds a second S.
 #pragma once
 
 #include <cstdint>
@@ -65,6 +76,10 @@ struct IterationSummary {
   double reduce_seconds = 0.0;   // linearize + eliminate (one pass over the chunks)
   double solve_seconds = 0.0;    // reduced system solve
   double recover_seconds = 0.0;  // recover features + evaluate (one pass)
+  // Passes over the observation chunks (planar solver): 1 when the previous
+  // iteration's fused pass already reduced at this state, else 2; 0 for the
+  // in-memory 3-D solver.
+  int chunk_passes = 0;
 };
 
 // Everything the loop carries from one iteration to the next: a solve resumed
@@ -114,6 +129,9 @@ struct SolverOptions {
   int64_t auto_cholmod_max_unknowns = 3'000'000;
   int64_t auto_cholmod_max_factor_bytes = int64_t{4} << 30;
   int max_chunks_in_flight = 8;
+  // One pass over the chunks per accepted iteration instead of two, at the
+  // cost of a second reduced system in memory (see the header comment).
+  bool fused_chunk_pass = true;
   // Features with more observations than this stay unknowns of the reduced
   // system instead of being eliminated (their k^2 fill would explode).
   int64_t max_eliminated_observations = 64;

@@ -76,7 +76,9 @@ class Space3d {
     return Status::Ok();
   }
 
-  Status TryStep(double lambda, bool usable, IterationSummary* it, TrialStep* trial);
+  // Two linearizations per iteration (no speculation): speculative_lambda is unused.
+  Status TryStep(double lambda, double speculative_lambda, bool usable, IterationSummary* it,
+                 TrialStep* trial);
   void StepResult(bool /*accepted*/) {}
   void Accept() {
     problem_.poses.swap(candidate_poses_);
@@ -318,7 +320,8 @@ Status Space3d::Setup(const SolverCheckpoint3d* resume, SolverSummary* summary) 
   return Status::Ok();
 }
 
-Status Space3d::TryStep(double lambda, bool usable, IterationSummary* it, TrialStep* trial) {
+Status Space3d::TryStep(double lambda, double /*speculative_lambda*/, bool usable,
+                        IterationSummary* it, TrialStep* trial) {
   const std::vector<Pose3>& poses = problem_.poses;
   const std::vector<Point3>& features = problem_.features;
   const Eigen::VectorXd damping =

@@ -26,8 +26,17 @@
 //   Status Linearize(double lambda, IterationSummary* it, bool* usable);
 //   // Damp, solve, recover and evaluate the candidate; sets it->step_norm,
 //   // linear_iterations, solve_seconds, recover_seconds. trial->ok = false
-//   // (a failed linear solve) asks for more damping.
-//   Status TryStep(double lambda, bool usable, IterationSummary* it, TrialStep* trial);
+//   // (a failed linear solve) asks for more damping. speculative_lambda > 0
+//   // is the lambda of the next iteration if this step is accepted with
+//   // rho >= kSpeculationRho: a space may linearize and reduce at the
+//   // candidate with it during its recovery (the planar space's one-pass
+//   // iteration) and reuse that in the next Linearize if Accept() was called
+//   // and the lambda it gets is that very number. It is 0 (do not speculate)
+//   // on the last iteration and when the previous step was rejected or had
+//   // rho < kSpeculationRho: a wasted speculation costs a reduction, a hit
+//   // saves a read of the chunks, and rho tends to stay high once it is.
+//   Status TryStep(double lambda, double speculative_lambda, bool usable,
+//                  IterationSummary* it, TrialStep* trial);
 //   void StepResult(bool accepted);          // after every computed step
 //   void Accept();                           // the candidate becomes the state
 //   void FillState(Checkpoint* checkpoint);  // poses, features, excluded, kept
@@ -47,6 +56,18 @@
 #include "core/status.h"
 
 namespace graphslam::core {
+
+// The trust region radius after a step accepted with ratio rho (Nielsen):
+// radius / max(1/3, 1 - (2 rho - 1)^3), at most max_trust_region_radius. For
+// every rho >= kSpeculationRho the max is 1/3 itself, so the result is one
+// and the same double: the value RadiusAfterAcceptedStep(radius, 1.0, ...)
+// a space can speculate on before rho is known.
+inline double RadiusAfterAcceptedStep(double radius, double rho, const SolverOptions& options) {
+  const double factor = 1.0 - std::pow(2.0 * rho - 1.0, 3);
+  return std::min(radius / std::max(1.0 / 3.0, factor), options.max_trust_region_radius);
+}
+// (1 + cbrt(2/3)) / 2: 1 - (2 rho - 1)^3 <= 1/3 from here on.
+inline constexpr double kSpeculationRho = 0.9368;
 
 // What the space reports about one trial step.
 struct TrialStep {
@@ -81,6 +102,9 @@ Status RunLevenbergMarquardt(
   double radius = options.initial_trust_region_radius;
   double decrease_factor = 2.0;
   int first_iteration = 1;
+  // Whether this iteration's step is likely to give rho >= kSpeculationRho:
+  // optimistic at the start (and after a resume), then the last rho.
+  bool speculate = true;
   if (resume != nullptr) {
     // The checkpoint's chi2, not a recomputation: acceptance decisions must
     // see the very number the interrupted solve saw.
@@ -119,7 +143,11 @@ Status RunLevenbergMarquardt(
 
     // 2-3. Solve the reduced system, recover, evaluate the candidate.
     TrialStep trial;
-    GS_RETURN_IF_ERROR(space->TryStep(it.lambda, usable, &it, &trial));
+    const double speculative_lambda =
+        speculate && iteration < options.max_iterations
+            ? 1.0 / RadiusAfterAcceptedStep(radius, 1.0, options)
+            : 0.0;
+    GS_RETURN_IF_ERROR(space->TryStep(it.lambda, speculative_lambda, usable, &it, &trial));
     const double candidate_chi2 = trial.ok ? trial.candidate_chi2
                                            : std::numeric_limits<double>::infinity();
     it.candidate_chi2 = candidate_chi2;
@@ -128,6 +156,7 @@ Status RunLevenbergMarquardt(
     it.accepted = trial.ok && std::isfinite(candidate_chi2) &&
                   it.relative_decrease > options.min_relative_decrease;
     if (trial.ok) space->StepResult(it.accepted);
+    speculate = it.accepted && it.relative_decrease >= kSpeculationRho;
 
     // 4. Accept or reject; update the trust region.
     bool converged = false;
@@ -135,8 +164,7 @@ Status RunLevenbergMarquardt(
       const double relative_change = (chi2 - candidate_chi2) / std::max(chi2, 1e-300);
       space->Accept();
       chi2 = candidate_chi2;
-      const double factor = 1.0 - std::pow(2.0 * it.relative_decrease - 1.0, 3);
-      radius = std::min(radius / std::max(1.0 / 3.0, factor), options.max_trust_region_radius);
+      radius = RadiusAfterAcceptedStep(radius, it.relative_decrease, options);
       decrease_factor = 2.0;
       if (relative_change < options.function_tolerance) {
         summary->termination = "function_tolerance";

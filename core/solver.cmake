@@ -1,6 +1,7 @@
 # Linearization, reduce pass, initialization, Levenberg-Marquardt driver.
 target_sources(graphslam_core PRIVATE
   chunk_passes.cc
+  internal/chunk_pass_kernels.cc
   feature_linearizer.cc
   graphslam_solver.cc
   pose_factors.cc

@@ -180,6 +180,9 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
                     "(kept afterwards; without it a FILE is solved in memory)");
   solve->add_option("--memory-limit", options->memory_limit,
                     "memory budget (e.g. 2G): bounds the chunks in flight and the ingest buffer");
+  solve->add_flag("--two-pass", options->two_pass,
+                  "two passes over the observation chunks every iteration instead of one "
+                  "fused pass (saves the second reduced system; same results)");
   solve->add_option("--streaming-poses", options->streaming_poses,
                     "stores with more poses skip progressive initialization (streaming mode)")
       ->capture_default_str();
@@ -364,6 +367,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   solver_options.pose_kernels = pose_kernels;
   solver_options.function_tolerance = options.function_tolerance;
   solver_options.initial_trust_region_radius = options.initial_trust_region_radius;
+  solver_options.fused_chunk_pass = !options.two_pass;
   solver_options.progress = display.AsCallback();
   {
     StatusOr<int> in_flight = ChunksInFlightForMemoryLimit(

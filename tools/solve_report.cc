@@ -46,7 +46,8 @@ nlohmann::json SolverReport(const SolveCommandOptions& options, const core::Solv
                              {"seconds", it.seconds},
                              {"reduce_seconds", it.reduce_seconds},
                              {"solve_seconds", it.solve_seconds},
-                             {"recover_seconds", it.recover_seconds}});
+                             {"recover_seconds", it.recover_seconds},
+                             {"chunk_passes", it.chunk_passes}});
   }
   report["per_iteration"] = per_iteration;
   return report;

@@ -103,6 +103,117 @@ TEST_P(ChunkPassesTest, ReduceEqualsDenseSchurComplementAndRecoveryEqualsDenseSo
 INSTANTIATE_TEST_SUITE_P(KindsAndChunkSizes, ChunkPassesTest,
                          ::testing::Combine(::testing::Bool(), ::testing::Values(1, 7, 100000)));
 
+// The reduced system's pattern for `problem`, zeroed, with the pose-only
+// factors at `poses` added (what the solver hands ReducePass).
+ReducedSystem SystemAt(const Problem2d& problem, const PassContext& context,
+                       const std::vector<Pose2>& poses) {
+  std::vector<std::pair<int, int>> pairs;
+  AppendPoseFactorPattern(problem, *context.layout, &pairs);
+  EXPECT_TRUE(CollectReducedPattern(context, &pairs).ok());
+  ReducedSystem system;
+  system.matrix = BlockSparseMatrix::FromPattern(3, context.layout->num_blocks(), pairs);
+  const int n = system.matrix.num_rows();
+  system.rhs.setZero(n);
+  system.gradient.setZero(n);
+  system.hessian_diagonal.setZero(n);
+  LinearizePoseFactors(problem, poses, *context.layout, &system.matrix, &system.gradient,
+                       &system.hessian_diagonal);
+  system.rhs -= system.gradient;
+  return system;
+}
+
+double RelativeDifference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  return (a - b).norm() / std::max(b.norm(), 1e-300);
+}
+
+// (range-bearing, chunk size, kept features + robust kernel)
+class FusedPassTest : public ::testing::TestWithParam<std::tuple<bool, int, bool>> {};
+
+TEST_P(FusedPassTest, NextSystemEqualsReducePassAtTheCandidateAndRecoveryIsUnchanged) {
+  const auto [range_bearing, chunk_size, keep_and_robust] = GetParam();
+  for (uint32_t seed = 1; seed <= 4; ++seed) {
+    testing::RandomProblemOptions options;
+    options.seed = seed;
+    options.range_bearing = range_bearing;
+    options.num_poses = 15;
+    options.num_features = 8;
+    options.gps_every = seed % 2 == 0 ? 4 : 0;
+    const Problem2d problem = testing::MakeRandomProblem(options).problem;
+    partition::ChunkingOptions chunking;
+    chunking.max_observations_per_chunk = chunk_size;
+    partition::InMemoryChunkSource chunks(problem, chunking);
+    UnknownLayout layout = UnknownLayout::FromProblem(problem);
+    PassContext context;
+    context.chunks = &chunks;
+    context.layout = &layout;
+    if (keep_and_robust) {
+      std::vector<uint8_t> keep(problem.features.size(), 0);
+      for (size_t j = 0; j < keep.size(); j += 3) keep[j] = 1;
+      layout.KeepFeatures(keep);
+      context.kernel.type = RobustKernel::Type::kCauchy;
+      context.kernel.scale = 2.0;
+    }
+
+    // A damped step at the initial guess, as the solver takes it.
+    const double lambda = 0.3, next_lambda = lambda / 3.0;
+    ReducedSystem system = SystemAt(problem, context, problem.poses);
+    ASSERT_TRUE(ReducePass(context, problem.poses, problem.features, lambda, &system).ok());
+    Eigen::MatrixXd damped = system.matrix.ToDense();
+    damped.diagonal() += lambda * system.hessian_diagonal.cwiseMax(kMinDiagonal);
+    const Eigen::VectorXd step = damped.ldlt().solve(system.rhs);
+    std::vector<Pose2> candidate_poses = problem.poses;
+    for (int p = 0; p < problem.num_poses(); ++p) {
+      const int u = layout.unknown_index[p];
+      if (u >= 0) candidate_poses[p] = RetractPose(problem.poses[p], step.segment<3>(3 * u));
+    }
+
+    std::vector<Point2> recovered;
+    RecoveryResult recovery;
+    ASSERT_TRUE(RecoverPass(context, problem.poses, problem.features, lambda, step,
+                            candidate_poses, &recovered, &recovery)
+                    .ok());
+    ReducedSystem next = SystemAt(problem, context, candidate_poses);
+    std::vector<Point2> fused_recovered;
+    RecoveryResult fused_recovery;
+    Status next_status = Status::Numerical("not set");
+    ASSERT_TRUE(RecoverAndReducePass(context, problem.poses, problem.features, lambda, step,
+                                     candidate_poses, &fused_recovered, &fused_recovery,
+                                     next_lambda, &next, &next_status)
+                    .ok());
+    ASSERT_TRUE(next_status.ok()) << next_status.ToString();
+
+    // The recovery half is RecoverPass's code: the same numbers.
+    EXPECT_EQ(fused_recovery.candidate_chi2, recovery.candidate_chi2) << "seed " << seed;
+    EXPECT_EQ(fused_recovery.gradient_dot_step, recovery.gradient_dot_step);
+    EXPECT_EQ(fused_recovery.damped_step_norm, recovery.damped_step_norm);
+    EXPECT_EQ(fused_recovery.step_squared_norm, recovery.step_squared_norm);
+    for (size_t j = 0; j < recovered.size(); ++j)
+      EXPECT_EQ((fused_recovered[j] - recovered[j]).norm(), 0.0) << "feature " << j;
+
+    // The reduce half equals a plain ReducePass at the candidate. The design
+    // promises bit equality (same kernels, same merge order); the stated
+    // tolerance is 1e-12 relative.
+    ReducedSystem reference = SystemAt(problem, context, candidate_poses);
+    ASSERT_TRUE(
+        ReducePass(context, candidate_poses, recovered, next_lambda, &reference).ok());
+    const Eigen::MatrixXd next_dense = next.matrix.ToDense();
+    const Eigen::MatrixXd reference_dense = reference.matrix.ToDense();
+    EXPECT_LE(RelativeDifference(next_dense, reference_dense), 1e-12)
+        << "seed " << seed << "\nfused:\n" << next_dense << "\nReducePass:\n" << reference_dense;
+    EXPECT_LE(RelativeDifference(next.rhs, reference.rhs), 1e-12)
+        << "fused:      " << next.rhs.transpose() << "\nReducePass: " << reference.rhs.transpose();
+    EXPECT_LE(RelativeDifference(next.gradient, reference.gradient), 1e-12);
+    EXPECT_LE(RelativeDifference(next.hessian_diagonal, reference.hessian_diagonal), 1e-12);
+    EXPECT_NEAR(next.chi2, reference.chi2, 1e-12 * reference.chi2);
+    // And it is a different system from the one at the initial guess.
+    EXPECT_GT(RelativeDifference(next_dense, system.matrix.ToDense()), 1e-6);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(KindsChunkSizesAndKeptFeatures, FusedPassTest,
+                         ::testing::Combine(::testing::Bool(), ::testing::Values(1, 7, 100000),
+                                            ::testing::Bool()));
+
 TEST(ChunkPasses, ScreeningExcludesFeatureWithSingularInformation) {
   testing::RandomProblemOptions options;
   options.num_poses = 6;

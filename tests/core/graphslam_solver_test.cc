@@ -1,10 +1,15 @@
 // The whole GraphSLAM loop against a dense Gauss-Newton optimum, across
-// backends, thread counts and chunk sizes.
+// backends, thread counts and chunk sizes; the fused pass against two passes
+// and the chunk reads it saves.
 #include "core/graphslam_solver.h"
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <atomic>
+#include <random>
+
+#include "core/levenberg_marquardt.h"
 #include "partition/in_memory_chunk_source.h"
 #include "tests/testing/dense_reference.h"
 #include "tests/testing/random_problem.h"
@@ -217,6 +222,154 @@ TEST(GraphSlamSolver, IncompleteCholeskyPcgReachesTheCholmodOptimum) {
   EXPECT_EQ(b.linear_solver_used, LinearSolverType::kPcg);
   EXPECT_NEAR(a.final_chi2, b.final_chi2, 1e-8 * a.final_chi2);
   EXPECT_TRUE(ParsePreconditionerType("jacobi").status().IsInvalidArgument());
+}
+
+}  // namespace
+}  // namespace graphslam::core
+
+namespace graphslam::core {
+namespace {
+
+// Counts Load() calls: one pass over the chunks is NumChunks() loads.
+class CountingChunkSource : public ChunkSource {
+ public:
+  explicit CountingChunkSource(const ChunkSource& inner) : inner_(inner) {}  // must outlive
+  int64_t NumChunks() const override { return inner_.NumChunks(); }
+  Status Load(int64_t index, ObservationChunk* chunk) const override {
+    ++loads_;
+    return inner_.Load(index, chunk);
+  }
+  int64_t loads() const { return loads_.load(); }
+
+ private:
+  const ChunkSource& inner_;
+  mutable std::atomic<int64_t> loads_{0};
+};
+
+struct CountedSolve {
+  SolverSummary summary;
+  std::vector<int64_t> loads;  // per iteration
+  Problem2d problem;
+};
+
+CountedSolve SolveCounting(const Problem2d& problem, SolverOptions options, int64_t chunk_size) {
+  partition::ChunkingOptions chunking;
+  chunking.max_observations_per_chunk = chunk_size;
+  partition::InMemoryChunkSource inner(problem, chunking);
+  CountingChunkSource chunks(inner);
+  CountedSolve out;
+  out.problem = problem;
+  int64_t before = 0;
+  options.iteration_callback = [&](const IterationSummary&) {
+    out.loads.push_back(chunks.loads() - before);
+    before = chunks.loads();
+  };
+  Status status = SolveGraphSlam(options, chunks, &out.problem, &out.summary);
+  EXPECT_TRUE(status.ok()) << status.ToString();
+  // Before the first iteration: screening, pattern, initial chi2.
+  if (!out.loads.empty()) out.loads[0] -= 3 * chunks.NumChunks();
+  return out;
+}
+
+TEST(GraphSlamSolver, FusedPassReadsTheChunksOncePerWellAcceptedIteration) {
+  testing::RandomProblemOptions options;
+  options.num_poses = 60;
+  options.num_features = 25;
+  options.seed = 3;
+  const Problem2d problem = testing::MakeRandomProblem(options).problem;
+  SolverOptions solver_options;
+  solver_options.linear_solver = LinearSolverType::kCholmod;
+  solver_options.function_tolerance = 1e-14;
+  solver_options.max_iterations = 25;
+  const CountedSolve run = SolveCounting(problem, solver_options, 16);
+  const std::vector<IterationSummary>& its = run.summary.per_iteration;
+  ASSERT_EQ(run.loads.size(), its.size());
+  const int64_t chunks = partition::InMemoryChunkSource(problem, [] {
+                           partition::ChunkingOptions c;
+                           c.max_observations_per_chunk = 16;
+                           return c;
+                         }()).NumChunks();
+  ASSERT_GT(chunks, 4);
+  int one_pass = 0;
+  int64_t total = 0;
+  for (size_t i = 0; i < its.size(); ++i) {
+    // The solver's own count is the truth of the ChunkSource.
+    EXPECT_EQ(run.loads[i], its[i].chunk_passes * chunks) << "iteration " << i + 1;
+    total += run.loads[i];
+    if (i == 0) {
+      EXPECT_EQ(its[i].chunk_passes, 2);  // nothing to reuse yet
+      continue;
+    }
+    // The previous iteration speculated unless the one before it had a
+    // rejected step or rho < kSpeculationRho (core/levenberg_marquardt.h).
+    const IterationSummary& previous = its[i - 1];
+    const bool speculated = i == 1 || (its[i - 2].accepted &&
+                                       its[i - 2].relative_decrease >= kSpeculationRho);
+    if (speculated && previous.accepted && previous.relative_decrease > kSpeculationRho + 1e-6) {
+      EXPECT_EQ(run.loads[i], chunks) << "iteration " << i + 1 << " after rho "
+                                      << previous.relative_decrease;
+      ++one_pass;
+    } else if (!previous.accepted || !speculated) {
+      EXPECT_EQ(run.loads[i], 2 * chunks) << "iteration " << i + 1;
+    }
+  }
+  EXPECT_GE(one_pass, 3) << its.size() << " iterations";
+  EXPECT_LT(total, 2 * chunks * static_cast<int64_t>(its.size()));
+}
+
+// Every iteration solves the very system two passes would: the same trace and
+// the same optimum, bit for bit, with rejected steps and mid-range rho too.
+TEST(GraphSlamSolver, FusedPassGivesTheTwoPassResultBitForBit) {
+  int rejected = 0, mid_rho = 0, one_pass = 0;
+  for (uint32_t seed = 1; seed <= 4; ++seed) {
+    for (double radius : {1e4, 1e12}) {
+      testing::RandomProblemOptions options;
+      options.num_poses = 40;
+      options.num_features = 15;
+      options.seed = seed;
+      options.gps_every = seed % 2 == 0 ? 5 : 0;
+      Problem2d problem = testing::MakeRandomProblem(options).problem;
+      // Headings off by up to ~1 rad: far from the quadratic regime, so
+      // some steps are rejected and some accepted with a modest rho.
+      std::mt19937 rng(seed);
+      std::uniform_real_distribution<double> heading(-1.0, 1.0);
+      for (int p = 1; p < problem.num_poses(); ++p) problem.poses[p].z() += heading(rng);
+      SolverOptions solver_options;
+      solver_options.function_tolerance = 1e-12;
+      solver_options.max_iterations = 30;
+      solver_options.initial_trust_region_radius = radius;
+      if (seed == 3) {
+        solver_options.observation_kernel.type = RobustKernel::Type::kCauchy;
+        solver_options.max_eliminated_observations = 4;  // kept features too
+      }
+      const CountedSolve fused = SolveCounting(problem, solver_options, 8);
+      solver_options.fused_chunk_pass = false;
+      const CountedSolve two_pass = SolveCounting(problem, solver_options, 8);
+      const std::vector<IterationSummary>& a = fused.summary.per_iteration;
+      const std::vector<IterationSummary>& b = two_pass.summary.per_iteration;
+      ASSERT_EQ(a.size(), b.size()) << "seed " << seed << " radius " << radius;
+      for (size_t i = 0; i < a.size(); ++i) {
+        EXPECT_EQ(a[i].chi2, b[i].chi2) << "seed " << seed << " iteration " << i + 1;
+        EXPECT_EQ(a[i].candidate_chi2, b[i].candidate_chi2);
+        EXPECT_EQ(a[i].lambda, b[i].lambda);
+        EXPECT_EQ(a[i].accepted, b[i].accepted);
+        EXPECT_EQ(b[i].chunk_passes, 2);
+        rejected += !a[i].accepted;
+        mid_rho += a[i].accepted && a[i].relative_decrease < 0.9;
+        one_pass += a[i].chunk_passes == 1;
+      }
+      EXPECT_EQ(fused.summary.final_chi2, two_pass.summary.final_chi2);
+      EXPECT_EQ(fused.summary.termination, two_pass.summary.termination);
+      for (int p = 0; p < problem.num_poses(); ++p)
+        EXPECT_EQ((fused.problem.poses[p] - two_pass.problem.poses[p]).norm(), 0.0);
+      for (int j = 0; j < problem.num_features(); ++j)
+        EXPECT_EQ((fused.problem.features[j] - two_pass.problem.features[j]).norm(), 0.0);
+    }
+  }
+  // Both paths of the speculation were taken.
+  EXPECT_GT(rejected, 0);
+  EXPECT_GT(mid_rho, 0);
+  EXPECT_GT(one_pass, 10);
 }
 
 }  // namespace
