@@ -39,8 +39,8 @@
 //    eta_max = 0.01, eta_min = the exact-solve tolerance. eta_max was
 //    measured (docs/benchmarks.md, issue 4): Ceres' 0.1 saves CG iterations
 //    per step but costs LM iterations, each a pass over the observations, and
-//    0.01 took 20-30 % less time on M3500, city10000 and the simulated
-//    landmark problems (10^4, 10^5) and equal (within 10 %) on intel.
+//    0.01 took 8-32 % less CPU time on M3500, city10000 and the simulated
+//    landmark problems (10^4, 10^5), and 9 % more on intel (0.02 s).
 //
 // 3. Warm start: x0 = alpha x_prev, the previous solution scaled to minimize
 //    the quadratic model q(x) = x^T S x / 2 - rhs^T x along it,
