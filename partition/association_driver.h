@@ -62,6 +62,12 @@ struct AssociationOptions {
   // on the simulated campus (GPS holds the poses), worse on Victoria Park
   // (no GPS: poses move between solves); docs/benchmarks.md.
   bool refit_between_undos = false;
+  // Undos right after a full solve that forbid a pair for the rest of the
+  // run: 1 (default) forbids it at once; 2 lets it be proposed once more
+  // (a right merge undone on a map still bent by wrong ones may come back).
+  // Pairs undone on re-fitted features are forbidden at their second undo
+  // either way (partition/internal/rejected_pairs.h).
+  int full_solve_undos = 1;
   int64_t chunk_observations = 4096;
   // Merged before the first round regardless of the test (tests of the undo).
   std::vector<std::pair<int32_t, int32_t>> forced_merges;
