@@ -349,6 +349,9 @@ Status AssociationOptions::Validate() const {
   if (marginal_batch < 1) return Status::InvalidArgument("association: marginal_batch must be >= 1");
   if (mutual_best_rounds < 0)
     return Status::InvalidArgument("association: mutual_best_rounds must be >= 0");
+  if (full_solve_undos < 1 || full_solve_undos > internal::RejectedPairs::kMaxUndos)
+    return Status::InvalidArgument("association: full_solve_undos is " +
+                                   std::to_string(full_solve_undos) + "; expected 1 or 2");
   if (chunk_observations < 1)
     return Status::InvalidArgument("association: chunk_observations must be >= 1");
   return Status::Ok();
@@ -416,7 +419,7 @@ Status AssociateAndSolve(const AssociationOptions& options,
   Labels labels(*problem);
   ChunkingOptions chunking;
   chunking.max_observations_per_chunk = options.chunk_observations;
-  internal::RejectedPairs rejected;  // origin pairs never to merge again
+  internal::RejectedPairs rejected(options.full_solve_undos);  // origin pairs never to merge again
 
   // Observations of each current feature, for exclusivity and undo.
   auto observations_by_feature = [&]() {

@@ -330,7 +330,8 @@ Status InitializeProgressively(const ProgressiveInitializationOptions& options,
       const bool unsettled = !solver_summary.converged && !iterations.empty() &&
                              last_before - solver_summary.final_chi2 >
                                  kUnsettledDecrease * solver_summary.final_chi2;
-      allowed = unsettled ? std::max<int64_t>(options.min_new_poses, allowed / 2)
+      const int64_t floor = std::min(options.min_new_poses, options.max_new_poses);
+      allowed = unsettled ? std::max(floor, allowed / 2)
                           : std::min(options.max_new_poses, 2 * allowed);
     }
   }

@@ -14,8 +14,8 @@
 // prefix lengths are
 //   T_0 = min(first_poses, N),
 //   T_{k+1} = min(N, max(T_k + 1, min(ceil(growth T_k), T_k + A_k)))
-// up to T_K = N, where A_0 = max_new_poses and A_{k+1} = max(min_new_poses,
-// A_k / 2) when stage k was unsettled (stopped by max_iterations_per_stage
+// up to T_K = N, where A_0 = max_new_poses and A_{k+1} = max(min(min_new_poses,
+// max_new_poses), A_k / 2) when stage k was unsettled (stopped by max_iterations_per_stage
 // while its last iteration still lowered chi2 by more than 1 %: the chained
 // segment was too far from the optimum for a few iterations), else
 // min(max_new_poses, 2 A_k). Without that control a 20 000-pose

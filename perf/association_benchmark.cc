@@ -17,7 +17,8 @@
 // every solver iteration; GS_INIT_ONLY=1 stops after the initialization (its
 // worst pose error is printed for the campus); GS_STAGE_ITERATIONS,
 // GS_STAGE_POSES and GS_INITIAL_RADIUS override the progressive stages'
-// iterations and new poses and the initial trust region radius.
+// iterations and new poses and the initial trust region radius;
+// GS_FULL_SOLVE_UNDOS=2 sets AssociationOptions::full_solve_undos.
 // Prints one line per round and a summary; the commands and figures are in
 // docs/benchmarks.md.
 #include <algorithm>
@@ -179,6 +180,7 @@ int main(int argc, char** argv) {
   }
   if (std::getenv("GS_INIT_ONLY") != nullptr) return 0;
   if (const char* rounds = std::getenv("GS_MAX_ROUNDS")) options.max_rounds = std::atoi(rounds);
+  if (const char* v = std::getenv("GS_FULL_SOLVE_UNDOS")) options.full_solve_undos = std::atoi(v);
   gs::partition::AssociationSummary summary;
   if (gs::Status status = gs::partition::AssociateAndSolve(options, solver, &problem, &summary);
       !status.ok())

@@ -26,16 +26,25 @@ class RejectedPairs {
   static constexpr int kMaxUndos = 2;
   using Pair = std::pair<int32_t, int32_t>;
 
+  // full_solve_undos: undos after a full solve that forbid a pair (1: the
+  // first; 2: it may come back once, e.g. when it was undone on a map still
+  // bent by other, wrong merges). Never more than kMaxUndos.
+  explicit RejectedPairs(int full_solve_undos = 1)
+      : full_solve_undos_(std::clamp(full_solve_undos, 1, kMaxUndos)) {}
+
   // Records that the merge of input features a and b was undone.
   void RecordUndo(int32_t a, int32_t b, bool after_full_solve) {
     const Pair pair = std::minmax(a, b);
-    if (after_full_solve || ++undos_[pair] >= kMaxUndos) forbidden_.insert(pair);
+    const int undos = ++undos_[pair];
+    if ((after_full_solve && undos >= full_solve_undos_) || undos >= kMaxUndos)
+      forbidden_.insert(pair);
   }
   bool IsForbidden(int32_t a, int32_t b) const { return forbidden_.count(std::minmax(a, b)) > 0; }
   const std::set<Pair>& forbidden() const { return forbidden_; }
 
  private:
-  std::map<Pair, int> undos_;  // undos on re-fitted features
+  int full_solve_undos_;
+  std::map<Pair, int> undos_;  // undos so far
   std::set<Pair> forbidden_;
 };
 

@@ -212,22 +212,26 @@ TEST(AssociationDriver, WrongMergeIsUndoneAndStaysUndone) {
     o.information = 100.0 * Eigen::Matrix2d::Identity();
     base.observations.push_back(o);
   }
-  for (bool refit : {false, true}) {
-    SCOPED_TRACE(refit ? "refit between undos" : "full re-solve between undos");
+  for (const auto& [refit, full_solve_undos] :
+       {std::pair{false, 1}, std::pair{true, 1}, std::pair{false, 2}}) {
+    SCOPED_TRACE(std::string(refit ? "refit between undos" : "full re-solve between undos") +
+                 ", full_solve_undos " + std::to_string(full_solve_undos));
     core::Problem2d problem = base;
     AssociationOptions options;
     options.chi = 1e-300;
     options.max_mahalanobis_squared = 1e12;
     options.forced_merges = {{a, b}};
     options.refit_between_undos = refit;
+    options.full_solve_undos = full_solve_undos;
     options.max_rounds = 6;
     AssociationSummary summary;
     ASSERT_TRUE(AssociateAndSolve(options, TightSolverOptions(), &problem, &summary).ok());
-    // Merged once (the forced merge), undone, never merged again.
-    ASSERT_EQ(summary.merge_log.size(), 1u);
+    // Merged once (the forced merge) or, with a second chance, twice; every
+    // time undone, and never merged again.
+    ASSERT_EQ(summary.merge_log.size(), static_cast<size_t>(full_solve_undos));
     EXPECT_TRUE(summary.merge_log.front().forced);
-    EXPECT_TRUE(summary.merge_log.front().undone);
-    EXPECT_EQ(summary.undone, 1);
+    for (const MergeRecord& record : summary.merge_log) EXPECT_TRUE(record.undone);
+    EXPECT_EQ(summary.undone, full_solve_undos);
     EXPECT_EQ(summary.merges, 0);
     EXPECT_TRUE(summary.converged) << "stopped by max_rounds: the pair kept coming back";
     EXPECT_EQ(problem.num_features(), 2);

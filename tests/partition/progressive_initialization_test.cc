@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/initialization.h"
@@ -169,6 +170,37 @@ TEST(ProgressiveInitialization, SecondRunStartsFromItsOwnInputGuess) {
     EXPECT_LT(std::abs(core::WrapAngle(p.poses[i].z() - random.true_poses[i].z())), 1e-9)
         << "pose " << i;
   }
+}
+
+TEST(ProgressiveInitialization, UnsettledStageHalvesTheNextStagesNewPoses) {
+  // One iteration per stage from a bad guess: a stage that still lowered chi2
+  // by more than 1 % in its last (only) iteration is unsettled and halves the
+  // new poses of the next stage (down to min_new_poses), a settled one
+  // doubles them back (up to max_new_poses).
+  testing::RandomProblem random = BadlyInitializedProblem(1, true, false);
+  core::Problem2d problem = random.problem;
+  ProgressiveInitializationOptions options;
+  options.first_poses = 8;
+  options.max_new_poses = 8;
+  options.min_new_poses = 2;
+  options.max_iterations_per_stage = 1;
+  options.solve_last_stage = true;
+  ProgressiveSummary summary;
+  ASSERT_TRUE(InitializeProgressively(options, core::SolverOptions(), &problem, &summary).ok());
+  ASSERT_GE(summary.stages.size(), 3u);
+  int64_t allowed = options.max_new_poses;
+  int unsettled_stages = 0;
+  for (size_t k = 1; k < summary.stages.size(); ++k) {
+    const ProgressiveStageSummary& previous = summary.stages[k - 1];
+    const bool unsettled = previous.termination == "max_iterations" &&
+                           previous.initial_chi2 - previous.final_chi2 > 1e-2 * previous.final_chi2;
+    unsettled_stages += unsettled ? 1 : 0;
+    allowed = unsettled ? std::max<int64_t>(2, allowed / 2) : std::min<int64_t>(8, 2 * allowed);
+    const int64_t expected = std::min<int64_t>(problem.num_poses(), previous.poses + allowed);
+    EXPECT_EQ(summary.stages[k].poses, expected) << "stage " << k;
+  }
+  EXPECT_GT(unsettled_stages, 0);
+  EXPECT_LT(summary.stages[1].poses - summary.stages[0].poses, options.max_new_poses);
 }
 
 TEST(ProgressiveInitialization, DisabledLeavesTheProblemAlone) {

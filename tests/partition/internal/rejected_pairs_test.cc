@@ -25,5 +25,18 @@ TEST(RejectedPairs, UndoneOnRefittedFeaturesIsForgivenOnceNotForever) {
   EXPECT_EQ(rejected.forbidden().size(), 1u);
 }
 
+TEST(RejectedPairs, SecondChanceAfterAFullSolveWhenAsked) {
+  RejectedPairs rejected(/*full_solve_undos=*/2);
+  rejected.RecordUndo(1, 2, /*after_full_solve=*/true);
+  EXPECT_FALSE(rejected.IsForbidden(1, 2));
+  rejected.RecordUndo(1, 2, /*after_full_solve=*/true);
+  EXPECT_TRUE(rejected.IsForbidden(1, 2));
+  // Never more than kMaxUndos, whatever is asked.
+  RejectedPairs capped(/*full_solve_undos=*/5);
+  capped.RecordUndo(1, 2, true);
+  capped.RecordUndo(1, 2, true);
+  EXPECT_TRUE(capped.IsForbidden(1, 2));
+}
+
 }  // namespace
 }  // namespace graphslam::partition::internal
