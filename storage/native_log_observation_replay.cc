@@ -13,92 +13,46 @@
 #include <utility>
 
 #include "storage/internal/id_map.h"
+#include "storage/internal/text_blocks.h"
 #include "storage/internal/text_reader.h"
 
 namespace graphslam::storage {
 namespace {
 
-inline bool IsSpace(char c) {
-  return c == ' ' || c == '\t' || c == '\n' || c == '\v' || c == '\f' || c == '\r';
-}
-
-struct Block {
-  std::string text;           // whole lines
-  int64_t end_offset = 0;
-  int32_t start_line = 0;     // lines before the block
-  int32_t end_line = 0;
-  std::vector<core::Observation> observations;
-  Status status;
-};
-
+// Observations of the RB / XY lines of one tokenized block.
 class BlockParser {
  public:
   BlockParser(const std::string& name, const internal::IdMap& poses,
               const internal::IdMap& features)
       : name_(name), poses_(poses), features_(features) {}
 
-  void Parse(Block* block) const {
-    const char* position = block->text.data();
-    const char* const end = position + block->text.size();
-    int32_t line = block->start_line;
-    while (position < end) {
-      const auto* newline = static_cast<const char*>(std::memchr(position, '\n', end - position));
-      const char* line_end = newline != nullptr ? newline : end;
-      ++line;
-      Status status = ParseLine(std::string_view(position, line_end - position), line,
-                                &block->observations);
-      if (!status.ok()) {
-        block->status = std::move(status);
-        return;
-      }
-      position = line_end + 1;
+  Status Parse(const internal::TextBlock& block, std::vector<core::Observation>* out) const {
+    for (const internal::TokenizedLine& line : block.lines) {
+      if (line.num_fields != 8) return Changed(line.line, std::to_string(line.num_fields) + " fields");
+      int64_t pose_id = 0, feature_id = 0;
+      if (!internal::ParseInt64(line.fields[1], &pose_id) ||
+          !internal::ParseInt64(line.fields[2], &feature_id))
+        return Changed(line.line, "an id that is not an integer");
+      // Fields 3..7 converted by TokenizeBlock (the same ParseDouble).
+      if ((line.converted & 0xF8u) != 0xF8u)
+        return Changed(line.line, "a field that is not a finite number");
+      core::Observation observation;
+      observation.pose = poses_.Find(pose_id);
+      observation.feature = features_.Find(feature_id);
+      if (observation.pose < 0 || observation.feature < 0)
+        return Changed(line.line, "pose " + std::to_string(pose_id) + " or feature " +
+                                      std::to_string(feature_id) + " unknown to the first pass");
+      observation.kind = line.fields[0] == "RB" ? core::ObservationKind::kRangeBearing
+                                                : core::ObservationKind::kPointXY;
+      observation.z = Eigen::Vector2d(line.values[3], line.values[4]);
+      observation.information = internal::SymmetricFromUpper2(line.values + 5);
+      observation.line = line.line;
+      out->push_back(observation);
     }
-  }
-
- private:
-  Status ParseLine(std::string_view text, int32_t line,
-                   std::vector<core::Observation>* out) const {
-    std::string_view fields[9];
-    size_t count = 0;
-    const char* position = text.data();
-    const char* const end = position + text.size();
-    while (position < end) {
-      while (position < end && IsSpace(*position)) ++position;
-      if (position >= end) break;
-      const char* token = position;
-      while (position < end && !IsSpace(*position)) ++position;
-      if (count == 0) {
-        // Only RB / XY lines matter; anything else is skipped unparsed.
-        const std::string_view tag(token, static_cast<size_t>(position - token));
-        if (tag != "RB" && tag != "XY") return Status::Ok();
-      }
-      if (count == 9) return Changed(line, "more than 8 fields");
-      fields[count++] = std::string_view(token, static_cast<size_t>(position - token));
-    }
-    if (count == 0) return Status::Ok();
-    if (count != 8) return Changed(line, std::to_string(count) + " fields");
-    int64_t pose_id = 0, feature_id = 0;
-    double values[5];
-    if (!internal::ParseInt64(fields[1], &pose_id) || !internal::ParseInt64(fields[2], &feature_id))
-      return Changed(line, "an id that is not an integer");
-    for (int k = 0; k < 5; ++k)
-      if (!internal::ParseDouble(fields[3 + k], &values[k]) || !std::isfinite(values[k]))
-        return Changed(line, "a field that is not a finite number");
-    core::Observation observation;
-    observation.pose = poses_.Find(pose_id);
-    observation.feature = features_.Find(feature_id);
-    if (observation.pose < 0 || observation.feature < 0)
-      return Changed(line, "pose " + std::to_string(pose_id) + " or feature " +
-                               std::to_string(feature_id) + " unknown to the first pass");
-    observation.kind = fields[0] == "RB" ? core::ObservationKind::kRangeBearing
-                                         : core::ObservationKind::kPointXY;
-    observation.z = Eigen::Vector2d(values[0], values[1]);
-    observation.information = internal::SymmetricFromUpper2(values + 2);
-    observation.line = line;
-    out->push_back(observation);
     return Status::Ok();
   }
 
+ private:
   Status Changed(int32_t line, const std::string& what) const {
     return internal::CorruptionAt(name_, line,
                                   what + " in an RB / XY record; the file changed since the "
@@ -110,8 +64,10 @@ class BlockParser {
   const internal::IdMap& features_;
 };
 
-struct FileCloser {
-  void operator()(std::FILE* file) const { std::fclose(file); }
+struct Block {
+  internal::TextBlock text;
+  std::vector<core::Observation> observations;
+  Status status;
 };
 
 }  // namespace
@@ -121,77 +77,39 @@ Status ReplayNativeLogObservations(const std::string& path, const std::vector<in
                                    const NativeLogReplayOptions& options,
                                    const NativeLogBlockSink& sink) {
   GS_CHECK(options.block_bytes > 0 && options.blocks_in_flight > 0 && options.start_offset >= 0);
-  std::unique_ptr<std::FILE, FileCloser> file(std::fopen(path.c_str(), "rb"));
-  if (!file) return Status::IOError(path + ": open for reading: " + std::strerror(errno));
-  if (options.start_offset > 0 &&
-      fseeko(file.get(), static_cast<off_t>(options.start_offset), SEEK_SET) != 0)
-    return Status::IOError(path + ": seek to byte " + std::to_string(options.start_offset) + ": " +
-                           std::strerror(errno));
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<internal::TextBlockCutter> cutter,
+                      internal::TextBlockCutter::Open(path, options.start_offset,
+                                                      options.start_line, options.block_bytes));
   internal::IdMap poses, features;
   poses.Build(pose_ids);
   features.Build(feature_ids);
   const std::string name = internal::BaseName(path);
   const BlockParser parser(name, poses, features);
+  const std::vector<std::string_view> tags = {"RB", "XY"};
 
-  std::string carry;  // the start of a line that goes on in the next read
-  bool end_of_file = false;
-  int64_t offset = options.start_offset;
-  int32_t line = options.start_line;
-  Status read_failure;                // set by the first stage only
-  Status sink_failure;                // set by the last stage only
-  std::atomic<bool> failed{false};    // read by the first stage, set by both
-
+  Status read_failure;              // set by the first stage only
+  Status sink_failure;              // set by the last stage only
+  std::atomic<bool> failed{false};  // read by the first stage, set by both
   tbb::parallel_pipeline(
       static_cast<size_t>(options.blocks_in_flight),
       tbb::make_filter<void, Block*>(
           tbb::filter_mode::serial_in_order,
           [&](tbb::flow_control& control) -> Block* {
-            if (failed || (end_of_file && carry.empty())) {
+            auto block = std::make_unique<Block>();
+            if (failed || !cutter->Next(&block->text, &read_failure)) {
+              if (!read_failure.ok()) failed = true;
               control.stop();
               return nullptr;
             }
-            auto block = std::make_unique<Block>();
-            block->text = std::move(carry);
-            carry.clear();
-            // Read until the block holds a '\n' and at least block_bytes (or the end).
-            while (!end_of_file) {
-              const size_t old = block->text.size();
-              const size_t want = static_cast<size_t>(options.block_bytes);
-              block->text.resize(old + want);
-              const size_t got = std::fread(block->text.data() + old, 1, want, file.get());
-              block->text.resize(old + got);
-              if (got < want) {
-                if (std::ferror(file.get())) {
-                  read_failure = Status::IOError(path + ": read error after byte " +
-                                            std::to_string(offset + static_cast<int64_t>(old + got)));
-                  failed = true;
-                  control.stop();
-                  return nullptr;
-                }
-                end_of_file = true;
-              }
-              if (block->text.find('\n', old) != std::string::npos) break;
-            }
-            if (!end_of_file) {
-              const size_t last = block->text.rfind('\n');
-              carry.assign(block->text, last + 1, std::string::npos);
-              block->text.resize(last + 1);
-            }
-            block->start_line = line;
-            const auto newlines =
-                static_cast<int32_t>(std::count(block->text.begin(), block->text.end(), '\n'));
-            // A last line without '\n' is a line too (std::getline).
-            const bool partial = !block->text.empty() && block->text.back() != '\n';
-            line += newlines + (partial ? 1 : 0);
-            offset += static_cast<int64_t>(block->text.size());
-            block->end_line = line;
-            block->end_offset = offset;
             return block.release();
           }) &
           tbb::make_filter<Block*, Block*>(tbb::filter_mode::parallel,
                                            [&](Block* block) -> Block* {
-                                             parser.Parse(block);
-                                             block->text = std::string();
+                                             internal::TokenizeBlock(&block->text, tags);
+                                             block->status =
+                                                 parser.Parse(block->text, &block->observations);
+                                             block->text.lines.clear();
+                                             block->text.text = std::string();
                                              return block;
                                            }) &
           tbb::make_filter<Block*, void>(tbb::filter_mode::serial_in_order, [&](Block* raw) {
@@ -202,8 +120,8 @@ Status ReplayNativeLogObservations(const std::string& path, const std::vector<in
               NativeLogObservationBlock view;
               view.observations = block->observations.data();
               view.size = block->observations.size();
-              view.end_offset = block->end_offset;
-              view.end_line = block->end_line;
+              view.end_offset = block->text.end_offset;
+              view.end_line = block->text.end_line;
               status = sink(view);
             }
             if (!status.ok()) {

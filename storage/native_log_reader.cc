@@ -1,6 +1,12 @@
 #include "storage/native_log_reader.h"
 
+#include <tbb/parallel_pipeline.h>
+
 #include <Eigen/LU>
+#include <algorithm>
+#include <atomic>
+#include <functional>
+#include <memory>
 #include <cmath>
 #include <limits>
 #include <string_view>
@@ -11,6 +17,7 @@
 #include "core/velocity_motion_model.h"
 #include "storage/atomic_file.h"
 #include "storage/internal/problem_validation.h"
+#include "storage/internal/text_blocks.h"
 #include "storage/internal/text_reader.h"
 
 namespace graphslam::storage {
@@ -24,21 +31,65 @@ constexpr const char* kKnownTags =
 
 class NativeLogParser {
  public:
+  static constexpr int64_t kBlockBytes = int64_t{1} << 20;
+  static constexpr size_t kBlocksInFlight = 4;
+
   explicit NativeLogParser(const std::string& path, const ObservationSink* sink = nullptr,
                            std::vector<NativeLogScan>* scans = nullptr)
       : path_(path), sink_(sink), scans_(scans) {}
 
+  // Lines are cut into blocks and tokenized (fields split, numbers
+  // converted) in parallel; the records are then interpreted in file order,
+  // so ids, dense indices, checks and messages are those of a serial read.
   StatusOr<core::Problem2d> Parse() {
-    GS_ASSIGN_OR_RETURN(std::unique_ptr<LineReader> reader, LineReader::Open(path_));
+    GS_ASSIGN_OR_RETURN(std::unique_ptr<internal::TextBlockCutter> cutter,
+                        internal::TextBlockCutter::Open(path_, 0, 0, kBlockBytes));
+    const std::unique_ptr<LineReader> reader = LineReader::ForTokenizedLines(path_);
     problem_.source = path_;
-    if (!reader->Next()) {
-      GS_RETURN_IF_ERROR(reader->status());
+    bool header = false;
+    Status read_failure;              // first stage only
+    Status parse_failure;             // last stage only
+    std::atomic<bool> failed{false};  // read by the first stage, set by both
+    tbb::parallel_pipeline(
+        kBlocksInFlight,
+        tbb::make_filter<void, internal::TextBlock*>(
+            tbb::filter_mode::serial_in_order,
+            [&](tbb::flow_control& control) -> internal::TextBlock* {
+              auto block = std::make_unique<internal::TextBlock>();
+              if (failed || !cutter->Next(block.get(), &read_failure)) {
+                if (!read_failure.ok()) failed = true;
+                control.stop();
+                return nullptr;
+              }
+              return block.release();
+            }) &
+            tbb::make_filter<internal::TextBlock*, internal::TextBlock*>(
+                tbb::filter_mode::parallel,
+                [](internal::TextBlock* block) {
+                  internal::TokenizeBlock(block);
+                  return block;
+                }) &
+            tbb::make_filter<internal::TextBlock*, void>(
+                tbb::filter_mode::serial_in_order, [&](internal::TextBlock* raw) {
+                  std::unique_ptr<internal::TextBlock> block(raw);
+                  if (failed) return;
+                  for (const internal::TokenizedLine& line : block->lines) {
+                    reader->Adopt(line);
+                    Status status = header ? ParseLine(*reader) : ParseHeader(*reader);
+                    header = true;
+                    if (!status.ok()) {
+                      parse_failure = std::move(status);
+                      failed = true;
+                      return;
+                    }
+                  }
+                }));
+    if (!parse_failure.ok()) return parse_failure;
+    if (!read_failure.ok()) return read_failure;
+    if (!header) {
       return Status::Corruption(reader->name() + ": is empty; expected the header " +
                                 kNativeLogMagic + " " + std::to_string(kNativeLogVersion));
     }
-    GS_RETURN_IF_ERROR(ParseHeader(*reader));
-    while (reader->Next()) GS_RETURN_IF_ERROR(ParseLine(*reader));
-    GS_RETURN_IF_ERROR(reader->status());
     return std::move(problem_);
   }
 
@@ -332,6 +383,50 @@ StatusOr<core::Problem2d> ReadNativeLogStreaming(const std::string& path,
   return NativeLogParser(path, &sink).Parse();
 }
 
+namespace {
+
+// Appends records [0, n) to `file` in order, each formatted by
+// format(i, &text) (which appends one or more whole lines), formatting blocks
+// of records in parallel (TBB): %.17g formatting is most of the cost of
+// writing a large problem, and the bytes do not depend on the threads.
+Status AppendRecords(WritableFile* file, int64_t n,
+                     const std::function<void(int64_t, std::string*)>& format) {
+  constexpr int64_t kRecordsPerBlock = 8192;
+  struct Block {
+    int64_t begin = 0, end = 0;
+    std::string text;
+  };
+  int64_t next = 0;
+  Status status;
+  tbb::parallel_pipeline(
+      8,
+      tbb::make_filter<void, Block*>(tbb::filter_mode::serial_in_order,
+                                     [&](tbb::flow_control& control) -> Block* {
+                                       if (next >= n || !status.ok()) {
+                                         control.stop();
+                                         return nullptr;
+                                       }
+                                       auto block = std::make_unique<Block>();
+                                       block->begin = next;
+                                       block->end = std::min(n, next + kRecordsPerBlock);
+                                       next = block->end;
+                                       return block.release();
+                                     }) &
+          tbb::make_filter<Block*, Block*>(tbb::filter_mode::parallel,
+                                           [&](Block* block) -> Block* {
+                                             for (int64_t i = block->begin; i < block->end; ++i)
+                                               format(i, &block->text);
+                                             return block;
+                                           }) &
+          tbb::make_filter<Block*, void>(tbb::filter_mode::serial_in_order, [&](Block* raw) {
+            std::unique_ptr<Block> block(raw);
+            if (status.ok()) status = file->Append(block->text);
+          }));
+  return status;
+}
+
+}  // namespace
+
 Status WriteNativeLog(const core::Problem2d& problem, const std::string& path, Env* env) {
   GS_RETURN_IF_ERROR(
       internal::ValidateProblemForWriting(problem, /*shared_id_space=*/false)
@@ -356,71 +451,87 @@ Status WriteNativeLog(const core::Problem2d& problem, const std::string& path, E
     GS_RETURN_IF_ERROR(flush());
     const auto& pose_ids = problem.pose_ids;
     const auto& feature_ids = problem.feature_ids;
-    for (int32_t i = 0; i < problem.num_poses(); ++i) {
-      AppendField(&line, "POSE");
-      AppendField(&line, pose_ids[i]);
+    // Each formatter appends one line to *text; AppendField starts a field
+    // with a space unless the string is empty, so a line is built apart and
+    // then appended.
+    const auto lines = [](const std::function<void(int64_t, std::string*)>& record) {
+      return [record](int64_t i, std::string* text) {
+        std::string one;
+        record(i, &one);
+        if (one.empty()) return;
+        text->append(one);
+        text->push_back('\n');
+      };
+    };
+    GS_RETURN_IF_ERROR(AppendRecords(file, problem.num_poses(), lines([&](int64_t i, std::string* out) {
+      AppendField(out, "POSE");
+      AppendField(out, pose_ids[i]);
       const double stamp = problem.pose_stamps[i];
       if (std::isnan(stamp)) {
-        AppendField(&line, "-");
+        AppendField(out, "-");
       } else {
-        AppendField(&line, stamp);
+        AppendField(out, stamp);
       }
       if (problem.pose_initialized[i]) {
-        for (int k = 0; k < 3; ++k) AppendField(&line, problem.poses[i][k]);
+        for (int k = 0; k < 3; ++k) AppendField(out, problem.poses[i][k]);
       }
-      GS_RETURN_IF_ERROR(flush());
-    }
-    for (int32_t i = 0; i < problem.num_features(); ++i) {
-      AppendField(&line, "FEATURE");
-      AppendField(&line, feature_ids[i]);
+    })));
+    GS_RETURN_IF_ERROR(AppendRecords(file, problem.num_features(), lines([&](int64_t i, std::string* out) {
+      AppendField(out, "FEATURE");
+      AppendField(out, feature_ids[i]);
       if (problem.feature_initialized[i]) {
-        AppendField(&line, problem.features[i].x());
-        AppendField(&line, problem.features[i].y());
+        AppendField(out, problem.features[i].x());
+        AppendField(out, problem.features[i].y());
       }
-      GS_RETURN_IF_ERROR(flush());
-    }
+    })));
     for (int32_t i = 0; i < problem.num_poses(); ++i) {
       if (!problem.pose_fixed[i]) continue;
       AppendField(&line, "FIX");
       AppendField(&line, pose_ids[i]);
       GS_RETURN_IF_ERROR(flush());
     }
-    for (const auto& motion : problem.motions) {
-      AppendField(&line, "CONTROL_INFO");
-      AppendField(&line, pose_ids[motion.from]);
-      AppendField(&line, pose_ids[motion.to]);
-      AppendField(&line, motion.control.v);
-      AppendField(&line, motion.control.omega);
-      AppendField(&line, motion.control.dt);
-      AppendUpperTriangle(&line, motion.information);
-      GS_RETURN_IF_ERROR(flush());
-    }
-    for (const auto& constraint : problem.relative_poses) {
-      AppendField(&line, "ODOM");
-      AppendField(&line, pose_ids[constraint.from]);
-      AppendField(&line, pose_ids[constraint.to]);
-      for (int k = 0; k < 3; ++k) AppendField(&line, constraint.z[k]);
-      AppendUpperTriangle(&line, constraint.information);
-      GS_RETURN_IF_ERROR(flush());
-    }
-    for (const auto& observation : problem.observations) {
-      const bool range_bearing = observation.kind == core::ObservationKind::kRangeBearing;
-      AppendField(&line, range_bearing ? "RB" : "XY");
-      AppendField(&line, pose_ids[observation.pose]);
-      AppendField(&line, feature_ids[observation.feature]);
-      AppendField(&line, observation.z.x());
-      AppendField(&line, observation.z.y());
-      AppendUpperTriangle(&line, observation.information);
-      GS_RETURN_IF_ERROR(flush());
-    }
-    for (const auto& gps : problem.gps) {
-      AppendField(&line, "GPS");
-      AppendField(&line, pose_ids[gps.pose]);
-      AppendField(&line, gps.z.x());
-      AppendField(&line, gps.z.y());
-      AppendUpperTriangle(&line, gps.information);
-      GS_RETURN_IF_ERROR(flush());
-    }
+    GS_RETURN_IF_ERROR(AppendRecords(
+        file, static_cast<int64_t>(problem.motions.size()), lines([&](int64_t i, std::string* out) {
+          const auto& motion = problem.motions[static_cast<size_t>(i)];
+          AppendField(out, "CONTROL_INFO");
+          AppendField(out, pose_ids[motion.from]);
+          AppendField(out, pose_ids[motion.to]);
+          AppendField(out, motion.control.v);
+          AppendField(out, motion.control.omega);
+          AppendField(out, motion.control.dt);
+          AppendUpperTriangle(out, motion.information);
+        })));
+    GS_RETURN_IF_ERROR(AppendRecords(
+        file, static_cast<int64_t>(problem.relative_poses.size()),
+        lines([&](int64_t i, std::string* out) {
+          const auto& constraint = problem.relative_poses[static_cast<size_t>(i)];
+          AppendField(out, "ODOM");
+          AppendField(out, pose_ids[constraint.from]);
+          AppendField(out, pose_ids[constraint.to]);
+          for (int k = 0; k < 3; ++k) AppendField(out, constraint.z[k]);
+          AppendUpperTriangle(out, constraint.information);
+        })));
+    GS_RETURN_IF_ERROR(AppendRecords(
+        file, static_cast<int64_t>(problem.observations.size()),
+        lines([&](int64_t i, std::string* out) {
+          const auto& observation = problem.observations[static_cast<size_t>(i)];
+          const bool range_bearing = observation.kind == core::ObservationKind::kRangeBearing;
+          AppendField(out, range_bearing ? "RB" : "XY");
+          AppendField(out, pose_ids[observation.pose]);
+          AppendField(out, feature_ids[observation.feature]);
+          AppendField(out, observation.z.x());
+          AppendField(out, observation.z.y());
+          AppendUpperTriangle(out, observation.information);
+        })));
+    GS_RETURN_IF_ERROR(AppendRecords(
+        file, static_cast<int64_t>(problem.gps.size()), lines([&](int64_t i, std::string* out) {
+          const auto& gps = problem.gps[static_cast<size_t>(i)];
+          AppendField(out, "GPS");
+          AppendField(out, pose_ids[gps.pose]);
+          AppendField(out, gps.z.x());
+          AppendField(out, gps.z.y());
+          AppendUpperTriangle(out, gps.information);
+        })));
     return Status::Ok();
   });
 }

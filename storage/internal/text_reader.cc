@@ -1,12 +1,15 @@
 #include "storage/internal/text_reader.h"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <memory>
+
+#include "storage/internal/text_blocks.h"
 
 namespace graphslam::storage::internal {
 
@@ -30,6 +33,19 @@ StatusOr<std::unique_ptr<LineReader>> LineReader::Open(const std::string& path) 
   reader->file_.reset(std::fopen(path.c_str(), "rb"));
   if (!reader->file_) return Status::IOError(path + ": cannot open for reading");
   return reader;
+}
+
+std::unique_ptr<LineReader> LineReader::ForTokenizedLines(const std::string& path) {
+  return std::unique_ptr<LineReader>(new LineReader(BaseName(path), path));
+}
+
+void LineReader::Adopt(const TokenizedLine& line) {
+  adopted_ = &line;
+  line_number_ = line.line;
+  fields_.clear();
+  const int direct = std::min(line.num_fields, TokenizedLine::kMaxFields);
+  fields_.assign(line.fields, line.fields + direct);
+  fields_.insert(fields_.end(), line.overflow.begin(), line.overflow.end());
 }
 
 namespace {
@@ -87,6 +103,7 @@ bool LineReader::ReadLine() {
 }
 
 bool LineReader::Next() {
+  adopted_ = nullptr;
   while (status_.ok() && ReadLine()) {
     ++line_number_;
     fields_.clear();
@@ -157,6 +174,9 @@ Status LineReader::FieldError(size_t index, std::string_view what,
 
 StatusOr<double> LineReader::Double(size_t index, std::string_view what) const {
   GS_CHECK(index < fields_.size());
+  if (adopted_ != nullptr && index < static_cast<size_t>(TokenizedLine::kMaxConverted) &&
+      ((adopted_->converted >> index) & 1u) != 0)
+    return adopted_->values[index];  // converted by TokenizeBlock, same from_chars
   double value = 0.0;
   if (!ParseDouble(fields_[index], &value)) return FieldError(index, what, "a number");
   if (!std::isfinite(value)) return FieldError(index, what, "a finite number");

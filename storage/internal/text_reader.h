@@ -34,10 +34,19 @@ namespace graphslam::storage::internal {
 // Base name of a path ("a/b/intel.g2o" -> "intel.g2o").
 std::string BaseName(const std::string& path);
 
+struct TokenizedLine;  // text_blocks.h
+
 class LineReader {
  public:
   // NotFound if the file does not exist, IOError if it cannot be opened.
   static StatusOr<std::unique_ptr<LineReader>> Open(const std::string& path);
+  // A reader that reads nothing itself: lines tokenized elsewhere (in
+  // parallel, text_blocks.h) are handed to it with Adopt, and its field
+  // accessors and messages work as for a line it read (`path` names them).
+  static std::unique_ptr<LineReader> ForTokenizedLines(const std::string& path);
+  // Makes `line` the current line; Double uses its converted numbers. `line`
+  // (and the text its fields view) must outlive its use.
+  void Adopt(const TokenizedLine& line);
 
   // Reads the next line that is neither blank nor a comment (first non-blank
   // character '#') and splits it on whitespace into fields(). Returns false at
@@ -89,6 +98,7 @@ class LineReader {
   bool end_of_file_ = false;
   std::string carry_;          // a line that straddles two blocks
   std::string_view line_;
+  const TokenizedLine* adopted_ = nullptr;
   std::vector<std::string_view> fields_;
   int32_t line_number_ = 0;
   Status status_;

@@ -1,0 +1,138 @@
+#include "storage/internal/text_blocks.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+
+#include "storage/internal/text_reader.h"
+
+namespace graphslam::storage::internal {
+namespace {
+
+inline bool IsSpace(char c) {
+  return c == ' ' || c == '\t' || c == '\n' || c == '\v' || c == '\f' || c == '\r';
+}
+
+}  // namespace
+
+StatusOr<std::unique_ptr<TextBlockCutter>> TextBlockCutter::Open(const std::string& path,
+                                                                 int64_t offset, int32_t line,
+                                                                 int64_t block_bytes) {
+  GS_CHECK(offset >= 0 && block_bytes > 0);
+  std::error_code error;
+  if (!std::filesystem::exists(path, error))
+    return Status::NotFound(path + ": no such file; expected an existing input file");
+  if (std::filesystem::is_directory(path, error))
+    return Status::InvalidArgument(path + ": is a directory; expected a file");
+  std::unique_ptr<TextBlockCutter> cutter(new TextBlockCutter());
+  cutter->path_ = path;
+  cutter->file_.reset(std::fopen(path.c_str(), "rb"));
+  if (!cutter->file_) return Status::IOError(path + ": cannot open for reading");
+  if (offset > 0 && fseeko(cutter->file_.get(), static_cast<off_t>(offset), SEEK_SET) != 0)
+    return Status::IOError(path + ": seek to byte " + std::to_string(offset) + ": " +
+                           std::strerror(errno));
+  cutter->offset_ = offset;
+  cutter->line_ = line;
+  cutter->block_bytes_ = block_bytes;
+  return cutter;
+}
+
+bool TextBlockCutter::Next(TextBlock* block, Status* status) {
+  block->lines.clear();
+  block->status = Status::Ok();
+  if (end_of_file_ && carry_.empty()) return false;
+  block->text = std::move(carry_);
+  carry_.clear();
+  // Read until the block holds a '\n' and at least block_bytes (or the end).
+  while (!end_of_file_) {
+    const size_t old = block->text.size();
+    const auto want = static_cast<size_t>(block_bytes_);
+    block->text.resize(old + want);
+    const size_t got = std::fread(block->text.data() + old, 1, want, file_.get());
+    block->text.resize(old + got);
+    if (got < want) {
+      if (std::ferror(file_.get())) {
+        *status = Status::IOError(path_ + ": read error after byte " +
+                                  std::to_string(offset_ + static_cast<int64_t>(old + got)));
+        return false;
+      }
+      end_of_file_ = true;
+    }
+    if (block->text.find('\n', old) != std::string::npos) break;
+  }
+  if (!end_of_file_) {
+    const size_t last = block->text.rfind('\n');
+    carry_.assign(block->text, last + 1, std::string::npos);
+    block->text.resize(last + 1);
+  }
+  if (block->text.empty()) return false;
+  block->start_line = line_;
+  const auto newlines =
+      static_cast<int32_t>(std::count(block->text.begin(), block->text.end(), '\n'));
+  const bool partial = block->text.back() != '\n';  // a last line without '\n'
+  line_ += newlines + (partial ? 1 : 0);
+  offset_ += static_cast<int64_t>(block->text.size());
+  block->end_line = line_;
+  block->end_offset = offset_;
+  return true;
+}
+
+void TokenizeBlock(TextBlock* block, const std::vector<std::string_view>& only_tags) {
+  block->lines.clear();
+  const char* position = block->text.data();
+  const char* const end = position + block->text.size();
+  int32_t line = block->start_line;
+  TokenizedLine parsed;
+  while (position < end) {
+    const auto* newline = static_cast<const char*>(std::memchr(position, '\n', end - position));
+    const char* const line_end = newline != nullptr ? newline : end;
+    ++line;
+    parsed.num_fields = 0;
+    parsed.converted = 0;
+    parsed.overflow.clear();
+    bool keep = true;
+    for (const char* p = position; p < line_end;) {
+      while (p < line_end && IsSpace(*p)) ++p;
+      if (p >= line_end) break;
+      const char* token = p;
+      while (p < line_end && !IsSpace(*p)) ++p;
+      const std::string_view field(token, static_cast<size_t>(p - token));
+      if (parsed.num_fields == 0) {
+        if (field[0] == '#') {
+          keep = false;  // a comment
+          break;
+        }
+        if (!only_tags.empty() &&
+            std::find(only_tags.begin(), only_tags.end(), field) == only_tags.end()) {
+          keep = false;
+          break;
+        }
+      }
+      if (parsed.num_fields < TokenizedLine::kMaxFields) {
+        parsed.fields[parsed.num_fields] = field;
+      } else {
+        parsed.overflow.push_back(field);
+      }
+      ++parsed.num_fields;
+    }
+    position = line_end + 1;
+    if (!keep || parsed.num_fields == 0) continue;
+    const int convertible = std::min(parsed.num_fields, TokenizedLine::kMaxConverted);
+    for (int i = 1; i < convertible; ++i) {
+      // Only what looks like a number is tried (ids and tags are cheap to skip).
+      const char c = parsed.fields[i][0];
+      if (!((c >= '0' && c <= '9') || c == '-' || c == '+' || c == '.')) continue;
+      double value = 0.0;
+      if (ParseDouble(parsed.fields[i], &value) && std::isfinite(value)) {
+        parsed.values[i] = value;
+        parsed.converted |= 1u << i;
+      }
+    }
+    parsed.line = line;
+    block->lines.push_back(parsed);
+  }
+}
+
+}  // namespace graphslam::storage::internal

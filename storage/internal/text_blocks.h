@@ -1,0 +1,80 @@
+// Text input cut into blocks of whole lines, for readers that tokenize and
+// convert numbers in parallel (TBB) and interpret the lines in order: the
+// native log's first pass (native_log_reader.cc) and its observation replay
+// (native_log_observation_replay.cc).
+//
+//   TextBlockCutter::Next   serial: the next ~block_bytes of whole lines, with
+//                           the number of lines before them and the byte
+//                           offset after them (a resume point)
+//   TokenizeBlock           parallel-safe: splits every line of a block into
+//                           fields (the C locale's whitespace, as LineReader),
+//                           skipping blank and comment lines, and converts the
+//                           first kMaxConverted fields to doubles where they
+//                           are numbers (LineReader::Double uses them)
+//
+// A last line without '\n' is a line (std::getline); line numbers count every
+// line, blank and comment lines included, as LineReader does.
+//
+// THREAD SAFETY: a cutter is used by one thread at a time; TokenizeBlock
+// touches only its block. ALLOCATION: the block's text and its lines.
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/status.h"
+
+namespace graphslam::storage::internal {
+
+struct TokenizedLine {
+  static constexpr int kMaxFields = 16;
+  static constexpr int kMaxConverted = 16;
+  int32_t line = 0;       // 1-based line number
+  int32_t num_fields = 0;  // all fields (views beyond kMaxFields in `overflow`)
+  uint32_t converted = 0;  // bit i: values[i] holds field i as a finite double
+  std::string_view fields[kMaxFields];
+  double values[kMaxConverted];
+  std::vector<std::string_view> overflow;  // fields kMaxFields.. of long lines
+};
+
+struct TextBlock {
+  std::string text;  // whole lines
+  int32_t start_line = 0;  // lines before the block
+  int32_t end_line = 0;    // lines up to and including the block
+  int64_t end_offset = 0;  // byte offset after the block
+  std::vector<TokenizedLine> lines;  // TokenizeBlock's output
+  Status status;                     // for the stages of a pipeline
+};
+
+class TextBlockCutter {
+ public:
+  // NotFound / IOError naming the path. `offset` must be a line start and
+  // `line` the number of lines before it.
+  static StatusOr<std::unique_ptr<TextBlockCutter>> Open(const std::string& path, int64_t offset,
+                                                         int32_t line, int64_t block_bytes);
+  // Fills *block (text, start_line, end_line, end_offset; lines cleared);
+  // false at the end of the file (then *status may hold a read error).
+  bool Next(TextBlock* block, Status* status);
+
+ private:
+  struct FileCloser {
+    void operator()(std::FILE* file) const { std::fclose(file); }
+  };
+  std::string path_;
+  std::unique_ptr<std::FILE, FileCloser> file_;
+  int64_t block_bytes_ = 0;
+  int64_t offset_ = 0;
+  int32_t line_ = 0;
+  std::string carry_;
+  bool end_of_file_ = false;
+};
+
+// `only_tags`: when not empty, lines whose first field is not one of them are
+// dropped unconverted (the replay wants RB / XY only).
+void TokenizeBlock(TextBlock* block, const std::vector<std::string_view>& only_tags = {});
+
+}  // namespace graphslam::storage::internal
