@@ -27,8 +27,7 @@
 //
 // THREAD SAFETY: each pass runs chunks in parallel (TBB) and merges their
 // results in chunk order, so results do not depend on the thread count.
-// ALLOCATION: bounded by max_in_flight chunks plus the caller's outputs (the
-// fused pass: a second ReducedSystem, which the caller owns).
+// ALLOCATION: bounded by max_in_flight chunks plus the caller's outputs.
 #pragma once
 
 #include <Eigen/Core>

@@ -39,24 +39,22 @@ class PlanarSpace {
   using Checkpoint = SolverCheckpoint;
   static constexpr const char* kName = "";
 
-  // `next_system` (may be null: two passes per iteration) is the buffer of
-  // the speculative reduction; it has system's pattern.
+  // fused: one RecoverAndReducePass per accepted iteration (see TryStep).
   PlanarSpace(const PassContext& context, const UnknownLayout& layout,
               const std::vector<uint8_t>& kept, const PoseFactorKernels& pose_kernels,
-              Problem2d* problem, ReducedSystem* system, ReducedSystem* next_system,
-              ReducedSystemSolver* solver, const std::vector<uint8_t>& excluded)
+              Problem2d* problem, ReducedSystem* system, ReducedSystemSolver* solver,
+              const std::vector<uint8_t>& excluded, bool fused)
       : context_(context), layout_(layout), kept_(kept), pose_kernels_(pose_kernels),
-        problem_(*problem), system_(*system), next_system_(next_system), solver_(*solver),
-        excluded_(excluded) {}
+        problem_(*problem), system_(*system), solver_(*solver), excluded_(excluded),
+        fused_(fused) {}
 
   Status Linearize(double lambda, IterationSummary* it, bool* usable) {
     const int num_rows = system_.matrix.num_rows();
     *usable = true;
     if (speculation_ready_ && lambda == speculative_lambda_) {
       // The previous iteration's fused pass reduced at this very state with
-      // this very lambda (RecoverAndReducePass): no pass over the chunks.
+      // this very lambda into system_ (RecoverAndReducePass): no pass.
       speculation_ready_ = false;
-      std::swap(system_, *next_system_);
       it->gradient_max_norm = num_rows > 0 ? system_.gradient.cwiseAbs().maxCoeff() : 0.0;
       return Status::Ok();
     }
@@ -90,12 +88,17 @@ class PlanarSpace {
       // reduce at the candidate for the next iteration when there is one.
       RecoveryResult recovery;
       candidate_poses_ = ApplyPoseStep(poses, layout_, pose_step_);
-      if (next_system_ != nullptr && speculative_lambda > 0.0) {
-        ResetSystem(candidate_poses_, next_system_);
+      if (fused_ && speculative_lambda > 0.0) {
+        // Once solved, this linearization's matrix and rhs are dead (a
+        // rejected step re-reduces at x from scratch): the next system is
+        // reduced into the same buffer. Only g_x is still needed, for the
+        // model decrease below.
+        step_gradient_.swap(system_.gradient);
+        ResetSystem(candidate_poses_, &system_);
         Status next_status;
         GS_RETURN_IF_ERROR(RecoverAndReducePass(
             context_, poses, problem_.features, lambda, pose_step_, candidate_poses_,
-            &candidate_features_, &recovery, speculative_lambda, next_system_, &next_status));
+            &candidate_features_, &recovery, speculative_lambda, &system_, &next_status));
         speculation_built_ = next_status.ok();
         speculative_lambda_ = speculative_lambda;
         if (!next_status.ok())
@@ -103,11 +106,12 @@ class PlanarSpace {
       } else {
         GS_RETURN_IF_ERROR(RecoverPass(context_, poses, problem_.features, lambda, pose_step_,
                                        candidate_poses_, &candidate_features_, &recovery));
+        step_gradient_ = system_.gradient;
       }
       ++it->chunk_passes;
       trial->candidate_chi2 =
           PoseFactorsChi2(problem_, candidate_poses_, pose_kernels_) + recovery.candidate_chi2;
-      trial->model_decrease = -(system_.gradient.dot(pose_step_) + recovery.gradient_dot_step) +
+      trial->model_decrease = -(step_gradient_.dot(pose_step_) + recovery.gradient_dot_step) +
                               lambda * (pose_step_.dot(damping_.cwiseProduct(pose_step_)) +
                                         recovery.damped_step_norm);
       it->step_norm = std::sqrt(pose_step_.squaredNorm() + recovery.step_squared_norm);
@@ -158,14 +162,16 @@ class PlanarSpace {
   const PoseFactorKernels& pose_kernels_;
   Problem2d& problem_;
   ReducedSystem& system_;
-  ReducedSystem* next_system_;  // null: no speculation
   ReducedSystemSolver& solver_;
   const std::vector<uint8_t>& excluded_;
+  const bool fused_;
+  Eigen::VectorXd step_gradient_;  // g_x of the linearization the last step solved
   Eigen::VectorXd damping_;
   Eigen::VectorXd pose_step_;
   std::vector<Pose2> candidate_poses_;
   std::vector<Point2> candidate_features_;
-  // Speculation: built by the last TryStep; ready once that step was accepted.
+  // Speculation: system_ holds the reduction at the last candidate (built by
+  // the last TryStep); ready once that step was accepted.
   bool speculation_built_ = false;
   bool speculation_ready_ = false;
   double speculative_lambda_ = 0.0;
@@ -323,12 +329,8 @@ Status SolveGraphSlam(const SolverOptions& options, const ChunkSource& chunks,
   // The PCG's forcing term, warm start and forest of the interrupted solve.
   if (resume != nullptr) GS_RETURN_IF_ERROR(solver.RestoreState(resume->pcg, system.matrix));
 
-  // The fused pass's second buffer: same pattern, values filled per pass.
-  std::unique_ptr<ReducedSystem> next_system;
-  if (options.fused_chunk_pass && options.max_iterations > 1)
-    next_system = std::make_unique<ReducedSystem>(system);
   PlanarSpace space(context, layout, screening.kept, options.pose_kernels, problem, &system,
-                    next_system.get(), &solver, summary->excluded);
+                    &solver, summary->excluded, options.fused_chunk_pass);
   double observations_chi2 = 0.0;
   GS_RETURN_IF_ERROR(
       ObservationsChi2(context, problem->poses, problem->features, &observations_chi2));

@@ -37,7 +37,8 @@
 // THREAD SAFETY: one call at a time per problem; internally parallel (TBB,
 // bounded by the caller's tbb::global_control). Results do not depend on the
 // number of threads. ALLOCATION: O(poses + features + nonzero blocks of S)
-// plus max_chunks_in_flight chunks; the fused pass holds a second S.
+// plus max_chunks_in_flight chunks. The fused pass reduces the next system
+// into S's own buffer (S is dead once solved), so it costs no second S.
 #pragma once
 
 #include <cstdint>
@@ -129,8 +130,8 @@ struct SolverOptions {
   int64_t auto_cholmod_max_unknowns = 3'000'000;
   int64_t auto_cholmod_max_factor_bytes = int64_t{4} << 30;
   int max_chunks_in_flight = 8;
-  // One pass over the chunks per accepted iteration instead of two, at the
-  // cost of a second reduced system in memory (see the header comment).
+  // One pass over the chunks per well-accepted iteration instead of two (see
+  // the header comment); off: always two passes. Same results either way.
   bool fused_chunk_pass = true;
   // Features with more observations than this stay unknowns of the reduced
   // system instead of being eliminated (their k^2 fill would explode).

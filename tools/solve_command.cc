@@ -182,7 +182,7 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
                     "memory budget (e.g. 2G): bounds the chunks in flight and the ingest buffer");
   solve->add_flag("--two-pass", options->two_pass,
                   "two passes over the observation chunks every iteration instead of one "
-                  "fused pass (saves the second reduced system; same results)");
+                  "fused pass (for measurements; same results)");
   solve->add_option("--streaming-poses", options->streaming_poses,
                     "stores with more poses skip progressive initialization (streaming mode)")
       ->capture_default_str();

@@ -41,7 +41,7 @@ struct SolveCommandOptions {
   // Out of core (tools/out_of_core_solve.h, docs/out_of_core.md).
   std::string workdir;       // --workdir DIR: ingest FILE into the store DIR, solve from it
   std::string memory_limit;  // --memory-limit SIZE: bounds chunks in flight ("" = none)
-  bool two_pass = false;     // --two-pass: no fused recover + reduce pass (less memory)
+  bool two_pass = false;     // --two-pass: no fused recover + reduce pass (same results)
   int64_t streaming_poses = 100'000;            // stores above: streaming initialization
   int64_t streaming_observations = 10'000'000;  // stores above: streaming initialization
   // Data association (unknown correspondence, docs/association.md).
