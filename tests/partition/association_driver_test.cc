@@ -17,19 +17,12 @@
 #include "partition/in_memory_chunk_source.h"
 #include "tests/testing/dense_reference.h"
 #include "tests/testing/random_problem.h"
+#include "tests/testing/tight_solver_options.h"
 
 namespace graphslam::partition {
 namespace {
 
-core::SolverOptions TightSolverOptions() {
-  core::SolverOptions options;
-  options.linear_solver = core::LinearSolverType::kCholmod;
-  options.function_tolerance = 1e-14;
-  options.parameter_tolerance = 1e-14;
-  options.gradient_tolerance = 1e-12;
-  options.max_iterations = 200;
-  return options;
-}
+core::SolverOptions TightSolverOptions() { return testing::TightCholmodSolverOptions(); }
 
 double SolveKnown(core::Problem2d* problem) {
   InMemoryChunkSource chunks(*problem, ChunkingOptions());

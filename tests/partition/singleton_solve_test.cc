@@ -12,19 +12,12 @@
 #include "core/range_bearing_model.h"
 #include "core/unidentified_features.h"
 #include "tests/testing/random_problem.h"
+#include "tests/testing/tight_solver_options.h"
 
 namespace graphslam::partition {
 namespace {
 
-core::SolverOptions TightOptions() {
-  core::SolverOptions options;
-  options.linear_solver = core::LinearSolverType::kCholmod;
-  options.function_tolerance = 1e-14;
-  options.parameter_tolerance = 1e-14;
-  options.gradient_tolerance = 1e-12;
-  options.max_iterations = 200;
-  return options;
-}
+core::SolverOptions TightOptions() { return testing::TightCholmodSolverOptions(); }
 
 // Gives every observation whose index is a multiple of `every` a feature of
 // its own (every = 1: an id-less problem, every feature seen once).
