@@ -327,12 +327,8 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
   return SyncPaths(paths);
 }
 
-StatusOr<std::unique_ptr<BucketChunkSource>> BucketChunkSource::Build(
-    const FeatureIndex& index, const ObservationReplay& replay,
-    const ExternalBucketingOptions& options) {
-  GS_ASSIGN_OR_RETURN(std::unique_ptr<BucketChunkSource> source, Plan(index, options));
-  // Per-observation replay -> blocks of up to 4096 (not resumable points).
-  const ObservationBlockReplay blocks = [&replay](const ObservationBlockSink& sink) -> Status {
+ObservationBlockReplay InBlocks(const ObservationReplay& replay) {
+  return [&replay](const ObservationBlockSink& sink) -> Status {
     std::vector<core::Observation> block;
     auto deliver = [&]() -> Status {
       if (block.empty()) return Status::Ok();
@@ -349,8 +345,14 @@ StatusOr<std::unique_ptr<BucketChunkSource>> BucketChunkSource::Build(
     }));
     return deliver();
   };
+}
+
+StatusOr<std::unique_ptr<BucketChunkSource>> BucketChunkSource::Build(
+    const FeatureIndex& index, const ObservationReplay& replay,
+    const ExternalBucketingOptions& options) {
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<BucketChunkSource> source, Plan(index, options));
   SpillProgress progress;
-  GS_RETURN_IF_ERROR(source->Spill(blocks, &progress, nullptr, 0.0));
+  GS_RETURN_IF_ERROR(source->Spill(InBlocks(replay), &progress, nullptr, 0.0));
   return source;
 }
 

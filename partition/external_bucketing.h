@@ -135,6 +135,11 @@ using ObservationBlockSink = std::function<Status(const ObservationBlock&)>;
 // Calls the sink for every block from the resume point on, in input order.
 using ObservationBlockReplay = std::function<Status(const ObservationBlockSink& sink)>;
 
+// A per-observation replay as blocks of up to 4096 observations, none of
+// them a resumable point (for inputs read whole). `replay` must outlive the
+// result.
+ObservationBlockReplay InBlocks(const ObservationReplay& replay);
+
 // How far pass 2 got: every observation of the input before byte
 // `input_offset` (line `input_line`) is in the bucket files, which hold
 // `bucket_observations[b]` observations each (durable when reported to a

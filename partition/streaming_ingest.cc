@@ -188,23 +188,7 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
                       BucketChunkSource::Plan(index, bucketing));
   if (!native) {
     SpillProgress spill;
-    const ObservationBlockReplay blocks = [&replay](const ObservationBlockSink& sink) -> Status {
-      std::vector<core::Observation> block;
-      auto deliver = [&]() -> Status {
-        ObservationBlock view;
-        view.observations = block.data();
-        view.size = block.size();
-        Status status = block.empty() ? Status::Ok() : sink(view);
-        block.clear();
-        return status;
-      };
-      GS_RETURN_IF_ERROR(replay([&](const core::Observation& observation) -> Status {
-        block.push_back(observation);
-        return block.size() >= 4096 ? deliver() : Status::Ok();
-      }));
-      return deliver();
-    };
-    GS_RETURN_IF_ERROR(chunks->Spill(blocks, &spill, nullptr, 0.0));
+    GS_RETURN_IF_ERROR(chunks->Spill(InBlocks(replay), &spill, nullptr, 0.0));
   } else if (progress.stage == "spill") {
     summary->resumed_from_offset = resuming ? progress.spill.input_offset : 0;
     const ObservationBlockReplay blocks = [&](const ObservationBlockSink& sink) -> Status {
