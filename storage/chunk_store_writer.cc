@@ -84,6 +84,19 @@ Status ChunkStoreWriter::Uncommit() {
   std::error_code error;
   std::filesystem::create_directories(chunk_dir, error);
   if (error) return Status::IOError(chunk_dir + ": mkdir: " + error.message());
+  // Temporary files of a writer killed before its rename (TemporaryFileName:
+  // "NAME.tmp-PID") are never renamed by anyone: remove them, so a resumed
+  // or restarted ingest leaves exactly the files of an uninterrupted one.
+  // One writer per store at a time (chunk_store.h), so none is in use.
+  for (const std::string& folder : {dir_, chunk_dir}) {
+    for (const auto& entry : std::filesystem::directory_iterator(folder, error)) {
+      if (entry.is_regular_file() &&
+          entry.path().filename().string().find(".tmp-") != std::string::npos) {
+        GS_RETURN_IF_ERROR(env_->RemoveFile(entry.path().string()));
+      }
+    }
+    if (error) return Status::IOError(folder + ": list: " + error.message());
+  }
   // From here until the new manifest is durable the directory is an
   // incomplete store.
   const std::string manifest = Join(dir_, kChunkStoreManifestName);

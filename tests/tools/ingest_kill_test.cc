@@ -108,14 +108,19 @@ TEST_F(IngestKillTest, KillNineAtSeveralPointsThenResumeGivesTheSameStoreBytes) 
   int killed = 0;
   for (const fs::path& trigger : {fs::path("work/ingest_progress.json"),
                                  fs::path("work/bucket_000012.bin"),
-                                 fs::path("chunks/000070.gsc")}) {
+                                 fs::path("chunks/000030.gsc")}) {
     SCOPED_TRACE("killed once " + trigger.string() + " exists");
     fs::remove_all(store);
     if (graphslam::testing::SpawnAndKillWhenFileExists(ingest(store, false), store / trigger,
                                                        std::chrono::seconds(60))) {
-      ++killed;
-      EXPECT_FALSE(fs::exists(store / "MANIFEST.json")) << "a killed ingest left a manifest";
-      EXPECT_TRUE(fs::exists(store / "work" / "ingest_progress.json"));
+      // The last chunks are written in parallel groups: the ingest may commit
+      // (manifest written, work/ removed) between the trigger file appearing
+      // and the signal landing. Then it was not interrupted; the resume below
+      // must still leave the same bytes.
+      if (!fs::exists(store / "MANIFEST.json")) {
+        ++killed;
+        EXPECT_TRUE(fs::exists(store / "work" / "ingest_progress.json"));
+      }
     }
     ASSERT_EQ(RunGraphslam(ingest(store, true)), 0);
     const auto resumed = AllFiles(store);
