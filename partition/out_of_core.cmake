@@ -2,6 +2,7 @@
 target_sources(graphslam_partition PRIVATE
   external_bucketing.cc
   ingest_progress.cc
+  ingest_scans.cc
   streaming_ingest.cc
   pose_graph_initialization.cc)
 target_link_libraries(graphslam_partition PRIVATE nlohmann_json::nlohmann_json)

@@ -37,6 +37,8 @@ struct FirstPass {
   core::Problem2d problem;
   FeatureIndex index;
   ObservationReplay replay;  // set for formats read whole
+  std::vector<storage::NativeLogScan> scans;  // native logs: SCAN records
+  std::vector<core::Pose3> scan_poses;        // their scans' logged poses
 };
 
 StatusOr<FirstPass> RunFirstPass(const std::string& input, const StreamingIngestOptions& options) {
@@ -48,7 +50,7 @@ StatusOr<FirstPass> RunFirstPass(const std::string& input, const StreamingIngest
     return Status::Ok();
   };
   if (options.format == storage::InputFormat::kNative) {
-    GS_ASSIGN_OR_RETURN(pass.problem, storage::ReadNativeLogStreaming(input, pass1));
+    GS_ASSIGN_OR_RETURN(pass.problem, storage::ReadNativeLogStreaming(input, pass1, &pass.scans));
     // The streaming native reader has no lines to give here; the count says enough.
     int64_t unidentified = 0;
     for (const int64_t id : pass.problem.feature_ids) unidentified += id == core::kNoFeatureId;
@@ -91,6 +93,8 @@ StatusOr<FirstPass> RunFirstPass(const std::string& input, const StreamingIngest
                                     pass.index.first_pose().begin() + num_features);
     pass.index.Assign(std::move(counts), std::move(first_pose), pass.index.observations());
   }
+
+  pass.scan_poses = LoggedScanPoses(pass.problem, pass.scans);  // the guesses, as logged
 
   // Initialization on the kept observations, then back to pose-only.
   pass.problem.observations = init.kept();
@@ -152,6 +156,7 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
     if (error) return Status::IOError(work + ": remove: " + error.message());
     std::filesystem::create_directories(work, error);
     if (error) return Status::IOError(work + ": mkdir: " + error.message());
+    GS_RETURN_IF_ERROR(RemoveIngestedScans(store_dir));
   }
 
   // 2.-3. Pass 1, the initialization and the problem file.
@@ -162,6 +167,7 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
     summary->resumed_stage = progress.stage;
   } else {
     GS_ASSIGN_OR_RETURN(FirstPass first, RunFirstPass(input, options));
+    if (native) GS_RETURN_IF_ERROR(SaveScanRecords(env, input, work, first.scans, first.scan_poses));
     GS_RETURN_IF_ERROR(writer.WriteProblem(first.problem));
     index = std::move(first.index);
     replay = std::move(first.replay);
@@ -234,6 +240,8 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
     chunks->ReleaseBucketsBefore(durable);
     return Status::Ok();
   }));
+  GS_RETURN_IF_ERROR(
+      IngestScans(env, input, store_dir, options.scan_chunk_bytes, resuming, &summary->scans));
   GS_RETURN_IF_ERROR(writer.Commit());
   std::filesystem::remove_all(work, error);  // scratch only; a leftover is harmless
 

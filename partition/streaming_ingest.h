@@ -20,8 +20,11 @@
 //      parsed in parallel), with a checkpoint (input offset, bucket lengths)
 //      at most every checkpoint_seconds; then stage "chunks".
 //   5. chunks in order (ChunkStoreWriter: parallel encoding, grouped fsyncs),
-//      a checkpoint after every durable group; MANIFEST.json last; then
-//      STORE/work/ is removed.
+//      a checkpoint after every durable group;
+//   6. native logs with SCAN records: their .pcd files into STORE/scans/
+//      (partition/ingest_scans.h; records kept by pass 1 in
+//      work/scan_records.bin, a checkpoint per durable scan chunk);
+//      MANIFEST.json last; then STORE/work/ is removed.
 //   --resume after a kill: from the recorded stage and position (formats:
 //   docs/formats/ingest_progress.md); the store is byte-identical to an
 //   uninterrupted ingest's (tested with kill -9 at several points).
@@ -41,6 +44,7 @@
 
 #include "core/status.h"
 #include "partition/external_bucketing.h"
+#include "partition/ingest_scans.h"
 #include "storage/chunk_store.h"
 #include "storage/env.h"
 #include "storage/format_detection.h"
@@ -65,6 +69,8 @@ struct StreamingIngestOptions {
   double checkpoint_seconds = 30.0;
   // Text read per block by pass 2 (a checkpoint falls between blocks).
   int64_t replay_block_bytes = int64_t{1} << 20;
+  // Target size of a scan chunk file in STORE/scans/ (partition/ingest_scans.h).
+  int64_t scan_chunk_bytes = int64_t{16} << 20;
 };
 
 struct IngestSummary {
@@ -80,6 +86,7 @@ struct IngestSummary {
   int64_t resumed_from_offset = 0;
   int64_t resumed_from_chunk = 0;
   BucketingStats bucketing;
+  ScanIngestSummary scans;  // the log's SCAN records copied into STORE/scans/
 };
 
 // Errors: the readers' (file:line), InvalidArgument from initialization or the

@@ -379,8 +379,10 @@ StatusOr<core::Problem2d> ReadNativeLog(const std::string& path,
 }
 
 StatusOr<core::Problem2d> ReadNativeLogStreaming(const std::string& path,
-                                                 const ObservationSink& sink) {
-  return NativeLogParser(path, &sink).Parse();
+                                                 const ObservationSink& sink,
+                                                 std::vector<NativeLogScan>* scans) {
+  if (scans != nullptr) scans->clear();
+  return NativeLogParser(path, &sink, scans).Parse();
 }
 
 namespace {

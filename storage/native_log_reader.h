@@ -65,8 +65,11 @@ using ObservationSink = std::function<Status(const core::Observation&)>;
 // result (whose `observations` stay empty): memory O(poses + features), so
 // the out-of-core ingest (partition/external_bucketing.h) can read logs whose
 // observations do not fit in memory. Same checks, same dense indices.
+// `scans`, if given, receives every SCAN record in file order (the ingest
+// copies their files into the store, partition/ingest_scans.h).
 StatusOr<core::Problem2d> ReadNativeLogStreaming(const std::string& path,
-                                                 const ObservationSink& sink);
+                                                 const ObservationSink& sink,
+                                                 std::vector<NativeLogScan>* scans = nullptr);
 
 // InvalidArgument (before anything is written) if `problem` is inconsistent;
 // IOError if the disk fails (an existing `path` is then left untouched).

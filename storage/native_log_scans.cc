@@ -30,21 +30,36 @@ bool IsNativeLogFile(const std::string& path) {
   return false;
 }
 
+core::Pose3 LiftLoggedPose(const core::Pose2& p) {
+  core::Pose3 pose;
+  pose.t = Eigen::Vector3d(p.x(), p.y(), 0.0);
+  pose.q = Eigen::Quaterniond(Eigen::AngleAxisd(p.z(), Eigen::Vector3d::UnitZ()));
+  return pose;
+}
+
 StatusOr<std::unique_ptr<NativeLogScanSource>> NativeLogScanSource::Open(
     const std::string& log_path) {
+  std::vector<storage::NativeLogScan> records;
+  GS_ASSIGN_OR_RETURN(core::Problem2d problem, storage::ReadNativeLog(log_path, &records));
+  if (records.empty())
+    return Status::InvalidArgument(std::filesystem::path(log_path).filename().string() +
+                                   ": has no SCAN records; expected SCAN pose file.pcd lines");
+  std::vector<core::Pose3> poses;
+  poses.reserve(records.size());
+  for (const storage::NativeLogScan& record : records)
+    poses.push_back(LiftLoggedPose(problem.poses[static_cast<size_t>(record.pose)]));
+  return FromRecords(log_path, std::move(records), std::move(poses));
+}
+
+StatusOr<std::unique_ptr<NativeLogScanSource>> NativeLogScanSource::FromRecords(
+    const std::string& log_path, std::vector<storage::NativeLogScan> records,
+    std::vector<core::Pose3> record_poses) {
+  GS_CHECK(records.size() == record_poses.size());
   std::unique_ptr<NativeLogScanSource> source(new NativeLogScanSource());
-  GS_ASSIGN_OR_RETURN(core::Problem2d problem, storage::ReadNativeLog(log_path, &source->records_));
   const std::filesystem::path log(log_path);
   source->log_name_ = log.filename().string();
-  if (source->records_.empty())
-    return Status::InvalidArgument(source->log_name_ +
-                                   ": has no SCAN records; expected SCAN pose file.pcd lines");
-  for (const core::Pose2& p : problem.poses) {
-    core::Pose3 pose;
-    pose.t = Eigen::Vector3d(p.x(), p.y(), 0.0);
-    pose.q = Eigen::Quaterniond(Eigen::AngleAxisd(p.z(), Eigen::Vector3d::UnitZ()));
-    source->poses_.push_back(pose);
-  }
+  source->records_ = std::move(records);
+  source->poses_ = std::move(record_poses);
   for (const storage::NativeLogScan& record : source->records_) {
     const std::filesystem::path file(record.file);
     const std::filesystem::path resolved = file.is_absolute() ? file : log.parent_path() / file;
@@ -73,7 +88,7 @@ Status NativeLogScanSource::Load(int64_t index, std::vector<Scan>* scans) const 
   }
   Scan scan;
   scan.pose = record.pose;
-  scan.sensor_pose = poses_[static_cast<size_t>(record.pose)];
+  scan.sensor_pose = poses_[static_cast<size_t>(index)];
   const bool intensity = !read->intensity.empty();
   for (size_t i = 0; i < read->points.size(); ++i) {
     if (!read->points[i].allFinite()) continue;  // organized clouds mark holes with NaN

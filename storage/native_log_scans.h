@@ -40,6 +40,13 @@ class NativeLogScanSource : public ScanSource {
   // NotFound naming log:line if a named file does not exist; InvalidArgument
   // if the log names no scan.
   static StatusOr<std::unique_ptr<NativeLogScanSource>> Open(const std::string& log_path);
+  // The SCAN records of `log_path` as already read (the ingest's first pass,
+  // partition/ingest_scans.h), each with its scan's logged sensor pose
+  // (record_poses[i] for records[i]); the log is not read again. Same checks
+  // as Open (every file exists); an empty `records` is allowed.
+  static StatusOr<std::unique_ptr<NativeLogScanSource>> FromRecords(
+      const std::string& log_path, std::vector<storage::NativeLogScan> records,
+      std::vector<core::Pose3> record_poses);
 
   int64_t NumChunks() const override { return static_cast<int64_t>(records_.size()); }
   Status Load(int64_t index, std::vector<Scan>* scans) const override;
@@ -54,8 +61,11 @@ class NativeLogScanSource : public ScanSource {
   std::string log_name_;  // base name, for messages
   std::vector<storage::NativeLogScan> records_;
   std::vector<std::string> resolved_;
-  std::vector<core::Pose3> poses_;  // per pose (dense index): the logged guess in SE(3)
+  std::vector<core::Pose3> poses_;  // per record: the logged guess of its pose in SE(3)
 };
+
+// A logged planar pose lifted to SE(3): t = (x, y, 0), q = Rz(theta).
+core::Pose3 LiftLoggedPose(const core::Pose2& pose);
 
 // Whether `path` is a native log file (its first record is the header).
 bool IsNativeLogFile(const std::string& path);

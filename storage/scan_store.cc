@@ -117,6 +117,20 @@ StatusOr<std::unique_ptr<ScanStoreWriter>> ScanStoreWriter::Create(const std::st
   return writer;
 }
 
+StatusOr<std::unique_ptr<ScanStoreWriter>> ScanStoreWriter::Resume(const std::string& dir,
+                                                                    int64_t target_chunk_bytes,
+                                                                    std::vector<Entry> done) {
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<ScanStoreWriter> writer, Create(dir, target_chunk_bytes));
+  for (size_t k = 0; k < done.size(); ++k) {
+    if (done[k].file != ChunkName(static_cast<int64_t>(k)))
+      return Status::InvalidArgument("scan chunk " + std::to_string(k) + " recorded as '" +
+                                     done[k].file + "'; expected " +
+                                     ChunkName(static_cast<int64_t>(k)));
+  }
+  writer->entries_ = std::move(done);
+  return writer;
+}
+
 Status ScanStoreWriter::Add(const Scan& scan) {
   if (!scan.intensity.empty() && scan.intensity.size() != scan.points.size()) {
     return Status::InvalidArgument("scan of pose " + std::to_string(scan.pose) + ": " +

@@ -52,13 +52,28 @@ class InMemoryScanSource : public ScanSource {
 };
 
 // Writes scans into DIR/scans/ as they come; Finish() writes the manifest.
+// A chunk file is durable (atomic write) once it appears in entries(): a
+// resumable producer (partition/ingest_scans.h) records entries() after each
+// chunk and continues with Resume().
 class ScanStoreWriter {
  public:
+  struct Entry {
+    std::string file;
+    int64_t scans = 0, points = 0, bytes = 0;
+  };
+
   // `dir` is created if missing; an old manifest is removed first.
   static StatusOr<std::unique_ptr<ScanStoreWriter>> Create(const std::string& dir,
                                                           int64_t target_chunk_bytes = 64 << 20);
+  // As Create, continuing after the durable chunks `done` (files 0..k-1 as
+  // recorded): the next chunk is number k.
+  static StatusOr<std::unique_ptr<ScanStoreWriter>> Resume(const std::string& dir,
+                                                          int64_t target_chunk_bytes,
+                                                          std::vector<Entry> done);
   [[nodiscard]] Status Add(const Scan& scan);
   [[nodiscard]] Status Finish();
+  // The chunks written so far (durable), in order.
+  const std::vector<Entry>& entries() const { return entries_; }
 
  private:
   ScanStoreWriter() = default;
@@ -68,10 +83,6 @@ class ScanStoreWriter {
   int64_t target_bytes_ = 0;
   std::string pending_;  // framed records of the open chunk
   int64_t pending_scans_ = 0, pending_points_ = 0;
-  struct Entry {
-    std::string file;
-    int64_t scans, points, bytes;
-  };
   std::vector<Entry> entries_;
 };
 

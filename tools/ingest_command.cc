@@ -38,6 +38,9 @@ void AddIngestCommand(CLI::App* app, IngestCommandOptions* options, int* exit_co
   ingest->add_option("--checkpoint-seconds", options->checkpoint_seconds,
                      "least time between two checkpoints of the second pass (0: every spill)")
       ->capture_default_str();
+  ingest->add_option("--scan-chunk-size", options->scan_chunk_size,
+                     "target size of a scan chunk file in STORE/scans/ (e.g. 256K, 16M)")
+      ->capture_default_str();
   ingest->add_flag("-q,--quiet", options->quiet, "no summary on the terminal");
   ingest->callback([options, exit_code]() { *exit_code = RunIngestCommand(*options); });
 }
@@ -83,6 +86,11 @@ int RunIngestCommand(const IngestCommandOptions& options) {
   if (options.checkpoint_seconds < 0)
     return usage("--checkpoint-seconds must be >= 0, got " +
                  std::to_string(options.checkpoint_seconds));
+  StatusOr<int64_t> scan_chunk = ParseMemorySize(options.scan_chunk_size);
+  if (!scan_chunk.ok() || *scan_chunk <= 0)
+    return usage("--scan-chunk-size: expected a size > 0 such as 256K or 16M, got '" +
+                 options.scan_chunk_size + "'");
+  ingest.scan_chunk_bytes = *scan_chunk;
   ingest.resume = options.resume;
   ingest.checkpoint_seconds = options.checkpoint_seconds;
   partition::IngestSummary summary;
@@ -106,6 +114,12 @@ int RunIngestCommand(const IngestCommandOptions& options) {
     std::printf("  observations       %lld in %lld chunks\n",
                 static_cast<long long>(summary.observations),
                 static_cast<long long>(summary.chunks));
+    if (summary.scans.scans > 0)
+      std::printf("  scans              %lld (%lld points) in %lld chunks in %s/scans%s\n",
+                  static_cast<long long>(summary.scans.scans),
+                  static_cast<long long>(summary.scans.points),
+                  static_cast<long long>(summary.scans.chunks), options.output_dir.c_str(),
+                  summary.scans.resumed_from_scan > 0 ? " (resumed)" : "");
     std::printf("  buckets / spills   %lld / %lld (buffer %lld observations, peak %lld held)\n",
                 static_cast<long long>(summary.bucketing.buckets),
                 static_cast<long long>(summary.bucketing.spills),

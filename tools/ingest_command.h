@@ -35,6 +35,7 @@ struct IngestCommandOptions {
   bool compress = false;         // zstd per block
   bool resume = false;           // continue a killed ingest (native logs)
   double checkpoint_seconds = 30.0;  // least time between pass-2 checkpoints
+  std::string scan_chunk_size = "16M";  // target size of a scan chunk (STORE/scans/)
   bool quiet = false;
 };
 
