@@ -7,3 +7,8 @@ add_dependencies(ingest_kill_test graphslam)
 graphslam_test(tools/out_of_core_solve)
 graphslam_test(tools/streaming_initialization)
 add_dependencies(streaming_initialization_test graphslam)
+# kill -9 during an ingest that copies .pcd scans into STORE/scans/, then --resume.
+graphslam_test(tools/ingest_scans_kill)
+add_dependencies(ingest_scans_kill_test graphslam)
+target_include_directories(ingest_scans_kill_test SYSTEM PRIVATE ${PCL_INCLUDE_DIRS})
+target_link_libraries(ingest_scans_kill_test PRIVATE ${PCL_LIBRARIES})
