@@ -10,6 +10,8 @@
 
 #include "storage/atomic_file.h"
 #include "storage/env.h"
+#include "storage/native_log_reader.h"
+#include "storage/native_log_scans.h"
 #include "storage/scan_store.h"
 #include "tools/campus_simulator.h"
 #include "tools/job/simulated_scans.h"
@@ -104,9 +106,46 @@ int64_t ScanChunkBytes(int64_t memory_limit) {
   return std::clamp<int64_t>(memory_limit / 64, int64_t{256} << 10, int64_t{16} << 20);
 }
 
-bool JobHasScans(const JobSpec& spec) {
-  for (const RunSpec& run : spec.runs)
+namespace {
+
+// A native log run without a scans: folder: its SCAN records' .pcd files are
+// copied at ingest into `work`/scans/<run>/ (CopyLogScans).
+bool TakesLogScans(const RunSpec& run) { return run.format == "native" && run.scans.empty(); }
+
+// The scans of the native log's SCAN records (its .pcd files read by PCL, one
+// scan at a time) into a scan store at `dir`; the number copied (0 and no
+// store when the log names none).
+StatusOr<int64_t> CopyLogScans(const std::string& log, const std::string& dir, int64_t chunk_bytes) {
+  std::vector<storage::NativeLogScan> records;
+  StatusOr<core::Problem2d> problem = storage::ReadNativeLog(log, &records);
+  if (!problem.ok()) return problem.status();
+  if (records.empty()) return int64_t{0};
+  std::vector<core::Pose3> poses;
+  for (const storage::NativeLogScan& record : records)
+    poses.push_back(map::LiftLoggedPose(problem->poses[static_cast<size_t>(record.pose)]));
+  StatusOr<std::unique_ptr<map::NativeLogScanSource>> source =
+      map::NativeLogScanSource::FromRecords(log, std::move(records), std::move(poses));
+  if (!source.ok()) return source.status();
+  StatusOr<std::unique_ptr<map::ScanStoreWriter>> writer = map::ScanStoreWriter::Create(dir, chunk_bytes);
+  if (!writer.ok()) return writer.status();
+  std::vector<map::Scan> scans;
+  for (int64_t k = 0; k < (*source)->NumChunks(); ++k) {
+    GS_RETURN_IF_ERROR((*source)->Load(k, &scans));
+    for (const map::Scan& scan : scans) GS_RETURN_IF_ERROR((*writer)->Add(scan));
+  }
+  GS_RETURN_IF_ERROR((*writer)->Finish());
+  return (*source)->NumChunks();
+}
+
+}  // namespace
+
+bool JobHasScans(const JobSpec& spec, const std::string& work) {
+  for (const RunSpec& run : spec.runs) {
     if (!run.scans.empty() || (run.format == "simulate" && run.simulate_scans.enabled)) return true;
+    if (!work.empty() && TakesLogScans(run) &&
+        map::DiskScanStore::Exists(SimulatedScanDir(work, run.name)))
+      return true;
+  }
   return false;
 }
 
@@ -114,6 +153,16 @@ StatusOr<int64_t> WriteSimulatedScans(const JobSpec& spec, const JobData& data,
                                       const std::string& work) {
   int64_t written = 0;
   for (const RunSpec& run : spec.runs) {
+    if (TakesLogScans(run)) {
+      // A restart of the stage rewrites the copy from nothing.
+      std::error_code error;
+      fs::remove_all(SimulatedScanDir(work, run.name), error);
+      StatusOr<int64_t> copied =
+          CopyLogScans(run.path, SimulatedScanDir(work, run.name), ScanChunkBytes(spec.memory_limit));
+      if (!copied.ok()) return copied.status();
+      written += *copied;
+      continue;
+    }
     if (run.format != "simulate" || !run.simulate_scans.enabled) continue;
     // The 2-D campus again (deterministic in its seed): its true poses and
     // landmarks are the world the laser sees.
@@ -157,6 +206,17 @@ Status OpenScanParts(const JobSpec& spec, const JobData& data, const std::string
       if (first < 0) return Status::Corruption("run '" + run.name + "' is missing from the ingested runs");
       for (int k = 0; k < std::max(1, run.simulate.runs); ++k)
         components->insert(data.runs[static_cast<size_t>(first + k)].component);
+    } else if (TakesLogScans(run) && map::DiskScanStore::Exists(SimulatedScanDir(work, run.name))) {
+      // The log's scans, copied at ingest: pose = index within the run.
+      const int r = RunIndex(data, run.name);
+      if (r < 0) return Status::Corruption("run '" + run.name + "' is missing from the ingested runs");
+      StatusOr<std::unique_ptr<map::DiskScanStore>> store =
+          map::DiskScanStore::Open(SimulatedScanDir(work, run.name));
+      if (!store.ok()) return store.status();
+      part.store = std::move(store).value();
+      part.pose_offset = data.runs[static_cast<size_t>(r)].first_pose;
+      part.run = r;
+      components->insert(data.runs[static_cast<size_t>(r)].component);
     } else if (!run.scans.empty()) {
       const int r = RunIndex(data, run.name);
       if (r < 0)

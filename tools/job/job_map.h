@@ -39,12 +39,16 @@ namespace graphslam::tools::job {
 int64_t ScanChunkBytes(int64_t memory_limit);
 
 // Writes the scans of every simulate run with scans: true into
-// `work`/scans/<run name>/. Returns the number of scans written.
+// `work`/scans/<run name>/, and copies those of every native log run (without
+// a scans: folder) whose SCAN records name .pcd files (read by PCL, one scan
+// at a time; storage/native_log_scans.h), so the map stage needs neither the
+// log nor the .pcd files. Returns the number of scans written.
 [[nodiscard]] StatusOr<int64_t> WriteSimulatedScans(const JobSpec& spec, const JobData& data,
                                                     const std::string& work);
 
-// True if any run has scans (simulated or a scan folder).
-bool JobHasScans(const JobSpec& spec);
+// True if any run has scans (simulated or a scan folder), or, given the
+// job's `work` folder, a native log run whose SCAN records were copied there.
+bool JobHasScans(const JobSpec& spec, const std::string& work = "");
 
 // Builds `work`/map.bt and `work`/map.pcd from the scans and the optimized
 // `data` (see above); returns the summary that goes into the report (also

@@ -229,7 +229,7 @@ Status StageIngest(Context& ctx) {
   StatusOr<int64_t> scans = WriteSimulatedScans(ctx.spec, data, ctx.work);
   if (!scans.ok()) return scans.status();
   if (*scans > 0)
-    ctx.Info("ingest", "simulated " + std::to_string(*scans) + " laser scans into " +
+    ctx.Info("ingest", "wrote " + std::to_string(*scans) + " laser scans into " +
                            ctx.Work("scans/"),
              {{"scans", *scans}});
   return WriteJson(ctx.Work("runs.json"), RunsToJson(data));
@@ -429,7 +429,7 @@ Status StageOptimize(Context& ctx) {
 }
 
 Status StageMap(Context& ctx) {
-  if (!JobHasScans(ctx.spec)) {
+  if (!JobHasScans(ctx.spec, ctx.work)) {
     ctx.Info("map", "map stage: no scans");
     return Status::Ok();
   }

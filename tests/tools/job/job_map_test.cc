@@ -18,6 +18,8 @@
 #include <set>
 #include <sstream>
 
+#include "partition/streaming_ingest.h"
+#include "storage/env.h"
 #include "storage/pcd_io.h"
 #include "storage/scan_store.h"
 #include "tools/campus_simulator.h"
@@ -294,6 +296,55 @@ TEST_F(JobMap, AScanFolderOfARunIsFusedAtItsOptimizedPoses) {
   ASSERT_FALSE(missing.ok());
   EXPECT_NE(missing.message().find("job.yaml:3: run 'solo' scans:"), std::string::npos)
       << missing.message();
+}
+
+// A native log whose SCAN records name .pcd files: the job copies the scans
+// at ingest (.job/scans/<run>/) and maps them without the log or the .pcd
+// files; the map equals the one of the same run given the scan store that
+// `graphslam ingest` makes of the log (scans: folder).
+TEST_F(JobMap, TheScansOfANativeLogAreCopiedAtIngestAndMappedFromTheCopy) {
+  {
+    std::ofstream log(dir_ / "run.log");
+    log << "GRAPHSLAM_LOG 1\n";
+    fs::create_directories(dir_ / "pcd");
+    for (int i = 0; i < 12; ++i) {
+      log << "POSE " << i << " " << i << " " << 0.5 * i << " 0 0\n";
+      if (i == 0) log << "FIX 0\n";
+      if (i > 0) log << "ODOM " << i - 1 << " " << i << " 0.5 0 0 100 0 0 100 0 100\n";
+      for (int f = 0; f < 4; ++f) {
+        const double dx = 2.0 * f - 0.5 * i, dy = 3.0;
+        log << "RB " << i << " " << f << " " << std::hypot(dx, dy) << " " << std::atan2(dy, dx)
+            << " 100 0 400\n";
+      }
+      // A wall 3 m to the left, by hand in PCL's ASCII format.
+      std::ofstream pcd(dir_ / "pcd" / (std::to_string(i) + ".pcd"));
+      pcd << "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 60\n"
+             "HEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 60\nDATA ascii\n";
+      for (int k = 0; k < 60; ++k) pcd << 0.1 * (k % 10) << " 3 " << 0.2 * (k / 10) << "\n";
+      log << "SCAN " << i << " pcd/" << i << ".pcd\n";
+    }
+  }
+  partition::StreamingIngestOptions ingest;
+  partition::IngestSummary summary;
+  ASSERT_TRUE(partition::IngestToStore(storage::Env::Default(), (dir_ / "run.log").string(),
+                                       (dir_ / "store").string(), ingest, &summary)
+                  .ok());
+  ASSERT_EQ(summary.scans.scans, 12);
+  const std::string map = "map: {resolution: 0.3, max_range: 20}\n";
+  ASSERT_TRUE(Run("output: copied\n" + map + "runs:\n  - name: solo\n    format: native\n"
+                  "    path: run.log\n")
+                  .ok());
+  EXPECT_TRUE(map::DiskScanStore::Exists((dir_ / "copied" / ".job" / "scans" / "solo").string()));
+  fs::remove_all(dir_ / "pcd");
+  ASSERT_TRUE(Run("output: given\n" + map + "runs:\n  - name: solo\n    format: native\n"
+                  "    path: run.log\n    scans: store\n")
+                  .ok());
+  ASSERT_TRUE(fs::exists(dir_ / "copied" / "map.bt"));
+  EXPECT_EQ(ReadFile(dir_ / "copied" / "map.bt"), ReadFile(dir_ / "given" / "map.bt"));
+  EXPECT_EQ(ReadFile(dir_ / "copied" / "map.pcd"), ReadFile(dir_ / "given" / "map.pcd"));
+  StatusOr<map::PcdContents> cloud = map::ReadPcd((dir_ / "copied" / "map.pcd").string());
+  ASSERT_TRUE(cloud.ok()) << cloud.status().ToString();
+  EXPECT_GT(cloud->points.size(), 30u);
 }
 
 TEST_F(JobMap, ScanChunksFollowTheMemoryLimit) {
