@@ -3,7 +3,8 @@
 target_sources(graphslam_storage PRIVATE
   pcd_io.cc
   scan_store.cc
-  threedtk_reader.cc)
+  threedtk_reader.cc
+  tiled_voxel_cloud.cc)
 target_include_directories(graphslam_storage SYSTEM PRIVATE ${PCL_INCLUDE_DIRS})
 target_link_libraries(graphslam_storage PRIVATE ${PCL_LIBRARIES})
 # SCAN records of native logs: .pcd files per pose (docs/formats/native_log.md).

@@ -2,6 +2,7 @@
 
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/conversions.h>
+#include <pcl/io/lzf.h>
 #include <pcl/io/pcd_io.h>
 
 #include <algorithm>
@@ -95,6 +96,48 @@ Status WritePcd(const std::string& path, const VoxelCloud& cloud) {
     return Status::IOError("writing " + path + ": PCL could not encode the cloud");
   }
   return storage::WriteStringAtomically(storage::Env::Default(), path, stream.str());
+}
+
+std::string BinaryCompressedPcdHeader(const std::vector<std::string>& names, uint32_t points) {
+  pcl::PCLPointCloud2 blob;
+  uint32_t offset = 0;
+  for (const std::string& name : names) {
+    pcl::PCLPointField field;
+    field.name = name;
+    field.offset = offset;
+    field.datatype = pcl::PCLPointField::FLOAT32;
+    field.count = 1;
+    blob.fields.push_back(field);
+    offset += 4;
+  }
+  blob.point_step = offset;
+  blob.width = points;
+  blob.height = 1;
+  blob.row_step = blob.point_step * blob.width;
+  blob.is_dense = true;
+  pcl::PCDWriter writer;
+  // PCL 1.13's string variant stops before the DATA line (its stream variant
+  // and writeBinaryCompressed add it).
+  return writer.generateHeaderBinaryCompressed(blob, Eigen::Vector4f::Zero(),
+                                               Eigen::Quaternionf::Identity()) +
+         "DATA binary_compressed\n";
+}
+
+Status AppendLzfSegment(const char* data, size_t n, std::string* out) {
+  if (n == 0) return Status::Ok();
+  if (n > (size_t{1} << 30)) return Status::InvalidArgument("LZF segment above 1 GiB");
+  // LZF expands incompressible input by at most 1 byte in 32 (a literal-run header).
+  const size_t capacity = n + n / 16 + 64;
+  const size_t start = out->size();
+  out->resize(start + capacity);
+  const unsigned int written = pcl::lzfCompress(data, static_cast<unsigned int>(n), out->data() + start,
+                                                static_cast<unsigned int>(capacity));
+  if (written == 0) {
+    out->resize(start);
+    return Status::IOError("PCL's lzfCompress failed on " + std::to_string(n) + " bytes");
+  }
+  out->resize(start + written);
+  return Status::Ok();
 }
 
 namespace {

@@ -61,6 +61,14 @@ class VoxelCloud {
 // Writes `cloud` to `path` atomically as described above. IOError naming the path.
 [[nodiscard]] Status WritePcd(const std::string& path, const VoxelCloud& cloud);
 
+// Building blocks of a streamed binary_compressed file (storage/tiled_voxel_cloud.h):
+// PCL's header (PCDWriter::generateHeaderBinaryCompressed) for `points`
+// points of the float32 fields `names`, ending with "DATA binary_compressed\n";
+std::string BinaryCompressedPcdHeader(const std::vector<std::string>& names, uint32_t points);
+// and `n` bytes compressed by PCL's lzfCompress, appended to *out as one
+// self-contained LZF segment (segments concatenate into a valid stream).
+[[nodiscard]] Status AppendLzfSegment(const char* data, size_t n, std::string* out);
+
 // What a .pcd holds, read back through PCL's own reader (pcl::io::loadPCDFile).
 struct PcdContents {
   std::vector<Eigen::Vector3f> points;

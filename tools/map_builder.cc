@@ -9,6 +9,7 @@
 #include <system_error>
 
 #include "storage/pcd_io.h"
+#include "storage/tiled_voxel_cloud.h"
 #include "storage/atomic_file.h"
 #include "storage/env.h"
 
@@ -37,6 +38,7 @@ Status MapOptions::Validate() const {
   if (!std::isfinite(pcd_voxel)) return Status::InvalidArgument("pcd voxel must be finite");
   if (memory_budget_bytes <= 0) return Status::InvalidArgument("memory budget must be > 0");
   if (batch_points <= 0) return Status::InvalidArgument("batch points must be > 0");
+  if (pcd_memory_bytes < 0) return Status::InvalidArgument("pcd memory must be >= 0");
   return Status::Ok();
 }
 
@@ -51,7 +53,17 @@ StatusOr<MapSummary> BuildMap(const MapOptions& options, const ScanSource& scans
     spill.replace_extension(".spill");
     fusion.EnableSpill(spill.string(), static_cast<size_t>(options.memory_budget_bytes));
   }
-  VoxelCloud cloud(options.pcd_voxel > 0.0 ? options.pcd_voxel : options.fusion.resolution);
+  TiledVoxelCloudOptions cloud_options;
+  cloud_options.voxel = options.pcd_voxel > 0.0 ? options.pcd_voxel : options.fusion.resolution;
+  cloud_options.tile_bits = options.fusion.tile_bits;
+  cloud_options.budget_bytes =
+      options.pcd_memory_bytes > 0 ? options.pcd_memory_bytes : options.memory_budget_bytes / 4;
+  {
+    std::filesystem::path voxels(options.pcd_path.empty() ? "unused.pcd" : options.pcd_path);
+    voxels.replace_extension(".voxels");
+    cloud_options.spill_dir = voxels.string();
+  }
+  TiledVoxelCloud cloud(cloud_options);
   std::vector<WorldScan> batch;
   int64_t batch_points = 0;
   double seconds = 0.0;
@@ -78,7 +90,7 @@ StatusOr<MapSummary> BuildMap(const MapOptions& options, const ScanSource& scans
       WorldScan world;
       world.origin = scan.sensor_pose.t.cast<float>();
       world.points = WorldPoints(scan);
-      if (!options.pcd_path.empty()) cloud.Add(world.points, scan);
+      if (!options.pcd_path.empty()) GS_RETURN_IF_ERROR(cloud.Add(world.points, scan));
       ++summary.scans;
       summary.points += static_cast<int64_t>(world.points.size());
       batch_points += static_cast<int64_t>(world.points.size());
@@ -136,8 +148,9 @@ StatusOr<MapSummary> BuildMap(const MapOptions& options, const ScanSource& scans
     }
   }
   if (!options.pcd_path.empty()) {
-    summary.pcd_points = static_cast<int64_t>(cloud.size());
-    GS_RETURN_IF_ERROR(WritePcd(options.pcd_path, cloud));
+    GS_RETURN_IF_ERROR(cloud.Finish(options.pcd_path));
+    summary.pcd_points = cloud.stats().voxels;
+    summary.pcd_tile_spills = cloud.stats().spills;
   }
   return summary;
 }

@@ -16,11 +16,13 @@
 //   - otherwise <bt_path minus .bt>.tiles/tile_<id>.bt, one per spatial tile
 //     (each a full OcTree holding only its tile's cells), plus index.json in
 //     that folder listing every tile file with its world bounding box;
-//   - pcd_path: the registered cloud (binary_compressed).
+//   - pcd_path: the registered cloud (binary_compressed), downsampled in
+//     tiles within pcd_memory_bytes (storage/tiled_voxel_cloud.h).
 // Every file is written atomically.
 //
 // THREAD SAFETY: one call at a time per output path; parallel inside (TBB).
-// ALLOCATION: the map, the voxel cloud, one chunk of scans and one batch's codes.
+// ALLOCATION: the map's resident tiles (memory_budget_bytes), the cloud's
+// resident voxel tiles (pcd_memory_bytes), one chunk of scans and one batch's codes.
 #pragma once
 
 #include <cstdint>
@@ -40,6 +42,9 @@ struct MapOptions {
   std::string pcd_path;  // "" : no cloud output
   double pcd_voxel = 0.0;  // <= 0: fusion.resolution
   int64_t memory_budget_bytes = int64_t{4} << 30;
+  // Resident voxels of the registered cloud (storage/tiled_voxel_cloud.h;
+  // spilled to <pcd_path minus .pcd>.voxels/ beyond); 0: memory_budget_bytes / 4.
+  int64_t pcd_memory_bytes = 0;
   int64_t batch_points = 2'000'000;
 
   [[nodiscard]] Status Validate() const;
@@ -55,6 +60,7 @@ struct MapSummary {
   bool tiled_output = false;
   std::string tiles_index;      // index.json when tiled_output
   int64_t pcd_points = 0;
+  int64_t pcd_tile_spills = 0;  // voxel tiles written to disk (0: the cloud fit its budget)
   double fusion_seconds = 0.0;  // wall time of ray casting + updates
   double points_per_second = 0.0;
 };
