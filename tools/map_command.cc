@@ -67,7 +67,8 @@ void AddMapCommand(CLI::App* app, MapCommandOptions* options, int* exit_code) {
   CLI::App* cmd = app->add_subcommand(
       "map", "Fuse the scans, moved by their poses, into an OctoMap (.bt) and a cloud (.pcd)");
   map::MapOptions& m = options->map;
-  cmd->add_option("input", options->input, "folder with scans/ (store, simulate --3d) or 3DTK scans")
+  cmd->add_option("input", options->input,
+                  "folder with scans/ (store, simulate --3d), 3DTK scans, or a native log with SCAN records")
       ->required();
   cmd->add_option("--bt", m.bt_path, "OctoMap output (.bt)");
   cmd->add_option("--pcd", m.pcd_path, "registered cloud output (.pcd, binary_compressed)");
@@ -88,6 +89,10 @@ void AddMapCommand(CLI::App* app, MapCommandOptions* options, int* exit_code) {
   cmd->add_option("--memory-budget", options->memory_budget_mib,
                   "MiB for one tree; above it the .bt is written as tiles + index.json")
       ->capture_default_str();
+  cmd->add_option("--pcd-memory-budget", options->pcd_memory_mib,
+                  "MiB of resident voxels of the .pcd, spilled to OUT.voxels/ beyond "
+                  "(0: a quarter of --memory-budget)")
+      ->capture_default_str();
   cmd->add_option("--batch-points", m.batch_points, "points fused per parallel batch")
       ->capture_default_str();
   cmd->add_flag("-q,--quiet", options->quiet, "no summary on the terminal");
@@ -105,6 +110,11 @@ int RunMapCommand(const MapCommandOptions& options) {
     return kExitUsage;
   }
   map_options.memory_budget_bytes = static_cast<int64_t>(options.memory_budget_mib * 1048576.0);
+  if (!(options.pcd_memory_mib >= 0)) {
+    std::fprintf(stderr, "graphslam map: --pcd-memory-budget must be >= 0\n");
+    return kExitUsage;
+  }
+  map_options.pcd_memory_bytes = static_cast<int64_t>(options.pcd_memory_mib * 1048576.0);
   if (Status status = map_options.Validate(); !status.ok()) {
     std::fprintf(stderr, "graphslam map: %s\n", status.message().c_str());
     return kExitUsage;
@@ -136,8 +146,9 @@ int RunMapCommand(const MapCommandOptions& options) {
       }
     }
     if (!map_options.pcd_path.empty()) {
-      std::printf(" Wrote %s (%lld points).", map_options.pcd_path.c_str(),
-                  static_cast<long long>(s.pcd_points));
+      std::printf(" Wrote %s (%lld points%s).", map_options.pcd_path.c_str(),
+                  static_cast<long long>(s.pcd_points),
+                  s.pcd_tile_spills > 0 ? ", voxel tiles spilled to disk" : "");
     }
     std::printf("\n");
   }

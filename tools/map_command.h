@@ -30,6 +30,7 @@ struct MapCommandOptions {
   std::string poses_path;  // --poses: TUM trajectory, row k = pose k
   map::MapOptions map;
   double memory_budget_mib = 4096.0;
+  double pcd_memory_mib = 0.0;  // resident voxels of the .pcd; 0: memory_budget_mib / 4
   bool quiet = false;
 };
 
