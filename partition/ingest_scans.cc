@@ -183,6 +183,8 @@ Status SaveScanRecords(storage::Env* env, const std::string& log_path, const std
   // Every file exists (the source's own check), before anything of the scans is written.
   GS_ASSIGN_OR_RETURN(std::unique_ptr<map::NativeLogScanSource> source,
                       map::NativeLogScanSource::FromRecords(log_path, records, poses));
+  // No file without scans: a log without SCAN records ingests as before.
+  if (records.empty()) return Status::Ok();
   return storage::WriteStringAtomically(env, (fs::path(work_dir) / kScanRecordsName).string(),
                                         EncodeRecords(records, poses));
 }

@@ -57,7 +57,8 @@ std::vector<core::Pose3> LoggedScanPoses(const core::Problem2d& problem,
                                          const std::vector<storage::NativeLogScan>& records);
 
 // Checks that every record's file exists (resolved against the folder of
-// `log_path`), then writes `work_dir`/scan_records.bin atomically.
+// `log_path`), then writes `work_dir`/scan_records.bin atomically (no file
+// when there are no records).
 [[nodiscard]] Status SaveScanRecords(storage::Env* env, const std::string& log_path,
                                      const std::string& work_dir,
                                      const std::vector<storage::NativeLogScan>& records,
