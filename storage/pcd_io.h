@@ -10,6 +10,11 @@
 // pcl::VoxelGrid because VoxelGrid's 32-bit voxel index overflows at campus
 // scale (600 m x 800 m x 50 m at 0.1 m is 2.4e10 voxels).
 //
+// VoxelCloud holds every voxel in memory: it is the reference the tests
+// compare with; `graphslam map` uses TiledVoxelCloud
+// (storage/tiled_voxel_cloud.h: the same points within a memory budget,
+// streamed through BinaryCompressedPcdHeader and AppendLzfSegment below).
+//
 // PCL is confined to pcd_io.cc (its headers are heavy to compile).
 // THREAD SAFETY: a VoxelCloud is used by one thread at a time.
 // ALLOCATION: one accumulator (~48 bytes) per occupied voxel.

@@ -240,6 +240,39 @@ TEST_F(MapCommandTest, OverBudgetWritesTilesWhoseUnionIsTheMap) {
   EXPECT_EQ(from_tiles, from_whole);
 }
 
+// The registered cloud within a pcd memory budget: a 50 kB budget spills the
+// voxel tiles to OUT.voxels/ (removed afterwards) and writes the bytes of an
+// unbounded run (storage/tiled_voxel_cloud.h).
+TEST_F(MapCommandTest, TheCloudWithinATinyBudgetIsTheUnboundedCloud) {
+  GS_REQUIRE_DATASET("3dtk_uos_scans/scan000.3d");
+  MapCommandOptions options;
+  options.input = testing::DatasetPath("3dtk_uos_scans");
+  options.map.fusion.resolution = 0.2;
+  options.map.fusion.tile_bits = 5;
+  options.quiet = true;
+  fs::create_directories(root_);
+  options.map.pcd_path = (root_ / "unbounded.pcd").string();
+  ASSERT_EQ(RunMapCommand(options), kExitOk);
+  // The library entry point, to see the spills.
+  StatusOr<std::unique_ptr<map::ScanSource>> source = OpenScanSource(options.input);
+  ASSERT_TRUE(source.ok());
+  map::MapOptions tiny_options = options.map;
+  tiny_options.pcd_path = (root_ / "tiny.pcd").string();
+  tiny_options.pcd_memory_bytes = 50'000;
+  StatusOr<map::MapSummary> summary = map::BuildMap(tiny_options, **source, nullptr);
+  ASSERT_TRUE(summary.ok()) << summary.status().ToString();
+  EXPECT_GT(summary->pcd_tile_spills, 10);
+  EXPECT_FALSE(fs::exists(root_ / "tiny.voxels"));
+  StatusOr<map::PcdContents> tiny = map::ReadPcd((root_ / "tiny.pcd").string());
+  ASSERT_TRUE(tiny.ok()) << tiny.status().ToString();
+  EXPECT_EQ(static_cast<int64_t>(tiny->points.size()), summary->pcd_points);
+  EXPECT_GT(tiny->points.size(), 10000u);
+  std::ifstream a(root_ / "tiny.pcd", std::ios::binary), b(root_ / "unbounded.pcd", std::ios::binary);
+  const std::string tiny_bytes((std::istreambuf_iterator<char>(a)), std::istreambuf_iterator<char>());
+  const std::string unbounded_bytes((std::istreambuf_iterator<char>(b)), std::istreambuf_iterator<char>());
+  EXPECT_TRUE(tiny_bytes == unbounded_bytes);
+}
+
 TEST_F(MapCommandTest, BadInputsExitNonZero) {
   MapCommandOptions options;
   options.input = (root_ / "missing").string();
