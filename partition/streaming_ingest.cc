@@ -167,7 +167,8 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
     summary->resumed_stage = progress.stage;
   } else {
     GS_ASSIGN_OR_RETURN(FirstPass first, RunFirstPass(input, options));
-    if (native) GS_RETURN_IF_ERROR(SaveScanRecords(env, input, work, first.scans, first.scan_poses));
+    if (native && options.copy_scans)
+      GS_RETURN_IF_ERROR(SaveScanRecords(env, input, work, first.scans, first.scan_poses));
     GS_RETURN_IF_ERROR(writer.WriteProblem(first.problem));
     index = std::move(first.index);
     replay = std::move(first.replay);

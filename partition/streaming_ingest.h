@@ -69,7 +69,10 @@ struct StreamingIngestOptions {
   double checkpoint_seconds = 30.0;
   // Text read per block by pass 2 (a checkpoint falls between blocks).
   int64_t replay_block_bytes = int64_t{1} << 20;
-  // Target size of a scan chunk file in STORE/scans/ (partition/ingest_scans.h).
+  // Copy a native log's SCAN .pcd files into STORE/scans/ (partition/ingest_scans.h),
+  // in chunk files of about scan_chunk_bytes. `solve FILE --workdir` does not:
+  // the solver needs no scans.
+  bool copy_scans = true;
   int64_t scan_chunk_bytes = int64_t{16} << 20;
 };
 

@@ -60,6 +60,7 @@ Status IngestIntoWorkdir(const std::string& input, const std::string& format, in
   options.buffer_observations = IngestBufferObservations(memory_limit_bytes, chunk_observations);
   options.store.source = input;
   options.resume = resume;
+  options.copy_scans = false;  // the solve needs no scans (graphslam ingest copies them)
   partition::IngestSummary summary;
   GS_RETURN_IF_ERROR(
       partition::IngestToStore(storage::Env::Default(), input, workdir, options, &summary));
