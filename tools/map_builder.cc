@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <sstream>
 #include <system_error>
 
@@ -58,12 +59,13 @@ StatusOr<MapSummary> BuildMap(const MapOptions& options, const ScanSource& scans
   cloud_options.tile_bits = options.fusion.tile_bits;
   cloud_options.budget_bytes =
       options.pcd_memory_bytes > 0 ? options.pcd_memory_bytes : options.memory_budget_bytes / 4;
-  {
-    std::filesystem::path voxels(options.pcd_path.empty() ? "unused.pcd" : options.pcd_path);
+  std::optional<TiledVoxelCloud> cloud;  // only with a .pcd: it owns OUT.voxels/
+  if (!options.pcd_path.empty()) {
+    std::filesystem::path voxels(options.pcd_path);
     voxels.replace_extension(".voxels");
     cloud_options.spill_dir = voxels.string();
+    cloud.emplace(cloud_options);
   }
-  TiledVoxelCloud cloud(cloud_options);
   std::vector<WorldScan> batch;
   int64_t batch_points = 0;
   double seconds = 0.0;
@@ -90,7 +92,7 @@ StatusOr<MapSummary> BuildMap(const MapOptions& options, const ScanSource& scans
       WorldScan world;
       world.origin = scan.sensor_pose.t.cast<float>();
       world.points = WorldPoints(scan);
-      if (!options.pcd_path.empty()) GS_RETURN_IF_ERROR(cloud.Add(world.points, scan));
+      if (cloud) GS_RETURN_IF_ERROR(cloud->Add(world.points, scan));
       ++summary.scans;
       summary.points += static_cast<int64_t>(world.points.size());
       batch_points += static_cast<int64_t>(world.points.size());
@@ -148,9 +150,9 @@ StatusOr<MapSummary> BuildMap(const MapOptions& options, const ScanSource& scans
     }
   }
   if (!options.pcd_path.empty()) {
-    GS_RETURN_IF_ERROR(cloud.Finish(options.pcd_path));
-    summary.pcd_points = cloud.stats().voxels;
-    summary.pcd_tile_spills = cloud.stats().spills;
+    GS_RETURN_IF_ERROR(cloud->Finish(options.pcd_path));
+    summary.pcd_points = cloud->stats().voxels;
+    summary.pcd_tile_spills = cloud->stats().spills;
   }
   return summary;
 }
