@@ -14,6 +14,7 @@
 #include "core/logging.h"
 #include "core/unidentified_features.h"
 #include "partition/association_driver.h"
+#include "partition/gps_segment_alignment.h"
 #include "partition/in_memory_chunk_source.h"
 #include "partition/pose_graph_initialization.h"
 #include "partition/progressive_initialization.h"
@@ -458,6 +459,15 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   // --initialization pose-graph asks for it in memory too.
   if (!resuming && ((streaming && options.initialization == "progressive") ||
                     options.initialization == "pose-graph")) {
+    // pose-graph first puts the dead reckoning onto the GPS fixes, segment by
+    // segment (far from them the pose-only LM creeps; sim1e6,
+    // docs/benchmarks.md). Streaming mode's default keeps its measured path.
+    if (options.initialization == "pose-graph") {
+      const partition::GpsAlignmentSummary aligned = partition::AlignOdometryToGps(&problem);
+      GS_LOG(INFO, "GPS alignment: %lld chains, %lld segments, %lld poses moved",
+             static_cast<long long>(aligned.chains), static_cast<long long>(aligned.segments),
+             static_cast<long long>(aligned.poses_moved));
+    }
     partition::PoseGraphInitializationSummary pose_graph;
     if (Status status = partition::InitializeFromPoseGraph(solver_options, 20, chunks, &problem,
                                                            &pose_graph);
