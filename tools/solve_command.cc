@@ -169,6 +169,10 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
   solve->add_option("--preconditioner", options->preconditioner,
                     "PCG preconditioner: block-jacobi, incomplete-cholesky, subgraph")
       ->capture_default_str();
+  solve->add_option("--pcg-eta-min", options->pcg_eta_min,
+                    "PCG: the tightest relative residual (the forcing sequence's floor, and the "
+                    "tolerance of exact solves), in (0, --pcg-eta-max]")
+      ->capture_default_str();
   solve->add_option("--pcg-eta-max", options->pcg_eta_max,
                     "PCG: the loosest relative residual of the forcing sequence, in (0, 1)")
       ->capture_default_str();
@@ -267,6 +271,11 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     return kExitUsage;
   }
   // The exact-solve tolerance (1e-10) is the tightest forcing term.
+  if (!(options.pcg_eta_min > 0.0) || !(options.pcg_eta_min <= options.pcg_eta_max)) {
+    std::fprintf(stderr, "graphslam solve: --pcg-eta-min must be in (0, --pcg-eta-max = %g], "
+                 "got %g\n", options.pcg_eta_max, options.pcg_eta_min);
+    return kExitUsage;
+  }
   if (!(options.pcg_eta_max >= core::SolverOptions().pcg_relative_tolerance) ||
       !(options.pcg_eta_max < 1.0)) {
     std::fprintf(stderr, "graphslam solve: --pcg-eta-max must be in [1e-10, 1), got %g\n",
@@ -401,6 +410,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   solver_options.linear_solver = *solver_type;
   solver_options.preconditioner = *preconditioner;
   solver_options.pcg_eta_max = options.pcg_eta_max;
+  solver_options.pcg_relative_tolerance = options.pcg_eta_min;
   solver_options.max_iterations = options.max_iterations;
   solver_options.max_eliminated_observations = options.max_eliminated_observations;
   solver_options.observation_kernel = observation_kernel;

@@ -23,6 +23,8 @@ struct SolveCommandOptions {
   std::string solver = "auto";      // auto, pcg, cholmod
   std::string preconditioner = "subgraph";  // for pcg: subgraph, block-jacobi, incomplete-cholesky
   double pcg_eta_max = core::SolverOptions().pcg_eta_max;  // loosest PCG forcing term
+  // Tightest PCG forcing term (SolverOptions::pcg_relative_tolerance).
+  double pcg_eta_min = core::SolverOptions().pcg_relative_tolerance;
   int max_iterations = 100;
   double function_tolerance = 1e-6;
   double initial_trust_region_radius = 1e4;

@@ -172,5 +172,36 @@ TEST_F(SolveInitializationTest, PoseGraphStartBeatsOdometryAndReachesTheNoiseFlo
   EXPECT_GE(report["optimize_cpu_seconds"].get<double>(), 0.0);
 }
 
+// --pcg-eta-min floors the forcing sequence (the Eisenstat-Walker term
+// tightens as the gradient falls). On this campus with --pcg-eta-max 0.1 the
+// sequence goes below 0.1 from the second iteration on; a floor at 0.1 (a
+// constant forcing term) saves CG iterations, and LM still stops at CHOLMOD's
+// optimum.
+TEST_F(SolveInitializationTest, PcgEtaMinCapsTheLastSolvesAtTheSameOptimum) {
+  const std::string campus = SimulatedCampus();
+  auto run = [&](const std::string& solver, double eta_min, const std::string& report) {
+    SolveCommandOptions options = Solve(campus, "pose-graph", 100, report);
+    options.solver = solver;
+    options.pcg_eta_max = 0.1;
+    options.pcg_eta_min = eta_min;
+    EXPECT_EQ(RunSolveCommand(options), kExitOk) << report;
+    return ReadJson(Path(report));
+  };
+  const nlohmann::json cholmod = run("cholmod", 1e-10, "cholmod.json");
+  const nlohmann::json tight = run("pcg", 1e-10, "tight.json");
+  const nlohmann::json floored = run("pcg", 0.1, "floored.json");
+  auto cg = [](const nlohmann::json& report) {
+    int total = 0;
+    for (const nlohmann::json& it : report["per_iteration"])
+      total += it["linear_solver_iterations"].get<int>();
+    return total;
+  };
+  EXPECT_LT(cg(floored), cg(tight));
+  EXPECT_DOUBLE_EQ(floored["pcg_eta_min"].get<double>(), 0.1);
+  const double optimum = cholmod["final_chi2"].get<double>();
+  EXPECT_NEAR(tight["final_chi2"].get<double>(), optimum, 1e-6 * optimum);
+  EXPECT_NEAR(floored["final_chi2"].get<double>(), optimum, 1e-6 * optimum);
+}
+
 }  // namespace
 }  // namespace graphslam::tools
