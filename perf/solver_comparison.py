@@ -244,7 +244,7 @@ def main():
             elif exit_code == "timeout":
                 row.update(from_iteration_log(iteration_log))
                 if "iterations" in row:
-                    row["solver"] = run.split("/")[1].upper()
+                    row["solver"] = run.split("/")[1].replace("_tight", "").upper()
             rows.append(row)
             print(json.dumps({k: v for k, v in row.items() if k != "command"}), flush=True)
             write_outputs(rows, args.out)
