@@ -12,7 +12,18 @@ For every problem it runs, one after the other on the same machine:
   ceres/iterative_schur_tight  ... --eta 1e-4 --max-linear-iterations 5000
                         (the setting that reaches the optimum, docs/peers.md)
 all with at most 200 Levenberg-Marquardt iterations, from the same odometry
-guess (paper Table 1), every report written with --report. It writes
+guess (paper Table 1), every report written with --report.
+
+--start progressive|pose-graph gives every run the same, better start instead
+(from odometry, large landmark problems leave every solver in a different
+local minimum or far from any within the iteration cap): graphslam runs that
+initializer once (`graphslam solve FILE --initialization START
+--max-iterations 0 -o OUT/NAME_start_START.g2o`, row "start/START"), and every
+run then reads that file: ours with `--initialization as-given` (the guess
+unchanged), Ceres with its usual Table 1 initialization, which keeps every
+vertex the file gives. Ceres runs write --iteration-log, so a run stopped by
+the timeout still gives its iterations, time per iteration and last chi2.
+It writes
 OUT/solver_comparison.csv (one row per run) and OUT/solver_comparison.md (the
 table of docs/benchmarks.md): ms per iteration (mean of per_iteration[].seconds),
 total seconds (the report's `seconds`: read to report), CPU seconds of the
@@ -23,7 +34,8 @@ final chi2 (the target: <= 0.5 at the same chi2 within 0.1 %).
 
   perf/solver_comparison.py --bin build/bin --out /tmp/cmp \
       [--problems intel,M3500,city10000,victoria,sim1e5] [--skip RUN,...] [--threads N]
-      [--timeout S] [--max-iterations N] [--pcg-eta-max E]
+      [--timeout S] [--max-iterations N] [--pcg-eta-max E] [--pcg-eta-min E]
+      [--start odometry|progressive|pose-graph]
 
 Simulated problems (sim1e4, sim1e5, sim1e6) are generated once into OUT with
 `graphslam simulate -o DIR --poses N --features M --format g2o --gps-every 25
@@ -69,13 +81,17 @@ def write_atomically(path, text):
     os.replace(temp, path)
 
 
-def command(run, binaries, path, report, threads, max_iterations=200, pcg_eta_max=None):
-    ours = [f"{binaries}/graphslam", "solve", path, "--initialization", "odometry",
+def command(run, binaries, path, report, threads, max_iterations=200, pcg_eta_max=None,
+            initialization="odometry", iteration_log=None, pcg_eta_min=None):
+    ours = [f"{binaries}/graphslam", "solve", path, "--initialization", initialization,
             "--max-iterations", str(max_iterations), "--threads", str(threads), "--report",
             report, "-q"]
     eta = [] if pcg_eta_max is None else ["--pcg-eta-max", str(pcg_eta_max)]
+    eta += [] if pcg_eta_min is None else ["--pcg-eta-min", str(pcg_eta_min)]
     ceres = [f"{binaries}/graphslam_ceres_peer", path, "--threads", str(threads),
              "--max-iterations", str(max_iterations), "--report", report, "-q"]
+    if iteration_log:
+        ceres += ["--iteration-log", iteration_log]
     return {
         "ours/cholmod": ours + ["--solver", "cholmod"],
         "ours/pcg": ours + ["--solver", "pcg", "--preconditioner", "subgraph"] + eta,
@@ -100,6 +116,70 @@ def problem_path(name, binaries, out):
     return graph
 
 
+def start_path(name, path, start, binaries, out, threads, timeout):
+    """Writes the initialized guess of `path` once; returns (file, row of its run)."""
+    graph = os.path.join(out, f"{name}_start_{start}.g2o")
+    report = os.path.join(out, f"{name}_start_{start}.json")
+    cmd = [f"{binaries}/graphslam", "solve", path, "--initialization", start, "--max-iterations",
+           "0", "--threads", str(threads), "-o", graph, "--report", report, "-q"]
+    row = {"problem": name, "run": f"start/{start}", "command": " ".join(cmd)}
+    if not os.path.exists(graph):
+        exit_code, wall, cpu = timed_run(cmd, timeout)
+        row.update({"exit": exit_code, "wall_s": round(wall, 3), "cpu_s": round(cpu, 3)})
+        # --max-iterations 0 is "not converged" (exit 4) by definition.
+        if exit_code not in (0, 4) or not os.path.exists(graph):
+            raise SystemExit(f"{name}: writing the {start} start failed ({exit_code})")
+    if os.path.exists(report):
+        with open(report) as f:
+            r = json.load(f)
+        row.update({"iterations": 0, "termination": "initial guess", "final_chi2": r["final_chi2"],
+                    "total_s": r.get("seconds"), "peak_rss_mib": r.get("peak_rss_bytes", 0) / 2**20})
+        row.setdefault("cpu_s", round(r.get("cpu_seconds", 0.0), 3))
+    return graph, row
+
+
+def timed_run(cmd, timeout):
+    """Runs cmd; returns (exit code or "timeout", wall s, CPU s of the child)."""
+    start = time.monotonic()
+    # CPU seconds of the child (user + system, whole process: reading the
+    # input included): on a shared, loaded machine the fairer figure than
+    # wall-clock time, which counts the waits for a core.
+    children_before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    try:
+        result = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                text=True, timeout=timeout)
+        exit_code = result.returncode
+    except subprocess.TimeoutExpired:
+        exit_code = "timeout"
+    wall = time.monotonic() - start
+    children_after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (children_after.ru_utime - children_before.ru_utime +
+           children_after.ru_stime - children_before.ru_stime)
+    return exit_code, wall, cpu
+
+
+def from_iteration_log(path):
+    """The figures of a Ceres run stopped before its report, from --iteration-log."""
+    if not path or not os.path.exists(path):
+        return {}
+    with open(path) as f:
+        per = [json.loads(line) for line in f if line.strip().endswith("}")]
+    if not per:
+        return {}
+    figures = {
+        "iterations": len(per),
+        "termination": f"timeout after {len(per)} iterations",
+        "ms_per_iteration": 1e3 * sum(i["seconds"] for i in per) / len(per),
+        "linear_iterations": sum(i.get("linear_solver_iterations", 0) for i in per),
+        "final_chi2": min(i["chi2"] for i in per),  # accepted iterates only lower it
+    }
+    # CPU per iteration from the differences (the first entry includes reading).
+    if len(per) >= 2:
+        figures["cpu_ms_per_iteration"] = (
+            1e3 * (per[-1]["cpu_seconds"] - per[0]["cpu_seconds"]) / (len(per) - 1))
+    return figures
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -114,33 +194,34 @@ def main():
                         help="Levenberg-Marquardt iteration cap of every run (large problems)")
     parser.add_argument("--pcg-eta-max", type=float, default=None,
                         help="ours/pcg and ours/auto: --pcg-eta-max (default: graphslam's)")
+    parser.add_argument("--pcg-eta-min", type=float, default=None,
+                        help="ours/pcg and ours/auto: --pcg-eta-min (default: graphslam's)")
+    parser.add_argument("--start", default="odometry",
+                        choices=["odometry", "progressive", "pose-graph"],
+                        help="the start of every run: the input's odometry guess, or the "
+                             "initializer's guess written once and given to all")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     skip = set(filter(None, args.skip.split(",")))
     rows = []
     for name in args.problems.split(","):
         path = problem_path(name, args.bin, args.out)
+        initialization = "odometry"
+        if args.start != "odometry":
+            path, row = start_path(name, path, args.start, args.bin, args.out, args.threads,
+                                   args.timeout)
+            initialization = "as-given"
+            rows.append(row)
+            print(json.dumps({k: v for k, v in row.items() if k != "command"}), flush=True)
         for run in RUNS:
             if run in skip:
                 continue
             report = os.path.join(args.out, f"{name}_{run.replace('/', '_')}.json")
+            iteration_log = (report[:-len(".json")] + ".iterations.jsonl"
+                             if run.startswith("ceres/") else None)
             cmd = command(run, args.bin, path, report, args.threads, args.max_iterations,
-                          args.pcg_eta_max)
-            start = time.monotonic()
-            # CPU seconds of the child (user + system, whole process: reading
-            # the input included): on a shared, loaded machine the fairer
-            # figure than wall-clock time, which counts the waits for a core.
-            children_before = resource.getrusage(resource.RUSAGE_CHILDREN)
-            try:
-                result = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                                        text=True, timeout=args.timeout)
-                exit_code = result.returncode
-            except subprocess.TimeoutExpired:
-                exit_code = "timeout"
-            wall = time.monotonic() - start
-            children_after = resource.getrusage(resource.RUSAGE_CHILDREN)
-            cpu = (children_after.ru_utime - children_before.ru_utime +
-                   children_after.ru_stime - children_before.ru_stime)
+                          args.pcg_eta_max, initialization, iteration_log, args.pcg_eta_min)
+            exit_code, wall, cpu = timed_run(cmd, args.timeout)
             row = {"problem": name, "run": run, "exit": exit_code, "wall_s": round(wall, 3),
                    "cpu_s": round(cpu, 3), "command": " ".join(cmd)}
             if exit_code in (0, 4) and os.path.exists(report):
@@ -157,6 +238,13 @@ def main():
                     "final_chi2": r.get("final_chi2"),
                     "peak_rss_mib": r.get("peak_rss_bytes", 0) / 2**20,
                 })
+                if "optimize_cpu_seconds" in r:
+                    row["cpu_ms_per_iteration"] = (1e3 * r["optimize_cpu_seconds"] /
+                                                   max(1, r.get("iterations") or 1))
+            elif exit_code == "timeout":
+                row.update(from_iteration_log(iteration_log))
+                if "iterations" in row:
+                    row["solver"] = run.split("/")[1].replace("_tight", "").upper()
             rows.append(row)
             print(json.dumps({k: v for k, v in row.items() if k != "command"}), flush=True)
             write_outputs(rows, args.out)
@@ -165,11 +253,13 @@ def main():
 
 def write_outputs(rows, out):
     fields = ["problem", "run", "solver", "exit", "iterations", "termination", "ms_per_iteration",
-              "linear_iterations", "total_s", "final_chi2", "peak_rss_mib",
-              "ms_ratio_vs_ceres_iterative", "chi2_ratio_vs_ceres_iterative", "wall_s", "cpu_s",
-              "command"]
-    # Ratios of every run to Ceres ITERATIVE_SCHUR on the same problem: the
-    # tight run if it finished, else the default one.
+              "cpu_ms_per_iteration", "linear_iterations", "total_s", "final_chi2",
+              "peak_rss_mib", "ms_ratio_vs_ceres_iterative", "cpu_ms_ratio_vs_ceres_iterative",
+              "chi2_ratio_vs_ceres_iterative", "cpu_ms_ratio_vs_cholmod", "chi2_ratio_vs_cholmod",
+              "wall_s", "cpu_s", "command"]
+    # Ratios of every run to Ceres ITERATIVE_SCHUR on the same problem (the
+    # tight run if it has figures, a timed-out one included, else the default
+    # one) and to ours/cholmod.
     by_problem = {}
     for row in rows:
         by_problem.setdefault(row["problem"], {})[row["run"]] = row
@@ -178,10 +268,17 @@ def write_outputs(rows, out):
         peer = runs.get("ceres/iterative_schur_tight")
         if peer is None or "ms_per_iteration" not in peer:
             peer = runs.get("ceres/iterative_schur")
-        if peer and "ms_per_iteration" in peer and "ms_per_iteration" in row:
-            row["ms_ratio_vs_ceres_iterative"] = row["ms_per_iteration"] / peer["ms_per_iteration"]
-            row["chi2_ratio_vs_ceres_iterative"] = row["final_chi2"] / peer["final_chi2"]
-    lines = []
+        for prefix, reference in (("", peer), ("cholmod", runs.get("ours/cholmod"))):
+            suffix = "vs_cholmod" if prefix else "vs_ceres_iterative"
+            if not reference or "ms_per_iteration" not in row:
+                continue
+            if "ms_per_iteration" in reference and not prefix:
+                row[f"ms_ratio_{suffix}"] = row["ms_per_iteration"] / reference["ms_per_iteration"]
+            if reference.get("cpu_ms_per_iteration") and row.get("cpu_ms_per_iteration"):
+                row[f"cpu_ms_ratio_{suffix}"] = (row["cpu_ms_per_iteration"] /
+                                                 reference["cpu_ms_per_iteration"])
+            if reference.get("final_chi2") and row.get("final_chi2") is not None:
+                row[f"chi2_ratio_{suffix}"] = row["final_chi2"] / reference["final_chi2"]
     import io
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=fields, extrasaction="ignore")
@@ -189,26 +286,32 @@ def write_outputs(rows, out):
     for row in rows:
         writer.writerow(row)
     write_atomically(os.path.join(out, "solver_comparison.csv"), buffer.getvalue())
-    lines.append("| problem | run | solver | LM iterations (termination) | ms/iter | CG it. | "
-                 "total s | CPU s | final chi2 | peak RSS MiB | ms/iter ÷ Ceres iterative | "
-                 "chi2 ÷ Ceres iterative |")
-    lines.append("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    lines = ["| problem | run | solver | LM iterations (termination) | ms/iter | CPU ms/iter | "
+             "CG it. | total s | CPU s | final chi2 | peak RSS MiB | CPU ms/iter ÷ Ceres "
+             "iterative | chi2 ÷ Ceres iterative | CPU ms/iter ÷ CHOLMOD | chi2 ÷ CHOLMOD |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
 
     def number(row, key, fmt):
         return fmt.format(row[key]) if row.get(key) is not None else "—"
 
     for row in rows:
-        if "ms_per_iteration" not in row:
+        if "final_chi2" not in row:
             lines.append(f"| {row['problem']} | {row['run']} | — | failed ({row['exit']}) "
-                         "| — | — | — | — | — | — | — | — |")
+                         f"| — | — | — | — | {number(row, 'cpu_s', '{:.1f}')} | — | — | — | — "
+                         "| — | — |")
             continue
         lines.append(
-            f"| {row['problem']} | {row['run']} | {row['solver']} | {row['iterations']} "
-            f"({row['termination']}) | {row['ms_per_iteration']:.1f} | {row['linear_iterations']} "
-            f"| {row['total_s']:.2f} | {row['cpu_s']:.1f} | {row['final_chi2']:.6f} | "
-            f"{row['peak_rss_mib']:.1f} | "
-            f"{number(row, 'ms_ratio_vs_ceres_iterative', '{:.3f}')} | "
-            f"{number(row, 'chi2_ratio_vs_ceres_iterative', '{:.6f}')} |")
+            f"| {row['problem']} | {row['run']} | {row.get('solver') or '—'} | "
+            f"{row.get('iterations', '—')} ({row.get('termination', '—')}) | "
+            f"{number(row, 'ms_per_iteration', '{:.1f}')} | "
+            f"{number(row, 'cpu_ms_per_iteration', '{:.1f}')} | "
+            f"{number(row, 'linear_iterations', '{}')} | {number(row, 'total_s', '{:.2f}')} | "
+            f"{number(row, 'cpu_s', '{:.1f}')} | {row['final_chi2']:.6f} | "
+            f"{number(row, 'peak_rss_mib', '{:.1f}')} | "
+            f"{number(row, 'cpu_ms_ratio_vs_ceres_iterative', '{:.3f}')} | "
+            f"{number(row, 'chi2_ratio_vs_ceres_iterative', '{:.6f}')} | "
+            f"{number(row, 'cpu_ms_ratio_vs_cholmod', '{:.3f}')} | "
+            f"{number(row, 'chi2_ratio_vs_cholmod', '{:.6f}')} |")
     write_atomically(os.path.join(out, "solver_comparison.md"), "\n".join(lines) + "\n")
 
 

@@ -14,6 +14,7 @@
 #include "core/logging.h"
 #include "core/unidentified_features.h"
 #include "partition/association_driver.h"
+#include "partition/gps_segment_alignment.h"
 #include "partition/in_memory_chunk_source.h"
 #include "partition/pose_graph_initialization.h"
 #include "partition/progressive_initialization.h"
@@ -53,9 +54,11 @@ Status ValidateOptions(const SolveCommandOptions& options) {
     return Status::InvalidArgument("--threads must be >= 0, got " + std::to_string(options.threads));
   if (options.max_eliminated_observations < 0)
     return Status::InvalidArgument("--max-eliminated-observations must be >= 0");
-  if (options.initialization != "progressive" && options.initialization != "odometry")
-    return Status::InvalidArgument("--initialization must be progressive or odometry, got '" +
-                                   options.initialization + "'");
+  if (options.initialization != "progressive" && options.initialization != "odometry" &&
+      options.initialization != "pose-graph" && options.initialization != "as-given")
+    return Status::InvalidArgument(
+        "--initialization must be progressive, odometry, pose-graph or as-given, got '" +
+        options.initialization + "'");
   if (options.resume && options.checkpoint.empty() && !storage::IsChunkStore(options.input) &&
       options.workdir.empty())
     return Status::InvalidArgument("--resume needs --checkpoint FILE (or a chunk store as input)");
@@ -121,6 +124,37 @@ Status LoadObservations(const core::ChunkSource& chunks, core::Problem2d* proble
   return Status::Ok();
 }
 
+// --initialization as-given (after ValidateProblem, so indices are in range):
+// the input must give every pose and every observed feature a guess (a g2o file with all its VERTEX lines, e.g. one written by
+// `graphslam solve -o`), since nothing will be filled in.
+Status CheckEveryGuessGiven(const core::Problem2d& problem) {
+  for (int32_t i = 0; i < problem.num_poses(); ++i) {
+    if (problem.pose_initialized[i] != 0) continue;
+    // Built by append: GCC 12 gives a false -Wrestrict on `":" + std::string` at -O3.
+    std::string where = problem.source;
+    if (problem.pose_lines[i] > 0) {
+      where.push_back(':');
+      where.append(std::to_string(problem.pose_lines[i]));
+    }
+    return Status::InvalidArgument(
+        where + ": pose " + std::to_string(problem.pose_ids[i]) +
+        " has no initial guess in the input; --initialization as-given needs a guess (VERTEX "
+        "line) for every pose and observed feature, expected e.g. a graph written by "
+        "`graphslam solve -o`");
+  }
+  std::vector<uint8_t> observed(problem.features.size(), 0);
+  for (const core::Observation& o : problem.observations) observed[o.feature] = 1;
+  for (int32_t j = 0; j < problem.num_features(); ++j) {
+    if (observed[j] == 0 || problem.feature_initialized[j] != 0) continue;
+    return Status::InvalidArgument(
+        problem.source + ": feature " + std::to_string(problem.feature_ids[j]) +
+        " has no initial guess in the input; --initialization as-given needs a guess (VERTEX "
+        "line) for every pose and observed feature, expected e.g. a graph written by "
+        "`graphslam solve -o`");
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code) {
@@ -134,6 +168,10 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
       ->capture_default_str();
   solve->add_option("--preconditioner", options->preconditioner,
                     "PCG preconditioner: block-jacobi, incomplete-cholesky, subgraph")
+      ->capture_default_str();
+  solve->add_option("--pcg-eta-min", options->pcg_eta_min,
+                    "PCG: the tightest relative residual (the forcing sequence's floor, and the "
+                    "tolerance of exact solves), in (0, --pcg-eta-max]")
       ->capture_default_str();
   solve->add_option("--pcg-eta-max", options->pcg_eta_max,
                     "PCG: the loosest relative residual of the forcing sequence, in (0, 1)")
@@ -164,8 +202,10 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
       ->join(' ')
       ->capture_default_str();
   solve->add_option("--initialization", options->initialization,
-                    "initial guess: progressive (solve growing prefixes of the trajectory) or "
-                    "odometry (the paper's Table 1 only)")
+                    "initial guess: progressive (solve growing prefixes of the trajectory), "
+                    "odometry (the paper's Table 1 only), pose-graph (Table 1, then the pose-only "
+                    "problem solved and the features re-placed) or as-given (the input's guess "
+                    "unchanged; every vertex must have one)")
       ->capture_default_str();
   solve->add_option("--progressive-max-new-poses", options->progressive_max_new_poses,
                     "at most this many poses join per progressive stage")
@@ -231,6 +271,11 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     return kExitUsage;
   }
   // The exact-solve tolerance (1e-10) is the tightest forcing term.
+  if (!(options.pcg_eta_min > 0.0) || !(options.pcg_eta_min <= options.pcg_eta_max)) {
+    std::fprintf(stderr, "graphslam solve: --pcg-eta-min must be in (0, --pcg-eta-max = %g], "
+                 "got %g\n", options.pcg_eta_max, options.pcg_eta_min);
+    return kExitUsage;
+  }
   if (!(options.pcg_eta_max >= core::SolverOptions().pcg_relative_tolerance) ||
       !(options.pcg_eta_max < 1.0)) {
     std::fprintf(stderr, "graphslam solve: --pcg-eta-max must be in [1e-10, 1), got %g\n",
@@ -335,10 +380,14 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   if (!streaming) num_observations = static_cast<int64_t>(problem.observations.size());
   const double read_seconds = Seconds(start);
 
-  // Initialize (Table 1) and validate connectivity.
+  // Initialize (Table 1) and validate connectivity. --initialization as-given
+  // only checks: the input's guess is the start, bit for bit.
   const Clock::time_point initialize_start = Clock::now();
   // (Streaming: the ingest initialized and checked with every observation.)
-  if (!streaming) {
+  if (!streaming && options.initialization == "as-given") {
+    if (Status status = core::ValidateProblem(problem); !status.ok()) return fail(status);
+    if (Status status = CheckEveryGuessGiven(problem); !status.ok()) return fail(status);
+  } else if (!streaming) {
     if (Status status = core::InitializeProblem(&problem); !status.ok()) return fail(status);
   }
   const double initialize_seconds = Seconds(initialize_start);
@@ -361,6 +410,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   solver_options.linear_solver = *solver_type;
   solver_options.preconditioner = *preconditioner;
   solver_options.pcg_eta_max = options.pcg_eta_max;
+  solver_options.pcg_relative_tolerance = options.pcg_eta_min;
   solver_options.max_iterations = options.max_iterations;
   solver_options.max_eliminated_observations = options.max_eliminated_observations;
   solver_options.observation_kernel = observation_kernel;
@@ -415,8 +465,19 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                                                          &progressive_summary);
       !status.ok())
     return fail(status);
-  // Streaming mode: the pose-graph initializer (no in-memory sub-problems).
-  if (streaming && !resuming && options.initialization == "progressive") {
+  // Streaming mode: the pose-graph initializer (no in-memory sub-problems);
+  // --initialization pose-graph asks for it in memory too.
+  if (!resuming && ((streaming && options.initialization == "progressive") ||
+                    options.initialization == "pose-graph")) {
+    // pose-graph first puts the dead reckoning onto the GPS fixes, segment by
+    // segment (far from them the pose-only LM creeps; sim1e6,
+    // docs/benchmarks.md). Streaming mode's default keeps its measured path.
+    if (options.initialization == "pose-graph") {
+      const partition::GpsAlignmentSummary aligned = partition::AlignOdometryToGps(&problem);
+      GS_LOG(INFO, "GPS alignment: %lld chains, %lld segments, %lld poses moved",
+             static_cast<long long>(aligned.chains), static_cast<long long>(aligned.segments),
+             static_cast<long long>(aligned.poses_moved));
+    }
     partition::PoseGraphInitializationSummary pose_graph;
     if (Status status = partition::InitializeFromPoseGraph(solver_options, 20, chunks, &problem,
                                                            &pose_graph);
@@ -436,6 +497,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     };
   }
   core::SolverSummary summary;
+  const double optimize_cpu_start = ProcessCpuSeconds();
   partition::AssociationOptions association;
   partition::AssociationSummary association_summary;
   if (options.associate) {
@@ -459,6 +521,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
              !status.ok()) {
     return fail(status);
   }
+  const double optimize_cpu_seconds = ProcessCpuSeconds() - optimize_cpu_start;
   display.Finish();
 
   // Write outputs (each atomically).
@@ -481,6 +544,11 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                                               progressive_seconds, total_seconds,
                                               num_observations);
     report["streaming"] = streaming;
+    // CPU seconds (user + system, all threads) of the optimization and of the
+    // whole process so far: on a shared machine the cost, where wall time
+    // also counts the waits for a core.
+    report["optimize_cpu_seconds"] = optimize_cpu_seconds;
+    report["cpu_seconds"] = ProcessCpuSeconds();
     report["chunks_in_flight"] = solver_options.max_chunks_in_flight;
     report["memory_limit_bytes"] = memory_limit;
     if (store) report["store"] = store_path;

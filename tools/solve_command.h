@@ -23,6 +23,8 @@ struct SolveCommandOptions {
   std::string solver = "auto";      // auto, pcg, cholmod
   std::string preconditioner = "subgraph";  // for pcg: subgraph, block-jacobi, incomplete-cholesky
   double pcg_eta_max = core::SolverOptions().pcg_eta_max;  // loosest PCG forcing term
+  // Tightest PCG forcing term (SolverOptions::pcg_relative_tolerance).
+  double pcg_eta_min = core::SolverOptions().pcg_relative_tolerance;
   int max_iterations = 100;
   double function_tolerance = 1e-6;
   double initial_trust_region_radius = 1e4;
@@ -34,7 +36,7 @@ struct SolveCommandOptions {
   // observation, odometry, motion, gps; several separated by spaces or commas
   // (core/robust_kernel.h ApplyRobustKernelOption).
   std::string robust_kernel = "none";
-  std::string initialization = "progressive";  // progressive, odometry
+  std::string initialization = "progressive";  // progressive, odometry, pose-graph, as-given
   int64_t progressive_max_new_poses = 500;     // poses added per progressive stage
   std::string checkpoint;  // --checkpoint FILE (default STORE/checkpoint.json for stores)
   bool resume = false;     // --resume: continue from the checkpoint if there is one

@@ -15,6 +15,8 @@ nlohmann::json SolverReport(const SolveCommandOptions& options, const core::Solv
   report["format"] = format_name;
   report["solver"] = core::LinearSolverName(summary.linear_solver_used);
   report["preconditioner"] = options.preconditioner;
+  report["pcg_eta_min"] = options.pcg_eta_min;
+  report["pcg_eta_max"] = options.pcg_eta_max;
   report["initial_chi2"] = summary.initial_chi2;
   report["final_chi2"] = summary.final_chi2;
   report["iterations"] = summary.iterations;

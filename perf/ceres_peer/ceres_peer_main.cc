@@ -4,7 +4,8 @@
 //
 //   graphslam_ceres_peer INPUT.g2o --linear-solver sparse_schur|iterative_schur
 //                        --report REPORT.json [--max-iterations N] [--threads N]
-//                        [--function-tolerance T] [--eta E] [--max-linear-iterations N] [-q]
+//                        [--function-tolerance T] [--eta E] [--max-linear-iterations N]
+//                        [--iteration-log FILE] [-q]
 //
 // Pipeline: storage::ReadG2o -> core::InitializeProblem (the same reader and
 // the same initial guess as `graphslam solve --initialization odometry`) ->
@@ -18,6 +19,12 @@
 // (an independent set of poses) for the Schur solvers; if that fails the
 // harness falls back to SPARSE_NORMAL_CHOLESKY (for sparse_schur) or
 // CGNR + JACOBI (for iterative_schur) and says so in the report ("fallback").
+//
+// --iteration-log FILE: one JSON object per line and per Levenberg-Marquardt
+// iteration (the per_iteration entry of the report plus "cpu_seconds", the
+// process' user + system seconds so far), appended and flushed as each
+// iteration ends, so a run stopped by a timeout still gives its time per
+// iteration (perf/solver_comparison.py reads it).
 //
 // Exit codes as the graphslam tool (tools/exit_codes.h): 0 converged, 1 usage,
 // 2 bad input, 3 I/O error, 4 did not converge.
@@ -71,6 +78,7 @@ struct PeerOptions {
   // residual falls below eta times its start (Ceres' default 0.1).
   double eta = 1e-1;
   int max_linear_solver_iterations = 500;  // Ceres' default
+  std::string iteration_log;               // --iteration-log FILE ("" = none)
   bool quiet = false;
 
   Status Validate() const {
@@ -200,6 +208,9 @@ int32_t BuildCeresProblem(const core::Problem2d& problem, CeresState* state,
 // evaluation; graphslam numbers iterations from 1, so it is skipped).
 class RecordingCallback : public ceres::IterationCallback {
  public:
+  // `log` (may be null, not owned) gets each iteration as a JSON line.
+  explicit RecordingCallback(std::FILE* log) : log_(log) {}
+
   ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
     if (summary.iteration == 0) return ceres::SOLVER_CONTINUE;
     per_iteration_.push_back({{"iteration", summary.iteration},
@@ -213,6 +224,13 @@ class RecordingCallback : public ceres::IterationCallback {
                               {"accepted", summary.step_is_successful},
                               {"seconds", summary.iteration_time_in_seconds},
                               {"solve_seconds", summary.step_solver_time_in_seconds}});
+    if (log_ != nullptr) {
+      nlohmann::json line = per_iteration_.back();
+      line["cpu_seconds"] = tools::ProcessCpuSeconds();
+      // A failed write only loses the progressive log; the report stays.
+      std::fprintf(log_, "%s\n", line.dump().c_str());
+      std::fflush(log_);
+    }
     return ceres::SOLVER_CONTINUE;
   }
   const nlohmann::json& per_iteration() const { return per_iteration_; }
@@ -220,6 +238,7 @@ class RecordingCallback : public ceres::IterationCallback {
 
  private:
   nlohmann::json per_iteration_ = nlohmann::json::array();
+  std::FILE* log_;
 };
 
 // graphslam's termination names for Ceres' messages.
@@ -281,7 +300,14 @@ int Run(const PeerOptions& options) {
   solver_options.logging_type = ceres::SILENT;
   solver_options.minimizer_progress_to_stdout = false;
   solver_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
-  RecordingCallback recorder;
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> iteration_log(nullptr, &std::fclose);
+  if (!options.iteration_log.empty()) {
+    iteration_log.reset(std::fopen(options.iteration_log.c_str(), "w"));
+    if (iteration_log == nullptr)
+      return fail(Status::IOError(options.iteration_log + ": cannot open the iteration log for "
+                                  "writing"));
+  }
+  RecordingCallback recorder(iteration_log.get());
   solver_options.callbacks.push_back(&recorder);
 
   ceres::Solver::Summary summary;
@@ -289,6 +315,8 @@ int Run(const PeerOptions& options) {
   int32_t landmarks_used = 0;
   bool fallback = false;
   double build_seconds = 0.0;
+  double optimize_cpu_start = 0.0;
+  double optimize_cpu_seconds = 0.0;
   // At most two attempts: the Schur solver, then (pose-only graphs whose
   // Schur attempt failed) the fallback.
   for (int attempt = 0; attempt < 2; ++attempt) {
@@ -304,7 +332,9 @@ int Run(const PeerOptions& options) {
     if (!solver_options.IsValid(&error))
       return fail(Status::InvalidArgument("Ceres options: " + error));
     recorder.Clear();
+    optimize_cpu_start = tools::ProcessCpuSeconds();
     ceres::Solve(solver_options, &ceres_problem, &summary);
+    optimize_cpu_seconds = tools::ProcessCpuSeconds() - optimize_cpu_start;
     const bool failed_before_start =
         summary.termination_type == ceres::FAILURE && summary.iterations.size() <= 1;
     if (!failed_before_start || landmarks_used > 0 || fallback) break;
@@ -377,6 +407,8 @@ int Run(const PeerOptions& options) {
                                {"jacobian_evaluation", summary.jacobian_evaluation_time_in_seconds},
                                {"residual_evaluation", summary.residual_evaluation_time_in_seconds}};
     report["peak_rss_bytes"] = tools::PeakRssBytes();
+    report["optimize_cpu_seconds"] = optimize_cpu_seconds;
+    report["cpu_seconds"] = tools::ProcessCpuSeconds();
     report["per_iteration"] = recorder.per_iteration();
     if (Status status = storage::WriteStringAtomically(storage::Env::Default(), options.report,
                                                        report.dump(2) + "\n");
@@ -431,6 +463,8 @@ int main(int argc, char** argv) {
   app.add_option("--max-linear-iterations", options.max_linear_solver_iterations,
                  "ITERATIVE_SCHUR: CG iterations per step at most (Ceres' default)")
       ->capture_default_str();
+  app.add_option("--iteration-log", options.iteration_log,
+                 "one JSON line per iteration, flushed as it ends (survives a timeout)");
   app.add_flag("-q,--quiet", options.quiet, "no summary on the terminal");
   try {
     app.parse(argc, argv);

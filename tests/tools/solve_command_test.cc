@@ -242,6 +242,15 @@ TEST_F(SolveCommandTest, UsageErrorsReturnOneAndWriteNothing) {
        "--max-iterations"},
       {"--robust-kernel bogus", [](SolveCommandOptions* o) { o->robust_kernel = "bogus"; },
        "--robust-kernel"},
+      {"--pcg-eta-min 0", [](SolveCommandOptions* o) { o->pcg_eta_min = 0.0; }, "--pcg-eta-min"},
+      {"--pcg-eta-min above --pcg-eta-max",
+       [](SolveCommandOptions* o) {
+         o->pcg_eta_max = 0.01;
+         o->pcg_eta_min = 0.1;
+       },
+       "--pcg-eta-min"},
+      {"--initialization bogus", [](SolveCommandOptions* o) { o->initialization = "bogus"; },
+       "--initialization"},
   };
   for (const UsageCase& usage : cases) {
     SCOPED_TRACE(usage.name);
