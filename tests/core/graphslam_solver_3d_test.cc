@@ -266,10 +266,12 @@ TEST(GraphSlamSolver3d, CauchyKernelHoldsOffACorruptedLandmark) {
 }
 
 // A solve resumed from the checkpoint of iteration 2 ends bit for bit where
-// the uninterrupted solve ends: the checkpoint carries the whole state.
-TEST(GraphSlamSolver3d, ResumeFromACheckpointIsBitIdentical) {
+// the uninterrupted solve ends: the checkpoint carries the whole state (with
+// PCG: the forcing term, warm start and subgraph forest).
+void ExpectResumeIsBitIdentical(LinearSolverType type) {
   const Problem3d input = RandomProblem(14, 6, /*gps=*/false, 22);
   SolverOptions options;
+  options.linear_solver = type;
   options.function_tolerance = 1e-14;
   options.parameter_tolerance = 1e-14;
   options.gradient_tolerance = 1e-14;
@@ -290,6 +292,7 @@ TEST(GraphSlamSolver3d, ResumeFromACheckpointIsBitIdentical) {
   ASSERT_TRUE(Solve3d(options, &full, &full_summary, record).ok());
   ASSERT_GE(full_summary.iterations, 4);
   ASSERT_EQ(static_cast<int>(checkpoints.size()), full_summary.iterations);
+  EXPECT_EQ(checkpoints[1].pcg.present, type == LinearSolverType::kPcg);
   EXPECT_TRUE(checkpoints.back().converged);
 
   Problem3d resumed = input;
@@ -312,6 +315,14 @@ TEST(GraphSlamSolver3d, ResumeFromACheckpointIsBitIdentical) {
   Problem3d other = RandomProblem(10, 6, false, 23);
   SolverSummary other_summary;
   EXPECT_FALSE(Solve3d(options, &other, &other_summary, resume).ok());
+}
+
+TEST(GraphSlamSolver3d, ResumeFromACheckpointIsBitIdentical) {
+  ExpectResumeIsBitIdentical(LinearSolverType::kCholmod);
+}
+
+TEST(GraphSlamSolver3d, ResumeWithSubgraphPcgIsBitIdentical) {
+  ExpectResumeIsBitIdentical(LinearSolverType::kPcg);
 }
 
 
