@@ -62,7 +62,9 @@ struct Space2d {
     if (ok && jacobian_pose != nullptr) *jacobian_pose = *jacobian_pose * RetractionJacobian(pose);
     return ok;
   }
-  static Pose Retract(const Pose& pose, const PoseVector& delta) { return RetractPose(pose, delta); }
+  static Pose Retract(const Pose& pose, const PoseVector& delta) {
+    return RetractPose(pose, delta);
+  }
   // |x|^2 for the parameter tolerance (Ceres: the parameter vector's norm).
   static double StateSquaredNorm(const Pose& pose) { return pose.squaredNorm(); }
 };

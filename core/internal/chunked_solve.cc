@@ -46,9 +46,9 @@ class ChunkedSpace {
 
   // fused: one RecoverAndReducePass per accepted iteration (see TryStep).
   ChunkedSpace(const BasicPassContext<Space>& context, const UnknownLayout& layout,
-              const std::vector<uint8_t>& kept, const PoseFactorKernels& pose_kernels,
-              typename Space::Problem* problem, ReducedSystem* system, ReducedSystemSolver* solver,
-              const std::vector<uint8_t>& excluded, bool fused)
+               const std::vector<uint8_t>& kept, const PoseFactorKernels& pose_kernels,
+               typename Space::Problem* problem, ReducedSystem* system,
+               ReducedSystemSolver* solver, const std::vector<uint8_t>& excluded, bool fused)
       : context_(context), layout_(layout), kept_(kept), pose_kernels_(pose_kernels),
         problem_(*problem), system_(*system), solver_(*solver), excluded_(excluded),
         fused_(fused) {}
@@ -121,8 +121,10 @@ class ChunkedSpace {
                                         recovery.damped_step_norm);
       it->step_norm = std::sqrt(pose_step_.squaredNorm() + recovery.step_squared_norm);
       trial->state_norm_squared = recovery.state_squared_norm;
-      for (size_t p = 0; p < poses.size(); ++p)
-        if (layout_.unknown_index[p] >= 0) trial->state_norm_squared += Space::StateSquaredNorm(poses[p]);
+      for (size_t p = 0; p < poses.size(); ++p) {
+        if (layout_.unknown_index[p] >= 0)
+          trial->state_norm_squared += Space::StateSquaredNorm(poses[p]);
+      }
     }
     it->recover_seconds = SecondsSince(recover_start);
     return Status::Ok();

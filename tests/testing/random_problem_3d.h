@@ -69,7 +69,8 @@ inline core::Problem3d MakeRandomProblem3d(int n, int m, bool gps, uint32_t seed
       core::Point3Observation o;
       o.pose = (f * 3 + k * 2) % n;
       o.feature = f;
-      o.z = core::InverseTransformPoint(truth[o.pose], point) + 0.02 * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+      o.z = core::InverseTransformPoint(truth[o.pose], point) +
+            0.02 * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
       o.information = Eigen::Matrix3d::Identity() * 100.0;
       o.information(0, 1) = o.information(1, 0) = 10.0;
       p.observations.push_back(o);
