@@ -2,7 +2,10 @@
 // problems (poses, 3-D points, relative poses, GPS). The reference stacks the
 // whitened residuals r = L^T e (W = L L^T) and differentiates them by central
 // differences through x Exp(d), so it shares nothing with the analytic
-// Jacobians, the Schur elimination or the sparse solvers under test.
+// Jacobians, the Schur elimination or the sparse solvers under test. The
+// solve is the chunked one (core/internal/chunked_solve.h): chunk sizes and
+// thread counts, the fused pass, kept features, subgraph PCG and resumes are
+// checked against each other.
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
