@@ -13,21 +13,29 @@
 namespace graphslam::core {
 namespace {
 
-bool Excluded(const PassContext& context, int32_t feature) {
+template <class Space>
+bool Excluded(const BasicPassContext<Space>& context, int32_t feature) {
   return context.excluded != nullptr && (*context.excluded)[feature] != 0;
 }
 
-void Report(const PassContext& context, const char* stage, int64_t done) {
+template <class Space>
+void Report(const BasicPassContext<Space>& context, const char* stage, int64_t done) {
   if (context.progress) context.progress(stage, done, context.chunks->NumChunks());
 }
 
+template <class Space>
+using ChunkOf = BasicObservationChunk<typename Space::Observation>;
+
 }  // namespace
 
-Status ScreenFeatures(const PassContext& context, const std::vector<Pose2>& poses,
-                      const std::vector<Point2>& features, int64_t max_eliminated_observations,
-                      ScreeningResult* result) {
+template <class Space>
+Status ScreenFeatures(const BasicPassContext<Space>& context,
+                      const std::vector<typename Space::Pose>& poses,
+                      const std::vector<typename Space::Point>& features,
+                      int64_t max_eliminated_observations, ScreeningResult* result) {
+  using FeatureMatrix = Eigen::Matrix<double, Space::kFeatureDim, Space::kFeatureDim>;
   struct Output {
-    LinearizedFeature scratch;
+    BasicLinearizedFeature<Space> scratch;
     std::vector<int32_t> rejected;
     std::vector<int32_t> kept;
     int64_t observations = 0;
@@ -40,16 +48,16 @@ Status ScreenFeatures(const PassContext& context, const std::vector<Pose2>& pose
   std::vector<uint8_t> observed(features.size(), 0);
   Status status = internal::RunOrderedChunkPipeline<Output>(
       *context.chunks, context.max_in_flight,
-      [&](const ObservationChunk& chunk, Output* out) {
+      [&](const ChunkOf<Space>& chunk, Output* out) {
         out->rejected.clear();
         out->kept.clear();
         out->observations = 0;
         for (int64_t k = 0; k < chunk.num_features(); ++k) {
           const int32_t g = chunk.features[k];
-          LinearizeFeature(chunk, k, poses, features[g], *context.layout, RobustKernel(),
-                           &out->scratch);
-          const Eigen::Matrix2d c = out->scratch.blocks.feature_information;
-          Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eigen(c);
+          LinearizeFeature<Space>(chunk, k, poses, features[g], *context.layout, RobustKernel(),
+                                  &out->scratch);
+          const FeatureMatrix c = out->scratch.blocks.feature_information;
+          Eigen::SelfAdjointEigenSolver<FeatureMatrix> eigen(c);
           const double max_eigen = eigen.eigenvalues().maxCoeff();
           const double min_eigen = eigen.eigenvalues().minCoeff();
           // Relative test: a rank-deficient C has min/max at round-off level.
@@ -63,7 +71,7 @@ Status ScreenFeatures(const PassContext& context, const std::vector<Pose2>& pose
         }
         return Status::Ok();
       },
-      [&](const ObservationChunk& chunk, Output& out) {
+      [&](const ChunkOf<Space>& chunk, Output& out) {
         for (int32_t g : chunk.features) {
           observed[g] = 1;
           result->excluded[g] = 0;
@@ -79,7 +87,8 @@ Status ScreenFeatures(const PassContext& context, const std::vector<Pose2>& pose
   return status;
 }
 
-Status CollectReducedPattern(const PassContext& context,
+template <class Space>
+Status CollectReducedPattern(const BasicPassContext<Space>& context,
                              std::vector<std::pair<int, int>>* pairs) {
   struct Output {
     std::vector<std::pair<int, int>> pairs;
@@ -87,7 +96,7 @@ Status CollectReducedPattern(const PassContext& context,
   };
   return internal::RunOrderedChunkPipeline<Output>(
       *context.chunks, context.max_in_flight,
-      [&](const ObservationChunk& chunk, Output* out) {
+      [&](const ChunkOf<Space>& chunk, Output* out) {
         out->pairs.clear();
         for (int64_t k = 0; k < chunk.num_features(); ++k) {
           const int32_t g = chunk.features[k];
@@ -115,52 +124,63 @@ Status CollectReducedPattern(const PassContext& context,
         out->pairs.erase(std::unique(out->pairs.begin(), out->pairs.end()), out->pairs.end());
         return Status::Ok();
       },
-      [&](const ObservationChunk& chunk, Output& out) {
+      [&](const ChunkOf<Space>& chunk, Output& out) {
         pairs->insert(pairs->end(), out.pairs.begin(), out.pairs.end());
         Report(context, "pattern", chunk.index + 1);
       });
 }
 
-Status ReducePass(const PassContext& context, const std::vector<Pose2>& poses,
-                  const std::vector<Point2>& features, double lambda, ReducedSystem* system) {
-  return internal::RunOrderedChunkPipeline<internal::ReduceOutput>(
+template <class Space>
+Status ReducePass(const BasicPassContext<Space>& context,
+                  const std::vector<typename Space::Pose>& poses,
+                  const std::vector<typename Space::Point>& features, double lambda,
+                  ReducedSystem* system) {
+  return internal::RunOrderedChunkPipeline<internal::ReduceOutput<Space>>(
       *context.chunks, context.max_in_flight,
-      [&](const ObservationChunk& chunk, internal::ReduceOutput* out) {
-        return internal::ReduceChunk(context, chunk, poses, features, lambda, out);
+      [&](const ChunkOf<Space>& chunk, internal::ReduceOutput<Space>* out) {
+        return internal::ReduceChunk<Space>(context, chunk, poses, features, lambda, out);
       },
-      [&](const ObservationChunk& chunk, internal::ReduceOutput& out) {
-        internal::MergeReduced(out, system);
+      [&](const ChunkOf<Space>& chunk, internal::ReduceOutput<Space>& out) {
+        internal::MergeReduced<Space>(out, system);
         Report(context, "reduce", chunk.index + 1);
       });
 }
 
-Status RecoverPass(const PassContext& context, const std::vector<Pose2>& poses,
-                   const std::vector<Point2>& features, double lambda,
-                   const Eigen::VectorXd& step, const std::vector<Pose2>& candidate_poses,
-                   std::vector<Point2>* candidate_features, RecoveryResult* result) {
+template <class Space>
+Status RecoverPass(const BasicPassContext<Space>& context,
+                   const std::vector<typename Space::Pose>& poses,
+                   const std::vector<typename Space::Point>& features, double lambda,
+                   const Eigen::VectorXd& step,
+                   const std::vector<typename Space::Pose>& candidate_poses,
+                   std::vector<typename Space::Point>* candidate_features,
+                   RecoveryResult* result) {
   *result = RecoveryResult();
   candidate_features->resize(features.size());
-  return internal::RunOrderedChunkPipeline<internal::RecoverOutput>(
+  return internal::RunOrderedChunkPipeline<internal::RecoverOutput<Space>>(
       *context.chunks, context.max_in_flight,
-      [&](const ObservationChunk& chunk, internal::RecoverOutput* out) {
-        internal::RecoverChunk(context, chunk, poses, features, lambda, step, candidate_poses,
-                               candidate_features, out);
+      [&](const ChunkOf<Space>& chunk, internal::RecoverOutput<Space>* out) {
+        internal::RecoverChunk<Space>(context, chunk, poses, features, lambda, step,
+                                      candidate_poses, candidate_features, out);
         return Status::Ok();
       },
-      [&](const ObservationChunk& chunk, internal::RecoverOutput& out) {
-        internal::MergeRecovered(out, result);
+      [&](const ChunkOf<Space>& chunk, internal::RecoverOutput<Space>& out) {
+        internal::MergeRecovered(out.sums, result);
         Report(context, "recover", chunk.index + 1);
       });
 }
 
-Status RecoverAndReducePass(const PassContext& context, const std::vector<Pose2>& poses,
-                            const std::vector<Point2>& features, double lambda,
-                            const Eigen::VectorXd& step, const std::vector<Pose2>& candidate_poses,
-                            std::vector<Point2>* candidate_features, RecoveryResult* result,
-                            double next_lambda, ReducedSystem* next, Status* next_status) {
+template <class Space>
+Status RecoverAndReducePass(const BasicPassContext<Space>& context,
+                            const std::vector<typename Space::Pose>& poses,
+                            const std::vector<typename Space::Point>& features, double lambda,
+                            const Eigen::VectorXd& step,
+                            const std::vector<typename Space::Pose>& candidate_poses,
+                            std::vector<typename Space::Point>* candidate_features,
+                            RecoveryResult* result, double next_lambda, ReducedSystem* next,
+                            Status* next_status) {
   struct Output {
-    internal::RecoverOutput recover;
-    internal::ReduceOutput reduce;
+    internal::RecoverOutput<Space> recover;
+    internal::ReduceOutput<Space> reduce;
     Status reduce_status;
     bool reduced = false;
   };
@@ -172,23 +192,22 @@ Status RecoverAndReducePass(const PassContext& context, const std::vector<Pose2>
   std::atomic<bool> next_failed{false};
   return internal::RunOrderedChunkPipeline<Output>(
       *context.chunks, context.max_in_flight,
-      [&](const ObservationChunk& chunk, Output* out) {
+      [&](const ChunkOf<Space>& chunk, Output* out) {
         // Recovery first: it writes the candidates of this chunk's features,
         // which are exactly the features the reduce half reads.
-        internal::RecoverChunk(context, chunk, poses, features, lambda, step, candidate_poses,
-                               candidate_features, &out->recover);
+        internal::RecoverChunk<Space>(context, chunk, poses, features, lambda, step,
+                                      candidate_poses, candidate_features, &out->recover);
         out->reduce_status = Status::Ok();
         out->reduced = !next_failed.load();
         if (out->reduced) {
-          out->reduce_status = internal::ReduceChunk(context, chunk, candidate_poses,
-                                                     *candidate_features, next_lambda,
-                                                     &out->reduce);
+          out->reduce_status = internal::ReduceChunk<Space>(
+              context, chunk, candidate_poses, *candidate_features, next_lambda, &out->reduce);
           if (!out->reduce_status.ok()) next_failed = true;
         }
         return Status::Ok();
       },
-      [&](const ObservationChunk& chunk, Output& out) {
-        internal::MergeRecovered(out.recover, result);
+      [&](const ChunkOf<Space>& chunk, Output& out) {
+        internal::MergeRecovered(out.recover.sums, result);
         if (next_status->ok()) {
           if (!out.reduce_status.ok()) {
             *next_status = out.reduce_status;
@@ -197,30 +216,61 @@ Status RecoverAndReducePass(const PassContext& context, const std::vector<Pose2>
             *next_status = Status::Numerical("chunk " + std::to_string(chunk.index) +
                                              ": speculative reduce abandoned after a failure");
           } else {
-            internal::MergeReduced(out.reduce, next);
+            internal::MergeReduced<Space>(out.reduce, next);
           }
         }
         Report(context, "recover+reduce", chunk.index + 1);
       });
 }
 
-Status ObservationsChi2(const PassContext& context, const std::vector<Pose2>& poses,
-                        const std::vector<Point2>& features, double* chi2) {
+template <class Space>
+Status ObservationsChi2(const BasicPassContext<Space>& context,
+                        const std::vector<typename Space::Pose>& poses,
+                        const std::vector<typename Space::Point>& features, double* chi2) {
   struct Output {
     double chi2 = 0.0;
   };
   *chi2 = 0.0;
   return internal::RunOrderedChunkPipeline<Output>(
       *context.chunks, context.max_in_flight,
-      [&](const ObservationChunk& chunk, Output* out) -> Status {
+      [&](const ChunkOf<Space>& chunk, Output* out) -> Status {
         out->chi2 = 0.0;
         for (int64_t k = 0; k < chunk.num_features(); ++k) {
           if (Excluded(context, chunk.features[k])) continue;
-          out->chi2 += FeatureChi2(chunk, k, poses, features[chunk.features[k]], context.kernel);
+          out->chi2 += FeatureChi2<Space>(chunk, k, poses, features[chunk.features[k]],
+                                          context.kernel);
         }
         return Status::Ok();
       },
-      [&](const ObservationChunk&, Output& out) { *chi2 += out.chi2; });
+      [&](const ChunkOf<Space>&, Output& out) { *chi2 += out.chi2; });
 }
+
+// The two problem spaces (core/problem_space.h).
+#define GS_INSTANTIATE_CHUNK_PASSES(Space)                                                        \
+  template Status ScreenFeatures<Space>(const BasicPassContext<Space>&,                           \
+                                        const std::vector<Space::Pose>&,                          \
+                                        const std::vector<Space::Point>&, int64_t,                \
+                                        ScreeningResult*);                                        \
+  template Status CollectReducedPattern<Space>(const BasicPassContext<Space>&,                    \
+                                               std::vector<std::pair<int, int>>*);                \
+  template Status ReducePass<Space>(const BasicPassContext<Space>&,                               \
+                                    const std::vector<Space::Pose>&,                              \
+                                    const std::vector<Space::Point>&, double, ReducedSystem*);    \
+  template Status RecoverPass<Space>(                                                             \
+      const BasicPassContext<Space>&, const std::vector<Space::Pose>&,                            \
+      const std::vector<Space::Point>&, double, const Eigen::VectorXd&,                           \
+      const std::vector<Space::Pose>&, std::vector<Space::Point>*, RecoveryResult*);              \
+  template Status RecoverAndReducePass<Space>(                                                    \
+      const BasicPassContext<Space>&, const std::vector<Space::Pose>&,                            \
+      const std::vector<Space::Point>&, double, const Eigen::VectorXd&,                           \
+      const std::vector<Space::Pose>&, std::vector<Space::Point>*, RecoveryResult*, double,       \
+      ReducedSystem*, Status*);                                                                   \
+  template Status ObservationsChi2<Space>(const BasicPassContext<Space>&,                         \
+                                          const std::vector<Space::Pose>&,                        \
+                                          const std::vector<Space::Point>&, double*);
+
+GS_INSTANTIATE_CHUNK_PASSES(Space2d)
+GS_INSTANTIATE_CHUNK_PASSES(Space3d)
+#undef GS_INSTANTIATE_CHUNK_PASSES
 
 }  // namespace graphslam::core

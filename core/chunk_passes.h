@@ -13,7 +13,7 @@
 //       S   += H_pp - H_pm C_d^{-1} H_qm^T       (all p, q observing it)
 //       rhs += -g_p + H_pm C_d^{-1} g_m
 //   Kept features add their blocks to S directly (C, H_pm, g_m), padded to the
-//     pose block size.
+//     pose block size (UnknownLayout).
 //   RecoverPass (Table 4): dm = -C_d^{-1}(g_m + sum_p H_pm^T dx_p), the
 //     candidate feature m + dm, and its chi2 at the candidate poses; plus the
 //     terms g_m^T dm and dm^T D_m dm of the Levenberg-Marquardt model decrease.
@@ -24,6 +24,13 @@
 //     run the code of the separate passes (core/internal/chunk_pass_kernels.h),
 //     so the speculative system equals ReducePass at the candidate bit for bit.
 // D_m is diag(C) clamped to [kMinDiagonal, kMaxDiagonal] (as Ceres does).
+//
+// One implementation for both problem spaces (core/problem_space.h): every
+// pass is a template on the Space (planar: 3 x 3 pose blocks, 2-D features;
+// 3-D: 6 x 6 pose blocks, 3-D points), whose block sizes are compile-time
+// constants in the linearization and elimination loops. The templates are
+// defined and explicitly instantiated for Space2d and Space3d in
+// chunk_passes.cc; PassContext / PassContext3d select the space.
 //
 // THREAD SAFETY: each pass runs chunks in parallel (TBB) and merges their
 // results in chunk order, so results do not depend on the thread count.
@@ -38,6 +45,7 @@
 #include "core/block_sparse_matrix.h"
 #include "core/chunk_source.h"
 #include "core/problem.h"
+#include "core/problem_space.h"
 #include "core/progress.h"
 #include "core/robust_kernel.h"
 #include "core/status.h"
@@ -48,14 +56,18 @@ namespace graphslam::core {
 inline constexpr double kMinDiagonal = 1e-6;
 inline constexpr double kMaxDiagonal = 1e32;
 
-struct PassContext {
-  const ChunkSource* chunks = nullptr;         // must outlive the pass
+template <class Space>
+struct BasicPassContext {
+  using Source = BasicChunkSource<typename Space::Observation>;
+  const Source* chunks = nullptr;                  // must outlive the pass
   const UnknownLayout* layout = nullptr;       // must outlive the pass
   const std::vector<uint8_t>* excluded = nullptr;  // per feature; 1 = out of the solve
   RobustKernel kernel;                             // applied to every observation
   int max_in_flight = 4;
   ProgressCallback progress;  // optional
 };
+using PassContext = BasicPassContext<Space2d>;
+using PassContext3d = BasicPassContext<Space3d>;
 
 struct ScreeningResult {
   std::vector<uint8_t> excluded;    // per feature
@@ -66,11 +78,15 @@ struct ScreeningResult {
   int64_t observations = 0;         // observations of eliminable features
 };
 
-Status ScreenFeatures(const PassContext& context, const std::vector<Pose2>& poses,
-                      const std::vector<Point2>& features, int64_t max_eliminated_observations,
-                      ScreeningResult* result);
+template <class Space>
+Status ScreenFeatures(const BasicPassContext<Space>& context,
+                      const std::vector<typename Space::Pose>& poses,
+                      const std::vector<typename Space::Point>& features,
+                      int64_t max_eliminated_observations, ScreeningResult* result);
 
-Status CollectReducedPattern(const PassContext& context, std::vector<std::pair<int, int>>* pairs);
+template <class Space>
+Status CollectReducedPattern(const BasicPassContext<Space>& context,
+                             std::vector<std::pair<int, int>>* pairs);
 
 struct ReducedSystem {
   BlockSparseMatrix matrix;         // S, pattern fixed; filled by ReducePass
@@ -82,8 +98,11 @@ struct ReducedSystem {
 
 // Adds the observation terms into `system` (which the caller has zeroed and
 // into which it may already have added pose-only factors).
-Status ReducePass(const PassContext& context, const std::vector<Pose2>& poses,
-                  const std::vector<Point2>& features, double lambda, ReducedSystem* system);
+template <class Space>
+Status ReducePass(const BasicPassContext<Space>& context,
+                  const std::vector<typename Space::Pose>& poses,
+                  const std::vector<typename Space::Point>& features, double lambda,
+                  ReducedSystem* system);
 
 // `step` is the solution of the reduced system: poses, then kept features.
 struct RecoveryResult {
@@ -94,10 +113,14 @@ struct RecoveryResult {
   double state_squared_norm = 0.0; // sum |m|^2
 };
 
-Status RecoverPass(const PassContext& context, const std::vector<Pose2>& poses,
-                   const std::vector<Point2>& features, double lambda,
-                   const Eigen::VectorXd& step, const std::vector<Pose2>& candidate_poses,
-                   std::vector<Point2>* candidate_features, RecoveryResult* result);
+template <class Space>
+Status RecoverPass(const BasicPassContext<Space>& context,
+                   const std::vector<typename Space::Pose>& poses,
+                   const std::vector<typename Space::Point>& features, double lambda,
+                   const Eigen::VectorXd& step,
+                   const std::vector<typename Space::Pose>& candidate_poses,
+                   std::vector<typename Space::Point>* candidate_features,
+                   RecoveryResult* result);
 
 // RecoverPass plus ReducePass(candidate_poses, *candidate_features,
 // next_lambda) into *next, which the caller has zeroed and into which it may
@@ -105,14 +128,20 @@ Status RecoverPass(const PassContext& context, const std::vector<Pose2>& poses,
 // elimination at the candidate is not an error of the pass (the step may be
 // rejected anyway): it is returned in *next_status and *next is then partial.
 // The returned Status is the recovery's (chunk loading).
-Status RecoverAndReducePass(const PassContext& context, const std::vector<Pose2>& poses,
-                            const std::vector<Point2>& features, double lambda,
-                            const Eigen::VectorXd& step, const std::vector<Pose2>& candidate_poses,
-                            std::vector<Point2>* candidate_features, RecoveryResult* result,
-                            double next_lambda, ReducedSystem* next, Status* next_status);
+template <class Space>
+Status RecoverAndReducePass(const BasicPassContext<Space>& context,
+                            const std::vector<typename Space::Pose>& poses,
+                            const std::vector<typename Space::Point>& features, double lambda,
+                            const Eigen::VectorXd& step,
+                            const std::vector<typename Space::Pose>& candidate_poses,
+                            std::vector<typename Space::Point>* candidate_features,
+                            RecoveryResult* result, double next_lambda, ReducedSystem* next,
+                            Status* next_status);
 
 // chi2 of all observations of eliminable features at (poses, features).
-Status ObservationsChi2(const PassContext& context, const std::vector<Pose2>& poses,
-                        const std::vector<Point2>& features, double* chi2);
+template <class Space>
+Status ObservationsChi2(const BasicPassContext<Space>& context,
+                        const std::vector<typename Space::Pose>& poses,
+                        const std::vector<typename Space::Point>& features, double* chi2);
 
 }  // namespace graphslam::core

@@ -4,7 +4,8 @@
 // iteration, loading each through Load(); it never needs all of them at once.
 // An in-memory source (partition/in_memory_chunk_source.h) and a disk-backed
 // one (storage/, out-of-core) implement it, so that going out of core swaps the
-// source, not the algorithm.
+// source, not the algorithm. ChunkSource serves planar chunks, ChunkSource3d
+// 3-D ones (core/observation_chunk.h).
 //
 // THREAD SAFETY: Load() may be called concurrently for distinct chunks.
 #pragma once
@@ -16,13 +17,18 @@
 
 namespace graphslam::core {
 
-class ChunkSource {
+template <class ObservationT>
+class BasicChunkSource {
  public:
-  virtual ~ChunkSource() = default;
+  using Chunk = BasicObservationChunk<ObservationT>;
+  virtual ~BasicChunkSource() = default;
   virtual int64_t NumChunks() const = 0;
   // Fills *chunk with chunk `index` (reusing its storage). Errors name the
   // chunk and the offending record.
-  virtual Status Load(int64_t index, ObservationChunk* chunk) const = 0;
+  virtual Status Load(int64_t index, Chunk* chunk) const = 0;
 };
+
+using ChunkSource = BasicChunkSource<Observation>;
+using ChunkSource3d = BasicChunkSource<Point3Observation>;
 
 }  // namespace graphslam::core

@@ -1,58 +1,39 @@
 #include "core/feature_linearizer.h"
 
-#include "core/point_observation_model.h"
-#include "core/range_bearing_model.h"
-
 namespace graphslam::core {
-namespace {
 
-// Residual and Jacobians of one observation; false if degenerate.
-bool EvaluateObservation(const Observation& observation, const Pose2& pose, const Point2& feature,
-                         Eigen::Vector2d* residual, Eigen::Matrix<double, 2, 3>* jacobian_pose,
-                         Eigen::Matrix2d* jacobian_feature) {
-  switch (observation.kind) {
-    case ObservationKind::kRangeBearing:
-      return EvaluateRangeBearing(pose, feature, observation.z, residual, jacobian_pose,
-                                  jacobian_feature);
-    case ObservationKind::kPointXY:
-      EvaluatePointObservation(pose, feature, observation.z, residual, jacobian_pose,
-                               jacobian_feature);
-      return true;
-  }
-  return false;
-}
-
-}  // namespace
-
-void LinearizeFeature(const ObservationChunk& chunk, int64_t feature_slot,
-                      const std::vector<Pose2>& poses, const Point2& feature,
-                      const UnknownLayout& layout, const RobustKernel& kernel,
-                      LinearizedFeature* out) {
+template <class Space>
+void LinearizeFeature(const BasicObservationChunk<typename Space::Observation>& chunk,
+                      int64_t feature_slot, const std::vector<typename Space::Pose>& poses,
+                      const typename Space::Point& feature, const UnknownLayout& layout,
+                      const RobustKernel& kernel, BasicLinearizedFeature<Space>* out) {
+  constexpr int P = Space::kPoseDim;
+  constexpr int D = Space::kFeatureDim;
+  using FeatureMatrix = Eigen::Matrix<double, D, D>;
   FeatureBlocks& blocks = out->blocks;
-  blocks.feature_information.setZero(2, 2);
-  blocks.feature_gradient.setZero(2);
+  blocks.feature_information.setZero(D, D);
+  blocks.feature_gradient.setZero(D);
   blocks.poses.clear();
   size_t used = 0;  // slots in use; vectors keep their capacity across features
   out->chi2 = 0.0;
   out->degenerate_observations = 0;
 
-  Eigen::Vector2d residual;
-  Eigen::Matrix<double, 2, 3> jacobian_pose;
-  Eigen::Matrix2d jacobian_feature;
+  Eigen::Matrix<double, D, 1> residual;
+  Eigen::Matrix<double, D, P> jacobian_pose;
+  FeatureMatrix jacobian_feature;
   const int64_t begin = chunk.feature_begin[feature_slot];
   const int64_t end = chunk.feature_begin[feature_slot + 1];
   for (int64_t o = begin; o < end; ++o) {
-    const Observation& observation = chunk.observations[o];
-    if (!EvaluateObservation(observation, poses[observation.pose], feature, &residual,
-                             &jacobian_pose, &jacobian_feature)) {
+    const typename Space::Observation& observation = chunk.observations[o];
+    if (!Space::Evaluate(observation, poses[observation.pose], feature, &residual,
+                         &jacobian_pose, &jacobian_feature)) {
       ++out->degenerate_observations;
       continue;
     }
     const double squared = residual.dot(observation.information * residual);
     out->chi2 += kernel.Cost(squared);
-    const Eigen::Matrix2d w = kernel.Weight(squared) * observation.information;
-    jacobian_pose = jacobian_pose * RetractionJacobian(poses[observation.pose]);
-    const Eigen::Matrix2d fw = jacobian_feature.transpose() * w;
+    const FeatureMatrix w = kernel.Weight(squared) * observation.information;
+    const FeatureMatrix fw = jacobian_feature.transpose() * w;
     blocks.feature_information += fw * jacobian_feature;
     blocks.feature_gradient += fw * residual;
 
@@ -67,12 +48,12 @@ void LinearizeFeature(const ObservationChunk& chunk, int64_t feature_slot,
         out->pose_hessian.emplace_back();
         out->pose_gradient.emplace_back();
       }
-      blocks.pose_feature[slot].setZero(3, 2);
+      blocks.pose_feature[slot].setZero(P, D);
       out->pose_hessian[slot].setZero();
       out->pose_gradient[slot].setZero();
       ++used;
     }
-    const Eigen::Matrix<double, 3, 2> aw = jacobian_pose.transpose() * w;
+    const Eigen::Matrix<double, P, D> aw = jacobian_pose.transpose() * w;
     blocks.pose_feature[slot] += aw * jacobian_feature;
     out->pose_hessian[slot] += aw * jacobian_pose;
     out->pose_gradient[slot] += aw * residual;
@@ -81,20 +62,35 @@ void LinearizeFeature(const ObservationChunk& chunk, int64_t feature_slot,
   blocks.pose_feature.resize(used);
 }
 
-double FeatureChi2(const ObservationChunk& chunk, int64_t feature_slot,
-                   const std::vector<Pose2>& poses, const Point2& feature,
-                   const RobustKernel& kernel) {
+template <class Space>
+double FeatureChi2(const BasicObservationChunk<typename Space::Observation>& chunk,
+                   int64_t feature_slot, const std::vector<typename Space::Pose>& poses,
+                   const typename Space::Point& feature, const RobustKernel& kernel) {
   double chi2 = 0.0;
-  Eigen::Vector2d residual;
+  Eigen::Matrix<double, Space::kFeatureDim, 1> residual;
   for (int64_t o = chunk.feature_begin[feature_slot]; o < chunk.feature_begin[feature_slot + 1];
        ++o) {
-    const Observation& observation = chunk.observations[o];
-    if (!EvaluateObservation(observation, poses[observation.pose], feature, &residual, nullptr,
-                             nullptr))
+    const typename Space::Observation& observation = chunk.observations[o];
+    if (!Space::Evaluate(observation, poses[observation.pose], feature, &residual, nullptr,
+                         nullptr))
       continue;
     chi2 += kernel.Cost(residual.dot(observation.information * residual));
   }
   return chi2;
 }
+
+template void LinearizeFeature<Space2d>(const ObservationChunk&, int64_t,
+                                        const std::vector<Pose2>&, const Point2&,
+                                        const UnknownLayout&, const RobustKernel&,
+                                        LinearizedFeature*);
+template void LinearizeFeature<Space3d>(const ObservationChunk3d&, int64_t,
+                                        const std::vector<Pose3>&, const Point3&,
+                                        const UnknownLayout&, const RobustKernel&,
+                                        LinearizedFeature3d*);
+template double FeatureChi2<Space2d>(const ObservationChunk&, int64_t, const std::vector<Pose2>&,
+                                     const Point2&, const RobustKernel&);
+template double FeatureChi2<Space3d>(const ObservationChunk3d&, int64_t,
+                                     const std::vector<Pose3>&, const Point3&,
+                                     const RobustKernel&);
 
 }  // namespace graphslam::core

@@ -32,7 +32,9 @@
 // removing the anchor from the unknowns keep the system well conditioned.
 //
 // Observations come only through the ChunkSource (problem->observations is not
-// read), so the out-of-core store swaps the source, not this loop.
+// read), so the out-of-core store swaps the source, not this loop. The loop is
+// written once for the planar and the 3-D space (core/internal/chunked_solve.h;
+// SolveGraphSlam3d in core/graphslam_solver_3d.h is its 3-D instance).
 //
 // THREAD SAFETY: one call at a time per problem; internally parallel (TBB,
 // bounded by the caller's tbb::global_control). Results do not depend on the
@@ -77,9 +79,8 @@ struct IterationSummary {
   double reduce_seconds = 0.0;   // linearize + eliminate (one pass over the chunks)
   double solve_seconds = 0.0;    // reduced system solve
   double recover_seconds = 0.0;  // recover features + evaluate (one pass)
-  // Passes over the observation chunks (planar solver): 1 when the previous
-  // iteration's fused pass already reduced at this state, else 2; 0 for the
-  // in-memory 3-D solver.
+  // Passes over the observation chunks: 1 when the previous iteration's
+  // fused pass already reduced at this state, else 2.
   int chunk_passes = 0;
 };
 

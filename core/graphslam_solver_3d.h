@@ -1,40 +1,42 @@
-// SolveGraphSlam3d: the GraphSLAM loop (paper Table 5) on 3-D problems, with
-// the same Levenberg-Marquardt control, reduce / solve / recover structure and
-// linear algebra as the planar SolveGraphSlam (core/graphslam_solver.h):
+// SolveGraphSlam3d: the GraphSLAM loop (paper Table 5) on 3-D problems. It is
+// the planar SolveGraphSlam (core/graphslam_solver.h) instantiated for the 3-D
+// space (core/internal/chunked_solve.h, core/problem_space.h): SE(3) poses
+// with 6 x 6 blocks, 3-D points with 3 x 3 blocks, and the very same
 //
-//   1. linearize every constraint about (x, m) against the retraction
-//      x (+) d = x Exp(d) (core/se3_lie.h) and eliminate every feature
-//      (3 x 3 blocks) by Schur complement (core/schur_eliminator.h):
+//   1. reduce, chunk by chunk (core/chunk_passes.h, ReducePass): linearize
+//      against the retraction x (+) d = x Exp(d) (core/se3_lie.h) and
+//      eliminate every feature by Schur complement:
 //        S = H_xx + lambda D_x - sum_j H_xj (C_j + lambda D_j)^{-1} H_jx
-//   2. solve S dx = rhs on a BlockSparseMatrix of 6 x 6 blocks, with
-//      CHOLMOD or PCG (block-Jacobi / incomplete Cholesky), as in 2-D
-//   3. recover dm_j = -(C_j + lambda D_j)^{-1}(g_j + H_jx dx)
-//   4. accept / reject the step and update the trust region: the one
-//      Levenberg-Marquardt control of both solvers (core/levenberg_marquardt.h:
-//      rho > min_relative_decrease, Nielsen's update, convergence tests,
-//      iteration callback, checkpoints).
-// D = clamp(diag H) as in 2-D. Observations take the same robust kernel as in
-// 2-D (SolverOptions::observation_kernel, IRLS: information scaled by
-// rho'(s), chi2 the robust cost), and the relative-pose and GPS constraints
-// take pose_kernels.relative_pose / .gps (pose_kernels.motion has no 3-D
-// constraint). The gauge is fixed by removing anchor poses
-// from the unknowns: fixed poses, else pose 0 unless a GPS constraint ties
-// the map to the world.
+//      features with more than max_eliminated_observations observations are
+//      kept as unknowns of S instead (padded to 6 x 6 blocks), features whose
+//      information is not positive definite are kept out of the solve;
+//   2. solve S dx = rhs with core/reduced_system_solver.h: CHOLMOD, or PCG
+//      (subgraph / block-Jacobi / incomplete Cholesky preconditioner,
+//      forcing sequence, warm start), kAuto chosen from CHOLMOD's analysis;
+//   3. recover dm_j = -(C_j + lambda D_j)^{-1}(g_j + H_jx dx) (RecoverPass),
+//      or the fused RecoverAndReducePass (one read of the chunks per
+//      well-accepted iteration; SolverOptions::fused_chunk_pass);
+//   4. the one Levenberg-Marquardt control (core/levenberg_marquardt.h).
 //
-// Differences from the planar loop: the problem is held in memory (no chunk
-// source), every observed feature is eliminated (none is kept in the reduced
-// system), and the reduced solve is CHOLMOD or plain PCG (block-Jacobi /
-// incomplete Cholesky; no forcing sequence or warm start). Features are
-// eliminated one after the other, so results do not depend on the number of
-// threads.
+// Chunks are eliminated in parallel (TBB) and merged in chunk order, so
+// results do not depend on the number of threads. Observations come only
+// through the ChunkSource3d (problem->observations is not read): an in-memory
+// one cut from the problem (partition/in_memory_chunk_source.h) or a store.
+// The relative-pose and GPS constraints (core/pose_factors_3d.h) take
+// pose_kernels.relative_pose / .gps (pose_kernels.motion has no 3-D
+// constraint), observations the observation_kernel (IRLS). The gauge is fixed
+// by removing anchor poses from the unknowns: fixed poses, else pose 0 unless
+// a GPS constraint ties the map to the world.
 //
-// THREAD SAFETY: one call at a time per problem. ALLOCATION: O(poses +
-// features + observations + nonzero 6 x 6 blocks of S).
+// THREAD SAFETY: one call at a time per problem; internally parallel.
+// ALLOCATION: O(poses + features + nonzero 6 x 6 blocks of S) plus
+// max_chunks_in_flight chunks.
 #pragma once
 
 #include <functional>
 #include <vector>
 
+#include "core/chunk_source.h"
 #include "core/graphslam_solver.h"
 #include "core/problem_3d.h"
 #include "core/robust_kernel.h"
@@ -65,13 +67,12 @@ double Chi2Of3d(const Problem3d& problem, const std::vector<Pose3>& poses,
                 const std::vector<Point3>& features, const RobustKernel& kernel,
                 const PoseFactorKernels& pose_kernels = {});
 
-// Optimizes problem->poses and problem->features in place. Uses from
-// `options`: linear_solver, preconditioner, pcg_max_iterations,
-// pcg_relative_tolerance, auto_cholmod_max_unknowns, max_iterations,
-// tolerances, trust region radii, min_relative_decrease, observation_kernel,
-// pose_kernels, progress and iteration_callback; checkpoint_callback and resume_from are
-// 2-D states and are ignored (use `checkpointing`).
-Status SolveGraphSlam3d(const SolverOptions& options, Problem3d* problem,
-                        SolverSummary* summary, const Checkpointing3d& checkpointing = {});
+// Optimizes problem->poses and problem->features in place. `chunks` holds the
+// observations of `problem` (feature indices refer to problem->features).
+// Uses every field of `options` but checkpoint_callback and resume_from,
+// which hold 2-D states (use `checkpointing`).
+Status SolveGraphSlam3d(const SolverOptions& options, const ChunkSource3d& chunks,
+                        Problem3d* problem, SolverSummary* summary,
+                        const Checkpointing3d& checkpointing = {});
 
 }  // namespace graphslam::core

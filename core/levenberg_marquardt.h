@@ -1,9 +1,11 @@
 // RunLevenbergMarquardt: the Levenberg-Marquardt control of the GraphSLAM loop
 // (paper Table 5), written once for the planar (core/graphslam_solver.h) and
 // the 3-D (core/graphslam_solver_3d.h) solvers. The problem "space" (a policy
-// class) owns the state, the linearization, the reduced solve and the
-// recovery, with its block sizes (3 / 2 in the plane, 6 / 3 in 3-D) fixed at
-// compile time in its hot loops; this file owns every decision:
+// class; the one in use is ChunkedSpace of core/internal/chunked_solve.cc,
+// a template on core/problem_space.h) owns the state, the linearization, the
+// reduced solve and the recovery, with its block sizes (3 / 2 in the plane,
+// 6 / 3 in 3-D) fixed at compile time in its hot loops; this file owns every
+// decision:
 //
 //   lambda = 1 / mu (mu: trust region radius)
 //   gradient test      max |g| <= gradient_tolerance           -> converged
@@ -29,7 +31,7 @@
 //   // (a failed linear solve) asks for more damping. speculative_lambda > 0
 //   // is the lambda of the next iteration if this step is accepted with
 //   // rho >= kSpeculationRho: a space may linearize and reduce at the
-//   // candidate with it during its recovery (the planar space's one-pass
+//   // candidate with it during its recovery (the chunked space's one-pass
 //   // iteration) and reuse that in the next Linearize if Accept() was called
 //   // and the lambda it gets is that very number. It is 0 (do not speculate)
 //   // on the last iteration and when the previous step was rejected or had

@@ -7,8 +7,13 @@
 //
 //   observations[feature_begin[k] .. feature_begin[k+1]) observe features[k]
 //
+// One template for both problem spaces (core/problem_space.h): ObservationChunk
+// holds planar observations (core/problem.h), ObservationChunk3d 3-D point
+// observations (core/problem_3d.h).
+//
 // The out-of-core store (storage/) reads chunks from disk; the in-memory source
-// (partition/) cuts them from a Problem2d. The solver sees only ChunkSource.
+// (partition/) cuts them from a Problem2d or Problem3d. The solver sees only
+// ChunkSource / ChunkSource3d.
 //
 // THREAD SAFETY: a plain value. ALLOCATION: O(observations in the chunk).
 #pragma once
@@ -17,14 +22,17 @@
 #include <vector>
 
 #include "core/problem.h"
+#include "core/problem_3d.h"
 
 namespace graphslam::core {
 
-struct ObservationChunk {
+template <class ObservationT>
+struct BasicObservationChunk {
+  using ObservationType = ObservationT;
   int64_t index = 0;                   // position in the source, 0-based
   std::vector<int32_t> features;       // global feature indices, ascending
   std::vector<int64_t> feature_begin;  // size features.size() + 1
-  std::vector<Observation> observations;
+  std::vector<ObservationT> observations;
 
   int64_t num_features() const { return static_cast<int64_t>(features.size()); }
   void Clear() {
@@ -33,5 +41,8 @@ struct ObservationChunk {
     observations.clear();
   }
 };
+
+using ObservationChunk = BasicObservationChunk<Observation>;
+using ObservationChunk3d = BasicObservationChunk<Point3Observation>;
 
 }  // namespace graphslam::core

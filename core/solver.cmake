@@ -2,6 +2,7 @@
 target_sources(graphslam_core PRIVATE
   chunk_passes.cc
   internal/chunk_pass_kernels.cc
+  internal/chunked_solve.cc
   feature_linearizer.cc
   graphslam_solver.cc
   pose_factors.cc

@@ -4,15 +4,15 @@
 // huge "infinite" prior, which would ruin PCG's conditioning; ARCHITECTURE.md):
 // poses marked fixed are anchors; when none is fixed and no GPS constraint ties
 // the map to the world, pose 0 is the anchor. Free pose p owns the block
-// unknown_index[p] of size 3 in the increment vector dx; anchored poses have -1.
-//
+// unknown_index[p] of the pose block size (3 in the plane, 6 in 3-D:
+// core/problem_space.h) in the increment vector dx; anchored poses have -1.
 //
 // Features with very many observations are not eliminated: a feature seen from
 // k poses would fill k^2 pose blocks of the reduced matrix. Such "kept"
 // features stay unknowns of the reduced system, after the poses, as blocks of
-// the same size 3 whose third component is a decoupled pad (information 1,
-// gradient 0, so its step is exactly 0). feature_unknown_index[f] is the block
-// of kept feature f, or -1.
+// the pose block size whose components past the feature dimension are a
+// decoupled pad (information 1, gradient 0, so their step is exactly 0).
+// feature_unknown_index[f] is the block of kept feature f, or -1.
 //
 // THREAD SAFETY: a plain value. ALLOCATION: O(poses).
 #pragma once
@@ -21,11 +21,12 @@
 #include <vector>
 
 #include "core/problem.h"
+#include "core/problem_3d.h"
 
 namespace graphslam::core {
 
 struct UnknownLayout {
-  static constexpr int kPoseDimension = 3;
+  static constexpr int kPoseDimension = 3;  // the planar pose block (Space2d::kPoseDim)
   std::vector<int32_t> unknown_index;  // per pose: block index, or -1 if anchored
   int32_t num_unknown_poses = 0;
   int32_t num_anchored = 0;
@@ -46,7 +47,9 @@ struct UnknownLayout {
     return !feature_unknown_index.empty() && feature_unknown_index[feature] >= 0;
   }
 
-  static UnknownLayout FromProblem(const Problem2d& problem) {
+  // For a Problem2d or a Problem3d (core/problem_3d.h).
+  template <class Problem>
+  static UnknownLayout FromProblem(const Problem& problem) {
     UnknownLayout layout;
     const int32_t n = problem.num_poses();
     std::vector<uint8_t> fixed(problem.pose_fixed.begin(), problem.pose_fixed.end());

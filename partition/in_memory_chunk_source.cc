@@ -7,12 +7,13 @@
 
 namespace graphslam::partition {
 
-InMemoryChunkSource::InMemoryChunkSource(const core::Problem2d& problem,
-                                         const ChunkingOptions& options) {
-  const int32_t num_features = problem.num_features();
+template <class ObservationT>
+BasicInMemoryChunkSource<ObservationT>::BasicInMemoryChunkSource(
+    const std::vector<ObservationT>& observations, int32_t num_features,
+    const ChunkingOptions& options) {
   per_feature_.assign(num_features, 0);
   std::vector<int32_t> first_pose(num_features, std::numeric_limits<int32_t>::max());
-  for (const core::Observation& observation : problem.observations) {
+  for (const ObservationT& observation : observations) {
     GS_CHECK(observation.feature >= 0 && observation.feature < num_features);
     ++per_feature_[observation.feature];
     first_pose[observation.feature] = std::min(first_pose[observation.feature], observation.pose);
@@ -20,10 +21,10 @@ InMemoryChunkSource::InMemoryChunkSource(const core::Problem2d& problem,
   // Observations grouped by feature, input order kept within a feature.
   std::vector<int64_t> feature_start(num_features + 1, 0);
   for (int32_t f = 0; f < num_features; ++f) feature_start[f + 1] = feature_start[f] + per_feature_[f];
-  std::vector<int64_t> by_feature(problem.observations.size());
+  std::vector<int64_t> by_feature(observations.size());
   std::vector<int64_t> cursor(feature_start.begin(), feature_start.end() - 1);
-  for (int64_t i = 0; i < static_cast<int64_t>(problem.observations.size()); ++i)
-    by_feature[cursor[problem.observations[i].feature]++] = i;
+  for (int64_t i = 0; i < static_cast<int64_t>(observations.size()); ++i)
+    by_feature[cursor[observations[i].feature]++] = i;
 
   // Temporal locality: order observed features by the first pose that sees them.
   std::vector<int32_t> order;
@@ -38,7 +39,7 @@ InMemoryChunkSource::InMemoryChunkSource(const core::Problem2d& problem,
   auto flush = [&]() {
     if (members.empty()) return;
     std::sort(members.begin(), members.end());
-    core::ObservationChunk chunk;
+    Chunk chunk;
     chunk.index = static_cast<int64_t>(chunks_.size());
     chunk.features = members;
     chunk.feature_begin.reserve(members.size() + 1);
@@ -46,7 +47,7 @@ InMemoryChunkSource::InMemoryChunkSource(const core::Problem2d& problem,
     for (int32_t f : members) {
       chunk.feature_begin.push_back(static_cast<int64_t>(chunk.observations.size()));
       for (int64_t k = feature_start[f]; k < feature_start[f + 1]; ++k)
-        chunk.observations.push_back(problem.observations[by_feature[k]]);
+        chunk.observations.push_back(observations[by_feature[k]]);
     }
     chunk.feature_begin.push_back(static_cast<int64_t>(chunk.observations.size()));
     chunks_.push_back(std::move(chunk));
@@ -61,7 +62,8 @@ InMemoryChunkSource::InMemoryChunkSource(const core::Problem2d& problem,
   flush();
 }
 
-Status InMemoryChunkSource::Load(int64_t index, core::ObservationChunk* chunk) const {
+template <class ObservationT>
+Status BasicInMemoryChunkSource<ObservationT>::Load(int64_t index, Chunk* chunk) const {
   if (index < 0 || index >= NumChunks()) {
     return Status::InvalidArgument("chunk " + std::to_string(index) + " out of range; expected 0.." +
                                    std::to_string(NumChunks() - 1));
@@ -69,5 +71,8 @@ Status InMemoryChunkSource::Load(int64_t index, core::ObservationChunk* chunk) c
   *chunk = chunks_[index];
   return Status::Ok();
 }
+
+template class BasicInMemoryChunkSource<core::Observation>;
+template class BasicInMemoryChunkSource<core::Point3Observation>;
 
 }  // namespace graphslam::partition

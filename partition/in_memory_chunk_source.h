@@ -1,5 +1,6 @@
 // InMemoryChunkSource: cuts the observations of a Problem2d into
-// feature-complete chunks held in memory.
+// feature-complete chunks held in memory; InMemoryChunkSource3d does the same
+// for a Problem3d (one template, instantiated for both observation types).
 //
 // Partition rule (the same one the out-of-core store uses): features are
 // ordered by the first pose that observes them, so consecutive features were
@@ -19,6 +20,7 @@
 
 #include "core/chunk_source.h"
 #include "core/problem.h"
+#include "core/problem_3d.h"
 
 namespace graphslam::partition {
 
@@ -26,20 +28,31 @@ struct ChunkingOptions {
   int64_t max_observations_per_chunk = 4096;
 };
 
-class InMemoryChunkSource : public core::ChunkSource {
+template <class ObservationT>
+class BasicInMemoryChunkSource : public core::BasicChunkSource<ObservationT> {
  public:
-  // Copies the observations of `problem`; the problem need not outlive this.
-  InMemoryChunkSource(const core::Problem2d& problem, const ChunkingOptions& options);
+  using Chunk = core::BasicObservationChunk<ObservationT>;
+  // Copies `observations` (feature indices in [0, num_features)); they need
+  // not outlive this.
+  BasicInMemoryChunkSource(const std::vector<ObservationT>& observations, int32_t num_features,
+                           const ChunkingOptions& options);
+  // The observations of a Problem2d or Problem3d.
+  template <class Problem>
+  BasicInMemoryChunkSource(const Problem& problem, const ChunkingOptions& options)
+      : BasicInMemoryChunkSource(problem.observations, problem.num_features(), options) {}
 
   int64_t NumChunks() const override { return static_cast<int64_t>(chunks_.size()); }
-  Status Load(int64_t index, core::ObservationChunk* chunk) const override;
+  Status Load(int64_t index, Chunk* chunk) const override;
 
   // Number of observations of each feature (features never observed have 0).
   const std::vector<int64_t>& observations_per_feature() const { return per_feature_; }
 
  private:
-  std::vector<core::ObservationChunk> chunks_;
+  std::vector<Chunk> chunks_;
   std::vector<int64_t> per_feature_;
 };
+
+using InMemoryChunkSource = BasicInMemoryChunkSource<core::Observation>;
+using InMemoryChunkSource3d = BasicInMemoryChunkSource<core::Point3Observation>;
 
 }  // namespace graphslam::partition

@@ -16,6 +16,7 @@
 #include "storage/g2o_3d_reader.h"
 #include "storage/g2o_3d_writer.h"
 #include "storage/isam_3d_reader.h"
+#include "partition/in_memory_chunk_source.h"
 #include "storage/solver_checkpoint.h"
 #include "tools/exit_codes.h"
 #include "tools/progress_display.h"
@@ -47,7 +48,8 @@ nlohmann::json BuildReport3d(const SolveCommandOptions& options, const core::Pro
   report["residual_dimension"] = 6 * static_cast<int64_t>(problem.relative_poses.size()) +
                                  3 * static_cast<int64_t>(problem.gps.size()) +
                                  3 * summary.observations_used;
-  report["unknowns"] = 6 * summary.unknown_poses + 3 * summary.eliminated_features;
+  report["unknowns"] =
+      6 * summary.unknown_poses + 3 * (summary.eliminated_features + summary.kept_features);
   report["stage_seconds"] = {{"read", read_seconds},
                              {"initialize", initialize_seconds},
                              {"progressive_initialization", 0.0},
@@ -74,7 +76,9 @@ StatusOr<core::OptimizedPoses3d> SolvePoses3dFile(const std::string& path,
   GS_ASSIGN_OR_RETURN(core::Problem3d problem, ReadProblem3d(path, format));
   GS_RETURN_IF_ERROR(core::InitializeProblem3d(&problem));
   core::SolverSummary local;
-  GS_RETURN_IF_ERROR(core::SolveGraphSlam3d(options, &problem, summary ? summary : &local));
+  const partition::InMemoryChunkSource3d chunks(problem, partition::ChunkingOptions());
+  GS_RETURN_IF_ERROR(
+      core::SolveGraphSlam3d(options, chunks, &problem, summary ? summary : &local));
   return core::ExtractOptimizedPoses(problem);
 }
 
@@ -111,7 +115,10 @@ int RunSolve3dCommand(const SolveCommandOptions& options, storage::InputFormat f
   core::SolverOptions solver_options;
   solver_options.linear_solver = solver;
   solver_options.preconditioner = preconditioner;
+  solver_options.pcg_eta_max = options.pcg_eta_max;
   solver_options.max_iterations = options.max_iterations;
+  solver_options.max_eliminated_observations = options.max_eliminated_observations;
+  solver_options.fused_chunk_pass = !options.two_pass;
   solver_options.function_tolerance = options.function_tolerance;
   solver_options.initial_trust_region_radius = options.initial_trust_region_radius;
   solver_options.observation_kernel = observation_kernel;
@@ -139,8 +146,13 @@ int RunSolve3dCommand(const SolveCommandOptions& options, storage::InputFormat f
                                             options.input, checkpoint);
     };
   }
+  // The observations in feature-complete chunks (the solver streams them).
+  partition::ChunkingOptions chunking;
+  chunking.max_observations_per_chunk = options.chunk_observations;
+  const partition::InMemoryChunkSource3d chunks(problem, chunking);
   core::SolverSummary summary;
-  if (Status status = core::SolveGraphSlam3d(solver_options, &problem, &summary, checkpointing);
+  if (Status status =
+          core::SolveGraphSlam3d(solver_options, chunks, &problem, &summary, checkpointing);
       !status.ok())
     return fail(status);
   display.Finish();

@@ -14,6 +14,9 @@
 //                  model-decrease terms.
 //   MergeRecovered : adds the sums (serial, chunk order).
 //
+// Templates on the problem space (core/problem_space.h), instantiated for
+// Space2d and Space3d in chunk_pass_kernels.cc.
+//
 // THREAD SAFETY: the *Chunk functions write only their output and, for
 // RecoverChunk, the candidate slots of the chunk's own features (a feature
 // lives in exactly one chunk); the Merge functions run serially.
@@ -29,43 +32,55 @@
 
 namespace graphslam::core::internal {
 
+template <class Space>
 struct ReduceOutput {
+  using Block = Eigen::Matrix<double, Space::kPoseDim, Space::kPoseDim>;
+  using Vector = Eigen::Matrix<double, Space::kPoseDim, 1>;
   // A block added to S as it is (not through elimination): direct pose terms
   // H_pp, and every block of a kept feature.
   struct Direct {
     int row = 0;
     int col = 0;
-    Eigen::Matrix3d block;
+    Block block;
   };
   struct DirectGradient {
     int row = 0;
-    Eigen::Vector3d gradient;
-    Eigen::Vector3d diagonal;
+    Vector gradient;
+    Vector diagonal;
   };
-  LinearizedFeature scratch;
+  BasicLinearizedFeature<Space> scratch;
   ReducedContribution contribution;
   std::vector<Direct> blocks;
   std::vector<DirectGradient> gradients;
   double chi2 = 0.0;
 };
 
-Status ReduceChunk(const PassContext& context, const ObservationChunk& chunk,
-                   const std::vector<Pose2>& poses, const std::vector<Point2>& features,
-                   double lambda, ReduceOutput* out);
-void MergeReduced(const ReduceOutput& out, ReducedSystem* system);
+template <class Space>
+Status ReduceChunk(const BasicPassContext<Space>& context,
+                   const BasicObservationChunk<typename Space::Observation>& chunk,
+                   const std::vector<typename Space::Pose>& poses,
+                   const std::vector<typename Space::Point>& features, double lambda,
+                   ReduceOutput<Space>* out);
+template <class Space>
+void MergeReduced(const ReduceOutput<Space>& out, ReducedSystem* system);
 
+template <class Space>
 struct RecoverOutput {
-  LinearizedFeature scratch;
+  BasicLinearizedFeature<Space> scratch;
   RecoveryResult sums;
 };
 
 // Writes (*candidate_features)[g] for the chunk's features that are not
 // excluded; *candidate_features must already have one slot per feature.
-void RecoverChunk(const PassContext& context, const ObservationChunk& chunk,
-                  const std::vector<Pose2>& poses, const std::vector<Point2>& features,
-                  double lambda, const Eigen::VectorXd& step,
-                  const std::vector<Pose2>& candidate_poses,
-                  std::vector<Point2>* candidate_features, RecoverOutput* out);
-void MergeRecovered(const RecoverOutput& out, RecoveryResult* result);
+template <class Space>
+void RecoverChunk(const BasicPassContext<Space>& context,
+                  const BasicObservationChunk<typename Space::Observation>& chunk,
+                  const std::vector<typename Space::Pose>& poses,
+                  const std::vector<typename Space::Point>& features, double lambda,
+                  const Eigen::VectorXd& step,
+                  const std::vector<typename Space::Pose>& candidate_poses,
+                  std::vector<typename Space::Point>* candidate_features,
+                  RecoverOutput<Space>* out);
+void MergeRecovered(const RecoveryResult& sums, RecoveryResult* result);
 
 }  // namespace graphslam::core::internal

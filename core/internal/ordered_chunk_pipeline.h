@@ -28,11 +28,12 @@
 
 namespace graphslam::core::internal {
 
-template <typename Output, typename Work, typename Merge>
-Status RunOrderedChunkPipeline(const ChunkSource& source, int max_in_flight, Work&& work,
+// Source: a BasicChunkSource of either space (core/chunk_source.h).
+template <typename Output, typename Source, typename Work, typename Merge>
+Status RunOrderedChunkPipeline(const Source& source, int max_in_flight, Work&& work,
                                Merge&& merge) {
   struct Slot {
-    ObservationChunk chunk;
+    typename Source::Chunk chunk;
     Output output;
     Status status;
   };

@@ -2,11 +2,15 @@
 // problems (poses, 3-D points, relative poses, GPS). The reference stacks the
 // whitened residuals r = L^T e (W = L L^T) and differentiates them by central
 // differences through x Exp(d), so it shares nothing with the analytic
-// Jacobians, the Schur elimination or the sparse solvers under test.
+// Jacobians, the Schur elimination or the sparse solvers under test. The
+// solve is the chunked one (core/internal/chunked_solve.h): chunk sizes and
+// thread counts, the fused pass, kept features, subgraph PCG and resumes are
+// checked against each other.
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
 #include <random>
+#include <tbb/global_control.h>
 
 #include "core/graphslam_solver_3d.h"
 #include "core/initialization_3d.h"
@@ -14,78 +18,26 @@
 #include "core/relative_pose3_model.h"
 #include "core/gps3_model.h"
 #include "core/robust_kernel.h"
+#include "partition/in_memory_chunk_source.h"
 #include "tests/testing/numeric_diff.h"
+#include "tests/testing/random_problem_3d.h"
 
 namespace graphslam::core {
 namespace {
 
-Vector6d Noise6(std::mt19937& rng, double sigma_t, double sigma_r) {
-  std::normal_distribution<double> n(0.0, 1.0);
-  Vector6d d;
-  for (int i = 0; i < 3; ++i) d[i] = sigma_t * n(rng);
-  for (int i = 3; i < 6; ++i) d[i] = sigma_r * n(rng);
-  return d;
+// SolveGraphSlam3d over the problem's observations cut into in-memory chunks.
+Status Solve3d(const SolverOptions& options, Problem3d* problem, SolverSummary* summary,
+               const Checkpointing3d& checkpointing = {}, int64_t chunk_observations = 4096) {
+  partition::ChunkingOptions chunking;
+  chunking.max_observations_per_chunk = chunk_observations;
+  const partition::InMemoryChunkSource3d chunks(*problem, chunking);
+  return SolveGraphSlam3d(options, chunks, problem, summary, checkpointing);
 }
 
-// A loop of `n` poses on a helix with loop closures, `m` points observed from
-// nearby poses, optional GPS on every pose; initial guess perturbed.
-// *true_points and *true_poses (optional) receive the noise-free state.
 Problem3d RandomProblem(int n, int m, bool gps, uint32_t seed,
                         std::vector<Point3>* true_points = nullptr,
                         std::vector<Pose3>* true_poses = nullptr) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  std::vector<Pose3> truth(n);
-  for (int i = 0; i < n; ++i) {
-    const double a = 2.0 * M_PI * i / n;
-    truth[i].t = Eigen::Vector3d(4 * std::cos(a), 4 * std::sin(a), 0.3 * i);
-    truth[i].q = ExpSO3(Eigen::Vector3d(0.1 * std::sin(a), 0.2, a + 0.5));
-  }
-  if (true_poses != nullptr) *true_poses = truth;
-  Problem3d p;
-  p.source = "random.g2o";
-  for (int i = 0; i < n; ++i)
-    p.AddPose(i, RetractPose3(truth[i], Noise6(rng, 0.3, 0.1)), true, 0);
-  p.poses[0] = truth[0];
-  Matrix6d info = Matrix6d::Identity();
-  info.topLeftCorner<3, 3>() *= 50.0;
-  info.bottomRightCorner<3, 3>() *= 400.0;
-  info(0, 4) = info(4, 0) = 2.0;  // some correlation
-  auto add_edge = [&](int i, int j) {
-    RelativePose3Constraint c;
-    c.from = i;
-    c.to = j;
-    c.z = RetractPose3(Between(truth[i], truth[j]), Noise6(rng, 0.05, 0.02));
-    c.information = info;
-    p.relative_poses.push_back(c);
-  };
-  for (int i = 0; i + 1 < n; ++i) add_edge(i, i + 1);
-  add_edge(n - 1, 0);
-  add_edge(2, n / 2);
-  for (int f = 0; f < m; ++f) {
-    const Point3 point(5 * normal(rng), 5 * normal(rng), 2 * normal(rng));
-    if (true_points != nullptr) true_points->push_back(point);
-    p.AddFeature(100 + f, point + Eigen::Vector3d(0.3, -0.2, 0.1), true);
-    for (int k = 0; k < 3; ++k) {
-      Point3Observation o;
-      o.pose = (f * 3 + k * 2) % n;
-      o.feature = f;
-      o.z = InverseTransformPoint(truth[o.pose], point) + 0.02 * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
-      o.information = Eigen::Matrix3d::Identity() * 100.0;
-      o.information(0, 1) = o.information(1, 0) = 10.0;
-      p.observations.push_back(o);
-    }
-  }
-  if (gps) {
-    for (int i = 0; i < n; ++i) {
-      Gps3Constraint g;
-      g.pose = i;
-      g.z = truth[i].t + 0.1 * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
-      g.information = Eigen::Matrix3d::Identity() * 10.0;
-      p.gps.push_back(g);
-    }
-  }
-  return p;
+  return testing::MakeRandomProblem3d(n, m, gps, seed, true_points, true_poses);
 }
 
 // Dense Gauss-Newton on the whitened residuals with numeric Jacobians.
@@ -167,7 +119,7 @@ void ExpectMatchesDenseReference(const Problem3d& input, LinearSolverType type) 
   options.parameter_tolerance = 1e-14;
   options.gradient_tolerance = 1e-12;
   SolverSummary summary;
-  ASSERT_TRUE(SolveGraphSlam3d(options, &problem, &summary).ok());
+  ASSERT_TRUE(Solve3d(options, &problem, &summary).ok());
   EXPECT_TRUE(summary.converged) << summary.termination;
   EXPECT_LT(summary.final_chi2, summary.initial_chi2);
   EXPECT_NEAR(summary.final_chi2, ref_chi2, 1e-8 * ref_chi2);
@@ -197,7 +149,7 @@ TEST(GraphSlamSolver3d, AnchorPoseDoesNotMove) {
   const Pose3 anchor = problem.poses[0];
   SolverOptions options;
   SolverSummary summary;
-  ASSERT_TRUE(SolveGraphSlam3d(options, &problem, &summary).ok());
+  ASSERT_TRUE(Solve3d(options, &problem, &summary).ok());
   EXPECT_EQ(summary.unknown_poses, 9);
   EXPECT_EQ((problem.poses[0].t - anchor.t).norm(), 0.0);
 }
@@ -296,7 +248,7 @@ TEST(GraphSlamSolver3d, CauchyKernelHoldsOffACorruptedLandmark) {
     Problem3d problem = input;
     SolverOptions options;
     options.observation_kernel = kernel;
-    EXPECT_TRUE(SolveGraphSlam3d(options, &problem, summary).ok());
+    EXPECT_TRUE(Solve3d(options, &problem, summary).ok());
     EXPECT_TRUE(summary->converged) << summary->termination;
     // chi2 reported with a kernel is the robust cost at the optimum.
     EXPECT_NEAR(summary->final_chi2, Chi2Of3d(problem, problem.poses, problem.features, kernel),
@@ -317,10 +269,12 @@ TEST(GraphSlamSolver3d, CauchyKernelHoldsOffACorruptedLandmark) {
 }
 
 // A solve resumed from the checkpoint of iteration 2 ends bit for bit where
-// the uninterrupted solve ends: the checkpoint carries the whole state.
-TEST(GraphSlamSolver3d, ResumeFromACheckpointIsBitIdentical) {
+// the uninterrupted solve ends: the checkpoint carries the whole state (with
+// PCG: the forcing term, warm start and subgraph forest).
+void ExpectResumeIsBitIdentical(LinearSolverType type) {
   const Problem3d input = RandomProblem(14, 6, /*gps=*/false, 22);
   SolverOptions options;
+  options.linear_solver = type;
   options.function_tolerance = 1e-14;
   options.parameter_tolerance = 1e-14;
   options.gradient_tolerance = 1e-14;
@@ -338,16 +292,17 @@ TEST(GraphSlamSolver3d, ResumeFromACheckpointIsBitIdentical) {
     checkpoints.push_back(c);
     return Status::Ok();
   };
-  ASSERT_TRUE(SolveGraphSlam3d(options, &full, &full_summary, record).ok());
+  ASSERT_TRUE(Solve3d(options, &full, &full_summary, record).ok());
   ASSERT_GE(full_summary.iterations, 4);
   ASSERT_EQ(static_cast<int>(checkpoints.size()), full_summary.iterations);
+  EXPECT_EQ(checkpoints[1].pcg.present, type == LinearSolverType::kPcg);
   EXPECT_TRUE(checkpoints.back().converged);
 
   Problem3d resumed = input;
   SolverSummary resumed_summary;
   Checkpointing3d resume;
   resume.resume_from = &checkpoints[1];
-  ASSERT_TRUE(SolveGraphSlam3d(options, &resumed, &resumed_summary, resume).ok());
+  ASSERT_TRUE(Solve3d(options, &resumed, &resumed_summary, resume).ok());
   EXPECT_EQ(resumed_summary.resumed_from_iteration, 2);
   EXPECT_EQ(resumed_summary.iterations, full_summary.iterations);
   EXPECT_EQ(resumed_summary.final_chi2, full_summary.final_chi2);
@@ -362,7 +317,15 @@ TEST(GraphSlamSolver3d, ResumeFromACheckpointIsBitIdentical) {
   // A checkpoint of another problem is refused.
   Problem3d other = RandomProblem(10, 6, false, 23);
   SolverSummary other_summary;
-  EXPECT_FALSE(SolveGraphSlam3d(options, &other, &other_summary, resume).ok());
+  EXPECT_FALSE(Solve3d(options, &other, &other_summary, resume).ok());
+}
+
+TEST(GraphSlamSolver3d, ResumeFromACheckpointIsBitIdentical) {
+  ExpectResumeIsBitIdentical(LinearSolverType::kCholmod);
+}
+
+TEST(GraphSlamSolver3d, ResumeWithSubgraphPcgIsBitIdentical) {
+  ExpectResumeIsBitIdentical(LinearSolverType::kPcg);
 }
 
 
@@ -386,7 +349,7 @@ TEST(GraphSlamSolver3d, CauchyOnRelativePosesHoldsOffAWrongLoopClosure) {
     SolverOptions options;
     options.pose_kernels = kernels;
     SolverSummary summary;
-    EXPECT_TRUE(SolveGraphSlam3d(options, &problem, &summary).ok());
+    EXPECT_TRUE(Solve3d(options, &problem, &summary).ok());
     EXPECT_TRUE(summary.converged) << summary.termination;
     EXPECT_NEAR(summary.final_chi2,
                 Chi2Of3d(problem, problem.poses, problem.features, RobustKernel(), kernels),
@@ -404,6 +367,104 @@ TEST(GraphSlamSolver3d, CauchyOnRelativePosesHoldsOffAWrongLoopClosure) {
   std::printf("worst pose error: least squares %.4f m, Cauchy %.4f m\n", plain, robust);
   EXPECT_GT(plain, 0.3);
   EXPECT_LT(robust, 0.2 * plain);  // measured 0.146 m vs 1.600 m
+}
+
+// One chunked implementation: every chunk size and thread count reaches the
+// same optimum; with a given chunk size the thread count changes no bit
+// (chunks are merged in chunk order).
+TEST(GraphSlamSolver3d, ChunkSizeAndThreadCountGiveTheSameOptimum) {
+  const Problem3d input = RandomProblem(16, 10, /*gps=*/false, 31);
+  SolverOptions options;
+  options.function_tolerance = 1e-14;
+  options.parameter_tolerance = 1e-14;
+  options.gradient_tolerance = 1e-12;
+  double reference_chi2 = -1.0;
+  for (const int64_t chunk_observations : {1, 5, 4096}) {
+    std::vector<Problem3d> solved;
+    std::vector<SolverSummary> summaries;
+    for (const int threads : {1, 2}) {
+      tbb::global_control control(tbb::global_control::max_allowed_parallelism, threads);
+      Problem3d problem = input;
+      SolverSummary summary;
+      ASSERT_TRUE(Solve3d(options, &problem, &summary, {}, chunk_observations).ok());
+      EXPECT_TRUE(summary.converged) << summary.termination;
+      solved.push_back(problem);
+      summaries.push_back(summary);
+    }
+    EXPECT_EQ(summaries[0].final_chi2, summaries[1].final_chi2) << chunk_observations;
+    EXPECT_EQ(summaries[0].iterations, summaries[1].iterations);
+    for (int i = 0; i < input.num_poses(); ++i) {
+      EXPECT_EQ(solved[0].poses[i].t, solved[1].poses[i].t) << i;
+      EXPECT_EQ(solved[0].poses[i].q.coeffs(), solved[1].poses[i].q.coeffs()) << i;
+    }
+    for (int f = 0; f < input.num_features(); ++f)
+      EXPECT_EQ(solved[0].features[f], solved[1].features[f]) << f;
+    if (reference_chi2 < 0) reference_chi2 = summaries[0].final_chi2;
+    EXPECT_NEAR(summaries[0].final_chi2, reference_chi2, 1e-9 * reference_chi2)
+        << "chunk size " << chunk_observations;
+  }
+}
+
+// The fused recover + reduce schedule solves the same systems as two passes
+// per iteration, bit for bit.
+TEST(GraphSlamSolver3d, FusedPassGivesTheTwoPassResultBitForBit) {
+  const Problem3d input = RandomProblem(14, 8, /*gps=*/true, 32);
+  SolverOptions options;
+  options.function_tolerance = 1e-14;
+  options.parameter_tolerance = 1e-14;
+  Problem3d fused = input, two_pass = input;
+  SolverSummary fused_summary, two_pass_summary;
+  ASSERT_TRUE(Solve3d(options, &fused, &fused_summary, {}, 6).ok());
+  options.fused_chunk_pass = false;
+  ASSERT_TRUE(Solve3d(options, &two_pass, &two_pass_summary, {}, 6).ok());
+  EXPECT_EQ(fused_summary.final_chi2, two_pass_summary.final_chi2);
+  EXPECT_EQ(fused_summary.iterations, two_pass_summary.iterations);
+  int fused_passes = 0, two_passes = 0;
+  for (const IterationSummary& it : fused_summary.per_iteration) fused_passes += it.chunk_passes;
+  for (const IterationSummary& it : two_pass_summary.per_iteration) two_passes += it.chunk_passes;
+  EXPECT_LT(fused_passes, two_passes);
+  for (int i = 0; i < input.num_poses(); ++i)
+    EXPECT_EQ(fused.poses[i].t, two_pass.poses[i].t) << i;
+  for (int f = 0; f < input.num_features(); ++f) EXPECT_EQ(fused.features[f], two_pass.features[f]);
+}
+
+// Features kept as unknowns of the reduced system (more observations than
+// max_eliminated_observations) and PCG with the subgraph preconditioner and
+// forcing reach the optimum of the all-eliminated CHOLMOD solve.
+TEST(GraphSlamSolver3d, KeptFeaturesAndSubgraphPcgReachTheSameOptimum) {
+  const Problem3d input = testing::MakeRandomProblem3d(16, 8, /*gps=*/false, 33, nullptr,
+                                                       nullptr, /*observations_per_feature=*/5);
+  SolverOptions options;
+  options.linear_solver = LinearSolverType::kCholmod;
+  options.function_tolerance = 1e-14;
+  options.parameter_tolerance = 1e-14;
+  options.gradient_tolerance = 1e-12;
+  Problem3d eliminated = input;
+  SolverSummary eliminated_summary;
+  ASSERT_TRUE(Solve3d(options, &eliminated, &eliminated_summary).ok());
+  EXPECT_EQ(eliminated_summary.kept_features, 0);
+
+  options.max_eliminated_observations = 4;  // every feature has 5
+  Problem3d kept = input;
+  SolverSummary kept_summary;
+  ASSERT_TRUE(Solve3d(options, &kept, &kept_summary).ok());
+  EXPECT_EQ(kept_summary.kept_features, 8);
+  EXPECT_NEAR(kept_summary.final_chi2, eliminated_summary.final_chi2,
+              1e-9 * eliminated_summary.final_chi2);
+
+  options.max_eliminated_observations = 64;
+  options.linear_solver = LinearSolverType::kPcg;
+  options.preconditioner = PreconditionerType::kSubgraph;
+  Problem3d pcg = input;
+  SolverSummary pcg_summary;
+  ASSERT_TRUE(Solve3d(options, &pcg, &pcg_summary).ok());
+  EXPECT_EQ(pcg_summary.linear_solver_used, LinearSolverType::kPcg);
+  EXPECT_NEAR(pcg_summary.final_chi2, eliminated_summary.final_chi2,
+              1e-9 * eliminated_summary.final_chi2);
+  for (int f = 0; f < input.num_features(); ++f) {
+    EXPECT_LT((kept.features[f] - eliminated.features[f]).norm(), 1e-6) << f;
+    EXPECT_LT((pcg.features[f] - eliminated.features[f]).norm(), 1e-6) << f;
+  }
 }
 
 }  // namespace

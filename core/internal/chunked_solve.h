@@ -1,0 +1,41 @@
+// SolveChunked: the GraphSLAM solve of both problem spaces (core/problem_space.h),
+// written once: SolveGraphSlam (core/graphslam_solver.h) is SolveChunked<Space2d>
+// and SolveGraphSlam3d (core/graphslam_solver_3d.h) is SolveChunked<Space3d>.
+//
+//   setup      ScreenFeatures (eliminated / kept / excluded features), the
+//              pattern of S (pose factors + CollectReducedPattern), the choice
+//              of the linear solver (core/reduced_system_solver.h)
+//   iterations RunLevenbergMarquardt (core/levenberg_marquardt.h) over a
+//              space whose Linearize is a ReducePass and whose TryStep is a
+//              solve plus a RecoverPass, or the fused RecoverAndReducePass
+//              (core/chunk_passes.h; the schedule is described in
+//              core/graphslam_solver.h)
+//
+// The pose-only factors come from the overloads LinearizePoseFactors /
+// PoseFactorsChi2 / AppendPoseFactorPattern of core/pose_factors.h (planar)
+// and core/pose_factors_3d.h (3-D). Defined and instantiated for the two
+// spaces in chunked_solve.cc.
+//
+// THREAD SAFETY and ALLOCATION: as SolveGraphSlam.
+#pragma once
+
+#include <functional>
+
+#include "core/chunk_source.h"
+#include "core/graphslam_solver.h"
+#include "core/problem_space.h"
+#include "core/status.h"
+
+namespace graphslam::core::internal {
+
+template <class Space>
+using CheckpointOf = BasicSolverCheckpoint<typename Space::Pose, typename Space::Point>;
+
+// `resume` (optional) must outlive the call; `checkpoint_callback` is optional.
+template <class Space>
+Status SolveChunked(
+    const SolverOptions& options, const BasicChunkSource<typename Space::Observation>& chunks,
+    typename Space::Problem* problem, SolverSummary* summary, const CheckpointOf<Space>* resume,
+    const std::function<Status(const CheckpointOf<Space>&)>& checkpoint_callback);
+
+}  // namespace graphslam::core::internal

@@ -1,0 +1,96 @@
+// The two problem spaces of the GraphSLAM solve, as compile-time traits: the
+// chunk passes (core/chunk_passes.h), the feature linearizer and the solver
+// loop are written once as templates on a Space and instantiated for these
+// two in their .cc files (STYLE.md 5: fixed block sizes in the hot loops).
+//
+//   Space2d: poses SE(2) (x, y, theta), pose block kPoseDim = 3; features
+//            R^2, kFeatureDim = 2; Observation (range-bearing or point-xy).
+//   Space3d: poses SE(3) (unit quaternion, translation), kPoseDim = 6;
+//            features R^3, kFeatureDim = 3; Point3Observation (a point in
+//            the frame of the pose).
+//
+// Each Space gives the observation's residual and Jacobians
+//   e = h(x, m) - z,   J_x = de/dd (kFeatureDim x kPoseDim),   J_m = de/dm,
+// where d is the body-frame increment of the pose retraction x (+) d
+// (core/se2.h: Compose(x, d); core/se3_lie.h: x Exp(d)), and m (+) dm = m + dm.
+// The planar models are differentiated w.r.t. (x, y, theta) and carried to the
+// increment by RetractionJacobian(x) here, after evaluation, as the planar
+// linearizer always did (the same floating-point operations).
+//
+// THREAD SAFETY: pure functions. ALLOCATION: none.
+#pragma once
+
+#include <Eigen/Core>
+
+#include "core/point3_observation_model.h"
+#include "core/point_observation_model.h"
+#include "core/problem.h"
+#include "core/problem_3d.h"
+#include "core/range_bearing_model.h"
+#include "core/se2.h"
+#include "core/se3_lie.h"
+
+namespace graphslam::core {
+
+struct Space2d {
+  static constexpr int kPoseDim = 3;
+  static constexpr int kFeatureDim = 2;
+  static constexpr const char* kName = "";  // log prefix of the solver
+  using Pose = Pose2;
+  using Point = Point2;
+  using Observation = core::Observation;
+  using Problem = Problem2d;
+  using PoseVector = Eigen::Matrix<double, kPoseDim, 1>;
+
+  // Residual and Jacobians (any of them may be nullptr); false if the
+  // observation is degenerate (range-bearing with the feature on the robot).
+  static bool Evaluate(const Observation& observation, const Pose& pose, const Point& feature,
+                       Eigen::Vector2d* residual, Eigen::Matrix<double, 2, 3>* jacobian_pose,
+                       Eigen::Matrix2d* jacobian_feature) {
+    bool ok = false;
+    switch (observation.kind) {
+      case ObservationKind::kRangeBearing:
+        ok = EvaluateRangeBearing(pose, feature, observation.z, residual, jacobian_pose,
+                                  jacobian_feature);
+        break;
+      case ObservationKind::kPointXY:
+        EvaluatePointObservation(pose, feature, observation.z, residual, jacobian_pose,
+                                 jacobian_feature);
+        ok = true;
+        break;
+    }
+    if (ok && jacobian_pose != nullptr) *jacobian_pose = *jacobian_pose * RetractionJacobian(pose);
+    return ok;
+  }
+  static Pose Retract(const Pose& pose, const PoseVector& delta) {
+    return RetractPose(pose, delta);
+  }
+  // |x|^2 for the parameter tolerance (Ceres: the parameter vector's norm).
+  static double StateSquaredNorm(const Pose& pose) { return pose.squaredNorm(); }
+};
+
+struct Space3d {
+  static constexpr int kPoseDim = 6;
+  static constexpr int kFeatureDim = 3;
+  static constexpr const char* kName = "3-D ";
+  using Pose = Pose3;
+  using Point = Point3;
+  using Observation = Point3Observation;
+  using Problem = Problem3d;
+  using PoseVector = Eigen::Matrix<double, kPoseDim, 1>;
+
+  static bool Evaluate(const Observation& observation, const Pose& pose, const Point& feature,
+                       Eigen::Vector3d* residual, Eigen::Matrix<double, 3, 6>* jacobian_pose,
+                       Eigen::Matrix3d* jacobian_feature) {
+    EvaluatePoint3Observation(pose, feature, observation.z, residual, jacobian_pose,
+                              jacobian_feature);
+    return true;
+  }
+  static Pose Retract(const Pose& pose, const PoseVector& delta) {
+    return RetractPose3(pose, delta);
+  }
+  // The pose's tangent coordinates, |Log(x)|^2.
+  static double StateSquaredNorm(const Pose& pose) { return LogSE3(pose).squaredNorm(); }
+};
+
+}  // namespace graphslam::core
