@@ -240,6 +240,41 @@ TEST_F(ExternalBucketingTest, InitializationObservationsGiveTheSameGuessesAndCon
   EXPECT_EQ(core::ValidateProblem(linked).ok(), full.ok()) << full.ToString();
 }
 
+// The kept observations live in blocks of 2^16 (no growing vector); over
+// several blocks TakeKept gives them all, in input order, exactly once: the
+// first sight of every feature and the component-joining ones.
+TEST_F(ExternalBucketingTest, KeptObservationsSpanningBlocksComeOutInInputOrder) {
+  InitializationObservations init;
+  std::vector<core::Observation> expected;
+  const int32_t features = 200000;
+  for (int32_t f = 0; f < features; ++f) {
+    core::Observation first;
+    first.pose = f / 100;  // first sight: kept
+    first.feature = f;
+    first.z = Eigen::Vector2d(f, -f);
+    first.line = f + 1;
+    init.Add(first);
+    expected.push_back(first);
+    core::Observation again = first;
+    again.pose = f / 100 + 1;  // joins pose f/100 to the next once, then adds nothing
+    again.line = -f;
+    init.Add(again);
+    if (f % 100 == 0) expected.push_back(again);
+  }
+  const std::vector<core::Observation> copy = init.kept();
+  const std::vector<core::Observation> taken = init.TakeKept();
+  ASSERT_EQ(copy.size(), expected.size());
+  ASSERT_EQ(taken.size(), expected.size());
+  EXPECT_EQ(taken.capacity(), expected.size());
+  for (size_t i = 0; i < expected.size(); ++i) {
+    ASSERT_EQ(taken[i].line, expected[i].line) << i;
+    ASSERT_EQ(copy[i].line, expected[i].line) << i;
+    ASSERT_EQ(taken[i].pose, expected[i].pose) << i;
+    ASSERT_EQ(taken[i].z, expected[i].z) << i;
+  }
+  EXPECT_TRUE(init.kept().empty());
+}
+
 TEST_F(ExternalBucketingTest, FailedIngestNeverLeavesAStoreThatOpensAndRerunCompletesIt) {
   const std::string input = WriteInput(11);
   const std::string store = Path("store");
