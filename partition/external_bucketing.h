@@ -124,9 +124,12 @@ class InitializationObservations {
 
   // One kept observation per feature (72 bytes each): held in blocks of
   // kKeptBlock, not one growing vector, whose reallocations held the old
-  // and the new array at once (3x at the moment of growth; at 10^7
-  // features the ingest's peak).
-  static constexpr size_t kKeptBlock = size_t{1} << 16;
+  // and the new array at once (3x at the moment of growth). 2^19 x 72 B =
+  // 36 MiB, above glibc's largest mmap threshold (32 MiB), so every block is
+  // its own mapping and TakeKept's frees return the pages to the system at
+  // once (smaller blocks came from the heap, whose freed middle stays
+  // resident: the copy then doubled the RSS of the kept observations).
+  static constexpr size_t kKeptBlock = size_t{1} << 19;
   std::vector<int32_t> parent_;          // union-find over poses
   std::vector<int32_t> feature_anchor_;  // per feature: its first pose, -1 if unseen
   std::vector<std::vector<core::Observation>> kept_;

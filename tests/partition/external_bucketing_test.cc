@@ -240,13 +240,13 @@ TEST_F(ExternalBucketingTest, InitializationObservationsGiveTheSameGuessesAndCon
   EXPECT_EQ(core::ValidateProblem(linked).ok(), full.ok()) << full.ToString();
 }
 
-// The kept observations live in blocks of 2^16 (no growing vector); over
+// The kept observations live in blocks of 2^19 (no growing vector); over
 // several blocks TakeKept gives them all, in input order, exactly once: the
 // first sight of every feature and the component-joining ones.
 TEST_F(ExternalBucketingTest, KeptObservationsSpanningBlocksComeOutInInputOrder) {
   InitializationObservations init;
   std::vector<core::Observation> expected;
-  const int32_t features = 200000;
+  const int32_t features = 1200000;  // > 2 blocks
   for (int32_t f = 0; f < features; ++f) {
     core::Observation first;
     first.pose = f / 100;  // first sight: kept
