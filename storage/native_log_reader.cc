@@ -11,6 +11,9 @@
 #include <limits>
 #include <string_view>
 #include <unordered_map>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 
 #include "core/se2.h"
 #include "core/unidentified_features.h"
@@ -368,19 +371,37 @@ class NativeLogParser {
 
 }  // namespace
 
+namespace {
+
+// The parser's id maps die with it: a std::unordered_map node per feature
+// (~48 B each, small heap chunks). glibc keeps freed small chunks in its heap,
+// resident, so a 4.3 M-feature read left ~200 MB of free memory in the RSS
+// of the ingest and of every solve of the store. malloc_trim(0) gives the
+// free pages back (madvise); done only for large problems (it walks the heap).
+StatusOr<core::Problem2d> ReleasingFreedMemory(StatusOr<core::Problem2d> read) {
+#ifdef __GLIBC__
+  constexpr int64_t kTrimAbove = 1 << 20;  // poses + features
+  if (read.ok() && int64_t{read->num_poses()} + read->num_features() >= kTrimAbove)
+    malloc_trim(0);
+#endif
+  return read;
+}
+
+}  // namespace
+
 StatusOr<core::Problem2d> ReadNativeLog(const std::string& path) {
-  return NativeLogParser(path).Parse();
+  return ReleasingFreedMemory(NativeLogParser(path).Parse());
 }
 
 StatusOr<core::Problem2d> ReadNativeLog(const std::string& path,
                                         std::vector<NativeLogScan>* scans) {
   scans->clear();
-  return NativeLogParser(path, nullptr, scans).Parse();
+  return ReleasingFreedMemory(NativeLogParser(path, nullptr, scans).Parse());
 }
 
 StatusOr<core::Problem2d> ReadNativeLogStreaming(const std::string& path,
                                                  const ObservationSink& sink) {
-  return NativeLogParser(path, &sink).Parse();
+  return ReleasingFreedMemory(NativeLogParser(path, &sink).Parse());
 }
 
 namespace {
