@@ -94,13 +94,43 @@ void InitializationObservations::Add(const core::Observation& observation) {
   int32_t& anchor = feature_anchor_[observation.feature];
   if (anchor < 0) {
     anchor = observation.pose;  // first sight: places the feature
-    kept_.push_back(observation);
+    Keep(observation);
     return;
   }
   const int32_t a = Find(anchor), b = Find(observation.pose);
   if (a == b) return;  // adds no connectivity
   parent_[a] = b;
-  kept_.push_back(observation);
+  Keep(observation);
+}
+
+void InitializationObservations::Keep(const core::Observation& observation) {
+  if (kept_.empty() || kept_.back().size() == kKeptBlock) {
+    kept_.emplace_back();
+    kept_.back().reserve(kKeptBlock);
+  }
+  kept_.back().push_back(observation);
+  ++num_kept_;
+}
+
+std::vector<core::Observation> InitializationObservations::kept() const {
+  std::vector<core::Observation> all;
+  all.reserve(num_kept_);
+  for (const auto& block : kept_) all.insert(all.end(), block.begin(), block.end());
+  return all;
+}
+
+std::vector<core::Observation> InitializationObservations::TakeKept() {
+  parent_ = std::vector<int32_t>();
+  feature_anchor_ = std::vector<int32_t>();
+  std::vector<core::Observation> all;
+  all.reserve(num_kept_);
+  for (auto& block : kept_) {
+    all.insert(all.end(), block.begin(), block.end());
+    block = std::vector<core::Observation>();
+  }
+  kept_.clear();
+  num_kept_ = 0;
+  return all;
 }
 
 StatusOr<std::unique_ptr<BucketChunkSource>> BucketChunkSource::Plan(

@@ -97,7 +97,7 @@ StatusOr<FirstPass> RunFirstPass(const std::string& input, const StreamingIngest
   pass.scan_poses = LoggedScanPoses(pass.problem, pass.scans);  // the guesses, as logged
 
   // Initialization on the kept observations, then back to pose-only.
-  pass.problem.observations = init.kept();
+  pass.problem.observations = init.TakeKept();
   GS_RETURN_IF_ERROR(core::InitializeProblem(&pass.problem));
   pass.problem.observations.clear();
   pass.problem.observations.shrink_to_fit();

@@ -11,7 +11,12 @@
 # environment: POSES_PER_FEATURE (default 1), RUNS (2), ITERATIONS (1),
 #   THREADS (2), CHUNK (4096), MEMORY_LIMIT (8G; the estimate needs 4 KiB per pose), SEED (1), SPEED (8 m/s),
 #   SOLVER (cholmod), INGEST_MEMORY_LIMIT (256M: the ingest's spill buffer is a
-#   third of it, ~1.2M observations, so the larger sizes spill to several buckets)
+#   third of it, ~1.2M observations, so the larger sizes spill to several buckets),
+#   LANDMARK_SPACING ("MIN MAX", default: the simulator's) and SENSOR_RANGE (m)
+#   for the issue's proportions (10^8 features / 10^6 poses / ~4-5*10^8
+#   observations: POSES_PER_FEATURE=0.01 LANDMARK_SPACING="0.015 0.025"
+#   SENSOR_RANGE=8), COMPRESS (1: simulate --compress, a zstd log; the ingest
+#   reads it as is)
 #
 # Sizes: --features N landmarks, --poses N * POSES_PER_FEATURE (2 runs, GPS
 # every 50 poses), driving SPEED m/s (8: 4 m between poses, so a pose sees new
@@ -38,17 +43,26 @@ INGEST_MEMORY_LIMIT=${INGEST_MEMORY_LIMIT:-256M}
 SEED=${SEED:-1}
 SPEED=${SPEED:-8}
 SOLVER=${SOLVER:-cholmod}
+LANDMARK_SPACING=${LANDMARK_SPACING:-}
+SENSOR_RANGE=${SENSOR_RANGE:-}
+COMPRESS=${COMPRESS:-0}
+SIM_EXTRA=()
+[ -n "$LANDMARK_SPACING" ] && SIM_EXTRA+=(--landmark-spacing $LANDMARK_SPACING)
+[ -n "$SENSOR_RANGE" ] && SIM_EXTRA+=(--sensor-range "$SENSOR_RANGE")
+LOG_NAME=log.graphslam
+[ "$COMPRESS" = 1 ] && SIM_EXTRA+=(--compress) && LOG_NAME=log.graphslam.zst
 GS="$BUILD/bin/graphslam"
 PLOT="$BUILD/bin/scaling_plot"
 mkdir -p "$OUT"
 CSV="$OUT/scaling.csv"
-echo "features,observed_features,poses,observations,simulate_seconds,ingest_seconds,seconds_per_iteration,iterations,ingest_peak_rss_bytes,solve_peak_rss_bytes,store_bytes,chunks,final_chi2,chi2_per_dof" > "$CSV"
+echo "features,observed_features,poses,observations,simulate_seconds,ingest_seconds,seconds_per_iteration,iterations,ingest_peak_rss_bytes,solve_peak_rss_bytes,store_bytes,chunks,final_chi2,chi2_per_dof,log_bytes,ingest_cpu_seconds,solve_cpu_seconds" > "$CSV"
 
 # Peak RSS (bytes) and wall seconds of a command, from GNU time -v.
 timed() {  # timed LOG cmd...
   local log=$1; shift
   /usr/bin/time -v "$@" > "$log.out" 2> "$log.time"
 }
+cpu_seconds() { awk -F': ' '/User time|System time/ {s+=$2} END {printf "%.1f\n", s}' "$1"; }
 rss_bytes() { awk -F: '/Maximum resident set size/ {gsub(/ /,"",$2); printf "%.0f\n", $2*1024}' "$1"; }
 wall_seconds() {
   awk -F': ' '/Elapsed \(wall clock\)/ {n=split($2,a,":"); s=0; for(i=1;i<=n;i++) s=s*60+a[i]; print s}' "$1"
@@ -60,13 +74,15 @@ for N in "${SIZES[@]}"; do
   rm -rf "$W"; mkdir -p "$W"
   echo "== $N features, $P poses" >&2
   timed "$W/simulate" "$GS" simulate -o "$W/sim" --features "$N" --poses "$P" --runs "$RUNS" --streaming \
-    --speed "$SPEED" --gps-every 50 --seed "$SEED" -q
+    --speed "$SPEED" --gps-every 50 --seed "$SEED" "${SIM_EXTRA[@]}" -q
   SIM_S=$(wall_seconds "$W/simulate.time")
-  timed "$W/ingest" "$GS" ingest "$W/sim/log.graphslam" -o "$W/store" \
+  LOG_BYTES=$(stat -c %s "$W/sim/$LOG_NAME")
+  timed "$W/ingest" "$GS" ingest "$W/sim/$LOG_NAME" -o "$W/store" \
     --chunk-observations "$CHUNK" --memory-limit "$INGEST_MEMORY_LIMIT"
   INGEST_S=$(wall_seconds "$W/ingest.time")
   INGEST_RSS=$(rss_bytes "$W/ingest.time")
-  rm -f "$W/sim/log.graphslam"   # the store is the input from here on
+  INGEST_CPU=$(cpu_seconds "$W/ingest.time")
+  rm -f "$W/sim/$LOG_NAME"   # the store is the input from here on
   STORE_BYTES=$(du -sb "$W/store" | cut -f1)
   set +e
   timed "$W/solve" "$GS" solve "$W/store" --streaming-poses 0 --initialization odometry \
@@ -75,11 +91,13 @@ for N in "${SIZES[@]}"; do
     --report "$W/report.json" -q
   set -e
   SOLVE_RSS=$(rss_bytes "$W/solve.time")
+  SOLVE_CPU=$(cpu_seconds "$W/solve.time")
   python3 - "$W/report.json" "$N" "$P" "$SIM_S" "$INGEST_S" "$INGEST_RSS" "$SOLVE_RSS" \
-    "$STORE_BYTES" "$W/store/MANIFEST.json" >> "$CSV" <<'PY'
+    "$STORE_BYTES" "$W/store/MANIFEST.json" "$LOG_BYTES" "$INGEST_CPU" "$SOLVE_CPU" >> "$CSV" <<'PY'
 import json, sys
 report = json.load(open(sys.argv[1]))
 manifest = json.load(open(sys.argv[9]))
+log_bytes, ingest_cpu, solve_cpu = sys.argv[10:13]
 n, p, sim_s, ingest_s, ingest_rss, solve_rss, store_bytes = sys.argv[2:9]
 its = max(1, report["iterations"])
 spi = report["stage_seconds"]["optimize"] / its
@@ -88,7 +106,8 @@ dof = report["residual_dimension"] - report["unknowns"]
 print(",".join(str(v) for v in [n, observed, report["poses"], report["observations"], sim_s,
       ingest_s, "%.3f" % spi, report["iterations"], ingest_rss, solve_rss, store_bytes,
       manifest["num_chunks"], "%.6g" % report["final_chi2"],
-      "%.4f" % (report["final_chi2"] / dof if dof > 0 else float("nan"))]))
+      "%.4f" % (report["final_chi2"] / dof if dof > 0 else float("nan")),
+      log_bytes, ingest_cpu, solve_cpu]))
 PY
   tail -1 "$CSV" >&2
 done

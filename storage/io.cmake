@@ -7,6 +7,7 @@ target_sources(graphslam_storage PRIVATE
   g2o_reader.cc
   g2o_writer.cc
   internal/problem_validation.cc
+  compressed_file.cc
   internal/text_blocks.cc
   internal/text_reader.cc
   isam_reader.cc

@@ -1,5 +1,7 @@
 #include "storage/solver_checkpoint.h"
 
+#include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -93,16 +95,62 @@ Status Write(Env* env, const std::string& path, const std::string& input,
   std::vector<double> poses;
   poses.reserve(Layout::kPoseValues * checkpoint.poses.size());
   for (const auto& p : checkpoint.poses) Layout::AppendPose(p, &poses);
-  std::vector<double> features;
-  features.reserve(Layout::kFeatureValues * checkpoint.features.size());
-  for (const auto& f : checkpoint.features) features.insert(features.end(), f.data(), f.data() + f.size());
   json["poses"] = poses;
-  json["features"] = features;
-  json["excluded"] = checkpoint.excluded;
-  json["kept"] = checkpoint.kept;
   if (checkpoint.pcg.present) json["pcg"] = PcgStateToJson(checkpoint.pcg);
   // nlohmann writes doubles with max_digits10: they read back bit for bit.
-  return WriteStringAtomically(env, path, json.dump() + "\n");
+  std::string head = json.dump();
+  head.pop_back();  // the closing '}': the per-feature arrays follow
+  // The per-feature arrays (2-3 numbers and two flags per feature: 10^7 and
+  // more) are formatted straight into the file in ~1 MiB appends instead of
+  // through a JSON tree and its dump string (~190 bytes per feature at the
+  // peak). std::to_chars gives the shortest text that reads back to the same
+  // double, as nlohmann's dump does, so the document reads as before.
+  return WriteFileAtomically(env, path, [&](WritableFile* file) -> Status {
+    std::string text = std::move(head);
+    const auto spill = [&](bool force) -> Status {
+      if (!force && text.size() < (size_t{1} << 20)) return Status::Ok();
+      Status status = file->Append(text);
+      text.clear();
+      return status;
+    };
+    char number[32];
+    const auto append_flags = [&](const char* key, const std::vector<uint8_t>& flags) -> Status {
+      text += ",\"";
+      text += key;
+      text += "\":[";
+      for (size_t i = 0; i < flags.size(); ++i) {
+        if (i > 0) text.push_back(',');
+        text.push_back(flags[i] != 0 ? '1' : '0');
+        GS_RETURN_IF_ERROR(spill(false));
+      }
+      text.push_back(']');
+      return Status::Ok();
+    };
+    GS_RETURN_IF_ERROR(append_flags("excluded", checkpoint.excluded));
+    text += ",\"features\":[";
+    bool first = true;
+    for (const auto& f : checkpoint.features) {
+      for (int k = 0; k < Layout::kFeatureValues; ++k) {
+        if (!first) text.push_back(',');
+        first = false;
+        const double value = f[k];
+        if (!std::isfinite(value)) {  // as nlohmann (the reader rejects it)
+          text += "null";
+          continue;
+        }
+        char* const end = std::to_chars(number, number + sizeof(number), value).ptr;
+        text.append(number, end);
+        // As nlohmann: an integral double is written "1.0", not "1".
+        if (std::find_if(number, end, [](char c) { return c == '.' || c == 'e'; }) == end)
+          text += ".0";
+      }
+      GS_RETURN_IF_ERROR(spill(false));
+    }
+    text.push_back(']');
+    GS_RETURN_IF_ERROR(append_flags("kept", checkpoint.kept));
+    text += "}\n";
+    return spill(true);
+  });
 }
 
 template <class Layout, class Checkpoint>

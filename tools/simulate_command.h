@@ -33,6 +33,7 @@ struct SimulateCommandOptions {
   bool quiet = false;
   Simulate3dOptions sim3d;  // --3d --scans (tools/simulate3d_command.h)
   bool streaming = false;  // --streaming: tools/streaming_campus_simulator.h (native only)
+  bool compress = false;   // --compress: with --streaming, log.graphslam.zst
 };
 
 // Registers the subcommand on `app`; the callback stores the exit code in *exit_code.

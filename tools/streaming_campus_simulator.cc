@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -13,6 +14,7 @@
 #include "core/angle.h"
 #include "core/velocity_motion_model.h"
 #include "storage/atomic_file.h"
+#include "storage/compressed_file.h"
 #include "storage/env.h"
 #include "storage/internal/text_reader.h"
 #include "tools/internal/campus_world.h"
@@ -176,7 +178,7 @@ class StreamedFile {
 }  // namespace
 
 Status SimulateCampusStreaming(const CampusSimulatorOptions& options, const std::string& dir,
-                               StreamingCampusSummary* summary) {
+                               StreamingCampusSummary* summary, int zstd_level) {
   GS_CHECK(summary != nullptr);
   GS_RETURN_IF_ERROR(options.Validate());
   *summary = StreamingCampusSummary();
@@ -189,7 +191,8 @@ Status SimulateCampusStreaming(const CampusSimulatorOptions& options, const std:
 
   storage::Env* env = storage::Env::Default();
   const std::filesystem::path folder(dir);
-  const std::string log_path = (folder / "log.graphslam").string();
+  const std::string log_path =
+      (folder / (zstd_level > 0 ? "log.graphslam.zst" : "log.graphslam")).string();
   const std::string tum_path = (folder / "ground_truth.tum").string();
   const std::string features_path = (folder / "ground_truth_features.csv").string();
   StreamedFile tum(env, tum_path);
@@ -207,12 +210,21 @@ Status SimulateCampusStreaming(const CampusSimulatorOptions& options, const std:
 
   GS_RETURN_IF_ERROR(storage::WriteFileAtomically(env, log_path, [&](storage::WritableFile* file)
                                                                      -> Status {
+    // Compression runs on one zstd worker thread while this one simulates.
+    std::optional<storage::ZstdWriter> zstd;
+    if (zstd_level > 0) zstd.emplace(file, zstd_level, 1);
     std::string line;
+    std::string pending;  // lines gathered into ~1 MiB appends
+    const auto write_pending = [&]() {
+      Status status = zstd ? zstd->Append(pending) : file->Append(pending);
+      pending.clear();
+      return status;
+    };
     const auto flush = [&]() {
       line.push_back('\n');
-      Status status = file->Append(line);
+      pending += line;
       line.clear();
-      return status;
+      return pending.size() >= (size_t{1} << 20) ? write_pending() : Status::Ok();
     };
     line = "GRAPHSLAM_LOG 1";
     GS_RETURN_IF_ERROR(flush());
@@ -319,7 +331,8 @@ Status SimulateCampusStreaming(const CampusSimulatorOptions& options, const std:
       }
     }
     summary->poses = index;
-    return Status::Ok();
+    GS_RETURN_IF_ERROR(write_pending());
+    return zstd ? zstd->Finish() : Status::Ok();
   }));
   GS_RETURN_IF_ERROR(tum.Commit());
 

@@ -59,8 +59,12 @@ struct StreamingCampusSummary {
 
 // Validates `options` (InvalidArgument), simulates and writes the three files
 // into `dir` (which must exist). IOError naming the file.
+// `zstd_level` > 0: the log is written zstd-compressed at that level, as
+// DIR/log.graphslam.zst (storage/compressed_file.h; the readers and the
+// ingest decompress it transparently); 0: plain DIR/log.graphslam.
 [[nodiscard]] Status SimulateCampusStreaming(const CampusSimulatorOptions& options,
                                              const std::string& dir,
-                                             StreamingCampusSummary* summary);
+                                             StreamingCampusSummary* summary,
+                                             int zstd_level = 0);
 
 }  // namespace graphslam::tools

@@ -12,7 +12,9 @@
 // ALLOCATION: the table, in Build.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
+#include <unordered_map>
 #include <vector>
 
 namespace graphslam::storage::internal {
@@ -63,6 +65,50 @@ class IdMap {
   int shift_ = 64;
   std::vector<int64_t> keys_;
   std::vector<int32_t> values_;
+};
+
+// GrowingIdMap: the same mapping built one id at a time, as a reader meets
+// the ids. Ids in [0, 8 * size + 1024) go to a direct table (4 bytes per
+// table entry, no hashing): the ids of a log are usually dense integers (the
+// simulator's are slot numbers, ~2-3 per observed feature), and there it
+// costs ~10 bytes per id against ~48 for std::unordered_map's node and
+// bucket, which was a quarter of the ingest's first pass at 10^7 features.
+// Other ids (negative, huge, sparse) go to an unordered_map. An id lives in
+// exactly one of the two.
+//
+// THREAD SAFETY: none (one reader). ALLOCATION: the table (doubling) and the
+// map's nodes.
+class GrowingIdMap {
+ public:
+  // The index of `id`, or -1.
+  int32_t Find(int64_t id) const {
+    if (id >= 0 && id < static_cast<int64_t>(direct_.size()) && direct_[id] >= 0)
+      return direct_[id];
+    if (sparse_.empty()) return -1;
+    const auto it = sparse_.find(id);
+    return it == sparse_.end() ? -1 : it->second;
+  }
+  // Adds id -> index; `id` must not be in the map (Find(id) == -1).
+  void Insert(int64_t id, int32_t index) {
+    ++size_;
+    const int64_t dense_limit = 8 * size_ + 1024;
+    if (id >= 0 && id < dense_limit) {
+      if (id >= static_cast<int64_t>(direct_.size())) {
+        const int64_t grown = std::min<int64_t>(
+            dense_limit, std::max<int64_t>(id + 1, 2 * static_cast<int64_t>(direct_.size())));
+        direct_.resize(static_cast<size_t>(grown), -1);
+      }
+      direct_[id] = index;
+      return;
+    }
+    sparse_.emplace(id, index);
+  }
+  int64_t size() const { return size_; }
+
+ private:
+  int64_t size_ = 0;
+  std::vector<int32_t> direct_;  // id -> index, -1: not there
+  std::unordered_map<int64_t, int32_t> sparse_;
 };
 
 }  // namespace graphslam::storage::internal

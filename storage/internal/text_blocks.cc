@@ -21,18 +21,9 @@ StatusOr<std::unique_ptr<TextBlockCutter>> TextBlockCutter::Open(const std::stri
                                                                  int64_t offset, int32_t line,
                                                                  int64_t block_bytes) {
   GS_CHECK(offset >= 0 && block_bytes > 0);
-  std::error_code error;
-  if (!std::filesystem::exists(path, error))
-    return Status::NotFound(path + ": no such file; expected an existing input file");
-  if (std::filesystem::is_directory(path, error))
-    return Status::InvalidArgument(path + ": is a directory; expected a file");
   std::unique_ptr<TextBlockCutter> cutter(new TextBlockCutter());
   cutter->path_ = path;
-  cutter->file_.reset(std::fopen(path.c_str(), "rb"));
-  if (!cutter->file_) return Status::IOError(path + ": cannot open for reading");
-  if (offset > 0 && fseeko(cutter->file_.get(), static_cast<off_t>(offset), SEEK_SET) != 0)
-    return Status::IOError(path + ": seek to byte " + std::to_string(offset) + ": " +
-                           std::strerror(errno));
+  GS_ASSIGN_OR_RETURN(cutter->file_, InputFile::Open(path, offset));
   cutter->offset_ = offset;
   cutter->line_ = line;
   cutter->block_bytes_ = block_bytes;
@@ -50,16 +41,14 @@ bool TextBlockCutter::Next(TextBlock* block, Status* status) {
     const size_t old = block->text.size();
     const auto want = static_cast<size_t>(block_bytes_);
     block->text.resize(old + want);
-    const size_t got = std::fread(block->text.data() + old, 1, want, file_.get());
+    Status read;
+    const size_t got = file_->Read(block->text.data() + old, want, &read);
     block->text.resize(old + got);
-    if (got < want) {
-      if (std::ferror(file_.get())) {
-        *status = Status::IOError(path_ + ": read error after byte " +
-                                  std::to_string(offset_ + static_cast<int64_t>(old + got)));
-        return false;
-      }
-      end_of_file_ = true;
+    if (!read.ok()) {
+      *status = read;
+      return false;
     }
+    if (got < want) end_of_file_ = true;
     if (block->text.find('\n', old) != std::string::npos) break;
   }
   if (!end_of_file_) {

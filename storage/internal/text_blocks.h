@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "core/status.h"
+#include "storage/compressed_file.h"
 
 namespace graphslam::storage::internal {
 
@@ -53,7 +54,8 @@ struct TextBlock {
 class TextBlockCutter {
  public:
   // NotFound / IOError naming the path. `offset` must be a line start and
-  // `line` the number of lines before it.
+  // `line` the number of lines before it. A zstd-compressed file is read
+  // decompressed (storage/compressed_file.h): offsets count decompressed bytes.
   static StatusOr<std::unique_ptr<TextBlockCutter>> Open(const std::string& path, int64_t offset,
                                                          int32_t line, int64_t block_bytes);
   // Fills *block (text, start_line, end_line, end_offset; lines cleared);
@@ -61,11 +63,8 @@ class TextBlockCutter {
   bool Next(TextBlock* block, Status* status);
 
  private:
-  struct FileCloser {
-    void operator()(std::FILE* file) const { std::fclose(file); }
-  };
   std::string path_;
-  std::unique_ptr<std::FILE, FileCloser> file_;
+  std::unique_ptr<InputFile> file_;
   int64_t block_bytes_ = 0;
   int64_t offset_ = 0;
   int32_t line_ = 0;

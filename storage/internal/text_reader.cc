@@ -22,16 +22,8 @@ LineReader::LineReader(std::string name, std::string path)
     : name_(std::move(name)), path_(std::move(path)) {}
 
 StatusOr<std::unique_ptr<LineReader>> LineReader::Open(const std::string& path) {
-  std::error_code error;
-  if (!std::filesystem::exists(path, error)) {
-    return Status::NotFound(path + ": no such file; expected an existing input file");
-  }
-  if (std::filesystem::is_directory(path, error)) {
-    return Status::InvalidArgument(path + ": is a directory; expected a file");
-  }
   std::unique_ptr<LineReader> reader(new LineReader(BaseName(path), path));
-  reader->file_.reset(std::fopen(path.c_str(), "rb"));
-  if (!reader->file_) return Status::IOError(path + ": cannot open for reading");
+  GS_ASSIGN_OR_RETURN(reader->file_, InputFile::Open(path));
   return reader;
 }
 
@@ -86,12 +78,15 @@ bool LineReader::ReadLine() {
     if (end_of_file_) break;
     if (block_.empty()) block_.resize(kBlockSize);
     block_begin_ = 0;
-    block_end_ = std::fread(block_.data(), 1, block_.size(), file_.get());
+    Status read;
+    block_end_ = file_->Read(block_.data(), block_.size(), &read);
     if (block_end_ < block_.size()) {
       end_of_file_ = true;
-      if (std::ferror(file_.get())) {
-        status_ = Status::IOError(path_ + ": read error after line " +
-                                  std::to_string(line_number_));
+      if (!read.ok()) {
+        status_ = read.code() == Status::Code::kIOError
+                      ? Status::IOError(path_ + ": read error after line " +
+                                        std::to_string(line_number_))
+                      : read;
         return false;
       }
     }

@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "core/status.h"
+#include "storage/compressed_file.h"
 
 namespace graphslam::storage::internal {
 
@@ -82,16 +83,13 @@ class LineReader {
  private:
   LineReader(std::string name, std::string path);
 
-  struct FileCloser {
-    void operator()(std::FILE* file) const { std::fclose(file); }
-  };
   // The next line (without '\n') into line_; false at the end or on error.
   bool ReadLine();
   Status FieldError(size_t index, std::string_view what, std::string_view expected) const;
 
   std::string name_;
   std::string path_;
-  std::unique_ptr<std::FILE, FileCloser> file_;
+  std::unique_ptr<InputFile> file_;  // plain or zstd (storage/compressed_file.h)
   std::vector<char> block_;    // the current block of the file
   size_t block_begin_ = 0;     // first unread byte of block_
   size_t block_end_ = 0;       // bytes of block_ filled

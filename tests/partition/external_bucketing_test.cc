@@ -22,6 +22,7 @@
 #include "partition/streaming_ingest.h"
 #include "storage/chunk_store.h"
 #include "storage/chunk_writer.h"
+#include "storage/compressed_file.h"
 #include "storage/env.h"
 #include "storage/g2o_writer.h"
 #include "storage/native_log_reader.h"
@@ -239,6 +240,41 @@ TEST_F(ExternalBucketingTest, InitializationObservationsGiveTheSameGuessesAndCon
   EXPECT_EQ(core::ValidateProblem(linked).ok(), full.ok()) << full.ToString();
 }
 
+// The kept observations live in blocks of 2^19 (no growing vector); over
+// several blocks TakeKept gives them all, in input order, exactly once: the
+// first sight of every feature and the component-joining ones.
+TEST_F(ExternalBucketingTest, KeptObservationsSpanningBlocksComeOutInInputOrder) {
+  InitializationObservations init;
+  std::vector<core::Observation> expected;
+  const int32_t features = 1200000;  // > 2 blocks
+  for (int32_t f = 0; f < features; ++f) {
+    core::Observation first;
+    first.pose = f / 100;  // first sight: kept
+    first.feature = f;
+    first.z = Eigen::Vector2d(f, -f);
+    first.line = f + 1;
+    init.Add(first);
+    expected.push_back(first);
+    core::Observation again = first;
+    again.pose = f / 100 + 1;  // joins pose f/100 to the next once, then adds nothing
+    again.line = -f;
+    init.Add(again);
+    if (f % 100 == 0) expected.push_back(again);
+  }
+  const std::vector<core::Observation> copy = init.kept();
+  const std::vector<core::Observation> taken = init.TakeKept();
+  ASSERT_EQ(copy.size(), expected.size());
+  ASSERT_EQ(taken.size(), expected.size());
+  EXPECT_EQ(taken.capacity(), expected.size());
+  for (size_t i = 0; i < expected.size(); ++i) {
+    ASSERT_EQ(taken[i].line, expected[i].line) << i;
+    ASSERT_EQ(copy[i].line, expected[i].line) << i;
+    ASSERT_EQ(taken[i].pose, expected[i].pose) << i;
+    ASSERT_EQ(taken[i].z, expected[i].z) << i;
+  }
+  EXPECT_TRUE(init.kept().empty());
+}
+
 TEST_F(ExternalBucketingTest, FailedIngestNeverLeavesAStoreThatOpensAndRerunCompletesIt) {
   const std::string input = WriteInput(11);
   const std::string store = Path("store");
@@ -432,6 +468,71 @@ TEST_F(ExternalBucketingTest, ResumeWithAChangedInputStartsAfresh) {
   options.resume = false;
   ASSERT_TRUE(IngestToStore(Env::Default(), input, Path("fresh"), options, &summary).ok());
   ExpectSameBytes(Path("store"), Path("fresh"));
+}
+
+// A zstd-compressed native log (graphslam simulate --streaming --compress)
+// ingests into the very store of the plain log, byte for byte, also when the
+// ingest dies in pass 2 and resumes (its offsets are decompressed offsets); a
+// truncated or corrupted .zst is an error naming the file and the offset.
+TEST_F(ExternalBucketingTest, ZstdInputGivesThePlainInputsStoreBytesAndResumes) {
+  const std::string input = WriteInput(29, 150, 80);
+  StreamingIngestOptions options;
+  options.max_observations_per_chunk = 100;
+  options.buffer_observations = 300;
+  options.checkpoint_seconds = 0;
+  options.replay_block_bytes = 4096;
+  IngestSummary summary;
+  ASSERT_TRUE(IngestToStore(Env::Default(), input, Path("plain"), options, &summary).ok());
+  // The same path, now compressed (problem.graphslam names its input path):
+  // detected by its magic number, not by its name.
+  const std::string zst = input;
+  const std::string text = ReadBytes(input);
+  {
+    auto file = Env::Default()->NewWritableFile(zst);
+    ASSERT_TRUE(file.ok());
+    storage::ZstdWriter writer(file->get(), 3);
+    ASSERT_TRUE(writer.Append(text).ok());
+    ASSERT_TRUE(writer.Finish().ok());
+    ASSERT_TRUE((*file)->Close().ok());
+  }
+  ASSERT_TRUE(storage::IsZstdFile(zst));
+  const Status zstd_ingest = IngestToStore(Env::Default(), zst, Path("zstd"), options, &summary);
+  ASSERT_TRUE(zstd_ingest.ok()) << zstd_ingest.ToString();
+  ExpectSameBytes(Path("zstd"), Path("plain"));
+
+  // Dies at the 5th rename (a pass-2 checkpoint), resumes mid-stream.
+  FaultInjectionEnv env(Env::Default());
+  env.FailAt(FaultInjectionEnv::Operation::kRename, 5);
+  ASSERT_FALSE(IngestToStore(&env, zst, Path("resumed"), options, &summary).ok());
+  StreamingIngestOptions resume = options;
+  resume.resume = true;
+  ASSERT_TRUE(IngestToStore(Env::Default(), zst, Path("resumed"), resume, &summary).ok());
+  EXPECT_EQ(summary.resumed_stage, "spill");
+  EXPECT_GT(summary.resumed_from_offset, 0);
+  ExpectSameBytes(Path("resumed"), Path("plain"));
+
+  // Truncated: the error names the file and where it ends.
+  const std::string bytes = ReadBytes(zst);
+  const std::string cut = Path("cut.graphslam.zst");
+  std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() - 7);
+  Status status = IngestToStore(Env::Default(), cut, Path("cut"), options, &summary);
+  EXPECT_EQ(status.code(), Status::Code::kCorruption) << status.ToString();
+  EXPECT_NE(status.message().find(cut + ": truncated zstd stream"), std::string::npos)
+      << status.ToString();
+  EXPECT_NE(status.message().find("compressed offset " + std::to_string(bytes.size() - 7)),
+            std::string::npos)
+      << status.ToString();
+  EXPECT_FALSE(storage::IsChunkStore(Path("cut")));
+  // Corrupted in the middle.
+  std::string flipped = bytes;
+  flipped[bytes.size() / 2] = static_cast<char>(flipped[bytes.size() / 2] ^ 0x41);
+  const std::string bad = Path("bad.graphslam.zst");
+  std::ofstream(bad, std::ios::binary) << flipped;
+  status = IngestToStore(Env::Default(), bad, Path("bad"), options, &summary);
+  EXPECT_EQ(status.code(), Status::Code::kCorruption) << status.ToString();
+  EXPECT_NE(status.message().find(bad + ": corrupt zstd data"), std::string::npos)
+      << status.ToString();
+  EXPECT_FALSE(storage::IsChunkStore(Path("bad")));
 }
 
 }  // namespace
