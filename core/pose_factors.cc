@@ -2,10 +2,14 @@
 
 #include "core/check.h"
 #include "core/gps_model.h"
+#include "core/internal/robust_term.h"
 #include "core/relative_pose_model.h"
 #include "core/velocity_motion_model.h"
 
 namespace graphslam::core {
+
+using internal::RobustTerm;
+
 namespace {
 
 constexpr int kDim = UnknownLayout::kPoseDimension;
@@ -42,21 +46,6 @@ void AddBinary(const UnknownLayout& layout, int32_t pose_a, int32_t pose_b,
       GS_CHECK(hessian->AddBlock(ub, ua, Eigen::Matrix3d(wb * jacobian_a)));
     }
   }
-}
-
-// The cost of one constraint, rho(e^T W e), and the information to linearize
-// it with, rho'(e^T W e) W. kNone leaves W untouched (no multiply by 1.0).
-template <int kResidual>
-double RobustTerm(const RobustKernel& kernel, const Eigen::Matrix<double, kResidual, 1>& residual,
-                  const Eigen::Matrix<double, kResidual, kResidual>& information,
-                  Eigen::Matrix<double, kResidual, kResidual>* weighted) {
-  const double squared = residual.dot(information * residual);
-  if (kernel.type == RobustKernel::Type::kNone) {
-    if (weighted != nullptr) *weighted = information;
-    return squared;
-  }
-  if (weighted != nullptr) *weighted = kernel.Weight(squared) * information;
-  return kernel.Cost(squared);
 }
 
 }  // namespace

@@ -4,27 +4,17 @@
 
 #include "core/check.h"
 #include "core/gps3_model.h"
+#include "core/internal/robust_term.h"
 #include "core/relative_pose3_model.h"
 
 namespace graphslam::core {
+
+using internal::RobustTerm;
+
 namespace {
 
 constexpr int kDim = 6;
 using Matrix36 = Eigen::Matrix<double, 3, 6>;
-
-// rho(e^T W e), and rho'(e^T W e) W in *weighted (W itself for kNone).
-template <int kResidual>
-double RobustTerm(const RobustKernel& kernel, const Eigen::Matrix<double, kResidual, 1>& residual,
-                  const Eigen::Matrix<double, kResidual, kResidual>& information,
-                  Eigen::Matrix<double, kResidual, kResidual>* weighted) {
-  const double squared = residual.dot(information * residual);
-  if (kernel.type == RobustKernel::Type::kNone) {
-    if (weighted != nullptr) *weighted = information;
-    return squared;
-  }
-  if (weighted != nullptr) *weighted = kernel.Weight(squared) * information;
-  return kernel.Cost(squared);
-}
 
 }  // namespace
 

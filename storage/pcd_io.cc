@@ -20,6 +20,28 @@ namespace {
 constexpr int64_t kVoxelOffset = int64_t{1} << 20;  // 21 bits an axis: +-1e6 voxels
 constexpr uint64_t kVoxelMask = (uint64_t{1} << 21) - 1;
 
+// An unorganized cloud of `points` points with one FLOAT32 field per name,
+// packed in order (PCL's point_step / row_step conventions); data left empty.
+pcl::PCLPointCloud2 Float32CloudLayout(const std::vector<std::string>& names, uint32_t points) {
+  pcl::PCLPointCloud2 blob;
+  uint32_t offset = 0;
+  for (const std::string& name : names) {
+    pcl::PCLPointField field;
+    field.name = name;
+    field.offset = offset;
+    field.datatype = pcl::PCLPointField::FLOAT32;
+    field.count = 1;
+    blob.fields.push_back(field);
+    offset += 4;
+  }
+  blob.point_step = offset;
+  blob.width = points;
+  blob.height = 1;
+  blob.row_step = blob.point_step * blob.width;
+  blob.is_dense = true;
+  return blob;
+}
+
 }  // namespace
 
 void VoxelCloud::Add(const std::vector<Eigen::Vector3f>& world_points, const Scan& scan) {
@@ -61,25 +83,10 @@ std::vector<VoxelCloud::Point> VoxelCloud::Points() const {
 
 Status WritePcd(const std::string& path, const VoxelCloud& cloud) {
   const std::vector<VoxelCloud::Point> points = cloud.Points();
-  pcl::PCLPointCloud2 blob;
   std::vector<std::string> names = {"x", "y", "z"};
   if (cloud.has_intensity()) names.push_back("intensity");
   if (cloud.has_run()) names.push_back("run");
-  uint32_t offset = 0;
-  for (const std::string& name : names) {
-    pcl::PCLPointField field;
-    field.name = name;
-    field.offset = offset;
-    field.datatype = pcl::PCLPointField::FLOAT32;
-    field.count = 1;
-    blob.fields.push_back(field);
-    offset += 4;
-  }
-  blob.point_step = offset;
-  blob.width = static_cast<uint32_t>(points.size());
-  blob.height = 1;
-  blob.row_step = blob.point_step * blob.width;
-  blob.is_dense = true;
+  pcl::PCLPointCloud2 blob = Float32CloudLayout(names, static_cast<uint32_t>(points.size()));
   blob.data.resize(static_cast<size_t>(blob.row_step));
   uint8_t* out = blob.data.data();
   for (const VoxelCloud::Point& p : points) {
@@ -99,22 +106,7 @@ Status WritePcd(const std::string& path, const VoxelCloud& cloud) {
 }
 
 std::string BinaryCompressedPcdHeader(const std::vector<std::string>& names, uint32_t points) {
-  pcl::PCLPointCloud2 blob;
-  uint32_t offset = 0;
-  for (const std::string& name : names) {
-    pcl::PCLPointField field;
-    field.name = name;
-    field.offset = offset;
-    field.datatype = pcl::PCLPointField::FLOAT32;
-    field.count = 1;
-    blob.fields.push_back(field);
-    offset += 4;
-  }
-  blob.point_step = offset;
-  blob.width = points;
-  blob.height = 1;
-  blob.row_step = blob.point_step * blob.width;
-  blob.is_dense = true;
+  const pcl::PCLPointCloud2 blob = Float32CloudLayout(names, points);
   pcl::PCDWriter writer;
   // PCL 1.13's string variant stops before the DATA line (its stream variant
   // and writeBinaryCompressed add it).
