@@ -47,6 +47,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/status.h"
@@ -78,18 +79,41 @@ std::unique_ptr<octomap::OcTree> MakeOcTree(const FusionOptions& options);
 std::unique_ptr<octomap::OcTree> FuseSerial(const FusionOptions& options,
                                             const std::vector<WorldScan>& scans);
 
+// [begin, end) of one tile's codes in a sorted code list.
+struct TileCodeRange {
+  uint64_t tile;
+  size_t begin, end;
+};
+
 class TiledFusion {
  public:
   explicit TiledFusion(const FusionOptions& options);
   ~TiledFusion();
 
-  // Keeps the tiles in memory within `budget_bytes` (heap bytes, see
-  // MemoryUsage): before a batch reads spilled tiles back and after it, the
-  // least recently touched tiles are written to `dir` (OctoMap's writeData: every
-  // node with its float log-odds, so reading back is bit-exact) and freed;
-  // a batch that touches a spilled tile reads it back first. The files are
-  // scratch (removed when read back or when the fusion ends).
+  // Keeps the fusion's accounted memory within `budget_bytes`: the resident
+  // tile trees (heap bytes, see MemoryUsage, at their high-water mark before
+  // pruning) plus the codes of the scans being fused (kept below a quarter
+  // of the budget by fusing a batch in runs of scans). The tiles a run
+  // touches are fused in groups that fit beside the codes, sized with a
+  // growth guess of kGrowthBytesPerCode per code; before each group the least
+  // recently touched tiles are written to `dir` (OctoMap's writeData: every
+  // node with its float log-odds, so reading back is bit-exact) and freed,
+  // and after a run the tiles go down to half the budget once past three
+  // quarters. A tile bigger than the budget alone is still fused (the budget
+  // is then exceeded: see memory_stats). The files are scratch (removed when
+  // read back or when the fusion ends).
   void EnableSpill(const std::string& dir, size_t budget_bytes);
+
+  // What the budget was kept on, for tests and reports.
+  struct MemoryStats {
+    size_t peak_accounted_bytes = 0;  // resident tiles (high water) + codes
+    size_t peak_code_bytes = 0;       // codes of one run of scans
+    size_t peak_resident_tiles = 0;
+    size_t max_tile_bytes = 0;        // one tile's high water
+    double max_growth_per_code = 0;   // heap bytes a tile grew per code it received
+    int64_t groups = 0;               // tile groups fused
+  };
+  const MemoryStats& memory_stats() const { return stats_; }
 
   // Fuses `batch` (after every earlier batch), in order. IOError on spill I/O.
   [[nodiscard]] Status Insert(const std::vector<WorldScan>& batch);
@@ -120,13 +144,37 @@ class TiledFusion {
     size_t bytes = 0;
     int64_t last_batch = 0;
   };
+  // Per scan of a run: F and O as sorted codes, and their tile ranges.
+  struct BatchCodes {
+    std::vector<std::vector<uint64_t>> free, occupied;
+    std::vector<std::vector<TileCodeRange>> free_ranges, occupied_ranges;
+    void Clear();
+    void Resize(size_t scans);
+    size_t ScanBytes(size_t i) const;  // heap bytes of scan i's codes (capacities)
+    size_t Bytes() const;              // of all scans
+  };
+  // The budget's share for codes is 1 / kCodeShare. A tile grows by at most
+  // 32 bytes per new leaf plus 80 per new child array, and by 336 bytes a
+  // level where a pruned node is expanded; measured on the 600 m x 800 m
+  // campus a touched tile grows by at most ~XX bytes per code it receives,
+  // so the guess below has a safety factor of ~YY.
+  static constexpr size_t kCodeShare = 4;
+  static constexpr size_t kGrowthBytesPerCode = 160;
+  static constexpr size_t kNewTileBytes = 1024;  // the path root -> tile node
+
+  [[nodiscard]] Status Apply(const BatchCodes& codes);
+  size_t ResidentBytes() const;
+  void NoteAccounted(size_t bytes);
+  [[nodiscard]] Status SpillOutside(const std::vector<uint64_t>& touched, size_t group_begin,
+                                    size_t group_end, size_t room);
+  [[nodiscard]] Status SpillLru(std::vector<std::pair<int64_t, uint64_t>> lru, size_t resident,
+                                size_t target_bytes);
   std::string SpillPath(uint64_t tile_id) const;
   [[nodiscard]] Status Load(uint64_t tile_id, Tile* tile) const;
   [[nodiscard]] Status Spill(uint64_t tile_id, Tile* tile);
   // Spills resident tiles, least recently touched first, down to
-  // target_bytes once they exceed twice that; with keep_current_batch the
-  // tiles of the batch being fused are kept.
-  [[nodiscard]] Status SpillLeastRecent(size_t target_bytes, bool keep_current_batch);
+  // target_bytes once they exceed trigger_bytes.
+  [[nodiscard]] Status SpillLeastRecent(size_t trigger_bytes, size_t target_bytes);
 
   FusionOptions options_;
   std::unique_ptr<octomap::OcTree> keyer_;  // computeRayKeys (const) only
@@ -136,6 +184,7 @@ class TiledFusion {
   int64_t spills_ = 0;
   std::string spill_dir_;  // empty: no spilling
   size_t budget_bytes_ = 0;
+  MemoryStats stats_;
 };
 
 }  // namespace graphslam::map

@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -49,16 +50,23 @@ StatusOr<MapSummary> BuildMap(const MapOptions& options, const ScanSource& scans
   MapSummary summary;
   TiledFusion fusion(options.fusion);
   const bool fuse = !options.bt_path.empty();
-  if (fuse) {
-    std::filesystem::path spill(options.bt_path);
-    spill.replace_extension(".spill");
-    fusion.EnableSpill(spill.string(), static_cast<size_t>(options.memory_budget_bytes));
-  }
   TiledVoxelCloudOptions cloud_options;
   cloud_options.voxel = options.pcd_voxel > 0.0 ? options.pcd_voxel : options.fusion.resolution;
   cloud_options.tile_bits = options.fusion.tile_bits;
   cloud_options.budget_bytes =
       options.pcd_memory_bytes > 0 ? options.pcd_memory_bytes : options.memory_budget_bytes / 4;
+  if (fuse) {
+    // The fusion gets what the cloud leaves of the budget (the two used to
+    // add up to 1.25 budgets), at least a sixteenth of it.
+    int64_t fusion_bytes = options.memory_budget_bytes;
+    if (!options.pcd_path.empty()) {
+      fusion_bytes = std::max(options.memory_budget_bytes - cloud_options.budget_bytes,
+                              options.memory_budget_bytes / 16);
+    }
+    std::filesystem::path spill(options.bt_path);
+    spill.replace_extension(".spill");
+    fusion.EnableSpill(spill.string(), static_cast<size_t>(fusion_bytes));
+  }
   std::optional<TiledVoxelCloud> cloud;  // only with a .pcd: it owns OUT.voxels/
   if (!options.pcd_path.empty()) {
     std::filesystem::path voxels(options.pcd_path);
@@ -104,6 +112,10 @@ StatusOr<MapSummary> BuildMap(const MapOptions& options, const ScanSource& scans
   summary.fusion_seconds = seconds;
   summary.points_per_second = seconds > 0 ? static_cast<double>(summary.points) / seconds : 0.0;
   summary.tree_bytes = static_cast<int64_t>(fusion.MemoryUsage());
+  summary.fusion_peak_bytes = static_cast<int64_t>(fusion.memory_stats().peak_accounted_bytes);
+  summary.fusion_peak_code_bytes = static_cast<int64_t>(fusion.memory_stats().peak_code_bytes);
+  summary.fusion_peak_resident_tiles = static_cast<int64_t>(fusion.memory_stats().peak_resident_tiles);
+  summary.tile_spills = fusion.spills();
   summary.tiles = static_cast<int64_t>(fusion.num_tiles());
 
   if (!options.bt_path.empty()) {
