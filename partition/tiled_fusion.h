@@ -32,11 +32,13 @@
 // keeps them) and equal children are pruned. Tiles are disjoint octree nodes
 // at depth t, so no leaf of a tile is coarser than the tile.
 //
-// Memory: the tile trees (bounded by EnableSpill), plus per batch the codes.
+// Memory: the tile trees plus the codes of the scans being fused, together
+// bounded by EnableSpill (runs of scans, groups of tiles; see there).
 // THREAD SAFETY: one TiledFusion per thread; it parallelizes internally (TBB).
-// ALLOCATION: the tile trees (the map), plus per batch the codes of its scans
+// ALLOCATION: the tile trees (the map), plus the codes of a run of scans
+// (8 bytes per unique ray cell of a scan); per thread, the scan being cast
 // (at most ~8 bytes per ray cell before de-duplication, bounded by sorting
-// and de-duplicating whenever a scan's buffer passes 4 M codes).
+// and de-duplicating whenever its buffer passes 4 M codes; not counted).
 #pragma once
 
 #include <octomap/OcTree.h>
@@ -153,11 +155,12 @@ class TiledFusion {
     size_t ScanBytes(size_t i) const;  // heap bytes of scan i's codes (capacities)
     size_t Bytes() const;              // of all scans
   };
-  // The budget's share for codes is 1 / kCodeShare. A tile grows by at most
-  // 32 bytes per new leaf plus 80 per new child array, and by 336 bytes a
-  // level where a pruned node is expanded; measured on the 600 m x 800 m
-  // campus a touched tile grows by at most ~XX bytes per code it receives,
-  // so the guess below has a safety factor of ~YY.
+  // The budget's share for codes is 1 / kCodeShare. A group's tiles are
+  // sized before fusing as their bytes plus kGrowthBytesPerCode per code
+  // they receive: a guess (a new leaf costs 32 bytes plus 80 per new child
+  // array, an expanded pruned node 336 bytes a level; most codes update
+  // existing leaves and cost nothing). The budget is checked on the high
+  // water measured afterwards (MemoryStats); a guess too low shows there.
   static constexpr size_t kCodeShare = 4;
   static constexpr size_t kGrowthBytesPerCode = 160;
   static constexpr size_t kNewTileBytes = 1024;  // the path root -> tile node

@@ -20,10 +20,11 @@
 // Every file is written atomically.
 //
 // THREAD SAFETY: one call at a time per output path; parallel inside (TBB).
-// ALLOCATION: the map's resident tiles and the codes of the scans being fused
-// (together memory_budget_bytes minus pcd_memory_bytes with a .pcd), the
-// cloud's resident voxel tiles (pcd_memory_bytes), one chunk of scans and
-// one batch of world points.
+// ALLOCATION: within memory_budget_bytes: the map's resident tiles and the
+// codes of the scans being fused (the budget minus the cloud's share with a
+// .pcd, minus a reserve of min(64 MiB, budget / 8) for the rest of the
+// process), the cloud's resident voxel tiles (pcd_memory_bytes), one chunk
+// of scans and one batch of world points.
 #pragma once
 
 #include <cstdint>
