@@ -3,6 +3,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <malloc.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
@@ -128,10 +129,7 @@ void ComputeScanCodes(const octomap::OcTree& keyer, const Codec& codec, const Wo
 }
 
 // [begin, end) of each tile in a sorted code list, ordered by tile id.
-struct TileRange {
-  uint64_t tile;
-  size_t begin, end;
-};
+using TileRange = TileCodeRange;
 std::vector<TileRange> SplitByTile(const Codec& codec, const std::vector<uint64_t>& codes) {
   std::vector<TileRange> ranges;
   size_t i = 0;
@@ -182,6 +180,12 @@ class TileTree : public octomap::OcTree {
  public:
   using octomap::OcTree::OcTree;
 
+  // Heap bytes allocated by ApplySorted since the last reset, as glibc
+  // allocates them (see HeapBytes): 32 per node, 80 per child array. With the
+  // tree's bytes before, this is its size before prune() frees anything,
+  // i.e. the tile's high-water mark within a batch.
+  size_t grown_bytes = 0;
+
   void ApplySorted(const uint64_t* codes, size_t n, bool occupied) {
     if (n == 0) return;
     const float update = occupied ? prob_hit_log : prob_miss_log;
@@ -191,6 +195,7 @@ class TileTree : public octomap::OcTree {
     if (root == nullptr) {
       root = new octomap::OcTreeNode();
       ++tree_size;
+      grown_bytes += 32;
       just_created = true;
     }
     path[0] = root;
@@ -212,8 +217,11 @@ class TileTree : public octomap::OcTree {
         if (!nodeChildExists(node, child)) {
           if (!nodeHasChildren(node) && !just_created) {
             expandNode(node);
+            grown_bytes += 80 + 8 * 32;
           } else {
+            if (!nodeHasChildren(node)) grown_bytes += 80;
             createNodeChild(node, child);
+            grown_bytes += 32;
             created = true;
           }
         }
@@ -346,76 +354,230 @@ Status TiledFusion::Spill(uint64_t tile_id, Tile* tile) {
 Status TiledFusion::Insert(const std::vector<WorldScan>& batch) {
   const Codec codec(options_.tile_bits);
   const size_t n = batch.size();
-  ++batches_;
-  std::vector<std::vector<uint64_t>> free_codes(n), occupied_codes(n);
-  std::vector<std::vector<TileRange>> free_ranges(n), occupied_ranges(n);
+  for (const WorldScan& scan : batch) points_ += static_cast<int64_t>(scan.points.size());
+  // Unbounded: the whole batch at once. Within a budget: the codes of a run
+  // of scans are kept below a quarter of it (kCodeShare), so a batch is cut
+  // into runs, each fused (all its tiles, scan by scan in order) before the
+  // next one's codes are made; every leaf sees the same updates in the same
+  // order, so the map is the same.
+  const bool bounded = !spill_dir_.empty();
+  const size_t code_share = budget_bytes_ / kCodeShare;
+  const size_t max_step = bounded ? std::max<size_t>(2, 2 * static_cast<size_t>(
+                                                             tbb::this_task_arena::max_concurrency()))
+                                  : std::max<size_t>(n, 1);
   tbb::enumerable_thread_specific<octomap::KeyRay> rays;
-  tbb::parallel_for(size_t{0}, n, [&](size_t i) {
-    ComputeScanCodes(*keyer_, codec, batch[i], options_.max_range, &rays.local(), &free_codes[i],
-                     &occupied_codes[i]);
-    free_ranges[i] = SplitByTile(codec, free_codes[i]);
-    occupied_ranges[i] = SplitByTile(codec, occupied_codes[i]);
-  });
-  std::vector<uint64_t> touched;
-  for (size_t i = 0; i < n; ++i) {
-    points_ += static_cast<int64_t>(batch[i].points.size());
-    for (const TileRange& r : free_ranges[i]) touched.push_back(r.tile);
-    for (const TileRange& r : occupied_ranges[i]) touched.push_back(r.tile);
-  }
-  SortUnique(&touched);
-  // Make room before reading spilled tiles back: the tiles of this batch are
-  // marked as just used, and the others are spilled down to half the budget.
-  for (uint64_t id : touched) {
-    if (auto it = tiles_.find(id); it != tiles_.end()) it->second.last_batch = batches_;
-  }
-  GS_RETURN_IF_ERROR(SpillLeastRecent(budget_bytes_ / 2, /*keep_current_batch=*/true));
-  std::vector<Tile*> touched_tiles;
-  touched_tiles.reserve(touched.size());
-  for (uint64_t id : touched) {
-    auto [it, inserted] = tiles_.try_emplace(id);
-    Tile& tile = it->second;
-    if (inserted) {
-      tile.tree = MakeTileTree(options_);
-    } else if (!tile.tree) {
-      GS_RETURN_IF_ERROR(Load(id, &tile));
-      std::error_code ec;
-      std::filesystem::remove(SpillPath(id), ec);
-    }
-    touched_tiles.push_back(&tile);
-  }
-  tbb::parallel_for(size_t{0}, touched.size(), [&](size_t j) {
-    const uint64_t tile = touched[j];
-    TileTree* tree = static_cast<TileTree*>(touched_tiles[j]->tree.get());
-    for (size_t i = 0; i < n; ++i) {
-      if (const TileRange* r = FindTile(free_ranges[i], tile)) {
-        tree->ApplySorted(free_codes[i].data() + r->begin, r->end - r->begin, false);
+  BatchCodes codes;
+  size_t begin = 0;
+  while (begin < n) {
+    codes.Clear();
+    size_t end = begin;
+    size_t code_bytes = 0, largest_scan = 0;
+    while (end < n) {
+      // As many scans as fit the share at the largest scan's codes so far
+      // (one scan first, to learn it).
+      size_t step = 1;
+      if (!bounded) {
+        step = max_step;
+      } else if (largest_scan > 0) {
+        step = std::clamp<size_t>((code_share - code_bytes) / largest_scan, 1, max_step);
       }
-      if (const TileRange* r = FindTile(occupied_ranges[i], tile)) {
-        tree->ApplySorted(occupied_codes[i].data() + r->begin, r->end - r->begin, true);
-      }
+      const size_t step_end = std::min(n, end + step);
+      const size_t first = codes.free.size();
+      codes.Resize(first + (step_end - end));
+      tbb::parallel_for(end, step_end, [&](size_t i) {
+        const size_t c = first + (i - end);
+        ComputeScanCodes(*keyer_, codec, batch[i], options_.max_range, &rays.local(),
+                         &codes.free[c], &codes.occupied[c]);
+        codes.free_ranges[c] = SplitByTile(codec, codes.free[c]);
+        codes.occupied_ranges[c] = SplitByTile(codec, codes.occupied[c]);
+      });
+      end = step_end;
+      for (size_t c = first; c < codes.free.size(); ++c) largest_scan = std::max(largest_scan, codes.ScanBytes(c));
+      code_bytes = codes.Bytes();
+      NoteAccounted(ResidentBytes() + code_bytes);
+      stats_.peak_code_bytes = std::max(stats_.peak_code_bytes, code_bytes);
+      // Stop before the next step could pass the share.
+      if (bounded && code_bytes + largest_scan > code_share) break;
     }
-    // Lazy updates skip the inner nodes and pruning on every update; both
-    // are done once per batch here (leaf values are the same either way).
-    tree->updateInnerOccupancy();
-    tree->prune();
-    touched_tiles[j]->bytes = HeapBytes(*tree);
-    touched_tiles[j]->last_batch = batches_;
-  });
-  // Down to half the budget, so the next batches have room before spilling again.
-  return SpillLeastRecent(budget_bytes_ / 2, /*keep_current_batch=*/false);
+    GS_RETURN_IF_ERROR(Apply(codes));
+    begin = end;
+  }
+  return Status::Ok();
 }
 
-Status TiledFusion::SpillLeastRecent(size_t target_bytes, bool keep_current_batch) {
+void TiledFusion::BatchCodes::Clear() {
+  free.clear();
+  occupied.clear();
+  free_ranges.clear();
+  occupied_ranges.clear();
+}
+
+void TiledFusion::BatchCodes::Resize(size_t scans) {
+  free.resize(scans);
+  occupied.resize(scans);
+  free_ranges.resize(scans);
+  occupied_ranges.resize(scans);
+}
+
+size_t TiledFusion::BatchCodes::ScanBytes(size_t i) const {
+  return 8 * (free[i].capacity() + occupied[i].capacity()) +
+         sizeof(TileRange) * (free_ranges[i].capacity() + occupied_ranges[i].capacity());
+}
+
+size_t TiledFusion::BatchCodes::Bytes() const {
+  size_t bytes = 0;
+  for (size_t i = 0; i < free.size(); ++i) bytes += ScanBytes(i);
+  return bytes;
+}
+
+size_t TiledFusion::ResidentBytes() const {
+  size_t bytes = 0;
+  for (const auto& [id, tile] : tiles_) {
+    if (tile.tree) bytes += tile.bytes;
+  }
+  return bytes;
+}
+
+void TiledFusion::NoteAccounted(size_t bytes) {
+  stats_.peak_accounted_bytes = std::max(stats_.peak_accounted_bytes, bytes);
+}
+
+Status TiledFusion::Apply(const BatchCodes& codes) {
+  const size_t n = codes.free.size();
+  ++batches_;
+  // Touched tiles and the codes each receives (its growth estimate).
+  std::map<uint64_t, size_t> touched_codes;
+  for (size_t i = 0; i < n; ++i) {
+    for (const TileRange& r : codes.free_ranges[i]) touched_codes[r.tile] += r.end - r.begin;
+    for (const TileRange& r : codes.occupied_ranges[i]) touched_codes[r.tile] += r.end - r.begin;
+  }
+  std::vector<uint64_t> touched;
+  std::vector<size_t> estimate;  // bytes of each touched tile after the updates (guess)
+  std::vector<size_t> before_bytes;
+  touched.reserve(touched_codes.size());
+  for (const auto& [id, count] : touched_codes) {
+    touched.push_back(id);
+    auto it = tiles_.find(id);
+    const size_t before = it == tiles_.end() ? 0 : it->second.bytes;
+    before_bytes.push_back(before);
+    estimate.push_back(before + kGrowthBytesPerCode * count + kNewTileBytes);
+    if (it != tiles_.end()) it->second.last_batch = batches_;
+  }
+  const size_t code_bytes = codes.Bytes();
+  const bool bounded = !spill_dir_.empty();
+  const size_t available = budget_bytes_ > code_bytes ? budget_bytes_ - code_bytes : 0;
+  // The touched tiles are fused in groups that fit the budget beside the
+  // codes (a group of one when a tile alone does not); each tile's updates
+  // are independent of the others', so any grouping gives the same map.
+  size_t group_begin = 0;
+  while (group_begin < touched.size()) {
+    size_t group_end = group_begin, group_bytes = 0;
+    while (group_end < touched.size() &&
+           (!bounded || group_end == group_begin || group_bytes + estimate[group_end] <= available)) {
+      group_bytes += estimate[group_end];
+      ++group_end;
+    }
+    ++stats_.groups;
+    if (bounded) {
+      // Room for the group: spill resident tiles outside it, least recent first.
+      const size_t room = available > group_bytes ? available - group_bytes : 0;
+      GS_RETURN_IF_ERROR(SpillOutside(touched, group_begin, group_end, room));
+    }
+    std::vector<Tile*> group_tiles;
+    for (size_t j = group_begin; j < group_end; ++j) {
+      auto [it, inserted] = tiles_.try_emplace(touched[j]);
+      Tile& tile = it->second;
+      if (inserted) {
+        tile.tree = MakeTileTree(options_);
+      } else if (!tile.tree) {
+        GS_RETURN_IF_ERROR(Load(touched[j], &tile));
+        std::error_code ec;
+        std::filesystem::remove(SpillPath(touched[j]), ec);
+      }
+      tile.last_batch = batches_;
+      group_tiles.push_back(&tile);
+    }
+    size_t others = 0;  // resident bytes outside the group
+    {
+      const size_t resident = ResidentBytes();
+      size_t group_before = 0;
+      for (const Tile* tile : group_tiles) group_before += tile->bytes;
+      others = resident - group_before;
+    }
+    std::vector<size_t> high_water(group_tiles.size());
+    tbb::parallel_for(size_t{0}, group_tiles.size(), [&](size_t g) {
+      const uint64_t tile = touched[group_begin + g];
+      TileTree* tree = static_cast<TileTree*>(group_tiles[g]->tree.get());
+      tree->grown_bytes = 0;
+      for (size_t i = 0; i < n; ++i) {
+        if (const TileRange* r = FindTile(codes.free_ranges[i], tile)) {
+          tree->ApplySorted(codes.free[i].data() + r->begin, r->end - r->begin, false);
+        }
+        if (const TileRange* r = FindTile(codes.occupied_ranges[i], tile)) {
+          tree->ApplySorted(codes.occupied[i].data() + r->begin, r->end - r->begin, true);
+        }
+      }
+      high_water[g] = group_tiles[g]->bytes + tree->grown_bytes;
+      // Lazy updates skip the inner nodes and pruning on every update; both
+      // are done once per batch here (leaf values are the same either way).
+      tree->updateInnerOccupancy();
+      tree->prune();
+      group_tiles[g]->bytes = HeapBytes(*tree);
+    });
+    size_t group_high = 0;
+    for (size_t g = 0; g < group_tiles.size(); ++g) {
+      group_high += high_water[g];
+      const size_t count = touched_codes[touched[group_begin + g]];
+      const size_t grown = high_water[g] - before_bytes[group_begin + g];
+      if (count > 0) {
+        stats_.max_growth_per_code =
+            std::max(stats_.max_growth_per_code, static_cast<double>(grown) / static_cast<double>(count));
+      }
+      stats_.max_tile_bytes = std::max(stats_.max_tile_bytes, high_water[g]);
+    }
+    NoteAccounted(others + group_high + code_bytes);
+    size_t resident_tiles = 0;
+    for (const auto& [id, tile] : tiles_) resident_tiles += tile.tree ? 1 : 0;
+    stats_.peak_resident_tiles = std::max(stats_.peak_resident_tiles, resident_tiles);
+    group_begin = group_end;
+  }
+  // Down to half the budget once past what leaves room for the next codes,
+  // so the next batches have room before spilling again.
+  return SpillLeastRecent(budget_bytes_ - budget_bytes_ / kCodeShare, budget_bytes_ / 2);
+}
+
+Status TiledFusion::SpillOutside(const std::vector<uint64_t>& touched, size_t group_begin,
+                                 size_t group_end, size_t room) {
+  size_t resident = 0;
+  std::vector<std::pair<int64_t, uint64_t>> lru;  // (last batch, tile id)
+  for (const auto& [id, tile] : tiles_) {
+    if (!tile.tree) continue;
+    if (std::binary_search(touched.begin() + static_cast<std::ptrdiff_t>(group_begin),
+                           touched.begin() + static_cast<std::ptrdiff_t>(group_end), id)) {
+      continue;
+    }
+    resident += tile.bytes;
+    lru.emplace_back(tile.last_batch, id);
+  }
+  if (resident <= room) return Status::Ok();
+  return SpillLru(std::move(lru), resident, room);
+}
+
+Status TiledFusion::SpillLeastRecent(size_t trigger_bytes, size_t target_bytes) {
   if (spill_dir_.empty()) return Status::Ok();
   size_t resident = 0;
   std::vector<std::pair<int64_t, uint64_t>> lru;  // (last batch, tile id)
   for (const auto& [id, tile] : tiles_) {
     if (!tile.tree) continue;
     resident += tile.bytes;
-    // Before fusing, the tiles the batch needs stay resident.
-    if (!keep_current_batch || tile.last_batch < batches_) lru.emplace_back(tile.last_batch, id);
+    lru.emplace_back(tile.last_batch, id);
   }
-  if (resident <= 2 * target_bytes) return Status::Ok();
+  if (resident <= trigger_bytes) return Status::Ok();
+  return SpillLru(std::move(lru), resident, target_bytes);
+}
+
+Status TiledFusion::SpillLru(std::vector<std::pair<int64_t, uint64_t>> lru, size_t resident,
+                             size_t target_bytes) {
   std::error_code ec;
   std::filesystem::create_directories(spill_dir_, ec);
   if (ec) return Status::IOError(spill_dir_ + ": " + ec.message());

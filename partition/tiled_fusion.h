@@ -32,11 +32,13 @@
 // keeps them) and equal children are pruned. Tiles are disjoint octree nodes
 // at depth t, so no leaf of a tile is coarser than the tile.
 //
-// Memory: the tile trees (bounded by EnableSpill), plus per batch the codes.
+// Memory: the tile trees plus the codes of the scans being fused, together
+// bounded by EnableSpill (runs of scans, groups of tiles; see there).
 // THREAD SAFETY: one TiledFusion per thread; it parallelizes internally (TBB).
-// ALLOCATION: the tile trees (the map), plus per batch the codes of its scans
+// ALLOCATION: the tile trees (the map), plus the codes of a run of scans
+// (8 bytes per unique ray cell of a scan); per thread, the scan being cast
 // (at most ~8 bytes per ray cell before de-duplication, bounded by sorting
-// and de-duplicating whenever a scan's buffer passes 4 M codes).
+// and de-duplicating whenever its buffer passes 4 M codes; not counted).
 #pragma once
 
 #include <octomap/OcTree.h>
@@ -47,6 +49,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/status.h"
@@ -78,18 +81,41 @@ std::unique_ptr<octomap::OcTree> MakeOcTree(const FusionOptions& options);
 std::unique_ptr<octomap::OcTree> FuseSerial(const FusionOptions& options,
                                             const std::vector<WorldScan>& scans);
 
+// [begin, end) of one tile's codes in a sorted code list.
+struct TileCodeRange {
+  uint64_t tile;
+  size_t begin, end;
+};
+
 class TiledFusion {
  public:
   explicit TiledFusion(const FusionOptions& options);
   ~TiledFusion();
 
-  // Keeps the tiles in memory within `budget_bytes` (heap bytes, see
-  // MemoryUsage): before a batch reads spilled tiles back and after it, the
-  // least recently touched tiles are written to `dir` (OctoMap's writeData: every
-  // node with its float log-odds, so reading back is bit-exact) and freed;
-  // a batch that touches a spilled tile reads it back first. The files are
-  // scratch (removed when read back or when the fusion ends).
+  // Keeps the fusion's accounted memory within `budget_bytes`: the resident
+  // tile trees (heap bytes, see MemoryUsage, at their high-water mark before
+  // pruning) plus the codes of the scans being fused (kept below a quarter
+  // of the budget by fusing a batch in runs of scans). The tiles a run
+  // touches are fused in groups that fit beside the codes, sized with a
+  // growth guess of kGrowthBytesPerCode per code; before each group the least
+  // recently touched tiles are written to `dir` (OctoMap's writeData: every
+  // node with its float log-odds, so reading back is bit-exact) and freed,
+  // and after a run the tiles go down to half the budget once past three
+  // quarters. A tile bigger than the budget alone is still fused (the budget
+  // is then exceeded: see memory_stats). The files are scratch (removed when
+  // read back or when the fusion ends).
   void EnableSpill(const std::string& dir, size_t budget_bytes);
+
+  // What the budget was kept on, for tests and reports.
+  struct MemoryStats {
+    size_t peak_accounted_bytes = 0;  // resident tiles (high water) + codes
+    size_t peak_code_bytes = 0;       // codes of one run of scans
+    size_t peak_resident_tiles = 0;
+    size_t max_tile_bytes = 0;        // one tile's high water
+    double max_growth_per_code = 0;   // heap bytes a tile grew per code it received
+    int64_t groups = 0;               // tile groups fused
+  };
+  const MemoryStats& memory_stats() const { return stats_; }
 
   // Fuses `batch` (after every earlier batch), in order. IOError on spill I/O.
   [[nodiscard]] Status Insert(const std::vector<WorldScan>& batch);
@@ -120,13 +146,38 @@ class TiledFusion {
     size_t bytes = 0;
     int64_t last_batch = 0;
   };
+  // Per scan of a run: F and O as sorted codes, and their tile ranges.
+  struct BatchCodes {
+    std::vector<std::vector<uint64_t>> free, occupied;
+    std::vector<std::vector<TileCodeRange>> free_ranges, occupied_ranges;
+    void Clear();
+    void Resize(size_t scans);
+    size_t ScanBytes(size_t i) const;  // heap bytes of scan i's codes (capacities)
+    size_t Bytes() const;              // of all scans
+  };
+  // The budget's share for codes is 1 / kCodeShare. A group's tiles are
+  // sized before fusing as their bytes plus kGrowthBytesPerCode per code
+  // they receive: a guess (a new leaf costs 32 bytes plus 80 per new child
+  // array, an expanded pruned node 336 bytes a level; most codes update
+  // existing leaves and cost nothing). The budget is checked on the high
+  // water measured afterwards (MemoryStats); a guess too low shows there.
+  static constexpr size_t kCodeShare = 4;
+  static constexpr size_t kGrowthBytesPerCode = 160;
+  static constexpr size_t kNewTileBytes = 1024;  // the path root -> tile node
+
+  [[nodiscard]] Status Apply(const BatchCodes& codes);
+  size_t ResidentBytes() const;
+  void NoteAccounted(size_t bytes);
+  [[nodiscard]] Status SpillOutside(const std::vector<uint64_t>& touched, size_t group_begin,
+                                    size_t group_end, size_t room);
+  [[nodiscard]] Status SpillLru(std::vector<std::pair<int64_t, uint64_t>> lru, size_t resident,
+                                size_t target_bytes);
   std::string SpillPath(uint64_t tile_id) const;
   [[nodiscard]] Status Load(uint64_t tile_id, Tile* tile) const;
   [[nodiscard]] Status Spill(uint64_t tile_id, Tile* tile);
   // Spills resident tiles, least recently touched first, down to
-  // target_bytes once they exceed twice that; with keep_current_batch the
-  // tiles of the batch being fused are kept.
-  [[nodiscard]] Status SpillLeastRecent(size_t target_bytes, bool keep_current_batch);
+  // target_bytes once they exceed trigger_bytes.
+  [[nodiscard]] Status SpillLeastRecent(size_t trigger_bytes, size_t target_bytes);
 
   FusionOptions options_;
   std::unique_ptr<octomap::OcTree> keyer_;  // computeRayKeys (const) only
@@ -136,6 +187,7 @@ class TiledFusion {
   int64_t spills_ = 0;
   std::string spill_dir_;  // empty: no spilling
   size_t budget_bytes_ = 0;
+  MemoryStats stats_;
 };
 
 }  // namespace graphslam::map

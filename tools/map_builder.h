@@ -11,8 +11,7 @@
 // Scans are read chunk by chunk (one chunk in memory) and fused in batches of
 // about `batch_points` points. Output:
 //   - bt_path: one .bt (OctoMap's binary, maximum-likelihood) of the merged
-//     tree, when the tiles' memory (OcTree::memoryUsage) is within
-//     memory_budget_bytes;
+//     tree, when the tiles' heap bytes are within memory_budget_bytes;
 //   - otherwise <bt_path minus .bt>.tiles/tile_<id>.bt, one per spatial tile
 //     (each a full OcTree holding only its tile's cells), plus index.json in
 //     that folder listing every tile file with its world bounding box;
@@ -21,8 +20,11 @@
 // Every file is written atomically.
 //
 // THREAD SAFETY: one call at a time per output path; parallel inside (TBB).
-// ALLOCATION: the map's resident tiles (memory_budget_bytes), the cloud's
-// resident voxel tiles (pcd_memory_bytes), one chunk of scans and one batch's codes.
+// ALLOCATION: within memory_budget_bytes: the map's resident tiles and the
+// codes of the scans being fused (the budget minus the cloud's share with a
+// .pcd, minus a reserve of min(64 MiB, budget / 8) for the rest of the
+// process), the cloud's resident voxel tiles (pcd_memory_bytes), one chunk
+// of scans and one batch of world points.
 #pragma once
 
 #include <cstdint>
@@ -55,12 +57,19 @@ struct MapSummary {
   int64_t points = 0;          // points fused (all rays)
   int64_t occupied_leaves = 0;  // of the merged tree (0 when tiled)
   int64_t free_leaves = 0;
-  int64_t tree_bytes = 0;       // OcTree::memoryUsage of the tiles before merging
+  int64_t tree_bytes = 0;       // heap bytes of the tiles before merging (TiledFusion::MemoryUsage)
   int64_t tiles = 0;
   bool tiled_output = false;
   std::string tiles_index;      // index.json when tiled_output
   int64_t pcd_points = 0;
   int64_t pcd_tile_spills = 0;  // voxel tiles written to disk (0: the cloud fit its budget)
+  // The fusion's accounted memory (partition/tiled_fusion.h, MemoryStats):
+  // its peak (resident tiles + codes), the codes' peak, the most tiles
+  // resident at once, and tiles written to disk.
+  int64_t fusion_peak_bytes = 0;
+  int64_t fusion_peak_code_bytes = 0;
+  int64_t fusion_peak_resident_tiles = 0;
+  int64_t tile_spills = 0;
   double fusion_seconds = 0.0;  // wall time of ray casting + updates
   double points_per_second = 0.0;
 };

@@ -132,11 +132,19 @@ int RunMapCommand(const MapCommandOptions& options) {
   if (!summary.ok()) return fail(summary.status());
   if (!options.quiet) {
     const map::MapSummary& s = *summary;
-    std::printf("Fused %lld scans (%lld points) at %.3f m in %.2f s (%.0f points/s, %lld tiles, "
-                "%.1f MiB of tree).",
-                static_cast<long long>(s.scans), static_cast<long long>(s.points),
-                map_options.fusion.resolution, s.fusion_seconds, s.points_per_second,
-                static_cast<long long>(s.tiles), static_cast<double>(s.tree_bytes) / 1048576.0);
+    if (map_options.bt_path.empty()) {
+      // Nothing was fused (no .bt): no fusion time, so no rate.
+      std::printf("Read %lld scans (%lld points).", static_cast<long long>(s.scans),
+                  static_cast<long long>(s.points));
+    } else {
+      std::printf("Fused %lld scans (%lld points) at %.3f m in %.2f s (%.0f points/s, %lld tiles, "
+                  "%.1f MiB of tree; peak %.1f MiB of tiles + codes, %lld tile spills).",
+                  static_cast<long long>(s.scans), static_cast<long long>(s.points),
+                  map_options.fusion.resolution, s.fusion_seconds, s.points_per_second,
+                  static_cast<long long>(s.tiles), static_cast<double>(s.tree_bytes) / 1048576.0,
+                  static_cast<double>(s.fusion_peak_bytes) / 1048576.0,
+                  static_cast<long long>(s.tile_spills));
+    }
     if (!map_options.bt_path.empty()) {
       if (s.tiled_output) {
         std::printf(" Over the memory budget: wrote tiles, index %s.", s.tiles_index.c_str());

@@ -132,6 +132,53 @@ TEST(TiledFusionTest, SpillingTilesToDiskEqualsSerial) {
   ExpectSameAsSerial(options, RoomScans(8, 800, 3), 2, /*spill_budget=*/20000);
 }
 
+// Within a budget, the fusion's accounted memory (resident tiles at their
+// high water before pruning, plus the codes of the scans being fused) never
+// passes it, and the map is still the serial one. The budget is a third of
+// the map (so tiles must be spilled and read back), and at least four times
+// the biggest tile (so one group always fits).
+TEST(TiledFusionTest, AccountedMemoryStaysWithinBudget) {
+  FusionOptions options;
+  options.resolution = 0.1;
+  options.tile_bits = 5;
+  const std::vector<WorldScan> scans = RoomScans(12, 1500, 7);
+  TiledFusion unbounded(options);
+  ASSERT_TRUE(unbounded.Insert(scans).ok());
+  const size_t map_bytes = unbounded.MemoryUsage();
+  const size_t budget = std::max(map_bytes / 3, 4 * unbounded.memory_stats().max_tile_bytes);
+  ASSERT_LT(budget, map_bytes);
+
+  TiledFusion fusion(options);
+  const std::string dir = ::testing::TempDir() + "/tiled_fusion_budget";
+  std::filesystem::create_directories(dir);
+  fusion.EnableSpill(dir, budget);
+  for (size_t i = 0; i < scans.size(); i += 6) {
+    ASSERT_TRUE(fusion.Insert(std::vector<WorldScan>(scans.begin() + static_cast<std::ptrdiff_t>(i),
+                                                     scans.begin() + static_cast<std::ptrdiff_t>(i + 6)))
+                    .ok());
+  }
+  const TiledFusion::MemoryStats& stats = fusion.memory_stats();
+  EXPECT_GT(fusion.spills(), 0);
+  EXPECT_GT(stats.groups, 2);  // the touched tiles did not fit at once
+  EXPECT_LE(stats.peak_accounted_bytes, budget);
+  EXPECT_GT(stats.peak_accounted_bytes, budget / 2);  // the budget was used, not shunned
+  EXPECT_GT(stats.peak_code_bytes, 0u);
+  EXPECT_LE(stats.peak_code_bytes, budget / 4);
+  EXPECT_EQ(fusion.MemoryUsage(), map_bytes);
+
+  StatusOr<std::unique_ptr<octomap::OcTree>> merged = fusion.Merge();
+  ASSERT_TRUE(merged.ok()) << merged.status().ToString();
+  std::unique_ptr<octomap::OcTree> serial = FuseSerial(options, scans);
+  const std::map<LeafKey, float> a = Leaves(serial.get()), b = Leaves(merged->get());
+  EXPECT_GT(a.size(), 1000u);
+  EXPECT_EQ(a, b);
+  std::printf("map %zu B, budget %zu B, peak accounted %zu B, codes %zu B, groups %lld, "
+              "spills %lld, growth/code %.1f B\n",
+              map_bytes, budget, stats.peak_accounted_bytes, stats.peak_code_bytes,
+              static_cast<long long>(stats.groups), static_cast<long long>(fusion.spills()),
+              stats.max_growth_per_code);
+}
+
 TEST(TiledFusionTest, ThreeDtkScansEqualSerial) {
   GS_REQUIRE_DATASET("3dtk_uos_scans/scan000.3d");
   const std::string dir = testing::DatasetPath("3dtk_uos_scans");

@@ -262,6 +262,11 @@ TEST_F(MapCommandTest, TheCloudWithinATinyBudgetIsTheUnboundedCloud) {
   StatusOr<map::MapSummary> summary = map::BuildMap(tiny_options, **source, nullptr);
   ASSERT_TRUE(summary.ok()) << summary.status().ToString();
   EXPECT_GT(summary->pcd_tile_spills, 10);
+  // No .bt: nothing fused, so no fusion time and no rate (it used to be
+  // points over the ~0 s of empty flushes).
+  EXPECT_EQ(summary->fusion_seconds, 0.0);
+  EXPECT_EQ(summary->points_per_second, 0.0);
+  EXPECT_EQ(summary->tiles, 0);
   EXPECT_FALSE(fs::exists(root_ / "tiny.voxels"));
   StatusOr<map::PcdContents> tiny = map::ReadPcd((root_ / "tiny.pcd").string());
   ASSERT_TRUE(tiny.ok()) << tiny.status().ToString();
