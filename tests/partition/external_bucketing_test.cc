@@ -26,6 +26,7 @@
 #include "storage/env.h"
 #include "storage/g2o_writer.h"
 #include "storage/native_log_reader.h"
+#include "tests/testing/directory_bytes.h"
 #include "tests/testing/random_problem.h"
 
 namespace graphslam::partition {
@@ -107,23 +108,8 @@ class ExternalBucketingTest : public ::testing::Test {
     }
   }
 
-  // Every file under `dir`, by relative path, with its bytes.
-  static std::map<std::string, std::string> AllFiles(const std::string& dir) {
-    std::map<std::string, std::string> files;
-    for (const auto& entry : std::filesystem::recursive_directory_iterator(dir))
-      if (entry.is_regular_file())
-        files[std::filesystem::relative(entry.path(), dir).string()] =
-            ReadBytes(entry.path().string());
-    return files;
-  }
-
   static void ExpectSameBytes(const std::string& a, const std::string& b) {
-    const auto fa = AllFiles(a), fb = AllFiles(b);
-    ASSERT_EQ(fa.size(), fb.size());
-    for (auto ia = fa.begin(), ib = fb.begin(); ia != fa.end(); ++ia, ++ib) {
-      ASSERT_EQ(ia->first, ib->first);
-      EXPECT_TRUE(ia->second == ib->second) << ia->first << " differs";
-    }
+    testing::ExpectSameFiles(testing::FilesUnder(a), testing::FilesUnder(b));
   }
 
   core::Problem2d problem_;

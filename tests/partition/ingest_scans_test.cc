@@ -23,6 +23,7 @@
 #include "storage/env.h"
 #include "storage/native_log_scans.h"
 #include "storage/scan_store.h"
+#include "tests/testing/directory_bytes.h"
 #include "tools/map_builder.h"
 
 namespace graphslam::partition {
@@ -207,14 +208,6 @@ TEST_F(IngestScansTest, AnUnreadablePcdIsAnErrorNamingTheLineAndTheFile) {
   EXPECT_FALSE(map::DiskScanStore::Exists((root_ / "store").string()));
 }
 
-// Every file under `dir` by relative path, with its bytes.
-std::map<std::string, std::string> AllFiles(const fs::path& dir) {
-  std::map<std::string, std::string> files;
-  for (const auto& entry : fs::recursive_directory_iterator(dir))
-    if (entry.is_regular_file()) files[fs::relative(entry.path(), dir).string()] = ReadBytes(entry.path());
-  return files;
-}
-
 // An ingest that dies at a scan checkpoint (the rename of
 // work/scans_progress.json after a durable scan chunk) or at the store's
 // manifest, then resumes: the store, scan chunks included, is the
@@ -229,7 +222,7 @@ TEST_F(IngestScansTest, ResumeAfterDyingInTheScanCopyGivesTheSameStoreBytes) {
   options.scan_chunk_bytes = 4096;
   IngestSummary summary;
   ASSERT_TRUE(IngestToStore(&counting, log_.string(), (root_ / "full").string(), options, &summary).ok());
-  const auto expected = AllFiles(root_ / "full");
+  const auto expected = graphslam::testing::FilesUnder(root_ / "full");
   const int renames = counting.Count(storage::FaultInjectionEnv::Operation::kRename);
   const int64_t scan_chunks = summary.scans.chunks;
   ASSERT_GT(scan_chunks, 4);
@@ -250,12 +243,7 @@ TEST_F(IngestScansTest, ResumeAfterDyingInTheScanCopyGivesTheSameStoreBytes) {
     ASSERT_TRUE(IngestToStore(storage::Env::Default(), log_.string(), store.string(), resume, &summary).ok());
     resumed_inside += summary.scans.resumed_from_scan > 0;
     EXPECT_EQ(summary.scans.scans, 31);
-    const auto resumed = AllFiles(store);
-    ASSERT_EQ(resumed.size(), expected.size());
-    for (auto a = resumed.begin(), b = expected.begin(); a != resumed.end(); ++a, ++b) {
-      ASSERT_EQ(a->first, b->first);
-      EXPECT_TRUE(a->second == b->second) << a->first << " differs";
-    }
+    graphslam::testing::ExpectSameFiles(graphslam::testing::FilesUnder(store), expected);
   }
   EXPECT_GE(resumed_inside, 3);
 }

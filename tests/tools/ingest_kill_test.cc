@@ -19,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "tests/testing/directory_bytes.h"
 #include "tests/testing/kill_nine.h"
 #include "tests/testing/subprocess.h"
 #include "tests/tools/out_of_core_fixture.h"
@@ -78,16 +79,6 @@ TEST_F(IngestKillTest, KillNineDuringIngestNeverLeavesAStoreThatOpens) {
   ExpectSameChi2(ReadJson(dir_ / "memory.json"), ReadJson(dir_ / "store.json"));
 }
 
-// Every file under `dir` by relative path, with its bytes.
-std::map<std::string, std::string> AllFiles(const fs::path& dir) {
-  std::map<std::string, std::string> files;
-  for (const auto& entry : fs::recursive_directory_iterator(dir))
-    if (entry.is_regular_file())
-      files[fs::relative(entry.path(), dir).string()] =
-          graphslam::testing::ReadWholeFile(entry.path());
-  return files;
-}
-
 // kill -9 after the first-pass record, during the spill, and during the chunk
 // writes; `ingest --resume` then gives the uninterrupted ingest's store, every
 // file byte for byte (docs/formats/ingest_progress.md).
@@ -102,7 +93,7 @@ TEST_F(IngestKillTest, KillNineAtSeveralPointsThenResumeGivesTheSameStoreBytes) 
     return args;
   };
   ASSERT_EQ(RunGraphslam(ingest(dir_ / "full", false)), 0);
-  const auto expected = AllFiles(dir_ / "full");
+  const auto expected = graphslam::testing::FilesUnder(dir_ / "full");
   ASSERT_GT(expected.size(), 50u);
   const fs::path store = dir_ / "store";
   int killed = 0;
@@ -123,12 +114,7 @@ TEST_F(IngestKillTest, KillNineAtSeveralPointsThenResumeGivesTheSameStoreBytes) 
       }
     }
     ASSERT_EQ(RunGraphslam(ingest(store, true)), 0);
-    const auto resumed = AllFiles(store);
-    ASSERT_EQ(resumed.size(), expected.size());
-    for (auto a = resumed.begin(), b = expected.begin(); a != resumed.end(); ++a, ++b) {
-      ASSERT_EQ(a->first, b->first);
-      EXPECT_TRUE(a->second == b->second) << a->first << " differs";
-    }
+    graphslam::testing::ExpectSameFiles(graphslam::testing::FilesUnder(store), expected);
   }
   if (killed < 3) std::printf("only %d of 3 ingests were still running at the kill\n", killed);
 }

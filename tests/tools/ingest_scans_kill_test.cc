@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "tests/testing/directory_bytes.h"
 #include "tests/testing/kill_nine.h"
 #include "tests/testing/subprocess.h"
 #include "tests/tools/out_of_core_fixture.h"
@@ -63,14 +64,6 @@ class IngestScansKillTest : public graphslam::testing::OutOfCoreFixture {
   }
 };
 
-// Every file under `dir` by relative path, with its bytes.
-std::map<std::string, std::string> AllFiles(const fs::path& dir) {
-  std::map<std::string, std::string> files;
-  for (const auto& entry : fs::recursive_directory_iterator(dir))
-    if (entry.is_regular_file()) files[fs::relative(entry.path(), dir).string()] = ReadWholeFile(entry.path());
-  return files;
-}
-
 TEST_F(IngestScansKillTest, KillNineThenResumeGivesTheSameStoreWithItsScans) {
   const std::string input = Simulate(3000, 5);
   AddScans(input, 240);
@@ -84,7 +77,7 @@ TEST_F(IngestScansKillTest, KillNineThenResumeGivesTheSameStoreWithItsScans) {
     return args;
   };
   ASSERT_EQ(RunGraphslam(ingest(dir_ / "full", false)), 0);
-  const auto expected = AllFiles(dir_ / "full");
+  const auto expected = graphslam::testing::FilesUnder(dir_ / "full");
   int scan_chunks = 0;
   for (const auto& [name, bytes] : expected) scan_chunks += name.rfind("scans/0", 0) == 0;
   ASSERT_GT(scan_chunks, 30);  // 240 scans of 14 KiB in 48 KiB chunks
@@ -104,12 +97,7 @@ TEST_F(IngestScansKillTest, KillNineThenResumeGivesTheSameStoreWithItsScans) {
       EXPECT_FALSE(fs::exists(store / "scans" / "SCANS.json")) << "killed, yet scans committed";
     }
     ASSERT_EQ(RunGraphslam(ingest(store, true)), 0);
-    const auto resumed = AllFiles(store);
-    ASSERT_EQ(resumed.size(), expected.size());
-    for (auto a = resumed.begin(), b = expected.begin(); a != resumed.end(); ++a, ++b) {
-      ASSERT_EQ(a->first, b->first);
-      EXPECT_TRUE(a->second == b->second) << a->first << " differs";
-    }
+    graphslam::testing::ExpectSameFiles(graphslam::testing::FilesUnder(store), expected);
   }
   if (killed < 4) std::printf("only %d of 4 ingests were still running at the kill\n", killed);
 
