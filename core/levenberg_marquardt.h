@@ -41,10 +41,16 @@
 //                  IterationSummary* it, TrialStep* trial);
 //   void StepResult(bool accepted);          // after every computed step
 //   void Accept();                           // the candidate becomes the state
-//   void FillState(Checkpoint* checkpoint);  // poses, features, excluded, kept
+//   void LendState(Checkpoint* checkpoint);    // moves poses, features, excluded,
+//   void ReturnState(Checkpoint* checkpoint);  // kept in; ReturnState moves them back
+//
+// The state is lent to the checkpoint (moved, not copied) for the callback's
+// duration: at 10^8 features a copy of the feature estimates is ~0.7 GB of
+// peak memory (docs/benchmarks.md, the 10^8 run).
 //
 // THREAD SAFETY: one call per space. ALLOCATION: one IterationSummary per
-// iteration in the summary, one checkpoint copy per iteration when asked.
+// iteration in the summary; the checkpoint's solver state per iteration when
+// asked (the space's vectors are moved, not copied).
 #pragma once
 
 #include <algorithm>
@@ -204,8 +210,10 @@ Status RunLevenbergMarquardt(
       checkpoint.chi2 = chi2;
       checkpoint.converged = converged;
       checkpoint.termination = converged ? summary->termination : "";
-      space->FillState(&checkpoint);
-      GS_RETURN_IF_ERROR(checkpoint_callback(checkpoint));
+      space->LendState(&checkpoint);
+      const Status written = checkpoint_callback(checkpoint);
+      space->ReturnState(&checkpoint);  // before any return: the state must survive an error
+      GS_RETURN_IF_ERROR(written);
     }
     if (converged) {
       summary->converged = true;

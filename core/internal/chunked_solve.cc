@@ -140,12 +140,21 @@ class ChunkedSpace {
       if (!excluded_[g]) problem_.features[g] = candidate_features_[g];
   }
 
-  void FillState(Checkpoint* checkpoint) const {
-    checkpoint->poses = problem_.poses;
-    checkpoint->features = problem_.features;
+  // Moves (not copies) the poses and feature estimates into the checkpoint
+  // for the callback (the one-byte flags are copied); ReturnState must follow
+  // before the state is used again. A moved vector keeps its buffer, so the
+  // state comes back at the same addresses.
+  void LendState(Checkpoint* checkpoint) {
+    checkpoint->poses = std::move(problem_.poses);
+    checkpoint->features = std::move(problem_.features);
     checkpoint->excluded = excluded_;
     checkpoint->kept = kept_;
     solver_.SaveState(&checkpoint->pcg);
+  }
+
+  void ReturnState(Checkpoint* checkpoint) {
+    problem_.poses = std::move(checkpoint->poses);
+    problem_.features = std::move(checkpoint->features);
   }
 
  private:

@@ -136,6 +136,60 @@ TEST(GraphSlamSolver, RejectsInvalidOptions) {
 namespace graphslam::core {
 namespace {
 
+// The state is lent to the checkpoint callback (moved, not copied): the
+// callback sees the full state, the solve goes on with it afterwards (same
+// optimum as without checkpoints), and a callback error leaves the problem
+// holding the state of that iteration rather than emptied vectors.
+TEST(GraphSlamSolver, CheckpointCallbackSeesTheStateAndTheSolveKeepsIt) {
+  testing::RandomProblemOptions options;
+  options.num_poses = 40;
+  options.num_features = 10;
+  options.seed = 11;
+  const testing::RandomProblem random = testing::MakeRandomProblem(options);
+  partition::InMemoryChunkSource chunks(random.problem, partition::ChunkingOptions());
+  SolverOptions solver_options;
+  solver_options.function_tolerance = 1e-12;
+
+  Problem2d plain = random.problem;
+  SolverSummary plain_summary;
+  ASSERT_TRUE(SolveGraphSlam(solver_options, chunks, &plain, &plain_summary).ok());
+
+  std::vector<SolverCheckpoint> seen;
+  solver_options.checkpoint_callback = [&](const SolverCheckpoint& c) {
+    seen.push_back(c);
+    return Status::Ok();
+  };
+  Problem2d checkpointed = random.problem;
+  SolverSummary summary;
+  ASSERT_TRUE(SolveGraphSlam(solver_options, chunks, &checkpointed, &summary).ok());
+  ASSERT_EQ(static_cast<int>(seen.size()), summary.iterations);
+  EXPECT_EQ(summary.final_chi2, plain_summary.final_chi2);
+  for (const SolverCheckpoint& c : seen) {
+    ASSERT_EQ(c.poses.size(), random.problem.poses.size());
+    ASSERT_EQ(c.features.size(), random.problem.features.size());
+  }
+  for (int j = 0; j < checkpointed.num_features(); ++j)
+    EXPECT_EQ(checkpointed.features[j], plain.features[j]) << "feature " << j;
+
+  // A failing callback at iteration 2: the error is returned and the problem
+  // holds exactly the state that checkpoint was given.
+  int calls = 0;
+  SolverCheckpoint at_error;
+  solver_options.checkpoint_callback = [&](const SolverCheckpoint& c) {
+    if (++calls < 2) return Status::Ok();
+    at_error = c;
+    return Status::IOError("disk full (test)");
+  };
+  Problem2d failed = random.problem;
+  EXPECT_FALSE(SolveGraphSlam(solver_options, chunks, &failed, &summary).ok());
+  ASSERT_EQ(failed.features.size(), at_error.features.size());
+  ASSERT_EQ(failed.poses.size(), at_error.poses.size());
+  for (size_t j = 0; j < failed.features.size(); ++j)
+    EXPECT_EQ(failed.features[j], at_error.features[j]) << "feature " << j;
+  for (size_t i = 0; i < failed.poses.size(); ++i)
+    EXPECT_EQ(failed.poses[i].x(), at_error.poses[i].x()) << "pose " << i;
+}
+
 TEST(GraphSlamSolver, KeepingFeaturesAsUnknownsEqualsEliminatingThem) {
   testing::RandomProblemOptions options;
   options.num_poses = 50;
