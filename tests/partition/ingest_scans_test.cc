@@ -31,12 +31,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string ReadBytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
+using graphslam::testing::ReadWholeFile;
 
 class IngestScansTest : public ::testing::Test {
  protected:
@@ -164,8 +159,8 @@ TEST_F(IngestScansTest, MapFromTheStoreEqualsTheMapFromTheLogAndNeedsNeither) {
   EXPECT_EQ(store_map->scans, log_map->scans);
   EXPECT_EQ(store_map->occupied_leaves, log_map->occupied_leaves);
   EXPECT_EQ(store_map->pcd_points, log_map->pcd_points);
-  EXPECT_TRUE(ReadBytes(root_ / "store_map.bt") == ReadBytes(root_ / "log.bt"));
-  EXPECT_TRUE(ReadBytes(root_ / "store_map.pcd") == ReadBytes(root_ / "log.pcd"));
+  EXPECT_TRUE(ReadWholeFile(root_ / "store_map.bt") == ReadWholeFile(root_ / "log.bt"));
+  EXPECT_TRUE(ReadWholeFile(root_ / "store_map.pcd") == ReadWholeFile(root_ / "log.pcd"));
 
   // With a solved trajectory too (row k = pose k): every scan is re-posed.
   std::vector<core::Pose3> poses(30);
@@ -176,13 +171,13 @@ TEST_F(IngestScansTest, MapFromTheStoreEqualsTheMapFromTheLogAndNeedsNeither) {
   ASSERT_TRUE(from_log.ok());
   ASSERT_TRUE(map::BuildMap(MapTo(root_ / "log2"), **from_log, &poses).ok());
   ASSERT_TRUE(map::BuildMap(MapTo(root_ / "store2"), **from_store, &poses).ok());
-  EXPECT_TRUE(ReadBytes(root_ / "store2.bt") == ReadBytes(root_ / "log2.bt"));
-  EXPECT_TRUE(ReadBytes(root_ / "store2.pcd") == ReadBytes(root_ / "log2.pcd"));
+  EXPECT_TRUE(ReadWholeFile(root_ / "store2.bt") == ReadWholeFile(root_ / "log2.bt"));
+  EXPECT_TRUE(ReadWholeFile(root_ / "store2.pcd") == ReadWholeFile(root_ / "log2.pcd"));
 }
 
 TEST_F(IngestScansTest, AMissingPcdIsAnErrorNamingTheLineAndTheFile) {
   WriteLog("SCAN 105 pcd/gone.pcd\n");
-  const std::string text = ReadBytes(log_);
+  const std::string text = ReadWholeFile(log_);
   const auto line = std::count(text.begin(), text.end(), '\n');  // the SCAN line is the last
   const Status status = Ingest(root_ / "store");
   ASSERT_FALSE(status.ok());

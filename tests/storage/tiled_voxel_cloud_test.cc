@@ -24,18 +24,14 @@
 #include <vector>
 
 #include "storage/pcd_io.h"
+#include "tests/testing/directory_bytes.h"
 
 namespace graphslam::map {
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string ReadBytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
+using graphslam::testing::ReadWholeFile;
 
 // Scans along a drive (1 m apart, as a robot's), each of random points within
 // 4 m of its pose, half of them clustered so voxels collect several points
@@ -116,7 +112,7 @@ TEST_F(TiledVoxelCloudTest, ATinyBudgetSpillsYetWritesTheUnboundedBytesAndTheRef
   EXPECT_GT(tiny.reloads, 40);
   EXPECT_LE(tiny.peak_resident_bytes, unbounded.peak_resident_bytes / 4);
   EXPECT_EQ(tiny.voxels, unbounded.voxels);
-  EXPECT_TRUE(ReadBytes(dir_ / "tiny.pcd") == ReadBytes(dir_ / "unbounded.pcd"));
+  EXPECT_TRUE(ReadWholeFile(dir_ / "tiny.pcd") == ReadWholeFile(dir_ / "unbounded.pcd"));
 
   // Against the in-memory reference, through PCL's reader.
   VoxelCloud reference(0.1);
@@ -154,7 +150,7 @@ TEST_F(TiledVoxelCloudTest, ManySegmentsAndOptionalFieldsLoadWithPcl) {
   std::vector<std::string> names;
   LoadRows(dir_ / "xyz.pcd", &names);
   EXPECT_EQ(names, (std::vector<std::string>{"x", "y", "z"}));
-  const std::string bytes = ReadBytes(dir_ / "xyz.pcd");
+  const std::string bytes = ReadWholeFile(dir_ / "xyz.pcd");
   EXPECT_NE(bytes.find("DATA binary_compressed\n"), std::string::npos);
 
   // Intensity without run ids: x y z intensity, as pcl::PointXYZI.

@@ -1,4 +1,4 @@
-// Byte-for-byte comparison of directory trees, for the resume tests: a store
+// Whole files and byte-for-byte comparison of directory trees, for the resume tests: a store
 // written by an interrupted-then-resumed run must equal the uninterrupted
 // run's in every file (names and bytes).
 #pragma once
@@ -13,16 +13,20 @@
 
 namespace graphslam::testing {
 
+// The whole content of a file, byte for byte ("" if it cannot be read).
+inline std::string ReadWholeFile(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return bytes.str();
+}
+
 // Every regular file under `dir`, by path relative to `dir`, with its bytes.
 inline std::map<std::string, std::string> FilesUnder(const std::filesystem::path& dir) {
   std::map<std::string, std::string> files;
-  for (const auto& entry : std::filesystem::recursive_directory_iterator(dir)) {
-    if (!entry.is_regular_file()) continue;
-    std::ifstream in(entry.path(), std::ios::binary);
-    std::ostringstream bytes;
-    bytes << in.rdbuf();
-    files[std::filesystem::relative(entry.path(), dir).string()] = bytes.str();
-  }
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(dir))
+    if (entry.is_regular_file())
+      files[std::filesystem::relative(entry.path(), dir).string()] = ReadWholeFile(entry.path());
   return files;
 }
 

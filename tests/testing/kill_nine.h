@@ -16,6 +16,7 @@
 #include <thread>
 #include <vector>
 
+#include "tests/testing/directory_bytes.h"
 #include "tests/testing/subprocess.h"
 
 namespace graphslam::testing {
@@ -34,14 +35,6 @@ inline bool SpawnAndKillWhenFileExists(const std::vector<std::string>& args,
   int status = 0;
   waitpid(pid, &status, 0);
   return WIFSIGNALED(status);
-}
-
-// The whole content of a file ("" if it cannot be read).
-inline std::string ReadWholeFile(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
 }
 
 // Resumes `graphslam solve input` from `checkpoint` into DIR/resumed.g2o and
