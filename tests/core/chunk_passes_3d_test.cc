@@ -22,6 +22,7 @@
 #include "core/pose_factors_3d.h"
 #include "core/relative_pose3_model.h"
 #include "partition/in_memory_chunk_source.h"
+#include "tests/testing/reduced_system_at.h"
 #include "tests/testing/random_problem_3d.h"
 
 namespace graphslam::core {
@@ -148,30 +149,6 @@ DenseReduction DenseReduce(const DenseSystem& dense, const UnknownLayout& layout
   return out;
 }
 
-// The reduced system as the solver starts ReducePass from: pattern, zeroed,
-// plus the pose-only factors.
-ReducedSystem SystemAt(const Problem3d& problem, const PassContext3d& context,
-                       const std::vector<Pose3>& poses) {
-  std::vector<std::pair<int, int>> pairs;
-  AppendPoseFactorPattern(problem, *context.layout, &pairs);
-  EXPECT_TRUE(CollectReducedPattern(context, &pairs).ok());
-  ReducedSystem system;
-  system.matrix = BlockSparseMatrix::FromPattern(6, context.layout->num_blocks(), pairs);
-  const int n = system.matrix.num_rows();
-  system.matrix.SetZero();
-  system.rhs.setZero(n);
-  system.gradient.setZero(n);
-  system.hessian_diagonal.setZero(n);
-  LinearizePoseFactors(problem, poses, *context.layout, &system.matrix, &system.gradient,
-                       &system.hessian_diagonal);
-  system.rhs -= system.gradient;
-  return system;
-}
-
-double RelativeDifference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
-  return (a - b).norm() / std::max(b.norm(), 1e-300);
-}
-
 // (chunk size, kept features, Huber kernel, gps)
 class ChunkPasses3dTest : public ::testing::TestWithParam<std::tuple<int, bool, bool, bool>> {};
 
@@ -197,16 +174,16 @@ TEST_P(ChunkPasses3dTest, ReduceAndRecoverEqualTheDenseSchurComplement) {
     const DenseSystem dense = DenseNormalEquations(problem, layout, context.kernel);
     for (const double lambda : {0.0, 0.3}) {
       const DenseReduction reference = DenseReduce(dense, layout, problem.num_features(), lambda);
-      ReducedSystem system = SystemAt(problem, context, problem.poses);
+      ReducedSystem system = testing::ReducedSystemAt(problem, context, problem.poses);
       ASSERT_TRUE(ReducePass(context, problem.poses, problem.features, lambda, &system).ok());
       const Eigen::MatrixXd s = system.matrix.ToDense();
-      EXPECT_LE(RelativeDifference(s, reference.s), kTolerance)
+      EXPECT_LE(testing::RelativeDifference(s, reference.s), kTolerance)
           << "seed " << seed << " lambda " << lambda << "\nchunked:\n" << s << "\ndense:\n"
           << reference.s;
-      EXPECT_LE(RelativeDifference(system.rhs, reference.rhs), kTolerance)
+      EXPECT_LE(testing::RelativeDifference(system.rhs, reference.rhs), kTolerance)
           << "seed " << seed << "\nchunked: " << system.rhs.transpose()
           << "\ndense:   " << reference.rhs.transpose();
-      EXPECT_LE(RelativeDifference(system.gradient, reference.gradient), kTolerance);
+      EXPECT_LE(testing::RelativeDifference(system.gradient, reference.gradient), kTolerance);
       EXPECT_NEAR(system.chi2, dense.observations_chi2, kTolerance * dense.observations_chi2);
 
       // Recovery for the reduced solution (an arbitrary step would do too).
@@ -251,7 +228,7 @@ TEST(ChunkPasses3d, FusedPassEqualsReduceAtTheCandidateBitForBit) {
     PassContext3d context;
     context.chunks = &chunks;
     context.layout = &layout;
-    ReducedSystem system = SystemAt(problem, context, problem.poses);
+    ReducedSystem system = testing::ReducedSystemAt(problem, context, problem.poses);
     ASSERT_TRUE(ReducePass(context, problem.poses, problem.features, 0.1, &system).ok());
     const Eigen::VectorXd step = system.matrix.ToDense().ldlt().solve(system.rhs);
     std::vector<Pose3> candidate_poses = problem.poses;
@@ -264,14 +241,14 @@ TEST(ChunkPasses3d, FusedPassEqualsReduceAtTheCandidateBitForBit) {
     ASSERT_TRUE(RecoverPass(context, problem.poses, problem.features, 0.1, step,
                             candidate_poses, &separate_features, &separate)
                     .ok());
-    ReducedSystem next = SystemAt(problem, context, candidate_poses);
+    ReducedSystem next = testing::ReducedSystemAt(problem, context, candidate_poses);
     Status next_status;
     ASSERT_TRUE(RecoverAndReducePass(context, problem.poses, problem.features, 0.1, step,
                                      candidate_poses, &fused_features, &fused, 0.05, &next,
                                      &next_status)
                     .ok());
     ASSERT_TRUE(next_status.ok()) << next_status.ToString();
-    ReducedSystem expected = SystemAt(problem, context, candidate_poses);
+    ReducedSystem expected = testing::ReducedSystemAt(problem, context, candidate_poses);
     ASSERT_TRUE(
         ReducePass(context, candidate_poses, separate_features, 0.05, &expected).ok());
     EXPECT_EQ(fused.candidate_chi2, separate.candidate_chi2);

@@ -8,6 +8,7 @@
 #include "core/pose_factors.h"
 #include "partition/in_memory_chunk_source.h"
 #include "tests/testing/dense_reference.h"
+#include "tests/testing/reduced_system_at.h"
 #include "tests/testing/random_problem.h"
 
 namespace graphslam::core {
@@ -103,29 +104,6 @@ TEST_P(ChunkPassesTest, ReduceEqualsDenseSchurComplementAndRecoveryEqualsDenseSo
 INSTANTIATE_TEST_SUITE_P(KindsAndChunkSizes, ChunkPassesTest,
                          ::testing::Combine(::testing::Bool(), ::testing::Values(1, 7, 100000)));
 
-// The reduced system's pattern for `problem`, zeroed, with the pose-only
-// factors at `poses` added (what the solver hands ReducePass).
-ReducedSystem SystemAt(const Problem2d& problem, const PassContext& context,
-                       const std::vector<Pose2>& poses) {
-  std::vector<std::pair<int, int>> pairs;
-  AppendPoseFactorPattern(problem, *context.layout, &pairs);
-  EXPECT_TRUE(CollectReducedPattern(context, &pairs).ok());
-  ReducedSystem system;
-  system.matrix = BlockSparseMatrix::FromPattern(3, context.layout->num_blocks(), pairs);
-  const int n = system.matrix.num_rows();
-  system.rhs.setZero(n);
-  system.gradient.setZero(n);
-  system.hessian_diagonal.setZero(n);
-  LinearizePoseFactors(problem, poses, *context.layout, &system.matrix, &system.gradient,
-                       &system.hessian_diagonal);
-  system.rhs -= system.gradient;
-  return system;
-}
-
-double RelativeDifference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
-  return (a - b).norm() / std::max(b.norm(), 1e-300);
-}
-
 // (range-bearing, chunk size, kept features + robust kernel)
 class FusedPassTest : public ::testing::TestWithParam<std::tuple<bool, int, bool>> {};
 
@@ -156,7 +134,7 @@ TEST_P(FusedPassTest, NextSystemEqualsReducePassAtTheCandidateAndRecoveryIsUncha
 
     // A damped step at the initial guess, as the solver takes it.
     const double lambda = 0.3, next_lambda = lambda / 3.0;
-    ReducedSystem system = SystemAt(problem, context, problem.poses);
+    ReducedSystem system = testing::ReducedSystemAt(problem, context, problem.poses);
     ASSERT_TRUE(ReducePass(context, problem.poses, problem.features, lambda, &system).ok());
     Eigen::MatrixXd damped = system.matrix.ToDense();
     damped.diagonal() += lambda * system.hessian_diagonal.cwiseMax(kMinDiagonal);
@@ -172,7 +150,7 @@ TEST_P(FusedPassTest, NextSystemEqualsReducePassAtTheCandidateAndRecoveryIsUncha
     ASSERT_TRUE(RecoverPass(context, problem.poses, problem.features, lambda, step,
                             candidate_poses, &recovered, &recovery)
                     .ok());
-    ReducedSystem next = SystemAt(problem, context, candidate_poses);
+    ReducedSystem next = testing::ReducedSystemAt(problem, context, candidate_poses);
     std::vector<Point2> fused_recovered;
     RecoveryResult fused_recovery;
     Status next_status = Status::Numerical("not set");
@@ -193,20 +171,20 @@ TEST_P(FusedPassTest, NextSystemEqualsReducePassAtTheCandidateAndRecoveryIsUncha
     // The reduce half equals a plain ReducePass at the candidate. The design
     // promises bit equality (same kernels, same merge order); the stated
     // tolerance is 1e-12 relative.
-    ReducedSystem reference = SystemAt(problem, context, candidate_poses);
+    ReducedSystem reference = testing::ReducedSystemAt(problem, context, candidate_poses);
     ASSERT_TRUE(
         ReducePass(context, candidate_poses, recovered, next_lambda, &reference).ok());
     const Eigen::MatrixXd next_dense = next.matrix.ToDense();
     const Eigen::MatrixXd reference_dense = reference.matrix.ToDense();
-    EXPECT_LE(RelativeDifference(next_dense, reference_dense), 1e-12)
+    EXPECT_LE(testing::RelativeDifference(next_dense, reference_dense), 1e-12)
         << "seed " << seed << "\nfused:\n" << next_dense << "\nReducePass:\n" << reference_dense;
-    EXPECT_LE(RelativeDifference(next.rhs, reference.rhs), 1e-12)
+    EXPECT_LE(testing::RelativeDifference(next.rhs, reference.rhs), 1e-12)
         << "fused:      " << next.rhs.transpose() << "\nReducePass: " << reference.rhs.transpose();
-    EXPECT_LE(RelativeDifference(next.gradient, reference.gradient), 1e-12);
-    EXPECT_LE(RelativeDifference(next.hessian_diagonal, reference.hessian_diagonal), 1e-12);
+    EXPECT_LE(testing::RelativeDifference(next.gradient, reference.gradient), 1e-12);
+    EXPECT_LE(testing::RelativeDifference(next.hessian_diagonal, reference.hessian_diagonal), 1e-12);
     EXPECT_NEAR(next.chi2, reference.chi2, 1e-12 * reference.chi2);
     // And it is a different system from the one at the initial guess.
-    EXPECT_GT(RelativeDifference(next_dense, system.matrix.ToDense()), 1e-6);
+    EXPECT_GT(testing::RelativeDifference(next_dense, system.matrix.ToDense()), 1e-6);
   }
 }
 
