@@ -355,11 +355,15 @@ class ChunkParser {
       const auto feature = static_cast<int32_t>(format::DecodeFixed32(entry));
       const uint32_t feature_observations = format::DecodeFixed32(entry + 4);
       const int64_t slot = first_slot + k;
-      const std::string slot_name =
-          "feature slot " + std::to_string(slot) + " (feature " + std::to_string(feature) + ")";
-      if (feature < 0) return Status::Corruption(where + slot_name + ": negative feature index");
+      // Built only for a message: two strings per feature were a visible part
+      // of a streaming pass.
+      const auto slot_name = [&] {
+        return "feature slot " + std::to_string(slot) + " (feature " + std::to_string(feature) +
+               ")";
+      };
+      if (feature < 0) return Status::Corruption(where + slot_name() + ": negative feature index");
       if (!result_->features.empty() && feature <= result_->features.back()) {
-        return Status::Corruption(where + slot_name + ": expected a feature above " +
+        return Status::Corruption(where + slot_name() + ": expected a feature above " +
                                   std::to_string(result_->features.back()) +
                                   " (features must be strictly ascending)");
       }
@@ -369,7 +373,7 @@ class ChunkParser {
         const std::string problem = format::DescribeInvalidObservation(decoded, feature);
         if (!problem.empty()) {
           return Status::Corruption(where + "observation " + std::to_string(observation) +
-                                    " (" + slot_name + "): " + problem);
+                                    " (" + slot_name() + "): " + problem);
         }
         result_->observations.push_back(decoded);
       }
