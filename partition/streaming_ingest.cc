@@ -83,17 +83,11 @@ StatusOr<FirstPass> RunFirstPass(const std::string& input, const std::string& wo
       return Status::Ok();
     };
   }
-  // Exactly one entry per feature (Add grows geometrically): a resumed
+  // Exactly one entry per feature (Add grows to the highest feature
+  // observed; features declared but never observed count 0): a resumed
   // ingest reads back the same index.
-  const auto num_features = static_cast<size_t>(pass.problem.num_features());
   pass.index.Resize(pass.problem.num_features());
-  if (pass.index.counts().size() > num_features) {
-    std::vector<int32_t> counts(pass.index.counts().begin(),
-                                pass.index.counts().begin() + num_features);
-    std::vector<int32_t> first_pose(pass.index.first_pose().begin(),
-                                    pass.index.first_pose().begin() + num_features);
-    pass.index.Assign(std::move(counts), std::move(first_pose), pass.index.observations());
-  }
+  GS_CHECK(pass.index.counts().size() == static_cast<size_t>(pass.problem.num_features()));
 
   pass.scan_poses = LoggedScanPoses(pass.problem, pass.scans);  // the guesses, as logged
 
