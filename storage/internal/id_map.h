@@ -90,8 +90,8 @@ class IdMap {
 // Other ids (negative, huge, sparse) go to an unordered_map. An id lives in
 // exactly one of the two.
 //
-// THREAD SAFETY: none (one reader). ALLOCATION: the table (doubling) and the
-// map's nodes.
+// THREAD SAFETY: none (one reader). ALLOCATION: the table (resident: up to
+// the highest dense id seen; capacity doubling) and the map's nodes.
 class GrowingIdMap {
  public:
   // The index of `id`, or -1.
@@ -107,11 +107,11 @@ class GrowingIdMap {
     ++size_;
     const int64_t dense_limit = 8 * size_ + 1024;
     if (id >= 0 && id < dense_limit) {
-      if (id >= static_cast<int64_t>(direct_.size())) {
-        const int64_t grown = std::min<int64_t>(
-            dense_limit, std::max<int64_t>(id + 1, 2 * static_cast<int64_t>(direct_.size())));
-        direct_.resize(static_cast<size_t>(grown), -1);
-      }
+      // To the id only: std::vector's own growth is geometric (amortized
+      // O(1)) and leaves its spare capacity unwritten, i.e. not resident;
+      // doubling the size here filled it with -1 (up to 2x the id range).
+      if (id >= static_cast<int64_t>(direct_.size()))
+        direct_.resize(static_cast<size_t>(id) + 1, -1);
       direct_[id] = index;
       return;
     }
