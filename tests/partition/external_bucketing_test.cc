@@ -249,6 +249,31 @@ TEST_F(ExternalBucketingTest, FeatureGuessesOfTheStoreAreTable1OnEveryObservatio
     EXPECT_EQ(stored->features[f], all.features[f]) << "feature " << f;
 }
 
+// A run killed in pass 1 leaves a partial work/first_sight.bin and no
+// progress record: --resume starts afresh (emptying work/), the scratch of the
+// dead run never reaches the guesses, and nothing is left behind.
+TEST_F(ExternalBucketingTest, FirstSightScratchOfAKilledPassOneIsDiscarded) {
+  const std::string input = WriteInput(13);
+  const int64_t chunk = 100;
+  WriteInMemoryStore(input, Path("memory"), chunk);
+  const std::string store = Path("streamed");
+  std::filesystem::create_directories(store + "/work");
+  {
+    std::ofstream stale(store + "/work/first_sight.bin", std::ios::binary);
+    stale << std::string(1000, '\x7f');  // not even whole records
+  }
+  StreamingIngestOptions options;
+  options.max_observations_per_chunk = chunk;
+  options.buffer_observations = 137;
+  options.store.source = input;
+  options.resume = true;
+  IngestSummary summary;
+  ASSERT_TRUE(IngestToStore(Env::Default(), input, store, options, &summary).ok());
+  EXPECT_EQ(summary.resumed_stage, "");
+  ExpectSameBytes(Path("memory"), store);
+  EXPECT_FALSE(std::filesystem::exists(store + "/work")) << "scratch left behind";
+}
+
 TEST_F(ExternalBucketingTest, FailedIngestNeverLeavesAStoreThatOpensAndRerunCompletesIt) {
   const std::string input = WriteInput(11);
   const std::string store = Path("store");
