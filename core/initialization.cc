@@ -82,7 +82,6 @@ Status CheckIndex(const Problem2d& problem, int32_t index, int32_t size, int32_t
 
 Status CheckConstraints(const Problem2d& problem) {
   const int32_t num_poses = problem.num_poses();
-  const int32_t num_features = problem.num_features();
   for (const RelativePoseConstraint& c : problem.relative_poses) {
     GS_RETURN_IF_ERROR(CheckIndex(problem, c.from, num_poses, c.line, "odometry edge", "pose"));
     GS_RETURN_IF_ERROR(CheckIndex(problem, c.to, num_poses, c.line, "odometry edge", "pose"));
@@ -102,15 +101,8 @@ Status CheckConstraints(const Problem2d& problem) {
     GS_RETURN_IF_ERROR(CheckInformation<2>(problem, c.information, c.line,
                                            "GPS fix of " + PoseName(problem, c.pose)));
   }
-  for (const Observation& c : problem.observations) {
-    GS_RETURN_IF_ERROR(CheckIndex(problem, c.pose, num_poses, c.line, "observation", "pose"));
-    GS_RETURN_IF_ERROR(
-        CheckIndex(problem, c.feature, num_features, c.line, "observation", "feature"));
-    GS_RETURN_IF_ERROR(CheckInformation<2>(problem, c.information, c.line,
-                                           "observation of feature " +
-                                               std::to_string(problem.feature_ids[c.feature]) +
-                                               " from " + PoseName(problem, c.pose)));
-  }
+  for (const Observation& c : problem.observations)
+    GS_RETURN_IF_ERROR(CheckObservation(problem, c));
   return Status::Ok();
 }
 
@@ -314,18 +306,31 @@ void InitializePoses(Problem2d* problem) {
 }
 
 void InitializeFeatures(Problem2d* problem) {
-  std::vector<uint8_t>& initialized = problem->feature_initialized;
-  for (const Observation& observation : problem->observations) {
-    if (initialized[observation.feature] != 0) continue;
-    const Pose2& pose = problem->poses[observation.pose];
-    problem->features[observation.feature] = observation.kind == ObservationKind::kRangeBearing
-                                                 ? InvertRangeBearing(pose, observation.z)
-                                                 : InvertPointObservation(pose, observation.z);
-    initialized[observation.feature] = 1;
-  }
+  for (const Observation& observation : problem->observations) PlaceFeature(problem, observation);
 }
 
 }  // namespace
+
+Status CheckObservation(const Problem2d& problem, const Observation& c) {
+  GS_RETURN_IF_ERROR(
+      CheckIndex(problem, c.pose, problem.num_poses(), c.line, "observation", "pose"));
+  GS_RETURN_IF_ERROR(
+      CheckIndex(problem, c.feature, problem.num_features(), c.line, "observation", "feature"));
+  return CheckInformation<2>(problem, c.information, c.line,
+                             "observation of feature " +
+                                 std::to_string(problem.feature_ids[c.feature]) + " from " +
+                                 PoseName(problem, c.pose));
+}
+
+void PlaceFeature(Problem2d* problem, const Observation& observation) {
+  uint8_t& initialized = problem->feature_initialized[observation.feature];
+  if (initialized != 0) return;
+  const Pose2& pose = problem->poses[observation.pose];
+  problem->features[observation.feature] = observation.kind == ObservationKind::kRangeBearing
+                                               ? InvertRangeBearing(pose, observation.z)
+                                               : InvertPointObservation(pose, observation.z);
+  initialized = 1;
+}
 
 Status ValidateProblem(const Problem2d& problem) {
   const size_t num_poses = problem.poses.size();

@@ -44,6 +44,19 @@ namespace graphslam::core {
 // and marks them initialized. On error *problem is unchanged.
 Status InitializeProblem(Problem2d* problem);
 
+// The checks of InitializeProblem for one observation (indices in range,
+// information positive definite), with its messages. For callers that stream
+// observations past the problem instead of holding them
+// (partition/first_sight_initialization.h).
+Status CheckObservation(const Problem2d& problem, const Observation& observation);
+
+// Table 1's feature placement for one observation: when its feature has no
+// guess yet, places it by inverting the measurement model from the pose's
+// current guess and marks it initialized; else does nothing. Feeding the
+// observations in input order after the poses are initialized gives
+// InitializeProblem's feature guesses (the first observation places).
+void PlaceFeature(Problem2d* problem, const Observation& observation);
+
 // The checks of InitializeProblem alone (indices, information matrices,
 // connectivity), without modifying the problem.
 Status ValidateProblem(const Problem2d& problem);

@@ -102,40 +102,6 @@ class FeatureIndex {
   int64_t observations_ = 0;
 };
 
-// Keeps, of a stream of observations, the few that Table 1 initialization and
-// the connectivity check need (core/initialization.h): the first observation
-// of every feature (it places the feature), and every observation that joins
-// two pose components not yet joined through features (at most poses - 1).
-// Initializing a problem whose observations are these gives the same guesses
-// and the same connectivity verdict as with all observations, in
-// O(poses + features) memory.
-class InitializationObservations {
- public:
-  void Add(const core::Observation& observation);
-  // A copy of the kept observations, in input order.
-  std::vector<core::Observation> kept() const;
-  // Moves them out into one vector of exactly their size, block by block (the
-  // peak is that vector plus one block), and frees the rest.
-  std::vector<core::Observation> TakeKept();
-
- private:
-  int32_t Find(int32_t pose);
-  void Keep(const core::Observation& observation);
-
-  // One kept observation per feature (72 bytes each): held in blocks of
-  // kKeptBlock, not one growing vector, whose reallocations held the old
-  // and the new array at once (3x at the moment of growth). 2^19 x 72 B =
-  // 36 MiB, above glibc's largest mmap threshold (32 MiB), so every block is
-  // its own mapping and TakeKept's frees return the pages to the system at
-  // once (smaller blocks came from the heap, whose freed middle stays
-  // resident: the copy then doubled the RSS of the kept observations).
-  static constexpr size_t kKeptBlock = size_t{1} << 19;
-  std::vector<int32_t> parent_;          // union-find over poses
-  std::vector<int32_t> feature_anchor_;  // per feature: its first pose, -1 if unseen
-  std::vector<std::vector<core::Observation>> kept_;
-  size_t num_kept_ = 0;
-};
-
 // A block of observations of pass 2, in input order, and where the input
 // stands after it (end_offset < 0: not a resumable point).
 struct ObservationBlock {

@@ -1,6 +1,7 @@
 # Out of core (issue 3): external bucketing and the bounded-memory ingest.
 target_sources(graphslam_partition PRIVATE
   external_bucketing.cc
+  first_sight_initialization.cc
   ingest_progress.cc
   ingest_scans.cc
   streaming_ingest.cc

@@ -6,9 +6,9 @@
 #include <utility>
 #include <vector>
 
-#include "core/initialization.h"
 #include "core/logging.h"
 #include "core/unidentified_features.h"
+#include "partition/first_sight_initialization.h"
 #include "partition/ingest_progress.h"
 #include "storage/chunk_store_writer.h"
 #include "storage/native_log_observation_replay.h"
@@ -41,12 +41,13 @@ struct FirstPass {
   std::vector<core::Pose3> scan_poses;        // their scans' logged poses
 };
 
-StatusOr<FirstPass> RunFirstPass(const std::string& input, const StreamingIngestOptions& options) {
+StatusOr<FirstPass> RunFirstPass(const std::string& input, const std::string& work,
+                                 const StreamingIngestOptions& options) {
   FirstPass pass;
-  InitializationObservations init;
+  FirstSightInitialization init((std::filesystem::path(work) / kFirstSightScratchName).string());
   const storage::ObservationSink pass1 = [&](const core::Observation& observation) {
+    GS_RETURN_IF_ERROR(init.Add(observation, pass.index));  // before the index counts it
     pass.index.Add(observation);
-    init.Add(observation);
     return Status::Ok();
   };
   if (options.format == storage::InputFormat::kNative) {
@@ -82,25 +83,16 @@ StatusOr<FirstPass> RunFirstPass(const std::string& input, const StreamingIngest
       return Status::Ok();
     };
   }
-  // Exactly one entry per feature (Add grows geometrically): a resumed
+  // Exactly one entry per feature (Add grows to the highest feature
+  // observed; features declared but never observed count 0): a resumed
   // ingest reads back the same index.
-  const auto num_features = static_cast<size_t>(pass.problem.num_features());
   pass.index.Resize(pass.problem.num_features());
-  if (pass.index.counts().size() > num_features) {
-    std::vector<int32_t> counts(pass.index.counts().begin(),
-                                pass.index.counts().begin() + num_features);
-    std::vector<int32_t> first_pose(pass.index.first_pose().begin(),
-                                    pass.index.first_pose().begin() + num_features);
-    pass.index.Assign(std::move(counts), std::move(first_pose), pass.index.observations());
-  }
+  GS_CHECK(pass.index.counts().size() == static_cast<size_t>(pass.problem.num_features()));
 
   pass.scan_poses = LoggedScanPoses(pass.problem, pass.scans);  // the guesses, as logged
 
-  // Initialization on the kept observations, then back to pose-only.
-  pass.problem.observations = init.TakeKept();
-  GS_RETURN_IF_ERROR(core::InitializeProblem(&pass.problem));
-  pass.problem.observations.clear();
-  pass.problem.observations.shrink_to_fit();
+  // Table 1 from the first sights on disk and the joining observations.
+  GS_RETURN_IF_ERROR(init.Initialize(&pass.problem));
   return pass;
 }
 
@@ -166,7 +158,7 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
     index.Assign(std::move(pass1.counts), std::move(pass1.first_pose), pass1.observations);
     summary->resumed_stage = progress.stage;
   } else {
-    GS_ASSIGN_OR_RETURN(FirstPass first, RunFirstPass(input, options));
+    GS_ASSIGN_OR_RETURN(FirstPass first, RunFirstPass(input, work, options));
     if (native && options.copy_scans)
       GS_RETURN_IF_ERROR(SaveScanRecords(env, input, work, first.scans, first.scan_poses));
     GS_RETURN_IF_ERROR(writer.WriteProblem(first.problem));
@@ -182,8 +174,8 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
       pass1.first_pose = index.first_pose();
       pass1.observations = index.observations();
       GS_RETURN_IF_ERROR(WritePass1Record(env, pass1_path, pass1));
-      pass1.counts.clear();
-      pass1.first_pose.clear();
+      pass1.counts = std::vector<int32_t>();  // freed, not cleared: 8 B per feature
+      pass1.first_pose = std::vector<int32_t>();
       progress.stage = "spill";
       GS_RETURN_IF_ERROR(WriteIngestProgress(env, progress_path, progress));
     }
@@ -193,6 +185,8 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
   // 4. Pass 2.
   GS_ASSIGN_OR_RETURN(std::unique_ptr<BucketChunkSource> chunks,
                       BucketChunkSource::Plan(index, bucketing));
+  const int64_t observations = index.observations();
+  index = FeatureIndex();  // the plan has what pass 2 needs: 8 B per feature freed
   if (!native) {
     SpillProgress spill;
     GS_RETURN_IF_ERROR(chunks->Spill(InBlocks(replay), &spill, nullptr, 0.0));
@@ -248,7 +242,7 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
 
   summary->poses = progress.poses;
   summary->features = progress.features;
-  summary->observations = index.observations();
+  summary->observations = observations;
   summary->chunks = chunks->NumChunks();
   summary->bucketing = chunks->stats();
   return Status::Ok();

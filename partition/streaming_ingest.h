@@ -6,15 +6,18 @@
 //      step 5 ends the directory is an incomplete store that every reader
 //      rejects, whatever kills the process (kill -9 included).
 //   2. pass 1 over the input: the pose-only problem (poses, features, odometry,
-//      motion, GPS, FIX), the FeatureIndex and the InitializationObservations.
-//      Native logs are streamed (ReadNativeLogStreaming: O(poses + features));
-//      other formats (g2o, iSAM, MRCLAM) are read whole by their readers and
-//      replayed from memory -- only the native log path is bounded.
+//      motion, GPS, FIX), the FeatureIndex, and the FirstSightInitialization
+//      (partition/first_sight_initialization.h: each feature's first sight
+//      appended to work/first_sight.bin, the <= poses - 1 joining observations
+//      kept). Native logs are streamed (ReadNativeLogStreaming: O(poses +
+//      features)); other formats (g2o, iSAM, MRCLAM) are read whole by their
+//      readers and replayed from memory -- only the native log path is bounded.
 //   3. Table 1 initialization (core/initialization.h) of the pose-only problem
-//      plus the kept observations: the same guesses and the same connectivity
-//      check as with every observation. STORE/problem.graphslam is written
-//      now (atomically), then, for native logs, work/pass1.bin and the first
-//      work/ingest_progress.json (stage "spill").
+//      from the joining observations and the first sights read back from
+//      disk: the same guesses and the same connectivity check as with every
+//      observation. STORE/problem.graphslam is written now (atomically), then,
+//      for native logs, work/pass1.bin and the first work/ingest_progress.json
+//      (stage "spill").
 //   4. pass 2: spill into bucket files in STORE/work/ (BucketChunkSource);
 //      native logs through ReplayNativeLogObservations (RB / XY lines only,
 //      parsed in parallel), with a checkpoint (input offset, bucket lengths)
@@ -36,7 +39,19 @@
 // THREAD SAFETY: one ingest per STORE at a time. ALLOCATION: O(poses +
 // features) + at most buffer_observations + max_observations_per_chunk
 // observations (summary->bucketing.peak_observations_in_memory) for native
-// logs, plus the scratch of std::stable_sort (up to as many again).
+// logs, plus the counting sorts' scratch (up to as many again). Nothing per
+// observation. What stays per observed feature, and why (resident bytes;
+// docs/out_of_core.md "Memory per feature"):
+//   pass 1 (the peak at 10^7-10^8 features): the problem's guess (16), id
+//     (8) and initialized flag (1), all written to problem.graphslam; the
+//     reader's id -> index table (direct int32 table over the id range: ~9 B
+//     at the simulator's ~2.3 ids per observed feature) and its per-feature
+//     line (4) and declared flag (1), for its error messages and the
+//     FEATURE-record rules; the FeatureIndex (count + lowest pose, 8), which
+//     makes the plan. ~47 B. The first sight (72 B) is on disk.
+//   pass 2: the plan (chunk + slot per feature, and each chunk's feature
+//     list: 12), the ids (8) and the replay's id -> index table (direct:
+//     ~9). ~29 B. The FeatureIndex and the problem are freed before it.
 #pragma once
 
 #include <cstdint>

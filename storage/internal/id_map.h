@@ -1,12 +1,15 @@
 // IdMap: external integer ids (pose / feature ids of a log) -> dense indices,
 // built once and then read, possibly by many threads at once.
 //
-// Open addressing with linear probing over a power-of-two table at most half
-// full (Knuth's multiplicative hash, the top bits of id * 2^64/phi): one cache
-// line per lookup in the common case, 16 bytes per slot, i.e. <= 32 bytes per
-// id -- about half of std::unordered_map's node + bucket cost, and no pointer
-// chasing. When the ids are 0..n-1 in order (the common pose case) no table is
-// built at all.
+// When the ids are 0..n-1 in order (the common pose case) no table is built
+// at all. When they are non-negative and below 8 n + 1024 (dense integers: the
+// simulator's feature ids are slot numbers, ~2-3 per observed feature) they
+// index a direct table of int32 (4 bytes per table entry, ~10 per id there).
+// Otherwise: open addressing with linear probing over a power-of-two table at
+// most half full (Knuth's multiplicative hash, the top bits of id * 2^64/phi):
+// one cache line per lookup in the common case, 12 bytes per slot, i.e. 24-48
+// bytes per id. The direct table is what keeps the ingest's second pass at
+// 10^8 world features (4.4*10^7 ids) at ~0.4 GB instead of 1.6 GB.
 //
 // THREAD SAFETY: Find is const and safe from many threads after Build.
 // ALLOCATION: the table, in Build.
@@ -26,9 +29,17 @@ class IdMap {
     size_ = static_cast<int64_t>(ids.size());
     identity_ = true;
     for (int64_t i = 0; i < size_ && identity_; ++i) identity_ = ids[i] == i;
-    keys_.clear();
-    values_.clear();
+    keys_ = std::vector<int64_t>();
+    values_ = std::vector<int32_t>();
+    direct_ = std::vector<int32_t>();
     if (identity_) return;
+    const auto [low, high] = std::minmax_element(ids.begin(), ids.end());
+    if (*low >= 0 && *high < 8 * size_ + 1024) {
+      direct_.assign(static_cast<size_t>(*high) + 1, -1);
+      for (size_t i = 0; i < ids.size(); ++i)
+        direct_[static_cast<size_t>(ids[i])] = static_cast<int32_t>(i);
+      return;
+    }
     shift_ = 64;
     size_t capacity = 1;
     while (capacity < 2 * ids.size() + 2) {
@@ -48,6 +59,8 @@ class IdMap {
   // The index of `id`, or -1.
   int32_t Find(int64_t id) const {
     if (identity_) return id >= 0 && id < size_ ? static_cast<int32_t>(id) : -1;
+    if (!direct_.empty())
+      return id >= 0 && id < static_cast<int64_t>(direct_.size()) ? direct_[id] : -1;
     const size_t mask = keys_.size() - 1;
     for (size_t slot = Slot(id);; slot = (slot + 1) & mask) {
       if (values_[slot] < 0) return -1;
@@ -65,6 +78,7 @@ class IdMap {
   int shift_ = 64;
   std::vector<int64_t> keys_;
   std::vector<int32_t> values_;
+  std::vector<int32_t> direct_;  // dense ids: id -> index, -1: not there
 };
 
 // GrowingIdMap: the same mapping built one id at a time, as a reader meets
@@ -76,8 +90,8 @@ class IdMap {
 // Other ids (negative, huge, sparse) go to an unordered_map. An id lives in
 // exactly one of the two.
 //
-// THREAD SAFETY: none (one reader). ALLOCATION: the table (doubling) and the
-// map's nodes.
+// THREAD SAFETY: none (one reader). ALLOCATION: the table (resident: up to
+// the highest dense id seen; capacity doubling) and the map's nodes.
 class GrowingIdMap {
  public:
   // The index of `id`, or -1.
@@ -93,11 +107,11 @@ class GrowingIdMap {
     ++size_;
     const int64_t dense_limit = 8 * size_ + 1024;
     if (id >= 0 && id < dense_limit) {
-      if (id >= static_cast<int64_t>(direct_.size())) {
-        const int64_t grown = std::min<int64_t>(
-            dense_limit, std::max<int64_t>(id + 1, 2 * static_cast<int64_t>(direct_.size())));
-        direct_.resize(static_cast<size_t>(grown), -1);
-      }
+      // To the id only: std::vector's own growth is geometric (amortized
+      // O(1)) and leaves its spare capacity unwritten, i.e. not resident;
+      // doubling the size here filled it with -1 (up to 2x the id range).
+      if (id >= static_cast<int64_t>(direct_.size()))
+        direct_.resize(static_cast<size_t>(id) + 1, -1);
       direct_[id] = index;
       return;
     }

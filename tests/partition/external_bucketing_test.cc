@@ -13,6 +13,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <random>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -199,66 +200,78 @@ TEST_F(ExternalBucketingTest, NonNativeInputIsReplayedFromMemoryWithTheSameChunk
   }
 }
 
-TEST_F(ExternalBucketingTest, InitializationObservationsGiveTheSameGuessesAndConnectivity) {
-  WriteInput(7, 200, 50);
-  core::Problem2d all = problem_;
-  for (int32_t f = 0; f < all.num_features(); ++f) all.feature_initialized[f] = 0;
-  core::Problem2d kept_only = all;
-  InitializationObservations init;
-  for (const core::Observation& o : all.observations) init.Add(o);
-  EXPECT_LT(init.kept().size(), all.observations.size() / 4);
-  kept_only.observations = init.kept();
-  ASSERT_TRUE(core::InitializeProblem(&all).ok());
-  ASSERT_TRUE(core::InitializeProblem(&kept_only).ok());
-  for (int32_t f = 0; f < all.num_features(); ++f)
-    EXPECT_EQ(all.features[f], kept_only.features[f]) << "feature " << f;
-  for (int32_t p = 0; p < all.num_poses(); ++p) EXPECT_EQ(all.poses[p], kept_only.poses[p]);
+// The features of the log have no guesses and the observations come
+// shuffled, so the store's feature guesses are Table 1's placement by each
+// feature's first sight in input order (first sights spilled to disk in pass
+// 1, partition/first_sight_initialization.h), not by its lowest pose: the
+// problem file equals the in-memory path's byte for byte.
+TEST_F(ExternalBucketingTest, FeatureGuessesOfTheStoreAreTable1OnEveryObservation) {
+  testing::RandomProblemOptions random;
+  random.num_poses = 150;
+  random.num_features = 80;
+  random.seed = 12;
+  problem_ = testing::MakeRandomProblem(random).problem;
+  std::fill(problem_.feature_initialized.begin(), problem_.feature_initialized.end(), 0);
+  std::mt19937 rng(12);
+  std::shuffle(problem_.observations.begin(), problem_.observations.end(), rng);
+  const std::string input = Path("input.graphslam");
+  ASSERT_TRUE(storage::WriteNativeLog(problem_, input).ok());
+  StatusOr<core::Problem2d> read = storage::ReadNativeLog(input);
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  // The log keeps the shuffled order: some feature is first seen from a pose
+  // above its lowest.
+  std::vector<int32_t> first_seen(read->num_features(), -1), lowest(read->num_features(), 1 << 30);
+  for (const core::Observation& o : read->observations) {
+    if (first_seen[o.feature] < 0) first_seen[o.feature] = o.pose;
+    lowest[o.feature] = std::min(lowest[o.feature], o.pose);
+  }
+  EXPECT_NE(first_seen, lowest);
+  for (uint8_t initialized : read->feature_initialized) ASSERT_EQ(initialized, 0);
 
-  // Connectivity only through features: without odometry, the kept
-  // observations still connect every pose, and still do not when a pose sees
-  // no feature shared with the rest.
-  core::Problem2d linked = problem_;
-  linked.relative_poses.clear();
-  InitializationObservations linked_init;
-  for (const core::Observation& o : linked.observations) linked_init.Add(o);
-  const Status full = core::ValidateProblem(linked);
-  linked.observations = linked_init.kept();
-  EXPECT_EQ(core::ValidateProblem(linked).ok(), full.ok()) << full.ToString();
+  const int64_t chunk = 100;
+  WriteInMemoryStore(input, Path("memory"), chunk);
+  StreamingIngestOptions options;
+  options.max_observations_per_chunk = chunk;
+  options.buffer_observations = 137;
+  options.store.source = input;
+  IngestSummary summary;
+  ASSERT_TRUE(IngestToStore(Env::Default(), input, Path("streamed"), options, &summary).ok());
+  ExpectSameStore(Path("memory"), Path("streamed"));
+  EXPECT_FALSE(std::filesystem::exists(Path("streamed") + "/work")) << "scratch left behind";
+
+  StatusOr<core::Problem2d> stored =
+      storage::ReadNativeLog(Path("streamed") + "/problem.graphslam");
+  ASSERT_TRUE(stored.ok()) << stored.status().ToString();
+  core::Problem2d all = std::move(read).value();
+  ASSERT_TRUE(core::InitializeProblem(&all).ok());
+  ASSERT_EQ(stored->num_features(), all.num_features());
+  for (int32_t f = 0; f < all.num_features(); ++f)
+    EXPECT_EQ(stored->features[f], all.features[f]) << "feature " << f;
 }
 
-// The kept observations live in blocks of 2^19 (no growing vector); over
-// several blocks TakeKept gives them all, in input order, exactly once: the
-// first sight of every feature and the component-joining ones.
-TEST_F(ExternalBucketingTest, KeptObservationsSpanningBlocksComeOutInInputOrder) {
-  InitializationObservations init;
-  std::vector<core::Observation> expected;
-  const int32_t features = 1200000;  // > 2 blocks
-  for (int32_t f = 0; f < features; ++f) {
-    core::Observation first;
-    first.pose = f / 100;  // first sight: kept
-    first.feature = f;
-    first.z = Eigen::Vector2d(f, -f);
-    first.line = f + 1;
-    init.Add(first);
-    expected.push_back(first);
-    core::Observation again = first;
-    again.pose = f / 100 + 1;  // joins pose f/100 to the next once, then adds nothing
-    again.line = -f;
-    init.Add(again);
-    if (f % 100 == 0) expected.push_back(again);
+// A run killed in pass 1 leaves a partial work/first_sight.bin and no
+// progress record: --resume starts afresh (emptying work/), the scratch of the
+// dead run never reaches the guesses, and nothing is left behind.
+TEST_F(ExternalBucketingTest, FirstSightScratchOfAKilledPassOneIsDiscarded) {
+  const std::string input = WriteInput(13);
+  const int64_t chunk = 100;
+  WriteInMemoryStore(input, Path("memory"), chunk);
+  const std::string store = Path("streamed");
+  std::filesystem::create_directories(store + "/work");
+  {
+    std::ofstream stale(store + "/work/first_sight.bin", std::ios::binary);
+    stale << std::string(1000, '\x7f');  // not even whole records
   }
-  const std::vector<core::Observation> copy = init.kept();
-  const std::vector<core::Observation> taken = init.TakeKept();
-  ASSERT_EQ(copy.size(), expected.size());
-  ASSERT_EQ(taken.size(), expected.size());
-  EXPECT_EQ(taken.capacity(), expected.size());
-  for (size_t i = 0; i < expected.size(); ++i) {
-    ASSERT_EQ(taken[i].line, expected[i].line) << i;
-    ASSERT_EQ(copy[i].line, expected[i].line) << i;
-    ASSERT_EQ(taken[i].pose, expected[i].pose) << i;
-    ASSERT_EQ(taken[i].z, expected[i].z) << i;
-  }
-  EXPECT_TRUE(init.kept().empty());
+  StreamingIngestOptions options;
+  options.max_observations_per_chunk = chunk;
+  options.buffer_observations = 137;
+  options.store.source = input;
+  options.resume = true;
+  IngestSummary summary;
+  ASSERT_TRUE(IngestToStore(Env::Default(), input, store, options, &summary).ok());
+  EXPECT_EQ(summary.resumed_stage, "");
+  ExpectSameBytes(Path("memory"), store);
+  EXPECT_FALSE(std::filesystem::exists(store + "/work")) << "scratch left behind";
 }
 
 TEST_F(ExternalBucketingTest, FailedIngestNeverLeavesAStoreThatOpensAndRerunCompletesIt) {

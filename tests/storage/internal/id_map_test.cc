@@ -1,10 +1,12 @@
 // storage/internal/id_map.h: GrowingIdMap gives the mapping of a reference
 // std::unordered_map for dense ids, sparse ids, negative and huge ids, and
-// mixtures where sparse ids later fall inside the grown direct table.
+// mixtures where sparse ids later fall inside the grown direct table; IdMap
+// (built at once) gives it too, through its identity, direct and hashed forms.
 #include "storage/internal/id_map.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 #include <unordered_map>
 #include <vector>
@@ -47,6 +49,42 @@ TEST(GrowingIdMapTest, MatchesAnUnorderedMapOnDenseSparseAndMixedIds) {
   ExpectSameAsReference(dense);
   ExpectSameAsReference(sparse);
   ExpectSameAsReference(mixed);
+}
+
+// Distinct ids in input order: identity (0..n-1), dense (direct table: ids
+// spread over ~3x their count, as the simulator's), sparse and negative
+// (hashed), and dense with one huge id (hashed).
+TEST(IdMapTest, MatchesTheIdsPositionsInEveryForm) {
+  std::mt19937_64 random(9);
+  std::vector<int64_t> identity, dense, sparse, dense_but_one;
+  for (int64_t i = 0; i < 5000; ++i) identity.push_back(i);
+  std::vector<int64_t> slots(30000);
+  for (int64_t i = 0; i < 30000; ++i) slots[i] = i;
+  std::shuffle(slots.begin(), slots.end(), random);
+  dense.assign(slots.begin(), slots.begin() + 10000);
+  for (int i = 0; i < 10000; ++i)
+    sparse.push_back(static_cast<int64_t>(random() >> 1) - (int64_t{1} << 62));
+  dense_but_one = dense;
+  dense_but_one.push_back(int64_t{1} << 40);
+  for (const std::vector<int64_t>* ids : {&identity, &dense, &sparse, &dense_but_one}) {
+    IdMap map;
+    map.Build(*ids);
+    std::unordered_map<int64_t, int32_t> reference;
+    for (size_t i = 0; i < ids->size(); ++i) reference.emplace((*ids)[i], static_cast<int32_t>(i));
+    ASSERT_EQ(reference.size(), ids->size()) << "ids must be distinct";
+    for (size_t i = 0; i < ids->size(); ++i)
+      ASSERT_EQ(map.Find((*ids)[i]), static_cast<int32_t>(i)) << (*ids)[i];
+    for (int64_t absent : {int64_t{-1}, int64_t{-7}, int64_t{29999}, int64_t{30000},
+                           int64_t{123456789}, int64_t{1} << 41}) {
+      if (reference.count(absent) == 0) {
+        EXPECT_EQ(map.Find(absent), -1) << absent;
+      }
+    }
+    for (int64_t probe = 0; probe < 40000; ++probe) {
+      const auto it = reference.find(probe);
+      ASSERT_EQ(map.Find(probe), it == reference.end() ? -1 : it->second) << probe;
+    }
+  }
 }
 
 }  // namespace

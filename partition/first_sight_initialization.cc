@@ -1,0 +1,138 @@
+#include "partition/first_sight_initialization.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <numeric>
+#include <system_error>
+#include <type_traits>
+#include <utility>
+
+#include "core/initialization.h"
+
+namespace graphslam::partition {
+namespace {
+
+// Raw Observation records: scratch of this process, read back by the same
+// binary (as the bucket files of external_bucketing.cc).
+static_assert(std::is_trivially_destructible_v<core::Observation>);
+
+Status IoError(const std::string& path, const char* what) {
+  return Status::IOError(path + ": " + what + ": " + std::strerror(errno));
+}
+
+}  // namespace
+
+FirstSightInitialization::FirstSightInitialization(std::string scratch_path)
+    : path_(std::move(scratch_path)) {}
+
+FirstSightInitialization::~FirstSightInitialization() {
+  file_.reset();
+  std::error_code error;  // scratch: a leftover is harmless (the ingest empties WORK)
+  std::filesystem::remove(path_, error);
+}
+
+int32_t FirstSightInitialization::Find(int32_t pose) {
+  while (parent_[pose] != pose) {
+    parent_[pose] = parent_[parent_[pose]];
+    pose = parent_[pose];
+  }
+  return pose;
+}
+
+Status FirstSightInitialization::Flush() {
+  if (buffer_.empty()) return Status::Ok();
+  if (!file_) {
+    file_.reset(std::fopen(path_.c_str(), "wb"));
+    if (!file_) return IoError(path_, "open for writing");
+  }
+  if (std::fwrite(buffer_.data(), sizeof(core::Observation), buffer_.size(), file_.get()) !=
+      buffer_.size())
+    return IoError(path_, "write");
+  buffer_.clear();
+  return Status::Ok();
+}
+
+Status FirstSightInitialization::Add(const core::Observation& observation,
+                                     const FeatureIndex& index) {
+  GS_CHECK(observation.feature >= 0 && observation.pose >= 0);
+  if (observation.pose >= static_cast<int32_t>(parent_.size())) {
+    const size_t old = parent_.size();
+    parent_.resize(std::max<size_t>(observation.pose + 1, 2 * old));
+    std::iota(parent_.begin() + static_cast<std::ptrdiff_t>(old), parent_.end(),
+              static_cast<int32_t>(old));
+  }
+  const auto feature = static_cast<size_t>(observation.feature);
+  if (feature >= index.counts().size() || index.counts()[feature] == 0) {
+    if (buffer_.capacity() < kBlock) buffer_.reserve(kBlock);
+    buffer_.push_back(observation);
+    ++first_sights_;
+    return buffer_.size() >= kBlock ? Flush() : Status::Ok();
+  }
+  // The lowest pose seen so far is in f's component (header).
+  const int32_t a = Find(index.first_pose()[feature]), b = Find(observation.pose);
+  if (a == b) return Status::Ok();  // adds no connectivity
+  parent_[a] = b;
+  joining_.push_back(observation);
+  return Status::Ok();
+}
+
+template <typename Visit>
+Status FirstSightInitialization::ReadBack(const Visit& visit) const {
+  if (first_sights_ == 0) return Status::Ok();
+  File file(std::fopen(path_.c_str(), "rb"));
+  if (!file) return IoError(path_, "open for reading");
+  std::vector<core::Observation> block(kBlock);
+  int64_t left = first_sights_;
+  while (left > 0) {
+    const size_t n = static_cast<size_t>(std::min<int64_t>(left, kBlock));
+    if (std::fread(block.data(), sizeof(core::Observation), n, file.get()) != n)
+      return Status::Corruption(path_ + ": shorter than the " + std::to_string(first_sights_) +
+                                " first sights written to it");
+    for (size_t i = 0; i < n; ++i) GS_RETURN_IF_ERROR(visit(block[i]));
+    left -= static_cast<int64_t>(n);
+  }
+  return Status::Ok();
+}
+
+Status FirstSightInitialization::Initialize(core::Problem2d* problem) {
+  GS_CHECK(problem != nullptr && problem->observations.empty());
+  GS_RETURN_IF_ERROR(Flush());
+  if (file_ && std::fclose(file_.release()) != 0) return IoError(path_, "close");
+  parent_ = std::vector<int32_t>();
+  buffer_ = std::vector<core::Observation>();
+
+  // 1. Check every first sight; keep those of the joining features.
+  std::vector<int32_t> joined;
+  joined.reserve(joining_.size());
+  for (const core::Observation& o : joining_) joined.push_back(o.feature);
+  std::sort(joined.begin(), joined.end());
+  joined.erase(std::unique(joined.begin(), joined.end()), joined.end());
+  std::vector<core::Observation> kept;
+  GS_RETURN_IF_ERROR(ReadBack([&](const core::Observation& o) -> Status {
+    GS_RETURN_IF_ERROR(core::CheckObservation(*problem, o));
+    if (std::binary_search(joined.begin(), joined.end(), o.feature)) kept.push_back(o);
+    return Status::Ok();
+  }));
+  GS_CHECK(kept.size() == joined.size());
+
+  // 2. Validation, poses, connectivity, the joining features' placement.
+  kept.insert(kept.end(), joining_.begin(), joining_.end());
+  joining_ = std::vector<core::Observation>();
+  problem->observations = std::move(kept);
+  const Status status = core::InitializeProblem(problem);
+  problem->observations = std::vector<core::Observation>();
+  GS_RETURN_IF_ERROR(status);
+
+  // 3. Every other feature, by its first sight.
+  GS_RETURN_IF_ERROR(ReadBack([&](const core::Observation& o) -> Status {
+    core::PlaceFeature(problem, o);
+    return Status::Ok();
+  }));
+  std::error_code error;
+  std::filesystem::remove(path_, error);
+  return Status::Ok();
+}
+
+}  // namespace graphslam::partition
