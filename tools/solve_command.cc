@@ -423,7 +423,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   {
     StatusOr<int> in_flight = ChunksInFlightForMemoryLimit(
         memory_limit, problem.num_poses(), problem.num_features(), options.chunk_observations,
-        solver_options.max_chunks_in_flight);
+        solver_options.max_chunks_in_flight, streaming);
     if (!in_flight.ok()) return fail(in_flight.status());
     solver_options.max_chunks_in_flight = *in_flight;
   }

@@ -49,13 +49,15 @@ class ChunkedSpace {
   // fused: one RecoverAndReducePass per accepted iteration (see TryStep).
   // candidate_store (optional): the step's candidate features go there
   // instead of into an array of one per feature (core/candidate_store.h).
+  // kept and excluded are lent to the checkpoint too (LendState), so they
+  // are held by non-const reference.
   ChunkedSpace(const BasicPassContext<Space>& context, const UnknownLayout& layout,
-               const std::vector<uint8_t>& kept, const PoseFactorKernels& pose_kernels,
+               std::vector<uint8_t>* kept, const PoseFactorKernels& pose_kernels,
                typename Space::Problem* problem, ReducedSystem* system,
-               ReducedSystemSolver* solver, const std::vector<uint8_t>& excluded, bool fused,
+               ReducedSystemSolver* solver, std::vector<uint8_t>* excluded, bool fused,
                BasicCandidateStore<Point>* candidate_store)
-      : context_(context), layout_(layout), kept_(kept), pose_kernels_(pose_kernels),
-        problem_(*problem), system_(*system), solver_(*solver), excluded_(excluded),
+      : context_(context), layout_(layout), kept_(*kept), pose_kernels_(pose_kernels),
+        problem_(*problem), system_(*system), solver_(*solver), excluded_(*excluded),
         fused_(fused), candidate_store_(candidate_store) {}
 
   Status Linearize(double lambda, IterationSummary* it, bool* usable) {
@@ -156,21 +158,23 @@ class ChunkedSpace {
     return Status::Ok();
   }
 
-  // Moves (not copies) the poses and feature estimates into the checkpoint
-  // for the callback (the one-byte flags are copied); ReturnState must follow
-  // before the state is used again. A moved vector keeps its buffer, so the
-  // state comes back at the same addresses.
+  // Moves (not copies) the poses, feature estimates and per-feature flags
+  // into the checkpoint for the callback; ReturnState must follow before the
+  // state is used again. A moved vector keeps its buffer, so the state comes
+  // back at the same addresses (context_.excluded points at excluded_).
   void LendState(Checkpoint* checkpoint) {
     checkpoint->poses = std::move(problem_.poses);
     checkpoint->features = std::move(problem_.features);
-    checkpoint->excluded = excluded_;
-    checkpoint->kept = kept_;
+    checkpoint->excluded = std::move(excluded_);
+    checkpoint->kept = std::move(kept_);
     solver_.SaveState(&checkpoint->pcg);
   }
 
   void ReturnState(Checkpoint* checkpoint) {
     problem_.poses = std::move(checkpoint->poses);
     problem_.features = std::move(checkpoint->features);
+    excluded_ = std::move(checkpoint->excluded);
+    kept_ = std::move(checkpoint->kept);
   }
 
  private:
@@ -210,12 +214,12 @@ class ChunkedSpace {
 
   const BasicPassContext<Space>& context_;
   const UnknownLayout& layout_;
-  const std::vector<uint8_t>& kept_;
+  std::vector<uint8_t>& kept_;
   const PoseFactorKernels& pose_kernels_;
   typename Space::Problem& problem_;
   ReducedSystem& system_;
   ReducedSystemSolver& solver_;
-  const std::vector<uint8_t>& excluded_;
+  std::vector<uint8_t>& excluded_;
   const bool fused_;
   BasicCandidateStore<Point>* const candidate_store_;  // may be null
   Eigen::VectorXd step_gradient_;  // g_x of the linearization the last step solved
@@ -337,8 +341,8 @@ Status SolveChunked(
   // 3-D solver, which keeps its candidates in memory).
   BasicCandidateStore<typename Space::Point>* candidate_store = nullptr;
   if constexpr (std::is_same_v<Space, Space2d>) candidate_store = options.candidate_store;
-  ChunkedSpace<Space> space(context, layout, screening.kept, options.pose_kernels, problem, &system,
-                            &solver, summary->excluded, options.fused_chunk_pass,
+  ChunkedSpace<Space> space(context, layout, &screening.kept, options.pose_kernels, problem,
+                            &system, &solver, &summary->excluded, options.fused_chunk_pass,
                             candidate_store);
   double observations_chi2 = 0.0;
   GS_RETURN_IF_ERROR(
