@@ -146,6 +146,8 @@ struct SolverOptions {
   // (e.g. the disk is full) stops the solve and is returned.
   std::function<Status(const SolverCheckpoint&)> checkpoint_callback;  // optional
   // Continue from this state instead of starting over; must outlive the call.
+  // Its `features` may be empty when the caller has moved them into
+  // problem->features (no second copy of the estimates during the solve).
   const SolverCheckpoint* resume_from = nullptr;
   // Optional (2-D only): each step's candidate feature estimates go to this
   // store (e.g. a file, storage/candidate_file.h) instead of an in-memory

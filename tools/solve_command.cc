@@ -490,7 +490,15 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   }
   const double progressive_seconds = Seconds(progressive_start);
 
-  if (resuming) solver_options.resume_from = &resume_state;
+  if (resuming) {
+    // The solve continues from these estimates: moved into the problem, not
+    // held twice (16 bytes per feature for the whole solve).
+    if (resume_state.features.size() == problem.features.size() && !problem.features.empty()) {
+      problem.features = std::move(resume_state.features);
+      resume_state.features = {};
+    }
+    solver_options.resume_from = &resume_state;
+  }
   // Streaming mode keeps no per-feature array of candidates (they go to a
   // scratch file beside the checkpoint, storage/candidate_file.h) and writes
   // the checkpoint's feature estimates as a binary file, not JSON arrays.

@@ -259,9 +259,14 @@ Status SolveChunked(
   ScreeningResult screening;
   GS_RETURN_IF_ERROR(ScreenFeatures(context, problem->poses, problem->features,
                                     options.max_eliminated_observations, &screening));
+  // A resume whose feature array is empty while the problem has features:
+  // the caller moved the checkpoint's estimates into problem->features
+  // already (SolverOptions::resume_from), so no second copy is held.
+  const bool resume_features_in_problem =
+      resume != nullptr && resume->features.empty() && !problem->features.empty();
   if (resume != nullptr) {
     if (resume->poses.size() != problem->poses.size() ||
-        resume->features.size() != problem->features.size() ||
+        (!resume_features_in_problem && resume->features.size() != problem->features.size()) ||
         resume->excluded.size() != problem->features.size() ||
         resume->kept.size() != problem->features.size()) {
       return Status::InvalidArgument(
@@ -279,7 +284,7 @@ Status SolveChunked(
     screening.excluded_not_positive_definite =
         std::count(screening.excluded.begin(), screening.excluded.end(), 1) - unobserved;
     problem->poses = resume->poses;
-    problem->features = resume->features;
+    if (!resume_features_in_problem) problem->features = resume->features;
     summary->resumed_from_iteration = resume->iterations;
   }
   layout.KeepFeatures(screening.kept);
