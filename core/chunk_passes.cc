@@ -135,15 +135,60 @@ Status ReducePass(const BasicPassContext<Space>& context,
                   const std::vector<typename Space::Pose>& poses,
                   const std::vector<typename Space::Point>& features, double lambda,
                   ReducedSystem* system) {
+  internal::FeatureLookup<typename Space::Point> lookup;
+  lookup.by_feature = &features;
   return internal::RunOrderedChunkPipeline<internal::ReduceOutput<Space>>(
       *context.chunks, context.max_in_flight,
       [&](const ChunkOf<Space>& chunk, internal::ReduceOutput<Space>* out) {
-        return internal::ReduceChunk<Space>(context, chunk, poses, features, lambda, out);
+        return internal::ReduceChunk<Space>(context, chunk, poses, lookup, lambda, out);
       },
       [&](const ChunkOf<Space>& chunk, internal::ReduceOutput<Space>& out) {
         internal::MergeReduced<Space>(out, system);
         Report(context, "reduce", chunk.index + 1);
       });
+}
+
+namespace {
+
+// The sink of the one-slot-per-feature overloads.
+template <class Space>
+CandidateSink<Space> ScatterInto(const BasicPassContext<Space>& context,
+                                 std::vector<typename Space::Point>* candidate_features) {
+  return [&context, candidate_features](const ChunkOf<Space>& chunk,
+                                        const std::vector<typename Space::Point>& candidates) {
+    for (int64_t k = 0; k < chunk.num_features(); ++k) {
+      const int32_t g = chunk.features[k];
+      if (!Excluded(context, g)) (*candidate_features)[g] = candidates[static_cast<size_t>(k)];
+    }
+    return Status::Ok();
+  };
+}
+
+}  // namespace
+
+template <class Space>
+Status RecoverPass(const BasicPassContext<Space>& context,
+                   const std::vector<typename Space::Pose>& poses,
+                   const std::vector<typename Space::Point>& features, double lambda,
+                   const Eigen::VectorXd& step,
+                   const std::vector<typename Space::Pose>& candidate_poses,
+                   const CandidateSink<Space>& sink, RecoveryResult* result) {
+  *result = RecoveryResult();
+  Status sink_status;
+  Status status = internal::RunOrderedChunkPipeline<internal::RecoverOutput<Space>>(
+      *context.chunks, context.max_in_flight,
+      [&](const ChunkOf<Space>& chunk, internal::RecoverOutput<Space>* out) {
+        internal::RecoverChunk<Space>(context, chunk, poses, features, lambda, step,
+                                      candidate_poses, out);
+        return Status::Ok();
+      },
+      [&](const ChunkOf<Space>& chunk, internal::RecoverOutput<Space>& out) {
+        internal::MergeRecovered(out.sums, result);
+        if (sink_status.ok()) sink_status = sink(chunk, out.candidates);
+        Report(context, "recover", chunk.index + 1);
+      });
+  GS_RETURN_IF_ERROR(status);
+  return sink_status;
 }
 
 template <class Space>
@@ -154,19 +199,9 @@ Status RecoverPass(const BasicPassContext<Space>& context,
                    const std::vector<typename Space::Pose>& candidate_poses,
                    std::vector<typename Space::Point>* candidate_features,
                    RecoveryResult* result) {
-  *result = RecoveryResult();
   candidate_features->resize(features.size());
-  return internal::RunOrderedChunkPipeline<internal::RecoverOutput<Space>>(
-      *context.chunks, context.max_in_flight,
-      [&](const ChunkOf<Space>& chunk, internal::RecoverOutput<Space>* out) {
-        internal::RecoverChunk<Space>(context, chunk, poses, features, lambda, step,
-                                      candidate_poses, candidate_features, out);
-        return Status::Ok();
-      },
-      [&](const ChunkOf<Space>& chunk, internal::RecoverOutput<Space>& out) {
-        internal::MergeRecovered(out.sums, result);
-        Report(context, "recover", chunk.index + 1);
-      });
+  return RecoverPass<Space>(context, poses, features, lambda, step, candidate_poses,
+                            ScatterInto(context, candidate_features), result);
 }
 
 template <class Space>
@@ -175,9 +210,8 @@ Status RecoverAndReducePass(const BasicPassContext<Space>& context,
                             const std::vector<typename Space::Point>& features, double lambda,
                             const Eigen::VectorXd& step,
                             const std::vector<typename Space::Pose>& candidate_poses,
-                            std::vector<typename Space::Point>* candidate_features,
-                            RecoveryResult* result, double next_lambda, ReducedSystem* next,
-                            Status* next_status) {
+                            const CandidateSink<Space>& sink, RecoveryResult* result,
+                            double next_lambda, ReducedSystem* next, Status* next_status) {
   struct Output {
     internal::RecoverOutput<Space> recover;
     internal::ReduceOutput<Space> reduce;
@@ -186,28 +220,31 @@ Status RecoverAndReducePass(const BasicPassContext<Space>& context,
   };
   *result = RecoveryResult();
   *next_status = Status::Ok();
-  candidate_features->resize(features.size());
+  Status sink_status;
   // Once a chunk's speculative elimination failed, the next system is lost:
   // later chunks skip that half of the work (the recovery goes on).
   std::atomic<bool> next_failed{false};
-  return internal::RunOrderedChunkPipeline<Output>(
+  Status status = internal::RunOrderedChunkPipeline<Output>(
       *context.chunks, context.max_in_flight,
       [&](const ChunkOf<Space>& chunk, Output* out) {
-        // Recovery first: it writes the candidates of this chunk's features,
+        // Recovery first: it gives the candidates of this chunk's features,
         // which are exactly the features the reduce half reads.
         internal::RecoverChunk<Space>(context, chunk, poses, features, lambda, step,
-                                      candidate_poses, candidate_features, &out->recover);
+                                      candidate_poses, &out->recover);
         out->reduce_status = Status::Ok();
         out->reduced = !next_failed.load();
         if (out->reduced) {
+          internal::FeatureLookup<typename Space::Point> candidates;
+          candidates.by_slot = out->recover.candidates.data();
           out->reduce_status = internal::ReduceChunk<Space>(
-              context, chunk, candidate_poses, *candidate_features, next_lambda, &out->reduce);
+              context, chunk, candidate_poses, candidates, next_lambda, &out->reduce);
           if (!out->reduce_status.ok()) next_failed = true;
         }
         return Status::Ok();
       },
       [&](const ChunkOf<Space>& chunk, Output& out) {
         internal::MergeRecovered(out.recover.sums, result);
+        if (sink_status.ok()) sink_status = sink(chunk, out.recover.candidates);
         if (next_status->ok()) {
           if (!out.reduce_status.ok()) {
             *next_status = out.reduce_status;
@@ -221,6 +258,23 @@ Status RecoverAndReducePass(const BasicPassContext<Space>& context,
         }
         Report(context, "recover+reduce", chunk.index + 1);
       });
+  GS_RETURN_IF_ERROR(status);
+  return sink_status;
+}
+
+template <class Space>
+Status RecoverAndReducePass(const BasicPassContext<Space>& context,
+                            const std::vector<typename Space::Pose>& poses,
+                            const std::vector<typename Space::Point>& features, double lambda,
+                            const Eigen::VectorXd& step,
+                            const std::vector<typename Space::Pose>& candidate_poses,
+                            std::vector<typename Space::Point>* candidate_features,
+                            RecoveryResult* result, double next_lambda, ReducedSystem* next,
+                            Status* next_status) {
+  candidate_features->resize(features.size());
+  return RecoverAndReducePass<Space>(context, poses, features, lambda, step, candidate_poses,
+                                     ScatterInto(context, candidate_features), result,
+                                     next_lambda, next, next_status);
 }
 
 template <class Space>
@@ -260,10 +314,19 @@ Status ObservationsChi2(const BasicPassContext<Space>& context,
       const BasicPassContext<Space>&, const std::vector<Space::Pose>&,                            \
       const std::vector<Space::Point>&, double, const Eigen::VectorXd&,                           \
       const std::vector<Space::Pose>&, std::vector<Space::Point>*, RecoveryResult*);              \
+  template Status RecoverPass<Space>(                                                             \
+      const BasicPassContext<Space>&, const std::vector<Space::Pose>&,                            \
+      const std::vector<Space::Point>&, double, const Eigen::VectorXd&,                           \
+      const std::vector<Space::Pose>&, const CandidateSink<Space>&, RecoveryResult*);             \
   template Status RecoverAndReducePass<Space>(                                                    \
       const BasicPassContext<Space>&, const std::vector<Space::Pose>&,                            \
       const std::vector<Space::Point>&, double, const Eigen::VectorXd&,                           \
       const std::vector<Space::Pose>&, std::vector<Space::Point>*, RecoveryResult*, double,       \
+      ReducedSystem*, Status*);                                                                   \
+  template Status RecoverAndReducePass<Space>(                                                    \
+      const BasicPassContext<Space>&, const std::vector<Space::Pose>&,                            \
+      const std::vector<Space::Point>&, double, const Eigen::VectorXd&,                           \
+      const std::vector<Space::Pose>&, const CandidateSink<Space>&, RecoveryResult*, double,      \
       ReducedSystem*, Status*);                                                                   \
   template Status ObservationsChi2<Space>(const BasicPassContext<Space>&,                         \
                                           const std::vector<Space::Pose>&,                        \

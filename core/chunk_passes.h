@@ -39,6 +39,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <functional>
 #include <utility>
 #include <vector>
 
@@ -113,6 +114,26 @@ struct RecoveryResult {
   double state_squared_norm = 0.0; // sum |m|^2
 };
 
+// Receives the candidates of each chunk, serially and in chunk order: slot k
+// is the candidate of chunk.features[k] (an excluded feature's slot holds its
+// current estimate). The streaming solve writes them to disk
+// (core/candidate_store.h) instead of holding one per feature in memory. A
+// non-OK Status is returned by the pass (later chunks are not given to it).
+template <class Space>
+using CandidateSink =
+    std::function<Status(const BasicObservationChunk<typename Space::Observation>& chunk,
+                         const std::vector<typename Space::Point>& candidates)>;
+
+template <class Space>
+Status RecoverPass(const BasicPassContext<Space>& context,
+                   const std::vector<typename Space::Pose>& poses,
+                   const std::vector<typename Space::Point>& features, double lambda,
+                   const Eigen::VectorXd& step,
+                   const std::vector<typename Space::Pose>& candidate_poses,
+                   const CandidateSink<Space>& sink, RecoveryResult* result);
+
+// RecoverPass into one slot per feature: (*candidate_features)[g] for every
+// feature of a chunk that is not excluded (others keep their value).
 template <class Space>
 Status RecoverPass(const BasicPassContext<Space>& context,
                    const std::vector<typename Space::Pose>& poses,
@@ -122,12 +143,22 @@ Status RecoverPass(const BasicPassContext<Space>& context,
                    std::vector<typename Space::Point>* candidate_features,
                    RecoveryResult* result);
 
-// RecoverPass plus ReducePass(candidate_poses, *candidate_features,
-// next_lambda) into *next, which the caller has zeroed and into which it may
-// already have added the pose-only factors at the candidate poses. A failed
-// elimination at the candidate is not an error of the pass (the step may be
-// rejected anyway): it is returned in *next_status and *next is then partial.
-// The returned Status is the recovery's (chunk loading).
+// RecoverPass plus ReducePass(candidate_poses, candidates, next_lambda) into
+// *next, which the caller has zeroed and into which it may already have added
+// the pose-only factors at the candidate poses. A failed elimination at the
+// candidate is not an error of the pass (the step may be rejected anyway): it
+// is returned in *next_status and *next is then partial. The returned Status
+// is the recovery's (chunk loading, the sink).
+template <class Space>
+Status RecoverAndReducePass(const BasicPassContext<Space>& context,
+                            const std::vector<typename Space::Pose>& poses,
+                            const std::vector<typename Space::Point>& features, double lambda,
+                            const Eigen::VectorXd& step,
+                            const std::vector<typename Space::Pose>& candidate_poses,
+                            const CandidateSink<Space>& sink, RecoveryResult* result,
+                            double next_lambda, ReducedSystem* next, Status* next_status);
+
+// The same with one candidate slot per feature (as RecoverPass above).
 template <class Space>
 Status RecoverAndReducePass(const BasicPassContext<Space>& context,
                             const std::vector<typename Space::Pose>& poses,

@@ -49,6 +49,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/candidate_store.h"
 #include "core/chunk_source.h"
 #include "core/pcg_solver_state.h"
 #include "core/problem.h"
@@ -145,7 +146,13 @@ struct SolverOptions {
   // (e.g. the disk is full) stops the solve and is returned.
   std::function<Status(const SolverCheckpoint&)> checkpoint_callback;  // optional
   // Continue from this state instead of starting over; must outlive the call.
+  // Its `features` may be empty when the caller has moved them into
+  // problem->features (no second copy of the estimates during the solve).
   const SolverCheckpoint* resume_from = nullptr;
+  // Optional (2-D only): each step's candidate feature estimates go to this
+  // store (e.g. a file, storage/candidate_file.h) instead of an in-memory
+  // array of one per feature; same results bit for bit. Must outlive the call.
+  CandidateStore* candidate_store = nullptr;
   ProgressCallback progress;                                  // optional
   std::function<void(const IterationSummary&)> iteration_callback;  // optional
 

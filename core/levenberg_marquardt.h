@@ -40,7 +40,7 @@
 //   Status TryStep(double lambda, double speculative_lambda, bool usable,
 //                  IterationSummary* it, TrialStep* trial);
 //   void StepResult(bool accepted);          // after every computed step
-//   void Accept();                           // the candidate becomes the state
+//   Status Accept();                         // the candidate becomes the state
 //   void LendState(Checkpoint* checkpoint);    // moves poses, features, excluded,
 //   void ReturnState(Checkpoint* checkpoint);  // kept in; ReturnState moves them back
 //
@@ -170,7 +170,7 @@ Status RunLevenbergMarquardt(
     bool converged = false;
     if (it.accepted) {
       const double relative_change = (chi2 - candidate_chi2) / std::max(chi2, 1e-300);
-      space->Accept();
+      GS_RETURN_IF_ERROR(space->Accept());
       chi2 = candidate_chi2;
       radius = RadiusAfterAcceptedStep(radius, it.relative_decrease, options);
       decrease_factor = 2.0;

@@ -21,4 +21,4 @@ target_sources(graphslam_storage PRIVATE
   chunk_writer.cc
   crc32c.cc)
 target_sources(graphslam_storage PRIVATE chunk_store.cc chunk_store_writer.cc)
-target_sources(graphslam_storage PRIVATE solver_checkpoint.cc)
+target_sources(graphslam_storage PRIVATE solver_checkpoint.cc feature_record_file.cc candidate_file.cc)

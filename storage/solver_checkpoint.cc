@@ -3,11 +3,14 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "storage/atomic_file.h"
+#include "storage/chunk_format.h"
+#include "storage/feature_record_file.h"
 
 namespace graphslam::storage {
 namespace {
@@ -73,15 +76,15 @@ core::PcgSolverState PcgStateFromJson(const nlohmann::json& json) {
   return state;
 }
 
+// Everything but the per-feature arrays.
 template <class Layout, class Checkpoint>
-Status Write(Env* env, const std::string& path, const std::string& input,
-             const Checkpoint& checkpoint) {
+nlohmann::json HeadJson(const std::string& input, const Checkpoint& checkpoint) {
   nlohmann::json json;
   json["format"] = kSolverCheckpointFormat;
   // Version 2 only with the "pcg" object: a CHOLMOD checkpoint stays readable
   // by version-1 builds, while a version-1 build, which would resume a PCG
   // solve without its state (not bit-identical), refuses a PCG checkpoint.
-  json["version"] = checkpoint.pcg.present ? kSolverCheckpointVersion : 1;
+  json["version"] = checkpoint.pcg.present ? 2 : 1;  // 3: only with a feature file
   json["input"] = input;
   // Only 3-D checkpoints carry the key: 2-D files stay as version 1 wrote them.
   if (Layout::kDimension != 2) json["dimension"] = Layout::kDimension;
@@ -97,8 +100,14 @@ Status Write(Env* env, const std::string& path, const std::string& input,
   for (const auto& p : checkpoint.poses) Layout::AppendPose(p, &poses);
   json["poses"] = poses;
   if (checkpoint.pcg.present) json["pcg"] = PcgStateToJson(checkpoint.pcg);
+  return json;
+}
+
+template <class Layout, class Checkpoint>
+Status Write(Env* env, const std::string& path, const std::string& input,
+             const Checkpoint& checkpoint) {
   // nlohmann writes doubles with max_digits10: they read back bit for bit.
-  std::string head = json.dump();
+  std::string head = HeadJson<Layout>(input, checkpoint).dump();
   head.pop_back();  // the closing '}': the per-feature arrays follow
   // The per-feature arrays (2-3 numbers and two flags per feature: 10^7 and
   // more) are formatted straight into the file in ~1 MiB appends instead of
@@ -153,6 +162,95 @@ Status Write(Env* env, const std::string& path, const std::string& input,
   });
 }
 
+constexpr uint32_t kFeaturesPerRecord = 65536;
+
+std::string FeatureFileName(const std::string& path, int iterations) {
+  return path + ".features." + std::to_string(iterations) + ".bin";
+}
+
+// The feature file of a 2-D checkpoint (storage/feature_record_file.h, kind 2).
+Status WriteFeatureFile(Env* env, const std::string& file_path,
+                        const core::SolverCheckpoint& checkpoint) {
+  using chunk_format::PutDouble;
+  using chunk_format::PutFixed32;
+  using chunk_format::PutFixed64;
+  const size_t n = checkpoint.features.size();
+  if (checkpoint.excluded.size() != n || checkpoint.kept.size() != n)
+    return Status::InvalidArgument(file_path + ": 'excluded' and 'kept' need one entry per feature");
+  return WriteFileAtomically(env, file_path, [&](WritableFile* file) -> Status {
+    std::string out = feature_records::EncodeHeader(feature_records::kKindCheckpoint, 2);
+    std::string payload;
+    uint64_t records = 0;
+    for (size_t first = 0; first < n; first += kFeaturesPerRecord) {
+      const size_t count = std::min<size_t>(kFeaturesPerRecord, n - first);
+      payload.clear();
+      PutFixed64(&payload, first);
+      PutFixed32(&payload, static_cast<uint32_t>(count));
+      for (size_t g = first; g < first + count; ++g) {
+        PutDouble(&payload, checkpoint.features[g].x());
+        PutDouble(&payload, checkpoint.features[g].y());
+      }
+      for (size_t g = first; g < first + count; ++g)
+        payload.push_back(static_cast<char>(checkpoint.excluded[g] != 0));
+      for (size_t g = first; g < first + count; ++g)
+        payload.push_back(static_cast<char>(checkpoint.kept[g] != 0));
+      feature_records::AppendRecord(feature_records::kData, payload, &out);
+      ++records;
+      if (out.size() >= (size_t{1} << 20)) {
+        GS_RETURN_IF_ERROR(file->Append(out));
+        out.clear();
+      }
+    }
+    out += feature_records::EncodeFooter(records, n);
+    return file->Append(out);
+  });
+}
+
+Status ReadFeatureFile(const std::string& file_path, int64_t expected,
+                       core::SolverCheckpoint* checkpoint) {
+  using chunk_format::DecodeDouble;
+  using chunk_format::DecodeFixed32;
+  using chunk_format::DecodeFixed64;
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<feature_records::Reader> reader,
+                      feature_records::Reader::Open(file_path,
+                                                    feature_records::kKindCheckpoint, 2));
+  checkpoint->features.clear();
+  checkpoint->excluded.clear();
+  checkpoint->kept.clear();
+  checkpoint->features.reserve(static_cast<size_t>(std::max<int64_t>(expected, 0)));
+  checkpoint->excluded.reserve(checkpoint->features.capacity());
+  checkpoint->kept.reserve(checkpoint->features.capacity());
+  std::string payload;
+  while (true) {
+    GS_ASSIGN_OR_RETURN(bool more, reader->Next(&payload, checkpoint->features.size()));
+    if (!more) break;
+    const int64_t offset = reader->record_offset();
+    if (payload.size() < 12) return reader->Bad(offset, "feature record shorter than 12 bytes");
+    const uint64_t first = DecodeFixed64(payload.data());
+    const uint64_t count = DecodeFixed32(payload.data() + 8);
+    if (first != checkpoint->features.size())
+      return reader->Bad(offset, "record starts at feature " + std::to_string(first) +
+                                     ", expected " + std::to_string(checkpoint->features.size()));
+    if (payload.size() != 12 + 18 * count)
+      return reader->Bad(offset, "record of " + std::to_string(count) + " features has " +
+                                     std::to_string(payload.size()) + " bytes, expected " +
+                                     std::to_string(12 + 18 * count));
+    const char* values = payload.data() + 12;
+    const char* excluded = values + 16 * count;
+    const char* kept = excluded + count;
+    for (uint64_t k = 0; k < count; ++k) {
+      checkpoint->features.emplace_back(DecodeDouble(values + 16 * k),
+                                        DecodeDouble(values + 16 * k + 8));
+      checkpoint->excluded.push_back(static_cast<uint8_t>(excluded[k]));
+      checkpoint->kept.push_back(static_cast<uint8_t>(kept[k]));
+    }
+  }
+  if (static_cast<int64_t>(checkpoint->features.size()) != expected)
+    return Status::Corruption(file_path + ": " + std::to_string(checkpoint->features.size()) +
+                              " features, the checkpoint names " + std::to_string(expected));
+  return Status::Ok();
+}
+
 template <class Layout, class Checkpoint>
 StatusOr<Checkpoint> Read(const std::string& path, const std::string& input) {
   std::ifstream in(path);
@@ -186,9 +284,14 @@ StatusOr<Checkpoint> Read(const std::string& path, const std::string& input) {
     checkpoint.converged = json.at("converged").get<bool>();
     checkpoint.termination = json.at("termination").get<std::string>();
     const auto poses = json.at("poses").get<std::vector<double>>();
-    const auto features = json.at("features").get<std::vector<double>>();
-    checkpoint.excluded = json.at("excluded").get<std::vector<uint8_t>>();
-    checkpoint.kept = json.at("kept").get<std::vector<uint8_t>>();
+    // Version 3 with a feature file: the arrays are read from it below.
+    const bool feature_file = json.contains("features_file");
+    const auto features =
+        feature_file ? std::vector<double>() : json.at("features").get<std::vector<double>>();
+    if (!feature_file) {
+      checkpoint.excluded = json.at("excluded").get<std::vector<uint8_t>>();
+      checkpoint.kept = json.at("kept").get<std::vector<uint8_t>>();
+    }
     // Absent in version 1 and in CHOLMOD checkpoints: a fresh PCG state.
     if (json.contains("pcg")) checkpoint.pcg = PcgStateFromJson(json.at("pcg"));
     if (poses.size() % Layout::kPoseValues != 0)
@@ -203,6 +306,20 @@ StatusOr<Checkpoint> Read(const std::string& path, const std::string& input) {
       typename decltype(checkpoint.features)::value_type f;
       for (int k = 0; k < Layout::kFeatureValues; ++k) f[k] = features[i + k];
       checkpoint.features.push_back(f);
+    }
+    if (feature_file) {
+      if constexpr (Layout::kDimension == 2) {
+        const std::string name = json.at("features_file").get<std::string>();
+        if (name.empty() || name.find('/') != std::string::npos)
+          return Bad(path, "'features_file' must be a file name beside the checkpoint");
+        const std::filesystem::path file_path =
+            std::filesystem::path(path).parent_path() / name;
+        GS_RETURN_IF_ERROR(ReadFeatureFile(file_path.string(),
+                                           json.at("features_count").get<int64_t>(),
+                                           &checkpoint));
+      } else {
+        return Bad(path, "'features_file' in a 3-D checkpoint");
+      }
     }
   } catch (const nlohmann::json::exception& error) {
     return Bad(path, std::string("malformed field: ") + error.what());
@@ -243,6 +360,35 @@ Status WriteSolverCheckpoint(Env* env, const std::string& path, const std::strin
 Status WriteSolverCheckpoint(Env* env, const std::string& path, const std::string& input,
                              const core::SolverCheckpoint3d& checkpoint) {
   return Write<Spatial>(env, path, input, checkpoint);
+}
+
+Status WriteSolverCheckpointWithFeatureFile(Env* env, const std::string& path,
+                                            const std::string& input,
+                                            const core::SolverCheckpoint& checkpoint) {
+  // 1. the generation's feature file, durable before any JSON names it
+  const std::string file_path = FeatureFileName(path, checkpoint.iterations);
+  GS_RETURN_IF_ERROR(WriteFeatureFile(env, file_path, checkpoint));
+  // 2. the JSON naming it (atomic: the previous JSON stays valid until here)
+  nlohmann::json json = HeadJson<Planar>(input, checkpoint);
+  json["version"] = kSolverCheckpointVersion;
+  json["features_file"] = std::filesystem::path(file_path).filename().string();
+  json["features_count"] = checkpoint.features.size();
+  GS_RETURN_IF_ERROR(WriteStringAtomically(env, path, json.dump() + "\n"));
+  // 3. other generations are garbage now (a kill before this leaves them:
+  //    the next checkpoint removes them)
+  const std::filesystem::path directory =
+      std::filesystem::path(path).parent_path().empty() ? std::filesystem::path(".")
+                                                        : std::filesystem::path(path).parent_path();
+  const std::string prefix = std::filesystem::path(path).filename().string() + ".features.";
+  const std::string keep = std::filesystem::path(file_path).filename().string();
+  std::error_code error;
+  for (const auto& entry : std::filesystem::directory_iterator(directory, error)) {
+    const std::string name = entry.path().filename().string();
+    if (name != keep && name.rfind(prefix, 0) == 0 && name.size() > 4 &&
+        name.compare(name.size() - 4, 4, ".bin") == 0)
+      GS_RETURN_IF_ERROR(env->RemoveFile(entry.path().string()));
+  }
+  return Status::Ok();
 }
 
 StatusOr<core::SolverCheckpoint> ReadSolverCheckpoint(const std::string& path,

@@ -14,9 +14,12 @@
 namespace graphslam::tools {
 
 StatusOr<int> ChunksInFlightForMemoryLimit(int64_t limit_bytes, int64_t poses, int64_t features,
-                                           int64_t chunk_observations, int default_in_flight) {
+                                           int64_t chunk_observations, int default_in_flight,
+                                           bool streaming) {
   if (limit_bytes <= 0) return default_in_flight;
-  const int64_t pose_system = poses * kPoseSystemBytesPerPose + features * kBytesPerFeature;
+  const int64_t pose_system =
+      poses * kPoseSystemBytesPerPose +
+      features * (streaming ? kBytesPerFeatureStreaming : kBytesPerFeature);
   const int64_t chunk = chunk_observations * kBytesPerObservationInFlight;
   const int64_t left = limit_bytes - pose_system;
   if (left < chunk)

@@ -16,7 +16,8 @@
 //   --memory-limit    bounds the chunks in flight so that an estimate of the
 //                     pose system plus chunks in flight fits the budget:
 //                       pose system  ~ poses * kPoseSystemBytesPerPose
-//                                      + features * kBytesPerFeature
+//                                      + features * (kBytesPerFeature, or
+//                                        kBytesPerFeatureStreaming)
 //                       one chunk    ~ chunk_observations * kBytesPerObservationInFlight
 //                       in flight    = clamp(floor((limit - pose system) / chunk), 1, default)
 //                     InvalidArgument when even one chunk does not fit.
@@ -33,16 +34,26 @@ namespace graphslam::tools {
 
 // Bytes per pose of the reduced system (3x3 blocks of S for the pose and its
 // band of co-observing neighbours, the PCG vectors, the pose arrays) and per
-// feature (estimate, id, flags); bytes an observation costs while its chunk is
-// in flight (the record, its Jacobians, the feature's Schur blocks).
-inline constexpr int64_t kPoseSystemBytesPerPose = 4096;
+// feature; bytes an observation costs while its chunk is in flight (the
+// record, its Jacobians, the feature's Schur blocks). Calibrated on the 10^7
+// and 10^8 streaming solves (docs/out_of_core.md, "Memory per feature"):
+// S has ~29 blocks of 72 bytes per pose there (~2.1 KB), plus its index, the
+// PCG vectors and the pose arrays. Per feature, streaming mode holds the
+// estimate (16), id (8), flags and unknown index (~8) and what the problem
+// reader leaves on the heap (measured ~38 B at rest at 10^8); the candidates
+// of a step are on disk (storage/candidate_file.h). In memory the candidates
+// (16) add to that.
+inline constexpr int64_t kPoseSystemBytesPerPose = 2400;
 inline constexpr int64_t kBytesPerFeature = 64;
+inline constexpr int64_t kBytesPerFeatureStreaming = 40;
 inline constexpr int64_t kBytesPerObservationInFlight = 512;
 
 // The chunks in flight allowed by `limit_bytes` (<= 0: no limit ->
-// default_in_flight). InvalidArgument naming the budget and the need otherwise.
+// default_in_flight); `streaming`: the per-feature cost of streaming mode.
+// InvalidArgument naming the budget and the need otherwise.
 StatusOr<int> ChunksInFlightForMemoryLimit(int64_t limit_bytes, int64_t poses, int64_t features,
-                                           int64_t chunk_observations, int default_in_flight);
+                                           int64_t chunk_observations, int default_in_flight,
+                                           bool streaming = false);
 
 // Observation buffer of an ingest under `limit_bytes` (<= 0: 1 GiB): a third
 // of the budget in observations (each costs its bytes and as much again in

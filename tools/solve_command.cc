@@ -20,6 +20,7 @@
 #include "partition/progressive_initialization.h"
 #include "storage/atomic_file.h"
 #include "storage/solver_checkpoint.h"
+#include "storage/candidate_file.h"
 #include "storage/chunk_store.h"
 #include "storage/dimension_detection.h"
 #include "storage/features_csv_writer.h"
@@ -422,7 +423,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   {
     StatusOr<int> in_flight = ChunksInFlightForMemoryLimit(
         memory_limit, problem.num_poses(), problem.num_features(), options.chunk_observations,
-        solver_options.max_chunks_in_flight);
+        solver_options.max_chunks_in_flight, streaming);
     if (!in_flight.ok()) return fail(in_flight.status());
     solver_options.max_chunks_in_flight = *in_flight;
   }
@@ -491,9 +492,29 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   }
   const double progressive_seconds = Seconds(progressive_start);
 
-  if (resuming) solver_options.resume_from = &resume_state;
+  if (resuming) {
+    // The solve continues from these estimates: moved into the problem, not
+    // held twice (16 bytes per feature for the whole solve).
+    if (resume_state.features.size() == problem.features.size() && !problem.features.empty()) {
+      problem.features = std::move(resume_state.features);
+      resume_state.features = {};
+    }
+    solver_options.resume_from = &resume_state;
+  }
+  // Streaming mode keeps no per-feature array of candidates (they go to a
+  // scratch file beside the checkpoint, storage/candidate_file.h) and writes
+  // the checkpoint's feature estimates as a binary file, not JSON arrays.
+  std::unique_ptr<storage::CandidateFile> candidate_file;
+  if (streaming && !checkpoint_path.empty()) {
+    candidate_file = std::make_unique<storage::CandidateFile>(
+        storage::Env::Default(), checkpoint_path + ".candidates.bin");
+    solver_options.candidate_store = candidate_file.get();
+  }
   if (!checkpoint_path.empty()) {
     solver_options.checkpoint_callback = [&](const core::SolverCheckpoint& checkpoint) {
+      if (streaming)
+        return storage::WriteSolverCheckpointWithFeatureFile(
+            storage::Env::Default(), checkpoint_path, options.input, checkpoint);
       return storage::WriteSolverCheckpoint(storage::Env::Default(), checkpoint_path,
                                             options.input, checkpoint);
     };

@@ -21,7 +21,7 @@ template <class Space>
 Status ReduceChunk(const BasicPassContext<Space>& context,
                    const BasicObservationChunk<typename Space::Observation>& chunk,
                    const std::vector<typename Space::Pose>& poses,
-                   const std::vector<typename Space::Point>& features, double lambda,
+                   const FeatureLookup<typename Space::Point>& features, double lambda,
                    ReduceOutput<Space>* out) {
   constexpr int P = Space::kPoseDim;
   constexpr int D = Space::kFeatureDim;
@@ -35,7 +35,8 @@ Status ReduceChunk(const BasicPassContext<Space>& context,
     const int32_t g = chunk.features[k];
     if (Excluded(context, g)) continue;
     BasicLinearizedFeature<Space>& f = out->scratch;
-    LinearizeFeature<Space>(chunk, k, poses, features[g], *context.layout, context.kernel, &f);
+    LinearizeFeature<Space>(chunk, k, poses, features(k, g), *context.layout, context.kernel,
+                            &f);
     out->chi2 += f.chi2;
     for (size_t slot = 0; slot < f.blocks.poses.size(); ++slot) {
       const int u = f.blocks.poses[slot];
@@ -91,20 +92,24 @@ void RecoverChunk(const BasicPassContext<Space>& context,
                   const std::vector<typename Space::Point>& features, double lambda,
                   const Eigen::VectorXd& step,
                   const std::vector<typename Space::Pose>& candidate_poses,
-                  std::vector<typename Space::Point>* candidate_features,
                   RecoverOutput<Space>* out) {
   constexpr int P = Space::kPoseDim;
   constexpr int D = Space::kFeatureDim;
   out->sums = RecoveryResult();
+  out->candidates.resize(static_cast<size_t>(chunk.num_features()));
   for (int64_t k = 0; k < chunk.num_features(); ++k) {
     const int32_t g = chunk.features[k];
-    if (Excluded(context, g)) continue;
+    typename Space::Point& candidate = out->candidates[static_cast<size_t>(k)];
+    if (Excluded(context, g)) {
+      candidate = features[g];
+      continue;
+    }
     if (context.layout->IsKept(g)) {
       // Solved in the reduced system; its model terms are in the pose part.
       const int fu = context.layout->feature_unknown_index[g];
-      (*candidate_features)[g] = features[g] + step.template segment<D>(P * fu);
-      out->sums.candidate_chi2 += FeatureChi2<Space>(chunk, k, candidate_poses,
-                                                     (*candidate_features)[g], context.kernel);
+      candidate = features[g] + step.template segment<D>(P * fu);
+      out->sums.candidate_chi2 +=
+          FeatureChi2<Space>(chunk, k, candidate_poses, candidate, context.kernel);
       continue;
     }
     BasicLinearizedFeature<Space>& f = out->scratch;
@@ -112,10 +117,9 @@ void RecoverChunk(const BasicPassContext<Space>& context,
     const Eigen::Matrix<double, D, 1> damping = DampingDiagonal<D>(f.blocks.feature_information);
     f.blocks.feature_information.diagonal() += lambda * damping;
     const Eigen::Matrix<double, D, 1> feature_step = RecoverFeature(f.blocks, step);
-    // Each feature lives in exactly one chunk: no two tasks write one slot.
-    (*candidate_features)[g] = features[g] + feature_step;
-    out->sums.candidate_chi2 += FeatureChi2<Space>(chunk, k, candidate_poses,
-                                                   (*candidate_features)[g], context.kernel);
+    candidate = features[g] + feature_step;
+    out->sums.candidate_chi2 +=
+        FeatureChi2<Space>(chunk, k, candidate_poses, candidate, context.kernel);
     out->sums.gradient_dot_step += f.blocks.feature_gradient.dot(feature_step);
     out->sums.damped_step_norm += feature_step.dot(damping.cwiseProduct(feature_step));
     out->sums.step_squared_norm += feature_step.squaredNorm();
@@ -134,14 +138,13 @@ void MergeRecovered(const RecoveryResult& sums, RecoveryResult* result) {
 #define GS_INSTANTIATE_CHUNK_PASS_KERNELS(Space)                                                  \
   template Status ReduceChunk<Space>(                                                             \
       const BasicPassContext<Space>&, const BasicObservationChunk<Space::Observation>&,           \
-      const std::vector<Space::Pose>&, const std::vector<Space::Point>&, double,                  \
+      const std::vector<Space::Pose>&, const FeatureLookup<Space::Point>&, double,                \
       ReduceOutput<Space>*);                                                                      \
   template void MergeReduced<Space>(const ReduceOutput<Space>&, ReducedSystem*);                  \
   template void RecoverChunk<Space>(                                                              \
       const BasicPassContext<Space>&, const BasicObservationChunk<Space::Observation>&,           \
       const std::vector<Space::Pose>&, const std::vector<Space::Point>&, double,                  \
-      const Eigen::VectorXd&, const std::vector<Space::Pose>&, std::vector<Space::Point>*,        \
-      RecoverOutput<Space>*);
+      const Eigen::VectorXd&, const std::vector<Space::Pose>&, RecoverOutput<Space>*);
 
 GS_INSTANTIATE_CHUNK_PASS_KERNELS(Space2d)
 GS_INSTANTIATE_CHUNK_PASS_KERNELS(Space3d)

@@ -17,9 +17,8 @@
 // Templates on the problem space (core/problem_space.h), instantiated for
 // Space2d and Space3d in chunk_pass_kernels.cc.
 //
-// THREAD SAFETY: the *Chunk functions write only their output and, for
-// RecoverChunk, the candidate slots of the chunk's own features (a feature
-// lives in exactly one chunk); the Merge functions run serially.
+// THREAD SAFETY: the *Chunk functions write only their output; the Merge
+// functions run serially.
 // ALLOCATION: outputs keep their capacity across chunks.
 #pragma once
 
@@ -55,11 +54,23 @@ struct ReduceOutput {
   double chi2 = 0.0;
 };
 
+// The feature estimates a kernel reads: either the solve's array (indexed by
+// feature) or the chunk's own slots (indexed by k, the chunk's feature slot:
+// the fused pass's candidates, which exist only per chunk).
+template <class Point>
+struct FeatureLookup {
+  const std::vector<Point>* by_feature = nullptr;
+  const Point* by_slot = nullptr;
+  const Point& operator()(int64_t k, int32_t g) const {
+    return by_slot != nullptr ? by_slot[k] : (*by_feature)[g];
+  }
+};
+
 template <class Space>
 Status ReduceChunk(const BasicPassContext<Space>& context,
                    const BasicObservationChunk<typename Space::Observation>& chunk,
                    const std::vector<typename Space::Pose>& poses,
-                   const std::vector<typename Space::Point>& features, double lambda,
+                   const FeatureLookup<typename Space::Point>& features, double lambda,
                    ReduceOutput<Space>* out);
 template <class Space>
 void MergeReduced(const ReduceOutput<Space>& out, ReducedSystem* system);
@@ -68,10 +79,12 @@ template <class Space>
 struct RecoverOutput {
   BasicLinearizedFeature<Space> scratch;
   RecoveryResult sums;
+  // Per slot k of the chunk: the candidate of feature chunk.features[k]
+  // (an excluded feature's slot holds its current estimate).
+  std::vector<typename Space::Point> candidates;
 };
 
-// Writes (*candidate_features)[g] for the chunk's features that are not
-// excluded; *candidate_features must already have one slot per feature.
+// Fills out->candidates (one per chunk slot) and out->sums.
 template <class Space>
 void RecoverChunk(const BasicPassContext<Space>& context,
                   const BasicObservationChunk<typename Space::Observation>& chunk,
@@ -79,7 +92,6 @@ void RecoverChunk(const BasicPassContext<Space>& context,
                   const std::vector<typename Space::Point>& features, double lambda,
                   const Eigen::VectorXd& step,
                   const std::vector<typename Space::Pose>& candidate_poses,
-                  std::vector<typename Space::Point>* candidate_features,
                   RecoverOutput<Space>* out);
 void MergeRecovered(const RecoveryResult& sums, RecoveryResult* result);
 

@@ -4,8 +4,10 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <type_traits>
 
 #include "core/block_sparse_matrix.h"
+#include "core/candidate_store.h"
 #include "core/chunk_passes.h"
 #include "core/levenberg_marquardt.h"
 #include "core/logging.h"
@@ -45,13 +47,18 @@ class ChunkedSpace {
   using Point = typename Space::Point;
 
   // fused: one RecoverAndReducePass per accepted iteration (see TryStep).
+  // candidate_store (optional): the step's candidate features go there
+  // instead of into an array of one per feature (core/candidate_store.h).
+  // kept and excluded are lent to the checkpoint too (LendState), so they
+  // are held by non-const reference.
   ChunkedSpace(const BasicPassContext<Space>& context, const UnknownLayout& layout,
-               const std::vector<uint8_t>& kept, const PoseFactorKernels& pose_kernels,
+               std::vector<uint8_t>* kept, const PoseFactorKernels& pose_kernels,
                typename Space::Problem* problem, ReducedSystem* system,
-               ReducedSystemSolver* solver, const std::vector<uint8_t>& excluded, bool fused)
-      : context_(context), layout_(layout), kept_(kept), pose_kernels_(pose_kernels),
-        problem_(*problem), system_(*system), solver_(*solver), excluded_(excluded),
-        fused_(fused) {}
+               ReducedSystemSolver* solver, std::vector<uint8_t>* excluded, bool fused,
+               BasicCandidateStore<Point>* candidate_store)
+      : context_(context), layout_(layout), kept_(*kept), pose_kernels_(pose_kernels),
+        problem_(*problem), system_(*system), solver_(*solver), excluded_(*excluded),
+        fused_(fused), candidate_store_(candidate_store) {}
 
   Status Linearize(double lambda, IterationSummary* it, bool* usable) {
     const int num_rows = system_.matrix.num_rows();
@@ -93,6 +100,8 @@ class ChunkedSpace {
       // reduce at the candidate for the next iteration when there is one.
       RecoveryResult recovery;
       candidate_poses_ = ApplyPoseStep<Space>(poses, layout_, pose_step_);
+      CandidateSink<Space> sink = CandidateSinkForThisStep();
+      if (candidate_store_ != nullptr) GS_RETURN_IF_ERROR(candidate_store_->Begin());
       if (fused_ && speculative_lambda > 0.0) {
         // Once solved, this linearization's matrix and rhs are dead (a
         // rejected step re-reduces at x from scratch): the next system is
@@ -101,18 +110,19 @@ class ChunkedSpace {
         step_gradient_.swap(system_.gradient);
         ResetSystem(candidate_poses_, &system_);
         Status next_status;
-        GS_RETURN_IF_ERROR(RecoverAndReducePass(
-            context_, poses, problem_.features, lambda, pose_step_, candidate_poses_,
-            &candidate_features_, &recovery, speculative_lambda, &system_, &next_status));
+        GS_RETURN_IF_ERROR(RecoverAndReducePass<Space>(
+            context_, poses, problem_.features, lambda, pose_step_, candidate_poses_, sink,
+            &recovery, speculative_lambda, &system_, &next_status));
         speculation_built_ = next_status.ok();
         speculative_lambda_ = speculative_lambda;
         if (!next_status.ok())
           GS_VLOG(1, "speculative reduce failed (%s)", next_status.ToString().c_str());
       } else {
-        GS_RETURN_IF_ERROR(RecoverPass(context_, poses, problem_.features, lambda, pose_step_,
-                                       candidate_poses_, &candidate_features_, &recovery));
+        GS_RETURN_IF_ERROR(RecoverPass<Space>(context_, poses, problem_.features, lambda,
+                                              pose_step_, candidate_poses_, sink, &recovery));
         step_gradient_ = system_.gradient;
       }
+      if (candidate_store_ != nullptr) GS_RETURN_IF_ERROR(candidate_store_->Finish());
       ++it->chunk_passes;
       trial->candidate_chi2 =
           PoseFactorsChi2(problem_, candidate_poses_, pose_kernels_) + recovery.candidate_chi2;
@@ -132,32 +142,62 @@ class ChunkedSpace {
 
   void StepResult(bool accepted) { solver_.StepResult(accepted); }
 
-  void Accept() {
+  Status Accept() {
     // The speculative system was reduced at exactly the state taken here.
     speculation_ready_ = speculation_built_;
     problem_.poses = std::move(candidate_poses_);
+    if (candidate_store_ != nullptr) {
+      std::vector<Point>& features = problem_.features;
+      const std::vector<uint8_t>& excluded = excluded_;
+      return candidate_store_->ForEach([&](int32_t g, const Point& value) {
+        if (!excluded[g]) features[g] = value;
+      });
+    }
     for (size_t g = 0; g < problem_.features.size(); ++g)
       if (!excluded_[g]) problem_.features[g] = candidate_features_[g];
+    return Status::Ok();
   }
 
-  // Moves (not copies) the poses and feature estimates into the checkpoint
-  // for the callback (the one-byte flags are copied); ReturnState must follow
-  // before the state is used again. A moved vector keeps its buffer, so the
-  // state comes back at the same addresses.
+  // Moves (not copies) the poses, feature estimates and per-feature flags
+  // into the checkpoint for the callback; ReturnState must follow before the
+  // state is used again. A moved vector keeps its buffer, so the state comes
+  // back at the same addresses (context_.excluded points at excluded_).
   void LendState(Checkpoint* checkpoint) {
     checkpoint->poses = std::move(problem_.poses);
     checkpoint->features = std::move(problem_.features);
-    checkpoint->excluded = excluded_;
-    checkpoint->kept = kept_;
+    checkpoint->excluded = std::move(excluded_);
+    checkpoint->kept = std::move(kept_);
     solver_.SaveState(&checkpoint->pcg);
   }
 
   void ReturnState(Checkpoint* checkpoint) {
     problem_.poses = std::move(checkpoint->poses);
     problem_.features = std::move(checkpoint->features);
+    excluded_ = std::move(checkpoint->excluded);
+    kept_ = std::move(checkpoint->kept);
   }
 
  private:
+  // Where RecoverChunk's per-chunk candidates go: the store, or one slot per
+  // feature in candidate_features_.
+  CandidateSink<Space> CandidateSinkForThisStep() {
+    using Chunk = BasicObservationChunk<typename Space::Observation>;
+    if (candidate_store_ != nullptr) {
+      return [this](const Chunk& chunk, const std::vector<Point>& candidates) {
+        return candidate_store_->Append(chunk.index, chunk.features.data(), candidates.data(),
+                                        chunk.num_features());
+      };
+    }
+    candidate_features_.resize(problem_.features.size());
+    return [this](const Chunk& chunk, const std::vector<Point>& candidates) {
+      for (int64_t k = 0; k < chunk.num_features(); ++k) {
+        const int32_t g = chunk.features[k];
+        if (!excluded_[g]) candidate_features_[g] = candidates[static_cast<size_t>(k)];
+      }
+      return Status::Ok();
+    };
+  }
+
   // Zeroes *system and adds the pose-only factors at `poses`: the state
   // ReducePass (or the reduce half of the fused pass) starts from.
   void ResetSystem(const std::vector<Pose>& poses, ReducedSystem* system) const {
@@ -174,13 +214,14 @@ class ChunkedSpace {
 
   const BasicPassContext<Space>& context_;
   const UnknownLayout& layout_;
-  const std::vector<uint8_t>& kept_;
+  std::vector<uint8_t>& kept_;
   const PoseFactorKernels& pose_kernels_;
   typename Space::Problem& problem_;
   ReducedSystem& system_;
   ReducedSystemSolver& solver_;
-  const std::vector<uint8_t>& excluded_;
+  std::vector<uint8_t>& excluded_;
   const bool fused_;
+  BasicCandidateStore<Point>* const candidate_store_;  // may be null
   Eigen::VectorXd step_gradient_;  // g_x of the linearization the last step solved
   Eigen::VectorXd damping_;
   Eigen::VectorXd pose_step_;
@@ -218,9 +259,14 @@ Status SolveChunked(
   ScreeningResult screening;
   GS_RETURN_IF_ERROR(ScreenFeatures(context, problem->poses, problem->features,
                                     options.max_eliminated_observations, &screening));
+  // A resume whose feature array is empty while the problem has features:
+  // the caller moved the checkpoint's estimates into problem->features
+  // already (SolverOptions::resume_from), so no second copy is held.
+  const bool resume_features_in_problem =
+      resume != nullptr && resume->features.empty() && !problem->features.empty();
   if (resume != nullptr) {
     if (resume->poses.size() != problem->poses.size() ||
-        resume->features.size() != problem->features.size() ||
+        (!resume_features_in_problem && resume->features.size() != problem->features.size()) ||
         resume->excluded.size() != problem->features.size() ||
         resume->kept.size() != problem->features.size()) {
       return Status::InvalidArgument(
@@ -238,7 +284,7 @@ Status SolveChunked(
     screening.excluded_not_positive_definite =
         std::count(screening.excluded.begin(), screening.excluded.end(), 1) - unobserved;
     problem->poses = resume->poses;
-    problem->features = resume->features;
+    if (!resume_features_in_problem) problem->features = resume->features;
     summary->resumed_from_iteration = resume->iterations;
   }
   layout.KeepFeatures(screening.kept);
@@ -255,7 +301,8 @@ Status SolveChunked(
            "degenerate observations); they are kept out of the solve",
            static_cast<long long>(screening.excluded_not_positive_definite));
   }
-  summary->excluded = screening.excluded;
+  // Moved, not copied: one byte per feature (the screening's copy is dead).
+  summary->excluded = std::move(screening.excluded);
   context.excluded = &summary->excluded;
 
   // The reduced matrix's pattern: pose-only factors plus co-observing poses.
@@ -295,8 +342,13 @@ Status SolveChunked(
   // The PCG's forcing term, warm start and forest of the interrupted solve.
   if (resume != nullptr) GS_RETURN_IF_ERROR(solver.RestoreState(resume->pcg, system.matrix));
 
-  ChunkedSpace<Space> space(context, layout, screening.kept, options.pose_kernels, problem, &system,
-                    &solver, summary->excluded, options.fused_chunk_pass);
+  // The candidate store holds planar points (SolverOptions is shared with the
+  // 3-D solver, which keeps its candidates in memory).
+  BasicCandidateStore<typename Space::Point>* candidate_store = nullptr;
+  if constexpr (std::is_same_v<Space, Space2d>) candidate_store = options.candidate_store;
+  ChunkedSpace<Space> space(context, layout, &screening.kept, options.pose_kernels, problem,
+                            &system, &solver, &summary->excluded, options.fused_chunk_pass,
+                            candidate_store);
   double observations_chi2 = 0.0;
   GS_RETURN_IF_ERROR(
       ObservationsChi2(context, problem->poses, problem->features, &observations_chi2));

@@ -2,3 +2,4 @@
 graphslam_test(storage/g2o_3d_reader)
 graphslam_test(storage/isam_3d_reader)
 graphslam_test(storage/solver_checkpoint)
+graphslam_test(storage/candidate_file)

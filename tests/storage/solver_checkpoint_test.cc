@@ -256,5 +256,107 @@ TEST(SolverCheckpoint, MalformedPcgStateIsCorruption) {
   std::filesystem::remove(path);
 }
 
+// The streaming solve's checkpoint (version 3): the feature estimates and
+// flags in a binary feature file beside the JSON, which names it; writing the
+// next generation removes the previous one.
+TEST(SolverCheckpoint, FeatureFileReadsBackBitForBitAndReplacesTheOlderGeneration) {
+  std::mt19937 rng(4);
+  std::normal_distribution<double> n(0.0, 10.0);
+  core::SolverCheckpoint c;
+  FillControl(&c);
+  c.pcg.present = true;
+  c.pcg.eta = 0.5;
+  for (int i = 0; i < 10; ++i) c.poses.emplace_back(n(rng), n(rng), n(rng));
+  // More than one record (65536 features each).
+  for (int i = 0; i < 70000; ++i) {
+    c.features.emplace_back(n(rng), std::nextafter(n(rng), 1e9));
+    c.excluded.push_back(i % 7 == 0);
+    c.kept.push_back(i % 11 == 0 && i % 7 != 0);
+  }
+  const std::string path = TempPath("ff.json");
+  ASSERT_TRUE(WriteSolverCheckpointWithFeatureFile(Env::Default(), path, "in", c).ok());
+  EXPECT_TRUE(std::filesystem::exists(path + ".features.7.bin"));
+  {
+    std::ifstream in(path);
+    const nlohmann::json json = nlohmann::json::parse(in);
+    EXPECT_EQ(json["version"], 3);
+    EXPECT_FALSE(json.contains("features")) << "per-feature JSON written";
+    EXPECT_EQ(json["features_file"], std::filesystem::path(path).filename().string() +
+                                         ".features.7.bin");
+  }
+  StatusOr<core::SolverCheckpoint> read = ReadSolverCheckpoint(path, "in");
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  ExpectSameControl(c, *read);
+  ASSERT_EQ(read->features.size(), c.features.size());
+  for (size_t i = 0; i < c.features.size(); ++i)
+    ASSERT_EQ(read->features[i], c.features[i]) << i;
+  for (size_t i = 0; i < c.poses.size(); ++i) EXPECT_EQ(read->poses[i], c.poses[i]) << i;
+
+  c.iterations = 8;
+  c.features[5].x() += 1.0;
+  ASSERT_TRUE(WriteSolverCheckpointWithFeatureFile(Env::Default(), path, "in", c).ok());
+  EXPECT_FALSE(std::filesystem::exists(path + ".features.7.bin")) << "old generation kept";
+  read = ReadSolverCheckpoint(path, "in");
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  EXPECT_EQ(read->iterations, 8);
+  EXPECT_EQ(read->features[5], c.features[5]);
+  std::filesystem::remove(path);
+  std::filesystem::remove(path + ".features.8.bin");
+}
+
+TEST(SolverCheckpoint, DamagedFeatureFileIsCorruptionNamingTheFileAndOffset) {
+  core::SolverCheckpoint c;
+  FillControl(&c);
+  c.poses.emplace_back(1.0, 2.0, 0.5);
+  for (int i = 0; i < 100; ++i) {
+    c.features.emplace_back(i, -i);
+    c.excluded.push_back(0);
+    c.kept.push_back(0);
+  }
+  const std::string path = TempPath("damaged.json");
+  const std::string features = path + ".features.7.bin";
+  ASSERT_TRUE(WriteSolverCheckpointWithFeatureFile(Env::Default(), path, "in", c).ok());
+  std::string bytes;
+  {
+    std::ifstream in(features, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const auto write = [&](const std::string& contents) {
+    std::ofstream out(features, std::ios::binary | std::ios::trunc);
+    out << contents;
+  };
+  // The one data record starts after the 24-byte header.
+  std::string flipped = bytes;
+  flipped[24 + 9 + 12 + 8 * 31] ^= 0x01;
+  write(flipped);
+  StatusOr<core::SolverCheckpoint> read = ReadSolverCheckpoint(path, "in");
+  ASSERT_FALSE(read.ok());
+  EXPECT_TRUE(read.status().IsCorruption()) << read.status().ToString();
+  EXPECT_NE(read.status().message().find(features + ": offset 24: record checksum mismatch"),
+            std::string::npos)
+      << read.status().ToString();
+
+  write(bytes.substr(0, 500));  // truncated inside the record
+  read = ReadSolverCheckpoint(path, "in");
+  ASSERT_FALSE(read.ok());
+  EXPECT_NE(read.status().message().find(features + ": offset 24: truncated record"),
+            std::string::npos)
+      << read.status().ToString();
+
+  write(bytes.substr(0, 10));  // truncated header
+  read = ReadSolverCheckpoint(path, "in");
+  ASSERT_FALSE(read.ok());
+  EXPECT_NE(read.status().message().find(features + ": offset 0: truncated header"),
+            std::string::npos)
+      << read.status().ToString();
+
+  std::filesystem::remove(features);
+  read = ReadSolverCheckpoint(path, "in");
+  ASSERT_FALSE(read.ok());
+  EXPECT_NE(read.status().message().find(features), std::string::npos)
+      << read.status().ToString();
+  std::filesystem::remove(path);
+}
+
 }  // namespace
 }  // namespace graphslam::storage

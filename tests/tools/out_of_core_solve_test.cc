@@ -34,7 +34,7 @@ TEST(ParseMemorySize, GarbageIsInvalidArgumentNamingTheText) {
 TEST(ChunksInFlight, FitsThePoseSystemAndChunksIntoTheBudget) {
   // No limit: the default.
   EXPECT_EQ(*ChunksInFlightForMemoryLimit(0, 1000, 100, 4096, 8), 8);
-  // 1000 poses, 100 features: pose system 4096000 + 6400 bytes; chunks of
+  // 1000 poses, 100 features: pose system 2400000 + 6400 bytes; chunks of
   // 1024 observations cost 524288 bytes each.
   const int64_t pose_system = 1000 * kPoseSystemBytesPerPose + 100 * kBytesPerFeature;
   const int64_t chunk = 1024 * kBytesPerObservationInFlight;
@@ -48,6 +48,26 @@ TEST(ChunksInFlight, FitsThePoseSystemAndChunksIntoTheBudget) {
   EXPECT_NE(too_small.status().ToString().find(std::to_string(pose_system + chunk)),
             std::string::npos)
       << too_small.status().ToString();
+}
+
+// Streaming mode keeps a step's candidates on disk: fewer bytes per feature,
+// so the 10^8 solve (10^6 poses, 4.4*10^7 observed features) fits 4G with
+// the default 8 chunks of 4096 observations in flight.
+TEST(ChunksInFlight, StreamingModeCountsItsSmallerPerFeatureCost) {
+  const int64_t poses = 1000, features = 100000;
+  const int64_t chunk = 1024 * kBytesPerObservationInFlight;
+  const int64_t streaming_system =
+      poses * kPoseSystemBytesPerPose + features * kBytesPerFeatureStreaming;
+  EXPECT_LT(kBytesPerFeatureStreaming, kBytesPerFeature);
+  EXPECT_EQ(*ChunksInFlightForMemoryLimit(streaming_system + 2 * chunk, poses, features, 1024, 8,
+                                          /*streaming=*/true),
+            2);
+  EXPECT_FALSE(ChunksInFlightForMemoryLimit(streaming_system + 2 * chunk, poses, features, 1024,
+                                            8, /*streaming=*/false)
+                   .ok());
+  EXPECT_EQ(*ChunksInFlightForMemoryLimit(int64_t{4} << 30, 1000000, 43750683, 4096, 8,
+                                          /*streaming=*/true),
+            8);
 }
 
 TEST(IngestBuffer, AThirdOfTheBudgetInObservationsAtLeastOneChunk) {

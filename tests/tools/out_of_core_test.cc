@@ -2,7 +2,10 @@
 // `graphslam solve FILE --workdir DIR` equals the in-memory solve; the
 // streaming mode (observations stay on disk, the ingest's Table 1 guess)
 // equals the in-memory solve from the same guess; --memory-limit bounds the
-// chunks in flight. (kill -9 during an ingest: ingest_kill_test.cc.)
+// chunks in flight; a streaming solve resumes from a checkpoint whose feature
+// estimates are in a binary feature file. (kill -9 during an ingest:
+// ingest_kill_test.cc.)
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -31,6 +34,24 @@ using graphslam::testing::RunGraphslam;
 using graphslam::testing::ReadJson;
 
 class OutOfCoreTest : public graphslam::testing::OutOfCoreFixture {};
+
+// RunGraphslam with the child's stderr in the file `stderr_path`.
+int RunGraphslamRedirected(const std::vector<std::string>& args, const std::string& stderr_path) {
+  std::vector<char*> argv;
+  argv.push_back(const_cast<char*>(GraphslamBinary().c_str()));
+  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int fd = open(stderr_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fd >= 0) dup2(fd, 2);
+    execv(GraphslamBinary().c_str(), argv.data());
+    _exit(127);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
 
 TEST_F(OutOfCoreTest, WorkdirSolveEqualsInMemorySolve) {
   const std::string input = Simulate(1000, 3);
@@ -94,6 +115,66 @@ TEST_F(OutOfCoreTest, MemoryLimitBoundsChunksInFlightOrIsRejected) {
                           "--chunk-observations", "1024", "-q"}),
             0);
   ExpectSameChi2(ReadJson(dir_ / "free.json"), limited);
+}
+
+// Streaming mode keeps a step's candidates in a scratch file beside the
+// checkpoint and the checkpoint's feature estimates in a binary feature file
+// (no per-feature JSON). A solve stopped after 2 iterations and resumed from
+// that checkpoint writes the same -o bytes and chi2 as an uninterrupted one;
+// a damaged feature file stops the resume with the file and the offset.
+TEST_F(OutOfCoreTest, StreamingResumeFromAFeatureFileEqualsTheUninterruptedSolve) {
+  const std::string input = Simulate(700, 9);
+  const std::string store = (dir_ / "store").string();
+  ASSERT_EQ(RunGraphslam({"ingest", input, "-o", store, "--chunk-observations", "250", "-q"}), 0);
+  const auto solve = [&](const std::string& name, const std::string& iterations, bool resume) {
+    std::vector<std::string> args = {
+        "solve", store, "--streaming-poses", "0", "--initialization", "odometry",
+        "--max-iterations", iterations, "--checkpoint", (dir_ / (name + ".json")).string(),
+        "-o", (dir_ / (name + ".g2o")).string(), "--report", (dir_ / (name + "_report.json")).string(),
+        "--threads", "2", "-q"};
+    if (resume) args.push_back("--resume");
+    const int code = RunGraphslam(args);
+    return code == 0 || code == 4;  // converged, or stopped at --max-iterations
+  };
+  const auto bytes = [](const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  };
+  ASSERT_TRUE(solve("full", "5", false));
+  ASSERT_TRUE(solve("part", "2", false));
+  const nlohmann::json checkpoint = ReadJson(dir_ / "part.json");
+  EXPECT_EQ(checkpoint["version"], 3);
+  EXPECT_FALSE(checkpoint.contains("features"));
+  EXPECT_EQ(checkpoint["features_file"], "part.json.features.2.bin");
+  EXPECT_TRUE(fs::exists(dir_ / "part.json.features.2.bin"));
+  EXPECT_FALSE(fs::exists(dir_ / "part.json.candidates.bin")) << "scratch file left behind";
+  const std::string saved = bytes(dir_ / "part.json.features.2.bin");
+  ASSERT_TRUE(solve("part", "5", true));
+  const nlohmann::json full = ReadJson(dir_ / "full_report.json");
+  const nlohmann::json resumed = ReadJson(dir_ / "part_report.json");
+  EXPECT_TRUE(resumed["streaming"].get<bool>());
+  EXPECT_EQ(resumed["resumed_from_iteration"].get<int>(), 2);
+  EXPECT_EQ(full["final_chi2"].get<double>(), resumed["final_chi2"].get<double>());
+  EXPECT_EQ(full["iterations"].get<int>(), resumed["iterations"].get<int>());
+  EXPECT_EQ(bytes(dir_ / "full.g2o"), bytes(dir_ / "part.g2o"));
+
+  // Back to the generation-2 checkpoint, with a flipped byte in its feature file.
+  fs::remove(dir_ / "part.json.features.5.bin");
+  std::ofstream(dir_ / "part.json", std::ios::trunc) << checkpoint.dump();
+  std::string damaged = saved;
+  damaged[24 + 9 + 12 + 5] ^= 0x40;
+  std::ofstream(dir_ / "part.json.features.2.bin", std::ios::binary | std::ios::trunc) << damaged;
+  const std::string error = (dir_ / "error.txt").string();
+  EXPECT_EQ(RunGraphslamRedirected({"solve", store, "--streaming-poses", "0", "--initialization",
+                                    "odometry", "--max-iterations", "5", "--checkpoint",
+                                    (dir_ / "part.json").string(), "--resume", "-q"},
+                                   error),
+            2);  // Corruption
+  const std::string message = bytes(error);
+  EXPECT_NE(message.find((dir_ / "part.json.features.2.bin").string() +
+                         ": offset 24: record checksum mismatch"),
+            std::string::npos)
+      << message;
 }
 
 }  // namespace
