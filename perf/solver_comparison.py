@@ -53,11 +53,14 @@ the store (streaming mode) with its own `--checkpoint OUT/...checkpoint.json`.
 It has no start file: with --start pose-graph each of ours runs `--initialization
 pose-graph` itself (the pose-only solve uses that run's linear solver, so the
 starts agree to the pose-only solve's tolerance, not bit for bit); the Ceres
-runs are skipped (the peer reads g2o). Recommended, ours only, one after the
-other (each solve ~6 GiB peak RSS):
+runs are skipped (the peer reads g2o). Recommended, ours only (the runs go one
+after the other: peak RSS ~12 GiB with CHOLMOD, ~4.6 GiB with PCG; ~150 / ~110
+CPU s per LM iteration, docs/benchmarks.md "Problems that observe 10^7
+features"):
 
-  nice -n 10 perf/solver_comparison.py --bin build/bin --out /tmp/e7 --problems sim1e7obs \
-      --start pose-graph --skip ours/auto --threads 1 --max-iterations 10 --timeout 14400
+  nice -n 10 perf/solver_comparison.py --bin build/bin --out /work/scale/e7obs/cmp \
+      --problems sim1e7obs --start pose-graph --skip ours/auto --threads 1 \
+      --max-iterations 3 --timeout 14400
 """
 import argparse
 import csv
