@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/check.h"
+#include "core/logging.h"
 
 namespace graphslam::core {
 namespace {
@@ -78,6 +79,12 @@ Status CholmodSolver::Factorize(const BlockSparseMatrix& a) {
     impl.inner.assign(upper.innerIndexPtr(), upper.innerIndexPtr() + upper.nonZeros());
     impl.num_rows = static_cast<int>(upper.rows());
     impl.analyzed = true;
+    // The factor's size and cost (what --solver auto compares; it does not
+    // analyse above its unknowns budget, so -v gives them here too).
+    GS_VLOG(1, "CHOLMOD analysis: %lld rows, %lld nonzeros in the upper triangle, factor %.3g "
+            "nonzeros (lnz), %.3g flops (fl)", static_cast<long long>(upper.rows()),
+            static_cast<long long>(upper.nonZeros()), impl.llt.cholmod().lnz,
+            impl.llt.cholmod().fl);
   }
   impl.llt.factorize(upper);
   const cholmod_factor* factor = impl.llt.factor();

@@ -43,6 +43,24 @@ once into OUT with `graphslam simulate -o DIR --poses N --features M --format g2
 `--landmark-spacing 0.05 0.08 --sensor-range 6.5`; see SIMULATED); the
 simulator's summary (features observed, observations) goes to DIR/simulate.txt
 and is printed.
+
+sim1e7obs (1.5*10^6 poses, 10^7 features, ~8*10^7 observations: too large for
+a g2o file in memory) is a chunk store instead: `graphslam simulate
+--streaming --compress` with the options of sim1e6obs into OUT/sim1e7obs/sim
+(same distribution, a different file than the in-memory simulator), `graphslam
+ingest` into OUT/sim1e7obs/store (~4 GB of disk in all), and every run solves
+the store (streaming mode) with its own `--checkpoint OUT/...checkpoint.json`.
+It has no start file: with --start pose-graph each of ours runs `--initialization
+pose-graph` itself (the pose-only solve uses that run's linear solver, so the
+starts agree to the pose-only solve's tolerance, not bit for bit); the Ceres
+runs are skipped (the peer reads g2o). Recommended, ours only (the runs go one
+after the other: peak RSS ~12 GiB with CHOLMOD, ~4.6 GiB with PCG; ~150 / ~110
+CPU s per LM iteration, docs/benchmarks.md "Problems that observe 10^7
+features"):
+
+  nice -n 10 perf/solver_comparison.py --bin build/bin --out /work/scale/e7obs/cmp \
+      --problems sim1e7obs --start pose-graph --skip ours/auto --threads 1 \
+      --max-iterations 3 --timeout 14400
 """
 import argparse
 import csv
@@ -76,6 +94,9 @@ DENSE = ["--landmark-spacing", "0.05", "0.08", "--sensor-range", "6.5"]
 SIMULATED = {"sim1e4": (10000, 10000), "sim1e5": (20000, 100000),
              "sim1e6": (200000, 1000000), "sim1e5obs": (15000, 100000, DENSE),
              "sim1e6obs": (150000, 1000000, DENSE)}
+# name -> (poses, features, extra options) simulated with --streaming and
+# solved from a chunk store (see the docstring).
+STORES = {"sim1e7obs": (1500000, 10000000, DENSE)}
 SIMULATE_NOISE = ["--gps-every", "25", "--alpha", "0.0001", "0.00001", "0.0000003", "0.0001",
                   "0.0000003", "0.0001"]
 
@@ -118,6 +139,8 @@ def command(run, binaries, path, report, threads, max_iterations=200, pcg_eta_ma
 def problem_path(name, binaries, out):
     if name in PROBLEMS:
         return PROBLEMS[name]
+    if name in STORES:
+        return store_path(name, binaries, out)
     poses, features, *extra = SIMULATED[name]
     folder = os.path.join(out, name)
     graph = os.path.join(folder, "graph.g2o")
@@ -134,6 +157,29 @@ def problem_path(name, binaries, out):
         with open(summary) as f:
             print(f"{name}: {f.read().strip()}", flush=True)
     return graph
+
+
+def store_path(name, binaries, out):
+    """Simulates (streaming) and ingests the store problem `name` once; returns the store."""
+    poses, features, extra = STORES[name]
+    folder = os.path.join(out, name)
+    store = os.path.join(folder, "store")
+    summary = os.path.join(folder, "simulate.txt")
+    done_marker = os.path.join(folder, "ingested")
+    if not os.path.exists(done_marker):
+        sim = os.path.join(folder, "sim")
+        simulated = subprocess.run([f"{binaries}/graphslam", "simulate", "--streaming", "--compress",
+                                    "-o", sim, "--poses", str(poses), "--features", str(features)]
+                                   + SIMULATE_NOISE + extra, check=True, capture_output=True,
+                                   text=True)
+        write_atomically(summary, simulated.stdout + simulated.stderr)
+        subprocess.run([f"{binaries}/graphslam", "ingest", os.path.join(sim, "log.graphslam.zst"),
+                        "-o", store, "-q"], check=True)
+        write_atomically(done_marker, "")
+    if os.path.exists(summary):
+        with open(summary) as f:
+            print(f"{name}: {f.read().strip()}", flush=True)
+    return store
 
 
 def start_path(name, path, start, binaries, out, threads, timeout):
@@ -227,20 +273,25 @@ def main():
     for name in args.problems.split(","):
         path = problem_path(name, args.bin, args.out)
         initialization = "odometry"
-        if args.start != "odometry":
+        if name in STORES:
+            # No start file for a store: every run initializes itself.
+            initialization = args.start
+        elif args.start != "odometry":
             path, row = start_path(name, path, args.start, args.bin, args.out, args.threads,
                                    args.timeout)
             initialization = "as-given"
             rows.append(row)
             print(json.dumps({k: v for k, v in row.items() if k != "command"}), flush=True)
         for run in RUNS:
-            if run in skip:
+            if run in skip or (name in STORES and run.startswith("ceres/")):
                 continue
             report = os.path.join(args.out, f"{name}_{run.replace('/', '_')}.json")
             iteration_log = (report[:-len(".json")] + ".iterations.jsonl"
                              if run.startswith("ceres/") else None)
             cmd = command(run, args.bin, path, report, args.threads, args.max_iterations,
                           args.pcg_eta_max, initialization, iteration_log, args.pcg_eta_min)
+            if name in STORES:  # not STORE/checkpoint.json: each run its own
+                cmd += ["--checkpoint", report[:-len(".json")] + ".checkpoint.json"]
             exit_code, wall, cpu = timed_run(cmd, args.timeout)
             row = {"problem": name, "run": run, "exit": exit_code, "wall_s": round(wall, 3),
                    "cpu_s": round(cpu, 3), "command": " ".join(cmd)}

@@ -131,6 +131,9 @@ int RunSimulateCommand(const SimulateCommandOptions& options) {
     simulator.min_landmark_spacing = options.landmark_spacing[0];
     simulator.max_landmark_spacing = options.landmark_spacing[1];
   }
+  // Pose and feature ids share one id space (g2o): feature ids start at 10^6,
+  // or at the first power of ten not below the pose count for larger runs.
+  while (simulator.feature_id_base < simulator.poses) simulator.feature_id_base *= 10;
   if (Status status = simulator.Validate(); !status.ok()) return usage(status.message());
 
   std::error_code error;
