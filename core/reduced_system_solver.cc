@@ -202,7 +202,9 @@ Status ReducedSystemSolver::Solve(const BlockSparseMatrix& s, const Eigen::Vecto
   GS_RETURN_IF_ERROR(status);
   if (options_.deflation_poses > 0) {
     if (deflation_ == nullptr) {
-      deflation_ = std::make_unique<TrajectoryDeflation>(preconditioner, options_.deflation_poses);
+      deflation_ = std::make_unique<TrajectoryDeflation>(
+          preconditioner, options_.deflation_poses,
+          TrajectoryDeflation::DefaultLinearComponents(s.block_size()));
     }
     GS_RETURN_IF_ERROR(deflation_->Update(s));
     preconditioner = deflation_.get();

@@ -8,8 +8,18 @@
 
 namespace graphslam::core {
 
-TrajectoryDeflation::TrajectoryDeflation(const LinearOperator* inner, int poses_per_aggregate)
-    : inner_(inner), poses_per_aggregate_(poses_per_aggregate) {
+std::vector<int> TrajectoryDeflation::DefaultLinearComponents(int block_size) {
+  if (block_size == 3) return {1};  // SE(2) body frame (x forward, y left, theta): y
+  std::vector<int> all(static_cast<size_t>(block_size));
+  for (int d = 0; d < block_size; ++d) all[d] = d;
+  return all;
+}
+
+TrajectoryDeflation::TrajectoryDeflation(const LinearOperator* inner, int poses_per_aggregate,
+                                         std::vector<int> linear_components)
+    : inner_(inner),
+      poses_per_aggregate_(poses_per_aggregate),
+      linear_(std::move(linear_components)) {
   GS_CHECK(inner != nullptr && poses_per_aggregate >= 2);
 }
 
@@ -22,6 +32,12 @@ Status TrajectoryDeflation::Update(const BlockSparseMatrix& s) {
   const int nb = s.num_block_rows();
   const int b = s.block_size();
   const int m = poses_per_aggregate_;
+  for (const int d : linear_) {
+    if (d < 0 || d >= b) {
+      return Status::InvalidArgument(fmt::format(
+          "trajectory deflation: linear mode of component {} in blocks of size {}", d, b));
+    }
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   num_rows_ = s.num_rows();
   block_size_ = b;
@@ -44,9 +60,12 @@ Status TrajectoryDeflation::Update(const BlockSparseMatrix& s) {
     }
   }
 
-  // S W: block (i, a) = sum over k in a of [S_ik, t_k S_ik] (b x 2b). The
-  // columns k of a block row are sorted, so their aggregates are too.
-  const int wb = 2 * b;
+  // S W: block (i, a) = sum over k in a of S_ik W_k, W_k = [I, t_k P]
+  // (b x wb). The columns k of a block row are sorted, so their aggregates
+  // are too.
+  const int num_linear = static_cast<int>(linear_.size());
+  const int wb = b + num_linear;
+  width_ = wb;
   const std::vector<int64_t>& row_start = s.row_start();
   const std::vector<int>& cols = s.block_cols();
   sw_row_start_.assign(static_cast<size_t>(nb) + 1, 0);
@@ -63,16 +82,14 @@ Status TrajectoryDeflation::Update(const BlockSparseMatrix& s) {
       double* out = sw_values_.data() + sw_values_.size() - static_cast<size_t>(b) * wb;
       const double* block = s.Block(i, k);
       for (int r = 0; r < b; ++r) {
-        for (int c = 0; c < b; ++c) {
-          out[r * wb + c] += block[r * b + c];
-          out[r * wb + b + c] += t_[k] * block[r * b + c];
-        }
+        for (int c = 0; c < b; ++c) out[r * wb + c] += block[r * b + c];
+        for (int l = 0; l < num_linear; ++l) out[r * wb + b + l] += t_[k] * block[r * b + linear_[l]];
       }
     }
     sw_row_start_[i + 1] = static_cast<int64_t>(sw_cols_.size());
   }
 
-  // E = W^T (S W): block (a(i), a) += [SW(i,a); t_i SW(i,a)] (2b x 2b).
+  // E = W^T (S W): block (a(i), a) += W_i^T SW(i,a) (wb x wb).
   std::vector<std::pair<int, int>> pairs;
   for (int i = 0; i < nb; ++i) {
     for (int64_t j = sw_row_start_[i]; j < sw_row_start_[i + 1]; ++j) {
@@ -86,10 +103,10 @@ Status TrajectoryDeflation::Update(const BlockSparseMatrix& s) {
       GS_CHECK(out != nullptr);
       const double* sw = sw_values_.data() + j * b * wb;
       for (int r = 0; r < b; ++r) {
-        for (int c = 0; c < wb; ++c) {
-          out[r * wb + c] += sw[r * wb + c];
-          out[(b + r) * wb + c] += t_[i] * sw[r * wb + c];
-        }
+        for (int c = 0; c < wb; ++c) out[r * wb + c] += sw[r * wb + c];
+      }
+      for (int l = 0; l < num_linear; ++l) {
+        for (int c = 0; c < wb; ++c) out[(b + l) * wb + c] += t_[i] * sw[linear_[l] * wb + c];
       }
     }
   }
@@ -115,23 +132,23 @@ Status TrajectoryDeflation::Update(const BlockSparseMatrix& s) {
 
 void TrajectoryDeflation::RestrictTo(const double* v, Eigen::VectorXd* out) const {
   const int b = block_size_;
-  out->setZero(static_cast<Eigen::Index>(num_aggregates_) * 2 * b);
+  const int wb = width_;
+  out->setZero(static_cast<Eigen::Index>(num_aggregates_) * wb);
   for (int i = 0; i < num_blocks_; ++i) {
-    double* o = out->data() + static_cast<int64_t>(aggregate_[i]) * 2 * b;
+    double* o = out->data() + static_cast<int64_t>(aggregate_[i]) * wb;
     const double* vi = v + static_cast<int64_t>(i) * b;
-    for (int r = 0; r < b; ++r) {
-      o[r] += vi[r];
-      o[b + r] += t_[i] * vi[r];
-    }
+    for (int r = 0; r < b; ++r) o[r] += vi[r];
+    for (size_t l = 0; l < linear_.size(); ++l) o[b + l] += t_[i] * vi[linear_[l]];
   }
 }
 
 void TrajectoryDeflation::Prolong(const Eigen::VectorXd& c, double sign, double* y) const {
   const int b = block_size_;
   for (int i = 0; i < num_blocks_; ++i) {
-    const double* ci = c.data() + static_cast<int64_t>(aggregate_[i]) * 2 * b;
+    const double* ci = c.data() + static_cast<int64_t>(aggregate_[i]) * width_;
     double* yi = y + static_cast<int64_t>(i) * b;
-    for (int r = 0; r < b; ++r) yi[r] += sign * (ci[r] + t_[i] * ci[b + r]);
+    for (int r = 0; r < b; ++r) yi[r] += sign * ci[r];
+    for (size_t l = 0; l < linear_.size(); ++l) yi[linear_[l]] += sign * t_[i] * ci[b + l];
   }
 }
 
@@ -143,7 +160,7 @@ void TrajectoryDeflation::RightMultiplyAndAccumulate(const double* x, double* y)
   for (int j = 0; j < n; ++j) y[j] += inner_result_[j];
   if (num_aggregates_ == 0) return;
   // coarse_rhs = (S W)^T z.
-  const int b = block_size_, wb = 2 * b;
+  const int b = block_size_, wb = width_;
   coarse_rhs_.setZero();
   for (int i = 0; i < num_blocks_; ++i) {
     const double* zi = inner_result_.data() + static_cast<int64_t>(i) * b;

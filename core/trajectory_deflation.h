@@ -13,14 +13,21 @@
 // Coarse space. Block rows are poses in trajectory order. They are split into
 // aggregates of m consecutive poses (the last takes the remainder, so every
 // aggregate has >= min(m, n) poses). For aggregate a with poses lo..hi and
-// centre c = (lo + hi) / 2, W has 2b columns:
+// centre c = (lo + hi) / 2, W has b + L columns:
 //
-//   W_{i, a} = [ I_b ,  t_i I_b ]  for i in a,   t_i = (i - c) / m,   0 elsewhere
+//   W_{i, a} = [ I_b ,  t_i P ]  for i in a,   t_i = (i - c) / m,   0 elsewhere
 //
-// i.e. per increment component a constant and a linear-in-time mode: a
-// segment translated, or turned (the heading constant, the lateral component
-// linear along a straight segment), or stretched. (Constant modes alone cut
-// CG iterations 1.7x on sim1e5obs; with the linear ones 4.5-9x.)
+// where P (b x L) picks the L components that also get a linear-in-time
+// mode: a constant mode per increment component (the segment translated, its
+// heading turned) and linear ones (with the increments in the body frame, a
+// segment along a straight street turned about its centre moves its poses
+// laterally in proportion to t_i). Measured on the hardest sim1e5obs system
+// (docs/benchmarks.md, "PCG below CHOLMOD on observed problems"), PCG to
+// 1e-2 from zero, m = 10: tree alone 775 CG iterations; constant modes 466;
+// constant + linear in all three 170; constant + linear in y only 213, in x
+// or theta only 445-451. So DefaultLinearComponents is {y} for SE(2) (b = 3;
+// 4 columns per aggregate: E's factor and solve cost ~(4/6)^2 of six), and
+// every component for other block sizes (not measured).
 //
 // Deflated CG (Y. Saad, M. Yeung, J. Erhel, F. Guyomarc'h, "A deflated version
 // of the conjugate gradient algorithm", SIAM J. Sci. Comput. 21(5), 2000),
@@ -37,15 +44,15 @@
 // "A-DEF2" form of J. M. Tang, R. Nabben, C. Vuik, Y. A. Erlangga,
 // "Comparison of two-level preconditioners derived from deflation, domain
 // decomposition and multigrid methods", J. Sci. Comput. 39, 2009. It costs
-// per CG iteration one product with S W (n x 2b na, ~a third of S's entries
-// on sim1e5obs) and a solve with E's CHOLMOD factor (2b na unknowns); per
+// per CG iteration one product with S W (n x (b + L) na) and a solve with
+// E's CHOLMOD factor ((b + L) na unknowns); per
 // Update one pass over S's blocks and a factorization of E.
 //
 // THREAD SAFETY: RightMultiplyAndAccumulate is const and serialized by a
 // mutex (scratch vectors, CHOLMOD's workspace). Update must not run
 // concurrently with anything else.
 // ALLOCATION: Update allocates O(nonzero blocks of S W + of E) and E's
-// factor; RightMultiplyAndAccumulate allocates E's solution vector (2b na).
+// factor; RightMultiplyAndAccumulate allocates E's solution vector.
 #pragma once
 
 #include <Eigen/Core>
@@ -64,11 +71,16 @@ class TrajectoryDeflation : public LinearOperator {
  public:
   // `inner` is the preconditioner M^{-1} (borrowed; must outlive this object
   // and be updated before each Update). Requires poses_per_aggregate >= 2.
-  TrajectoryDeflation(const LinearOperator* inner, int poses_per_aggregate);
+  // linear_components: the components with a linear mode (P above).
+  TrajectoryDeflation(const LinearOperator* inner, int poses_per_aggregate,
+                      std::vector<int> linear_components);
+
+  // {1} (y) for block size 3, all components otherwise (see above).
+  static std::vector<int> DefaultLinearComponents(int block_size);
 
   // Builds W's aggregates, S W and E = W^T S W, and factors E. Numerical if E
   // is not positive definite (S is not), InvalidArgument if `inner` has
-  // another size than S. With fewer than 2 block rows the deflation is off
+  // another size than S or a linear component is not one of S's block. With fewer than 2 block rows the deflation is off
   // (the operator is `inner`, CoarseCorrect does nothing).
   [[nodiscard]] Status Update(const BlockSparseMatrix& s);
 
@@ -83,7 +95,7 @@ class TrajectoryDeflation : public LinearOperator {
                                      Eigen::VectorXd* x) const;
 
   int num_aggregates() const { return num_aggregates_; }
-  int coarse_unknowns() const { return num_aggregates_ * 2 * block_size_; }
+  int coarse_unknowns() const { return num_aggregates_ * width_; }
 
  private:
   // W^T v (v: n entries) into out (coarse_unknowns() entries).
@@ -93,6 +105,8 @@ class TrajectoryDeflation : public LinearOperator {
 
   const LinearOperator* inner_;
   int poses_per_aggregate_;
+  std::vector<int> linear_;  // components with a linear mode
+  int width_ = 0;            // columns of W per aggregate: b + linear_.size()
   int num_rows_ = 0;
   int block_size_ = 0;
   int num_blocks_ = 0;
