@@ -83,7 +83,9 @@ Status TrajectoryDeflation::Update(const BlockSparseMatrix& s) {
       const double* block = s.Block(i, k);
       for (int r = 0; r < b; ++r) {
         for (int c = 0; c < b; ++c) out[r * wb + c] += block[r * b + c];
-        for (int l = 0; l < num_linear; ++l) out[r * wb + b + l] += t_[k] * block[r * b + linear_[l]];
+        for (int l = 0; l < num_linear; ++l) {
+          out[r * wb + b + l] += t_[k] * block[r * b + linear_[l]];
+        }
       }
     }
     sw_row_start_[i + 1] = static_cast<int64_t>(sw_cols_.size());
@@ -110,13 +112,8 @@ Status TrajectoryDeflation::Update(const BlockSparseMatrix& s) {
       }
     }
   }
-  // E is symmetric in exact arithmetic; make it so in floating point.
-  for (int a = 0; a < na; ++a) {
-    double* d = e.MutableBlock(a, a);
-    for (int r = 0; r < wb; ++r) {
-      for (int c = r + 1; c < wb; ++c) d[r * wb + c] = d[c * wb + r] = 0.5 * (d[r * wb + c] + d[c * wb + r]);
-    }
-  }
+  // E is symmetric in exact arithmetic, not in rounding; CHOLMOD reads only
+  // its upper triangle (ToSparseUpper), so the lower one needs no repair.
   const Status factored = coarse_.Factorize(e);
   if (!factored.ok()) {
     num_aggregates_ = 0;
