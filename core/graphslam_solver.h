@@ -126,6 +126,9 @@ struct SolverOptions {
   bool pcg_forcing_sequence = true;
   double pcg_eta_max = 0.01;  // the loosest forcing term (measured, issue 4)
   bool pcg_warm_start = true;
+  // PCG: trajectory deflation, poses per aggregate (0: off;
+  // core/trajectory_deflation.h).
+  int pcg_deflation_poses = 0;
   // kAuto: CHOLMOD when its factor (from its symbolic analysis) fits in
   // auto_cholmod_max_factor_bytes and is estimated cheaper than PCG; PCG
   // without analysing above auto_cholmod_max_unknowns scalar pose unknowns.

@@ -7,4 +7,5 @@ target_sources(graphslam_core PRIVATE
   preconditioned_conjugate_gradient.cc
   reduced_system_solver.cc
   schur_eliminator.cc
-  subgraph_preconditioner.cc)
+  subgraph_preconditioner.cc
+  trajectory_deflation.cc)

@@ -30,6 +30,11 @@ Status ReducedSystemSolverOptions::Validate() const {
         "reduced system solver: eta_max must be in [pcg_relative_tolerance, 1), got {:g}",
         eta_max));
   }
+  if (deflation_poses < 0 || deflation_poses == 1) {
+    return Status::InvalidArgument(fmt::format(
+        "reduced system solver: deflation_poses must be 0 (off) or >= 2, got {}",
+        deflation_poses));
+  }
   if (max_factor_bytes < 0 || max_analysis_unknowns < 0) {
     return Status::InvalidArgument("reduced system solver: budgets must be >= 0");
   }
@@ -195,6 +200,15 @@ Status ReducedSystemSolver::Solve(const BlockSparseMatrix& s, const Eigen::Vecto
   Status status;
   const LinearOperator* preconditioner = UpdatePreconditioner(s, &status);
   GS_RETURN_IF_ERROR(status);
+  if (options_.deflation_poses > 0) {
+    if (deflation_ == nullptr) {
+      deflation_ = std::make_unique<TrajectoryDeflation>(
+          preconditioner, options_.deflation_poses,
+          TrajectoryDeflation::DefaultLinearComponents(s.block_size()));
+    }
+    GS_RETURN_IF_ERROR(deflation_->Update(s));
+    preconditioner = deflation_.get();
+  }
 
   // Warm start: the previous solution scaled to the model's minimum along it.
   product_.resize(n);
@@ -215,6 +229,9 @@ Status ReducedSystemSolver::Solve(const BlockSparseMatrix& s, const Eigen::Vecto
   } else {
     x->setZero(n);
   }
+
+  // Deflated CG starts with a residual orthogonal to the coarse space.
+  if (deflation_ != nullptr) GS_RETURN_IF_ERROR(deflation_->CoarseCorrect(s, rhs, x));
 
   PcgOptions pcg;
   pcg.max_iterations = options_.pcg_max_iterations;

@@ -54,6 +54,11 @@
 //    started or truncated CG need not. Every PCG result is therefore rescaled
 //    by the same alpha (one more product), after which rhs^T dx = dx^T S dx.
 //
+// 5. Trajectory deflation (deflation_poses > 0, core/trajectory_deflation.h):
+//    the preconditioner is wrapped in the deflation projector over aggregates
+//    of deflation_poses consecutive poses, and the (warm) start gets the
+//    coarse correction x0 += W E^{-1} W^T (rhs - S x0) first (one product).
+//
 // THREAD SAFETY: one object per solve; not thread-safe.
 // ALLOCATION: O(n) vectors kept across calls; the analysis and the
 // preconditioners allocate on their Update (see their headers).
@@ -71,6 +76,7 @@
 #include "core/pcg_solver_state.h"
 #include "core/status.h"
 #include "core/subgraph_preconditioner.h"
+#include "core/trajectory_deflation.h"
 
 namespace graphslam::core {
 
@@ -83,6 +89,9 @@ struct ReducedSystemSolverOptions {
   bool forcing_sequence = true;
   double eta_max = 0.01;
   bool warm_start = true;
+  // PCG: trajectory deflation (core/trajectory_deflation.h) with this many
+  // consecutive poses per aggregate; 0: off.
+  int deflation_poses = 0;
   // kAuto: CHOLMOD only if its factor fits in this many bytes.
   int64_t max_factor_bytes = int64_t{4} << 30;
   // kAuto: above this many scalar unknowns, PCG without analysing.
@@ -156,6 +165,7 @@ class ReducedSystemSolver {
   BlockJacobiPreconditioner block_jacobi_;
   IncompleteCholeskyPreconditioner incomplete_cholesky_;
   SubgraphPreconditioner subgraph_;
+  std::unique_ptr<TrajectoryDeflation> deflation_;  // when deflation_poses > 0
   Eigen::VectorXd previous_x_;
   Eigen::VectorXd product_;       // scratch: S x
   double previous_rhs_norm_ = -1;  // |rhs| of the last accepted linearization

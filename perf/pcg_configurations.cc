@@ -1,7 +1,8 @@
 // The reduced-system solver configurations side by side on one g2o file:
 // CHOLMOD, and PCG with each preconditioner (block-Jacobi, subgraph,
 // incomplete Cholesky), exact solves or the Eisenstat-Walker forcing sequence
-// (eta_max 0.1, 0.03, 0.01 or 0.001), warm starts on or off. Every run
+// (eta_max 0.1, 0.03, 0.01 or 0.001), warm starts on or off, trajectory
+// deflation over 5, 10, 20 or 40 poses per aggregate. Every run
 // starts from the odometry guess (paper Table 1) and runs Levenberg-Marquardt to the default
 // tolerances; one line per run: LM iterations, CG iterations, seconds per LM
 // iteration, mean solve seconds per iteration, total seconds and final chi2.
@@ -46,6 +47,7 @@ struct Configuration {
   bool forcing;
   double eta_max;
   bool warm_start;
+  int deflation_poses = 0;  // trajectory deflation (core/trajectory_deflation.h), 0: off
 };
 
 int Main(int argc, char** argv) {
@@ -88,6 +90,10 @@ int Main(int argc, char** argv) {
     configurations.push_back({base + "/eta0.03+warm", LinearSolverType::kPcg, preconditioner, true, 0.03, true});
     configurations.push_back({base + "/eta0.01+warm", LinearSolverType::kPcg, preconditioner, true, 0.01, true});
     configurations.push_back({base + "/eta0.001+warm", LinearSolverType::kPcg, preconditioner, true, 0.001, true});
+    for (const int poses : {5, 10, 20, 40}) {
+      configurations.push_back({base + "/eta0.01+warm+deflation" + std::to_string(poses),
+                                LinearSolverType::kPcg, preconditioner, true, 0.01, true, poses});
+    }
   }
   std::printf("%-36s %6s %8s %10s %10s %10s %9s %9s %16s %s\n", "configuration", "LM it",
               "CG it", "s/iter", "reduce s/it", "solve s/it", "total s", "CPU s", "final chi2",
@@ -102,6 +108,7 @@ int Main(int argc, char** argv) {
     options.pcg_forcing_sequence = c.forcing;
     options.pcg_eta_max = c.eta_max;
     options.pcg_warm_start = c.warm_start;
+    options.pcg_deflation_poses = c.deflation_poses;
     options.max_iterations = 200;
     core::SolverSummary summary;
     const double cpu_start = CpuSeconds();

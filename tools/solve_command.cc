@@ -177,6 +177,10 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
   solve->add_option("--pcg-eta-max", options->pcg_eta_max,
                     "PCG: the loosest relative residual of the forcing sequence, in (0, 1)")
       ->capture_default_str();
+  solve->add_option("--pcg-deflation", options->pcg_deflation,
+                    "PCG: deflate the trajectory's smooth error modes, in aggregates of this many "
+                    "consecutive poses (constant and linear modes each); 0: off")
+      ->capture_default_str();
   solve->add_option("--max-iterations", options->max_iterations, "Levenberg-Marquardt iterations")
       ->capture_default_str();
   solve->add_option("--function-tolerance", options->function_tolerance,
@@ -275,6 +279,11 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   if (!(options.pcg_eta_min > 0.0) || !(options.pcg_eta_min <= options.pcg_eta_max)) {
     std::fprintf(stderr, "graphslam solve: --pcg-eta-min must be in (0, --pcg-eta-max = %g], "
                  "got %g\n", options.pcg_eta_max, options.pcg_eta_min);
+    return kExitUsage;
+  }
+  if (options.pcg_deflation < 0 || options.pcg_deflation == 1) {
+    std::fprintf(stderr, "graphslam solve: --pcg-deflation must be 0 (off) or >= 2 poses, got %d\n",
+                 options.pcg_deflation);
     return kExitUsage;
   }
   if (!(options.pcg_eta_max >= core::SolverOptions().pcg_relative_tolerance) ||
@@ -411,6 +420,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   solver_options.linear_solver = *solver_type;
   solver_options.preconditioner = *preconditioner;
   solver_options.pcg_eta_max = options.pcg_eta_max;
+  solver_options.pcg_deflation_poses = options.pcg_deflation;
   solver_options.pcg_relative_tolerance = options.pcg_eta_min;
   solver_options.max_iterations = options.max_iterations;
   solver_options.max_eliminated_observations = options.max_eliminated_observations;

@@ -25,6 +25,8 @@ struct SolveCommandOptions {
   double pcg_eta_max = core::SolverOptions().pcg_eta_max;  // loosest PCG forcing term
   // Tightest PCG forcing term (SolverOptions::pcg_relative_tolerance).
   double pcg_eta_min = core::SolverOptions().pcg_relative_tolerance;
+  // PCG trajectory deflation: poses per aggregate, 0 off (SolverOptions).
+  int pcg_deflation = core::SolverOptions().pcg_deflation_poses;
   int max_iterations = 100;
   double function_tolerance = 1e-6;
   double initial_trust_region_radius = 1e4;

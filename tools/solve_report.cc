@@ -17,6 +17,7 @@ nlohmann::json SolverReport(const SolveCommandOptions& options, const core::Solv
   report["preconditioner"] = options.preconditioner;
   report["pcg_eta_min"] = options.pcg_eta_min;
   report["pcg_eta_max"] = options.pcg_eta_max;
+  report["pcg_deflation"] = options.pcg_deflation;
   report["initial_chi2"] = summary.initial_chi2;
   report["final_chi2"] = summary.final_chi2;
   report["iterations"] = summary.iterations;

@@ -324,6 +324,7 @@ Status SolveChunked(
   linear_options.forcing_sequence = options.pcg_forcing_sequence;
   linear_options.eta_max = options.pcg_eta_max;
   linear_options.warm_start = options.pcg_warm_start;
+  linear_options.deflation_poses = options.pcg_deflation_poses;
   linear_options.max_analysis_unknowns = options.auto_cholmod_max_unknowns;
   linear_options.max_factor_bytes = options.auto_cholmod_max_factor_bytes;
   linear_options.eliminated_features = summary->eliminated_features > 0;

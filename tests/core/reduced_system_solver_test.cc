@@ -31,23 +31,39 @@ TEST(ReducedSystemSolver, EveryConfigurationEqualsTheDenseSolve) {
        {PreconditionerType::kBlockJacobi, PreconditionerType::kSubgraph,
         PreconditionerType::kIncompleteCholesky}) {
     for (const LinearSolverType type : {LinearSolverType::kPcg, LinearSolverType::kCholmod}) {
-      SCOPED_TRACE(::testing::Message() << PreconditionerName(preconditioner) << " "
-                                        << LinearSolverName(type));
-      ReducedSystemSolverOptions options;
-      options.preconditioner = preconditioner;
-      options.forcing_sequence = false;  // exact solves: compare with LDLT
-      options.pcg_relative_tolerance = 1e-12;
-      ReducedSystemSolver solver(type, options);
-      for (uint32_t seed = 1; seed <= 3; ++seed) {
-        const BlockSparseMatrix a = RandomSpdMatrix(seed + 500, 3, 80);
-        const Eigen::VectorXd rhs = RandomVector(seed + 600, a.num_rows());
-        Eigen::VectorXd x;
-        int iterations = 0;
-        ASSERT_TRUE(solver.Solve(a, rhs, &x, &iterations).ok());
-        EXPECT_LE(RelativeError(x, a.ToDense().ldlt().solve(rhs)), 1e-8);
-        solver.StepResult(seed % 2 == 0);
+      for (const int deflation_poses : {0, 4}) {
+        SCOPED_TRACE(::testing::Message() << PreconditionerName(preconditioner) << " "
+                                          << LinearSolverName(type) << ", deflation "
+                                          << deflation_poses);
+        ReducedSystemSolverOptions options;
+        options.preconditioner = preconditioner;
+        options.deflation_poses = deflation_poses;
+        options.forcing_sequence = false;  // exact solves: compare with LDLT
+        options.pcg_relative_tolerance = 1e-12;
+        ReducedSystemSolver solver(type, options);
+        for (uint32_t seed = 1; seed <= 3; ++seed) {
+          const BlockSparseMatrix a = RandomSpdMatrix(seed + 500, 3, 80);
+          const Eigen::VectorXd rhs = RandomVector(seed + 600, a.num_rows());
+          Eigen::VectorXd x;
+          int iterations = 0;
+          ASSERT_TRUE(solver.Solve(a, rhs, &x, &iterations).ok());
+          EXPECT_LE(RelativeError(x, a.ToDense().ldlt().solve(rhs)), 1e-8);
+          solver.StepResult(seed % 2 == 0);
+        }
       }
     }
+  }
+}
+
+TEST(ReducedSystemSolver, DeflationNeedsTwoPosesPerAggregate) {
+  ReducedSystemSolverOptions options;
+  for (const int poses : {0, 2, 10}) {
+    options.deflation_poses = poses;
+    EXPECT_TRUE(options.Validate().ok()) << poses;
+  }
+  for (const int poses : {-1, 1}) {
+    options.deflation_poses = poses;
+    EXPECT_EQ(options.Validate().code(), Status::Code::kInvalidArgument) << poses;
   }
 }
 
