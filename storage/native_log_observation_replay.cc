@@ -27,6 +27,7 @@ class BlockParser {
       : name_(name), poses_(poses), features_(features) {}
 
   Status Parse(const internal::TextBlock& block, std::vector<core::Observation>* out) const {
+    out->reserve(out->size() + block.lines.size());  // every kept line is RB / XY
     for (const internal::TokenizedLine& line : block.lines) {
       if (line.num_fields != 8) return Changed(line.line, std::to_string(line.num_fields) + " fields");
       int64_t pose_id = 0, feature_id = 0;
