@@ -109,7 +109,8 @@ Status ReplayNativeLogObservations(const std::string& path, const std::vector<in
                                              internal::TokenizeBlock(&block->text, tags);
                                              block->status =
                                                  parser.Parse(block->text, &block->observations);
-                                             block->text.lines.clear();
+                                             // freed, not cleared: ~4 MB a block
+                                             block->text.lines = {};
                                              block->text.text = std::string();
                                              return block;
                                            }) &

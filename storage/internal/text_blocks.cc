@@ -20,6 +20,22 @@ constexpr std::array<bool, 256> MakeSpaceTable() {
 }
 constexpr std::array<bool, 256> kSpace = MakeSpaceTable();
 
+// a == b for short tokens, inline (std::string_view == calls memcmp).
+inline bool SameBytes(std::string_view a, std::string_view b) {
+  const size_t n = a.size();
+  if (n != b.size()) return false;
+  size_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    uint64_t x = 0, y = 0;
+    std::memcpy(&x, a.data() + i, 8);
+    std::memcpy(&y, b.data() + i, 8);
+    if (x != y) return false;
+  }
+  for (; i < n; ++i)
+    if (a[i] != b[i]) return false;
+  return true;
+}
+
 // [-]digits with at most 15 digits: the integer is below 2^53, so the double
 // is exact and equals what std::from_chars gives (correct rounding of an
 // exactly representable value). Anything else: false (ParseDouble decides).
@@ -93,8 +109,9 @@ bool TextBlockCutter::Next(TextBlock* block, Status* status) {
 
 void TokenizeBlock(TextBlock* block, const std::vector<std::string_view>& only_tags) {
   block->lines.clear();
-  // ~80 B per record line in the logs the simulator writes: one growth at most.
-  block->lines.reserve(block->text.size() / 64 + 1);
+  // At most one entry per line of the block: no growth, no copies.
+  if (block->end_line > block->start_line)
+    block->lines.reserve(static_cast<size_t>(block->end_line - block->start_line));
   const char* position = block->text.data();
   const char* const end = position + block->text.size();
   int32_t line = block->start_line;
@@ -149,7 +166,7 @@ void TokenizeBlock(TextBlock* block, const std::vector<std::string_view>& only_t
       // Only what looks like a number is tried (ids and tags are cheap to skip).
       const char c = field[0];
       if (!((c >= '0' && c <= '9') || c == '-' || c == '+' || c == '.')) continue;
-      if (field == previous_token[i]) {
+      if (SameBytes(field, previous_token[i])) {
         if (previous_converted[i]) {
           parsed.values[i] = previous_value[i];
           parsed.converted |= 1u << i;

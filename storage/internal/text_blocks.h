@@ -32,8 +32,10 @@
 namespace graphslam::storage::internal {
 
 struct TokenizedLine {
-  static constexpr int kMaxFields = 16;
-  static constexpr int kMaxConverted = 16;
+  // 12: the longest native records (CONTROL, CONTROL_INFO, ODOM). A line is
+  // ~330 B; a 1 MiB block holds ~13 000 of them, so the size counts.
+  static constexpr int kMaxFields = 12;
+  static constexpr int kMaxConverted = 12;
   int32_t line = 0;       // 1-based line number
   int32_t num_fields = 0;  // all fields (views beyond kMaxFields in `overflow`)
   uint32_t converted = 0;  // bit i: values[i] holds field i as a finite double

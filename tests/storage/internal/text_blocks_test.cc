@@ -77,6 +77,7 @@ TEST(TextBlocks, TokenizeBlockEqualsASplitAndFromCharsOnRandomRecords) {
     block.text += line + (random() % 20 == 0 ? "\r\n" : "\n");
   }
   block.start_line = 7;
+  block.end_line = 7 + static_cast<int32_t>(lines.size());
   TokenizeBlock(&block);
 
   size_t kept = 0;
