@@ -73,7 +73,7 @@ bool TextBlockCutter::Next(TextBlock* block, Status* status) {
   block->lines.clear();
   block->status = Status::Ok();
   if (end_of_file_ && carry_.empty()) return false;
-  block->text = std::move(carry_);
+  block->text.assign(carry_);  // keeps the (pooled) block's capacity
   carry_.clear();
   // Read until the block holds a '\n' and at least block_bytes (or the end).
   while (!end_of_file_) {

@@ -22,6 +22,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -72,6 +73,32 @@ class TextBlockCutter {
   int32_t line_ = 0;
   std::string carry_;
   bool end_of_file_ = false;
+};
+
+// Blocks handed back by a pipeline's last stage to its first: a read reuses
+// kBlocksInFlight blocks (their text, line and output buffers keep their
+// capacity) instead of allocating ~5 MB per MiB of input. Fresh multi-MB
+// buffers per block cost page faults, and freed in other threads' malloc
+// arenas at varying sizes they stayed resident (peak RSS +100 MB at 10^7).
+// THREAD SAFETY: Take and Give may be called from any threads.
+template <typename Block>
+class BlockPool {
+ public:
+  std::unique_ptr<Block> Take() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (free_.empty()) return std::make_unique<Block>();
+    std::unique_ptr<Block> block = std::move(free_.back());
+    free_.pop_back();
+    return block;
+  }
+  void Give(std::unique_ptr<Block> block) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    free_.push_back(std::move(block));
+  }
+
+ private:
+  std::mutex mutex_;
+  std::vector<std::unique_ptr<Block>> free_;
 };
 
 // `only_tags`: when not empty, lines whose first field is not one of them are
