@@ -10,7 +10,12 @@
 //                           fields (the C locale's whitespace, as LineReader),
 //                           skipping blank and comment lines, and converts the
 //                           first kMaxConverted fields to doubles where they
-//                           are numbers (LineReader::Double uses them)
+//                           are numbers (LineReader::Double uses them), with
+//                           the bits of std::from_chars: [-]digits of <= 15
+//                           digits directly, and a token byte-equal to the
+//                           previous line's in that field by reuse
+//   BlockPool               blocks recycled from a pipeline's last stage to
+//                           its first
 //
 // A last line without '\n' is a line (std::getline); line numbers count every
 // line, blank and comment lines included, as LineReader does.
