@@ -27,6 +27,7 @@ class BlockParser {
       : name_(name), poses_(poses), features_(features) {}
 
   Status Parse(const internal::TextBlock& block, std::vector<core::Observation>* out) const {
+    out->reserve(out->size() + block.lines.size());  // every kept line is RB / XY
     for (const internal::TokenizedLine& line : block.lines) {
       if (line.num_fields != 8) return Changed(line.line, std::to_string(line.num_fields) + " fields");
       int64_t pose_id = 0, feature_id = 0;
@@ -86,6 +87,7 @@ Status ReplayNativeLogObservations(const std::string& path, const std::vector<in
   const std::string name = internal::BaseName(path);
   const BlockParser parser(name, poses, features);
   const std::vector<std::string_view> tags = {"RB", "XY"};
+  internal::BlockPool<Block> pool;  // blocks_in_flight blocks, reused
 
   Status read_failure;              // set by the first stage only
   Status sink_failure;              // set by the last stage only
@@ -95,7 +97,8 @@ Status ReplayNativeLogObservations(const std::string& path, const std::vector<in
       tbb::make_filter<void, Block*>(
           tbb::filter_mode::serial_in_order,
           [&](tbb::flow_control& control) -> Block* {
-            auto block = std::make_unique<Block>();
+            std::unique_ptr<Block> block = pool.Take();
+            block->observations.clear();
             if (failed || !cutter->Next(&block->text, &read_failure)) {
               if (!read_failure.ok()) failed = true;
               control.stop();
@@ -108,12 +111,15 @@ Status ReplayNativeLogObservations(const std::string& path, const std::vector<in
                                              internal::TokenizeBlock(&block->text, tags);
                                              block->status =
                                                  parser.Parse(block->text, &block->observations);
-                                             block->text.lines.clear();
-                                             block->text.text = std::string();
                                              return block;
                                            }) &
           tbb::make_filter<Block*, void>(tbb::filter_mode::serial_in_order, [&](Block* raw) {
             std::unique_ptr<Block> block(raw);
+            struct Recycle {
+              internal::BlockPool<Block>* pool;
+              std::unique_ptr<Block>* block;
+              ~Recycle() { pool->Give(std::move(*block)); }
+            } recycle{&pool, &block};
             if (failed) return;
             Status status = block->status;
             if (status.ok()) {

@@ -54,12 +54,13 @@ class NativeLogParser {
     Status read_failure;              // first stage only
     Status parse_failure;             // last stage only
     std::atomic<bool> failed{false};  // read by the first stage, set by both
+    internal::BlockPool<internal::TextBlock> pool;  // kBlocksInFlight blocks, reused
     tbb::parallel_pipeline(
         kBlocksInFlight,
         tbb::make_filter<void, internal::TextBlock*>(
             tbb::filter_mode::serial_in_order,
             [&](tbb::flow_control& control) -> internal::TextBlock* {
-              auto block = std::make_unique<internal::TextBlock>();
+              std::unique_ptr<internal::TextBlock> block = pool.Take();
               if (failed || !cutter->Next(block.get(), &read_failure)) {
                 if (!read_failure.ok()) failed = true;
                 control.stop();
@@ -76,6 +77,11 @@ class NativeLogParser {
             tbb::make_filter<internal::TextBlock*, void>(
                 tbb::filter_mode::serial_in_order, [&](internal::TextBlock* raw) {
                   std::unique_ptr<internal::TextBlock> block(raw);
+                  struct Recycle {
+                    internal::BlockPool<internal::TextBlock>* pool;
+                    std::unique_ptr<internal::TextBlock>* block;
+                    ~Recycle() { pool->Give(std::move(*block)); }
+                  } recycle{&pool, &block};
                   if (failed) return;
                   for (const internal::TokenizedLine& line : block->lines) {
                     reader->Adopt(line);
@@ -141,12 +147,12 @@ class NativeLogParser {
     const bool initialized = reader.fields().size() == 6;
     double guess[3] = {0.0, 0.0, 0.0};
     if (initialized) GS_RETURN_IF_ERROR(reader.Doubles(3, 3, "initial guess", guess));
-    if (const auto it = poses_.find(id); it != poses_.end()) {
+    if (const int32_t known = poses_.Find(id); known >= 0) {
       return reader.Error("POSE " + std::to_string(id) + " is already declared at line " +
-                          std::to_string(problem_.pose_lines[it->second]) +
+                          std::to_string(problem_.pose_lines[known]) +
                           "; expected unique pose ids");
     }
-    poses_.emplace(id, problem_.AddPose(id, core::Pose2(guess[0], guess[1], guess[2]),
+    poses_.Insert(id, problem_.AddPose(id, core::Pose2(guess[0], guess[1], guess[2]),
                                         initialized, reader.line_number(), stamp));
     reached_.push_back(initialized ? 1 : 0);
     return Status::Ok();
@@ -174,14 +180,14 @@ class NativeLogParser {
 
   StatusOr<int32_t> Pose(const LineReader& reader, size_t field) {
     GS_ASSIGN_OR_RETURN(const int64_t id, reader.Id(field, "pose id"));
-    const auto it = poses_.find(id);
-    if (it == poses_.end()) {
+    const int32_t pose = poses_.Find(id);
+    if (pose < 0) {
       return reader.Error(std::string(reader.fields()[0]) + " refers to pose " +
                           std::to_string(id) +
                           ", which no earlier POSE record declares; expected POSE " +
                           std::to_string(id) + " first");
     }
-    return it->second;
+    return pose;
   }
 
   StatusOr<int32_t> Feature(const LineReader& reader, size_t field) {
@@ -362,7 +368,7 @@ class NativeLogParser {
   const ObservationSink* sink_ = nullptr;
   std::vector<NativeLogScan>* scans_ = nullptr;
   core::Problem2d problem_;
-  std::unordered_map<int64_t, int32_t> poses_;
+  internal::GrowingIdMap poses_;     // dense ids: a direct table (one look-up per record)
   internal::GrowingIdMap features_;  // dense ids: a direct table
   std::vector<uint8_t> reached_;          // per pose: has a value (guess or prediction)
   std::vector<int32_t> feature_lines_;    // per feature: declaration or first use

@@ -1,6 +1,7 @@
 #include "storage/internal/text_blocks.h"
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -11,8 +12,46 @@
 namespace graphslam::storage::internal {
 namespace {
 
-inline bool IsSpace(char c) {
-  return c == ' ' || c == '\t' || c == '\n' || c == '\v' || c == '\f' || c == '\r';
+// std::isspace in the "C" locale, as a table (the tokenizer's inner loop).
+constexpr std::array<bool, 256> MakeSpaceTable() {
+  std::array<bool, 256> table{};
+  for (const char c : {' ', '\t', '\n', '\v', '\f', '\r'}) table[static_cast<unsigned char>(c)] = true;
+  return table;
+}
+constexpr std::array<bool, 256> kSpace = MakeSpaceTable();
+
+// a == b for short tokens, inline (std::string_view == calls memcmp).
+inline bool SameBytes(std::string_view a, std::string_view b) {
+  const size_t n = a.size();
+  if (n != b.size()) return false;
+  size_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    uint64_t x = 0, y = 0;
+    std::memcpy(&x, a.data() + i, 8);
+    std::memcpy(&y, b.data() + i, 8);
+    if (x != y) return false;
+  }
+  for (; i < n; ++i)
+    if (a[i] != b[i]) return false;
+  return true;
+}
+
+// [-]digits with at most 15 digits: the integer is below 2^53, so the double
+// is exact and equals what std::from_chars gives (correct rounding of an
+// exactly representable value). Anything else: false (ParseDouble decides).
+inline bool ParseSmallInteger(std::string_view token, double* value) {
+  const bool negative = token[0] == '-';
+  const size_t first = negative ? 1 : 0;
+  if (token.size() <= first || token.size() - first > 15) return false;
+  uint64_t magnitude = 0;
+  for (size_t i = first; i < token.size(); ++i) {
+    const unsigned digit = static_cast<unsigned char>(token[i]) - unsigned{'0'};
+    if (digit > 9) return false;
+    magnitude = magnitude * 10 + digit;
+  }
+  const auto exact = static_cast<double>(magnitude);
+  *value = negative ? -exact : exact;
+  return true;
 }
 
 }  // namespace
@@ -34,7 +73,7 @@ bool TextBlockCutter::Next(TextBlock* block, Status* status) {
   block->lines.clear();
   block->status = Status::Ok();
   if (end_of_file_ && carry_.empty()) return false;
-  block->text = std::move(carry_);
+  block->text.assign(carry_);  // keeps the (pooled) block's capacity
   carry_.clear();
   // Read until the block holds a '\n' and at least block_bytes (or the end).
   while (!end_of_file_) {
@@ -70,23 +109,36 @@ bool TextBlockCutter::Next(TextBlock* block, Status* status) {
 
 void TokenizeBlock(TextBlock* block, const std::vector<std::string_view>& only_tags) {
   block->lines.clear();
+  // At most one entry per line of the block: no growth, no copies.
+  if (block->end_line > block->start_line)
+    block->lines.reserve(static_cast<size_t>(block->end_line - block->start_line));
   const char* position = block->text.data();
   const char* const end = position + block->text.size();
   int32_t line = block->start_line;
-  TokenizedLine parsed;
+  // The previous kept line's conversions, per field: records of a log repeat
+  // most fields (the information, often the pose), and equal bytes convert
+  // to the same double, so a repeated token is not converted again.
+  std::string_view previous_token[TokenizedLine::kMaxConverted];
+  double previous_value[TokenizedLine::kMaxConverted];
+  bool previous_converted[TokenizedLine::kMaxConverted] = {};
+  bool reuse_last = false;  // block->lines.back() holds a dropped line: overwrite it
   while (position < end) {
     const auto* newline = static_cast<const char*>(std::memchr(position, '\n', end - position));
     const char* const line_end = newline != nullptr ? newline : end;
     ++line;
+    // Filled in place (no copy of the ~420 B line into the vector).
+    if (!reuse_last) block->lines.emplace_back();
+    TokenizedLine& parsed = block->lines.back();
     parsed.num_fields = 0;
     parsed.converted = 0;
     parsed.overflow.clear();
+    reuse_last = true;
     bool keep = true;
     for (const char* p = position; p < line_end;) {
-      while (p < line_end && IsSpace(*p)) ++p;
+      while (p < line_end && kSpace[static_cast<unsigned char>(*p)]) ++p;
       if (p >= line_end) break;
       const char* token = p;
-      while (p < line_end && !IsSpace(*p)) ++p;
+      while (p < line_end && !kSpace[static_cast<unsigned char>(*p)]) ++p;
       const std::string_view field(token, static_cast<size_t>(p - token));
       if (parsed.num_fields == 0) {
         if (field[0] == '#') {
@@ -110,18 +162,32 @@ void TokenizeBlock(TextBlock* block, const std::vector<std::string_view>& only_t
     if (!keep || parsed.num_fields == 0) continue;
     const int convertible = std::min(parsed.num_fields, TokenizedLine::kMaxConverted);
     for (int i = 1; i < convertible; ++i) {
+      const std::string_view field = parsed.fields[i];
       // Only what looks like a number is tried (ids and tags are cheap to skip).
-      const char c = parsed.fields[i][0];
+      const char c = field[0];
       if (!((c >= '0' && c <= '9') || c == '-' || c == '+' || c == '.')) continue;
+      if (SameBytes(field, previous_token[i])) {
+        if (previous_converted[i]) {
+          parsed.values[i] = previous_value[i];
+          parsed.converted |= 1u << i;
+        }
+        continue;
+      }
       double value = 0.0;
-      if (ParseDouble(parsed.fields[i], &value) && std::isfinite(value)) {
+      const bool converted =
+          (ParseSmallInteger(field, &value) || ParseDouble(field, &value)) && std::isfinite(value);
+      previous_token[i] = field;
+      previous_converted[i] = converted;
+      previous_value[i] = value;
+      if (converted) {
         parsed.values[i] = value;
         parsed.converted |= 1u << i;
       }
     }
     parsed.line = line;
-    block->lines.push_back(parsed);
+    reuse_last = false;
   }
+  if (reuse_last) block->lines.pop_back();
 }
 
 }  // namespace graphslam::storage::internal

@@ -1,0 +1,124 @@
+// storage/internal/text_blocks.h: TokenizeBlock's fields and converted
+// values equal a plain split and ParseDouble (std::from_chars) bit for bit,
+// with its shortcuts (exact small integers, a repeated token reusing the
+// previous line's conversion) exercised: integers of 1..17 digits, signs,
+// -0, '+', repeated and alternating tokens, non-numbers, non-finite values,
+// comment lines and more fields than a TokenizedLine holds directly.
+#include "storage/internal/text_blocks.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "storage/internal/text_reader.h"
+
+namespace graphslam::storage::internal {
+namespace {
+
+uint64_t Bits(double value) {
+  uint64_t bits = 0;
+  std::memcpy(&bits, &value, sizeof(bits));
+  return bits;
+}
+
+std::vector<std::string> Split(const std::string& line) {
+  std::istringstream stream(line);
+  std::vector<std::string> fields;
+  for (std::string field; stream >> field;) fields.push_back(field);
+  return fields;
+}
+
+std::string RandomToken(std::mt19937_64& random) {
+  static const std::vector<std::string> fixed = {
+      "0", "-0", "+0", "+5", "-", "+", ".", "-.5", "1e5", "0x10", "007", "-007",
+      "999999999999999", "1000000000000000", "9007199254740993", "-9007199254740993",
+      "12345678901234567", "99.999999999999986", "2500", "1e400", "-1e400", "nan", "inf",
+      "1.5.2", "12a", "-12-", "4154581", "7.8720046639378722", "8.1643119943156876e-17"};
+  switch (random() % 4) {
+    case 0:
+      return fixed[random() % fixed.size()];
+    case 1: {  // an integer of 1..17 digits, maybe signed
+      std::string token = random() % 3 == 0 ? "-" : "";
+      const int digits = 1 + static_cast<int>(random() % 17);
+      for (int d = 0; d < digits; ++d) token.push_back(static_cast<char>('0' + random() % 10));
+      return token;
+    }
+    case 2: {  // a random double as %.17g
+      std::uniform_real_distribution<double> uniform(-1e6, 1e6);
+      return FormatDouble(uniform(random));
+    }
+    default:  // a repeat-prone token
+      return random() % 2 == 0 ? "2500" : "99.999999999999986";
+  }
+}
+
+TEST(TextBlocks, TokenizeBlockEqualsASplitAndFromCharsOnRandomRecords) {
+  std::mt19937_64 random(2026);
+  TextBlock block;
+  std::vector<std::string> lines;
+  for (int i = 0; i < 20000; ++i) {
+    std::string line;
+    if (random() % 50 == 0) {
+      line = "# a comment 1 2 3";
+    } else if (random() % 50 == 0) {
+      line = "  \t ";
+    } else {
+      line = random() % 2 == 0 ? "RB" : "XY";
+      const int fields = 1 + static_cast<int>(random() % 20);  // beyond kMaxFields too
+      for (int f = 0; f < fields; ++f) line += (random() % 5 == 0 ? " \t " : " ") + RandomToken(random);
+    }
+    lines.push_back(line);
+    block.text += line + (random() % 20 == 0 ? "\r\n" : "\n");
+  }
+  block.start_line = 7;
+  block.end_line = 7 + static_cast<int32_t>(lines.size());
+  TokenizeBlock(&block);
+
+  size_t kept = 0;
+  for (size_t i = 0; i < lines.size(); ++i) {
+    const std::vector<std::string> fields = Split(lines[i]);
+    if (fields.empty() || fields[0][0] == '#') continue;
+    ASSERT_LT(kept, block.lines.size());
+    const TokenizedLine& line = block.lines[kept++];
+    ASSERT_EQ(line.line, static_cast<int32_t>(7 + i + 1)) << lines[i];
+    ASSERT_EQ(line.num_fields, static_cast<int32_t>(fields.size())) << lines[i];
+    for (size_t f = 0; f < fields.size(); ++f) {
+      const std::string_view got = f < TokenizedLine::kMaxFields
+                                       ? line.fields[f]
+                                       : line.overflow[f - TokenizedLine::kMaxFields];
+      ASSERT_EQ(got, fields[f]) << "line " << i << " field " << f;
+      if (f == 0 || f >= static_cast<size_t>(TokenizedLine::kMaxConverted)) continue;
+      double expected = 0.0;
+      const char c = fields[f][0];
+      const bool looks_numeric = (c >= '0' && c <= '9') || c == '-' || c == '+' || c == '.';
+      const bool converts =
+          looks_numeric && ParseDouble(fields[f], &expected) && std::isfinite(expected);
+      ASSERT_EQ(((line.converted >> f) & 1u) != 0, converts) << "'" << fields[f] << "'";
+      if (converts) {
+        ASSERT_EQ(Bits(line.values[f]), Bits(expected)) << "'" << fields[f] << "'";
+      }
+    }
+  }
+  EXPECT_EQ(kept, block.lines.size());
+}
+
+TEST(TextBlocks, TokenizeBlockKeepsOnlyTheGivenTags) {
+  TextBlock block;
+  block.text = "POSE 1 0.5\nRB 1 2 3 4 100 0 100\n# RB 9\nXY 1 2 3 4 100 0 100\nGPS 1 2 3";
+  TokenizeBlock(&block, {"RB", "XY"});
+  ASSERT_EQ(block.lines.size(), 2u);
+  EXPECT_EQ(block.lines[0].line, 2);
+  EXPECT_EQ(block.lines[0].fields[0], "RB");
+  EXPECT_EQ(block.lines[1].line, 4);
+  EXPECT_EQ(block.lines[1].fields[0], "XY");
+  EXPECT_EQ(block.lines[1].values[5], 100.0);
+}
+
+}  // namespace
+}  // namespace graphslam::storage::internal
