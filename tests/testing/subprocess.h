@@ -3,6 +3,7 @@
 // GRAPHSLAM_BINARY_DIR comes from tests/CMakeLists.txt.
 #pragma once
 
+#include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -16,14 +17,20 @@ inline const std::string& GraphslamBinary() {
   return path;
 }
 
-// Starts `graphslam args...` and returns its pid.
-inline pid_t SpawnGraphslam(const std::vector<std::string>& args) {
+// Starts `graphslam args...` and returns its pid; with `stderr_path` the
+// child's stderr goes to that file (truncated).
+inline pid_t SpawnGraphslam(const std::vector<std::string>& args,
+                            const std::string& stderr_path = "") {
   std::vector<char*> argv;
   argv.push_back(const_cast<char*>(GraphslamBinary().c_str()));
   for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
   const pid_t pid = fork();
   if (pid == 0) {
+    if (!stderr_path.empty()) {
+      const int fd = open(stderr_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      if (fd >= 0) dup2(fd, 2);
+    }
     execv(GraphslamBinary().c_str(), argv.data());
     _exit(127);
   }

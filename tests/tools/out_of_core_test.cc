@@ -37,20 +37,7 @@ class OutOfCoreTest : public graphslam::testing::OutOfCoreFixture {};
 
 // RunGraphslam with the child's stderr in the file `stderr_path`.
 int RunGraphslamRedirected(const std::vector<std::string>& args, const std::string& stderr_path) {
-  std::vector<char*> argv;
-  argv.push_back(const_cast<char*>(GraphslamBinary().c_str()));
-  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  const pid_t pid = fork();
-  if (pid == 0) {
-    const int fd = open(stderr_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (fd >= 0) dup2(fd, 2);
-    execv(GraphslamBinary().c_str(), argv.data());
-    _exit(127);
-  }
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return graphslam::testing::WaitForExit(graphslam::testing::SpawnGraphslam(args, stderr_path));
 }
 
 TEST_F(OutOfCoreTest, WorkdirSolveEqualsInMemorySolve) {
