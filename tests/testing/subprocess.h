@@ -17,10 +17,10 @@ inline const std::string& GraphslamBinary() {
   return path;
 }
 
-// Starts `graphslam args...` and returns its pid; with `stderr_path` the
-// child's stderr goes to that file (truncated).
-inline pid_t SpawnGraphslam(const std::vector<std::string>& args,
-                            const std::string& stderr_path = "") {
+// Starts `graphslam args...` and returns its pid; unless `stderr_path` is
+// empty the child's stderr goes to that file (truncated).
+inline pid_t SpawnGraphslamRedirected(const std::vector<std::string>& args,
+                                      const std::string& stderr_path) {
   std::vector<char*> argv;
   argv.push_back(const_cast<char*>(GraphslamBinary().c_str()));
   for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
@@ -35,6 +35,11 @@ inline pid_t SpawnGraphslam(const std::vector<std::string>& args,
     _exit(127);
   }
   return pid;
+}
+
+// Starts `graphslam args...` and returns its pid.
+inline pid_t SpawnGraphslam(const std::vector<std::string>& args) {
+  return SpawnGraphslamRedirected(args, "");
 }
 
 // Waits for a child to end; its exit code, -1 if it was killed.

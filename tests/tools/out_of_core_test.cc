@@ -37,7 +37,8 @@ class OutOfCoreTest : public graphslam::testing::OutOfCoreFixture {};
 
 // RunGraphslam with the child's stderr in the file `stderr_path`.
 int RunGraphslamRedirected(const std::vector<std::string>& args, const std::string& stderr_path) {
-  return graphslam::testing::WaitForExit(graphslam::testing::SpawnGraphslam(args, stderr_path));
+  return graphslam::testing::WaitForExit(
+      graphslam::testing::SpawnGraphslamRedirected(args, stderr_path));
 }
 
 TEST_F(OutOfCoreTest, WorkdirSolveEqualsInMemorySolve) {
