@@ -9,6 +9,8 @@
 //                up to 65536 features:
 //                first:i64 count:u32 value:f64[count * D] excluded:u8[count]
 //                kept:u8[count]
+//   solver state (kind 3, storage/solver_state_file.h) the poses and the PCG
+//                state of a checkpoint
 //
 //   file    := header record* footer                      (little-endian)
 //   header  := magic[8] version:u32 kind:u32 dimension:u32 header_crc:u32
@@ -41,6 +43,7 @@ inline constexpr uint64_t kMagic = 0x0A1A0A0D46534789ull;
 inline constexpr uint32_t kVersion = 1;
 inline constexpr uint32_t kKindCandidates = 1;
 inline constexpr uint32_t kKindCheckpoint = 2;
+inline constexpr uint32_t kKindSolverState = 3;  // storage/solver_state_file.h
 inline constexpr size_t kHeaderSize = 24;
 inline constexpr size_t kRecordHeaderSize = 9;
 inline constexpr uint8_t kData = 1;

@@ -21,4 +21,5 @@ target_sources(graphslam_storage PRIVATE
   chunk_writer.cc
   crc32c.cc)
 target_sources(graphslam_storage PRIVATE chunk_store.cc chunk_store_writer.cc)
-target_sources(graphslam_storage PRIVATE solver_checkpoint.cc feature_record_file.cc candidate_file.cc)
+target_sources(graphslam_storage PRIVATE solver_checkpoint.cc feature_record_file.cc candidate_file.cc
+  solver_state_file.cc)

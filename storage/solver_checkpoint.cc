@@ -11,6 +11,7 @@
 #include "storage/atomic_file.h"
 #include "storage/chunk_format.h"
 #include "storage/feature_record_file.h"
+#include "storage/solver_state_file.h"
 
 namespace graphslam::storage {
 namespace {
@@ -76,15 +77,17 @@ core::PcgSolverState PcgStateFromJson(const nlohmann::json& json) {
   return state;
 }
 
-// Everything but the per-feature arrays.
+// Everything but the per-feature arrays; with `poses_and_pcg` false also
+// without the poses and the PCG state (version 4: they are in the state file).
 template <class Layout, class Checkpoint>
-nlohmann::json HeadJson(const std::string& input, const Checkpoint& checkpoint) {
+nlohmann::json HeadJson(const std::string& input, const Checkpoint& checkpoint,
+                        bool poses_and_pcg = true) {
   nlohmann::json json;
   json["format"] = kSolverCheckpointFormat;
   // Version 2 only with the "pcg" object: a CHOLMOD checkpoint stays readable
   // by version-1 builds, while a version-1 build, which would resume a PCG
   // solve without its state (not bit-identical), refuses a PCG checkpoint.
-  json["version"] = checkpoint.pcg.present ? 2 : 1;  // 3: only with a feature file
+  json["version"] = checkpoint.pcg.present ? 2 : 1;  // 3, 4: only with a feature file
   json["input"] = input;
   // Only 3-D checkpoints carry the key: 2-D files stay as version 1 wrote them.
   if (Layout::kDimension != 2) json["dimension"] = Layout::kDimension;
@@ -95,6 +98,7 @@ nlohmann::json HeadJson(const std::string& input, const Checkpoint& checkpoint) 
   json["chi2"] = checkpoint.chi2;
   json["converged"] = checkpoint.converged;
   json["termination"] = checkpoint.termination;
+  if (!poses_and_pcg) return json;
   std::vector<double> poses;
   poses.reserve(Layout::kPoseValues * checkpoint.poses.size());
   for (const auto& p : checkpoint.poses) Layout::AppendPose(p, &poses);
@@ -166,6 +170,19 @@ constexpr uint32_t kFeaturesPerRecord = 65536;
 
 std::string FeatureFileName(const std::string& path, int iterations) {
   return path + ".features." + std::to_string(iterations) + ".bin";
+}
+
+std::string StateFileName(const std::string& path, int iterations) {
+  return path + ".state." + std::to_string(iterations) + ".bin";
+}
+
+// A file named by the checkpoint's JSON key `key`: a plain name beside it.
+StatusOr<std::string> FileBeside(const std::string& path, const nlohmann::json& json,
+                                 const char* key) {
+  const std::string name = json.at(key).get<std::string>();
+  if (name.empty() || name.find('/') != std::string::npos)
+    return Bad(path, std::string("'") + key + "' must be a file name beside the checkpoint");
+  return (std::filesystem::path(path).parent_path() / name).string();
 }
 
 // The feature file of a 2-D checkpoint (storage/feature_record_file.h, kind 2).
@@ -283,7 +300,10 @@ StatusOr<Checkpoint> Read(const std::string& path, const std::string& input) {
     checkpoint.chi2 = json.at("chi2").get<double>();
     checkpoint.converged = json.at("converged").get<bool>();
     checkpoint.termination = json.at("termination").get<std::string>();
-    const auto poses = json.at("poses").get<std::vector<double>>();
+    // Version 4: the poses and the PCG state are in a state file (below).
+    const bool state_file = json.contains("state_file");
+    const auto poses =
+        state_file ? std::vector<double>() : json.at("poses").get<std::vector<double>>();
     // Version 3 with a feature file: the arrays are read from it below.
     const bool feature_file = json.contains("features_file");
     const auto features =
@@ -307,18 +327,22 @@ StatusOr<Checkpoint> Read(const std::string& path, const std::string& input) {
       for (int k = 0; k < Layout::kFeatureValues; ++k) f[k] = features[i + k];
       checkpoint.features.push_back(f);
     }
-    if (feature_file) {
+    if (feature_file || state_file) {
       if constexpr (Layout::kDimension == 2) {
-        const std::string name = json.at("features_file").get<std::string>();
-        if (name.empty() || name.find('/') != std::string::npos)
-          return Bad(path, "'features_file' must be a file name beside the checkpoint");
-        const std::filesystem::path file_path =
-            std::filesystem::path(path).parent_path() / name;
-        GS_RETURN_IF_ERROR(ReadFeatureFile(file_path.string(),
-                                           json.at("features_count").get<int64_t>(),
-                                           &checkpoint));
+        if (feature_file) {
+          GS_ASSIGN_OR_RETURN(const std::string file_path,
+                              FileBeside(path, json, "features_file"));
+          GS_RETURN_IF_ERROR(ReadFeatureFile(file_path, json.at("features_count").get<int64_t>(),
+                                             &checkpoint));
+        }
+        if (state_file) {
+          if (json.contains("poses") || json.contains("pcg"))
+            return Bad(path, "'poses' or 'pcg' beside 'state_file'");
+          GS_ASSIGN_OR_RETURN(const std::string file_path, FileBeside(path, json, "state_file"));
+          GS_RETURN_IF_ERROR(ReadSolverStateFile(file_path, &checkpoint.poses, &checkpoint.pcg));
+        }
       } else {
-        return Bad(path, "'features_file' in a 3-D checkpoint");
+        return Bad(path, "'features_file' or 'state_file' in a 3-D checkpoint");
       }
     }
   } catch (const nlohmann::json::exception& error) {
@@ -365,29 +389,39 @@ Status WriteSolverCheckpoint(Env* env, const std::string& path, const std::strin
 Status WriteSolverCheckpointWithFeatureFile(Env* env, const std::string& path,
                                             const std::string& input,
                                             const core::SolverCheckpoint& checkpoint) {
-  // 1. the generation's feature file, durable before any JSON names it
+  // 1. the generation's feature and state files, durable before any JSON
+  //    names them
   const std::string file_path = FeatureFileName(path, checkpoint.iterations);
   GS_RETURN_IF_ERROR(WriteFeatureFile(env, file_path, checkpoint));
-  // 2. the JSON naming it (atomic: the previous JSON stays valid until here)
-  nlohmann::json json = HeadJson<Planar>(input, checkpoint);
+  const std::string state_path = StateFileName(path, checkpoint.iterations);
+  GS_RETURN_IF_ERROR(WriteSolverStateFile(env, state_path, checkpoint.poses, checkpoint.pcg));
+  // 2. the JSON naming them (atomic: the previous JSON stays valid until
+  //    here); a few hundred bytes, no array
+  nlohmann::json json = HeadJson<Planar>(input, checkpoint, /*poses_and_pcg=*/false);
   json["version"] = kSolverCheckpointVersion;
   json["features_file"] = std::filesystem::path(file_path).filename().string();
   json["features_count"] = checkpoint.features.size();
+  json["state_file"] = std::filesystem::path(state_path).filename().string();
   GS_RETURN_IF_ERROR(WriteStringAtomically(env, path, json.dump() + "\n"));
   // 3. other generations are garbage now (a kill before this leaves them:
   //    the next checkpoint removes them)
   const std::filesystem::path directory =
       std::filesystem::path(path).parent_path().empty() ? std::filesystem::path(".")
                                                         : std::filesystem::path(path).parent_path();
-  const std::string prefix = std::filesystem::path(path).filename().string() + ".features.";
-  const std::string keep = std::filesystem::path(file_path).filename().string();
+  const std::string base = std::filesystem::path(path).filename().string();
+  const std::string keep[] = {std::filesystem::path(file_path).filename().string(),
+                              std::filesystem::path(state_path).filename().string()};
+  std::vector<std::string> garbage;
   std::error_code error;
   for (const auto& entry : std::filesystem::directory_iterator(directory, error)) {
     const std::string name = entry.path().filename().string();
-    if (name != keep && name.rfind(prefix, 0) == 0 && name.size() > 4 &&
-        name.compare(name.size() - 4, 4, ".bin") == 0)
-      GS_RETURN_IF_ERROR(env->RemoveFile(entry.path().string()));
+    if (name == keep[0] || name == keep[1] || name.size() <= 4 ||
+        name.compare(name.size() - 4, 4, ".bin") != 0)
+      continue;
+    for (const char* kind : {".features.", ".state."})
+      if (name.rfind(base + kind, 0) == 0) garbage.push_back(entry.path().string());
   }
+  for (const std::string& name : garbage) GS_RETURN_IF_ERROR(env->RemoveFile(name));
   return Status::Ok();
 }
 

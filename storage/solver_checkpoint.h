@@ -24,8 +24,11 @@ inline constexpr const char* kSolverCheckpointFormat = "graphslam-solver-checkpo
 // Version 2 added the optional "pcg" object (core/pcg_solver_state.h); a
 // checkpoint without it is still written as version 1, and both are read.
 // Version 3: the per-feature arrays are in a binary file beside the JSON
-// (below), named by its "features_file".
-inline constexpr int kSolverCheckpointVersion = 3;
+// (below), named by its "features_file". Version 4: the poses and the PCG
+// state too, in a state file (storage/solver_state_file.h) named by its
+// "state_file". Versions 1-4 are read; a version-3 build refuses a version-4
+// checkpoint with NotSupported.
+inline constexpr int kSolverCheckpointVersion = 4;
 
 // `input` names the problem the checkpoint belongs to; ReadSolverCheckpoint
 // rejects a checkpoint of another input.
@@ -35,10 +38,12 @@ Status WriteSolverCheckpoint(Env* env, const std::string& path, const std::strin
 // The same with the feature estimates and flags in a binary file beside the
 // JSON instead of JSON arrays (the streaming solve: 18 bytes per feature, no
 // text to format or parse): "<path>.features.<iterations>.bin", a feature
-// record file of kind 2 (storage/feature_record_file.h), written atomically
-// before the JSON that names it; once the JSON is durable, the files of
-// other generations are removed. A kill at any point leaves the previous
-// JSON and the generation it names.
+// record file of kind 2 (storage/feature_record_file.h), and the poses and
+// PCG state in "<path>.state.<iterations>.bin" (kind 3,
+// storage/solver_state_file.h: no JSON tree of 10^6 poses), both written
+// atomically before the JSON (version 4) that names them; once the JSON is
+// durable, the files of other generations are removed. A kill at any point
+// leaves the previous JSON and the generation it names.
 Status WriteSolverCheckpointWithFeatureFile(Env* env, const std::string& path,
                                             const std::string& input,
                                             const core::SolverCheckpoint& checkpoint);

@@ -279,8 +279,11 @@ TEST(SolverCheckpoint, FeatureFileReadsBackBitForBitAndReplacesTheOlderGeneratio
   {
     std::ifstream in(path);
     const nlohmann::json json = nlohmann::json::parse(in);
-    EXPECT_EQ(json["version"], 3);
+    EXPECT_EQ(json["version"], 4);
     EXPECT_FALSE(json.contains("features")) << "per-feature JSON written";
+    EXPECT_FALSE(json.contains("poses")) << "pose JSON written";
+    EXPECT_EQ(json["state_file"], std::filesystem::path(path).filename().string() +
+                                      ".state.7.bin");
     EXPECT_EQ(json["features_file"], std::filesystem::path(path).filename().string() +
                                          ".features.7.bin");
   }
@@ -296,12 +299,162 @@ TEST(SolverCheckpoint, FeatureFileReadsBackBitForBitAndReplacesTheOlderGeneratio
   c.features[5].x() += 1.0;
   ASSERT_TRUE(WriteSolverCheckpointWithFeatureFile(Env::Default(), path, "in", c).ok());
   EXPECT_FALSE(std::filesystem::exists(path + ".features.7.bin")) << "old generation kept";
+  EXPECT_FALSE(std::filesystem::exists(path + ".state.7.bin")) << "old generation kept";
   read = ReadSolverCheckpoint(path, "in");
   ASSERT_TRUE(read.ok()) << read.status().ToString();
   EXPECT_EQ(read->iterations, 8);
   EXPECT_EQ(read->features[5], c.features[5]);
   std::filesystem::remove(path);
   std::filesystem::remove(path + ".features.8.bin");
+  std::filesystem::remove(path + ".state.8.bin");
+}
+
+// A PCG state of the streaming solve's size class: the poses, the warm start
+// and the forest span several records of the state file (65536 elements
+// each) and read back bit for bit; the JSON holds none of them.
+core::SolverCheckpoint LargePcgCheckpoint(int poses) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> n(0.0, 10.0);
+  core::SolverCheckpoint c;
+  FillControl(&c);
+  for (int i = 0; i < poses; ++i) c.poses.emplace_back(n(rng), n(rng), std::nextafter(n(rng), 0.0));
+  for (int i = 0; i < 20; ++i) {
+    c.features.emplace_back(n(rng), n(rng));
+    c.excluded.push_back(i == 3);
+    c.kept.push_back(i == 5);
+  }
+  c.pcg.present = true;
+  c.pcg.eta = std::nextafter(0.0123, 1.0);
+  c.pcg.previous_rhs_norm = 1.0 / 7.0;
+  c.pcg.last_rhs_norm = -1.0;
+  c.pcg.have_previous = true;
+  for (int i = 0; i < 3 * poses; ++i) c.pcg.previous_x.push_back(n(rng) * 1e-7);
+  c.pcg.previous_x[c.pcg.previous_x.size() / 2] = -0.0;
+  for (int i = 0; i < poses; ++i) {
+    c.pcg.forest_order.push_back(poses - 1 - i);
+    c.pcg.forest_parent.push_back(i == 0 ? -1 : (i - 1) / 2);
+  }
+  return c;
+}
+
+TEST(SolverCheckpoint, StateFileHoldsPosesAndPcgStateBitForBit) {
+  const core::SolverCheckpoint c = LargePcgCheckpoint(70000);
+  const std::string path = TempPath("state.json");
+  ASSERT_TRUE(WriteSolverCheckpointWithFeatureFile(Env::Default(), path, "in", c).ok());
+  EXPECT_LT(std::filesystem::file_size(path), 1000u) << "arrays written into the JSON";
+  StatusOr<core::SolverCheckpoint> read = ReadSolverCheckpoint(path, "in");
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  ExpectSameControl(c, *read);
+  ASSERT_EQ(read->poses.size(), c.poses.size());
+  for (size_t i = 0; i < c.poses.size(); ++i) ASSERT_EQ(read->poses[i], c.poses[i]) << i;
+  EXPECT_TRUE(read->pcg.present);
+  EXPECT_EQ(read->pcg.eta, c.pcg.eta);
+  EXPECT_EQ(read->pcg.previous_rhs_norm, c.pcg.previous_rhs_norm);
+  EXPECT_EQ(read->pcg.last_rhs_norm, c.pcg.last_rhs_norm);
+  EXPECT_EQ(read->pcg.have_previous, c.pcg.have_previous);
+  EXPECT_EQ(read->pcg.previous_x, c.pcg.previous_x);
+  EXPECT_TRUE(std::signbit(read->pcg.previous_x[c.pcg.previous_x.size() / 2]));
+  EXPECT_EQ(read->pcg.forest_order, c.pcg.forest_order);
+  EXPECT_EQ(read->pcg.forest_parent, c.pcg.forest_parent);
+
+  // A fresh (CHOLMOD) state stays absent.
+  core::SolverCheckpoint cholmod = c;
+  cholmod.pcg = core::PcgSolverState();
+  ASSERT_TRUE(WriteSolverCheckpointWithFeatureFile(Env::Default(), path, "in", cholmod).ok());
+  read = ReadSolverCheckpoint(path, "in");
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  EXPECT_FALSE(read->pcg.present);
+  EXPECT_TRUE(read->pcg.previous_x.empty());
+  EXPECT_TRUE(read->pcg.forest_order.empty());
+  std::filesystem::remove(path);
+  std::filesystem::remove(path + ".features.7.bin");
+  std::filesystem::remove(path + ".state.7.bin");
+}
+
+// Checkpoints of the previous format still load: version 3 (poses and the
+// PCG state as JSON beside a feature file); a newer version than this build
+// reads is NotSupported.
+TEST(SolverCheckpoint, Version3CheckpointStillLoadsAndVersion5IsRefused) {
+  const core::SolverCheckpoint c = LargePcgCheckpoint(5);
+  const std::string path = TempPath("v3.json");
+  ASSERT_TRUE(WriteSolverCheckpointWithFeatureFile(Env::Default(), path, "in", c).ok());
+  nlohmann::json json;
+  {
+    std::ifstream in(path);
+    json = nlohmann::json::parse(in);
+  }
+  // As version 3 wrote it.
+  json["version"] = 3;
+  json.erase("state_file");
+  std::vector<double> poses;
+  for (const auto& p : c.poses) poses.insert(poses.end(), {p.x(), p.y(), p.z()});
+  json["poses"] = poses;
+  json["pcg"] = {{"eta", c.pcg.eta},
+                 {"previous_rhs_norm", c.pcg.previous_rhs_norm},
+                 {"last_rhs_norm", c.pcg.last_rhs_norm},
+                 {"have_previous", c.pcg.have_previous},
+                 {"previous_x", c.pcg.previous_x},
+                 {"forest_order", c.pcg.forest_order},
+                 {"forest_parent", c.pcg.forest_parent}};
+  std::filesystem::remove(path + ".state.7.bin");
+  std::ofstream(path, std::ios::trunc) << json.dump();
+  StatusOr<core::SolverCheckpoint> read = ReadSolverCheckpoint(path, "in");
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  ExpectSameControl(c, *read);
+  EXPECT_EQ(read->poses, c.poses);
+  EXPECT_EQ(read->pcg.previous_x, c.pcg.previous_x);
+  EXPECT_EQ(read->pcg.forest_parent, c.pcg.forest_parent);
+
+  json["version"] = 5;
+  std::ofstream(path, std::ios::trunc) << json.dump();
+  read = ReadSolverCheckpoint(path, "in");
+  ASSERT_FALSE(read.ok());
+  EXPECT_TRUE(read.status().IsNotSupported()) << read.status().ToString();
+  EXPECT_NE(read.status().message().find(path + ": checkpoint version 5; this build reads up to 4"),
+            std::string::npos)
+      << read.status().ToString();
+  std::filesystem::remove(path);
+  std::filesystem::remove(path + ".features.7.bin");
+}
+
+TEST(SolverCheckpoint, DamagedStateFileIsCorruptionNamingTheFileAndOffset) {
+  const core::SolverCheckpoint c = LargePcgCheckpoint(10);
+  const std::string path = TempPath("damaged_state.json");
+  const std::string state = path + ".state.7.bin";
+  ASSERT_TRUE(WriteSolverCheckpointWithFeatureFile(Env::Default(), path, "in", c).ok());
+  std::string bytes;
+  {
+    std::ifstream in(state, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const auto write = [&](const std::string& contents) {
+    std::ofstream out(state, std::ios::binary | std::ios::trunc);
+    out << contents;
+  };
+  const auto expect_error = [&](const std::string& what) {
+    StatusOr<core::SolverCheckpoint> read = ReadSolverCheckpoint(path, "in");
+    ASSERT_FALSE(read.ok()) << what;
+    EXPECT_NE(read.status().message().find(state + what), std::string::npos)
+        << read.status().ToString();
+  };
+  // Header 24 bytes, the summary record 9 + 51 bytes, then the poses record
+  // at offset 84 (13 bytes of prefix, then 24 bytes per pose).
+  std::string flipped = bytes;
+  flipped[84 + 9 + 13 + 24 * 4 + 3] ^= 0x20;
+  write(flipped);
+  expect_error(": offset 84: record checksum mismatch");
+  flipped = bytes;
+  flipped[24 + 9 + 5] ^= 0x01;  // inside the summary
+  write(flipped);
+  expect_error(": offset 24: record checksum mismatch");
+  write(bytes.substr(0, 200));  // truncated inside the poses record
+  expect_error(": offset 84: truncated record");
+  write(bytes.substr(0, bytes.size() - 3));  // truncated footer
+  expect_error(": offset ");
+  std::filesystem::remove(state);
+  expect_error("");
+  std::filesystem::remove(path);
+  std::filesystem::remove(path + ".features.7.bin");
 }
 
 TEST(SolverCheckpoint, DamagedFeatureFileIsCorruptionNamingTheFileAndOffset) {

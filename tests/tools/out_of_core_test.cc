@@ -131,8 +131,9 @@ TEST_F(OutOfCoreTest, StreamingResumeFromAFeatureFileEqualsTheUninterruptedSolve
   ASSERT_TRUE(solve("full", "5", false));
   ASSERT_TRUE(solve("part", "2", false));
   const nlohmann::json checkpoint = ReadJson(dir_ / "part.json");
-  EXPECT_EQ(checkpoint["version"], 3);
+  EXPECT_EQ(checkpoint["version"], 4);
   EXPECT_FALSE(checkpoint.contains("features"));
+  EXPECT_EQ(checkpoint["state_file"], "part.json.state.2.bin");
   EXPECT_EQ(checkpoint["features_file"], "part.json.features.2.bin");
   EXPECT_TRUE(fs::exists(dir_ / "part.json.features.2.bin"));
   EXPECT_FALSE(fs::exists(dir_ / "part.json.candidates.bin")) << "scratch file left behind";
@@ -148,6 +149,7 @@ TEST_F(OutOfCoreTest, StreamingResumeFromAFeatureFileEqualsTheUninterruptedSolve
 
   // Back to the generation-2 checkpoint, with a flipped byte in its feature file.
   fs::remove(dir_ / "part.json.features.5.bin");
+  fs::remove(dir_ / "part.json.state.5.bin");
   std::ofstream(dir_ / "part.json", std::ios::trunc) << checkpoint.dump();
   std::string damaged = saved;
   damaged[24 + 9 + 12 + 5] ^= 0x40;
@@ -160,6 +162,73 @@ TEST_F(OutOfCoreTest, StreamingResumeFromAFeatureFileEqualsTheUninterruptedSolve
             2);  // Corruption
   const std::string message = bytes(error);
   EXPECT_NE(message.find((dir_ / "part.json.features.2.bin").string() +
+                         ": offset 24: record checksum mismatch"),
+            std::string::npos)
+      << message;
+}
+
+// The same with --solver pcg: the PCG's warm start, forcing term and forest
+// are in the checkpoint's state file (version 4, storage/solver_state_file.h),
+// and the resumed solve takes the very steps of the uninterrupted one (same
+// -o bytes, chi2, CG iterations); a damaged state file stops the resume with
+// the file and the offset.
+TEST_F(OutOfCoreTest, StreamingPcgResumeFromAStateFileEqualsTheUninterruptedSolve) {
+  const std::string input = Simulate(700, 12);
+  const std::string store = (dir_ / "store").string();
+  ASSERT_EQ(RunGraphslam({"ingest", input, "-o", store, "--chunk-observations", "250", "-q"}), 0);
+  const auto args = [&](const std::string& name, const std::string& iterations) {
+    return std::vector<std::string>{
+        "solve", store, "--streaming-poses", "0", "--initialization", "odometry",
+        "--solver", "pcg", "--max-iterations", iterations, "--checkpoint",
+        (dir_ / (name + ".json")).string(), "-o", (dir_ / (name + ".g2o")).string(),
+        "--features-csv", (dir_ / (name + ".csv")).string(), "--report",
+        (dir_ / (name + "_report.json")).string(), "--threads", "2", "-q"};
+  };
+  const auto solve = [&](const std::string& name, const std::string& iterations, bool resume) {
+    std::vector<std::string> a = args(name, iterations);
+    if (resume) a.push_back("--resume");
+    const int code = RunGraphslam(a);
+    return code == 0 || code == 4;
+  };
+  const auto bytes = [](const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  };
+  ASSERT_TRUE(solve("full", "5", false));
+  ASSERT_TRUE(solve("part", "2", false));
+  const nlohmann::json checkpoint = ReadJson(dir_ / "part.json");
+  EXPECT_EQ(checkpoint["version"], 4);
+  EXPECT_FALSE(checkpoint.contains("pcg")) << "PCG state written as JSON";
+  EXPECT_FALSE(checkpoint.contains("poses")) << "poses written as JSON";
+  ASSERT_TRUE(fs::exists(dir_ / "part.json.state.2.bin"));
+  const std::string saved = bytes(dir_ / "part.json.state.2.bin");
+  const std::string saved_features = bytes(dir_ / "part.json.features.2.bin");
+  ASSERT_TRUE(solve("part", "5", true));
+  const nlohmann::json full = ReadJson(dir_ / "full_report.json");
+  const nlohmann::json resumed = ReadJson(dir_ / "part_report.json");
+  EXPECT_EQ(resumed["solver"], "pcg");
+  EXPECT_EQ(resumed["resumed_from_iteration"].get<int>(), 2);
+  EXPECT_EQ(full["final_chi2"].get<double>(), resumed["final_chi2"].get<double>());
+  EXPECT_EQ(full["iterations"].get<int>(), resumed["iterations"].get<int>());
+  EXPECT_EQ(bytes(dir_ / "full.g2o"), bytes(dir_ / "part.g2o"));
+  EXPECT_EQ(bytes(dir_ / "full.csv"), bytes(dir_ / "part.csv"));
+  EXPECT_FALSE(fs::exists(dir_ / "part.json.state.2.bin")) << "old generation kept";
+
+  // Back to generation 2, with a flipped byte in the state file's summary.
+  for (const char* name : {"part.json.features.5.bin", "part.json.state.5.bin"})
+    fs::remove(dir_ / name);
+  std::ofstream(dir_ / "part.json", std::ios::trunc) << checkpoint.dump();
+  std::string damaged = saved;
+  damaged[24 + 9 + 20] ^= 0x40;
+  std::ofstream(dir_ / "part.json.state.2.bin", std::ios::binary | std::ios::trunc) << damaged;
+  std::ofstream(dir_ / "part.json.features.2.bin", std::ios::binary | std::ios::trunc)
+      << saved_features;
+  const std::string error = (dir_ / "error.txt").string();
+  std::vector<std::string> resume = args("part", "5");
+  resume.push_back("--resume");
+  EXPECT_EQ(RunGraphslamRedirected(resume, error), 2);  // Corruption
+  const std::string message = bytes(error);
+  EXPECT_NE(message.find((dir_ / "part.json.state.2.bin").string() +
                          ": offset 24: record checksum mismatch"),
             std::string::npos)
       << message;
