@@ -11,6 +11,8 @@
 //                kept:u8[count]
 //   solver state (kind 3, storage/solver_state_file.h) the poses and the PCG
 //                state of a checkpoint
+//   feature ids  (kind 4, storage/feature_id_file.h) a streaming solve's ids,
+//                parked while it runs
 //
 //   file    := header record* footer                      (little-endian)
 //   header  := magic[8] version:u32 kind:u32 dimension:u32 header_crc:u32
@@ -44,6 +46,7 @@ inline constexpr uint32_t kVersion = 1;
 inline constexpr uint32_t kKindCandidates = 1;
 inline constexpr uint32_t kKindCheckpoint = 2;
 inline constexpr uint32_t kKindSolverState = 3;  // storage/solver_state_file.h
+inline constexpr uint32_t kKindFeatureIds = 4;   // storage/feature_id_file.h
 inline constexpr size_t kHeaderSize = 24;
 inline constexpr size_t kRecordHeaderSize = 9;
 inline constexpr uint8_t kData = 1;

@@ -22,4 +22,4 @@ target_sources(graphslam_storage PRIVATE
   crc32c.cc)
 target_sources(graphslam_storage PRIVATE chunk_store.cc chunk_store_writer.cc)
 target_sources(graphslam_storage PRIVATE solver_checkpoint.cc feature_record_file.cc candidate_file.cc
-  solver_state_file.cc)
+  solver_state_file.cc feature_id_file.cc)

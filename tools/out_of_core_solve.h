@@ -39,13 +39,15 @@ namespace graphslam::tools {
 // and 10^8 streaming solves (docs/out_of_core.md, "Memory per feature"):
 // S has ~29 blocks of 72 bytes per pose there (~2.1 KB), plus its index, the
 // PCG vectors and the pose arrays. Per feature, streaming mode holds the
-// estimate (16), id (8), flags and unknown index (~8) and what the problem
-// reader leaves on the heap (measured ~38 B at rest at 10^8); the candidates
-// of a step are on disk (storage/candidate_file.h). In memory the candidates
-// (16) add to that.
+// estimate (16), the unknown index (4) and flags (3) (heaptrack at 10^7,
+// docs/out_of_core.md "Checkpoint state file and the resting memory"), plus
+// a margin for what the problem reader leaves on the heap; the candidates of
+// a step (storage/candidate_file.h) and the ids (8, storage/feature_id_file.h)
+// are on disk while it solves. In memory the ids and the candidates (16) add
+// to that.
 inline constexpr int64_t kPoseSystemBytesPerPose = 2400;
 inline constexpr int64_t kBytesPerFeature = 64;
-inline constexpr int64_t kBytesPerFeatureStreaming = 40;
+inline constexpr int64_t kBytesPerFeatureStreaming = 32;
 inline constexpr int64_t kBytesPerObservationInFlight = 512;
 
 // The chunks in flight allowed by `limit_bytes` (<= 0: no limit ->

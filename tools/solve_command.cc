@@ -21,6 +21,7 @@
 #include "storage/atomic_file.h"
 #include "storage/solver_checkpoint.h"
 #include "storage/candidate_file.h"
+#include "storage/feature_id_file.h"
 #include "storage/chunk_store.h"
 #include "storage/dimension_detection.h"
 #include "storage/features_csv_writer.h"
@@ -520,6 +521,15 @@ int RunSolveCommand(const SolveCommandOptions& options) {
         storage::Env::Default(), checkpoint_path + ".candidates.bin");
     solver_options.candidate_store = candidate_file.get();
   }
+  // Streaming mode also parks the feature ids in a scratch file beside the
+  // checkpoint while it solves (8 B per feature, the passes' peak included):
+  // only the outputs read them (storage/feature_id_file.h).
+  std::unique_ptr<storage::FeatureIdFile> id_file;
+  if (streaming && !checkpoint_path.empty()) {
+    id_file = std::make_unique<storage::FeatureIdFile>(storage::Env::Default(),
+                                                       checkpoint_path + ".ids.bin");
+    if (Status status = id_file->Park(&problem.feature_ids); !status.ok()) return fail(status);
+  }
   if (!checkpoint_path.empty()) {
     solver_options.checkpoint_callback = [&](const core::SolverCheckpoint& checkpoint) {
       if (streaming)
@@ -556,6 +566,9 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   }
   const double optimize_cpu_seconds = ProcessCpuSeconds() - optimize_cpu_start;
   display.Finish();
+  if (id_file) {
+    if (Status status = id_file->Restore(&problem.feature_ids); !status.ok()) return fail(status);
+  }
 
   // Write outputs (each atomically).
   if (!options.output_g2o.empty()) {

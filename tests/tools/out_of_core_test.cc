@@ -21,6 +21,7 @@
 #include <thread>
 #include <vector>
 
+#include "tests/testing/kill_nine.h"
 #include "tests/testing/subprocess.h"
 #include "tests/tools/out_of_core_fixture.h"
 
@@ -213,6 +214,7 @@ TEST_F(OutOfCoreTest, StreamingPcgResumeFromAStateFileEqualsTheUninterruptedSolv
   EXPECT_EQ(bytes(dir_ / "full.g2o"), bytes(dir_ / "part.g2o"));
   EXPECT_EQ(bytes(dir_ / "full.csv"), bytes(dir_ / "part.csv"));
   EXPECT_FALSE(fs::exists(dir_ / "part.json.state.2.bin")) << "old generation kept";
+  EXPECT_FALSE(fs::exists(dir_ / "part.json.ids.bin")) << "parked ids left behind";
 
   // Back to generation 2, with a flipped byte in the state file's summary.
   for (const char* name : {"part.json.features.5.bin", "part.json.state.5.bin"})
@@ -232,6 +234,37 @@ TEST_F(OutOfCoreTest, StreamingPcgResumeFromAStateFileEqualsTheUninterruptedSolv
                          ": offset 24: record checksum mismatch"),
             std::string::npos)
       << message;
+}
+
+// kill -9 during a streaming PCG solve (as soon as its first checkpoint, the
+// JSON naming the feature and state files, is on disk), then --resume: the
+// same final chi2, iteration count and -o bytes as the uninterrupted solve.
+TEST_F(OutOfCoreTest, KillNineMidStreamingPcgSolveThenResumeEqualsUninterruptedRun) {
+  const std::string input = Simulate(2000, 4);
+  const std::string store = (dir_ / "store").string();
+  ASSERT_EQ(RunGraphslam({"ingest", input, "-o", store, "--chunk-observations", "500", "-q"}), 0);
+  const std::vector<std::string> options = {"--streaming-poses", "0", "--initialization",
+                                            "odometry", "--solver", "pcg", "--threads", "2"};
+  const auto with_options = [&](std::vector<std::string> args) {
+    args.insert(args.end(), options.begin(), options.end());
+    return args;
+  };
+  ASSERT_EQ(RunGraphslam(with_options({"solve", store, "-o", (dir_ / "full.g2o").string(),
+                                       "--report", (dir_ / "full.json").string(), "--checkpoint",
+                                       (dir_ / "full_checkpoint.json").string(), "-q"})),
+            0);
+  const fs::path checkpoint = dir_ / "checkpoint.json";
+  const bool signaled = graphslam::testing::SpawnAndKillWhenFileExists(
+      with_options({"solve", store, "-o", (dir_ / "resumed.g2o").string(), "--checkpoint",
+                    checkpoint.string(), "-q"}),
+      checkpoint, std::chrono::seconds(120));
+  ASSERT_TRUE(fs::exists(checkpoint)) << "no checkpoint was written";
+  const nlohmann::json at_kill = ReadJson(checkpoint);
+  const int iteration = at_kill["iterations"].get<int>();
+  std::printf("killed after iteration %d (signaled: %d)\n", iteration, signaled ? 1 : 0);
+  EXPECT_EQ(at_kill["version"].get<int>(), 4);
+  EXPECT_TRUE(fs::exists(dir_ / ("checkpoint.json.state." + std::to_string(iteration) + ".bin")));
+  graphslam::testing::ExpectResumeEqualsUninterrupted(store, dir_, checkpoint, iteration, options);
 }
 
 }  // namespace
