@@ -1,8 +1,9 @@
 // checkpoint_memory: the peak-RSS rise of writing one streaming-solve
 // checkpoint with the PCG state of P poses (docs/benchmarks.md, "Checkpoint
 // PCG state and feature ids off the heap"): 3P pose values, the 3P-value
-// warm start and the P-entry forest, no features. Compares the version-4 checkpoint (poses and
-// PCG state in a binary state file, storage/solver_state_file.h) with the
+// warm start and the P-entry forest, no features. Compares the version-4
+// checkpoint (poses and PCG state in a binary state file,
+// storage/solver_state_file.h) with the
 // JSON of versions 1-3 (WriteSolverCheckpoint: the same poses and "pcg"
 // object as the version-3 JSON). Peak RSS is read from /proc/self/status
 // (VmHWM), reset before each write through /proc/self/clear_refs.
