@@ -37,13 +37,15 @@ namespace graphslam::tools {
 // feature; bytes an observation costs while its chunk is in flight (the
 // record, its Jacobians, the feature's Schur blocks). Calibrated on the 10^7
 // and 10^8 streaming solves (docs/out_of_core.md, "Memory per feature"):
-// S has ~29 blocks of 72 bytes per pose there (~2.1 KB), plus its index, the
-// PCG vectors and the pose arrays. Per feature, streaming mode holds the
+// S has ~29 blocks per pose there (both triangles); only the upper triangle
+// is stored, (29 - 1) / 2 + 1 = 15 blocks of 72 bytes (~1.07 KB) plus their
+// column indices (4 B each) and the transpose index (8 B per off-diagonal
+// block), ~1.25 KB; the PCG vectors and the pose arrays add ~0.2 KB. Per feature, streaming mode holds the
 // estimate (16), id (8), flags and unknown index (~8) and what the problem
 // reader leaves on the heap (measured ~38 B at rest at 10^8); the candidates
 // of a step are on disk (storage/candidate_file.h). In memory the candidates
 // (16) add to that.
-inline constexpr int64_t kPoseSystemBytesPerPose = 2400;
+inline constexpr int64_t kPoseSystemBytesPerPose = 1450;
 inline constexpr int64_t kBytesPerFeature = 64;
 inline constexpr int64_t kBytesPerFeatureStreaming = 40;
 inline constexpr int64_t kBytesPerObservationInFlight = 512;
