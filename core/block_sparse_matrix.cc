@@ -11,19 +11,30 @@
 namespace graphslam::core {
 namespace {
 
-// y_i += sum_k A_ik x_k for block rows [begin, end), with the block size known
-// at compile time. The accumulation order per row is fixed (blocks in column
-// order), which is what makes the parallel product bit-exact.
+// y_i += sum_{k<i} U_ki^T x_k + sum_{k>=i} U_ik x_k for block rows
+// [begin, end), with the block size known at compile time. The accumulation
+// order per row is fixed (ascending k), which is what makes the parallel
+// product bit-exact. The lower blocks are transposed into a row-major
+// temporary so that the product expression, and hence Eigen's operation
+// order, is the one the former full storage used for A_ik.
 template <int kB>
-void MultiplyRowsFixed(const int64_t* row_start, const int* block_cols, const double* values,
+void MultiplyRowsFixed(const int64_t* row_start, const int* block_cols, const int64_t* col_start,
+                       const int* col_rows, const int* col_blocks, const double* values,
                        int begin, int end, const double* x, double* y) {
-  using BlockMap = Eigen::Map<const Eigen::Matrix<double, kB, kB, Eigen::RowMajor>>;
+  using Block = Eigen::Matrix<double, kB, kB, Eigen::RowMajor>;
+  using BlockMap = Eigen::Map<const Block>;
   using ConstVectorMap = Eigen::Map<const Eigen::Matrix<double, kB, 1>>;
   using VectorMap = Eigen::Map<Eigen::Matrix<double, kB, 1>>;
   for (int i = begin; i < end; ++i) {
     Eigen::Matrix<double, kB, 1> sum = Eigen::Matrix<double, kB, 1>::Zero();
+    for (int64_t t = col_start[i]; t < col_start[i + 1]; ++t) {
+      const Block lower = BlockMap(values + static_cast<int64_t>(col_blocks[t]) * kB * kB)
+                              .transpose();
+      sum.noalias() += lower * ConstVectorMap(x + static_cast<int64_t>(col_rows[t]) * kB);
+    }
     for (int64_t j = row_start[i]; j < row_start[i + 1]; ++j) {
-      sum.noalias() += BlockMap(values + j * kB * kB) * ConstVectorMap(x + block_cols[j] * kB);
+      sum.noalias() +=
+          BlockMap(values + j * kB * kB) * ConstVectorMap(x + static_cast<int64_t>(block_cols[j]) * kB);
     }
     VectorMap(y + static_cast<int64_t>(i) * kB) += sum;
   }
@@ -31,12 +42,18 @@ void MultiplyRowsFixed(const int64_t* row_start, const int* block_cols, const do
 
 // The same for any block size, with plain loops (no Eigen temporaries).
 void MultiplyRowsDynamic(int b, const int64_t* row_start, const int* block_cols,
+                         const int64_t* col_start, const int* col_rows, const int* col_blocks,
                          const double* values, int begin, int end, const double* x, double* y) {
   const int64_t bb = static_cast<int64_t>(b) * b;
   for (int i = begin; i < end; ++i) {
     double* yi = y + static_cast<int64_t>(i) * b;
     for (int r = 0; r < b; ++r) {
       double sum = 0.0;
+      for (int64_t t = col_start[i]; t < col_start[i + 1]; ++t) {
+        const double* a = values + col_blocks[t] * bb + r;  // column r of U_ki
+        const double* xk = x + static_cast<int64_t>(col_rows[t]) * b;
+        for (int c = 0; c < b; ++c) sum += a[static_cast<int64_t>(c) * b] * xk[c];
+      }
       for (int64_t j = row_start[i]; j < row_start[i + 1]; ++j) {
         const double* a = values + j * bb + static_cast<int64_t>(r) * b;
         const double* xk = x + static_cast<int64_t>(block_cols[j]) * b;
@@ -59,43 +76,58 @@ BlockSparseMatrix BlockSparseMatrix::FromPattern(int block_size, int num_block_r
   m.block_size_ = block_size;
   m.num_block_rows_ = num_block_rows;
 
-  // Bucket the column indices by row (counting sort), then sort and deduplicate
-  // each row.
+  // Bucket the column indices max(i,k) by row min(i,k) (counting sort), then
+  // sort and deduplicate each row. The diagonal goes first in every row.
   std::vector<int64_t> start(num_block_rows + 1, 0);
   for (const auto& [i, k] : pairs) {
     GS_CHECK(i >= 0 && i < num_block_rows && k >= 0 && k < num_block_rows);
-    ++start[i + 1];
-    if (i != k) ++start[k + 1];
+    ++start[std::min(i, k) + 1];
   }
   for (int i = 0; i < num_block_rows; ++i) ++start[i + 1];  // the diagonal block
   for (int i = 0; i < num_block_rows; ++i) start[i + 1] += start[i];
   std::vector<int> columns(start[num_block_rows]);
   std::vector<int64_t> fill(start.begin(), start.end() - 1);
   for (int i = 0; i < num_block_rows; ++i) columns[fill[i]++] = i;
-  for (const auto& [i, k] : pairs) {
-    columns[fill[i]++] = k;
-    if (i != k) columns[fill[k]++] = i;
-  }
+  for (const auto& [i, k] : pairs) columns[fill[std::min(i, k)]++] = std::max(i, k);
   pairs.clear();
   pairs.shrink_to_fit();
+  fill.clear();
+  fill.shrink_to_fit();
 
   m.row_start_.assign(num_block_rows + 1, 0);
-  m.diagonal_.resize(num_block_rows);
+  m.col_start_.assign(num_block_rows + 1, 0);
   int64_t out = 0;
   for (int i = 0; i < num_block_rows; ++i) {
     auto first = columns.begin() + start[i];
     auto last = columns.begin() + start[i + 1];
     std::sort(first, last);
     last = std::unique(first, last);
+    GS_CHECK(*first == i);  // every other entry of row i is > i
     for (auto it = first; it != last; ++it) {
-      if (*it == i) m.diagonal_[i] = out;
+      if (*it != i) ++m.col_start_[*it + 1];
       columns[out++] = *it;  // out <= it: compaction in place is safe
     }
     m.row_start_[i + 1] = out;
   }
+  GS_CHECK(out <= std::numeric_limits<int>::max());
   columns.resize(out);
   columns.shrink_to_fit();
   m.block_cols_ = std::move(columns);
+
+  // The transpose index: walking the rows in order leaves each column's rows
+  // ascending.
+  for (int i = 0; i < num_block_rows; ++i) m.col_start_[i + 1] += m.col_start_[i];
+  const int64_t strictly_upper = m.col_start_[num_block_rows];
+  m.col_rows_.resize(strictly_upper);
+  m.col_blocks_.resize(strictly_upper);
+  start.assign(m.col_start_.begin(), m.col_start_.end() - 1);
+  for (int i = 0; i < num_block_rows; ++i) {
+    for (int64_t j = m.row_start_[i] + 1; j < m.row_start_[i + 1]; ++j) {
+      const int64_t t = start[m.block_cols_[j]]++;
+      m.col_rows_[t] = i;
+      m.col_blocks_[t] = static_cast<int>(j);
+    }
+  }
   m.values_.assign(static_cast<size_t>(out) * block_size * block_size, 0.0);
   return m;
 }
@@ -103,7 +135,7 @@ BlockSparseMatrix BlockSparseMatrix::FromPattern(int block_size, int num_block_r
 void BlockSparseMatrix::SetZero() { std::fill(values_.begin(), values_.end(), 0.0); }
 
 int64_t BlockSparseMatrix::FindBlock(int i, int k) const {
-  if (i < 0 || i >= num_block_rows_ || k < 0 || k >= num_block_rows_) return -1;
+  if (i < 0 || i >= num_block_rows_ || k < i || k >= num_block_rows_) return -1;
   const auto first = block_cols_.begin() + row_start_[i];
   const auto last = block_cols_.begin() + row_start_[i + 1];
   const auto it = std::lower_bound(first, last, k);
@@ -121,17 +153,22 @@ const double* BlockSparseMatrix::Block(int i, int k) const {
   return j < 0 ? nullptr : values_.data() + j * block_size_ * block_size_;
 }
 
+bool BlockSparseMatrix::HasBlock(int i, int k) const {
+  return FindBlock(std::min(i, k), std::max(i, k)) >= 0;
+}
+
 bool BlockSparseMatrix::AddBlock(int i, int k, const Eigen::Ref<const Eigen::MatrixXd>& block) {
   const int b = block_size_;
   GS_CHECK(block.rows() == b && block.cols() == b);
-  double* ik = MutableBlock(i, k);
-  if (ik == nullptr) return false;
-  for (int r = 0; r < b; ++r) {
-    for (int c = 0; c < b; ++c) ik[r * b + c] += block(r, c);
-  }
-  if (i != k) {
+  if (i <= k) {
+    double* ik = MutableBlock(i, k);
+    if (ik == nullptr) return false;
+    for (int r = 0; r < b; ++r) {
+      for (int c = 0; c < b; ++c) ik[r * b + c] += block(r, c);
+    }
+  } else {
     double* ki = MutableBlock(k, i);
-    GS_CHECK(ki != nullptr);  // the pattern is symmetric by construction
+    if (ki == nullptr) return false;
     for (int r = 0; r < b; ++r) {
       for (int c = 0; c < b; ++c) ki[r * b + c] += block(c, r);
     }
@@ -143,7 +180,7 @@ void BlockSparseMatrix::AddToDiagonal(const Eigen::VectorXd& d) {
   GS_CHECK(d.size() == num_rows());
   const int b = block_size_;
   for (int i = 0; i < num_block_rows_; ++i) {
-    double* block = values_.data() + diagonal_[i] * b * b;
+    double* block = values_.data() + row_start_[i] * b * b;
     for (int r = 0; r < b; ++r) block[r * b + r] += d[static_cast<int64_t>(i) * b + r];
   }
 }
@@ -152,7 +189,7 @@ Eigen::VectorXd BlockSparseMatrix::Diagonal() const {
   Eigen::VectorXd d(num_rows());
   const int b = block_size_;
   for (int i = 0; i < num_block_rows_; ++i) {
-    const double* block = values_.data() + diagonal_[i] * b * b;
+    const double* block = values_.data() + row_start_[i] * b * b;
     for (int r = 0; r < b; ++r) d[static_cast<int64_t>(i) * b + r] = block[r * b + r];
   }
   return d;
@@ -161,16 +198,16 @@ Eigen::VectorXd BlockSparseMatrix::Diagonal() const {
 void BlockSparseMatrix::MultiplyRows(int begin, int end, const double* x, double* y) const {
   switch (block_size_) {
     case 3:
-      MultiplyRowsFixed<3>(row_start_.data(), block_cols_.data(), values_.data(), begin, end, x,
-                           y);
+      MultiplyRowsFixed<3>(row_start_.data(), block_cols_.data(), col_start_.data(),
+                           col_rows_.data(), col_blocks_.data(), values_.data(), begin, end, x, y);
       break;
     case 6:
-      MultiplyRowsFixed<6>(row_start_.data(), block_cols_.data(), values_.data(), begin, end, x,
-                           y);
+      MultiplyRowsFixed<6>(row_start_.data(), block_cols_.data(), col_start_.data(),
+                           col_rows_.data(), col_blocks_.data(), values_.data(), begin, end, x, y);
       break;
     default:
-      MultiplyRowsDynamic(block_size_, row_start_.data(), block_cols_.data(), values_.data(),
-                          begin, end, x, y);
+      MultiplyRowsDynamic(block_size_, row_start_.data(), block_cols_.data(), col_start_.data(),
+                          col_rows_.data(), col_blocks_.data(), values_.data(), begin, end, x, y);
   }
 }
 
@@ -192,30 +229,29 @@ void BlockSparseMatrix::RightMultiplyAndAccumulate(const double* x, double* y) c
 
 Eigen::MatrixXd BlockSparseMatrix::ToDense() const {
   const int b = block_size_;
+  using RowMajorMap =
+      Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>;
   Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(num_rows(), num_rows());
   for (int i = 0; i < num_block_rows_; ++i) {
     for (int64_t j = row_start_[i]; j < row_start_[i + 1]; ++j) {
-      dense.block(static_cast<Eigen::Index>(i) * b, static_cast<Eigen::Index>(block_cols_[j]) * b,
-                  b, b) =
-          Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-              values_.data() + j * b * b, b, b);
+      const Eigen::Index r = static_cast<Eigen::Index>(i) * b;
+      const Eigen::Index c = static_cast<Eigen::Index>(block_cols_[j]) * b;
+      const RowMajorMap u(values_.data() + j * b * b, b, b);
+      dense.block(r, c, b, b) = u;
+      if (c != r) dense.block(c, r, b, b) = u.transpose();
     }
   }
   return dense;
 }
 
 Eigen::SparseMatrix<double> BlockSparseMatrix::ToSparseUpper() const {
-  // Column c = i*b + lc of the upper triangle holds A(r, c) for r <= c. By
-  // symmetry that is row c of A restricted to columns r <= c: the blocks
-  // (i, k <= i) of block row i, read along their row lc. Block columns are
-  // sorted, so the row indices come out sorted.
+  // Column c = i*b + lc of the upper triangle holds A(r, c) for r <= c: column
+  // lc of the stored blocks (k < i, i) of block column i (the transpose index,
+  // rows ascending), then the diagonal block U_ii down to its diagonal.
   const int b = block_size_;
   const int n = num_rows();
-  int64_t nnz = 0;
-  for (int i = 0; i < num_block_rows_; ++i) {
-    const int64_t lower_blocks = diagonal_[i] - row_start_[i];
-    nnz += lower_blocks * b * b + static_cast<int64_t>(b) * (b + 1) / 2;
-  }
+  const int64_t nnz = (col_start_[num_block_rows_]) * b * b +
+                      static_cast<int64_t>(num_block_rows_) * b * (b + 1) / 2;
   GS_CHECK(nnz <= std::numeric_limits<int>::max());
 
   Eigen::SparseMatrix<double> upper(n, n);
@@ -227,15 +263,23 @@ Eigen::SparseMatrix<double> BlockSparseMatrix::ToSparseUpper() const {
   outer[0] = 0;
   for (int i = 0; i < num_block_rows_; ++i) {
     for (int lc = 0; lc < b; ++lc) {
-      for (int64_t j = row_start_[i]; j <= diagonal_[i]; ++j) {
-        const int k = block_cols_[j];
-        const double* row = values_.data() + j * b * b + lc * b;
-        const int count = (k == i) ? lc + 1 : b;
-        for (int lr = 0; lr < count; ++lr) {
+      for (int64_t t = col_start_[i]; t < col_start_[i + 1]; ++t) {
+        const int k = col_rows_[t];
+        const double* column = values_.data() + static_cast<int64_t>(col_blocks_[t]) * b * b + lc;
+        for (int lr = 0; lr < b; ++lr) {
           inner[pos] = k * b + lr;
-          value[pos] = row[lr];
+          value[pos] = column[lr * b];
           ++pos;
         }
+      }
+      // The diagonal block is read along its row lc (as the former full
+      // storage did), so a diagonal block that is symmetric only up to
+      // rounding exports the same values as before.
+      const double* diagonal = values_.data() + row_start_[i] * b * b + lc * b;
+      for (int lr = 0; lr <= lc; ++lr) {
+        inner[pos] = i * b + lr;
+        value[pos] = diagonal[lr];
+        ++pos;
       }
       outer[i * b + lc + 1] = static_cast<int>(pos);
     }

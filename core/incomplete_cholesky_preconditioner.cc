@@ -33,6 +33,8 @@ Eigen::SparseMatrix<double> LowerWithFillBudget(const BlockSparseMatrix& a, int 
   const int num_blocks = a.num_block_rows();
   const std::vector<int64_t>& row_start = a.row_start();
   const std::vector<int>& block_cols = a.block_cols();
+  const std::vector<int64_t>& col_start = a.col_start();
+  const std::vector<int>& col_rows = a.col_rows();
 
   // reach[i]: block columns k >= i within fill_levels + 1 edges of i (sorted).
   // Breadth-first over the block graph, with `mark` as the visited set.
@@ -45,14 +47,17 @@ Eigen::SparseMatrix<double> LowerWithFillBudget(const BlockSparseMatrix& a, int 
     mark[i] = i;
     for (int level = 0; level <= fill_levels && !frontier.empty(); ++level) {
       next.clear();
+      // The neighbours of v: the stored upper blocks of row v and, through
+      // the transpose index, those of column v.
+      auto visit = [&](int k) {
+        if (mark[k] == i) return;
+        mark[k] = i;
+        next.push_back(k);
+        visited.push_back(k);
+      };
       for (int v : frontier) {
-        for (int64_t j = row_start[v]; j < row_start[v + 1]; ++j) {
-          const int k = block_cols[j];
-          if (mark[k] == i) continue;
-          mark[k] = i;
-          next.push_back(k);
-          visited.push_back(k);
-        }
+        for (int64_t t = col_start[v]; t < col_start[v + 1]; ++t) visit(col_rows[t]);
+        for (int64_t j = row_start[v]; j < row_start[v + 1]; ++j) visit(block_cols[j]);
       }
       frontier.swap(next);
     }

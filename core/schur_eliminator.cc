@@ -165,10 +165,12 @@ void AccumulateContribution(const ReducedContribution& c, BlockSparseMatrix* s,
     const int i = c.rows[j];
     const int k = c.cols[j];
     const double* v = c.values.data() + j * b * b;
-    double* ik = s->MutableBlock(i, k);
-    GS_CHECK(ik != nullptr);
-    for (int e = 0; e < b * b; ++e) ik[e] += v[e];
-    if (i != k) {
+    // S stores its upper triangle: a lower block lands transposed.
+    if (i <= k) {
+      double* ik = s->MutableBlock(i, k);
+      GS_CHECK(ik != nullptr);
+      for (int e = 0; e < b * b; ++e) ik[e] += v[e];
+    } else {
       double* ki = s->MutableBlock(k, i);
       GS_CHECK(ki != nullptr);
       for (int r = 0; r < b; ++r) {

@@ -25,6 +25,15 @@ double FrobeniusNorm(const double* block, int b) {
   return std::sqrt(sum);
 }
 
+// FrobeniusNorm of block^T, summed in the row-major order of block^T (so
+// bit-identical to the norm of a stored transpose).
+double TransposedFrobeniusNorm(const double* block, int b) {
+  double sum = 0.0;
+  for (int r = 0; r < b; ++r)
+    for (int c = 0; c < b; ++c) sum += block[c * b + r] * block[c * b + r];
+  return std::sqrt(sum);
+}
+
 int Find(std::vector<int>* root, int v) {
   while ((*root)[v] != v) {
     (*root)[v] = (*root)[(*root)[v]];  // path halving
@@ -57,7 +66,7 @@ void SubgraphPreconditioner::ChooseForest(const BlockSparseMatrix& a) {
       const int k = block_cols[j];
       if (k <= i) continue;
       const double scale = std::sqrt(diagonal_norm[i] * diagonal_norm[k]);
-      const double norm = FrobeniusNorm(a.Block(i, k), b);
+      const double norm = FrobeniusNorm(a.StoredBlock(j), b);
       // Non-finite values are caught by Factor; rank them last here.
       const double weight = scale > 0.0 && std::isfinite(norm / scale) ? norm / scale : 0.0;
       edges.push_back({weight, i, k});
@@ -130,15 +139,24 @@ bool SubgraphPreconditioner::Factor(const BlockSparseMatrix& a, bool compensate,
   if (compensate) {
     const std::vector<int64_t>& row_start = a.row_start();
     const std::vector<int>& block_cols = a.block_cols();
+    const std::vector<int64_t>& col_start = a.col_start();
+    const std::vector<int>& col_rows = a.col_rows();
+    const std::vector<int>& col_blocks = a.col_blocks();
     std::vector<int> position(static_cast<size_t>(n));
     for (int t = 0; t < n; ++t) position[order_[t]] = t;
     for (int i = 0; i < n; ++i) {
       double* work = pivot_inverse->data() + static_cast<int64_t>(position[i]) * bb;
+      // Block row i in ascending column order: the lower blocks A_ik = U_ki^T
+      // (the norm of U_ki^T) through the transpose index, then the upper.
+      auto compensate_block = [&](int k, double norm) {
+        if (k == i || parent_block_[i] == k || parent_block_[k] == i) return;
+        for (int d = 0; d < b; ++d) work[d * b + d] += norm;
+      };
+      for (int64_t t = col_start[i]; t < col_start[i + 1]; ++t) {
+        compensate_block(col_rows[t], TransposedFrobeniusNorm(a.StoredBlock(col_blocks[t]), b));
+      }
       for (int64_t j = row_start[i]; j < row_start[i + 1]; ++j) {
-        const int k = block_cols[j];
-        if (k == i || parent_block_[i] == k || parent_block_[k] == i) continue;
-        const double c = FrobeniusNorm(a.Block(i, k), b);
-        for (int d = 0; d < b; ++d) work[d * b + d] += c;
+        compensate_block(block_cols[j], FrobeniusNorm(a.StoredBlock(j), b));
       }
     }
   }
@@ -159,7 +177,9 @@ bool SubgraphPreconditioner::Factor(const BlockSparseMatrix& a, bool compensate,
     BlockMap(work, b, b) = 0.5 * (inverse + inverse.transpose());
     if (parent_[t] < 0) continue;
     const int i = order_[t], p = parent_block_[i];
-    const SmallMatrix a_pi = ConstBlockMap(a.Block(p, i), b, b);
+    // A_pi from the stored upper triangle: U_pi, or U_ip^T.
+    const SmallMatrix a_pi = p < i ? SmallMatrix(ConstBlockMap(a.Block(p, i), b, b))
+                                   : SmallMatrix(ConstBlockMap(a.Block(i, p), b, b).transpose());
     const SmallMatrix l = a_pi * ConstBlockMap(work, b, b);  // L_{p,i} = A_pi P_i^{-1}
     BlockMap(lower->data() + static_cast<int64_t>(t) * bb, b, b) = l;
     BlockMap parent_work(pivot_inverse->data() + static_cast<int64_t>(parent_[t]) * bb, b, b);
@@ -266,7 +286,7 @@ Status SubgraphPreconditioner::SetForest(const BlockSparseMatrix& pattern,
       parent[t] = -1;
       continue;
     }
-    if (p < 0 || p >= n || position[p] <= t || pattern.Block(i, p) == nullptr) {
+    if (p < 0 || p >= n || position[p] <= t || !pattern.HasBlock(i, p)) {
       return Status::InvalidArgument(fmt::format(
           "subgraph forest: block row {} has parent {}, which is not a later-eliminated "
           "neighbour in the matrix",

@@ -68,25 +68,34 @@ Status TrajectoryDeflation::Update(const BlockSparseMatrix& s) {
   width_ = wb;
   const std::vector<int64_t>& row_start = s.row_start();
   const std::vector<int>& cols = s.block_cols();
+  const std::vector<int64_t>& col_start = s.col_start();
+  const std::vector<int>& col_rows = s.col_rows();
+  const std::vector<int>& col_blocks = s.col_blocks();
   sw_row_start_.assign(static_cast<size_t>(nb) + 1, 0);
   sw_cols_.clear();
   sw_values_.clear();
   for (int i = 0; i < nb; ++i) {
-    for (int64_t j = row_start[i]; j < row_start[i + 1]; ++j) {
-      const int k = cols[j];
+    // S_ik (row-major element (r, c) at block[r * rs + c * cs]): U_ki^T for
+    // k < i through the transpose index, then U_ik; ascending k.
+    auto add_block = [&](int k, const double* block, int rs, int cs) {
       const int a = aggregate_[k];
       if (static_cast<int64_t>(sw_cols_.size()) == sw_row_start_[i] || sw_cols_.back() != a) {
         sw_cols_.push_back(a);
         sw_values_.resize(sw_values_.size() + static_cast<size_t>(b) * wb, 0.0);
       }
       double* out = sw_values_.data() + sw_values_.size() - static_cast<size_t>(b) * wb;
-      const double* block = s.Block(i, k);
       for (int r = 0; r < b; ++r) {
-        for (int c = 0; c < b; ++c) out[r * wb + c] += block[r * b + c];
+        for (int c = 0; c < b; ++c) out[r * wb + c] += block[r * rs + c * cs];
         for (int l = 0; l < num_linear; ++l) {
-          out[r * wb + b + l] += t_[k] * block[r * b + linear_[l]];
+          out[r * wb + b + l] += t_[k] * block[r * rs + linear_[l] * cs];
         }
       }
+    };
+    for (int64_t t = col_start[i]; t < col_start[i + 1]; ++t) {
+      add_block(col_rows[t], s.StoredBlock(col_blocks[t]), 1, b);
+    }
+    for (int64_t j = row_start[i]; j < row_start[i + 1]; ++j) {
+      add_block(cols[j], s.StoredBlock(j), b, 1);
     }
     sw_row_start_[i + 1] = static_cast<int64_t>(sw_cols_.size());
   }
@@ -99,8 +108,12 @@ Status TrajectoryDeflation::Update(const BlockSparseMatrix& s) {
     }
   }
   BlockSparseMatrix e = BlockSparseMatrix::FromPattern(wb, na, std::move(pairs));
+  // E stores its upper triangle only; the blocks (a(i), a) with a(i) > a
+  // are the lower ones (equal to the upper ones in exact arithmetic) and are
+  // skipped. CHOLMOD reads only the upper triangle (ToSparseUpper) anyway.
   for (int i = 0; i < nb; ++i) {
     for (int64_t j = sw_row_start_[i]; j < sw_row_start_[i + 1]; ++j) {
+      if (aggregate_[i] > sw_cols_[j]) continue;
       double* out = e.MutableBlock(aggregate_[i], sw_cols_[j]);
       GS_CHECK(out != nullptr);
       const double* sw = sw_values_.data() + j * b * wb;
@@ -112,8 +125,6 @@ Status TrajectoryDeflation::Update(const BlockSparseMatrix& s) {
       }
     }
   }
-  // E is symmetric in exact arithmetic, not in rounding; CHOLMOD reads only
-  // its upper triangle (ToSparseUpper), so the lower one needs no repair.
   const Status factored = coarse_.Factorize(e);
   if (!factored.ok()) {
     num_aggregates_ = 0;

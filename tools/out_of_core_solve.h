@@ -37,15 +37,17 @@ namespace graphslam::tools {
 // feature; bytes an observation costs while its chunk is in flight (the
 // record, its Jacobians, the feature's Schur blocks). Calibrated on the 10^7
 // and 10^8 streaming solves (docs/out_of_core.md, "Memory per feature"):
-// S has ~29 blocks of 72 bytes per pose there (~2.1 KB), plus its index, the
-// PCG vectors and the pose arrays. Per feature, streaming mode holds the
-// estimate (16), the unknown index (4) and flags (3) (heaptrack at 10^7,
-// docs/out_of_core.md "Checkpoint state file and the resting memory"), plus
-// a margin for what the problem reader leaves on the heap; the candidates of
-// a step (storage/candidate_file.h) and the ids (8, storage/feature_id_file.h)
-// are on disk while it solves. In memory the ids and the candidates (16) add
-// to that.
-inline constexpr int64_t kPoseSystemBytesPerPose = 2400;
+// S has ~29 blocks per pose there (both triangles); only the upper triangle
+// is stored, (29 - 1) / 2 + 1 = 15 blocks of 72 bytes (~1.07 KB) plus their
+// column indices (4 B each) and the transpose index (8 B per off-diagonal
+// block), ~1.25 KB; the PCG vectors and the pose arrays add ~0.2 KB. Per
+// feature, streaming mode holds the estimate (16), the unknown index (4) and
+// flags (3) (heaptrack at 10^7, docs/out_of_core.md "Checkpoint state file
+// and the resting memory"), plus a margin for what the problem reader leaves
+// on the heap; the candidates of a step (storage/candidate_file.h) and the
+// ids (8, storage/feature_id_file.h) are on disk while it solves. In memory
+// the ids and the candidates (16) add to that.
+inline constexpr int64_t kPoseSystemBytesPerPose = 1450;
 inline constexpr int64_t kBytesPerFeature = 64;
 inline constexpr int64_t kBytesPerFeatureStreaming = 32;
 inline constexpr int64_t kBytesPerObservationInFlight = 512;

@@ -3,10 +3,13 @@
 #include "core/block_sparse_matrix.h"
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <random>
 #include <utility>
 #include <vector>
+
+#include "tests/testing/random_linear_system.h"
 
 namespace graphslam::core {
 namespace {
@@ -54,47 +57,71 @@ Eigen::VectorXd RandomVector(std::mt19937* rng, int n) {
   return v;
 }
 
-TEST(BlockSparseMatrix, PatternHoldsBothTrianglesAndEveryDiagonal) {
+TEST(BlockSparseMatrix, PatternStoresTheUpperTriangleOnceAndEveryDiagonal) {
   BlockSparseMatrix m =
       BlockSparseMatrix::FromPattern(3, 5, {{0, 2}, {2, 0}, {0, 2}, {4, 1}, {3, 3}});
   EXPECT_EQ(m.block_size(), 3);
   EXPECT_EQ(m.num_block_rows(), 5);
   EXPECT_EQ(m.num_rows(), 15);
-  EXPECT_EQ(m.num_nonzero_blocks(), 5 + 4);  // 5 diagonal + (0,2),(2,0),(4,1),(1,4)
+  EXPECT_EQ(m.num_stored_blocks(), 5 + 2);   // 5 diagonal + (0,2), (1,4)
+  EXPECT_EQ(m.num_nonzero_blocks(), 5 + 4);  // and their transposes
   for (int i = 0; i < 5; ++i) EXPECT_NE(m.Block(i, i), nullptr) << "diagonal block " << i;
   EXPECT_NE(m.Block(0, 2), nullptr);
-  EXPECT_NE(m.Block(2, 0), nullptr);
   EXPECT_NE(m.Block(1, 4), nullptr);
-  EXPECT_NE(m.Block(4, 1), nullptr);
+  // The lower triangle is not stored: no pointer, but HasBlock sees it.
+  EXPECT_EQ(m.Block(2, 0), nullptr);
+  EXPECT_EQ(m.Block(4, 1), nullptr);
+  EXPECT_TRUE(m.HasBlock(2, 0));
+  EXPECT_TRUE(m.HasBlock(4, 1));
+  EXPECT_TRUE(m.HasBlock(1, 4));
+  EXPECT_FALSE(m.HasBlock(1, 0));
   EXPECT_EQ(m.Block(0, 1), nullptr);
   EXPECT_EQ(m.Block(3, 4), nullptr);
   EXPECT_EQ(m.Block(-1, 0), nullptr);
   EXPECT_EQ(m.Block(0, 5), nullptr);
-  // Column indices are sorted within each row.
+  EXPECT_FALSE(m.HasBlock(0, 5));
+  // Rows hold k >= i, ascending, the diagonal first.
   for (int i = 0; i < 5; ++i) {
+    EXPECT_EQ(m.block_cols()[m.row_start()[i]], i);
     for (int64_t j = m.row_start()[i] + 1; j < m.row_start()[i + 1]; ++j) {
       EXPECT_LT(m.block_cols()[j - 1], m.block_cols()[j]);
     }
   }
+  // The transpose index: column 2 holds (0,2), column 4 holds (1,4).
+  EXPECT_EQ(m.col_start(), (std::vector<int64_t>{0, 0, 0, 1, 1, 2}));
+  EXPECT_EQ(m.col_rows(), (std::vector<int>{0, 1}));
+  EXPECT_EQ(m.StoredBlock(m.col_blocks()[0]), m.Block(0, 2));
+  EXPECT_EQ(m.StoredBlock(m.col_blocks()[1]), m.Block(1, 4));
 }
 
-TEST(BlockSparseMatrix, AddBlockAddsTheTransposeAndRejectsBlocksOutsideThePattern) {
+TEST(BlockSparseMatrix, AddBlockOfALowerPairLandsTransposedAndOutsideThePatternIsRejected) {
   BlockSparseMatrix m = BlockSparseMatrix::FromPattern(2, 3, {{0, 2}});
   Eigen::MatrixXd block(2, 2);
   block << 1, 2, 3, 4;
   EXPECT_TRUE(m.AddBlock(0, 2, block));
-  EXPECT_TRUE(m.AddBlock(0, 2, block));
+  EXPECT_TRUE(m.AddBlock(2, 0, block.transpose()));  // the same entries, given as A_20
   EXPECT_FALSE(m.AddBlock(0, 1, block));
+  EXPECT_FALSE(m.AddBlock(1, 0, block));
   Eigen::MatrixXd expected = Eigen::MatrixXd::Zero(6, 6);
   expected.block(0, 4, 2, 2) = 2 * block;
   expected.block(4, 0, 2, 2) = 2 * block.transpose();
   EXPECT_EQ(m.ToDense(), expected) << "sparse:\n" << m.ToDense() << "\ndense:\n" << expected;
-  // Row-major raw storage of block (2,0) = 2 block^T.
-  const double* raw = m.Block(2, 0);
+  // Row-major raw storage of the stored block (0,2) = 2 block.
+  const double* raw = m.Block(0, 2);
   EXPECT_EQ(raw[0], 2.0);
-  EXPECT_EQ(raw[1], 6.0);
-  EXPECT_EQ(raw[2], 4.0);
+  EXPECT_EQ(raw[1], 4.0);
+  EXPECT_EQ(raw[2], 6.0);
   EXPECT_EQ(raw[3], 8.0);
+  // A lower block alone: A_20 = lower, so U_02 = lower^T.
+  Eigen::MatrixXd lower(2, 2);
+  lower << 10, 20, 30, 40;
+  m.SetZero();
+  EXPECT_TRUE(m.AddBlock(2, 0, lower));
+  EXPECT_EQ(raw[0], 10.0);
+  EXPECT_EQ(raw[1], 30.0);
+  EXPECT_EQ(raw[2], 20.0);
+  EXPECT_EQ(raw[3], 40.0);
+  EXPECT_EQ(Eigen::MatrixXd(m.ToDense().block(4, 0, 2, 2)), lower);
 
   Eigen::MatrixXd diagonal(2, 2);
   diagonal << 5, 1, 1, 7;
@@ -102,18 +129,84 @@ TEST(BlockSparseMatrix, AddBlockAddsTheTransposeAndRejectsBlocksOutsideThePatter
   EXPECT_EQ(m.ToDense().block(2, 2, 2, 2), diagonal);
 }
 
+// The former full-storage product, verbatim: every block row of the dense
+// matrix, blocks in ascending column order, row-major A_ik times x_k. The
+// upper-triangle product must perform the same operations in the same order.
+template <int kB>
+Eigen::VectorXd FullStorageProduct(const BlockSparseMatrix& m, const Eigen::VectorXd& x,
+                                   Eigen::VectorXd y) {
+  using BlockMatrix = Eigen::Matrix<double, kB, kB, Eigen::RowMajor>;
+  using ConstVectorMap = Eigen::Map<const Eigen::Matrix<double, kB, 1>>;
+  const Eigen::MatrixXd dense = m.ToDense();
+  for (int i = 0; i < m.num_block_rows(); ++i) {
+    std::vector<int> columns;
+    for (int64_t t = m.col_start()[i]; t < m.col_start()[i + 1]; ++t) {
+      columns.push_back(m.col_rows()[t]);
+    }
+    for (int64_t j = m.row_start()[i]; j < m.row_start()[i + 1]; ++j) {
+      columns.push_back(m.block_cols()[j]);
+    }
+    Eigen::Matrix<double, kB, 1> sum = Eigen::Matrix<double, kB, 1>::Zero();
+    for (int k : columns) {
+      const BlockMatrix a = dense.block(i * kB, k * kB, kB, kB);
+      const std::vector<double> row_major(a.data(), a.data() + kB * kB);
+      sum.noalias() += Eigen::Map<const BlockMatrix>(row_major.data()) *
+                       ConstVectorMap(x.data() + static_cast<int64_t>(k) * kB);
+    }
+    y.segment<kB>(i * kB) += sum;
+  }
+  return y;
+}
+
+TEST(BlockSparseMatrix, SymmetricProductEqualsDenseAndFullStorageOnRandomSpdSystems) {
+  // Below and above kMinBlockRowsForParallel: the serial and parallel paths.
+  for (int b : {3, 6}) {
+    for (int n : {40, BlockSparseMatrix::kMinBlockRowsForParallel + 44}) {
+      SCOPED_TRACE(::testing::Message() << "block size " << b << ", " << n << " block rows");
+      const BlockSparseMatrix m = graphslam::testing::RandomSpdMatrix(900 + b + n, b, n);
+      const Eigen::VectorXd x = graphslam::testing::RandomVector(31 + n, m.num_rows());
+      const Eigen::VectorXd y0 = graphslam::testing::RandomVector(37 + n, m.num_rows());
+      Eigen::VectorXd y = y0;
+      m.RightMultiplyAndAccumulate(x.data(), y.data());
+      const Eigen::VectorXd expected = y0 + m.ToDense() * x;
+      EXPECT_LE((y - expected).norm(), 1e-14 * expected.norm());
+      const Eigen::VectorXd full =
+          b == 3 ? FullStorageProduct<3>(m, x, y0) : FullStorageProduct<6>(m, x, y0);
+      EXPECT_EQ((y - full).cwiseAbs().maxCoeff(), 0.0) << "not the full-storage operation order";
+    }
+  }
+}
+
+TEST(BlockSparseMatrix, ProductIsIndependentOfTheThreadCountBitForBit) {
+  for (int b : {3, 6, 4}) {
+    SCOPED_TRACE(::testing::Message() << "block size " << b);
+    const BlockSparseMatrix m =
+        graphslam::testing::RandomSpdMatrix(77 + b, b, BlockSparseMatrix::kMinBlockRowsForParallel + 44);
+    const Eigen::VectorXd x = graphslam::testing::RandomVector(5, m.num_rows());
+    const Eigen::VectorXd y0 = graphslam::testing::RandomVector(6, m.num_rows());
+    Eigen::VectorXd serial = y0;
+    m.RightMultiplyAndAccumulateSerial(x.data(), serial.data());
+    for (int threads : {1, 2, 3, 8}) {
+      tbb::task_arena arena(threads);
+      Eigen::VectorXd y = y0;
+      arena.execute([&] { m.RightMultiplyAndAccumulate(x.data(), y.data()); });
+      EXPECT_EQ((y - serial).cwiseAbs().maxCoeff(), 0.0) << threads << " threads";
+    }
+  }
+}
+
 TEST(BlockSparseMatrix, ProductMatchesDenseForEveryBlockSize) {
   // 3 and 6 take the fixed-size kernels, 1, 2 and 4 the dynamic one.
   for (int b : {1, 2, 3, 4, 6}) {
     for (uint32_t seed = 1; seed <= 5; ++seed) {
-      SCOPED_TRACE(testing::Message() << "block size " << b << ", seed " << seed);
+      SCOPED_TRACE(::testing::Message() << "block size " << b << ", seed " << seed);
       std::mt19937 rng(seed);
       const int n = 5 + 7 * static_cast<int>(seed);
       const auto pairs = RandomPairs(&rng, n, 2 * n);
       BlockSparseMatrix m = BlockSparseMatrix::FromPattern(b, n, pairs);
       FillRandom(&rng, pairs, &m);
       const Eigen::MatrixXd dense = m.ToDense();
-      ASSERT_EQ(dense, dense.transpose());  // full storage is exactly symmetric
+      ASSERT_EQ(dense, dense.transpose());  // one stored triangle: exactly symmetric
       const Eigen::VectorXd x = RandomVector(&rng, m.num_rows());
       const Eigen::VectorXd y0 = RandomVector(&rng, m.num_rows());
       Eigen::VectorXd y = y0;
@@ -128,7 +221,7 @@ TEST(BlockSparseMatrix, ProductMatchesDenseForEveryBlockSize) {
 
 TEST(BlockSparseMatrix, ParallelProductEqualsSerialBitForBit) {
   for (int b : {3, 6, 4}) {
-    SCOPED_TRACE(testing::Message() << "block size " << b);
+    SCOPED_TRACE(::testing::Message() << "block size " << b);
     std::mt19937 rng(42 + b);
     const int n = 8 * BlockSparseMatrix::kMinBlockRowsForParallel;  // takes the parallel path
     const auto pairs = RandomPairs(&rng, n, 4 * n);
@@ -150,7 +243,7 @@ TEST(BlockSparseMatrix, ParallelProductEqualsSerialBitForBit) {
 TEST(BlockSparseMatrix, ToSparseUpperIsTheUpperTriangleOfTheDenseMatrix) {
   for (int b : {1, 3, 6}) {
     for (uint32_t seed = 1; seed <= 3; ++seed) {
-      SCOPED_TRACE(testing::Message() << "block size " << b << ", seed " << seed);
+      SCOPED_TRACE(::testing::Message() << "block size " << b << ", seed " << seed);
       std::mt19937 rng(100 + seed);
       const int n = 10 * static_cast<int>(seed);
       const auto pairs = RandomPairs(&rng, n, 3 * n);
@@ -186,10 +279,10 @@ TEST(BlockSparseMatrix, DiagonalAddToDiagonalAndSetZero) {
   Eigen::MatrixXd expected = before;
   expected.diagonal() += d;
   EXPECT_EQ(m.ToDense(), expected);
-  const int64_t blocks = m.num_nonzero_blocks();
+  const int64_t blocks = m.num_stored_blocks();
   m.SetZero();
   EXPECT_EQ(m.ToDense(), Eigen::MatrixXd::Zero(27, 27));
-  EXPECT_EQ(m.num_nonzero_blocks(), blocks);
+  EXPECT_EQ(m.num_stored_blocks(), blocks);
 }
 
 TEST(BlockSparseMatrix, EmptyMatrix) {

@@ -171,7 +171,7 @@ TEST(ReducedSystemSolver, RestoreRejectsAStateOfAnotherSystem) {
   bad = state;
   const int leaf = bad.forest_order.front();
   const int root = bad.forest_order.back();
-  ASSERT_EQ(a.Block(leaf, root), nullptr);
+  ASSERT_FALSE(a.HasBlock(leaf, root));
   bad.forest_parent[leaf] = root;
   status = target.RestoreState(bad, a);
   EXPECT_FALSE(status.ok());

@@ -34,7 +34,7 @@ TEST(ParseMemorySize, GarbageIsInvalidArgumentNamingTheText) {
 TEST(ChunksInFlight, FitsThePoseSystemAndChunksIntoTheBudget) {
   // No limit: the default.
   EXPECT_EQ(*ChunksInFlightForMemoryLimit(0, 1000, 100, 4096, 8), 8);
-  // 1000 poses, 100 features: pose system 2400000 + 6400 bytes; chunks of
+  // 1000 poses, 100 features: pose system 1450000 + 6400 bytes; chunks of
   // 1024 observations cost 524288 bytes each.
   const int64_t pose_system = 1000 * kPoseSystemBytesPerPose + 100 * kBytesPerFeature;
   const int64_t chunk = 1024 * kBytesPerObservationInFlight;
