@@ -22,7 +22,12 @@
 //    K = kPoseGraphCrossover; on landmark problems (features eliminated into
 //    S, here with GPS) the subgraph-preconditioned CG converges in ~50
 //    iterations per solve and PCG won from a ratio of 50 (sim1e5) on, so
-//    K = kLandmarkCrossover. `--solver pcg|cholmod` overrides.
+//    K = kLandmarkCrossover. On the densely observed fields sim1e5obs (ratio
+//    ~40) and sim1e6obs (74), whose late solves need hundreds of CG
+//    iterations, CHOLMOD won until the truncation of item 2b; with it PCG
+//    ties at 10^5 (0.97x CHOLMOD's CPU) and wins at 10^6 (0.87x), so the
+//    same K picks the faster (or an even) solver there too.
+//    `--solver pcg|cholmod` overrides.
 //
 // 2. For PCG, an inexact-Newton forcing sequence (Eisenstat & Walker,
 //    "Choosing the forcing terms in an inexact Newton method", SIAM J. Sci.
