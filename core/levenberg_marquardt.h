@@ -38,7 +38,7 @@
 //   // rho < kSpeculationRho: a wasted speculation costs a reduction, a hit
 //   // saves a read of the chunks, and rho tends to stay high once it is.
 //   Status TryStep(double lambda, double speculative_lambda, bool usable,
-//                  IterationSummary* it, TrialStep* trial);
+//                  IterationSummary* it, TrialStep* trial);   // it->start_chi2 is set
 //   void StepResult(bool accepted);          // after every computed step
 //   Status Accept();                         // the candidate becomes the state
 //   void LendState(Checkpoint* checkpoint);    // moves poses, features, excluded,
@@ -138,6 +138,7 @@ Status RunLevenbergMarquardt(
     IterationSummary it;
     it.iteration = iteration;
     it.lambda = 1.0 / radius;
+    it.start_chi2 = chi2;
 
     // 1. Linearize and reduce.
     bool usable = true;

@@ -10,6 +10,8 @@ namespace {
 
 // Recompute r = b - A x every this many iterations (one extra product).
 constexpr int kResidualResetPeriod = 50;
+// The energy test applies from this many iterations on (header).
+constexpr int kMinTruncatedIterations = 10;
 
 }  // namespace
 
@@ -22,6 +24,10 @@ Status PcgOptions::Validate() const {
     return Status::InvalidArgument(fmt::format(
         "PcgOptions.relative_tolerance must be positive and finite, got {:g}",
         relative_tolerance));
+  }
+  if (!(energy_tolerance >= 0.0) || !std::isfinite(energy_tolerance)) {
+    return Status::InvalidArgument(fmt::format(
+        "PcgOptions.energy_tolerance must be finite and >= 0, got {:g}", energy_tolerance));
   }
   return Status::Ok();
 }
@@ -52,6 +58,8 @@ PcgSummary SolvePcg(const LinearOperator& a, const LinearOperator& preconditione
   r -= q;
   double norm_r = r.norm();
   double rho_old = 1.0;
+  double gain = 0.0;           // sum of alpha_i (r.z)_i, the energy test's reference
+  double last_estimate = -1.0; // i alpha_i (r.z)_i of the last iteration (-1: none yet)
   for (;;) {
     summary.relative_residual = norm_r / norm_b;
     if (!std::isfinite(norm_r)) break;
@@ -65,6 +73,14 @@ PcgSummary SolvePcg(const LinearOperator& a, const LinearOperator& preconditione
     preconditioner.RightMultiplyAndAccumulate(r.data(), z.data());
     const double rho = r.dot(z);
     if (!(rho > 0.0) || !std::isfinite(rho)) break;  // M^{-1} not positive definite
+    // The energy test of the header (after the residual's: a solve that
+    // meets both reports converged).
+    if (options.energy_tolerance > 0.0 && summary.iterations >= kMinTruncatedIterations &&
+        last_estimate <= options.energy_tolerance && last_estimate <= 0.5 * gain &&
+        rho <= options.energy_tolerance) {
+      summary.truncated = true;
+      break;
+    }
     if (summary.iterations == 0) {
       p = z;
     } else {
@@ -87,6 +103,8 @@ PcgSummary SolvePcg(const LinearOperator& a, const LinearOperator& preconditione
     }
     rho_old = rho;
     norm_r = r.norm();
+    gain += alpha * rho;
+    last_estimate = summary.iterations * alpha * rho;
   }
   return summary;
 }

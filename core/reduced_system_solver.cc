@@ -30,6 +30,10 @@ Status ReducedSystemSolverOptions::Validate() const {
         "reduced system solver: eta_max must be in [pcg_relative_tolerance, 1), got {:g}",
         eta_max));
   }
+  if (!(truncation >= 0.0) || !(truncation < 1.0)) {
+    return Status::InvalidArgument(fmt::format(
+        "reduced system solver: truncation must be in [0, 1), got {:g}", truncation));
+  }
   if (deflation_poses < 0 || deflation_poses == 1) {
     return Status::InvalidArgument(fmt::format(
         "reduced system solver: deflation_poses must be 0 (off) or >= 2, got {}",
@@ -171,7 +175,7 @@ const LinearOperator* ReducedSystemSolver::UpdatePreconditioner(const BlockSpars
 }
 
 Status ReducedSystemSolver::Solve(const BlockSparseMatrix& s, const Eigen::VectorXd& rhs,
-                                  Eigen::VectorXd* x, int* iterations) {
+                                  Eigen::VectorXd* x, int* iterations, double chi2) {
   const int n = static_cast<int>(rhs.size());
   if (n == 0) {
     x->resize(0);
@@ -236,6 +240,7 @@ Status ReducedSystemSolver::Solve(const BlockSparseMatrix& s, const Eigen::Vecto
   PcgOptions pcg;
   pcg.max_iterations = options_.pcg_max_iterations;
   pcg.relative_tolerance = options_.forcing_sequence ? eta_ : options_.pcg_relative_tolerance;
+  if (chi2 > 0.0 && std::isfinite(chi2)) pcg.energy_tolerance = options_.truncation * chi2;
   const PcgSummary summary = SolvePcg(s, *preconditioner, rhs, pcg, x);
   *iterations = summary.iterations;
   if (!x->allFinite()) return Status::Numerical("PCG produced a non-finite step");

@@ -117,6 +117,7 @@ int RunSolve3dCommand(const SolveCommandOptions& options, storage::InputFormat f
   solver_options.preconditioner = preconditioner;
   solver_options.pcg_eta_max = options.pcg_eta_max;
   solver_options.pcg_deflation_poses = options.pcg_deflation;
+  solver_options.pcg_truncation = options.pcg_truncation;
   solver_options.max_iterations = options.max_iterations;
   solver_options.max_eliminated_observations = options.max_eliminated_observations;
   solver_options.fused_chunk_pass = !options.two_pass;

@@ -182,6 +182,10 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
                     "PCG: deflate the trajectory's smooth error modes, in aggregates of this many "
                     "consecutive poses (constant and linear modes each); 0: off")
       ->capture_default_str();
+  solve->add_option("--pcg-truncation", options->pcg_truncation,
+                    "PCG: stop a solve once the chi2 decrease it still misses is estimated below "
+                    "this x --function-tolerance x chi2, in [0, 1); 0: off")
+      ->capture_default_str();
   solve->add_option("--max-iterations", options->max_iterations, "Levenberg-Marquardt iterations")
       ->capture_default_str();
   solve->add_option("--function-tolerance", options->function_tolerance,
@@ -285,6 +289,11 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   if (options.pcg_deflation < 0 || options.pcg_deflation == 1) {
     std::fprintf(stderr, "graphslam solve: --pcg-deflation must be 0 (off) or >= 2 poses, got %d\n",
                  options.pcg_deflation);
+    return kExitUsage;
+  }
+  if (!(options.pcg_truncation >= 0.0) || !(options.pcg_truncation < 1.0)) {
+    std::fprintf(stderr, "graphslam solve: --pcg-truncation must be in [0, 1), got %g\n",
+                 options.pcg_truncation);
     return kExitUsage;
   }
   if (!(options.pcg_eta_max >= core::SolverOptions().pcg_relative_tolerance) ||
@@ -422,6 +431,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   solver_options.preconditioner = *preconditioner;
   solver_options.pcg_eta_max = options.pcg_eta_max;
   solver_options.pcg_deflation_poses = options.pcg_deflation;
+  solver_options.pcg_truncation = options.pcg_truncation;
   solver_options.pcg_relative_tolerance = options.pcg_eta_min;
   solver_options.max_iterations = options.max_iterations;
   solver_options.max_eliminated_observations = options.max_eliminated_observations;

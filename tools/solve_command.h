@@ -27,6 +27,8 @@ struct SolveCommandOptions {
   double pcg_eta_min = core::SolverOptions().pcg_relative_tolerance;
   // PCG trajectory deflation: poses per aggregate, 0 off (SolverOptions).
   int pcg_deflation = core::SolverOptions().pcg_deflation_poses;
+  // PCG truncation, a fraction of --function-tolerance (SolverOptions).
+  double pcg_truncation = core::SolverOptions().pcg_truncation;
   int max_iterations = 100;
   double function_tolerance = 1e-6;
   double initial_trust_region_radius = 1e4;

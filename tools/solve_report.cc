@@ -18,6 +18,7 @@ nlohmann::json SolverReport(const SolveCommandOptions& options, const core::Solv
   report["pcg_eta_min"] = options.pcg_eta_min;
   report["pcg_eta_max"] = options.pcg_eta_max;
   report["pcg_deflation"] = options.pcg_deflation;
+  report["pcg_truncation"] = options.pcg_truncation;
   report["initial_chi2"] = summary.initial_chi2;
   report["final_chi2"] = summary.final_chi2;
   report["iterations"] = summary.iterations;

@@ -89,7 +89,8 @@ class ChunkedSpace {
     // Solve the reduced pose system.
     const Clock::time_point solve_start = Clock::now();
     Status solve_status =
-        solver_.Solve(system_.matrix, system_.rhs, &pose_step_, &it->linear_iterations);
+        solver_.Solve(system_.matrix, system_.rhs, &pose_step_, &it->linear_iterations,
+                      it->start_chi2);
     trial->ok = solve_status.ok();
     it->solve_seconds = SecondsSince(solve_start);
     const Clock::time_point recover_start = Clock::now();
@@ -323,6 +324,10 @@ Status SolveChunked(
   linear_options.pcg_relative_tolerance = options.pcg_relative_tolerance;
   linear_options.forcing_sequence = options.pcg_forcing_sequence;
   linear_options.eta_max = options.pcg_eta_max;
+  // Landmark problems only (core/graphslam_solver.h, pcg_truncation).
+  linear_options.truncation = summary->eliminated_features > 0
+                                  ? options.pcg_truncation * options.function_tolerance
+                                  : 0.0;
   linear_options.warm_start = options.pcg_warm_start;
   linear_options.deflation_poses = options.pcg_deflation_poses;
   linear_options.max_analysis_unknowns = options.auto_cholmod_max_unknowns;

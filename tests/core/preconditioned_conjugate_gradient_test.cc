@@ -143,6 +143,51 @@ TEST(Pcg, IndefiniteMatrixStopsWithoutConverging) {
   EXPECT_TRUE(x.allFinite());
 }
 
+// The energy test (truncated Newton): the A-norm error left at the stop is
+// what the quadratic model still misses; it must be below the tolerance
+// (the estimate i g_i is conservative on these well-conditioned systems),
+// cost fewer iterations than the residual test, and stay off at 0.
+TEST(Pcg, EnergyTestStopsWithTheMissedModelDecreaseBelowTheTolerance) {
+  for (uint32_t seed = 1; seed <= 5; ++seed) {
+    SCOPED_TRACE(::testing::Message() << "seed " << seed);
+    const BlockSparseMatrix a = RandomSpdMatrix(seed + 70, 3, 200);
+    const Eigen::VectorXd rhs = RandomVector(seed + 3000, a.num_rows());
+    const Eigen::MatrixXd dense = a.ToDense();
+    const Eigen::VectorXd exact = dense.ldlt().solve(rhs);
+    const double full_decrease = rhs.dot(exact);  // |x*|_A^2, the whole model decrease
+    // Without a preconditioner: enough iterations for the test to matter.
+    const IdentityOperator jacobi(a.num_rows());
+    PcgOptions options;
+    options.max_iterations = 10 * a.num_rows();
+    options.relative_tolerance = 1e-12;
+    Eigen::VectorXd x_full;
+    const PcgSummary full = SolvePcg(a, jacobi, rhs, options, &x_full);
+    ASSERT_TRUE(full.converged);
+    EXPECT_FALSE(full.truncated);
+    int previous_iterations = full.iterations;
+    for (const double fraction : {1e-8, 1e-5, 1e-3}) {
+      options.energy_tolerance = fraction * full_decrease;
+      Eigen::VectorXd x;
+      const PcgSummary summary = SolvePcg(a, jacobi, rhs, options, &x);
+      const Eigen::VectorXd error = x - exact;
+      const double missed = error.dot(dense * error);
+      EXPECT_TRUE(summary.truncated) << fraction;
+      EXPECT_GE(summary.iterations, 10);  // the test's first iteration
+      EXPECT_FALSE(summary.converged);
+      EXPECT_LE(missed, options.energy_tolerance) << fraction;
+      // Looser tolerance, fewer iterations; never more than the full solve.
+      EXPECT_LE(summary.iterations, previous_iterations) << fraction;
+      previous_iterations = summary.iterations;
+    }
+    EXPECT_LT(previous_iterations, full.iterations * 2 / 3);
+    // Whatever the absolute tolerance, not before iteration 10.
+    options.energy_tolerance = 1e300;
+    Eigen::VectorXd x;
+    const PcgSummary huge = SolvePcg(a, jacobi, rhs, options, &x);
+    EXPECT_GE(huge.iterations, 10);
+  }
+}
+
 TEST(Pcg, OptionsAreValidated) {
   PcgOptions options;
   EXPECT_TRUE(options.Validate().ok());
@@ -153,6 +198,10 @@ TEST(Pcg, OptionsAreValidated) {
   options.relative_tolerance = 0.0;
   EXPECT_TRUE(options.Validate().IsInvalidArgument());
   EXPECT_NE(options.Validate().message().find("relative_tolerance"), std::string::npos);
+  options.relative_tolerance = 1e-8;
+  options.energy_tolerance = -1.0;
+  EXPECT_TRUE(options.Validate().IsInvalidArgument());
+  EXPECT_NE(options.Validate().message().find("energy_tolerance"), std::string::npos);
 }
 
 }  // namespace

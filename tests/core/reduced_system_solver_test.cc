@@ -15,6 +15,7 @@
 #include "core/graphslam_solver.h"
 #include "core/initialization.h"
 #include "partition/in_memory_chunk_source.h"
+#include "partition/progressive_initialization.h"
 #include "storage/g2o_reader.h"
 #include "tests/testing/datasets.h"
 #include "tests/testing/random_linear_system.h"
@@ -185,6 +186,42 @@ TEST(ReducedSystemSolver, RestoreRejectsAStateOfAnotherSystem) {
   EXPECT_TRUE(target.RestoreState(state, a).ok());
 }
 
+// Item 2b: with chi2 given, a PCG solve stops once what it misses of the
+// model decrease, |dx - dx*|_S^2, is below truncation * chi2; without chi2
+// (or truncation 0) it solves to the forcing term as before.
+TEST(ReducedSystemSolver, TruncationMissesAtMostTheFractionOfChi2) {
+  const BlockSparseMatrix a = RandomSpdMatrix(61, 3, 200);
+  const Eigen::VectorXd rhs = RandomVector(62, a.num_rows());
+  const Eigen::MatrixXd dense = a.ToDense();
+  const Eigen::VectorXd exact = dense.ldlt().solve(rhs);
+  const double full_decrease = rhs.dot(exact);
+  ReducedSystemSolverOptions options;
+  options.preconditioner = PreconditionerType::kBlockJacobi;
+  options.forcing_sequence = false;  // the exact-solve tolerance, so only 2b stops early
+  options.warm_start = false;
+  options.truncation = 1e-3;
+  // chi2 such that truncation * chi2 is 1e-4 of the step's whole decrease.
+  const double chi2 = 0.1 * full_decrease;
+  int untruncated_iterations = 0;
+  {
+    ReducedSystemSolver solver(LinearSolverType::kPcg, options);
+    Eigen::VectorXd x;
+    ASSERT_TRUE(solver.Solve(a, rhs, &x, &untruncated_iterations).ok());
+    EXPECT_LE(RelativeError(x, exact), 1e-6);
+  }
+  ReducedSystemSolver solver(LinearSolverType::kPcg, options);
+  Eigen::VectorXd x;
+  int iterations = 0;
+  ASSERT_TRUE(solver.Solve(a, rhs, &x, &iterations, chi2).ok());
+  const Eigen::VectorXd error = x - exact;
+  EXPECT_LE(error.dot(dense * error), options.truncation * chi2);
+  EXPECT_GT(error.dot(dense * error), 0.0);  // it did stop early
+  EXPECT_LT(iterations, untruncated_iterations);
+  EXPECT_NEAR(rhs.dot(x), x.dot(dense * x), 1e-9 * full_decrease);  // item 4 still holds
+  options.truncation = 1.0;
+  EXPECT_TRUE(options.Validate().IsInvalidArgument());
+}
+
 TEST(ReducedSystemSolver, AutoChoiceFollowsCholmodAnalysisAndBudget) {
   const BlockSparseMatrix a = RandomSpdMatrix(21, 3, 300);
   ReducedSystemSolverOptions options;
@@ -240,6 +277,13 @@ TEST(ReducedSystemSolver, AutoRulePicksTheMeasuredWinner) {
       {"sim1e4", 2.11e6, 2.09e8, 337707, 30003, true, LinearSolverType::kCholmod},
       {"sim1e5", 5.70e6, 7.85e8, 848455, 60021, true, LinearSolverType::kPcg},
       {"sim1e6", 6.03e7, 9.10e9, 8645190, 600000, true, LinearSolverType::kPcg},
+      // The observed landmark fields from the pose-graph start, PCG with the
+      // default truncation (item 2b; docs/benchmarks.md, "Truncated PCG
+      // solves"): CPU to converge, medians, 0.97x CHOLMOD at 10^5 (even
+      // within the scatter) and 0.87x at 10^6. Without the truncation
+      // CHOLMOD won both (1.53x / 1.38x).
+      {"sim1e5obs", 2.76e6, 2.49e8, 326366, 45000, true, LinearSolverType::kPcg},
+      {"sim1e6obs", 3.41e7, 5.17e9, 3666762, 450000, true, LinearSolverType::kPcg},
   };
   for (const Measured& p : problems) {
     SCOPED_TRACE(p.name);
@@ -265,20 +309,30 @@ TEST(ReducedSystemSolver, AutoRulePicksTheMeasuredWinner) {
 }
 
 double SolveDataset(const std::string& relative, LinearSolverType type, int* iterations,
-                    int* linear_iterations) {
+                    int* linear_iterations, double truncation = SolverOptions().pcg_truncation,
+                    bool progressive = false) {
   StatusOr<Problem2d> problem = storage::ReadG2o(graphslam::testing::DatasetPath(relative));
   EXPECT_TRUE(problem.ok()) << problem.status().ToString();
   if (!problem.ok()) return -1;
   EXPECT_TRUE(InitializeProblem(&*problem).ok());
-  partition::InMemoryChunkSource chunks(*problem, partition::ChunkingOptions());
   SolverOptions options;
+  if (progressive) {  // graphslam solve's default start (from odometry: another minimum)
+    partition::ProgressiveInitializationOptions initialization;
+    initialization.enabled = true;
+    partition::ProgressiveSummary initialization_summary;
+    EXPECT_TRUE(partition::InitializeProgressively(initialization, options, &*problem,
+                                                   &initialization_summary).ok());
+  }
+  partition::InMemoryChunkSource chunks(*problem, partition::ChunkingOptions());
   options.linear_solver = type;
   options.preconditioner = PreconditionerType::kSubgraph;
   options.max_iterations = 200;
+  options.pcg_truncation = truncation;
   SolverSummary summary;
   const Status status = SolveGraphSlam(options, chunks, &*problem, &summary);
   EXPECT_TRUE(status.ok()) << status.ToString();
   EXPECT_TRUE(summary.converged) << summary.termination;
+  EXPECT_EQ(summary.termination, "function_tolerance");
   *iterations = summary.iterations;
   *linear_iterations = 0;
   for (const IterationSummary& it : summary.per_iteration) *linear_iterations += it.linear_iterations;
@@ -305,6 +359,35 @@ TEST(ReducedSystemSolver, ForcingSequenceReachesTheExactOptimumOnIntel) {
 TEST(ReducedSystemSolver, ForcingSequenceReachesTheExactOptimumOnM3500) {
   GS_REQUIRE_DATASET("freiburg_course_g2o/input_M3500_g2o.g2o");
   ExpectInexactNewtonReachesTheExactOptimum("freiburg_course_g2o/input_M3500_g2o.g2o");
+}
+
+// Item 2b end to end on a loop-closing landmark problem (Victoria Park, 6969
+// poses, 151 landmarks re-observed over many loops): the default truncation
+// (0.1 x function tolerance) reaches CHOLMOD's optimum within 1e-5 (measured
+// 4e-6; the issue's rule is 1e-3; LM's own stopping test is 1e-6 of chi2 per
+// step), still stops on the function tolerance, with at most 3 more LM
+// iterations than CHOLMOD, and needs fewer CG iterations than the same run
+// without truncation (which ends within 1e-6).
+TEST(ReducedSystemSolver, TruncationReachesTheCholmodOptimumOnVictoriaPark) {
+  const std::string relative = "victoria_park/victoriaPark-full.g2o";
+  GS_REQUIRE_DATASET(relative);
+  int cholmod_iterations = 0, cholmod_linear = 0;
+  const double truncation = SolverOptions().pcg_truncation;
+  const double exact = SolveDataset(relative, LinearSolverType::kCholmod, &cholmod_iterations,
+                                    &cholmod_linear, truncation, true);
+  int iterations = 0, linear = 0, full_iterations = 0, full_linear = 0;
+  const double truncated =
+      SolveDataset(relative, LinearSolverType::kPcg, &iterations, &linear, truncation, true);
+  const double untruncated =
+      SolveDataset(relative, LinearSolverType::kPcg, &full_iterations, &full_linear, 0.0, true);
+  std::printf("[ victoria: CHOLMOD chi2 %.9f in %d iterations; PCG truncated %.9f in %d "
+              "iterations, %d CG; untruncated %.9f in %d, %d CG ]\n",
+              exact, cholmod_iterations, truncated, iterations, linear, untruncated,
+              full_iterations, full_linear);
+  EXPECT_LE(std::abs(untruncated - exact), 1e-6 * exact);
+  EXPECT_LE(std::abs(truncated - exact), 1e-5 * exact);
+  EXPECT_LE(iterations, cholmod_iterations + 3);
+  EXPECT_LT(linear, full_linear * 3 / 4);
 }
 
 }  // namespace
