@@ -255,10 +255,14 @@ Status SolveChunked(
   context.progress = options.progress;
   context.kernel = options.observation_kernel;
 
-  // Which features can be eliminated (positive definite information).
+  // Which features can be eliminated (positive definite information), and in
+  // the same pass the pattern of S under that partition. A resume keeps the
+  // checkpoint's partition instead, whose pattern takes a pass of its own.
   ScreeningResult screening;
+  ScreenedPattern screened_pattern;
   GS_RETURN_IF_ERROR(ScreenFeatures(context, problem->poses, problem->features,
-                                    options.max_eliminated_observations, &screening));
+                                    options.max_eliminated_observations, &screening,
+                                    resume == nullptr ? &screened_pattern : nullptr));
   // A resume whose feature array is empty while the problem has features:
   // the caller moved the checkpoint's estimates into problem->features
   // already (SolverOptions::resume_from), so no second copy is held.
@@ -308,7 +312,11 @@ Status SolveChunked(
   // The reduced matrix's pattern: pose-only factors plus co-observing poses.
   std::vector<std::pair<int, int>> pairs;
   AppendPoseFactorPattern(*problem, layout, &pairs);
-  GS_RETURN_IF_ERROR(CollectReducedPattern(context, &pairs));
+  if (resume == nullptr) {
+    AppendScreenedPattern(layout, &screened_pattern, &pairs);
+  } else {
+    GS_RETURN_IF_ERROR(CollectReducedPattern(context, &pairs));
+  }
   ReducedSystem system;
   system.matrix = BlockSparseMatrix::FromPattern(kDim, layout.num_blocks(), std::move(pairs));
   pairs = {};
