@@ -8,6 +8,7 @@
 #include "core/feature_linearizer.h"
 #include "core/internal/chunk_pass_kernels.h"
 #include "core/internal/ordered_chunk_pipeline.h"
+#include "core/internal/pose_pair_set.h"
 #include "core/schur_eliminator.h"
 
 namespace graphslam::core {
@@ -26,20 +27,47 @@ void Report(const BasicPassContext<Space>& context, const char* stage, int64_t d
 template <class Space>
 using ChunkOf = BasicObservationChunk<typename Space::Observation>;
 
+// The free poses observing feature slot k, ascending, each once.
+template <class Space>
+void ObservingPoses(const ChunkOf<Space>& chunk, int64_t k, const UnknownLayout& layout,
+                    std::vector<int>* poses) {
+  poses->clear();
+  for (int64_t o = chunk.feature_begin[k]; o < chunk.feature_begin[k + 1]; ++o) {
+    const int32_t u = layout.unknown_index[chunk.observations[o].pose];
+    if (u >= 0) poses->push_back(u);
+  }
+  std::sort(poses->begin(), poses->end());
+  poses->erase(std::unique(poses->begin(), poses->end()), poses->end());
+}
+
+// All pairs (a <= b) of `poses` not yet in *seen, appended to *pairs.
+void InsertAllPairs(const std::vector<int>& poses, internal::PosePairSet* seen,
+                    std::vector<std::pair<int, int>>* pairs) {
+  for (size_t a = 0; a < poses.size(); ++a)
+    for (size_t b = a; b < poses.size(); ++b) seen->Insert(poses[a], poses[b], pairs);
+}
+
 }  // namespace
 
 template <class Space>
 Status ScreenFeatures(const BasicPassContext<Space>& context,
                       const std::vector<typename Space::Pose>& poses,
                       const std::vector<typename Space::Point>& features,
-                      int64_t max_eliminated_observations, ScreeningResult* result) {
+                      int64_t max_eliminated_observations, ScreeningResult* result,
+                      ScreenedPattern* pattern) {
   using FeatureMatrix = Eigen::Matrix<double, Space::kFeatureDim, Space::kFeatureDim>;
   struct Output {
     BasicLinearizedFeature<Space> scratch;
     std::vector<int32_t> rejected;
     std::vector<int32_t> kept;
     int64_t observations = 0;
+    // The pattern (when asked): as CollectReducedPattern's Output.
+    internal::PosePairSet seen;
+    std::vector<int> poses;
+    std::vector<std::pair<int, int>> pairs;
+    std::vector<std::pair<int32_t, int>> kept_observers;
   };
+  if (pattern != nullptr) *pattern = ScreenedPattern();
   result->excluded.assign(features.size(), 1);  // unobserved until a chunk says otherwise
   result->kept.assign(features.size(), 0);
   result->kept_count = 0;
@@ -52,6 +80,9 @@ Status ScreenFeatures(const BasicPassContext<Space>& context,
         out->rejected.clear();
         out->kept.clear();
         out->observations = 0;
+        out->seen.Clear();
+        out->pairs.clear();
+        out->kept_observers.clear();
         for (int64_t k = 0; k < chunk.num_features(); ++k) {
           const int32_t g = chunk.features[k];
           LinearizeFeature<Space>(chunk, k, poses, features[g], *context.layout, RobustKernel(),
@@ -66,7 +97,16 @@ Status ScreenFeatures(const BasicPassContext<Space>& context,
           } else {
             const int64_t count = chunk.feature_begin[k + 1] - chunk.feature_begin[k];
             out->observations += count;
-            if (count > max_eliminated_observations) out->kept.push_back(g);
+            const bool kept = count > max_eliminated_observations;
+            if (kept) out->kept.push_back(g);
+            if (pattern != nullptr) {
+              ObservingPoses<Space>(chunk, k, *context.layout, &out->poses);
+              if (kept) {
+                for (int u : out->poses) out->kept_observers.emplace_back(g, u);
+              } else {
+                InsertAllPairs(out->poses, &out->seen, &out->pairs);
+              }
+            }
           }
         }
         return Status::Ok();
@@ -81,16 +121,36 @@ Status ScreenFeatures(const BasicPassContext<Space>& context,
         result->kept_count += static_cast<int64_t>(out.kept.size());
         result->excluded_not_positive_definite += static_cast<int64_t>(out.rejected.size());
         result->observations += out.observations;
+        if (pattern != nullptr) {
+          pattern->pose_pairs.insert(pattern->pose_pairs.end(), out.pairs.begin(),
+                                     out.pairs.end());
+          pattern->kept_observers.insert(pattern->kept_observers.end(),
+                                         out.kept_observers.begin(), out.kept_observers.end());
+        }
         Report(context, "screen", chunk.index + 1);
       });
   result->unobserved = std::count(observed.begin(), observed.end(), 0);
   return status;
 }
 
+void AppendScreenedPattern(const UnknownLayout& layout, ScreenedPattern* pattern,
+                           std::vector<std::pair<int, int>>* pairs) {
+  pairs->insert(pairs->end(), pattern->pose_pairs.begin(), pattern->pose_pairs.end());
+  int32_t last = -1;
+  for (const auto& [g, u] : pattern->kept_observers) {
+    const int fu = layout.feature_unknown_index[g];
+    if (g != last) pairs->emplace_back(fu, fu);
+    last = g;
+    pairs->emplace_back(u, fu);
+  }
+  *pattern = ScreenedPattern();
+}
+
 template <class Space>
 Status CollectReducedPattern(const BasicPassContext<Space>& context,
                              std::vector<std::pair<int, int>>* pairs) {
   struct Output {
+    internal::PosePairSet seen;  // each pair once per chunk, so the merged list stays small
     std::vector<std::pair<int, int>> pairs;
     std::vector<int> poses;
   };
@@ -98,16 +158,11 @@ Status CollectReducedPattern(const BasicPassContext<Space>& context,
       *context.chunks, context.max_in_flight,
       [&](const ChunkOf<Space>& chunk, Output* out) {
         out->pairs.clear();
+        out->seen.Clear();
         for (int64_t k = 0; k < chunk.num_features(); ++k) {
           const int32_t g = chunk.features[k];
           if (Excluded(context, g)) continue;
-          out->poses.clear();
-          for (int64_t o = chunk.feature_begin[k]; o < chunk.feature_begin[k + 1]; ++o) {
-            const int32_t u = context.layout->unknown_index[chunk.observations[o].pose];
-            if (u >= 0) out->poses.push_back(u);
-          }
-          std::sort(out->poses.begin(), out->poses.end());
-          out->poses.erase(std::unique(out->poses.begin(), out->poses.end()), out->poses.end());
+          ObservingPoses<Space>(chunk, k, *context.layout, &out->poses);
           if (context.layout->IsKept(g)) {
             // Kept features couple only with their observing poses.
             const int fu = context.layout->feature_unknown_index[g];
@@ -115,13 +170,8 @@ Status CollectReducedPattern(const BasicPassContext<Space>& context,
             for (int u : out->poses) out->pairs.emplace_back(u, fu);
             continue;
           }
-          for (size_t a = 0; a < out->poses.size(); ++a)
-            for (size_t b = a; b < out->poses.size(); ++b)
-              out->pairs.emplace_back(out->poses[a], out->poses[b]);
+          InsertAllPairs(out->poses, &out->seen, &out->pairs);
         }
-        // Deduplicate per chunk so the merged list stays small.
-        std::sort(out->pairs.begin(), out->pairs.end());
-        out->pairs.erase(std::unique(out->pairs.begin(), out->pairs.end()), out->pairs.end());
         return Status::Ok();
       },
       [&](const ChunkOf<Space>& chunk, Output& out) {
@@ -304,7 +354,7 @@ Status ObservationsChi2(const BasicPassContext<Space>& context,
   template Status ScreenFeatures<Space>(const BasicPassContext<Space>&,                           \
                                         const std::vector<Space::Pose>&,                          \
                                         const std::vector<Space::Point>&, int64_t,                \
-                                        ScreeningResult*);                                        \
+                                        ScreeningResult*, ScreenedPattern*);                      \
   template Status CollectReducedPattern<Space>(const BasicPassContext<Space>&,                    \
                                                std::vector<std::pair<int, int>>*);                \
   template Status ReducePass<Space>(const BasicPassContext<Space>&,                               \

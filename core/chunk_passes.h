@@ -8,7 +8,10 @@
 //     "kept": an unknown of the reduced system instead of eliminated
 //     (UnknownLayout), so its k observing poses add k blocks, not k^2.
 //   CollectReducedPattern: the pose pairs the reduced matrix couples: all pairs
-//     of free poses observing a common feature.
+//     of free poses observing a common feature. ScreenFeatures collects the
+//     same pairs in its own pass when given a ScreenedPattern (one read of the
+//     chunks for the setup instead of two); KeptFeaturePattern then adds the
+//     kept features' pairs, once UnknownLayout::KeepFeatures has numbered them.
 //   ReducePass (Table 3): for each feature, C_d = C + lambda D_m and
 //       S   += H_pp - H_pm C_d^{-1} H_qm^T       (all p, q observing it)
 //       rhs += -g_p + H_pm C_d^{-1} g_m
@@ -79,11 +82,30 @@ struct ScreeningResult {
   int64_t observations = 0;         // observations of eliminable features
 };
 
+// The pattern ScreenFeatures collects along: what CollectReducedPattern
+// would give with the screening's partition (context.excluded = result's
+// excluded, layout.KeepFeatures(result's kept)).
+struct ScreenedPattern {
+  // Pairs of free poses observing a common eliminated feature; each pair once
+  // per chunk (duplicates across chunks remain: FromPattern removes them).
+  std::vector<std::pair<int, int>> pose_pairs;
+  // (feature, free pose) for every kept feature and each pose observing it.
+  std::vector<std::pair<int32_t, int>> kept_observers;
+};
+
+// pattern (optional): also collect the reduced matrix's pattern in this pass.
 template <class Space>
 Status ScreenFeatures(const BasicPassContext<Space>& context,
                       const std::vector<typename Space::Pose>& poses,
                       const std::vector<typename Space::Point>& features,
-                      int64_t max_eliminated_observations, ScreeningResult* result);
+                      int64_t max_eliminated_observations, ScreeningResult* result,
+                      ScreenedPattern* pattern = nullptr);
+
+// Appends pattern.pose_pairs and the kept features' pairs (fu, fu), (u, fu)
+// with layout's numbering (after layout.KeepFeatures) to *pairs; consumes
+// *pattern.
+void AppendScreenedPattern(const UnknownLayout& layout, ScreenedPattern* pattern,
+                           std::vector<std::pair<int, int>>* pairs);
 
 template <class Space>
 Status CollectReducedPattern(const BasicPassContext<Space>& context,

@@ -185,4 +185,71 @@ void AccumulateContribution(const ReducedContribution& c, BlockSparseMatrix* s,
   }
 }
 
+void ContributionGroups::Build(const ReducedContribution& c) {
+  constexpr uint64_t kEmpty = ~uint64_t{0};  // no pair of block indices >= 0 has this key
+  const size_t n = c.rows.size();
+  positions.clear();
+  of_entry.resize(n);
+  size_t capacity = 64;
+  while (capacity < 2 * n) capacity *= 2;
+  int shift = 64;
+  for (size_t k = capacity; k > 1; k >>= 1) --shift;
+  keys_.assign(capacity, kEmpty);
+  slots_.resize(capacity);
+  const size_t mask = capacity - 1;
+  for (size_t j = 0; j < n; ++j) {
+    const uint64_t key = (static_cast<uint64_t>(static_cast<uint32_t>(c.rows[j])) << 32) |
+                         static_cast<uint32_t>(c.cols[j]);
+    size_t slot = static_cast<size_t>((key * 0x9E3779B97F4A7C15ull) >> shift);
+    while (keys_[slot] != kEmpty && keys_[slot] != key) slot = (slot + 1) & mask;
+    if (keys_[slot] == kEmpty) {
+      keys_[slot] = key;
+      slots_[slot] = static_cast<int32_t>(positions.size());
+      positions.emplace_back(c.rows[j], c.cols[j]);
+    }
+    of_entry[j] = slots_[slot];
+  }
+}
+
+void AccumulateContribution(const ReducedContribution& c, const ContributionGroups& groups,
+                            BlockSparseMatrix* s, Eigen::VectorXd* rhs) {
+  GS_CHECK(rhs->size() == s->num_rows());
+  if (c.rows.empty() && c.rhs_rows.empty()) return;
+  const int b = c.block_size;
+  GS_CHECK(b == s->block_size());
+  GS_CHECK(c.rows.size() == c.cols.size());
+  GS_CHECK(c.values.size() == c.rows.size() * b * b);
+  GS_CHECK(c.rhs_values.size() == c.rhs_rows.size() * b);
+  GS_CHECK(groups.of_entry.size() == c.rows.size());
+  // S's blocks (i, k) and (k, i) of every position, looked up once.
+  std::vector<double*> upper(groups.positions.size());
+  std::vector<double*> lower(groups.positions.size(), nullptr);
+  for (size_t g = 0; g < groups.positions.size(); ++g) {
+    const auto [i, k] = groups.positions[g];
+    upper[g] = s->MutableBlock(i, k);
+    GS_CHECK(upper[g] != nullptr);
+    if (i != k) {
+      lower[g] = s->MutableBlock(k, i);
+      GS_CHECK(lower[g] != nullptr);
+    }
+  }
+  // The entries in their order, as AccumulateContribution(c, s, rhs) adds them.
+  for (size_t j = 0; j < c.rows.size(); ++j) {
+    const int32_t g = groups.of_entry[j];
+    const double* v = c.values.data() + j * b * b;
+    double* ik = upper[g];
+    for (int e = 0; e < b * b; ++e) ik[e] += v[e];
+    if (double* ki = lower[g]; ki != nullptr) {
+      for (int r = 0; r < b; ++r) {
+        for (int col = 0; col < b; ++col) ki[r * b + col] += v[col * b + r];
+      }
+    }
+  }
+  for (size_t j = 0; j < c.rhs_rows.size(); ++j) {
+    const int64_t row = c.rhs_rows[j];
+    GS_CHECK(row >= 0 && (row + 1) * b <= rhs->size());
+    for (int r = 0; r < b; ++r) (*rhs)[row * b + r] += c.rhs_values[j * b + r];
+  }
+}
+
 }  // namespace graphslam::core

@@ -41,6 +41,8 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "core/block_sparse_matrix.h"
@@ -89,5 +91,28 @@ Eigen::VectorXd RecoverFeature(const FeatureBlocks& f, const Eigen::VectorXd& po
 // rhs has S->num_rows() entries.
 void AccumulateContribution(const ReducedContribution& c, BlockSparseMatrix* s,
                             Eigen::VectorXd* rhs);
+
+// The distinct (row, col) block positions of a ReducedContribution and, per
+// entry j, which of them it is: many features of a chunk fill the same few
+// pose pairs, so AccumulateContribution with groups looks each position up in
+// S once instead of once per entry (the per-entry binary searches were ~12 %
+// of a streaming pass, perf on store1e7). Built where the contribution is
+// (in parallel), used by the serial merge.
+struct ContributionGroups {
+  std::vector<std::pair<int, int>> positions;  // (row, col), in order of first entry
+  std::vector<int32_t> of_entry;               // per entry of c: index into positions
+
+  // Rebuilds both lists for `c` in O(entries) (a hash table kept across calls).
+  void Build(const ReducedContribution& c);
+
+ private:
+  std::vector<uint64_t> keys_;
+  std::vector<int32_t> slots_;
+};
+
+// The same sums as AccumulateContribution(c, s, rhs), added in the same order
+// (same bits), with one lookup in S per position of `groups` (built for c).
+void AccumulateContribution(const ReducedContribution& c, const ContributionGroups& groups,
+                            BlockSparseMatrix* s, Eigen::VectorXd* rhs);
 
 }  // namespace graphslam::core

@@ -140,6 +140,20 @@ inline void DecodeObservation(const char* p, core::Observation* observation) {
   observation->line = static_cast<int32_t>(DecodeFixed32(p + 57));
 }
 
+// Whether DescribeInvalidObservation(observation, expected_feature) is "":
+// the reader's per-observation test, without building a string (which was
+// ~2 % of a streaming pass; perf, store1e7).
+inline bool IsValidObservation(const core::Observation& observation,
+                               int32_t expected_feature) {
+  const auto kind = static_cast<uint8_t>(observation.kind);
+  bool finite = std::isfinite(observation.z[0]) && std::isfinite(observation.z[1]);
+  for (int i = 0; i < 4; ++i) finite = finite && std::isfinite(observation.information.data()[i]);
+  return observation.feature == expected_feature && observation.pose >= 0 &&
+         (kind == static_cast<uint8_t>(core::ObservationKind::kRangeBearing) ||
+          kind == static_cast<uint8_t>(core::ObservationKind::kPointXY)) &&
+         finite;
+}
+
 // "" when `observation` may be stored in the slot of feature `expected_feature`,
 // else what is wrong with it, with expected and actual values. Shared by the
 // writer (InvalidArgument) and the reader (Corruption) so both enforce the

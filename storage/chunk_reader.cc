@@ -370,10 +370,10 @@ class ChunkParser {
       for (uint32_t i = 0; i < feature_observations; ++i, ++observation) {
         format::DecodeObservation(observation_bytes, &decoded);
         observation_bytes += format::kObservationSize;
-        const std::string problem = format::DescribeInvalidObservation(decoded, feature);
-        if (!problem.empty()) {
+        if (!format::IsValidObservation(decoded, feature)) {
           return Status::Corruption(where + "observation " + std::to_string(observation) +
-                                    " (" + slot_name() + "): " + problem);
+                                    " (" + slot_name() + "): " +
+                                    format::DescribeInvalidObservation(decoded, feature));
         }
         result_->observations.push_back(decoded);
       }

@@ -68,13 +68,14 @@ Status ReduceChunk(const BasicPassContext<Space>& context,
                                 std::to_string(g));
     }
   }
+  out->groups.Build(out->contribution);
   return Status::Ok();
 }
 
 template <class Space>
 void MergeReduced(const ReduceOutput<Space>& out, ReducedSystem* system) {
   constexpr int P = Space::kPoseDim;
-  AccumulateContribution(out.contribution, &system->matrix, &system->rhs);
+  AccumulateContribution(out.contribution, out.groups, &system->matrix, &system->rhs);
   for (const typename ReduceOutput<Space>::Direct& d : out.blocks)
     GS_CHECK(system->matrix.AddBlock(d.row, d.col, d.block));
   for (const typename ReduceOutput<Space>::DirectGradient& d : out.gradients) {

@@ -49,6 +49,7 @@ struct ReduceOutput {
   };
   BasicLinearizedFeature<Space> scratch;
   ReducedContribution contribution;
+  ContributionGroups groups;  // of contribution, for the merge's lookups in S
   std::vector<Direct> blocks;
   std::vector<DirectGradient> gradients;
   double chi2 = 0.0;

@@ -79,6 +79,23 @@ class ChunkedSpace {
     return Status::Ok();
   }
 
+  // Reduces at the current state with damping lambda before the first
+  // iteration, whose Linearize(lambda) then reuses the system (as after an
+  // accepted fused step); *observations_chi2 is the system's chi2, the sum
+  // ObservationsChi2 gives, in the same order. This pass replaces the
+  // separate initial-cost pass. On an error nothing is reused: the caller
+  // falls back to ObservationsChi2, and Linearize reduces (and fails) again.
+  Status ReduceAhead(double lambda, double* observations_chi2) {
+    speculation_ready_ = false;
+    ResetSystem(problem_.poses, &system_);
+    GS_RETURN_IF_ERROR(
+        ReducePass(context_, problem_.poses, problem_.features, lambda, &system_));
+    speculation_ready_ = true;
+    speculative_lambda_ = lambda;
+    *observations_chi2 = system_.chi2;
+    return Status::Ok();
+  }
+
   Status TryStep(double lambda, double speculative_lambda, bool /*usable*/, IterationSummary* it,
                  TrialStep* trial) {
     const std::vector<Pose>& poses = problem_.poses;
@@ -256,10 +273,14 @@ Status SolveChunked(
   context.progress = options.progress;
   context.kernel = options.observation_kernel;
 
-  // Which features can be eliminated (positive definite information).
+  // Which features can be eliminated (positive definite information), and in
+  // the same pass the pattern of S under that partition. A resume keeps the
+  // checkpoint's partition instead, whose pattern takes a pass of its own.
   ScreeningResult screening;
+  ScreenedPattern screened_pattern;
   GS_RETURN_IF_ERROR(ScreenFeatures(context, problem->poses, problem->features,
-                                    options.max_eliminated_observations, &screening));
+                                    options.max_eliminated_observations, &screening,
+                                    resume == nullptr ? &screened_pattern : nullptr));
   // A resume whose feature array is empty while the problem has features:
   // the caller moved the checkpoint's estimates into problem->features
   // already (SolverOptions::resume_from), so no second copy is held.
@@ -309,7 +330,11 @@ Status SolveChunked(
   // The reduced matrix's pattern: pose-only factors plus co-observing poses.
   std::vector<std::pair<int, int>> pairs;
   AppendPoseFactorPattern(*problem, layout, &pairs);
-  GS_RETURN_IF_ERROR(CollectReducedPattern(context, &pairs));
+  if (resume == nullptr) {
+    AppendScreenedPattern(layout, &screened_pattern, &pairs);
+  } else {
+    GS_RETURN_IF_ERROR(CollectReducedPattern(context, &pairs));
+  }
   ReducedSystem system;
   system.matrix = BlockSparseMatrix::FromPattern(kDim, layout.num_blocks(), std::move(pairs));
   pairs = {};
@@ -355,9 +380,21 @@ Status SolveChunked(
   ChunkedSpace<Space> space(context, layout, &screening.kept, options.pose_kernels, problem,
                             &system, &solver, &summary->excluded, options.fused_chunk_pass,
                             candidate_store);
+  // The first iteration's reduction (at the lambda RunLevenbergMarquardt
+  // starts with) gives the initial chi2 of the observations too: one pass
+  // instead of two before the first solve (fused schedule; --two-pass keeps
+  // its two passes in every iteration).
   double observations_chi2 = 0.0;
-  GS_RETURN_IF_ERROR(
-      ObservationsChi2(context, problem->poses, problem->features, &observations_chi2));
+  const bool iterates = resume == nullptr ? options.max_iterations >= 1
+                                          : !resume->converged &&
+                                                resume->iterations + 1 <= options.max_iterations;
+  const double first_radius = resume != nullptr ? resume->trust_region_radius
+                                                : options.initial_trust_region_radius;
+  if (!iterates || !options.fused_chunk_pass ||
+      !space.ReduceAhead(1.0 / first_radius, &observations_chi2).ok()) {
+    GS_RETURN_IF_ERROR(
+        ObservationsChi2(context, problem->poses, problem->features, &observations_chi2));
+  }
   const double chi2 =
       PoseFactorsChi2(*problem, problem->poses, options.pose_kernels) + observations_chi2;
   return RunLevenbergMarquardt(options, chi2, resume, checkpoint_callback, start, &space,

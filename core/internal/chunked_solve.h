@@ -2,9 +2,12 @@
 // written once: SolveGraphSlam (core/graphslam_solver.h) is SolveChunked<Space2d>
 // and SolveGraphSlam3d (core/graphslam_solver_3d.h) is SolveChunked<Space3d>.
 //
-//   setup      ScreenFeatures (eliminated / kept / excluded features), the
-//              pattern of S (pose factors + CollectReducedPattern), the choice
-//              of the linear solver (core/reduced_system_solver.h)
+//   setup      ScreenFeatures (eliminated / kept / excluded features) and in
+//              the same pass the pattern of S (pose factors + the screened
+//              pairs; a resume runs CollectReducedPattern for the checkpoint's
+//              partition), the choice of the linear solver
+//              (core/reduced_system_solver.h), then the first iteration's
+//              reduce, which also gives the initial chi2 (fused schedule)
 //   iterations RunLevenbergMarquardt (core/levenberg_marquardt.h) over a
 //              space whose Linearize is a ReducePass and whose TryStep is a
 //              solve plus a RecoverPass, or the fused RecoverAndReducePass

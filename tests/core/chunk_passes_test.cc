@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/internal/pose_pair_set.h"
 #include "core/pose_factors.h"
 #include "partition/in_memory_chunk_source.h"
 #include "tests/testing/dense_reference.h"
@@ -221,6 +222,90 @@ TEST(ChunkPasses, ScreeningExcludesFeatureWithSingularInformation) {
   EXPECT_EQ(result.excluded[f], 1);
   EXPECT_EQ(result.excluded[f + 1], 1);
   EXPECT_EQ(result.excluded[0] + result.excluded[1], 0);
+}
+
+// The pattern ScreenFeatures collects along (the solve's one setup pass) is
+// the pattern of a separate CollectReducedPattern pass with the screening's
+// partition, with eliminated, kept and excluded features and any chunk size.
+TEST(ChunkPasses, ScreenedPatternEqualsCollectedPattern) {
+  for (const int chunk_size : {1, 5, 100000}) {
+    for (uint32_t seed = 1; seed <= 3; ++seed) {
+      testing::RandomProblemOptions options;
+      options.seed = seed;
+      options.num_poses = 20;
+      options.num_features = 15;
+      testing::RandomProblem random = testing::MakeRandomProblem(options);
+      Problem2d& problem = random.problem;
+      // A feature whose information is rank one: excluded by the screening.
+      const int32_t f = problem.AddFeature(99, Point2(1.0, 2.0), true);
+      Observation o;
+      o.pose = 3;
+      o.feature = f;
+      o.kind = ObservationKind::kPointXY;
+      o.z = Eigen::Vector2d(1.0, 1.0);
+      o.information << 1.0, 0.0, 0.0, 0.0;
+      problem.observations.push_back(o);
+      partition::ChunkingOptions chunking;
+      chunking.max_observations_per_chunk = chunk_size;
+      partition::InMemoryChunkSource chunks(problem, chunking);
+
+      UnknownLayout layout = UnknownLayout::FromProblem(problem);
+      PassContext context;
+      context.chunks = &chunks;
+      context.layout = &layout;
+      ScreeningResult screening;
+      ScreenedPattern screened;
+      // Features with more observations than the median are kept features.
+      std::vector<int64_t> counts(problem.features.size(), 0);
+      for (const Observation& observation : problem.observations) ++counts[observation.feature];
+      std::vector<int64_t> sorted = counts;
+      std::sort(sorted.begin(), sorted.end());
+      const int64_t median = sorted[sorted.size() / 2];
+      ASSERT_TRUE(ScreenFeatures(context, problem.poses, problem.features, median, &screening,
+                                 &screened)
+                      .ok());
+      ASSERT_EQ(screening.excluded[f], 1);
+      ASSERT_GT(screening.kept_count, 0);
+      ASSERT_LT(screening.kept_count, problem.num_features() - 1);
+      layout.KeepFeatures(screening.kept);
+      context.excluded = &screening.excluded;
+
+      std::vector<std::pair<int, int>> from_screen;
+      AppendScreenedPattern(layout, &screened, &from_screen);
+      std::vector<std::pair<int, int>> collected;
+      ASSERT_TRUE(CollectReducedPattern(context, &collected).ok());
+      const BlockSparseMatrix a =
+          BlockSparseMatrix::FromPattern(3, layout.num_blocks(), std::move(from_screen));
+      const BlockSparseMatrix b =
+          BlockSparseMatrix::FromPattern(3, layout.num_blocks(), std::move(collected));
+      EXPECT_EQ(a.row_start(), b.row_start());
+      EXPECT_EQ(a.block_cols(), b.block_cols());
+      EXPECT_GT(a.num_nonzero_blocks(), layout.num_blocks());  // not only the diagonal
+    }
+  }
+}
+
+// PosePairSet emits each unordered pair once, in order of first insertion,
+// also across growth of its table, and is empty again after Clear.
+TEST(PosePairSet, EmitsEachUnorderedPairOnce) {
+  internal::PosePairSet set;
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> pose(0, 200);
+  for (int round = 0; round < 3; ++round) {
+    set.Clear();
+    std::vector<std::pair<int, int>> emitted;
+    std::vector<std::pair<int, int>> reference;
+    for (int n = 0; n < 5000; ++n) {
+      const int a = pose(rng);
+      const int b = pose(rng);
+      set.Insert(a, b, &emitted);
+      const std::pair<int, int> key(std::min(a, b), std::max(a, b));
+      if (std::find(reference.begin(), reference.end(), key) == reference.end())
+        reference.push_back(key);
+    }
+    EXPECT_EQ(emitted, reference);
+    EXPECT_GT(emitted.size(), 1024u);  // the table grew past its first capacity
+  }
 }
 
 }  // namespace

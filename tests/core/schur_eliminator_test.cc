@@ -198,6 +198,33 @@ TEST(SchurEliminator, SeveralFeaturesAppendToOneContribution) {
   EXPECT_EQ(rhs_all, rhs_one);
 }
 
+// With groups the merge looks each block position up once, but adds the
+// entries in the same order: the same bits, also onto an S that is not zero.
+TEST(SchurEliminator, GroupedAccumulationGivesTheSameBits) {
+  const RandomSystem sys = MakeRandomSystem(12, 3, 2, 8, 12);
+  ReducedContribution all;
+  for (int m = 0; m < sys.num_features; ++m)
+    ASSERT_TRUE(EliminateFeature(sys.Feature(m), &all).ok());
+  ContributionGroups groups;
+  groups.Build(all);
+  ASSERT_EQ(groups.of_entry.size(), all.rows.size());
+  EXPECT_LT(groups.positions.size(), all.rows.size());  // features share pose pairs
+  for (size_t j = 0; j < all.rows.size(); ++j) {
+    EXPECT_EQ(groups.positions[groups.of_entry[j]], std::make_pair(all.rows[j], all.cols[j]));
+  }
+  BlockSparseMatrix s_plain = ReducedPattern(sys);
+  BlockSparseMatrix s_grouped = ReducedPattern(sys);
+  Eigen::VectorXd rhs_plain = Eigen::VectorXd::Zero(s_plain.num_rows());
+  Eigen::VectorXd rhs_grouped = rhs_plain;
+  for (int round = 0; round < 3; ++round) {
+    AccumulateContribution(all, &s_plain, &rhs_plain);
+    AccumulateContribution(all, groups, &s_grouped, &rhs_grouped);
+  }
+  EXPECT_EQ(s_grouped.ToDense(), s_plain.ToDense());
+  EXPECT_EQ(rhs_grouped, rhs_plain);
+  EXPECT_GT(s_plain.ToDense().norm(), 0.0);
+}
+
 TEST(SchurEliminator, NonPositiveDefiniteFeatureIsReportedAndLeavesOutputUnchanged) {
   FeatureBlocks f;
   f.feature_gradient = Eigen::Vector2d(1.0, 2.0);
