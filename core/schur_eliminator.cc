@@ -221,27 +221,24 @@ void AccumulateContribution(const ReducedContribution& c, const ContributionGrou
   GS_CHECK(c.values.size() == c.rows.size() * b * b);
   GS_CHECK(c.rhs_values.size() == c.rhs_rows.size() * b);
   GS_CHECK(groups.of_entry.size() == c.rows.size());
-  // S's blocks (i, k) and (k, i) of every position, looked up once.
-  std::vector<double*> upper(groups.positions.size());
-  std::vector<double*> lower(groups.positions.size(), nullptr);
+  // S stores its upper triangle: the block of every position, looked up once;
+  // a lower position (i > k) lands transposed in (k, i).
+  std::vector<double*> target(groups.positions.size());
   for (size_t g = 0; g < groups.positions.size(); ++g) {
     const auto [i, k] = groups.positions[g];
-    upper[g] = s->MutableBlock(i, k);
-    GS_CHECK(upper[g] != nullptr);
-    if (i != k) {
-      lower[g] = s->MutableBlock(k, i);
-      GS_CHECK(lower[g] != nullptr);
-    }
+    target[g] = i <= k ? s->MutableBlock(i, k) : s->MutableBlock(k, i);
+    GS_CHECK(target[g] != nullptr);
   }
   // The entries in their order, as AccumulateContribution(c, s, rhs) adds them.
   for (size_t j = 0; j < c.rows.size(); ++j) {
     const int32_t g = groups.of_entry[j];
     const double* v = c.values.data() + j * b * b;
-    double* ik = upper[g];
-    for (int e = 0; e < b * b; ++e) ik[e] += v[e];
-    if (double* ki = lower[g]; ki != nullptr) {
+    double* block = target[g];
+    if (c.rows[j] <= c.cols[j]) {
+      for (int e = 0; e < b * b; ++e) block[e] += v[e];
+    } else {
       for (int r = 0; r < b; ++r) {
-        for (int col = 0; col < b; ++col) ki[r * b + col] += v[col * b + r];
+        for (int col = 0; col < b; ++col) block[r * b + col] += v[col * b + r];
       }
     }
   }
