@@ -18,15 +18,13 @@
 #include <type_traits>
 #include <utility>
 
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include "partition/spill_frames.h"
+
 namespace graphslam::partition {
 namespace {
-
-// Bucket files hold raw Observation structs: they are scratch of this process,
-// read back by the same binary, never an interchange format. Observation is
-// integers, an enum and fixed-size Eigen matrices (inline arrays of doubles,
-// no pointers), so its bytes round-trip; Eigen's user-provided copy
-// constructors are why std::is_trivially_copyable does not hold.
-static_assert(std::is_trivially_destructible_v<core::Observation>);
 
 struct FileCloser {
   void operator()(std::FILE* file) const {
@@ -181,18 +179,19 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
                               std::to_string(progress->bucket_observations.size()) +
                               " buckets; the plan has " + std::to_string(num_buckets));
   // Back to the last checkpoint: what a killed run appended after it goes.
+  // The progress counts observations; the frame headers say where they end.
   for (int64_t b = 0; b < num_buckets; ++b) {
     const std::string path = BucketPath(b);
-    const auto keep = static_cast<std::uintmax_t>(progress->bucket_observations[b]) *
-                      sizeof(core::Observation);
     std::error_code error;
     const bool exists = std::filesystem::exists(path, error);
-    if (!exists && keep == 0) continue;
-    if (!exists || std::filesystem::file_size(path, error) < keep)
-      return Status::Corruption(path + ": shorter than the " +
+    if (!exists && progress->bucket_observations[b] == 0) continue;
+    if (!exists)
+      return Status::Corruption(path + ": missing; the spill progress records " +
                                 std::to_string(progress->bucket_observations[b]) +
-                                " observations the spill progress records");
-    std::filesystem::resize_file(path, keep, error);
+                                " observations in it");
+    GS_ASSIGN_OR_RETURN(const int64_t keep,
+                        SpillFrameBoundary(path, progress->bucket_observations[b]));
+    std::filesystem::resize_file(path, static_cast<std::uintmax_t>(keep), error);
     if (error) return Status::IOError(path + ": truncate: " + error.message());
   }
   stats.observations = progress->observations;
@@ -203,6 +202,9 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
   std::vector<core::Observation> scratch;
   std::vector<int64_t> run(static_cast<size_t>(num_buckets) + 1, 0);
   std::vector<char> touched(static_cast<size_t>(num_buckets), 0);
+  const int level = options_.spill_zstd_level;
+  tbb::enumerable_thread_specific<SpillFrameEncoder> encoders([level] { return level; });
+  std::vector<std::vector<char>> frames;  // per run of the current spill
   auto last_checkpoint = std::chrono::steady_clock::now();
   const auto bucket_of = [&](const core::Observation& o) {
     return chunk_bucket_[feature_chunk_[o.feature]];
@@ -218,18 +220,30 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
       std::vector<int64_t> next(run.begin(), run.end() - 1);
       for (const core::Observation& o : buffer) scratch[next[bucket_of(o)]++] = o;
     }
-    for (int64_t b = 0; b < num_buckets; ++b) {
-      const auto begin = static_cast<size_t>(run[b]), end = static_cast<size_t>(run[b + 1]);
-      if (begin == end) continue;
+    // Each bucket's run as one frame, compressed in parallel, appended in order.
+    std::vector<int64_t> runs;
+    for (int64_t b = 0; b < num_buckets; ++b)
+      if (run[b] != run[b + 1]) runs.push_back(b);
+    frames.resize(std::max(frames.size(), runs.size()));
+    std::vector<Status> statuses(runs.size());
+    tbb::parallel_for(size_t{0}, runs.size(), [&](size_t r) {
+      const int64_t b = runs[r];
+      statuses[r] = encoders.local().Encode(scratch.data() + run[b],
+                                            static_cast<size_t>(run[b + 1] - run[b]), &frames[r]);
+    });
+    for (size_t r = 0; r < runs.size(); ++r) {
+      GS_RETURN_IF_ERROR(statuses[r]);
+      const int64_t b = runs[r];
       const std::string path = BucketPath(b);
       File file(std::fopen(path.c_str(), "ab"));
       if (!file) return IoError(path, "open for append");
-      const size_t n = end - begin;
-      if (std::fwrite(scratch.data() + begin, sizeof(core::Observation), n, file.get()) != n)
+      if (std::fwrite(frames[r].data(), 1, frames[r].size(), file.get()) != frames[r].size())
         return IoError(path, "write");
       if (std::fclose(file.release()) != 0) return IoError(path, "close");
-      stats.spilled_bytes += static_cast<int64_t>(n * sizeof(core::Observation));
-      progress->bucket_observations[b] += static_cast<int64_t>(n);
+      const auto n = run[b + 1] - run[b];
+      stats.spilled_bytes += static_cast<int64_t>(frames[r].size());
+      stats.spilled_raw_bytes += n * static_cast<int64_t>(sizeof(core::Observation));
+      progress->bucket_observations[b] += n;
       touched[b] = 1;
     }
     progress->observations += static_cast<int64_t>(buffer.size());
@@ -284,6 +298,8 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
   GS_RETURN_IF_ERROR(spill());
   buffer = std::vector<core::Observation>();
   scratch = std::vector<core::Observation>();
+  frames = std::vector<std::vector<char>>();
+  encoders.clear();
   for (int64_t b = 0; b < num_buckets; ++b)
     if (progress->bucket_observations[b] != bucket_observations_[b])
       return Status::Corruption(BucketPath(b) + ": " +
@@ -339,13 +355,16 @@ Status BucketChunkSource::LoadBucket(int64_t bucket) const {
   const int64_t n = bucket_observations_[bucket];
   bucket_.clear();
   bucket_.shrink_to_fit();  // the previous bucket's memory goes before the next one's
-  std::vector<core::Observation> read(static_cast<size_t>(n));
+  std::vector<core::Observation> read;
+  read.reserve(static_cast<size_t>(n));
   File file(std::fopen(path.c_str(), "rb"));
   if (!file) return IoError(path, "open for reading");
-  if (std::fread(read.data(), sizeof(core::Observation), static_cast<size_t>(n), file.get()) !=
-      static_cast<size_t>(n))
-    return Status::Corruption(path + ": shorter than the " + std::to_string(n) +
-                              " observations spilled into it");
+  SpillFrameDecoder decoder;
+  GS_RETURN_IF_ERROR(decoder.ReadFile(path, file.get(), &read));
+  if (static_cast<int64_t>(read.size()) != n)
+    return Status::Corruption(path + ": " + std::to_string(read.size()) +
+                              " observations in its frames; " + std::to_string(n) +
+                              " were spilled into it");
   // Grouped by (chunk, feature) = by feature slot within the bucket: a
   // counting sort, stable, so each feature keeps its input order.
   const int64_t first_chunk = bucket_first_chunk_[bucket];

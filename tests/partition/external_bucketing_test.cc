@@ -20,6 +20,7 @@
 
 #include "core/initialization.h"
 #include "partition/in_memory_chunk_source.h"
+#include "partition/spill_frames.h"
 #include "partition/streaming_ingest.h"
 #include "storage/chunk_store.h"
 #include "storage/chunk_writer.h"
@@ -446,6 +447,59 @@ TEST_F(ExternalBucketingTest, ResumeAfterDyingAtDurableStepsGivesTheSameStoreByt
   EXPECT_GE(resumed_stages["spill"], 3);
   EXPECT_GE(resumed_stages["chunks"], 3);
   EXPECT_GE(resumed_stages[""], 2);  // died before the first record: afresh
+}
+
+// A kill in the middle of a spill leaves a torn frame (and whole frames the
+// progress record does not count) at the end of bucket files: the resume
+// truncates them back to the recorded frame boundary and gives the same store.
+// A damaged frame inside the recorded part is Corruption naming the bucket
+// file and the frame's byte offset.
+TEST_F(ExternalBucketingTest, ResumeAfterATornSpillFrameGivesTheSameStoreBytes) {
+  const std::string input = WriteInput(29, 150, 80);
+  StreamingIngestOptions options;
+  options.max_observations_per_chunk = 100;
+  options.buffer_observations = 300;
+  options.checkpoint_seconds = 0;
+  options.replay_block_bytes = 4096;
+  options.store.source = input;
+  IngestSummary summary;
+  NoSyncEnv no_sync;
+  ASSERT_TRUE(IngestToStore(&no_sync, input, Path("full"), options, &summary).ok());
+  ASSERT_GE(summary.bucketing.spills, 4);
+  EXPECT_LT(summary.bucketing.spilled_bytes, summary.bucketing.spilled_raw_bytes);
+
+  const std::string store = Path("store");
+  const std::string bucket = (std::filesystem::path(store) / "work" / "bucket_000000.bin").string();
+  auto die_in_the_spill = [&]() {
+    std::filesystem::remove_all(store);
+    FaultInjectionEnv env(&no_sync);
+    env.FailAt(FaultInjectionEnv::Operation::kRename, 5);  // the second spill checkpoint
+    ASSERT_FALSE(IngestToStore(&env, input, store, options, &summary).ok());
+    ASSERT_TRUE(std::filesystem::exists(bucket));
+  };
+  StreamingIngestOptions resume = options;
+  resume.resume = true;
+
+  die_in_the_spill();
+  const std::string frame_start = ReadBytes(bucket).substr(0, 20);
+  for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(store) / "work"))
+    if (entry.path().filename().string().rfind("bucket_", 0) == 0)
+      std::ofstream(entry.path(), std::ios::binary | std::ios::app) << frame_start;  // torn
+  ASSERT_TRUE(IngestToStore(&no_sync, input, store, resume, &summary).ok());
+  EXPECT_EQ(summary.resumed_stage, "spill");
+  ExpectSameBytes(store, Path("full"));
+
+  die_in_the_spill();
+  std::string bytes = ReadBytes(bucket);
+  bytes[kSpillFrameHeaderBytes + 3] ^= 0x10;
+  std::ofstream(bucket, std::ios::binary | std::ios::trunc) << bytes;
+  const Status status = IngestToStore(&no_sync, input, store, resume, &summary);
+  ASSERT_FALSE(status.ok());
+  EXPECT_TRUE(status.IsCorruption()) << status.ToString();
+  EXPECT_NE(status.message().find(bucket + ": spill frame at byte 0: CRC mismatch"),
+            std::string::npos)
+      << status.ToString();
+  EXPECT_FALSE(storage::IsChunkStore(store));
 }
 
 // A resume whose input changed since the interrupted ingest starts afresh
