@@ -204,7 +204,6 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
   std::vector<char> touched(static_cast<size_t>(num_buckets), 0);
   const int level = options_.spill_zstd_level;
   tbb::enumerable_thread_specific<SpillFrameEncoder> encoders([level] { return level; });
-  std::vector<std::vector<char>> frames;  // per run of the current spill
   auto last_checkpoint = std::chrono::steady_clock::now();
   const auto bucket_of = [&](const core::Observation& o) {
     return chunk_bucket_[feature_chunk_[o.feature]];
@@ -220,28 +219,38 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
       std::vector<int64_t> next(run.begin(), run.end() - 1);
       for (const core::Observation& o : buffer) scratch[next[bucket_of(o)]++] = o;
     }
-    // Each bucket's run as one frame, compressed in parallel, appended in order.
-    std::vector<int64_t> runs;
+    // Each bucket's run as frames of at most kMaxSpillFrameObservations,
+    // compressed in parallel, appended in order.
+    struct Piece {
+      int64_t bucket;
+      int64_t begin, end;  // in scratch
+    };
+    std::vector<Piece> pieces;
     for (int64_t b = 0; b < num_buckets; ++b)
-      if (run[b] != run[b + 1]) runs.push_back(b);
-    frames.resize(std::max(frames.size(), runs.size()));
-    std::vector<Status> statuses(runs.size());
-    tbb::parallel_for(size_t{0}, runs.size(), [&](size_t r) {
-      const int64_t b = runs[r];
-      statuses[r] = encoders.local().Encode(scratch.data() + run[b],
-                                            static_cast<size_t>(run[b + 1] - run[b]), &frames[r]);
+      for (int64_t i = run[b]; i < run[b + 1]; i += static_cast<int64_t>(kMaxSpillFrameObservations))
+        pieces.push_back(
+            {b, i, std::min(run[b + 1], i + static_cast<int64_t>(kMaxSpillFrameObservations))});
+    std::vector<std::vector<char>> frames(pieces.size());
+    std::vector<Status> statuses(pieces.size());
+    tbb::parallel_for(size_t{0}, pieces.size(), [&](size_t p) {
+      statuses[p] = encoders.local().Encode(scratch.data() + pieces[p].begin,
+                                            static_cast<size_t>(pieces[p].end - pieces[p].begin),
+                                            &frames[p]);
     });
-    for (size_t r = 0; r < runs.size(); ++r) {
-      GS_RETURN_IF_ERROR(statuses[r]);
-      const int64_t b = runs[r];
+    for (const Status& status : statuses) GS_RETURN_IF_ERROR(status);
+    for (size_t p = 0; p < pieces.size();) {
+      const int64_t b = pieces[p].bucket;
       const std::string path = BucketPath(b);
       File file(std::fopen(path.c_str(), "ab"));
       if (!file) return IoError(path, "open for append");
-      if (std::fwrite(frames[r].data(), 1, frames[r].size(), file.get()) != frames[r].size())
-        return IoError(path, "write");
+      for (; p < pieces.size() && pieces[p].bucket == b; ++p) {
+        if (std::fwrite(frames[p].data(), 1, frames[p].size(), file.get()) != frames[p].size())
+          return IoError(path, "write");
+        stats.spilled_bytes += static_cast<int64_t>(frames[p].size());
+        frames[p] = std::vector<char>();
+      }
       if (std::fclose(file.release()) != 0) return IoError(path, "close");
-      const auto n = run[b + 1] - run[b];
-      stats.spilled_bytes += static_cast<int64_t>(frames[r].size());
+      const int64_t n = run[b + 1] - run[b];
       stats.spilled_raw_bytes += n * static_cast<int64_t>(sizeof(core::Observation));
       progress->bucket_observations[b] += n;
       touched[b] = 1;
@@ -298,7 +307,6 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
   GS_RETURN_IF_ERROR(spill());
   buffer = std::vector<core::Observation>();
   scratch = std::vector<core::Observation>();
-  frames = std::vector<std::vector<char>>();
   encoders.clear();
   for (int64_t b = 0; b < num_buckets; ++b)
     if (progress->bucket_observations[b] != bucket_observations_[b])

@@ -81,15 +81,18 @@ Status SpillFrameEncoder::Encode(const core::Observation* observations, size_t n
     line = static_cast<uint32_t>(o.line);
   }
   const size_t bound = ZSTD_compressBound(columns_.size());
-  frame->resize(kSpillFrameHeaderBytes + bound);
-  const size_t size = ZSTD_compressCCtx(context_->cctx, frame->data() + kSpillFrameHeaderBytes,
-                                        bound, columns_.data(), columns_.size(), level_);
+  compressed_.resize(bound);
+  const size_t size = ZSTD_compressCCtx(context_->cctx, compressed_.data(), bound,
+                                        columns_.data(), columns_.size(), level_);
   if (ZSTD_isError(size))
     return Status::IOError(std::string("spill frame: zstd compression failed: ") +
-                            ZSTD_getErrorName(size));
+                           ZSTD_getErrorName(size));
   if (size > std::numeric_limits<uint32_t>::max())
     return Status::InvalidArgument("spill frame: payload of " + std::to_string(size) + " bytes");
+  // Exactly the frame's bytes: the caller's vector holds no compressBound slack.
   frame->resize(kSpillFrameHeaderBytes + size);
+  frame->shrink_to_fit();
+  std::memcpy(frame->data() + kSpillFrameHeaderBytes, compressed_.data(), size);
   char* header = frame->data();
   PutU32(header, kSpillFrameMagic);
   PutU32(header + 4, static_cast<uint32_t>(n));

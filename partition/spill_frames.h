@@ -26,7 +26,8 @@
 // decompress to 61 * n bytes, an unknown kind).
 //
 // THREAD SAFETY: a SpillFrameEncoder / SpillFrameDecoder per thread.
-// ALLOCATION: the encoder and decoder keep one frame's columns and payload.
+// ALLOCATION: the encoder and decoder keep one frame's columns and payload
+// (at most kMaxSpillFrameObservations when written by the bucketing).
 #pragma once
 
 #include <cstdint>
@@ -43,6 +44,9 @@ namespace graphslam::partition {
 inline constexpr uint32_t kSpillFrameMagic = 0x31465347u;  // "GSF1" little-endian
 inline constexpr size_t kSpillFrameHeaderBytes = 16;
 inline constexpr size_t kSpillRecordBytes = 61;  // per observation, before zstd
+// A run longer than this is written as several frames, so the encoders'
+// scratch stays ~8 MB each however large the spill buffer is.
+inline constexpr size_t kMaxSpillFrameObservations = size_t{1} << 16;
 
 class SpillFrameEncoder {
  public:
@@ -60,6 +64,7 @@ class SpillFrameEncoder {
   int level_;
   std::unique_ptr<Context> context_;
   std::vector<char> columns_;
+  std::vector<char> compressed_;
 };
 
 class SpillFrameDecoder {
