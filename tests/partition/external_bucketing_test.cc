@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -500,6 +501,54 @@ TEST_F(ExternalBucketingTest, ResumeAfterATornSpillFrameGivesTheSameStoreBytes) 
             std::string::npos)
       << status.ToString();
   EXPECT_FALSE(storage::IsChunkStore(store));
+}
+
+// Bucket runs longer than one spill frame (kMaxSpillFrameObservations) are
+// written as several frames and read back whole: every chunk has its
+// features' observations, each feature's in input order, bit for bit.
+TEST_F(ExternalBucketingTest, RunsLongerThanOneFrameReadBackInInputOrder) {
+  const int64_t total = 3 * static_cast<int64_t>(kMaxSpillFrameObservations) + 123;
+  std::vector<core::Observation> input(static_cast<size_t>(total));
+  std::mt19937 rng(31);
+  FeatureIndex index;
+  for (int64_t i = 0; i < total; ++i) {
+    core::Observation& o = input[static_cast<size_t>(i)];
+    o.pose = static_cast<int32_t>(i / 100);
+    o.feature = static_cast<int32_t>(rng() % 2000);
+    o.z = {std::ldexp(static_cast<double>(rng()), -7), -static_cast<double>(i)};
+    o.line = static_cast<int32_t>(i + 1);  // input order
+    index.Add(o);
+  }
+  ExternalBucketingOptions options;
+  options.max_observations_per_chunk = 50000;
+  options.buffer_observations = total;  // one spill: runs of ~50000-200000
+  options.work_dir = Path("work");
+  std::filesystem::create_directories(options.work_dir);
+  const ObservationReplay replay = [&](const storage::ObservationSink& sink) -> Status {
+    for (const core::Observation& o : input) GS_RETURN_IF_ERROR(sink(o));
+    return Status::Ok();
+  };
+  StatusOr<std::unique_ptr<BucketChunkSource>> source = BucketChunkSource::Build(index, replay, options);
+  ASSERT_TRUE(source.ok()) << source.status().ToString();
+  EXPECT_EQ((*source)->stats().spills, 1);
+  EXPECT_LT((*source)->stats().spilled_bytes, (*source)->stats().spilled_raw_bytes / 2);
+  int64_t seen = 0;
+  core::ObservationChunk chunk;
+  for (int64_t k = 0; k < (*source)->NumChunks(); ++k) {
+    ASSERT_TRUE((*source)->Load(k, &chunk).ok());
+    for (size_t i = 0; i < chunk.observations.size(); ++i) {
+      const core::Observation& o = chunk.observations[i];
+      const core::Observation& original = input[static_cast<size_t>(o.line - 1)];
+      ASSERT_EQ(o.feature, original.feature);
+      ASSERT_EQ(o.pose, original.pose);
+      ASSERT_EQ(o.z, original.z);
+      if (i > 0 && chunk.observations[i - 1].feature == o.feature) {
+        ASSERT_LT(chunk.observations[i - 1].line, o.line);  // input order kept
+      }
+    }
+    seen += static_cast<int64_t>(chunk.observations.size());
+  }
+  EXPECT_EQ(seen, total);
 }
 
 // A resume whose input changed since the interrupted ingest starts afresh
