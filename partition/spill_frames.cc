@@ -111,12 +111,22 @@ SpillFrameDecoder::~SpillFrameDecoder() = default;
 
 Status SpillFrameDecoder::ReadFile(const std::string& path, std::FILE* file,
                                    std::vector<core::Observation>* out) {
-  GS_CHECK(file != nullptr && out != nullptr);
   int64_t offset = 0;
-  char header[kSpillFrameHeaderBytes];
   while (true) {
+    GS_ASSIGN_OR_RETURN(const bool more, ReadFrame(path, file, &offset, out));
+    if (!more) return Status::Ok();
+  }
+}
+
+StatusOr<bool> SpillFrameDecoder::ReadFrame(const std::string& path, std::FILE* file,
+                                            int64_t* offset_in_out,
+                                            std::vector<core::Observation>* out) {
+  GS_CHECK(file != nullptr && out != nullptr && offset_in_out != nullptr);
+  const int64_t offset = *offset_in_out;
+  char header[kSpillFrameHeaderBytes];
+  {
     const size_t got = std::fread(header, 1, sizeof(header), file);
-    if (got == 0 && std::feof(file)) return Status::Ok();
+    if (got == 0 && std::feof(file)) return false;
     if (std::ferror(file)) return Status::IOError(path + ": read: " + std::strerror(errno));
     if (got < sizeof(header))
       return Status::Corruption(At(path, offset) + "truncated header (" + std::to_string(got) +
@@ -164,7 +174,8 @@ Status SpillFrameDecoder::ReadFile(const std::string& path, std::FILE* file,
       line += Get<uint32_t>(base, c.line, i);
       o.line = static_cast<int32_t>(line);
     }
-    offset += static_cast<int64_t>(sizeof(header) + payload_bytes);
+    *offset_in_out = offset + static_cast<int64_t>(sizeof(header) + payload_bytes);
+    return true;
   }
 }
 

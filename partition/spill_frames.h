@@ -79,6 +79,10 @@ class SpillFrameDecoder {
   // `path` and the frame's byte offset on any damage; IOError on a read error.
   [[nodiscard]] Status ReadFile(const std::string& path, std::FILE* file,
                                 std::vector<core::Observation>* out);
+  // One frame at *offset (the file positioned there): appends its
+  // observations to *out, advances *offset; false at the end of the file.
+  StatusOr<bool> ReadFrame(const std::string& path, std::FILE* file, int64_t* offset,
+                           std::vector<core::Observation>* out);
 
  private:
   struct Context;
