@@ -18,15 +18,13 @@
 #include <type_traits>
 #include <utility>
 
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include "partition/spill_frames.h"
+
 namespace graphslam::partition {
 namespace {
-
-// Bucket files hold raw Observation structs: they are scratch of this process,
-// read back by the same binary, never an interchange format. Observation is
-// integers, an enum and fixed-size Eigen matrices (inline arrays of doubles,
-// no pointers), so its bytes round-trip; Eigen's user-provided copy
-// constructors are why std::is_trivially_copyable does not hold.
-static_assert(std::is_trivially_destructible_v<core::Observation>);
 
 struct FileCloser {
   void operator()(std::FILE* file) const {
@@ -181,18 +179,19 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
                               std::to_string(progress->bucket_observations.size()) +
                               " buckets; the plan has " + std::to_string(num_buckets));
   // Back to the last checkpoint: what a killed run appended after it goes.
+  // The progress counts observations; the frame headers say where they end.
   for (int64_t b = 0; b < num_buckets; ++b) {
     const std::string path = BucketPath(b);
-    const auto keep = static_cast<std::uintmax_t>(progress->bucket_observations[b]) *
-                      sizeof(core::Observation);
     std::error_code error;
     const bool exists = std::filesystem::exists(path, error);
-    if (!exists && keep == 0) continue;
-    if (!exists || std::filesystem::file_size(path, error) < keep)
-      return Status::Corruption(path + ": shorter than the " +
+    if (!exists && progress->bucket_observations[b] == 0) continue;
+    if (!exists)
+      return Status::Corruption(path + ": missing; the spill progress records " +
                                 std::to_string(progress->bucket_observations[b]) +
-                                " observations the spill progress records");
-    std::filesystem::resize_file(path, keep, error);
+                                " observations in it");
+    GS_ASSIGN_OR_RETURN(const int64_t keep,
+                        SpillFrameBoundary(path, progress->bucket_observations[b]));
+    std::filesystem::resize_file(path, static_cast<std::uintmax_t>(keep), error);
     if (error) return Status::IOError(path + ": truncate: " + error.message());
   }
   stats.observations = progress->observations;
@@ -203,6 +202,8 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
   std::vector<core::Observation> scratch;
   std::vector<int64_t> run(static_cast<size_t>(num_buckets) + 1, 0);
   std::vector<char> touched(static_cast<size_t>(num_buckets), 0);
+  const int level = options_.spill_zstd_level;
+  tbb::enumerable_thread_specific<SpillFrameEncoder> encoders([level] { return level; });
   auto last_checkpoint = std::chrono::steady_clock::now();
   const auto bucket_of = [&](const core::Observation& o) {
     return chunk_bucket_[feature_chunk_[o.feature]];
@@ -218,18 +219,40 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
       std::vector<int64_t> next(run.begin(), run.end() - 1);
       for (const core::Observation& o : buffer) scratch[next[bucket_of(o)]++] = o;
     }
-    for (int64_t b = 0; b < num_buckets; ++b) {
-      const auto begin = static_cast<size_t>(run[b]), end = static_cast<size_t>(run[b + 1]);
-      if (begin == end) continue;
+    // Each bucket's run as frames of at most kMaxSpillFrameObservations,
+    // compressed in parallel, appended in order.
+    struct Piece {
+      int64_t bucket;
+      int64_t begin, end;  // in scratch
+    };
+    std::vector<Piece> pieces;
+    for (int64_t b = 0; b < num_buckets; ++b)
+      for (int64_t i = run[b]; i < run[b + 1]; i += static_cast<int64_t>(kMaxSpillFrameObservations))
+        pieces.push_back(
+            {b, i, std::min(run[b + 1], i + static_cast<int64_t>(kMaxSpillFrameObservations))});
+    std::vector<std::vector<char>> frames(pieces.size());
+    std::vector<Status> statuses(pieces.size());
+    tbb::parallel_for(size_t{0}, pieces.size(), [&](size_t p) {
+      statuses[p] = encoders.local().Encode(scratch.data() + pieces[p].begin,
+                                            static_cast<size_t>(pieces[p].end - pieces[p].begin),
+                                            &frames[p]);
+    });
+    for (const Status& status : statuses) GS_RETURN_IF_ERROR(status);
+    for (size_t p = 0; p < pieces.size();) {
+      const int64_t b = pieces[p].bucket;
       const std::string path = BucketPath(b);
       File file(std::fopen(path.c_str(), "ab"));
       if (!file) return IoError(path, "open for append");
-      const size_t n = end - begin;
-      if (std::fwrite(scratch.data() + begin, sizeof(core::Observation), n, file.get()) != n)
-        return IoError(path, "write");
+      for (; p < pieces.size() && pieces[p].bucket == b; ++p) {
+        if (std::fwrite(frames[p].data(), 1, frames[p].size(), file.get()) != frames[p].size())
+          return IoError(path, "write");
+        stats.spilled_bytes += static_cast<int64_t>(frames[p].size());
+        frames[p] = std::vector<char>();
+      }
       if (std::fclose(file.release()) != 0) return IoError(path, "close");
-      stats.spilled_bytes += static_cast<int64_t>(n * sizeof(core::Observation));
-      progress->bucket_observations[b] += static_cast<int64_t>(n);
+      const int64_t n = run[b + 1] - run[b];
+      stats.spilled_raw_bytes += n * static_cast<int64_t>(sizeof(core::Observation));
+      progress->bucket_observations[b] += n;
       touched[b] = 1;
     }
     progress->observations += static_cast<int64_t>(buffer.size());
@@ -284,6 +307,7 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
   GS_RETURN_IF_ERROR(spill());
   buffer = std::vector<core::Observation>();
   scratch = std::vector<core::Observation>();
+  encoders.clear();
   for (int64_t b = 0; b < num_buckets; ++b)
     if (progress->bucket_observations[b] != bucket_observations_[b])
       return Status::Corruption(BucketPath(b) + ": " +
@@ -339,13 +363,16 @@ Status BucketChunkSource::LoadBucket(int64_t bucket) const {
   const int64_t n = bucket_observations_[bucket];
   bucket_.clear();
   bucket_.shrink_to_fit();  // the previous bucket's memory goes before the next one's
-  std::vector<core::Observation> read(static_cast<size_t>(n));
+  std::vector<core::Observation> read;
+  read.reserve(static_cast<size_t>(n));
   File file(std::fopen(path.c_str(), "rb"));
   if (!file) return IoError(path, "open for reading");
-  if (std::fread(read.data(), sizeof(core::Observation), static_cast<size_t>(n), file.get()) !=
-      static_cast<size_t>(n))
-    return Status::Corruption(path + ": shorter than the " + std::to_string(n) +
-                              " observations spilled into it");
+  SpillFrameDecoder decoder;
+  GS_RETURN_IF_ERROR(decoder.ReadFile(path, file.get(), &read));
+  if (static_cast<int64_t>(read.size()) != n)
+    return Status::Corruption(path + ": " + std::to_string(read.size()) +
+                              " observations in its frames; " + std::to_string(n) +
+                              " were spilled into it");
   // Grouped by (chunk, feature) = by feature slot within the bucket: a
   // counting sort, stable, so each feature keeps its input order.
   const int64_t first_chunk = bucket_first_chunk_[bucket];

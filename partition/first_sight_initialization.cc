@@ -6,17 +6,12 @@
 #include <filesystem>
 #include <numeric>
 #include <system_error>
-#include <type_traits>
 #include <utility>
 
 #include "core/initialization.h"
 
 namespace graphslam::partition {
 namespace {
-
-// Raw Observation records: scratch of this process, read back by the same
-// binary (as the bucket files of external_bucketing.cc).
-static_assert(std::is_trivially_destructible_v<core::Observation>);
 
 Status IoError(const std::string& path, const char* what) {
   return Status::IOError(path + ": " + what + ": " + std::strerror(errno));
@@ -47,8 +42,8 @@ Status FirstSightInitialization::Flush() {
     file_.reset(std::fopen(path_.c_str(), "wb"));
     if (!file_) return IoError(path_, "open for writing");
   }
-  if (std::fwrite(buffer_.data(), sizeof(core::Observation), buffer_.size(), file_.get()) !=
-      buffer_.size())
+  GS_RETURN_IF_ERROR(encoder_.Encode(buffer_.data(), buffer_.size(), &frame_));
+  if (std::fwrite(frame_.data(), 1, frame_.size(), file_.get()) != frame_.size())
     return IoError(path_, "write");
   buffer_.clear();
   return Status::Ok();
@@ -83,16 +78,19 @@ Status FirstSightInitialization::ReadBack(const Visit& visit) const {
   if (first_sights_ == 0) return Status::Ok();
   File file(std::fopen(path_.c_str(), "rb"));
   if (!file) return IoError(path_, "open for reading");
-  std::vector<core::Observation> block(kBlock);
-  int64_t left = first_sights_;
-  while (left > 0) {
-    const size_t n = static_cast<size_t>(std::min<int64_t>(left, kBlock));
-    if (std::fread(block.data(), sizeof(core::Observation), n, file.get()) != n)
-      return Status::Corruption(path_ + ": shorter than the " + std::to_string(first_sights_) +
-                                " first sights written to it");
-    for (size_t i = 0; i < n; ++i) GS_RETURN_IF_ERROR(visit(block[i]));
-    left -= static_cast<int64_t>(n);
+  SpillFrameDecoder decoder;
+  std::vector<core::Observation> block;
+  int64_t offset = 0, read = 0;
+  while (true) {
+    block.clear();
+    GS_ASSIGN_OR_RETURN(const bool more, decoder.ReadFrame(path_, file.get(), &offset, &block));
+    if (!more) break;
+    for (const core::Observation& o : block) GS_RETURN_IF_ERROR(visit(o));
+    read += static_cast<int64_t>(block.size());
   }
+  if (read != first_sights_)
+    return Status::Corruption(path_ + ": " + std::to_string(read) + " first sights in its frames; " +
+                              std::to_string(first_sights_) + " were written to it");
   return Status::Ok();
 }
 

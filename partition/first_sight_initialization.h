@@ -16,8 +16,8 @@
 //     that change the verdict: at most poses - 1 of them ("joining").
 //
 // So pass 1 appends the first sight of every feature to a scratch file
-// (WORK/first_sight.bin, raw core::Observation records, sequential writes of
-// 4096 at a time) and keeps only the joining observations in memory.
+// (WORK/first_sight.bin, spill frames of 4096 observations,
+// partition/spill_frames.h: ~4x smaller than raw records) and keeps only the joining observations in memory.
 // Initialize then
 //   1. reads the file once: checks every first sight (core::CheckObservation)
 //      and keeps the first sights of the features that have joining
@@ -60,6 +60,7 @@
 #include "core/problem.h"
 #include "core/status.h"
 #include "partition/external_bucketing.h"
+#include "partition/spill_frames.h"
 
 namespace graphslam::partition {
 
@@ -103,6 +104,8 @@ class FirstSightInitialization {
   static constexpr size_t kBlock = 4096;
   std::string path_;
   File file_;
+  SpillFrameEncoder encoder_{1};  // the file is spill frames (docs/formats/spill_bucket.md)
+  std::vector<char> frame_;
   std::vector<core::Observation> buffer_;   // first sights not yet written
   int64_t first_sights_ = 0;
   std::vector<int32_t> parent_;             // union-find over poses

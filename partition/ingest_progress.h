@@ -36,7 +36,9 @@ namespace graphslam::partition {
 inline constexpr const char* kPass1RecordName = "pass1.bin";
 inline constexpr const char* kIngestProgressName = "ingest_progress.json";
 inline constexpr const char* kIngestProgressFormat = "graphslam-ingest-progress";
-inline constexpr int kIngestProgressVersion = 1;
+// 2: the bucket files are spill frames (partition/spill_frames.h); a version-1
+// record (raw 72-byte bucket records) is not resumed: the ingest starts afresh.
+inline constexpr int kIngestProgressVersion = 2;
 
 struct Pass1Record {
   std::vector<int64_t> pose_ids;

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -20,6 +21,7 @@
 
 #include "core/initialization.h"
 #include "partition/in_memory_chunk_source.h"
+#include "partition/spill_frames.h"
 #include "partition/streaming_ingest.h"
 #include "storage/chunk_store.h"
 #include "storage/chunk_writer.h"
@@ -446,6 +448,107 @@ TEST_F(ExternalBucketingTest, ResumeAfterDyingAtDurableStepsGivesTheSameStoreByt
   EXPECT_GE(resumed_stages["spill"], 3);
   EXPECT_GE(resumed_stages["chunks"], 3);
   EXPECT_GE(resumed_stages[""], 2);  // died before the first record: afresh
+}
+
+// A kill in the middle of a spill leaves a torn frame (and whole frames the
+// progress record does not count) at the end of bucket files: the resume
+// truncates them back to the recorded frame boundary and gives the same store.
+// A damaged frame inside the recorded part is Corruption naming the bucket
+// file and the frame's byte offset.
+TEST_F(ExternalBucketingTest, ResumeAfterATornSpillFrameGivesTheSameStoreBytes) {
+  const std::string input = WriteInput(29, 150, 80);
+  StreamingIngestOptions options;
+  options.max_observations_per_chunk = 100;
+  options.buffer_observations = 300;
+  options.checkpoint_seconds = 0;
+  options.replay_block_bytes = 4096;
+  options.store.source = input;
+  IngestSummary summary;
+  NoSyncEnv no_sync;
+  ASSERT_TRUE(IngestToStore(&no_sync, input, Path("full"), options, &summary).ok());
+  ASSERT_GE(summary.bucketing.spills, 4);
+  EXPECT_LT(summary.bucketing.spilled_bytes, summary.bucketing.spilled_raw_bytes);
+
+  const std::string store = Path("store");
+  const std::string bucket = (std::filesystem::path(store) / "work" / "bucket_000000.bin").string();
+  auto die_in_the_spill = [&]() {
+    std::filesystem::remove_all(store);
+    FaultInjectionEnv env(&no_sync);
+    env.FailAt(FaultInjectionEnv::Operation::kRename, 5);  // the second spill checkpoint
+    ASSERT_FALSE(IngestToStore(&env, input, store, options, &summary).ok());
+    ASSERT_TRUE(std::filesystem::exists(bucket));
+  };
+  StreamingIngestOptions resume = options;
+  resume.resume = true;
+
+  die_in_the_spill();
+  const std::string frame_start = ReadBytes(bucket).substr(0, 20);
+  for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(store) / "work"))
+    if (entry.path().filename().string().rfind("bucket_", 0) == 0)
+      std::ofstream(entry.path(), std::ios::binary | std::ios::app) << frame_start;  // torn
+  ASSERT_TRUE(IngestToStore(&no_sync, input, store, resume, &summary).ok());
+  EXPECT_EQ(summary.resumed_stage, "spill");
+  ExpectSameBytes(store, Path("full"));
+
+  die_in_the_spill();
+  std::string bytes = ReadBytes(bucket);
+  bytes[kSpillFrameHeaderBytes + 3] ^= 0x10;
+  std::ofstream(bucket, std::ios::binary | std::ios::trunc) << bytes;
+  const Status status = IngestToStore(&no_sync, input, store, resume, &summary);
+  ASSERT_FALSE(status.ok());
+  EXPECT_TRUE(status.IsCorruption()) << status.ToString();
+  EXPECT_NE(status.message().find(bucket + ": spill frame at byte 0: CRC mismatch"),
+            std::string::npos)
+      << status.ToString();
+  EXPECT_FALSE(storage::IsChunkStore(store));
+}
+
+// Bucket runs longer than one spill frame (kMaxSpillFrameObservations) are
+// written as several frames and read back whole: every chunk has its
+// features' observations, each feature's in input order, bit for bit.
+TEST_F(ExternalBucketingTest, RunsLongerThanOneFrameReadBackInInputOrder) {
+  const int64_t total = 3 * static_cast<int64_t>(kMaxSpillFrameObservations) + 123;
+  std::vector<core::Observation> input(static_cast<size_t>(total));
+  std::mt19937 rng(31);
+  FeatureIndex index;
+  for (int64_t i = 0; i < total; ++i) {
+    core::Observation& o = input[static_cast<size_t>(i)];
+    o.pose = static_cast<int32_t>(i / 100);
+    o.feature = static_cast<int32_t>(rng() % 2000);
+    o.z = {std::ldexp(static_cast<double>(rng()), -7), -static_cast<double>(i)};
+    o.line = static_cast<int32_t>(i + 1);  // input order
+    index.Add(o);
+  }
+  ExternalBucketingOptions options;
+  options.max_observations_per_chunk = 50000;
+  options.buffer_observations = total;  // one spill: runs of ~50000-200000
+  options.work_dir = Path("work");
+  std::filesystem::create_directories(options.work_dir);
+  const ObservationReplay replay = [&](const storage::ObservationSink& sink) -> Status {
+    for (const core::Observation& o : input) GS_RETURN_IF_ERROR(sink(o));
+    return Status::Ok();
+  };
+  StatusOr<std::unique_ptr<BucketChunkSource>> source = BucketChunkSource::Build(index, replay, options);
+  ASSERT_TRUE(source.ok()) << source.status().ToString();
+  EXPECT_EQ((*source)->stats().spills, 1);
+  EXPECT_LT((*source)->stats().spilled_bytes, (*source)->stats().spilled_raw_bytes / 2);
+  int64_t seen = 0;
+  core::ObservationChunk chunk;
+  for (int64_t k = 0; k < (*source)->NumChunks(); ++k) {
+    ASSERT_TRUE((*source)->Load(k, &chunk).ok());
+    for (size_t i = 0; i < chunk.observations.size(); ++i) {
+      const core::Observation& o = chunk.observations[i];
+      const core::Observation& original = input[static_cast<size_t>(o.line - 1)];
+      ASSERT_EQ(o.feature, original.feature);
+      ASSERT_EQ(o.pose, original.pose);
+      ASSERT_EQ(o.z, original.z);
+      if (i > 0 && chunk.observations[i - 1].feature == o.feature) {
+        ASSERT_LT(chunk.observations[i - 1].line, o.line);  // input order kept
+      }
+    }
+    seen += static_cast<int64_t>(chunk.observations.size());
+  }
+  EXPECT_EQ(seen, total);
 }
 
 // A resume whose input changed since the interrupted ingest starts afresh

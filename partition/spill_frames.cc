@@ -1,0 +1,226 @@
+#include "partition/spill_frames.h"
+
+#include <zstd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <system_error>
+
+#include "storage/crc32c.h"
+
+namespace graphslam::partition {
+namespace {
+
+static_assert(std::numeric_limits<double>::is_iec559);
+
+// Column offsets (in bytes) of a frame of n observations.
+struct Columns {
+  explicit Columns(size_t n)
+      : pose(0), feature(4 * n), kind(8 * n), z(9 * n), information(25 * n), line(57 * n) {}
+  size_t pose, feature, kind, z, information, line;
+};
+
+template <typename T>
+void Put(char* base, size_t offset, size_t i, T value) {
+  std::memcpy(base + offset + i * sizeof(T), &value, sizeof(T));
+}
+template <typename T>
+T Get(const char* base, size_t offset, size_t i) {
+  T value;
+  std::memcpy(&value, base + offset + i * sizeof(T), sizeof(T));
+  return value;
+}
+
+void PutU32(char* p, uint32_t v) { std::memcpy(p, &v, 4); }
+uint32_t GetU32(const char* p) {
+  uint32_t v;
+  std::memcpy(&v, p, 4);
+  return v;
+}
+
+// The CRC of a frame: n and payload_bytes (header bytes 4..11), then the payload.
+uint32_t FrameCrc(const char* header, const char* payload, size_t payload_bytes) {
+  return storage::crc32c::Mask(
+      storage::crc32c::Extend(storage::crc32c::Value(header + 4, 8), payload, payload_bytes));
+}
+
+std::string At(const std::string& path, int64_t offset) {
+  return path + ": spill frame at byte " + std::to_string(offset) + ": ";
+}
+
+}  // namespace
+
+struct SpillFrameEncoder::Context {
+  ZSTD_CCtx* cctx = ZSTD_createCCtx();
+  ~Context() { ZSTD_freeCCtx(cctx); }
+};
+
+SpillFrameEncoder::SpillFrameEncoder(int zstd_level)
+    : level_(zstd_level), context_(std::make_unique<Context>()) {}
+SpillFrameEncoder::~SpillFrameEncoder() = default;
+
+Status SpillFrameEncoder::Encode(const core::Observation* observations, size_t n,
+                                 std::vector<char>* frame) {
+  GS_CHECK(frame != nullptr && n < (size_t{1} << 31));
+  const Columns c(n);
+  columns_.resize(kSpillRecordBytes * n);
+  char* base = columns_.data();
+  uint32_t pose = 0, line = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const core::Observation& o = observations[i];
+    Put<uint32_t>(base, c.pose, i, static_cast<uint32_t>(o.pose) - pose);
+    pose = static_cast<uint32_t>(o.pose);
+    Put<int32_t>(base, c.feature, i, o.feature);
+    Put<uint8_t>(base, c.kind, i, static_cast<uint8_t>(o.kind));
+    Put<double>(base, c.z, i, o.z(0));
+    Put<double>(base, c.z + 8 * n, i, o.z(1));
+    for (int e = 0; e < 4; ++e) Put<double>(base, c.information + 8 * n * e, i, o.information(e));
+    Put<uint32_t>(base, c.line, i, static_cast<uint32_t>(o.line) - line);
+    line = static_cast<uint32_t>(o.line);
+  }
+  const size_t bound = ZSTD_compressBound(columns_.size());
+  compressed_.resize(bound);
+  const size_t size = ZSTD_compressCCtx(context_->cctx, compressed_.data(), bound,
+                                        columns_.data(), columns_.size(), level_);
+  if (ZSTD_isError(size))
+    return Status::IOError(std::string("spill frame: zstd compression failed: ") +
+                           ZSTD_getErrorName(size));
+  if (size > std::numeric_limits<uint32_t>::max())
+    return Status::InvalidArgument("spill frame: payload of " + std::to_string(size) + " bytes");
+  // Exactly the frame's bytes: the caller's vector holds no compressBound slack.
+  frame->resize(kSpillFrameHeaderBytes + size);
+  frame->shrink_to_fit();
+  std::memcpy(frame->data() + kSpillFrameHeaderBytes, compressed_.data(), size);
+  char* header = frame->data();
+  PutU32(header, kSpillFrameMagic);
+  PutU32(header + 4, static_cast<uint32_t>(n));
+  PutU32(header + 8, static_cast<uint32_t>(size));
+  PutU32(header + 12, FrameCrc(header, header + kSpillFrameHeaderBytes, size));
+  return Status::Ok();
+}
+
+struct SpillFrameDecoder::Context {
+  ZSTD_DCtx* dctx = ZSTD_createDCtx();
+  ~Context() { ZSTD_freeDCtx(dctx); }
+};
+
+SpillFrameDecoder::SpillFrameDecoder() : context_(std::make_unique<Context>()) {}
+SpillFrameDecoder::~SpillFrameDecoder() = default;
+
+Status SpillFrameDecoder::ReadFile(const std::string& path, std::FILE* file,
+                                   std::vector<core::Observation>* out) {
+  int64_t offset = 0;
+  while (true) {
+    GS_ASSIGN_OR_RETURN(const bool more, ReadFrame(path, file, &offset, out));
+    if (!more) return Status::Ok();
+  }
+}
+
+StatusOr<bool> SpillFrameDecoder::ReadFrame(const std::string& path, std::FILE* file,
+                                            int64_t* offset_in_out,
+                                            std::vector<core::Observation>* out) {
+  GS_CHECK(file != nullptr && out != nullptr && offset_in_out != nullptr);
+  const int64_t offset = *offset_in_out;
+  char header[kSpillFrameHeaderBytes];
+  {
+    const size_t got = std::fread(header, 1, sizeof(header), file);
+    if (got == 0 && std::feof(file)) return false;
+    if (std::ferror(file)) return Status::IOError(path + ": read: " + std::strerror(errno));
+    if (got < sizeof(header))
+      return Status::Corruption(At(path, offset) + "truncated header (" + std::to_string(got) +
+                                " of " + std::to_string(sizeof(header)) + " bytes)");
+    if (GetU32(header) != kSpillFrameMagic)
+      return Status::Corruption(At(path, offset) + "bad magic");
+    const size_t n = GetU32(header + 4);
+    const size_t payload_bytes = GetU32(header + 8);
+    payload_.resize(payload_bytes);
+    const size_t read = std::fread(payload_.data(), 1, payload_bytes, file);
+    if (std::ferror(file)) return Status::IOError(path + ": read: " + std::strerror(errno));
+    if (read < payload_bytes)
+      return Status::Corruption(At(path, offset) + "truncated: payload of " +
+                                std::to_string(payload_bytes) + " bytes, the file has " +
+                                std::to_string(read));
+    if (FrameCrc(header, payload_.data(), payload_bytes) != GetU32(header + 12))
+      return Status::Corruption(At(path, offset) + "CRC mismatch");
+    columns_.resize(kSpillRecordBytes * n);
+    const size_t size = ZSTD_decompressDCtx(context_->dctx, columns_.data(), columns_.size(),
+                                            payload_.data(), payload_bytes);
+    if (ZSTD_isError(size) || size != columns_.size())
+      return Status::Corruption(At(path, offset) + "payload does not decompress to " +
+                                std::to_string(columns_.size()) + " bytes (" +
+                                (ZSTD_isError(size) ? ZSTD_getErrorName(size)
+                                                    : std::to_string(size) + " bytes") +
+                                ")");
+    const Columns c(n);
+    const char* base = columns_.data();
+    const size_t first = out->size();
+    out->resize(first + n);
+    uint32_t pose = 0, line = 0;
+    for (size_t i = 0; i < n; ++i) {
+      core::Observation& o = (*out)[first + i];
+      pose += Get<uint32_t>(base, c.pose, i);
+      o.pose = static_cast<int32_t>(pose);
+      o.feature = Get<int32_t>(base, c.feature, i);
+      const uint8_t kind = Get<uint8_t>(base, c.kind, i);
+      if (kind > static_cast<uint8_t>(core::ObservationKind::kPointXY))
+        return Status::Corruption(At(path, offset) + "observation " + std::to_string(i) +
+                                  " has kind " + std::to_string(kind) + "; expected 0 or 1");
+      o.kind = static_cast<core::ObservationKind>(kind);
+      o.z(0) = Get<double>(base, c.z, i);
+      o.z(1) = Get<double>(base, c.z + 8 * n, i);
+      for (int e = 0; e < 4; ++e) o.information(e) = Get<double>(base, c.information + 8 * n * e, i);
+      line += Get<uint32_t>(base, c.line, i);
+      o.line = static_cast<int32_t>(line);
+    }
+    *offset_in_out = offset + static_cast<int64_t>(sizeof(header) + payload_bytes);
+    return true;
+  }
+}
+
+StatusOr<int64_t> SpillFrameBoundary(const std::string& path, int64_t observations) {
+  std::FILE* file = std::fopen(path.c_str(), "rb");
+  if (file == nullptr) {
+    if (observations == 0 && errno == ENOENT) return int64_t{0};
+    return Status::IOError(path + ": open for reading: " + std::strerror(errno));
+  }
+  int64_t offset = 0, seen = 0;
+  Status status;
+  char header[kSpillFrameHeaderBytes];
+  while (seen < observations) {
+    if (std::fread(header, 1, sizeof(header), file) != sizeof(header)) {
+      status = Status::Corruption(At(path, offset) + "the file ends after " + std::to_string(seen) +
+                                  " observations; the spill progress records " +
+                                  std::to_string(observations));
+      break;
+    }
+    if (GetU32(header) != kSpillFrameMagic) {
+      status = Status::Corruption(At(path, offset) + "bad magic");
+      break;
+    }
+    seen += GetU32(header + 4);
+    offset += static_cast<int64_t>(sizeof(header) + GetU32(header + 8));
+    if (std::fseek(file, offset, SEEK_SET) != 0) {
+      status = Status::IOError(path + ": seek: " + std::strerror(errno));
+      break;
+    }
+  }
+  std::fclose(file);
+  GS_RETURN_IF_ERROR(status);
+  if (seen != observations)
+    return Status::Corruption(At(path, offset) + "the recorded " + std::to_string(observations) +
+                              " observations end inside a frame (frames end at " +
+                              std::to_string(seen) + ")");
+  // The last counted frame must lie within the file (fseek past the end succeeds).
+  std::error_code error;
+  const auto size = std::filesystem::file_size(path, error);
+  if (error) return Status::IOError(path + ": size: " + error.message());
+  if (static_cast<int64_t>(size) < offset)
+    return Status::Corruption(path + ": " + std::to_string(size) + " bytes, shorter than the " +
+                              std::to_string(offset) + " bytes of the " +
+                              std::to_string(observations) + " recorded observations");
+  return offset;
+}
+
+}  // namespace graphslam::partition
