@@ -152,6 +152,22 @@ Eigen::VectorXd RecoverFeature(const FeatureBlocks& f, const Eigen::VectorXd& po
   return -llt.solve(v);
 }
 
+namespace {
+
+// stored += v, or stored += v^T for a lower position (i > k) of S, whose
+// upper-triangle block (k, i) is the one stored; b x b, row-major.
+void AddToStoredBlock(const double* v, bool transposed, int b, double* stored) {
+  if (!transposed) {
+    for (int e = 0; e < b * b; ++e) stored[e] += v[e];
+    return;
+  }
+  for (int r = 0; r < b; ++r) {
+    for (int col = 0; col < b; ++col) stored[r * b + col] += v[col * b + r];
+  }
+}
+
+}  // namespace
+
 void AccumulateContribution(const ReducedContribution& c, BlockSparseMatrix* s,
                             Eigen::VectorXd* rhs) {
   GS_CHECK(rhs->size() == s->num_rows());
@@ -166,17 +182,9 @@ void AccumulateContribution(const ReducedContribution& c, BlockSparseMatrix* s,
     const int k = c.cols[j];
     const double* v = c.values.data() + j * b * b;
     // S stores its upper triangle: a lower block lands transposed.
-    if (i <= k) {
-      double* ik = s->MutableBlock(i, k);
-      GS_CHECK(ik != nullptr);
-      for (int e = 0; e < b * b; ++e) ik[e] += v[e];
-    } else {
-      double* ki = s->MutableBlock(k, i);
-      GS_CHECK(ki != nullptr);
-      for (int r = 0; r < b; ++r) {
-        for (int col = 0; col < b; ++col) ki[r * b + col] += v[col * b + r];
-      }
-    }
+    double* stored = i <= k ? s->MutableBlock(i, k) : s->MutableBlock(k, i);
+    GS_CHECK(stored != nullptr);
+    AddToStoredBlock(v, /*transposed=*/i > k, b, stored);
   }
   for (size_t j = 0; j < c.rhs_rows.size(); ++j) {
     const int64_t row = c.rhs_rows[j];
@@ -233,14 +241,7 @@ void AccumulateContribution(const ReducedContribution& c, const ContributionGrou
   for (size_t j = 0; j < c.rows.size(); ++j) {
     const int32_t g = groups.of_entry[j];
     const double* v = c.values.data() + j * b * b;
-    double* block = target[g];
-    if (c.rows[j] <= c.cols[j]) {
-      for (int e = 0; e < b * b; ++e) block[e] += v[e];
-    } else {
-      for (int r = 0; r < b; ++r) {
-        for (int col = 0; col < b; ++col) block[r * b + col] += v[col * b + r];
-      }
-    }
+    AddToStoredBlock(v, /*transposed=*/c.rows[j] > c.cols[j], b, target[g]);
   }
   for (size_t j = 0; j < c.rhs_rows.size(); ++j) {
     const int64_t row = c.rhs_rows[j];

@@ -193,6 +193,20 @@ INSTANTIATE_TEST_SUITE_P(KindsChunkSizesAndKeptFeatures, FusedPassTest,
                          ::testing::Combine(::testing::Bool(), ::testing::Values(1, 7, 100000),
                                             ::testing::Bool()));
 
+// Adds feature 99, observed once from `pose` with an information that only
+// constrains one direction (its C is rank one, so screening excludes it).
+int32_t AddRankOneFeature(int32_t pose, Problem2d* problem) {
+  const int32_t f = problem->AddFeature(99, Point2(1.0, 2.0), true);
+  Observation o;
+  o.pose = pose;
+  o.feature = f;
+  o.kind = ObservationKind::kPointXY;
+  o.z = Eigen::Vector2d(1.0, 1.0);
+  o.information << 1.0, 0.0, 0.0, 0.0;
+  problem->observations.push_back(o);
+  return f;
+}
+
 TEST(ChunkPasses, ScreeningExcludesFeatureWithSingularInformation) {
   testing::RandomProblemOptions options;
   options.num_poses = 6;
@@ -201,14 +215,7 @@ TEST(ChunkPasses, ScreeningExcludesFeatureWithSingularInformation) {
   Problem2d& problem = random.problem;
   // A third feature observed once with an information that only constrains
   // one direction: its C is rank one.
-  const int32_t f = problem.AddFeature(99, Point2(1.0, 2.0), true);
-  Observation o;
-  o.pose = 1;
-  o.feature = f;
-  o.kind = ObservationKind::kPointXY;
-  o.z = Eigen::Vector2d(1.0, 1.0);
-  o.information << 1.0, 0.0, 0.0, 0.0;
-  problem.observations.push_back(o);
+  const int32_t f = AddRankOneFeature(1, &problem);
   problem.AddFeature(100, Point2(0.0, 0.0), true);  // never observed
   partition::InMemoryChunkSource chunks(problem, partition::ChunkingOptions());
   const UnknownLayout layout = UnknownLayout::FromProblem(problem);
@@ -237,14 +244,7 @@ TEST(ChunkPasses, ScreenedPatternEqualsCollectedPattern) {
       testing::RandomProblem random = testing::MakeRandomProblem(options);
       Problem2d& problem = random.problem;
       // A feature whose information is rank one: excluded by the screening.
-      const int32_t f = problem.AddFeature(99, Point2(1.0, 2.0), true);
-      Observation o;
-      o.pose = 3;
-      o.feature = f;
-      o.kind = ObservationKind::kPointXY;
-      o.z = Eigen::Vector2d(1.0, 1.0);
-      o.information << 1.0, 0.0, 0.0, 0.0;
-      problem.observations.push_back(o);
+      const int32_t f = AddRankOneFeature(3, &problem);
       partition::ChunkingOptions chunking;
       chunking.max_observations_per_chunk = chunk_size;
       partition::InMemoryChunkSource chunks(problem, chunking);

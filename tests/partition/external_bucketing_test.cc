@@ -62,6 +62,18 @@ class ExternalBucketingTest : public ::testing::Test {
     return path;
   }
 
+  // Options that make a small input spill often: chunks of 100, a buffer of
+  // 300 observations, a checkpoint at every spill, replay blocks of ~40
+  // observations.
+  static StreamingIngestOptions SmallSpillOptions() {
+    StreamingIngestOptions options;
+    options.max_observations_per_chunk = 100;
+    options.buffer_observations = 300;
+    options.checkpoint_seconds = 0;
+    options.replay_block_bytes = 4096;
+    return options;
+  }
+
   // The in-memory path of the previous ingest: read whole, initialize,
   // InMemoryChunkSource, WriteChunkStore.
   void WriteInMemoryStore(const std::string& input, const std::string& store, int64_t chunk) {
@@ -411,11 +423,7 @@ class NoSyncEnv final : public Env {
 // resumes start in the second pass and in the chunk stage.
 TEST_F(ExternalBucketingTest, ResumeAfterDyingAtDurableStepsGivesTheSameStoreBytes) {
   const std::string input = WriteInput(17, 150, 80);
-  StreamingIngestOptions options;
-  options.max_observations_per_chunk = 100;
-  options.buffer_observations = 300;
-  options.checkpoint_seconds = 0;     // a checkpoint at every spill
-  options.replay_block_bytes = 4096;  // between blocks of ~40 observations
+  StreamingIngestOptions options = SmallSpillOptions();
   options.store.sync_group_chunks = 4;
   options.store.source = input;
   IngestSummary summary;
@@ -457,11 +465,7 @@ TEST_F(ExternalBucketingTest, ResumeAfterDyingAtDurableStepsGivesTheSameStoreByt
 // file and the frame's byte offset.
 TEST_F(ExternalBucketingTest, ResumeAfterATornSpillFrameGivesTheSameStoreBytes) {
   const std::string input = WriteInput(29, 150, 80);
-  StreamingIngestOptions options;
-  options.max_observations_per_chunk = 100;
-  options.buffer_observations = 300;
-  options.checkpoint_seconds = 0;
-  options.replay_block_bytes = 4096;
+  StreamingIngestOptions options = SmallSpillOptions();
   options.store.source = input;
   IngestSummary summary;
   NoSyncEnv no_sync;
@@ -578,11 +582,7 @@ TEST_F(ExternalBucketingTest, ResumeWithAChangedInputStartsAfresh) {
 // truncated or corrupted .zst is an error naming the file and the offset.
 TEST_F(ExternalBucketingTest, ZstdInputGivesThePlainInputsStoreBytesAndResumes) {
   const std::string input = WriteInput(29, 150, 80);
-  StreamingIngestOptions options;
-  options.max_observations_per_chunk = 100;
-  options.buffer_observations = 300;
-  options.checkpoint_seconds = 0;
-  options.replay_block_bytes = 4096;
+  StreamingIngestOptions options = SmallSpillOptions();
   IngestSummary summary;
   ASSERT_TRUE(IngestToStore(Env::Default(), input, Path("plain"), options, &summary).ok());
   // The same path, now compressed (problem.graphslam names its input path):

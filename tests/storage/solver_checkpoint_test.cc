@@ -14,6 +14,7 @@
 #include <random>
 
 #include "core/se3_lie.h"
+#include "tests/testing/directory_bytes.h"
 
 namespace graphslam::storage {
 namespace {
@@ -422,11 +423,7 @@ TEST(SolverCheckpoint, DamagedStateFileIsCorruptionNamingTheFileAndOffset) {
   const std::string path = TempPath("damaged_state.json");
   const std::string state = path + ".state.7.bin";
   ASSERT_TRUE(WriteSolverCheckpointWithFeatureFile(Env::Default(), path, "in", c).ok());
-  std::string bytes;
-  {
-    std::ifstream in(state, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
+  const std::string bytes = testing::ReadWholeFile(state);
   const auto write = [&](const std::string& contents) {
     std::ofstream out(state, std::ios::binary | std::ios::trunc);
     out << contents;
@@ -469,11 +466,7 @@ TEST(SolverCheckpoint, DamagedFeatureFileIsCorruptionNamingTheFileAndOffset) {
   const std::string path = TempPath("damaged.json");
   const std::string features = path + ".features.7.bin";
   ASSERT_TRUE(WriteSolverCheckpointWithFeatureFile(Env::Default(), path, "in", c).ok());
-  std::string bytes;
-  {
-    std::ifstream in(features, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
+  const std::string bytes = testing::ReadWholeFile(features);
   const auto write = [&](const std::string& contents) {
     std::ofstream out(features, std::ios::binary | std::ios::trunc);
     out << contents;

@@ -21,6 +21,7 @@
 #include <thread>
 #include <vector>
 
+#include "tests/testing/directory_bytes.h"
 #include "tests/testing/kill_nine.h"
 #include "tests/testing/subprocess.h"
 #include "tests/tools/out_of_core_fixture.h"
@@ -125,10 +126,7 @@ TEST_F(OutOfCoreTest, StreamingResumeFromAFeatureFileEqualsTheUninterruptedSolve
     const int code = RunGraphslam(args);
     return code == 0 || code == 4;  // converged, or stopped at --max-iterations
   };
-  const auto bytes = [](const fs::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  };
+  const auto bytes = [](const fs::path& path) { return graphslam::testing::ReadWholeFile(path); };
   ASSERT_TRUE(solve("full", "5", false));
   ASSERT_TRUE(solve("part", "2", false));
   const nlohmann::json checkpoint = ReadJson(dir_ / "part.json");
@@ -191,10 +189,7 @@ TEST_F(OutOfCoreTest, StreamingPcgResumeFromAStateFileEqualsTheUninterruptedSolv
     const int code = RunGraphslam(a);
     return code == 0 || code == 4;
   };
-  const auto bytes = [](const fs::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  };
+  const auto bytes = [](const fs::path& path) { return graphslam::testing::ReadWholeFile(path); };
   ASSERT_TRUE(solve("full", "5", false));
   ASSERT_TRUE(solve("part", "2", false));
   const nlohmann::json checkpoint = ReadJson(dir_ / "part.json");
