@@ -26,7 +26,11 @@
 //    ~40) and sim1e6obs (74), whose late solves need hundreds of CG
 //    iterations, CHOLMOD won until the truncation of item 2b; with it PCG
 //    ties at 10^5 (0.97x CHOLMOD's CPU) and wins at 10^6 (0.87x), so the
-//    same K picks the faster (or an even) solver there too.
+//    same K picks the faster (or an even) solver there too. Those figures
+//    predate S's upper-triangle storage, whose product is ~1.7x slower: on
+//    it PCG measured 1.23x CHOLMOD at sim1e6obs (docs/benchmarks.md,
+//    "Re-measured after S went to its upper triangle"), so there `auto` now
+//    picks the slower solver until the product reads each block once.
 //    `--solver pcg|cholmod` overrides.
 //
 // 2. For PCG, an inexact-Newton forcing sequence (Eisenstat & Walker,
