@@ -166,17 +166,34 @@ void AddToStoredBlock(const double* v, bool transposed, int b, double* stored) {
   }
 }
 
+// The invariants both merges rely on: c's block size is S's and its arrays
+// have matching lengths.
+void CheckContributionFits(const ReducedContribution& c, const BlockSparseMatrix& s) {
+  const int b = c.block_size;
+  GS_CHECK(b == s.block_size());
+  GS_CHECK(c.rows.size() == c.cols.size());
+  GS_CHECK(c.values.size() == c.rows.size() * b * b);
+  GS_CHECK(c.rhs_values.size() == c.rhs_rows.size() * b);
+}
+
+// rhs += c's right-hand-side entries, in their order.
+void AddRhs(const ReducedContribution& c, Eigen::VectorXd* rhs) {
+  const int b = c.block_size;
+  for (size_t j = 0; j < c.rhs_rows.size(); ++j) {
+    const int64_t row = c.rhs_rows[j];
+    GS_CHECK(row >= 0 && (row + 1) * b <= rhs->size());
+    for (int r = 0; r < b; ++r) (*rhs)[row * b + r] += c.rhs_values[j * b + r];
+  }
+}
+
 }  // namespace
 
 void AccumulateContribution(const ReducedContribution& c, BlockSparseMatrix* s,
                             Eigen::VectorXd* rhs) {
   GS_CHECK(rhs->size() == s->num_rows());
   if (c.rows.empty() && c.rhs_rows.empty()) return;
+  CheckContributionFits(c, *s);
   const int b = c.block_size;
-  GS_CHECK(b == s->block_size());
-  GS_CHECK(c.rows.size() == c.cols.size());
-  GS_CHECK(c.values.size() == c.rows.size() * b * b);
-  GS_CHECK(c.rhs_values.size() == c.rhs_rows.size() * b);
   for (size_t j = 0; j < c.rows.size(); ++j) {
     const int i = c.rows[j];
     const int k = c.cols[j];
@@ -186,11 +203,7 @@ void AccumulateContribution(const ReducedContribution& c, BlockSparseMatrix* s,
     GS_CHECK(stored != nullptr);
     AddToStoredBlock(v, /*transposed=*/i > k, b, stored);
   }
-  for (size_t j = 0; j < c.rhs_rows.size(); ++j) {
-    const int64_t row = c.rhs_rows[j];
-    GS_CHECK(row >= 0 && (row + 1) * b <= rhs->size());
-    for (int r = 0; r < b; ++r) (*rhs)[row * b + r] += c.rhs_values[j * b + r];
-  }
+  AddRhs(c, rhs);
 }
 
 void ContributionGroups::Build(const ReducedContribution& c) {
@@ -223,11 +236,8 @@ void AccumulateContribution(const ReducedContribution& c, const ContributionGrou
                             BlockSparseMatrix* s, Eigen::VectorXd* rhs) {
   GS_CHECK(rhs->size() == s->num_rows());
   if (c.rows.empty() && c.rhs_rows.empty()) return;
+  CheckContributionFits(c, *s);
   const int b = c.block_size;
-  GS_CHECK(b == s->block_size());
-  GS_CHECK(c.rows.size() == c.cols.size());
-  GS_CHECK(c.values.size() == c.rows.size() * b * b);
-  GS_CHECK(c.rhs_values.size() == c.rhs_rows.size() * b);
   GS_CHECK(groups.of_entry.size() == c.rows.size());
   // S stores its upper triangle: the block of every position, looked up once;
   // a lower position (i > k) lands transposed in (k, i).
@@ -243,11 +253,7 @@ void AccumulateContribution(const ReducedContribution& c, const ContributionGrou
     const double* v = c.values.data() + j * b * b;
     AddToStoredBlock(v, /*transposed=*/c.rows[j] > c.cols[j], b, target[g]);
   }
-  for (size_t j = 0; j < c.rhs_rows.size(); ++j) {
-    const int64_t row = c.rhs_rows[j];
-    GS_CHECK(row >= 0 && (row + 1) * b <= rhs->size());
-    for (int r = 0; r < b; ++r) (*rhs)[row * b + r] += c.rhs_values[j * b + r];
-  }
+  AddRhs(c, rhs);
 }
 
 }  // namespace graphslam::core
