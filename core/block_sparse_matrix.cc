@@ -11,55 +11,82 @@
 namespace graphslam::core {
 namespace {
 
-// y_i += sum_{k<i} U_ki^T x_k + sum_{k>=i} U_ik x_k for block rows
-// [begin, end), with the block size known at compile time. The accumulation
-// order per row is fixed (ascending k), which is what makes the parallel
-// product bit-exact. The lower blocks are transposed into a row-major
-// temporary so that the product expression, and hence Eigen's operation
-// order, is the one the former full storage used for A_ik.
+// The sweep of one product range, rows [r0, r1): y_i += U_ik x_k for every
+// stored block, and U_ik^T x_i into y_k (k < r1), into the window accumulator
+// acc (r1 <= k < window_end) or nowhere (far, gathered by MergeRows). kB > 0:
+// the block size known at compile time (the direct sum of a row stays in
+// registers); kB == 0: any block size b, accumulated in place.
 template <int kB>
-void MultiplyRowsFixed(const int64_t* row_start, const int* block_cols, const int64_t* col_start,
-                       const int* col_rows, const int* col_blocks, const double* values,
-                       int begin, int end, const double* x, double* y) {
-  using Block = Eigen::Matrix<double, kB, kB, Eigen::RowMajor>;
-  using BlockMap = Eigen::Map<const Block>;
-  using ConstVectorMap = Eigen::Map<const Eigen::Matrix<double, kB, 1>>;
-  using VectorMap = Eigen::Map<Eigen::Matrix<double, kB, 1>>;
-  for (int i = begin; i < end; ++i) {
-    Eigen::Matrix<double, kB, 1> sum = Eigen::Matrix<double, kB, 1>::Zero();
-    for (int64_t t = col_start[i]; t < col_start[i + 1]; ++t) {
-      const Block lower = BlockMap(values + static_cast<int64_t>(col_blocks[t]) * kB * kB)
-                              .transpose();
-      sum.noalias() += lower * ConstVectorMap(x + static_cast<int64_t>(col_rows[t]) * kB);
+void SweepRows(int b_runtime, const int64_t* row_start, const int* block_cols,
+               const double* values, int r0, int r1, int window_end, const double* x, double* y,
+               double* acc) {
+  const int b = kB > 0 ? kB : b_runtime;
+  const int64_t bb = static_cast<int64_t>(b) * b;
+  for (int i = r0; i < r1; ++i) {
+    const double* xi = x + static_cast<int64_t>(i) * b;
+    double* yi = y + static_cast<int64_t>(i) * b;
+    double sum[kB > 0 ? kB : 1];
+    if constexpr (kB > 0) {
+      for (int r = 0; r < kB; ++r) sum[r] = 0.0;
     }
     for (int64_t j = row_start[i]; j < row_start[i + 1]; ++j) {
-      sum.noalias() +=
-          BlockMap(values + j * kB * kB) * ConstVectorMap(x + static_cast<int64_t>(block_cols[j]) * kB);
+      const int k = block_cols[j];
+      const double* u = values + j * bb;
+      const double* xk = x + static_cast<int64_t>(k) * b;
+      for (int r = 0; r < b; ++r) {
+        double s = 0.0;
+        for (int c = 0; c < b; ++c) s += u[r * b + c] * xk[c];
+        if constexpr (kB > 0) {
+          sum[r] += s;
+        } else {
+          yi[r] += s;
+        }
+      }
+      if (k == i || k >= window_end) continue;  // diagonal, or far
+      double* target = k < r1 ? y + static_cast<int64_t>(k) * b
+                              : acc + static_cast<int64_t>(k - r1) * b;
+      for (int c = 0; c < b; ++c) {
+        double s = 0.0;
+        for (int r = 0; r < b; ++r) s += u[r * b + c] * xi[r];
+        target[c] += s;
+      }
     }
-    VectorMap(y + static_cast<int64_t>(i) * kB) += sum;
+    if constexpr (kB > 0) {
+      for (int r = 0; r < kB; ++r) yi[r] += sum[r];
+    }
   }
 }
 
-// The same for any block size, with plain loops (no Eigen temporaries).
-void MultiplyRowsDynamic(int b, const int64_t* row_start, const int* block_cols,
-                         const int64_t* col_start, const int* col_rows, const int* col_blocks,
-                         const double* values, int begin, int end, const double* x, double* y) {
+// The far blocks of one merge range: y_k += sum_i U_ik^T x_i over the
+// entries [begin, end), sorted by (k, i).
+template <int kB>
+void GatherFar(int b_runtime, const int* far_rows, const int* far_cols, const int* far_blocks,
+               const double* values, int64_t begin, int64_t end, const double* x, double* y) {
+  const int b = kB > 0 ? kB : b_runtime;
   const int64_t bb = static_cast<int64_t>(b) * b;
-  for (int i = begin; i < end; ++i) {
-    double* yi = y + static_cast<int64_t>(i) * b;
-    for (int r = 0; r < b; ++r) {
-      double sum = 0.0;
-      for (int64_t t = col_start[i]; t < col_start[i + 1]; ++t) {
-        const double* a = values + col_blocks[t] * bb + r;  // column r of U_ki
-        const double* xk = x + static_cast<int64_t>(col_rows[t]) * b;
-        for (int c = 0; c < b; ++c) sum += a[static_cast<int64_t>(c) * b] * xk[c];
+  int64_t e = begin;
+  while (e < end) {
+    const int k = far_cols[e];
+    double* yk = y + static_cast<int64_t>(k) * b;
+    double sum[kB > 0 ? kB : 1];
+    if constexpr (kB > 0) {
+      for (int c = 0; c < kB; ++c) sum[c] = 0.0;
+    }
+    for (; e < end && far_cols[e] == k; ++e) {
+      const double* u = values + static_cast<int64_t>(far_blocks[e]) * bb;
+      const double* xi = x + static_cast<int64_t>(far_rows[e]) * b;
+      for (int c = 0; c < b; ++c) {
+        double s = 0.0;
+        for (int r = 0; r < b; ++r) s += u[r * b + c] * xi[r];
+        if constexpr (kB > 0) {
+          sum[c] += s;
+        } else {
+          yk[c] += s;
+        }
       }
-      for (int64_t j = row_start[i]; j < row_start[i + 1]; ++j) {
-        const double* a = values + j * bb + static_cast<int64_t>(r) * b;
-        const double* xk = x + static_cast<int64_t>(block_cols[j]) * b;
-        for (int c = 0; c < b; ++c) sum += a[c] * xk[c];
-      }
-      yi[r] += sum;
+    }
+    if constexpr (kB > 0) {
+      for (int c = 0; c < kB; ++c) yk[c] += sum[c];
     }
   }
 }
@@ -129,6 +156,8 @@ BlockSparseMatrix BlockSparseMatrix::FromPattern(int block_size, int num_block_r
     }
   }
   m.values_.assign(static_cast<size_t>(out) * block_size * block_size, 0.0);
+  m.PartitionForProduct(
+      std::max<int64_t>(1, kProductNonzerosPerRange / (static_cast<int64_t>(block_size) * block_size)));
   return m;
 }
 
@@ -195,36 +224,180 @@ Eigen::VectorXd BlockSparseMatrix::Diagonal() const {
   return d;
 }
 
-void BlockSparseMatrix::MultiplyRows(int begin, int end, const double* x, double* y) const {
-  switch (block_size_) {
+void BlockSparseMatrix::PartitionForProduct(int64_t stored_blocks_per_range) {
+  GS_CHECK(stored_blocks_per_range >= 1);
+  const int n = num_block_rows_;
+  const int b = block_size_;
+  range_start_.assign(1, 0);
+  for (int i = 0; i < n; ++i) {
+    if (row_start_[i + 1] - row_start_[range_start_.back()] >= stored_blocks_per_range ||
+        i + 1 == n) {
+      range_start_.push_back(i + 1);
+    }
+  }
+  const int num_ranges = static_cast<int>(range_start_.size()) - 1;
+
+  // Windows. A window row costs about 4 b doubles of traffic per product
+  // (zeroed, accumulated, read and added to y by the merge); a far block
+  // costs a second read of its b^2 values and of x_i, scattered: about 2 b^2.
+  // Each range takes the W in [0, min(2 len, n - r1)] minimizing
+  //   4 b W + 2 b^2 (blocks with k >= r1 + W),
+  // over the offsets k - r1 of its own blocks (W = 0: everything beyond r1 far).
+  window_start_.assign(static_cast<size_t>(num_ranges) + 1, 0);
+  std::vector<int> window_rows(static_cast<size_t>(num_ranges), 0);
+  std::vector<int> offsets;
+  for (int r = 0; r < num_ranges; ++r) {
+    const int r0 = range_start_[r], r1 = range_start_[r + 1];
+    offsets.clear();
+    for (int64_t j = row_start_[r0]; j < row_start_[r1]; ++j) {
+      if (block_cols_[j] >= r1) offsets.push_back(block_cols_[j] - r1);
+    }
+    std::sort(offsets.begin(), offsets.end());
+    const int64_t cap = std::min<int64_t>(2 * static_cast<int64_t>(r1 - r0), n - r1);
+    const int64_t total = static_cast<int64_t>(offsets.size());
+    double best_cost = 2.0 * b * b * static_cast<double>(total);
+    int best = 0;
+    for (int64_t m = 0; m < total && offsets[m] < cap; ++m) {
+      if (m + 1 < total && offsets[m + 1] == offsets[m]) continue;  // last of equal offsets
+      const double cost = 4.0 * b * (offsets[m] + 1.0) + 2.0 * b * b * static_cast<double>(total - m - 1);
+      if (cost < best_cost) {
+        best_cost = cost;
+        best = offsets[m] + 1;
+      }
+    }
+    window_rows[r] = best;
+    window_start_[r + 1] = window_start_[r] + best;
+  }
+
+  // Far blocks, counting-sorted by column; rows ascending within a column
+  // because the rows are visited in order.
+  std::vector<int64_t> count(static_cast<size_t>(n) + 1, 0);
+  auto for_each_far = [&](auto&& visit) {
+    for (int r = 0; r < num_ranges; ++r) {
+      const int r1 = range_start_[r + 1];
+      const int window_end = r1 + window_rows[r];
+      for (int i = range_start_[r]; i < r1; ++i) {
+        for (int64_t j = row_start_[i] + 1; j < row_start_[i + 1]; ++j) {
+          if (block_cols_[j] >= window_end) visit(i, block_cols_[j], j);
+        }
+      }
+    }
+  };
+  for_each_far([&](int, int k, int64_t) { ++count[k + 1]; });
+  for (int k = 0; k < n; ++k) count[k + 1] += count[k];
+  const int64_t num_far = n > 0 ? count[n] : 0;
+  far_rows_.assign(num_far, 0);
+  far_cols_.assign(num_far, 0);
+  far_blocks_.assign(num_far, 0);
+  far_start_.assign(static_cast<size_t>(num_ranges) + 1, 0);
+  for (int q = 0; q <= num_ranges; ++q) far_start_[q] = count[range_start_[q]];
+  for_each_far([&](int i, int k, int64_t j) {
+    const int64_t t = count[k]++;
+    far_rows_[t] = i;
+    far_cols_[t] = k;
+    far_blocks_[t] = static_cast<int>(j);
+  });
+
+  // For each range q, the earlier windows that reach into it.
+  merge_start_.assign(static_cast<size_t>(num_ranges) + 1, 0);
+  merge_ranges_.clear();
+  for (int q = 0; q < num_ranges; ++q) {
+    for (int r = 0; r < q; ++r) {
+      if (range_start_[r + 1] + window_rows[r] > range_start_[q]) merge_ranges_.push_back(r);
+    }
+    merge_start_[q + 1] = static_cast<int>(merge_ranges_.size());
+  }
+  scratch_.values.assign(static_cast<size_t>(window_start_.back()) * b, 0.0);
+}
+
+void BlockSparseMatrix::SweepRange(int r, const double* x, double* y, double* acc) const {
+  const int b = block_size_;
+  const int r0 = range_start_[r], r1 = range_start_[r + 1];
+  const int64_t w = window_start_[r + 1] - window_start_[r];
+  double* window = acc + window_start_[r] * b;
+  std::fill(window, window + w * b, 0.0);
+  const int window_end = r1 + static_cast<int>(w);
+  switch (b) {
     case 3:
-      MultiplyRowsFixed<3>(row_start_.data(), block_cols_.data(), col_start_.data(),
-                           col_rows_.data(), col_blocks_.data(), values_.data(), begin, end, x, y);
+      SweepRows<3>(b, row_start_.data(), block_cols_.data(), values_.data(), r0, r1, window_end, x,
+                   y, window);
       break;
     case 6:
-      MultiplyRowsFixed<6>(row_start_.data(), block_cols_.data(), col_start_.data(),
-                           col_rows_.data(), col_blocks_.data(), values_.data(), begin, end, x, y);
+      SweepRows<6>(b, row_start_.data(), block_cols_.data(), values_.data(), r0, r1, window_end, x,
+                   y, window);
       break;
     default:
-      MultiplyRowsDynamic(block_size_, row_start_.data(), block_cols_.data(), col_start_.data(),
-                          col_rows_.data(), col_blocks_.data(), values_.data(), begin, end, x, y);
+      SweepRows<0>(b, row_start_.data(), block_cols_.data(), values_.data(), r0, r1, window_end, x,
+                   y, window);
   }
+}
+
+void BlockSparseMatrix::MergeRange(int q, const double* x, double* y, const double* acc) const {
+  const int b = block_size_;
+  const int q0 = range_start_[q], q1 = range_start_[q + 1];
+  // Earlier windows, ascending range.
+  for (int m = merge_start_[q]; m < merge_start_[q + 1]; ++m) {
+    const int r = merge_ranges_[m];
+    const int w0 = range_start_[r + 1];
+    const int w1 = w0 + static_cast<int>(window_start_[r + 1] - window_start_[r]);
+    const int lo = std::max(q0, w0), hi = std::min(q1, w1);
+    const double* window = acc + (window_start_[r] + (lo - w0)) * b;
+    double* out = y + static_cast<int64_t>(lo) * b;
+    const int64_t len = static_cast<int64_t>(hi - lo) * b;
+    for (int64_t t = 0; t < len; ++t) out[t] += window[t];
+  }
+  // Then the far blocks.
+  const int64_t begin = far_start_[q], end = far_start_[q + 1];
+  if (begin == end) return;
+  switch (b) {
+    case 3:
+      GatherFar<3>(b, far_rows_.data(), far_cols_.data(), far_blocks_.data(), values_.data(), begin,
+                   end, x, y);
+      break;
+    case 6:
+      GatherFar<6>(b, far_rows_.data(), far_cols_.data(), far_blocks_.data(), values_.data(), begin,
+                   end, x, y);
+      break;
+    default:
+      GatherFar<0>(b, far_rows_.data(), far_cols_.data(), far_blocks_.data(), values_.data(), begin,
+                   end, x, y);
+  }
+}
+
+void BlockSparseMatrix::Multiply(const double* x, double* y, bool parallel) const {
+  const int num_ranges = num_product_ranges();
+  if (num_ranges <= 0) return;
+  // The shared accumulators, or (a concurrent caller) private ones.
+  std::unique_lock<std::mutex> lock(scratch_.mutex, std::try_to_lock);
+  std::vector<double> own;
+  double* acc = scratch_.values.data();
+  if (!lock.owns_lock()) {
+    own.assign(scratch_.values.size(), 0.0);
+    acc = own.data();
+  }
+  if (!parallel || num_ranges == 1) {
+    for (int r = 0; r < num_ranges; ++r) SweepRange(r, x, y, acc);
+    for (int q = 1; q < num_ranges; ++q) MergeRange(q, x, y, acc);
+    return;
+  }
+  // Phase 1: range r writes only its own rows of y and its own window.
+  tbb::parallel_for(tbb::blocked_range<int>(0, num_ranges, 1),
+                    [&](const tbb::blocked_range<int>& range) {
+                      for (int r = range.begin(); r < range.end(); ++r) SweepRange(r, x, y, acc);
+                    });
+  // Phase 2: range q adds the windows and far blocks into its own rows.
+  tbb::parallel_for(tbb::blocked_range<int>(1, num_ranges, 1),
+                    [&](const tbb::blocked_range<int>& range) {
+                      for (int q = range.begin(); q < range.end(); ++q) MergeRange(q, x, y, acc);
+                    });
 }
 
 void BlockSparseMatrix::RightMultiplyAndAccumulateSerial(const double* x, double* y) const {
-  MultiplyRows(0, num_block_rows_, x, y);
+  Multiply(x, y, /*parallel=*/false);
 }
 
 void BlockSparseMatrix::RightMultiplyAndAccumulate(const double* x, double* y) const {
-  if (num_block_rows_ < kMinBlockRowsForParallel) {
-    MultiplyRows(0, num_block_rows_, x, y);
-    return;
-  }
-  // Each task owns a disjoint range of output block rows; no reduction.
-  tbb::parallel_for(tbb::blocked_range<int>(0, num_block_rows_, 64),
-                    [&](const tbb::blocked_range<int>& range) {
-                      MultiplyRows(range.begin(), range.end(), x, y);
-                    });
+  Multiply(x, y, /*parallel=*/true);
 }
 
 Eigen::MatrixXd BlockSparseMatrix::ToDense() const {
