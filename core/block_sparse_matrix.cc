@@ -12,14 +12,15 @@ namespace graphslam::core {
 namespace {
 
 // The sweep of one product range, rows [r0, r1): y_i += U_ik x_k for every
-// stored block, and U_ik^T x_i into y_k (k < r1), into the window accumulator
-// acc (r1 <= k < window_end) or nowhere (far, gathered by MergeRows). kB > 0:
-// the block size known at compile time (the direct sum of a row stays in
-// registers); kB == 0: any block size b, accumulated in place.
+// stored block, and U_ik^T x_i into y_k (k < r1), into the range's
+// accumulator slot slots[cursor++] (r1 <= k < far_from) or nowhere (far,
+// gathered by GatherFar). kB > 0: the block size known at compile time (the
+// direct sum of a row stays in registers); kB == 0: any block size b,
+// accumulated in place.
 template <int kB>
 void SweepRows(int b_runtime, const int64_t* row_start, const int* block_cols,
-               const double* values, int r0, int r1, int window_end, const double* x, double* y,
-               double* acc) {
+               const double* values, int r0, int r1, int far_from, const int* slots,
+               const double* x, double* y, double* acc) {
   const int b = kB > 0 ? kB : b_runtime;
   const int64_t bb = static_cast<int64_t>(b) * b;
   for (int i = r0; i < r1; ++i) {
@@ -42,9 +43,9 @@ void SweepRows(int b_runtime, const int64_t* row_start, const int* block_cols,
           yi[r] += s;
         }
       }
-      if (k == i || k >= window_end) continue;  // diagonal, or far
+      if (k == i || k >= far_from) continue;  // diagonal, or far
       double* target = k < r1 ? y + static_cast<int64_t>(k) * b
-                              : acc + static_cast<int64_t>(k - r1) * b;
+                              : acc + static_cast<int64_t>(*slots++) * b;
       for (int c = 0; c < b; ++c) {
         double s = 0.0;
         for (int r = 0; r < b; ++r) s += u[r * b + c] * xi[r];
@@ -57,36 +58,22 @@ void SweepRows(int b_runtime, const int64_t* row_start, const int* block_cols,
   }
 }
 
-// The far blocks of one merge range: y_k += sum_i U_ik^T x_i over the
-// entries [begin, end), sorted by (k, i).
+// The far blocks of one merge range: y_k += U_ik^T x_i for the entries
+// [begin, end), in storage order (ascending i, then k): the values and x are
+// read forward, the scattered writes stay within the merge range's rows.
 template <int kB>
 void GatherFar(int b_runtime, const int* far_rows, const int* far_cols, const int* far_blocks,
                const double* values, int64_t begin, int64_t end, const double* x, double* y) {
   const int b = kB > 0 ? kB : b_runtime;
   const int64_t bb = static_cast<int64_t>(b) * b;
-  int64_t e = begin;
-  while (e < end) {
-    const int k = far_cols[e];
-    double* yk = y + static_cast<int64_t>(k) * b;
-    double sum[kB > 0 ? kB : 1];
-    if constexpr (kB > 0) {
-      for (int c = 0; c < kB; ++c) sum[c] = 0.0;
-    }
-    for (; e < end && far_cols[e] == k; ++e) {
-      const double* u = values + static_cast<int64_t>(far_blocks[e]) * bb;
-      const double* xi = x + static_cast<int64_t>(far_rows[e]) * b;
-      for (int c = 0; c < b; ++c) {
-        double s = 0.0;
-        for (int r = 0; r < b; ++r) s += u[r * b + c] * xi[r];
-        if constexpr (kB > 0) {
-          sum[c] += s;
-        } else {
-          yk[c] += s;
-        }
-      }
-    }
-    if constexpr (kB > 0) {
-      for (int c = 0; c < kB; ++c) yk[c] += sum[c];
+  for (int64_t e = begin; e < end; ++e) {
+    const double* u = values + static_cast<int64_t>(far_blocks[e]) * bb;
+    const double* xi = x + static_cast<int64_t>(far_rows[e]) * b;
+    double* yk = y + static_cast<int64_t>(far_cols[e]) * b;
+    for (int c = 0; c < b; ++c) {
+      double s = 0.0;
+      for (int r = 0; r < b; ++r) s += u[r * b + c] * xi[r];
+      yk[c] += s;
     }
   }
 }
@@ -237,114 +224,137 @@ void BlockSparseMatrix::PartitionForProduct(int64_t stored_blocks_per_range) {
   }
   const int num_ranges = static_cast<int>(range_start_.size()) - 1;
 
-  // Windows. A window row costs about 4 b doubles of traffic per product
-  // (zeroed, accumulated, read and added to y by the merge); a far block
-  // costs a second read of its b^2 values and of x_i, scattered: about 2 b^2.
-  // Each range takes the W in [0, min(2 len, n - r1)] minimizing
-  //   4 b W + 2 b^2 (blocks with k >= r1 + W),
-  // over the offsets k - r1 of its own blocks (W = 0: everything beyond r1 far).
-  window_start_.assign(static_cast<size_t>(num_ranges) + 1, 0);
-  std::vector<int> window_rows(static_cast<size_t>(num_ranges), 0);
-  std::vector<int> offsets;
+  // Accumulators. Range r's accumulator has one slot per distinct row
+  // k >= r1 its blocks reach, nearest first, at most 4 (r1 - r0) of them (so
+  // all together hold at most 4 num_rows() doubles); blocks reaching beyond
+  // the last slot (far_from_[r]) are far. On a band every row is a slot; the
+  // cap only bites where a range touches more distinct rows than 4x its own.
+  target_start_.assign(static_cast<size_t>(num_ranges) + 1, 0);
+  target_rows_.clear();
+  far_from_.assign(static_cast<size_t>(num_ranges), n);
+  std::vector<int> targets;
   for (int r = 0; r < num_ranges; ++r) {
     const int r0 = range_start_[r], r1 = range_start_[r + 1];
-    offsets.clear();
+    targets.clear();
     for (int64_t j = row_start_[r0]; j < row_start_[r1]; ++j) {
-      if (block_cols_[j] >= r1) offsets.push_back(block_cols_[j] - r1);
+      if (block_cols_[j] >= r1) targets.push_back(block_cols_[j]);
     }
-    std::sort(offsets.begin(), offsets.end());
-    const int64_t cap = std::min<int64_t>(2 * static_cast<int64_t>(r1 - r0), n - r1);
-    const int64_t total = static_cast<int64_t>(offsets.size());
-    double best_cost = 2.0 * b * b * static_cast<double>(total);
-    int best = 0;
-    for (int64_t m = 0; m < total && offsets[m] < cap; ++m) {
-      if (m + 1 < total && offsets[m + 1] == offsets[m]) continue;  // last of equal offsets
-      const double cost = 4.0 * b * (offsets[m] + 1.0) + 2.0 * b * b * static_cast<double>(total - m - 1);
-      if (cost < best_cost) {
-        best_cost = cost;
-        best = offsets[m] + 1;
+    std::sort(targets.begin(), targets.end());
+    targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
+    const size_t cap = 4 * static_cast<size_t>(r1 - r0);
+    if (targets.size() > cap) {
+      far_from_[r] = targets[cap];
+      targets.resize(cap);
+    }
+    target_rows_.insert(target_rows_.end(), targets.begin(), targets.end());
+    target_start_[r + 1] = static_cast<int64_t>(target_rows_.size());
+  }
+  // The slot of every accumulated block, in sweep order.
+  slot_start_.assign(static_cast<size_t>(num_ranges) + 1, 0);
+  slots_.clear();
+  for (int r = 0; r < num_ranges; ++r) {
+    const int r1 = range_start_[r + 1];
+    const auto first = target_rows_.begin() + target_start_[r];
+    const auto last = target_rows_.begin() + target_start_[r + 1];
+    for (int i = range_start_[r]; i < r1; ++i) {
+      for (int64_t j = row_start_[i] + 1; j < row_start_[i + 1]; ++j) {
+        const int k = block_cols_[j];
+        if (k < r1 || k >= far_from_[r]) continue;
+        slots_.push_back(static_cast<int>(std::lower_bound(first, last, k) - first));
       }
     }
-    window_rows[r] = best;
-    window_start_[r + 1] = window_start_[r] + best;
+    slot_start_[r + 1] = static_cast<int64_t>(slots_.size());
   }
+  slots_.shrink_to_fit();
+  target_rows_.shrink_to_fit();
 
-  // Far blocks, counting-sorted by column; rows ascending within a column
-  // because the rows are visited in order.
-  std::vector<int64_t> count(static_cast<size_t>(n) + 1, 0);
+  // Far blocks, counting-sorted by the range of their column k; within a
+  // range in storage order (rows ascending, then k), as visited.
+  std::vector<int> range_of(static_cast<size_t>(n));
+  for (int r = 0; r < num_ranges; ++r) {
+    std::fill(range_of.begin() + range_start_[r], range_of.begin() + range_start_[r + 1], r);
+  }
+  std::vector<int64_t> count(static_cast<size_t>(num_ranges) + 1, 0);
   auto for_each_far = [&](auto&& visit) {
     for (int r = 0; r < num_ranges; ++r) {
       const int r1 = range_start_[r + 1];
-      const int window_end = r1 + window_rows[r];
       for (int i = range_start_[r]; i < r1; ++i) {
         for (int64_t j = row_start_[i] + 1; j < row_start_[i + 1]; ++j) {
-          if (block_cols_[j] >= window_end) visit(i, block_cols_[j], j);
+          if (block_cols_[j] >= far_from_[r]) visit(i, block_cols_[j], j);
         }
       }
     }
   };
-  for_each_far([&](int, int k, int64_t) { ++count[k + 1]; });
-  for (int k = 0; k < n; ++k) count[k + 1] += count[k];
-  const int64_t num_far = n > 0 ? count[n] : 0;
+  for_each_far([&](int, int k, int64_t) { ++count[range_of[k] + 1]; });
+  for (int q = 0; q < num_ranges; ++q) count[q + 1] += count[q];
+  const int64_t num_far = count[num_ranges];
+  far_start_ = count;
   far_rows_.assign(num_far, 0);
   far_cols_.assign(num_far, 0);
   far_blocks_.assign(num_far, 0);
-  far_start_.assign(static_cast<size_t>(num_ranges) + 1, 0);
-  for (int q = 0; q <= num_ranges; ++q) far_start_[q] = count[range_start_[q]];
   for_each_far([&](int i, int k, int64_t j) {
-    const int64_t t = count[k]++;
+    const int64_t t = count[range_of[k]]++;
     far_rows_[t] = i;
     far_cols_[t] = k;
     far_blocks_[t] = static_cast<int>(j);
   });
 
-  // For each range q, the earlier windows that reach into it.
-  merge_start_.assign(static_cast<size_t>(num_ranges) + 1, 0);
-  merge_ranges_.clear();
-  for (int q = 0; q < num_ranges; ++q) {
-    for (int r = 0; r < q; ++r) {
-      if (range_start_[r + 1] + window_rows[r] > range_start_[q]) merge_ranges_.push_back(r);
+  // For each range q, the runs of earlier accumulators' slots whose rows lie
+  // in q: counting-sorted by q, ascending r within q as visited.
+  std::vector<std::pair<int, int>> runs;  // (q, first slot position)
+  std::vector<int64_t> run_count(static_cast<size_t>(num_ranges) + 1, 0);
+  for (int r = 0; r < num_ranges; ++r) {
+    for (int64_t t = target_start_[r]; t < target_start_[r + 1]; ++t) {
+      const int q = range_of[target_rows_[t]];
+      if (t == target_start_[r] || q != range_of[target_rows_[t - 1]]) ++run_count[q + 1];
     }
-    merge_start_[q + 1] = static_cast<int>(merge_ranges_.size());
   }
-  scratch_.values.assign(static_cast<size_t>(window_start_.back()) * b, 0.0);
+  for (int q = 0; q < num_ranges; ++q) run_count[q + 1] += run_count[q];
+  merge_start_ = run_count;
+  merge_runs_.assign(static_cast<size_t>(run_count[num_ranges]), MergeRun{});
+  for (int r = 0; r < num_ranges; ++r) {
+    for (int64_t t = target_start_[r]; t < target_start_[r + 1]; ++t) {
+      const int q = range_of[target_rows_[t]];
+      if (t == target_start_[r] || q != range_of[target_rows_[t - 1]]) {
+        merge_runs_[run_count[q]++] = MergeRun{t, t + 1};
+      } else {
+        ++merge_runs_[run_count[q] - 1].end;
+      }
+    }
+  }
+  scratch_.values.assign(static_cast<size_t>(target_start_.back()) * b, 0.0);
 }
 
 void BlockSparseMatrix::SweepRange(int r, const double* x, double* y, double* acc) const {
   const int b = block_size_;
   const int r0 = range_start_[r], r1 = range_start_[r + 1];
-  const int64_t w = window_start_[r + 1] - window_start_[r];
-  double* window = acc + window_start_[r] * b;
-  std::fill(window, window + w * b, 0.0);
-  const int window_end = r1 + static_cast<int>(w);
+  double* own = acc + target_start_[r] * b;
+  std::fill(own, acc + target_start_[r + 1] * b, 0.0);
+  const int* slots = slots_.data() + slot_start_[r];
   switch (b) {
     case 3:
-      SweepRows<3>(b, row_start_.data(), block_cols_.data(), values_.data(), r0, r1, window_end, x,
-                   y, window);
+      SweepRows<3>(b, row_start_.data(), block_cols_.data(), values_.data(), r0, r1, far_from_[r],
+                   slots, x, y, own);
       break;
     case 6:
-      SweepRows<6>(b, row_start_.data(), block_cols_.data(), values_.data(), r0, r1, window_end, x,
-                   y, window);
+      SweepRows<6>(b, row_start_.data(), block_cols_.data(), values_.data(), r0, r1, far_from_[r],
+                   slots, x, y, own);
       break;
     default:
-      SweepRows<0>(b, row_start_.data(), block_cols_.data(), values_.data(), r0, r1, window_end, x,
-                   y, window);
+      SweepRows<0>(b, row_start_.data(), block_cols_.data(), values_.data(), r0, r1, far_from_[r],
+                   slots, x, y, own);
   }
 }
 
 void BlockSparseMatrix::MergeRange(int q, const double* x, double* y, const double* acc) const {
   const int b = block_size_;
-  const int q0 = range_start_[q], q1 = range_start_[q + 1];
-  // Earlier windows, ascending range.
-  for (int m = merge_start_[q]; m < merge_start_[q + 1]; ++m) {
-    const int r = merge_ranges_[m];
-    const int w0 = range_start_[r + 1];
-    const int w1 = w0 + static_cast<int>(window_start_[r + 1] - window_start_[r]);
-    const int lo = std::max(q0, w0), hi = std::min(q1, w1);
-    const double* window = acc + (window_start_[r] + (lo - w0)) * b;
-    double* out = y + static_cast<int64_t>(lo) * b;
-    const int64_t len = static_cast<int64_t>(hi - lo) * b;
-    for (int64_t t = 0; t < len; ++t) out[t] += window[t];
+  // Earlier accumulators, ascending range: slot t holds row target_rows_[t].
+  for (int64_t m = merge_start_[q]; m < merge_start_[q + 1]; ++m) {
+    for (int64_t t = merge_runs_[m].begin; t < merge_runs_[m].end; ++t) {
+      double* out = y + static_cast<int64_t>(target_rows_[t]) * b;
+      const double* in = acc + t * b;
+      for (int c = 0; c < b; ++c) out[c] += in[c];
+    }
   }
   // Then the far blocks.
   const int64_t begin = far_start_[q], end = far_start_[q + 1];
@@ -380,12 +390,12 @@ void BlockSparseMatrix::Multiply(const double* x, double* y, bool parallel) cons
     for (int q = 1; q < num_ranges; ++q) MergeRange(q, x, y, acc);
     return;
   }
-  // Phase 1: range r writes only its own rows of y and its own window.
+  // Phase 1: range r writes only its own rows of y and its own accumulator.
   tbb::parallel_for(tbb::blocked_range<int>(0, num_ranges, 1),
                     [&](const tbb::blocked_range<int>& range) {
                       for (int r = range.begin(); r < range.end(); ++r) SweepRange(r, x, y, acc);
                     });
-  // Phase 2: range q adds the windows and far blocks into its own rows.
+  // Phase 2: range q adds the accumulators' slots and far blocks into its own rows.
   tbb::parallel_for(tbb::blocked_range<int>(1, num_ranges, 1),
                     [&](const tbb::blocked_range<int>& range) {
                       for (int q = range.begin(); q < range.end(); ++q) MergeRange(q, x, y, acc);

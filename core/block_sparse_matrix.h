@@ -31,20 +31,22 @@
 // collide. The rows are therefore split into a FIXED list of ranges
 // [r0, r1) -- about kProductNonzerosPerRange stored scalars each, a function
 // of the pattern only, never of the thread count -- and each range R writes
-//   rows in [r0, r1)           directly into y (only R writes them in the sweep),
-//   rows in [r1, r1 + W_R)     into a private accumulator acc_R (its window),
-//   rows k >= r1 + W_R         nowhere: such a "far" block is read again later.
-// W_R is chosen at construction (PartitionForProduct) from R's own blocks,
-// trading the window's zero/add/merge traffic against gathering far blocks a
-// second time; it covers the band (poses couple mostly to nearby poses) and
-// leaves loop closures far; W_R <= 2 (r1 - r0), so all accumulators together
-// hold at most 2 num_rows() doubles. After all ranges are swept, a second
-// pass over the same ranges Q adds to each row k of Q: acc_R[k] of every
-// range R < Q whose window holds k, in ascending R, then the far
-// contributions to k (U_ik^T x_i, ascending i). Every scalar of y thus sees a
-// fixed sequence of operations, whichever task runs a range: the TBB product
-// equals the serial one bit for bit for any number of threads. (It is not
-// bit-identical to a row-by-row product: the summation order differs.)
+//   rows k in [r0, r1)   directly into y (only R writes them in the sweep),
+//   rows k >= r1         into R's private accumulator: one slot per distinct
+//                        row R reaches (the slot of each block precomputed),
+//                        nearest rows first, at most 4 (r1 - r0) slots,
+//   rows beyond those    nowhere: such a "far" block is read again later.
+// On a pose system (poses couple to nearby poses plus loop closures) the
+// slots are the band below the range and the loop-closure rows, far blocks
+// occur only where a range reaches more than 4x its own rows, and all
+// accumulators together hold at most 4 num_rows() doubles. After all ranges
+// are swept, a second pass over the same ranges Q adds into each row k of Q:
+// the slots for k of every range R < Q, in ascending R, then the far
+// contributions U_ik^T x_i to Q's rows, in storage order (ascending i, then
+// k). Every scalar of y thus sees a fixed sequence of operations, whichever
+// task runs a range: the TBB product equals the serial one bit for bit for
+// any number of threads. (It is not bit-identical to a row-by-row product:
+// the summation order differs.)
 // ToSparseUpper() exports the upper triangle for CHOLMOD. After Ceres'
 // BlockSparseMatrix / CompressedRowSparseMatrix.
 //
@@ -55,7 +57,7 @@
 //
 // ALLOCATION: FromPattern allocates O(pairs + blocks * b^2). SetZero, AddBlock,
 // MutableBlock and AddToDiagonal never allocate; RightMultiplyAndAccumulate
-// allocates only when called concurrently on the same matrix (the window
+// allocates only when called concurrently on the same matrix (the range
 // accumulators are allocated with the matrix, O(num_rows()), and shared by
 // one caller at a time; a concurrent caller gets its own).
 // Diagonal(), ToDense() and ToSparseUpper() return new objects.
@@ -140,10 +142,12 @@ class BlockSparseMatrix : public LinearOperator {
   // and benchmarks that want many ranges on a small matrix. Allocates.
   void PartitionForProduct(int64_t stored_blocks_per_range);
   int num_product_ranges() const { return static_cast<int>(range_start_.size()) - 1; }
-  // Blocks whose transposed half falls outside their range's window.
+  // Blocks whose transposed half finds no slot in their range's accumulator.
   int64_t num_far_blocks() const { return static_cast<int64_t>(far_blocks_.size()); }
-  // Rows of all window accumulators together.
-  int64_t num_window_rows() const { return window_start_.empty() ? 0 : window_start_.back(); }
+  // Rows (slots) of all range accumulators together.
+  int64_t num_accumulator_rows() const {
+    return target_start_.empty() ? 0 : target_start_.back();
+  }
 
   // Both triangles.
   Eigen::MatrixXd ToDense() const;
@@ -168,7 +172,7 @@ class BlockSparseMatrix : public LinearOperator {
  private:
   // Index of stored block (i,k), i <= k, in block_cols_, or -1.
   int64_t FindBlock(int i, int k) const;
-  // The sweep of range r (its window accumulator at acc), and the merge into
+  // The sweep of range r (its accumulator within acc), and the merge into
   // the rows of range q.
   void SweepRange(int r, const double* x, double* y, double* acc) const;
   void MergeRange(int q, const double* x, double* y, const double* acc) const;
@@ -195,18 +199,27 @@ class BlockSparseMatrix : public LinearOperator {
   std::vector<int> col_rows_;       // strictly-upper blocks, by column, rows ascending
   std::vector<int> col_blocks_;     // their index in block_cols_ (int: < 2^31 blocks)
   std::vector<double> values_;      // num_stored_blocks * b * b, row-major blocks
-  // The product ranges: range r is block rows [range_start_[r], range_start_[r+1]);
-  // its window is rows [range_start_[r+1], + window_rows), accumulated at
-  // scratch offset window_start_[r] * b; window_rows = window_start_[r+1] -
-  // window_start_[r].
+  // The product ranges: range r is block rows [range_start_[r], range_start_[r+1]).
   std::vector<int> range_start_;
-  std::vector<int64_t> window_start_;
-  // For range q: the ranges r < q whose window overlaps q's rows, ascending,
-  // at merge_ranges_[merge_start_[q] .. merge_start_[q+1]).
-  std::vector<int> merge_start_;
-  std::vector<int> merge_ranges_;
-  // Far blocks sorted by (column k, row i): far_rows_ = i, far_cols_ = k,
-  // far_blocks_ = their index j; those with k in range q at
+  // Range r's accumulator: slot t in [target_start_[r], target_start_[r+1])
+  // collects row target_rows_[t] (ascending, all >= range_start_[r+1]), at
+  // scratch offset t * b. Blocks (i, k) of r with k >= far_from_[r] are far.
+  std::vector<int64_t> target_start_;
+  std::vector<int> target_rows_;
+  std::vector<int> far_from_;
+  // The local slot of every accumulated block of range r, in sweep order, at
+  // slots_[slot_start_[r] ..).
+  std::vector<int64_t> slot_start_;
+  std::vector<int> slots_;
+  // For range q, the runs of slots [begin, end) of earlier ranges whose rows
+  // lie in q, ascending range: merge_runs_[merge_start_[q] .. merge_start_[q+1]).
+  struct MergeRun {
+    int64_t begin = 0, end = 0;
+  };
+  std::vector<int64_t> merge_start_;
+  std::vector<MergeRun> merge_runs_;
+  // Far blocks sorted by (range of column k, row i, k): far_rows_ = i,
+  // far_cols_ = k, far_blocks_ = their index j; those with k in range q at
   // [far_start_[q], far_start_[q+1]).
   std::vector<int64_t> far_start_;
   std::vector<int> far_rows_;

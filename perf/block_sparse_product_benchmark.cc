@@ -4,7 +4,7 @@
 // loop closure, i.e. about 30 blocks per block row of the full matrix, the
 // 28.8 blocks per pose of the 10^8 store. Reports the time per product with
 // the TBB product in an arena of 1 and 2 threads (wall time) and the serial
-// one, and how the one-sweep product split the rows (ranges, window rows,
+// one, and how the one-sweep product split the rows (ranges, accumulator rows,
 // far blocks; core/block_sparse_matrix.h).
 //
 //   build/bin/block_sparse_product_benchmark --benchmark_repetitions=5
@@ -58,7 +58,7 @@ void BM_Product(benchmark::State& state) {
   }
   state.counters["blocks"] = static_cast<double>(s.num_nonzero_blocks());
   state.counters["ranges"] = s.num_product_ranges();
-  state.counters["window_rows"] = static_cast<double>(s.num_window_rows());
+  state.counters["accumulator_rows"] = static_cast<double>(s.num_accumulator_rows());
   state.counters["far_blocks"] = static_cast<double>(s.num_far_blocks());
 }
 BENCHMARK(BM_Product)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);

@@ -160,8 +160,9 @@ Eigen::VectorXd FullStorageProduct(const BlockSparseMatrix& m, const Eigen::Vect
 }
 
 // A banded pose-system pattern (each pose coupled to its `band` successors)
-// plus random loop closures, split into product ranges of `blocks_per_range`
-// stored blocks: windows catch the band, loop closures end up far.
+// plus 2 random loop closures per pose, split into product ranges of
+// `blocks_per_range` stored blocks: the accumulators take the band and some
+// closures; a range reaching more than 4x its own rows leaves the rest far.
 BlockSparseMatrix BandedWithLoopClosures(uint32_t seed, int b, int n, int band,
                                          int64_t blocks_per_range) {
   std::mt19937 rng(seed);
@@ -170,7 +171,7 @@ BlockSparseMatrix BandedWithLoopClosures(uint32_t seed, int b, int n, int band,
     for (int o = 1; o <= band && i + o < n; ++o) pairs.emplace_back(i, i + o);
   }
   std::uniform_int_distribution<int> index(0, n - 1);
-  for (int e = 0; e < n / 4; ++e) pairs.emplace_back(index(rng), index(rng));
+  for (int e = 0; e < 2 * n; ++e) pairs.emplace_back(index(rng), index(rng));
   BlockSparseMatrix m = BlockSparseMatrix::FromPattern(b, n, pairs);
   FillRandom(&rng, pairs, &m);
   m.PartitionForProduct(blocks_per_range);
@@ -179,7 +180,7 @@ BlockSparseMatrix BandedWithLoopClosures(uint32_t seed, int b, int n, int band,
 
 TEST(BlockSparseMatrix, SymmetricProductEqualsDenseAndFullStorageOnRandomSpdSystems) {
   // The default split (one range below ~14000 stored blocks of size 3) and
-  // many small ranges, whose windows and far blocks take the merge path.
+  // many small ranges, whose accumulators and far blocks take the merge path.
   for (int b : {3, 6}) {
     for (int n : {40, BlockSparseMatrix::kMinBlockRowsForParallel + 44}) {
       for (int64_t blocks_per_range : {int64_t{0}, int64_t{9}, int64_t{50}}) {
@@ -189,7 +190,7 @@ TEST(BlockSparseMatrix, SymmetricProductEqualsDenseAndFullStorageOnRandomSpdSyst
         if (blocks_per_range > 0) {
           m.PartitionForProduct(blocks_per_range);
           EXPECT_GT(m.num_product_ranges(), 2);
-          EXPECT_GT(m.num_far_blocks() + m.num_window_rows(), 0);  // the merge has work
+          EXPECT_GT(m.num_far_blocks() + m.num_accumulator_rows(), 0);  // the merge has work
         } else {
           EXPECT_EQ(m.num_product_ranges(), 1);
         }
@@ -206,13 +207,13 @@ TEST(BlockSparseMatrix, SymmetricProductEqualsDenseAndFullStorageOnRandomSpdSyst
       }
     }
   }
-  // A band with loop closures: windows in use as well as far blocks.
+  // A band with loop closures: accumulators in use as well as far blocks.
   for (int b : {3, 6, 2}) {
     SCOPED_TRACE(::testing::Message() << "banded, block size " << b);
     const BlockSparseMatrix m = BandedWithLoopClosures(3 + b, b, 500, 6, 40);
-    EXPECT_GT(m.num_window_rows(), 0);
+    EXPECT_GT(m.num_accumulator_rows(), 0);
     EXPECT_GT(m.num_far_blocks(), 0);
-    EXPECT_LE(m.num_window_rows(), 2 * m.num_block_rows());  // the memory bound
+    EXPECT_LE(m.num_accumulator_rows(), 4 * m.num_block_rows());  // the memory bound
     const Eigen::VectorXd x = graphslam::testing::RandomVector(8, m.num_rows());
     const Eigen::VectorXd y0 = graphslam::testing::RandomVector(9, m.num_rows());
     Eigen::VectorXd y = y0;
