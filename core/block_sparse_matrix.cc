@@ -11,55 +11,69 @@
 namespace graphslam::core {
 namespace {
 
-// y_i += sum_{k<i} U_ki^T x_k + sum_{k>=i} U_ik x_k for block rows
-// [begin, end), with the block size known at compile time. The accumulation
-// order per row is fixed (ascending k), which is what makes the parallel
-// product bit-exact. The lower blocks are transposed into a row-major
-// temporary so that the product expression, and hence Eigen's operation
-// order, is the one the former full storage used for A_ik.
+// The sweep of one product range, rows [r0, r1): y_i += U_ik x_k for every
+// stored block, and U_ik^T x_i into y_k (k < r1), into the range's
+// accumulator slot slots[cursor++] (r1 <= k < far_from) or nowhere (far,
+// gathered by GatherFar). kB > 0: the block size known at compile time (the
+// direct sum of a row stays in registers); kB == 0: any block size b,
+// accumulated in place.
 template <int kB>
-void MultiplyRowsFixed(const int64_t* row_start, const int* block_cols, const int64_t* col_start,
-                       const int* col_rows, const int* col_blocks, const double* values,
-                       int begin, int end, const double* x, double* y) {
-  using Block = Eigen::Matrix<double, kB, kB, Eigen::RowMajor>;
-  using BlockMap = Eigen::Map<const Block>;
-  using ConstVectorMap = Eigen::Map<const Eigen::Matrix<double, kB, 1>>;
-  using VectorMap = Eigen::Map<Eigen::Matrix<double, kB, 1>>;
-  for (int i = begin; i < end; ++i) {
-    Eigen::Matrix<double, kB, 1> sum = Eigen::Matrix<double, kB, 1>::Zero();
-    for (int64_t t = col_start[i]; t < col_start[i + 1]; ++t) {
-      const Block lower = BlockMap(values + static_cast<int64_t>(col_blocks[t]) * kB * kB)
-                              .transpose();
-      sum.noalias() += lower * ConstVectorMap(x + static_cast<int64_t>(col_rows[t]) * kB);
+void SweepRows(int b_runtime, const int64_t* row_start, const int* block_cols,
+               const double* values, int r0, int r1, int far_from, const int* slots,
+               const double* x, double* y, double* acc) {
+  const int b = kB > 0 ? kB : b_runtime;
+  const int64_t bb = static_cast<int64_t>(b) * b;
+  for (int i = r0; i < r1; ++i) {
+    const double* xi = x + static_cast<int64_t>(i) * b;
+    double* yi = y + static_cast<int64_t>(i) * b;
+    double sum[kB > 0 ? kB : 1];
+    if constexpr (kB > 0) {
+      for (int r = 0; r < kB; ++r) sum[r] = 0.0;
     }
     for (int64_t j = row_start[i]; j < row_start[i + 1]; ++j) {
-      sum.noalias() +=
-          BlockMap(values + j * kB * kB) * ConstVectorMap(x + static_cast<int64_t>(block_cols[j]) * kB);
+      const int k = block_cols[j];
+      const double* u = values + j * bb;
+      const double* xk = x + static_cast<int64_t>(k) * b;
+      for (int r = 0; r < b; ++r) {
+        double s = 0.0;
+        for (int c = 0; c < b; ++c) s += u[r * b + c] * xk[c];
+        if constexpr (kB > 0) {
+          sum[r] += s;
+        } else {
+          yi[r] += s;
+        }
+      }
+      if (k == i || k >= far_from) continue;  // diagonal, or far
+      double* target = k < r1 ? y + static_cast<int64_t>(k) * b
+                              : acc + static_cast<int64_t>(*slots++) * b;
+      for (int c = 0; c < b; ++c) {
+        double s = 0.0;
+        for (int r = 0; r < b; ++r) s += u[r * b + c] * xi[r];
+        target[c] += s;
+      }
     }
-    VectorMap(y + static_cast<int64_t>(i) * kB) += sum;
+    if constexpr (kB > 0) {
+      for (int r = 0; r < kB; ++r) yi[r] += sum[r];
+    }
   }
 }
 
-// The same for any block size, with plain loops (no Eigen temporaries).
-void MultiplyRowsDynamic(int b, const int64_t* row_start, const int* block_cols,
-                         const int64_t* col_start, const int* col_rows, const int* col_blocks,
-                         const double* values, int begin, int end, const double* x, double* y) {
+// The far blocks of one merge range: y_k += U_ik^T x_i for the entries
+// [begin, end), in storage order (ascending i, then k): the values and x are
+// read forward, the scattered writes stay within the merge range's rows.
+template <int kB>
+void GatherFar(int b_runtime, const int* far_rows, const int* far_cols, const int* far_blocks,
+               const double* values, int64_t begin, int64_t end, const double* x, double* y) {
+  const int b = kB > 0 ? kB : b_runtime;
   const int64_t bb = static_cast<int64_t>(b) * b;
-  for (int i = begin; i < end; ++i) {
-    double* yi = y + static_cast<int64_t>(i) * b;
-    for (int r = 0; r < b; ++r) {
-      double sum = 0.0;
-      for (int64_t t = col_start[i]; t < col_start[i + 1]; ++t) {
-        const double* a = values + col_blocks[t] * bb + r;  // column r of U_ki
-        const double* xk = x + static_cast<int64_t>(col_rows[t]) * b;
-        for (int c = 0; c < b; ++c) sum += a[static_cast<int64_t>(c) * b] * xk[c];
-      }
-      for (int64_t j = row_start[i]; j < row_start[i + 1]; ++j) {
-        const double* a = values + j * bb + static_cast<int64_t>(r) * b;
-        const double* xk = x + static_cast<int64_t>(block_cols[j]) * b;
-        for (int c = 0; c < b; ++c) sum += a[c] * xk[c];
-      }
-      yi[r] += sum;
+  for (int64_t e = begin; e < end; ++e) {
+    const double* u = values + static_cast<int64_t>(far_blocks[e]) * bb;
+    const double* xi = x + static_cast<int64_t>(far_rows[e]) * b;
+    double* yk = y + static_cast<int64_t>(far_cols[e]) * b;
+    for (int c = 0; c < b; ++c) {
+      double s = 0.0;
+      for (int r = 0; r < b; ++r) s += u[r * b + c] * xi[r];
+      yk[c] += s;
     }
   }
 }
@@ -129,6 +143,8 @@ BlockSparseMatrix BlockSparseMatrix::FromPattern(int block_size, int num_block_r
     }
   }
   m.values_.assign(static_cast<size_t>(out) * block_size * block_size, 0.0);
+  m.PartitionForProduct(
+      std::max<int64_t>(1, kProductNonzerosPerRange / (static_cast<int64_t>(block_size) * block_size)));
   return m;
 }
 
@@ -195,36 +211,203 @@ Eigen::VectorXd BlockSparseMatrix::Diagonal() const {
   return d;
 }
 
-void BlockSparseMatrix::MultiplyRows(int begin, int end, const double* x, double* y) const {
-  switch (block_size_) {
+void BlockSparseMatrix::PartitionForProduct(int64_t stored_blocks_per_range) {
+  GS_CHECK(stored_blocks_per_range >= 1);
+  const int n = num_block_rows_;
+  const int b = block_size_;
+  range_start_.assign(1, 0);
+  for (int i = 0; i < n; ++i) {
+    if (row_start_[i + 1] - row_start_[range_start_.back()] >= stored_blocks_per_range ||
+        i + 1 == n) {
+      range_start_.push_back(i + 1);
+    }
+  }
+  const int num_ranges = static_cast<int>(range_start_.size()) - 1;
+
+  // Accumulators. Range r's accumulator has one slot per distinct row
+  // k >= r1 its blocks reach, nearest first, at most 4 (r1 - r0) of them (so
+  // all together hold at most 4 num_rows() doubles); blocks reaching beyond
+  // the last slot (far_from_[r]) are far. On a band every row is a slot; the
+  // cap only bites where a range touches more distinct rows than 4x its own.
+  target_start_.assign(static_cast<size_t>(num_ranges) + 1, 0);
+  target_rows_.clear();
+  far_from_.assign(static_cast<size_t>(num_ranges), n);
+  std::vector<int> targets;
+  for (int r = 0; r < num_ranges; ++r) {
+    const int r0 = range_start_[r], r1 = range_start_[r + 1];
+    targets.clear();
+    for (int64_t j = row_start_[r0]; j < row_start_[r1]; ++j) {
+      if (block_cols_[j] >= r1) targets.push_back(block_cols_[j]);
+    }
+    std::sort(targets.begin(), targets.end());
+    targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
+    const size_t cap = 4 * static_cast<size_t>(r1 - r0);
+    if (targets.size() > cap) {
+      far_from_[r] = targets[cap];
+      targets.resize(cap);
+    }
+    target_rows_.insert(target_rows_.end(), targets.begin(), targets.end());
+    target_start_[r + 1] = static_cast<int64_t>(target_rows_.size());
+  }
+  // The slot of every accumulated block, in sweep order.
+  slot_start_.assign(static_cast<size_t>(num_ranges) + 1, 0);
+  slots_.clear();
+  for (int r = 0; r < num_ranges; ++r) {
+    const int r1 = range_start_[r + 1];
+    const auto first = target_rows_.begin() + target_start_[r];
+    const auto last = target_rows_.begin() + target_start_[r + 1];
+    for (int i = range_start_[r]; i < r1; ++i) {
+      for (int64_t j = row_start_[i] + 1; j < row_start_[i + 1]; ++j) {
+        const int k = block_cols_[j];
+        if (k < r1 || k >= far_from_[r]) continue;
+        slots_.push_back(static_cast<int>(std::lower_bound(first, last, k) - first));
+      }
+    }
+    slot_start_[r + 1] = static_cast<int64_t>(slots_.size());
+  }
+  slots_.shrink_to_fit();
+  target_rows_.shrink_to_fit();
+
+  // Far blocks, counting-sorted by the range of their column k; within a
+  // range in storage order (rows ascending, then k), as visited.
+  std::vector<int> range_of(static_cast<size_t>(n));
+  for (int r = 0; r < num_ranges; ++r) {
+    std::fill(range_of.begin() + range_start_[r], range_of.begin() + range_start_[r + 1], r);
+  }
+  std::vector<int64_t> count(static_cast<size_t>(num_ranges) + 1, 0);
+  auto for_each_far = [&](auto&& visit) {
+    for (int r = 0; r < num_ranges; ++r) {
+      const int r1 = range_start_[r + 1];
+      for (int i = range_start_[r]; i < r1; ++i) {
+        for (int64_t j = row_start_[i] + 1; j < row_start_[i + 1]; ++j) {
+          if (block_cols_[j] >= far_from_[r]) visit(i, block_cols_[j], j);
+        }
+      }
+    }
+  };
+  for_each_far([&](int, int k, int64_t) { ++count[range_of[k] + 1]; });
+  for (int q = 0; q < num_ranges; ++q) count[q + 1] += count[q];
+  const int64_t num_far = count[num_ranges];
+  far_start_ = count;
+  far_rows_.assign(num_far, 0);
+  far_cols_.assign(num_far, 0);
+  far_blocks_.assign(num_far, 0);
+  for_each_far([&](int i, int k, int64_t j) {
+    const int64_t t = count[range_of[k]]++;
+    far_rows_[t] = i;
+    far_cols_[t] = k;
+    far_blocks_[t] = static_cast<int>(j);
+  });
+
+  // For each range q, the runs of earlier accumulators' slots whose rows lie
+  // in q: counting-sorted by q, ascending r within q as visited.
+  std::vector<std::pair<int, int>> runs;  // (q, first slot position)
+  std::vector<int64_t> run_count(static_cast<size_t>(num_ranges) + 1, 0);
+  for (int r = 0; r < num_ranges; ++r) {
+    for (int64_t t = target_start_[r]; t < target_start_[r + 1]; ++t) {
+      const int q = range_of[target_rows_[t]];
+      if (t == target_start_[r] || q != range_of[target_rows_[t - 1]]) ++run_count[q + 1];
+    }
+  }
+  for (int q = 0; q < num_ranges; ++q) run_count[q + 1] += run_count[q];
+  merge_start_ = run_count;
+  merge_runs_.assign(static_cast<size_t>(run_count[num_ranges]), MergeRun{});
+  for (int r = 0; r < num_ranges; ++r) {
+    for (int64_t t = target_start_[r]; t < target_start_[r + 1]; ++t) {
+      const int q = range_of[target_rows_[t]];
+      if (t == target_start_[r] || q != range_of[target_rows_[t - 1]]) {
+        merge_runs_[run_count[q]++] = MergeRun{t, t + 1};
+      } else {
+        ++merge_runs_[run_count[q] - 1].end;
+      }
+    }
+  }
+  scratch_.values.assign(static_cast<size_t>(target_start_.back()) * b, 0.0);
+}
+
+void BlockSparseMatrix::SweepRange(int r, const double* x, double* y, double* acc) const {
+  const int b = block_size_;
+  const int r0 = range_start_[r], r1 = range_start_[r + 1];
+  double* own = acc + target_start_[r] * b;
+  std::fill(own, acc + target_start_[r + 1] * b, 0.0);
+  const int* slots = slots_.data() + slot_start_[r];
+  switch (b) {
     case 3:
-      MultiplyRowsFixed<3>(row_start_.data(), block_cols_.data(), col_start_.data(),
-                           col_rows_.data(), col_blocks_.data(), values_.data(), begin, end, x, y);
+      SweepRows<3>(b, row_start_.data(), block_cols_.data(), values_.data(), r0, r1, far_from_[r],
+                   slots, x, y, own);
       break;
     case 6:
-      MultiplyRowsFixed<6>(row_start_.data(), block_cols_.data(), col_start_.data(),
-                           col_rows_.data(), col_blocks_.data(), values_.data(), begin, end, x, y);
+      SweepRows<6>(b, row_start_.data(), block_cols_.data(), values_.data(), r0, r1, far_from_[r],
+                   slots, x, y, own);
       break;
     default:
-      MultiplyRowsDynamic(block_size_, row_start_.data(), block_cols_.data(), col_start_.data(),
-                          col_rows_.data(), col_blocks_.data(), values_.data(), begin, end, x, y);
+      SweepRows<0>(b, row_start_.data(), block_cols_.data(), values_.data(), r0, r1, far_from_[r],
+                   slots, x, y, own);
   }
+}
+
+void BlockSparseMatrix::MergeRange(int q, const double* x, double* y, const double* acc) const {
+  const int b = block_size_;
+  // Earlier accumulators, ascending range: slot t holds row target_rows_[t].
+  for (int64_t m = merge_start_[q]; m < merge_start_[q + 1]; ++m) {
+    for (int64_t t = merge_runs_[m].begin; t < merge_runs_[m].end; ++t) {
+      double* out = y + static_cast<int64_t>(target_rows_[t]) * b;
+      const double* in = acc + t * b;
+      for (int c = 0; c < b; ++c) out[c] += in[c];
+    }
+  }
+  // Then the far blocks.
+  const int64_t begin = far_start_[q], end = far_start_[q + 1];
+  if (begin == end) return;
+  switch (b) {
+    case 3:
+      GatherFar<3>(b, far_rows_.data(), far_cols_.data(), far_blocks_.data(), values_.data(), begin,
+                   end, x, y);
+      break;
+    case 6:
+      GatherFar<6>(b, far_rows_.data(), far_cols_.data(), far_blocks_.data(), values_.data(), begin,
+                   end, x, y);
+      break;
+    default:
+      GatherFar<0>(b, far_rows_.data(), far_cols_.data(), far_blocks_.data(), values_.data(), begin,
+                   end, x, y);
+  }
+}
+
+void BlockSparseMatrix::Multiply(const double* x, double* y, bool parallel) const {
+  const int num_ranges = num_product_ranges();
+  if (num_ranges <= 0) return;
+  // The shared accumulators, or (a concurrent caller) private ones.
+  std::unique_lock<std::mutex> lock(scratch_.mutex, std::try_to_lock);
+  std::vector<double> own;
+  double* acc = scratch_.values.data();
+  if (!lock.owns_lock()) {
+    own.assign(scratch_.values.size(), 0.0);
+    acc = own.data();
+  }
+  if (!parallel || num_ranges == 1) {
+    for (int r = 0; r < num_ranges; ++r) SweepRange(r, x, y, acc);
+    for (int q = 1; q < num_ranges; ++q) MergeRange(q, x, y, acc);
+    return;
+  }
+  // Phase 1: range r writes only its own rows of y and its own accumulator.
+  tbb::parallel_for(tbb::blocked_range<int>(0, num_ranges, 1),
+                    [&](const tbb::blocked_range<int>& range) {
+                      for (int r = range.begin(); r < range.end(); ++r) SweepRange(r, x, y, acc);
+                    });
+  // Phase 2: range q adds the accumulators' slots and far blocks into its own rows.
+  tbb::parallel_for(tbb::blocked_range<int>(1, num_ranges, 1),
+                    [&](const tbb::blocked_range<int>& range) {
+                      for (int q = range.begin(); q < range.end(); ++q) MergeRange(q, x, y, acc);
+                    });
 }
 
 void BlockSparseMatrix::RightMultiplyAndAccumulateSerial(const double* x, double* y) const {
-  MultiplyRows(0, num_block_rows_, x, y);
+  Multiply(x, y, /*parallel=*/false);
 }
 
 void BlockSparseMatrix::RightMultiplyAndAccumulate(const double* x, double* y) const {
-  if (num_block_rows_ < kMinBlockRowsForParallel) {
-    MultiplyRows(0, num_block_rows_, x, y);
-    return;
-  }
-  // Each task owns a disjoint range of output block rows; no reduction.
-  tbb::parallel_for(tbb::blocked_range<int>(0, num_block_rows_, 64),
-                    [&](const tbb::blocked_range<int>& range) {
-                      MultiplyRows(range.begin(), range.end(), x, y);
-                    });
+  Multiply(x, y, /*parallel=*/true);
 }
 
 Eigen::MatrixXd BlockSparseMatrix::ToDense() const {

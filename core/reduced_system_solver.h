@@ -27,10 +27,13 @@
 //    iterations, CHOLMOD won until the truncation of item 2b; with it PCG
 //    ties at 10^5 (0.97x CHOLMOD's CPU) and wins at 10^6 (0.87x), so the
 //    same K picks the faster (or an even) solver there too. Those figures
-//    predate S's upper-triangle storage, whose product is ~1.7x slower: on
-//    it PCG measured 1.23x CHOLMOD at sim1e6obs (docs/benchmarks.md,
-//    "Re-measured after S went to its upper triangle"), so there `auto` now
-//    picks the slower solver until the product reads each block once.
+//    predate S's upper-triangle storage, whose first product (a row loop
+//    through a transpose index) was ~1.7x slower and put PCG at 1.23x
+//    CHOLMOD on sim1e6obs. The product now reads each stored block once
+//    (core/block_sparse_matrix.h, ~2x faster than that row loop) and PCG
+//    is ahead again: 0.85x CHOLMOD's CPU at sim1e6obs, 0.97x at sim1e5obs
+//    (0.93x as `auto`), medians of 3 (docs/benchmarks.md, "One-sweep
+//    product"), so K = 40 picks the measured winner on both.
 //    `--solver pcg|cholmod` overrides.
 //
 // 2. For PCG, an inexact-Newton forcing sequence (Eisenstat & Walker,

@@ -3,11 +3,15 @@
 // its 14 successors (the band the temporal chunking leaves) plus one random
 // loop closure, i.e. about 30 blocks per block row of the full matrix, the
 // 28.8 blocks per pose of the 10^8 store. Reports the time per product with
-// the TBB product (threads as TBB chooses) and the serial one.
+// the TBB product in an arena of 1 and 2 threads (wall time) and the serial
+// one, and how the one-sweep product split the rows (ranges, accumulator rows,
+// far blocks; core/block_sparse_matrix.h).
 //
 //   build/bin/block_sparse_product_benchmark --benchmark_repetitions=5
 //   (add --benchmark_report_aggregates_only=true for the medians only)
 #include <benchmark/benchmark.h>
+
+#include <tbb/task_arena.h>
 
 #include <random>
 #include <utility>
@@ -47,13 +51,17 @@ const BlockSparseMatrix& PoseSystem() {
 void BM_Product(benchmark::State& state) {
   const BlockSparseMatrix& s = PoseSystem();
   std::vector<double> x(static_cast<size_t>(s.num_rows()), 1.0), y(x.size(), 0.0);
+  tbb::task_arena arena(static_cast<int>(state.range(0)));
   for (auto _ : state) {
-    s.RightMultiplyAndAccumulate(x.data(), y.data());
+    arena.execute([&] { s.RightMultiplyAndAccumulate(x.data(), y.data()); });
     benchmark::DoNotOptimize(y.data());
   }
   state.counters["blocks"] = static_cast<double>(s.num_nonzero_blocks());
+  state.counters["ranges"] = s.num_product_ranges();
+  state.counters["accumulator_rows"] = static_cast<double>(s.num_accumulator_rows());
+  state.counters["far_blocks"] = static_cast<double>(s.num_far_blocks());
 }
-BENCHMARK(BM_Product)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Product)->Arg(1)->Arg(2)->UseRealTime()->Unit(benchmark::kMillisecond);
 
 void BM_ProductSerial(benchmark::State& state) {
   const BlockSparseMatrix& s = PoseSystem();

@@ -35,6 +35,7 @@ final chi2 (the target: <= 0.5 at the same chi2 within 0.1 %).
   perf/solver_comparison.py --bin build/bin --out /tmp/cmp \
       [--problems intel,M3500,city10000,victoria,sim1e5,sim1e5obs] [--skip RUN,...] [--threads N]
       [--timeout S] [--max-iterations N] [--pcg-eta-max E] [--pcg-eta-min E] [--pcg-deflation M]
+      [--pcg-truncation F]
       [--start odometry|progressive|pose-graph]
 
 Simulated problems (sim1e4, sim1e5, sim1e6, sim1e5obs, sim1e6obs) are generated
@@ -115,13 +116,15 @@ def write_atomically(path, text):
 
 
 def command(run, binaries, path, report, threads, max_iterations=200, pcg_eta_max=None,
-            initialization="odometry", iteration_log=None, pcg_eta_min=None, pcg_deflation=None):
+            initialization="odometry", iteration_log=None, pcg_eta_min=None, pcg_deflation=None,
+            pcg_truncation=None):
     ours = [f"{binaries}/graphslam", "solve", path, "--initialization", initialization,
             "--max-iterations", str(max_iterations), "--threads", str(threads), "--report",
             report, "-q"]
     eta = [] if pcg_eta_max is None else ["--pcg-eta-max", str(pcg_eta_max)]
     eta += [] if pcg_eta_min is None else ["--pcg-eta-min", str(pcg_eta_min)]
     eta += [] if pcg_deflation is None else ["--pcg-deflation", str(pcg_deflation)]
+    eta += [] if pcg_truncation is None else ["--pcg-truncation", str(pcg_truncation)]
     ceres = [f"{binaries}/graphslam_ceres_peer", path, "--threads", str(threads),
              "--max-iterations", str(max_iterations), "--report", report, "-q"]
     if iteration_log:
@@ -265,6 +268,8 @@ def main():
                         help="ours/pcg and ours/auto: --pcg-eta-min (default: graphslam's)")
     parser.add_argument("--pcg-deflation", type=int, default=None,
                         help="ours/pcg and ours/auto: --pcg-deflation (default: graphslam's)")
+    parser.add_argument("--pcg-truncation", type=float, default=None,
+                        help="ours/pcg and ours/auto: --pcg-truncation (default: graphslam's)")
     parser.add_argument("--start", default="odometry",
                         choices=["odometry", "progressive", "pose-graph"],
                         help="the start of every run: the input's odometry guess, or the "
@@ -293,7 +298,7 @@ def main():
                              if run.startswith("ceres/") else None)
             cmd = command(run, args.bin, path, report, args.threads, args.max_iterations,
                           args.pcg_eta_max, initialization, iteration_log, args.pcg_eta_min,
-                          args.pcg_deflation)
+                          args.pcg_deflation, args.pcg_truncation)
             if name in STORES:  # not STORE/checkpoint.json: each run its own
                 cmd += ["--checkpoint", report[:-len(".json")] + ".checkpoint.json"]
             exit_code, wall, cpu = timed_run(cmd, args.timeout)

@@ -339,6 +339,11 @@ Status SolveChunked(
   system.matrix = BlockSparseMatrix::FromPattern(kDim, layout.num_blocks(), std::move(pairs));
   pairs = {};
   summary->reduced_nonzero_blocks = system.matrix.num_nonzero_blocks();
+  GS_VLOG(1, "reduced system: %d poses, %lld stored blocks; product: %d ranges, %lld accumulator rows, "
+          "%lld far blocks", system.matrix.num_block_rows(),
+          static_cast<long long>(system.matrix.num_stored_blocks()),
+          system.matrix.num_product_ranges(), static_cast<long long>(system.matrix.num_accumulator_rows()),
+          static_cast<long long>(system.matrix.num_far_blocks()));
 
   // The reduced system's solver (core/reduced_system_solver.h): kAuto picks
   // CHOLMOD or PCG from CHOLMOD's symbolic analysis of this pattern.

@@ -3,6 +3,7 @@
 #include "core/block_sparse_matrix.h"
 
 #include <gtest/gtest.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/task_arena.h>
 
 #include <random>
@@ -131,7 +132,7 @@ TEST(BlockSparseMatrix, AddBlockOfALowerPairLandsTransposedAndOutsideThePatternI
 
 // The former full-storage product, verbatim: every block row of the dense
 // matrix, blocks in ascending column order, row-major A_ik times x_k. The
-// upper-triangle product must perform the same operations in the same order.
+// one-sweep product adds the same terms in another order.
 template <int kB>
 Eigen::VectorXd FullStorageProduct(const BlockSparseMatrix& m, const Eigen::VectorXd& x,
                                    Eigen::VectorXd y) {
@@ -158,39 +159,104 @@ Eigen::VectorXd FullStorageProduct(const BlockSparseMatrix& m, const Eigen::Vect
   return y;
 }
 
+// A banded pose-system pattern (each pose coupled to its `band` successors)
+// plus 2 random loop closures per pose, split into product ranges of
+// `blocks_per_range` stored blocks: the accumulators take the band and some
+// closures; a range reaching more than 4x its own rows leaves the rest far.
+BlockSparseMatrix BandedWithLoopClosures(uint32_t seed, int b, int n, int band,
+                                         int64_t blocks_per_range) {
+  std::mt19937 rng(seed);
+  std::vector<std::pair<int, int>> pairs;
+  for (int i = 0; i < n; ++i) {
+    for (int o = 1; o <= band && i + o < n; ++o) pairs.emplace_back(i, i + o);
+  }
+  std::uniform_int_distribution<int> index(0, n - 1);
+  for (int e = 0; e < 2 * n; ++e) pairs.emplace_back(index(rng), index(rng));
+  BlockSparseMatrix m = BlockSparseMatrix::FromPattern(b, n, pairs);
+  FillRandom(&rng, pairs, &m);
+  m.PartitionForProduct(blocks_per_range);
+  return m;
+}
+
 TEST(BlockSparseMatrix, SymmetricProductEqualsDenseAndFullStorageOnRandomSpdSystems) {
-  // Below and above kMinBlockRowsForParallel: the serial and parallel paths.
+  // The default split (one range below ~14000 stored blocks of size 3) and
+  // many small ranges, whose accumulators and far blocks take the merge path.
   for (int b : {3, 6}) {
     for (int n : {40, BlockSparseMatrix::kMinBlockRowsForParallel + 44}) {
-      SCOPED_TRACE(::testing::Message() << "block size " << b << ", " << n << " block rows");
-      const BlockSparseMatrix m = graphslam::testing::RandomSpdMatrix(900 + b + n, b, n);
-      const Eigen::VectorXd x = graphslam::testing::RandomVector(31 + n, m.num_rows());
-      const Eigen::VectorXd y0 = graphslam::testing::RandomVector(37 + n, m.num_rows());
-      Eigen::VectorXd y = y0;
-      m.RightMultiplyAndAccumulate(x.data(), y.data());
-      const Eigen::VectorXd expected = y0 + m.ToDense() * x;
-      EXPECT_LE((y - expected).norm(), 1e-14 * expected.norm());
-      const Eigen::VectorXd full =
-          b == 3 ? FullStorageProduct<3>(m, x, y0) : FullStorageProduct<6>(m, x, y0);
-      EXPECT_EQ((y - full).cwiseAbs().maxCoeff(), 0.0) << "not the full-storage operation order";
+      for (int64_t blocks_per_range : {int64_t{0}, int64_t{9}, int64_t{50}}) {
+        SCOPED_TRACE(::testing::Message() << "block size " << b << ", " << n << " block rows, "
+                                          << blocks_per_range << " blocks per range");
+        BlockSparseMatrix m = graphslam::testing::RandomSpdMatrix(900 + b + n, b, n);
+        if (blocks_per_range > 0) {
+          m.PartitionForProduct(blocks_per_range);
+          EXPECT_GT(m.num_product_ranges(), 2);
+          EXPECT_GT(m.num_far_blocks() + m.num_accumulator_rows(), 0);  // the merge has work
+        } else {
+          EXPECT_EQ(m.num_product_ranges(), 1);
+        }
+        const Eigen::VectorXd x = graphslam::testing::RandomVector(31 + n, m.num_rows());
+        const Eigen::VectorXd y0 = graphslam::testing::RandomVector(37 + n, m.num_rows());
+        Eigen::VectorXd y = y0;
+        m.RightMultiplyAndAccumulate(x.data(), y.data());
+        const Eigen::VectorXd expected = y0 + m.ToDense() * x;
+        EXPECT_LE((y - expected).norm(), 1e-14 * expected.norm());
+        // Full storage: the same sums in another order.
+        const Eigen::VectorXd full =
+            b == 3 ? FullStorageProduct<3>(m, x, y0) : FullStorageProduct<6>(m, x, y0);
+        EXPECT_LE((y - full).norm(), 1e-14 * full.norm());
+      }
     }
+  }
+  // A band with loop closures: accumulators in use as well as far blocks.
+  for (int b : {3, 6, 2}) {
+    SCOPED_TRACE(::testing::Message() << "banded, block size " << b);
+    const BlockSparseMatrix m = BandedWithLoopClosures(3 + b, b, 500, 6, 40);
+    EXPECT_GT(m.num_accumulator_rows(), 0);
+    EXPECT_GT(m.num_far_blocks(), 0);
+    EXPECT_LE(m.num_accumulator_rows(), 4 * m.num_block_rows());  // the memory bound
+    const Eigen::VectorXd x = graphslam::testing::RandomVector(8, m.num_rows());
+    const Eigen::VectorXd y0 = graphslam::testing::RandomVector(9, m.num_rows());
+    Eigen::VectorXd y = y0;
+    m.RightMultiplyAndAccumulate(x.data(), y.data());
+    const Eigen::VectorXd expected = y0 + m.ToDense() * x;
+    EXPECT_LE((y - expected).norm(), 1e-14 * expected.norm());
   }
 }
 
 TEST(BlockSparseMatrix, ProductIsIndependentOfTheThreadCountBitForBit) {
+  // The ranges are a function of the matrix: 1, 2, 3, 4, 8 threads and
+  // repeated runs give the same bits, equal to the serial product.
   for (int b : {3, 6, 4}) {
-    SCOPED_TRACE(::testing::Message() << "block size " << b);
-    const BlockSparseMatrix m =
-        graphslam::testing::RandomSpdMatrix(77 + b, b, BlockSparseMatrix::kMinBlockRowsForParallel + 44);
-    const Eigen::VectorXd x = graphslam::testing::RandomVector(5, m.num_rows());
-    const Eigen::VectorXd y0 = graphslam::testing::RandomVector(6, m.num_rows());
-    Eigen::VectorXd serial = y0;
-    m.RightMultiplyAndAccumulateSerial(x.data(), serial.data());
-    for (int threads : {1, 2, 3, 8}) {
-      tbb::task_arena arena(threads);
-      Eigen::VectorXd y = y0;
-      arena.execute([&] { m.RightMultiplyAndAccumulate(x.data(), y.data()); });
-      EXPECT_EQ((y - serial).cwiseAbs().maxCoeff(), 0.0) << threads << " threads";
+    for (int64_t blocks_per_range : {int64_t{0}, int64_t{13}, int64_t{200}}) {
+      SCOPED_TRACE(::testing::Message() << "block size " << b << ", " << blocks_per_range
+                                        << " blocks per range");
+      BlockSparseMatrix m = BandedWithLoopClosures(77 + b, b, 1200, 8, 100);
+      if (blocks_per_range > 0) {
+        m.PartitionForProduct(blocks_per_range);
+        ASSERT_GT(m.num_product_ranges(), 3);
+      }
+      const Eigen::VectorXd x = graphslam::testing::RandomVector(5, m.num_rows());
+      const Eigen::VectorXd y0 = graphslam::testing::RandomVector(6, m.num_rows());
+      Eigen::VectorXd serial = y0;
+      m.RightMultiplyAndAccumulateSerial(x.data(), serial.data());
+      for (int threads : {1, 2, 4, 3, 8, 2}) {
+        tbb::task_arena arena(threads);
+        Eigen::VectorXd y = y0;
+        arena.execute([&] { m.RightMultiplyAndAccumulate(x.data(), y.data()); });
+        EXPECT_EQ((y - serial).cwiseAbs().maxCoeff(), 0.0) << threads << " threads";
+      }
+      // A copy (own accumulators) and a concurrent caller (private ones).
+      const BlockSparseMatrix copy = m;
+      Eigen::VectorXd y_copy = y0, y_a = y0, y_b = y0;
+      copy.RightMultiplyAndAccumulate(x.data(), y_copy.data());
+      EXPECT_EQ((y_copy - serial).cwiseAbs().maxCoeff(), 0.0);
+      tbb::task_arena arena(2);
+      arena.execute([&] {
+        tbb::parallel_invoke([&] { m.RightMultiplyAndAccumulate(x.data(), y_a.data()); },
+                             [&] { m.RightMultiplyAndAccumulate(x.data(), y_b.data()); });
+      });
+      EXPECT_EQ((y_a - serial).cwiseAbs().maxCoeff(), 0.0);
+      EXPECT_EQ((y_b - serial).cwiseAbs().maxCoeff(), 0.0);
     }
   }
 }

@@ -278,10 +278,11 @@ TEST(ReducedSystemSolver, AutoRulePicksTheMeasuredWinner) {
       {"sim1e5", 5.70e6, 7.85e8, 848455, 60021, true, LinearSolverType::kPcg},
       {"sim1e6", 6.03e7, 9.10e9, 8645190, 600000, true, LinearSolverType::kPcg},
       // The observed landmark fields from the pose-graph start, PCG with the
-      // default truncation (item 2b; docs/benchmarks.md, "Truncated PCG
-      // solves"): CPU to converge, medians, 0.97x CHOLMOD at 10^5 (even
-      // within the scatter) and 0.87x at 10^6. Without the truncation
-      // CHOLMOD won both (1.53x / 1.38x).
+      // default truncation (item 2b) and the one-sweep product of S's upper
+      // triangle (docs/benchmarks.md, "One-sweep product"): CPU to converge,
+      // medians of 3, 0.97x CHOLMOD at 10^5 (0.93x as auto) and 0.85x at
+      // 10^6. With the row-loop product of the upper triangle CHOLMOD won
+      // 10^6 (PCG 1.23x); without the truncation CHOLMOD won both.
       {"sim1e5obs", 2.76e6, 2.49e8, 326366, 45000, true, LinearSolverType::kPcg},
       {"sim1e6obs", 3.41e7, 5.17e9, 3666762, 450000, true, LinearSolverType::kPcg},
   };
