@@ -27,8 +27,9 @@
 // of all its features per block position (S's upper-triangle block (i, k),
 // i <= k, and rhs block row i) as they come: a chunk's features share few
 // pose pairs, so the serial merge into S adds each position once (the former
-// list of one b x b entry per feature and pair was ~20 % of a reduce pass in
-// memcpy alone and ~20 % in the serial merge, perf on store1e7).
+// list of one b x b entry per feature and pair cost ~13 % of a reduce pass
+// in memmove and ~19 % in the serial merge, perf on store1e7;
+// docs/benchmarks.md).
 //
 // C must be positive definite (ARCHITECTURE.md "Numerics that matter": a
 // feature seen once by bearing only is not); otherwise EliminateFeature
