@@ -17,33 +17,117 @@ using FeatureMatrix =
                   kMaxFeatureDim>;
 using FeatureVector =
     Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxFeatureDim, 1>;
-using PoseFeatureMatrix =
-    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxPoseBlockSize,
-                  kMaxFeatureDim>;
-using PoseMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor,
-                                 kMaxPoseBlockSize, kMaxPoseBlockSize>;
-using PoseVector =
-    Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxPoseBlockSize, 1>;
 
 // Relative eigenvalue floor below which C counts as singular.
 constexpr double kMinRelativeEigenvalue = 1e-12;
 
-// Y = H L^{-T}, i.e. Y L^T = H: a triangular solve from the right with L^T.
-PoseFeatureMatrix Whiten(const Eigen::LLT<FeatureMatrix>& llt, const Eigen::MatrixXd& h) {
-  PoseFeatureMatrix y = h;
-  llt.matrixU().solveInPlace<Eigen::OnTheRight>(y);
-  return y;
+// The feature's terms into *out, given L (C = L L^T, lower triangle of `l`,
+// row-major with stride kMaxFeatureDim). kB, kD: the block sizes when known
+// at compile time (then the loops below unroll), 0 for run-time sizes.
+//   w   = L^{-1} g_m                     (forward substitution)
+//   Y_p = H_pm L^{-T}, row r: L y_r = h_r  (forward substitution per row)
+//   rhs_p += Y_p w;  S_pq += -Y_p Y_q^T for p <= q in ascending pose order,
+// so every block lands at its upper-triangle position (i <= k) as it is.
+template <int kB, int kD>
+void AddFeatureTerms(const FeatureBlocks& f, const double* l, int b_runtime, int d_runtime,
+                     ReducedContribution* out) {
+  const int b = kB > 0 ? kB : b_runtime;
+  const int d = kD > 0 ? kD : d_runtime;
+  constexpr int kStride = kMaxFeatureDim;
+  const int num_poses = static_cast<int>(f.poses.size());
+  double w[kMaxFeatureDim];
+  for (int r = 0; r < d; ++r) {
+    double v = f.feature_gradient[r];
+    for (int m = 0; m < r; ++m) v -= l[r * kStride + m] * w[m];
+    w[r] = v / l[r * kStride + r];
+  }
+  std::vector<double>& whitened = out->whitened();
+  whitened.resize(static_cast<size_t>(num_poses) * b * d);
+  for (int p = 0; p < num_poses; ++p) {
+    const double* h = f.pose_feature[p].data();  // column-major b x d
+    double* y = whitened.data() + static_cast<size_t>(p) * b * d;  // row-major b x d
+    for (int r = 0; r < b; ++r) {
+      for (int c = 0; c < d; ++c) {
+        double v = h[c * b + r];
+        for (int m = 0; m < c; ++m) v -= l[c * kStride + m] * y[r * d + m];
+        y[r * d + c] = v / l[c * kStride + c];
+      }
+    }
+    double* rhs = out->Rhs(f.poses[p]);
+    for (int r = 0; r < b; ++r) {
+      double v = 0.0;
+      for (int m = 0; m < d; ++m) v += y[r * d + m] * w[m];
+      rhs[r] += v;
+    }
+  }
+  // Ascending pose order (insertion sort: a feature has few poses).
+  std::vector<int>& order = out->order();
+  order.resize(static_cast<size_t>(num_poses));
+  for (int p = 0; p < num_poses; ++p) {
+    int a = p;
+    while (a > 0 && f.poses[order[a - 1]] > f.poses[p]) {
+      order[a] = order[a - 1];
+      --a;
+    }
+    order[a] = p;
+  }
+  for (int a = 0; a < num_poses; ++a) {
+    const int p = order[a];
+    const double* yp = whitened.data() + static_cast<size_t>(p) * b * d;
+    for (int c = a; c < num_poses; ++c) {
+      const int q = order[c];
+      const double* yq = whitened.data() + static_cast<size_t>(q) * b * d;
+      double* block = out->Block(f.poses[p], f.poses[q]);
+      for (int r = 0; r < b; ++r) {
+        for (int col = 0; col < b; ++col) {
+          double v = 0.0;
+          for (int m = 0; m < d; ++m) v += yp[r * d + m] * yq[col * d + m];
+          block[r * b + col] -= v;
+        }
+      }
+    }
+  }
 }
 
 }  // namespace
 
 void ReducedContribution::Clear() {
-  block_size = 0;
-  rows.clear();
-  cols.clear();
-  values.clear();
-  rhs_rows.clear();
-  rhs_values.clear();
+  block_size_ = 0;
+  block_slots_.Clear();
+  rhs_slots_.Clear();
+  positions_.clear();
+  values_.clear();
+  rhs_rows_.clear();
+  rhs_values_.clear();
+}
+
+void ReducedContribution::SetBlockSize(int b) {
+  GS_CHECK(b >= 1 && b <= kMaxPoseBlockSize);
+  GS_CHECK(block_size_ == 0 || block_size_ == b);
+  block_size_ = b;
+}
+
+double* ReducedContribution::Block(int i, int k) {
+  GS_DCHECK(block_size_ > 0 && 0 <= i && i <= k);
+  const size_t bb = static_cast<size_t>(block_size_) * block_size_;
+  bool inserted = false;
+  const int32_t slot = block_slots_.Find(internal::SlotMap::PairKey(i, k), &inserted);
+  if (inserted) {
+    positions_.emplace_back(i, k);
+    values_.resize(values_.size() + bb, 0.0);
+  }
+  return values_.data() + slot * bb;
+}
+
+double* ReducedContribution::Rhs(int i) {
+  GS_DCHECK(block_size_ > 0 && i >= 0);
+  bool inserted = false;
+  const int32_t slot = rhs_slots_.Find(static_cast<uint64_t>(i), &inserted);
+  if (inserted) {
+    rhs_rows_.push_back(i);
+    rhs_values_.resize(rhs_values_.size() + block_size_, 0.0);
+  }
+  return rhs_values_.data() + static_cast<size_t>(slot) * block_size_;
 }
 
 Status EliminateFeature(const FeatureBlocks& f, ReducedContribution* out) {
@@ -52,7 +136,7 @@ Status EliminateFeature(const FeatureBlocks& f, ReducedContribution* out) {
   GS_CHECK(f.feature_information.cols() == d);
   GS_CHECK(f.feature_gradient.size() == d);
   GS_CHECK(f.poses.size() == f.pose_feature.size());
-  int b = out->block_size;
+  int b = out->block_size();
   if (!f.pose_feature.empty()) {
     if (b == 0) b = static_cast<int>(f.pose_feature[0].rows());
     GS_CHECK(b >= 1 && b <= kMaxPoseBlockSize);
@@ -98,40 +182,19 @@ Status EliminateFeature(const FeatureBlocks& f, ReducedContribution* out) {
         min_eigenvalue));
   }
   if (f.poses.empty()) return Status::Ok();
-  out->block_size = b;
-
-  // w = L^{-1} g_m, so that H_pm C^{-1} g_m = Y_p w.
-  FeatureVector w = f.feature_gradient;
-  llt.matrixL().solveInPlace(w);
-
-  PoseMatrix block(b, b);
-  PoseVector rhs(b);
-  const int num_poses = static_cast<int>(f.poses.size());
-  // Y_p of the first kWhitenedOnStack poses, computed once each: the small
-  // runtime-sized triangular solves were ~11 % of a streaming iteration
-  // (perf, store1e7) when repeated per pair. Beyond that (features with very
-  // many observations) Y_q is recomputed per pair, which gives the same bits.
-  constexpr int kWhitenedOnStack = 32;
-  PoseFeatureMatrix whitened[kWhitenedOnStack];
-  const int stored = std::min(num_poses, kWhitenedOnStack);
-  for (int q = 0; q < stored; ++q) whitened[q] = Whiten(llt, f.pose_feature[q]);
-  for (int p = 0; p < num_poses; ++p) {
-    const PoseFeatureMatrix yp = p < stored ? whitened[p] : Whiten(llt, f.pose_feature[p]);
-    rhs.noalias() = yp * w;
-    out->rhs_rows.push_back(f.poses[p]);
-    out->rhs_values.insert(out->rhs_values.end(), rhs.data(), rhs.data() + b);
-    for (int q = p; q < num_poses; ++q) {
-      if (q == p) {
-        block.noalias() = -yp * yp.transpose();
-      } else if (q < stored) {
-        block.noalias() = -yp * whitened[q].transpose();
-      } else {
-        block.noalias() = -yp * Whiten(llt, f.pose_feature[q]).transpose();
-      }
-      out->rows.push_back(f.poses[p]);
-      out->cols.push_back(f.poses[q]);
-      out->values.insert(out->values.end(), block.data(), block.data() + b * b);  // row-major
-    }
+  out->SetBlockSize(b);
+  double l[kMaxFeatureDim * kMaxFeatureDim];
+  const FeatureMatrix& factor = llt.matrixLLT();  // L in the lower triangle
+  for (int r = 0; r < d; ++r)
+    for (int col = 0; col <= r; ++col) l[r * kMaxFeatureDim + col] = factor(r, col);
+  if (b == 3 && d == 2) {
+    AddFeatureTerms<3, 2>(f, l, b, d, out);
+  } else if (b == 6 && d == 3) {
+    AddFeatureTerms<6, 3>(f, l, b, d, out);
+  } else if (b == 3 && d == 3) {
+    AddFeatureTerms<3, 3>(f, l, b, d, out);
+  } else {
+    AddFeatureTerms<0, 0>(f, l, b, d, out);
   }
   return Status::Ok();
 }
@@ -152,108 +215,25 @@ Eigen::VectorXd RecoverFeature(const FeatureBlocks& f, const Eigen::VectorXd& po
   return -llt.solve(v);
 }
 
-namespace {
-
-// stored += v, or stored += v^T for a lower position (i > k) of S, whose
-// upper-triangle block (k, i) is the one stored; b x b, row-major.
-void AddToStoredBlock(const double* v, bool transposed, int b, double* stored) {
-  if (!transposed) {
-    for (int e = 0; e < b * b; ++e) stored[e] += v[e];
-    return;
-  }
-  for (int r = 0; r < b; ++r) {
-    for (int col = 0; col < b; ++col) stored[r * b + col] += v[col * b + r];
-  }
-}
-
-// The invariants both merges rely on: c's block size is S's and its arrays
-// have matching lengths.
-void CheckContributionFits(const ReducedContribution& c, const BlockSparseMatrix& s) {
-  const int b = c.block_size;
-  GS_CHECK(b == s.block_size());
-  GS_CHECK(c.rows.size() == c.cols.size());
-  GS_CHECK(c.values.size() == c.rows.size() * b * b);
-  GS_CHECK(c.rhs_values.size() == c.rhs_rows.size() * b);
-}
-
-// rhs += c's right-hand-side entries, in their order.
-void AddRhs(const ReducedContribution& c, Eigen::VectorXd* rhs) {
-  const int b = c.block_size;
-  for (size_t j = 0; j < c.rhs_rows.size(); ++j) {
-    const int64_t row = c.rhs_rows[j];
-    GS_CHECK(row >= 0 && (row + 1) * b <= rhs->size());
-    for (int r = 0; r < b; ++r) (*rhs)[row * b + r] += c.rhs_values[j * b + r];
-  }
-}
-
-}  // namespace
-
 void AccumulateContribution(const ReducedContribution& c, BlockSparseMatrix* s,
                             Eigen::VectorXd* rhs) {
   GS_CHECK(rhs->size() == s->num_rows());
-  if (c.rows.empty() && c.rhs_rows.empty()) return;
-  CheckContributionFits(c, *s);
-  const int b = c.block_size;
-  for (size_t j = 0; j < c.rows.size(); ++j) {
-    const int i = c.rows[j];
-    const int k = c.cols[j];
-    const double* v = c.values.data() + j * b * b;
-    // S stores its upper triangle: a lower block lands transposed.
-    double* stored = i <= k ? s->MutableBlock(i, k) : s->MutableBlock(k, i);
+  if (c.num_blocks() == 0 && c.num_rhs_rows() == 0) return;
+  const int b = c.block_size();
+  GS_CHECK(b == s->block_size());
+  for (size_t j = 0; j < c.num_blocks(); ++j) {
+    const auto [i, k] = c.position(j);
+    double* stored = s->MutableBlock(i, k);  // i <= k: S's upper triangle
     GS_CHECK(stored != nullptr);
-    AddToStoredBlock(v, /*transposed=*/i > k, b, stored);
+    const double* v = c.block_values(j);
+    for (int e = 0; e < b * b; ++e) stored[e] += v[e];
   }
-  AddRhs(c, rhs);
-}
-
-void ContributionGroups::Build(const ReducedContribution& c) {
-  constexpr uint64_t kEmpty = ~uint64_t{0};  // no pair of block indices >= 0 has this key
-  const size_t n = c.rows.size();
-  positions.clear();
-  of_entry.resize(n);
-  size_t capacity = 64;
-  while (capacity < 2 * n) capacity *= 2;
-  int shift = 64;
-  for (size_t k = capacity; k > 1; k >>= 1) --shift;
-  keys_.assign(capacity, kEmpty);
-  slots_.resize(capacity);
-  const size_t mask = capacity - 1;
-  for (size_t j = 0; j < n; ++j) {
-    const uint64_t key = (static_cast<uint64_t>(static_cast<uint32_t>(c.rows[j])) << 32) |
-                         static_cast<uint32_t>(c.cols[j]);
-    size_t slot = static_cast<size_t>((key * 0x9E3779B97F4A7C15ull) >> shift);
-    while (keys_[slot] != kEmpty && keys_[slot] != key) slot = (slot + 1) & mask;
-    if (keys_[slot] == kEmpty) {
-      keys_[slot] = key;
-      slots_[slot] = static_cast<int32_t>(positions.size());
-      positions.emplace_back(c.rows[j], c.cols[j]);
-    }
-    of_entry[j] = slots_[slot];
+  for (size_t j = 0; j < c.num_rhs_rows(); ++j) {
+    const int64_t row = c.rhs_row(j);
+    GS_CHECK((row + 1) * b <= rhs->size());
+    const double* v = c.rhs_values(j);
+    for (int r = 0; r < b; ++r) (*rhs)[row * b + r] += v[r];
   }
-}
-
-void AccumulateContribution(const ReducedContribution& c, const ContributionGroups& groups,
-                            BlockSparseMatrix* s, Eigen::VectorXd* rhs) {
-  GS_CHECK(rhs->size() == s->num_rows());
-  if (c.rows.empty() && c.rhs_rows.empty()) return;
-  CheckContributionFits(c, *s);
-  const int b = c.block_size;
-  GS_CHECK(groups.of_entry.size() == c.rows.size());
-  // S stores its upper triangle: the block of every position, looked up once;
-  // a lower position (i > k) lands transposed in (k, i).
-  std::vector<double*> target(groups.positions.size());
-  for (size_t g = 0; g < groups.positions.size(); ++g) {
-    const auto [i, k] = groups.positions[g];
-    target[g] = i <= k ? s->MutableBlock(i, k) : s->MutableBlock(k, i);
-    GS_CHECK(target[g] != nullptr);
-  }
-  // The entries in their order, as AccumulateContribution(c, s, rhs) adds them.
-  for (size_t j = 0; j < c.rows.size(); ++j) {
-    const int32_t g = groups.of_entry[j];
-    const double* v = c.values.data() + j * b * b;
-    AddToStoredBlock(v, /*transposed=*/c.rows[j] > c.cols[j], b, target[g]);
-  }
-  AddRhs(c, rhs);
 }
 
 }  // namespace graphslam::core

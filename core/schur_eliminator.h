@@ -19,11 +19,17 @@
 //
 //   dm = -C^{-1} (g_m + sum_p H_pm^T dx_p).
 //
-// EliminateFeature emits only the feature's terms (the -Y_p Y_q^T blocks for
+// EliminateFeature adds only the feature's terms (the -Y_p Y_q^T blocks for
 // every pair p <= q including the diagonal, and the +Y_p L^{-1} g_m rhs
 // pieces); the caller adds A and -g_x itself. Features are independent, so
 // many can be eliminated in parallel into separate ReducedContribution
-// buffers and accumulated afterwards.
+// buffers and accumulated afterwards. A ReducedContribution sums the terms
+// of all its features per block position (S's upper-triangle block (i, k),
+// i <= k, and rhs block row i) as they come: a chunk's features share few
+// pose pairs, so the serial merge into S adds each position once (the former
+// list of one b x b entry per feature and pair cost ~13 % of a reduce pass
+// in memmove and ~19 % in the serial merge, perf on store1e7;
+// docs/benchmarks.md).
 //
 // C must be positive definite (ARCHITECTURE.md "Numerics that matter": a
 // feature seen once by bearing only is not); otherwise EliminateFeature
@@ -33,11 +39,17 @@
 // their inputs; concurrent calls must use distinct `out` buffers.
 // AccumulateContribution writes S and rhs: one caller at a time per matrix.
 //
+// ORDER: with block sizes b, d of 3/2, 6/3 and 3/3 the arithmetic is
+// written out for the fixed sizes (others take the same code with run-time
+// sizes); each sum depends only on the features added to `out` and their
+// order, never on threads.
+//
 // ALLOCATION: EliminateFeature works in fixed-capacity stack matrices
-// (d <= kMaxFeatureDim, b <= kMaxPoseBlockSize) and only appends to `out`,
-// whose vectors keep their capacity across Clear(); after warm-up it does not
-// allocate. RecoverFeature returns a new d-vector. AccumulateContribution
-// does not allocate.
+// (d <= kMaxFeatureDim, b <= kMaxPoseBlockSize) and `out`, whose sums, hash
+// tables and scratch keep their capacity across Clear(); after warm-up it
+// does not allocate. Its memory is O(distinct positions + poses) of what was
+// added since the last Clear (a chunk's, not a whole pass's). RecoverFeature
+// returns a new d-vector. AccumulateContribution does not allocate.
 #pragma once
 
 #include <Eigen/Core>
@@ -46,6 +58,7 @@
 #include <vector>
 
 #include "core/block_sparse_matrix.h"
+#include "core/internal/slot_map.h"
 #include "core/status.h"
 
 namespace graphslam::core {
@@ -61,20 +74,52 @@ struct FeatureBlocks {
   std::vector<Eigen::MatrixXd> pose_feature;  // H_pm for each entry of `poses` (b x d)
 };
 
-// The feature's terms of the reduced system, in triplet form.
-struct ReducedContribution {
-  int block_size = 0;          // b; 0 until the first EliminateFeature sets it
-  std::vector<int> rows;       // block (rows[j], cols[j]) gets values[j*b*b ...]
-  std::vector<int> cols;       // (AddBlock semantics: also its transpose at (cols, rows))
-  std::vector<double> values;  // b*b per block, row-major
-  std::vector<int> rhs_rows;   // rhs block rhs_rows[j] gets rhs_values[j*b ...]
-  std::vector<double> rhs_values;  // b per row
-
-  // Empties the lists and resets block_size, keeping the capacity.
+// The terms of many features, summed per position in the order they were
+// added (first the sum starts at zero, then each term is added to it).
+class ReducedContribution {
+ public:
+  // Empties the sums and resets block_size, keeping the capacity.
   void Clear();
+
+  int block_size() const { return block_size_; }  // b; 0 until the first term
+  // Fixes b (1 <= b <= kMaxPoseBlockSize); later calls must pass the same b.
+  void SetBlockSize(int b);
+
+  // The running sum of S's stored block (i, k), 0 <= i <= k: b x b, row-major,
+  // zero when new. Valid until the next call of Block.
+  double* Block(int i, int k);
+  // The running sum of rhs block row i (b entries), zero when new. Valid
+  // until the next call of Rhs.
+  double* Rhs(int i);
+
+  // The positions, in order of first use, and their sums.
+  size_t num_blocks() const { return positions_.size(); }
+  std::pair<int, int> position(size_t j) const { return positions_[j]; }
+  const double* block_values(size_t j) const {
+    return values_.data() + j * block_size_ * block_size_;
+  }
+  size_t num_rhs_rows() const { return rhs_rows_.size(); }
+  int rhs_row(size_t j) const { return rhs_rows_[j]; }
+  const double* rhs_values(size_t j) const { return rhs_values_.data() + j * block_size_; }
+
+  // EliminateFeature's per-feature scratch (the whitened Y_p and the poses'
+  // ascending order); kept here so that it keeps its capacity too.
+  std::vector<double>& whitened() { return whitened_; }
+  std::vector<int>& order() { return order_; }
+
+ private:
+  int block_size_ = 0;
+  internal::SlotMap block_slots_;  // key (i, k) -> index into positions_
+  internal::SlotMap rhs_slots_;    // key i -> index into rhs_rows_
+  std::vector<std::pair<int, int>> positions_;
+  std::vector<double> values_;      // b*b per position
+  std::vector<int> rhs_rows_;
+  std::vector<double> rhs_values_;  // b per rhs row
+  std::vector<double> whitened_;
+  std::vector<int> order_;
 };
 
-// Appends the feature's Schur terms to *out (see the header comment). On a
+// Adds the feature's Schur terms to *out (see the header comment). On a
 // non-positive-definite C (LLT fails, or min eigenvalue <= 1e-12 * max
 // eigenvalue, or non-finite entries) returns Status::Numerical and leaves *out
 // unchanged. Requires 1 <= d <= kMaxFeatureDim, every H_pm of size b x d with
@@ -86,33 +131,10 @@ struct ReducedContribution {
 // EliminateFeature accepted).
 Eigen::VectorXd RecoverFeature(const FeatureBlocks& f, const Eigen::VectorXd& pose_delta);
 
-// S += the blocks of `c` (each also transposed, as AddBlock does) and
-// rhs += its rhs pieces. Every block must be in S's pattern (GS_CHECK);
-// rhs has S->num_rows() entries.
+// S += every block sum of `c` (at its upper-triangle position) and rhs +=
+// its rhs sums, one lookup in S per position. Every position must be in S's
+// pattern (GS_CHECK); rhs has S->num_rows() entries.
 void AccumulateContribution(const ReducedContribution& c, BlockSparseMatrix* s,
                             Eigen::VectorXd* rhs);
-
-// The distinct (row, col) block positions of a ReducedContribution and, per
-// entry j, which of them it is: many features of a chunk fill the same few
-// pose pairs, so AccumulateContribution with groups looks each position up in
-// S once instead of once per entry (the per-entry binary searches were ~12 %
-// of a streaming pass, perf on store1e7). Built where the contribution is
-// (in parallel), used by the serial merge.
-struct ContributionGroups {
-  std::vector<std::pair<int, int>> positions;  // (row, col), in order of first entry
-  std::vector<int32_t> of_entry;               // per entry of c: index into positions
-
-  // Rebuilds both lists for `c` in O(entries) (a hash table kept across calls).
-  void Build(const ReducedContribution& c);
-
- private:
-  std::vector<uint64_t> keys_;
-  std::vector<int32_t> slots_;
-};
-
-// The same sums as AccumulateContribution(c, s, rhs), added in the same order
-// (same bits), with one lookup in S per position of `groups` (built for c).
-void AccumulateContribution(const ReducedContribution& c, const ContributionGroups& groups,
-                            BlockSparseMatrix* s, Eigen::VectorXd* rhs);
 
 }  // namespace graphslam::core

@@ -10,9 +10,12 @@
 //   2. One streaming pass over the chunks re-places every feature from its
 //      first observation (chunks keep each feature's observations in input
 //      order) with the new poses: m = h^{-1}(x_p, z), as Table 1 does.
+//      Chunks are feature-complete, so they are loaded and placed in
+//      parallel (TBB); the result does not depend on the thread count.
 //
-// Memory: the pose system of step 1 and one chunk at a time in step 2.
-// THREAD SAFETY: one call per problem.
+// Memory: the pose system of step 1, one chunk per thread in step 2 and a
+// byte per feature.
+// THREAD SAFETY: one call per problem (it runs TBB tasks itself).
 #pragma once
 
 #include "core/chunk_source.h"

@@ -2,6 +2,8 @@
 
 #include <string>
 
+#include "core/check.h"
+
 namespace graphslam::core::internal {
 namespace {
 
@@ -17,6 +19,36 @@ Eigen::Matrix<double, D, 1> DampingDiagonal(const Eigen::MatrixXd& information) 
 
 }  // namespace
 
+namespace {
+
+// *stored (row-major P x P) += m.
+template <int P>
+void AddTo(const Eigen::Matrix<double, P, P>& m, double* stored) {
+  for (int r = 0; r < P; ++r)
+    for (int c = 0; c < P; ++c) stored[r * P + c] += m(r, c);
+}
+
+// The direct gradient and diagonal of `row`, summed in out's per-row lists.
+template <class Space>
+void AddDirectGradient(int row, const typename ReduceOutput<Space>::Vector& gradient,
+                       const typename ReduceOutput<Space>::Vector& diagonal,
+                       ReduceOutput<Space>* out) {
+  bool inserted = false;
+  const int32_t slot = out->gradient_slots.Find(static_cast<uint64_t>(row), &inserted);
+  if (inserted) {
+    out->gradient_rows.push_back(row);
+    out->gradients.push_back(gradient);
+    out->diagonals.push_back(diagonal);
+  } else {
+    out->gradients[slot] += gradient;
+    out->diagonals[slot] += diagonal;
+  }
+  double* rhs = out->contribution.Rhs(row);
+  for (int r = 0; r < Space::kPoseDim; ++r) rhs[r] -= gradient[r];
+}
+
+}  // namespace
+
 template <class Space>
 Status ReduceChunk(const BasicPassContext<Space>& context,
                    const BasicObservationChunk<typename Space::Observation>& chunk,
@@ -25,11 +57,14 @@ Status ReduceChunk(const BasicPassContext<Space>& context,
                    ReduceOutput<Space>* out) {
   constexpr int P = Space::kPoseDim;
   constexpr int D = Space::kFeatureDim;
-  using Block = typename ReduceOutput<Space>::Block;
+  using Block = Eigen::Matrix<double, P, P>;
   using Vector = typename ReduceOutput<Space>::Vector;
   out->contribution.Clear();
-  out->blocks.clear();
+  out->contribution.SetBlockSize(P);
+  out->gradient_slots.Clear();
+  out->gradient_rows.clear();
   out->gradients.clear();
+  out->diagonals.clear();
   out->chi2 = 0.0;
   for (int64_t k = 0; k < chunk.num_features(); ++k) {
     const int32_t g = chunk.features[k];
@@ -40,8 +75,8 @@ Status ReduceChunk(const BasicPassContext<Space>& context,
     out->chi2 += f.chi2;
     for (size_t slot = 0; slot < f.blocks.poses.size(); ++slot) {
       const int u = f.blocks.poses[slot];
-      out->blocks.push_back({u, u, f.pose_hessian[slot]});
-      out->gradients.push_back({u, f.pose_gradient[slot], f.pose_hessian[slot].diagonal()});
+      AddTo<P>(f.pose_hessian[slot], out->contribution.Block(u, u));
+      AddDirectGradient<Space>(u, f.pose_gradient[slot], f.pose_hessian[slot].diagonal(), out);
     }
     if (context.layout->IsKept(g)) {
       // Padded to the pose block size: components past D decoupled.
@@ -51,12 +86,14 @@ Status ReduceChunk(const BasicPassContext<Space>& context,
       for (int i = D; i < P; ++i) c(i, i) = 1.0;
       Vector gradient = Vector::Zero();
       gradient.template head<D>() = f.blocks.feature_gradient;
-      out->blocks.push_back({fu, fu, c});
-      out->gradients.push_back({fu, gradient, c.diagonal()});
+      AddTo<P>(c, out->contribution.Block(fu, fu));
+      AddDirectGradient<Space>(fu, gradient, c.diagonal(), out);
       for (size_t slot = 0; slot < f.blocks.poses.size(); ++slot) {
         Block coupling = Block::Zero();
         coupling.template leftCols<D>() = f.blocks.pose_feature[slot];
-        out->blocks.push_back({f.blocks.poses[slot], fu, coupling});
+        // Feature unknowns follow the poses: (u, fu) is upper.
+        GS_DCHECK(f.blocks.poses[slot] < fu);
+        AddTo<P>(coupling, out->contribution.Block(f.blocks.poses[slot], fu));
       }
       continue;
     }
@@ -68,20 +105,17 @@ Status ReduceChunk(const BasicPassContext<Space>& context,
                                 std::to_string(g));
     }
   }
-  out->groups.Build(out->contribution);
   return Status::Ok();
 }
 
 template <class Space>
 void MergeReduced(const ReduceOutput<Space>& out, ReducedSystem* system) {
   constexpr int P = Space::kPoseDim;
-  AccumulateContribution(out.contribution, out.groups, &system->matrix, &system->rhs);
-  for (const typename ReduceOutput<Space>::Direct& d : out.blocks)
-    GS_CHECK(system->matrix.AddBlock(d.row, d.col, d.block));
-  for (const typename ReduceOutput<Space>::DirectGradient& d : out.gradients) {
-    system->gradient.template segment<P>(P * d.row) += d.gradient;
-    system->rhs.template segment<P>(P * d.row) -= d.gradient;
-    system->hessian_diagonal.template segment<P>(P * d.row) += d.diagonal;
+  AccumulateContribution(out.contribution, &system->matrix, &system->rhs);
+  for (size_t j = 0; j < out.gradient_rows.size(); ++j) {
+    const int64_t row = out.gradient_rows[j];
+    system->gradient.template segment<P>(P * row) += out.gradients[j];
+    system->hessian_diagonal.template segment<P>(P * row) += out.diagonals[j];
   }
   system->chi2 += out.chi2;
 }

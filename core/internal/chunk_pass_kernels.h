@@ -6,9 +6,11 @@
 //
 //   ReduceChunk    (Table 3): per feature of the chunk, linearize at
 //                  (poses, features), damp C_d = C + lambda D_m, eliminate;
-//                  direct H_pp / g_p blocks and kept features' blocks go to
-//                  *out as they are.
-//   MergeReduced   : adds *out into the ReducedSystem (serial, chunk order).
+//                  all terms (Schur terms, direct H_pp / g_p, kept features'
+//                  blocks) are summed per position of S / row of rhs in *out,
+//                  in the chunk's feature order.
+//   MergeReduced   : adds *out's sums into the ReducedSystem (serial, chunk
+//                  order): one addition per position per chunk.
 //   RecoverChunk   (Table 4): dm = -C_d^{-1}(g_m + sum_p H_pm^T dx_p), the
 //                  candidate feature, its chi2 at the candidate poses, and the
 //                  model-decrease terms.
@@ -27,31 +29,25 @@
 
 #include "core/chunk_passes.h"
 #include "core/feature_linearizer.h"
+#include "core/internal/slot_map.h"
 #include "core/schur_eliminator.h"
 
 namespace graphslam::core::internal {
 
 template <class Space>
 struct ReduceOutput {
-  using Block = Eigen::Matrix<double, Space::kPoseDim, Space::kPoseDim>;
   using Vector = Eigen::Matrix<double, Space::kPoseDim, 1>;
-  // A block added to S as it is (not through elimination): direct pose terms
-  // H_pp, and every block of a kept feature.
-  struct Direct {
-    int row = 0;
-    int col = 0;
-    Block block;
-  };
-  struct DirectGradient {
-    int row = 0;
-    Vector gradient;
-    Vector diagonal;
-  };
   BasicLinearizedFeature<Space> scratch;
+  // The chunk's terms of S and rhs summed per position: the eliminated
+  // features' Schur terms, the direct pose terms H_pp and -g_p, and every
+  // block of a kept feature (C, H_pm, -g_m), in feature order.
   ReducedContribution contribution;
-  ContributionGroups groups;  // of contribution, for the merge's lookups in S
-  std::vector<Direct> blocks;
-  std::vector<DirectGradient> gradients;
+  // The direct gradient g_p and diag(H_pp) (kept features: g_m, diag C)
+  // summed per row, rows in order of first use.
+  SlotMap gradient_slots;
+  std::vector<int> gradient_rows;
+  std::vector<Vector> gradients;
+  std::vector<Vector> diagonals;
   double chi2 = 0.0;
 };
 
