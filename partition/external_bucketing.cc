@@ -270,8 +270,7 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
     last_checkpoint = std::chrono::steady_clock::now();
     return checkpoint ? checkpoint(*progress) : Status::Ok();
   };
-  int64_t resumable_offset = progress->input_offset;
-  int32_t resumable_line = progress->input_line;
+  int64_t resumable_offset = progress->replay_position;
   GS_RETURN_IF_ERROR(replay([&](const ObservationBlock& block) -> Status {
     for (size_t i = 0; i < block.size; ++i) {
       const core::Observation& observation = block.observations[i];
@@ -288,20 +287,22 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
       const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() -
                                                            last_checkpoint).count();
       if (checkpoint && resumable_offset >= 0 && elapsed >= checkpoint_seconds) {
-        progress->input_offset = resumable_offset;
-        progress->input_line = resumable_line;
+        progress->replay_position = resumable_offset;
         GS_RETURN_IF_ERROR(take_checkpoint());
       }
     }
     for (size_t i = 0; i < block.size; ++i) {
+      // Spilled when full and more is to come, not as soon as full: a buffer
+      // that fills up exactly at a block's end is spilled at the next block,
+      // at a resumable point (blocks that divide the buffer would otherwise
+      // never give one).
+      if (static_cast<int64_t>(buffer.size()) >= capacity) GS_RETURN_IF_ERROR(spill());
       buffer.push_back(block.observations[i]);
       stats.peak_observations_in_memory =
           std::max(stats.peak_observations_in_memory, static_cast<int64_t>(buffer.size()));
-      if (static_cast<int64_t>(buffer.size()) >= capacity) GS_RETURN_IF_ERROR(spill());
     }
     stats.observations += static_cast<int64_t>(block.size);
     resumable_offset = block.end_offset;
-    resumable_line = block.end_line;
     return Status::Ok();
   }));
   GS_RETURN_IF_ERROR(spill());
@@ -314,8 +315,7 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
                                 std::to_string(progress->bucket_observations[b]) +
                                 " observations spilled; the first pass counted " +
                                 std::to_string(bucket_observations_[b]));
-  progress->input_offset = resumable_offset;
-  progress->input_line = resumable_line;
+  progress->replay_position = resumable_offset;
   // Durable before the caller records that pass 2 is over.
   std::vector<std::string> paths;
   for (int64_t b = 0; b < num_buckets; ++b)

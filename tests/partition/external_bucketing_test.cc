@@ -70,7 +70,8 @@ class ExternalBucketingTest : public ::testing::Test {
     options.max_observations_per_chunk = 100;
     options.buffer_observations = 300;
     options.checkpoint_seconds = 0;
-    options.replay_block_bytes = 4096;
+    options.replay.frame_observations = 50;  // several frames and segments: mid-spill resume points
+    options.replay.frames_per_segment = 3;
     return options;
   }
 
@@ -610,7 +611,7 @@ TEST_F(ExternalBucketingTest, ZstdInputGivesThePlainInputsStoreBytesAndResumes) 
   resume.resume = true;
   ASSERT_TRUE(IngestToStore(Env::Default(), zst, Path("resumed"), resume, &summary).ok());
   EXPECT_EQ(summary.resumed_stage, "spill");
-  EXPECT_GT(summary.resumed_from_offset, 0);
+  EXPECT_GT(summary.resumed_from_observation, 0);
   ExpectSameBytes(Path("resumed"), Path("plain"));
 
   // Truncated: the error names the file and where it ends.
