@@ -3,13 +3,19 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cinttypes>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <mutex>
 #include <system_error>
 #include <utility>
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_pipeline.h>
 
 #include "partition/spill_frames.h"
 
@@ -153,50 +159,152 @@ Status ReplayFrameWriter::Finish() {
   return CloseSegment();
 }
 
+namespace {
+
+// One frame of the replay on its way through the pipeline below.
+struct ReplayBlock {
+  std::string path;  // its segment
+  int64_t offset = 0;
+  std::vector<char> raw;
+  std::vector<core::Observation> observations;
+  int64_t end_position = 0;
+  Status status;
+};
+
+// The serial first stage: the frames' bytes, in order, from `start` on.
+class RawFrameReader {
+ public:
+  RawFrameReader(std::string work_dir, const ReplayFrameOptions& options, int64_t start,
+                 int64_t total)
+      : work_dir_(std::move(work_dir)), per_segment_(options.segment_observations()),
+        position_(start), total_(total) {}
+  ~RawFrameReader() {
+    if (file_ != nullptr) std::fclose(file_);
+  }
+
+  // The next frame into *block; false when `total` is reached.
+  StatusOr<bool> Next(ReplayBlock* block) {
+    if (position_ >= total_) return false;
+    const int64_t segment = position_ / per_segment_;
+    if (file_ == nullptr || segment != segment_) {
+      if (file_ != nullptr) std::fclose(file_);
+      file_ = nullptr;
+      segment_ = segment;
+      path_ = ReplaySegmentPath(work_dir_, segment);
+      // The frame boundary after the segment's observations already replayed.
+      GS_ASSIGN_OR_RETURN(offset_, SpillFrameBoundary(path_, position_ % per_segment_));
+      file_ = std::fopen(path_.c_str(), "rb");
+      if (file_ == nullptr) {
+        if (errno == ENOENT)
+          return Status::Corruption(path_ + ": missing; the replay needs observations " +
+                                    std::to_string(position_) + ".." +
+                                    std::to_string(total_ - 1) + " of pass 1");
+        return IoError(path_, "open for reading");
+      }
+      if (std::fseek(file_, offset_, SEEK_SET) != 0) return IoError(path_, "seek");
+    }
+    const int64_t segment_end = std::min(total_, (segment_ + 1) * per_segment_);
+    GS_ASSIGN_OR_RETURN(const bool more,
+                        SpillFrameDecoder::ReadRawFrame(path_, file_, offset_, &block->raw));
+    const int64_t n = more ? static_cast<int64_t>(FrameObservations(block->raw.data())) : 0;
+    if (!more || position_ + n > segment_end)
+      return Status::Corruption(path_ + ": spill frame at byte " + std::to_string(offset_) + ": " +
+                                (more ? "runs past" : "the segment ends before") +
+                                " replay position " + std::to_string(segment_end) +
+                                "; expected segments of " + std::to_string(per_segment_) +
+                                " observations and " + std::to_string(total_) + " in all");
+    block->path = path_;
+    block->offset = offset_;
+    offset_ += static_cast<int64_t>(block->raw.size());
+    position_ += n;
+    block->end_position = position_;
+    return true;
+  }
+
+ private:
+  const std::string work_dir_;
+  const int64_t per_segment_;
+  int64_t position_;
+  const int64_t total_;
+  std::FILE* file_ = nullptr;
+  int64_t segment_ = -1;
+  std::string path_;
+  int64_t offset_ = 0;
+};
+
+}  // namespace
+
 ObservationBlockReplay ReplayFrames(const std::string& work_dir, const ReplayFrameOptions& options,
                                     int64_t start, int64_t total, int64_t* bytes_read) {
   return [work_dir, options, start, total, bytes_read](const ObservationBlockSink& sink) -> Status {
     GS_RETURN_IF_ERROR(options.Validate());
-    const int64_t per_segment = options.segment_observations();
-    int64_t position = start;
-    SpillFrameDecoder decoder;
-    std::vector<core::Observation> frame;
-    while (position < total) {
-      const int64_t segment = position / per_segment;
-      const std::string path = ReplaySegmentPath(work_dir, segment);
-      // The frame boundary after the segment's observations already replayed.
-      GS_ASSIGN_OR_RETURN(int64_t offset, SpillFrameBoundary(path, position % per_segment));
-      std::FILE* file = std::fopen(path.c_str(), "rb");
-      if (file == nullptr) {
-        if (errno == ENOENT)
-          return Status::Corruption(path + ": missing; the replay needs observations " +
-                                    std::to_string(position) + ".." + std::to_string(total - 1) +
-                                    " of pass 1");
-        return IoError(path, "open for reading");
-      }
-      std::unique_ptr<std::FILE, int (*)(std::FILE*)> closer(file, &std::fclose);
-      if (std::fseek(file, offset, SEEK_SET) != 0) return IoError(path, "seek");
-      const int64_t segment_end = std::min(total, (segment + 1) * per_segment);
-      while (position < segment_end) {
-        const int64_t frame_offset = offset;
-        frame.clear();
-        GS_ASSIGN_OR_RETURN(const bool more, decoder.ReadFrame(path, file, &offset, &frame));
-        if (!more || position + static_cast<int64_t>(frame.size()) > segment_end)
-          return Status::Corruption(path + ": spill frame at byte " + std::to_string(frame_offset) +
-                                    ": " + (more ? "runs past" : "the segment ends before") +
-                                    " replay position " + std::to_string(segment_end) +
-                                    "; expected segments of " + std::to_string(per_segment) +
-                                    " observations and " + std::to_string(total) + " in all");
-        if (bytes_read != nullptr) *bytes_read += offset - frame_offset;
-        position += static_cast<int64_t>(frame.size());
-        ObservationBlock block;
-        block.observations = frame.data();
-        block.size = frame.size();
-        block.end_offset = position;
-        GS_RETURN_IF_ERROR(sink(block));
-      }
-    }
-    return Status::Ok();
+    // serial: read a frame's bytes; parallel: CRC + zstd + columns (a
+    // decoder per thread); serial in order: the sink (the spill). The
+    // decoding overlaps the spill; at most kReplayFramesInFlight frames live.
+    RawFrameReader reader(work_dir, options, start, total);
+    tbb::enumerable_thread_specific<SpillFrameDecoder> decoders;
+    std::vector<std::unique_ptr<ReplayBlock>> pool;  // first stage only
+    std::mutex pool_mutex;
+    Status read_failure;              // first stage only
+    Status sink_failure;              // last stage only
+    std::atomic<bool> failed{false};  // read by the first stage, set by both
+    tbb::parallel_pipeline(
+        kReplayFramesInFlight,
+        tbb::make_filter<void, ReplayBlock*>(
+            tbb::filter_mode::serial_in_order,
+            [&](tbb::flow_control& control) -> ReplayBlock* {
+              std::unique_ptr<ReplayBlock> block;
+              {
+                std::lock_guard<std::mutex> lock(pool_mutex);
+                if (!pool.empty()) {
+                  block = std::move(pool.back());
+                  pool.pop_back();
+                }
+              }
+              if (!block) block = std::make_unique<ReplayBlock>();
+              StatusOr<bool> more = failed ? StatusOr<bool>(false) : reader.Next(block.get());
+              if (!more.ok() || !*more) {
+                if (!more.ok()) {
+                  read_failure = more.status();
+                  failed = true;
+                }
+                control.stop();
+                return nullptr;
+              }
+              return block.release();
+            }) &
+            tbb::make_filter<ReplayBlock*, ReplayBlock*>(
+                tbb::filter_mode::parallel,
+                [&](ReplayBlock* block) -> ReplayBlock* {
+                  block->observations.resize(FrameObservations(block->raw.data()));
+                  block->status = decoders.local().DecodeFrame(
+                      block->path, block->offset, block->raw.data(), block->raw.size(),
+                      block->observations.data());
+                  return block;
+                }) &
+            tbb::make_filter<ReplayBlock*, void>(
+                tbb::filter_mode::serial_in_order, [&](ReplayBlock* raw) {
+                  std::unique_ptr<ReplayBlock> block(raw);
+                  if (!failed) {
+                    Status status = block->status;
+                    if (status.ok()) {
+                      if (bytes_read != nullptr)
+                        *bytes_read += static_cast<int64_t>(block->raw.size());
+                      ObservationBlock view;
+                      view.observations = block->observations.data();
+                      view.size = block->observations.size();
+                      view.end_offset = block->end_position;
+                      status = sink(view);
+                    }
+                    if (!status.ok()) {
+                      sink_failure = std::move(status);
+                      failed = true;
+                    }
+                  }
+                  std::lock_guard<std::mutex> lock(pool_mutex);
+                  pool.push_back(std::move(block));
+                }));
+    return !sink_failure.ok() ? sink_failure : read_failure;
   };
 }
 
