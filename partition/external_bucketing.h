@@ -2,7 +2,8 @@
 // observations into feature-complete chunks without ever holding more than a
 // fixed number of observations in memory (issue 3, out of core).
 //
-// Two passes over the stream (an input file is read twice):
+// Two passes over the stream (the ingest of a native log replays pass 1's
+// parsed observations for pass 2, partition/replay_frames.h):
 //
 //   pass 1 (FeatureIndex): per feature, its number of observations n_f and the
 //     lowest pose that observes it p_f -- O(features) integers, nothing per
