@@ -486,6 +486,28 @@ TEST_F(ExternalBucketingTest, ResumeAfterATornSpillFrameGivesTheSameStoreBytes) 
   StreamingIngestOptions resume = options;
   resume.resume = true;
 
+  // The replay segments behind the first checkpoint (300 observations: two
+  // segments of 150) are gone, the later ones are there for the resume; a
+  // damaged one is Corruption naming it and the frame's offset.
+  die_in_the_spill();
+  const std::filesystem::path work = std::filesystem::path(store) / "work";
+  EXPECT_FALSE(std::filesystem::exists(work / "replay_000000.bin"));
+  EXPECT_FALSE(std::filesystem::exists(work / "replay_000001.bin"));
+  const std::string replay = (work / "replay_000003.bin").string();
+  ASSERT_TRUE(std::filesystem::exists(replay));
+  {
+    std::string bytes = ReadBytes(replay);
+    bytes[kSpillFrameHeaderBytes + 1] ^= 0x04;
+    std::ofstream(replay, std::ios::binary | std::ios::trunc) << bytes;
+    const Status status = IngestToStore(&no_sync, input, store, resume, &summary);
+    ASSERT_FALSE(status.ok());
+    EXPECT_TRUE(status.IsCorruption()) << status.ToString();
+    EXPECT_NE(status.message().find(replay + ": spill frame at byte 0: CRC mismatch"),
+              std::string::npos)
+        << status.ToString();
+    EXPECT_FALSE(storage::IsChunkStore(store));
+  }
+
   die_in_the_spill();
   const std::string frame_start = ReadBytes(bucket).substr(0, 20);
   for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(store) / "work"))
