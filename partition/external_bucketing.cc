@@ -270,8 +270,7 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
     last_checkpoint = std::chrono::steady_clock::now();
     return checkpoint ? checkpoint(*progress) : Status::Ok();
   };
-  int64_t resumable_offset = progress->input_offset;
-  int32_t resumable_line = progress->input_line;
+  int64_t resumable_offset = progress->replay_position;
   GS_RETURN_IF_ERROR(replay([&](const ObservationBlock& block) -> Status {
     for (size_t i = 0; i < block.size; ++i) {
       const core::Observation& observation = block.observations[i];
@@ -288,20 +287,22 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
       const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() -
                                                            last_checkpoint).count();
       if (checkpoint && resumable_offset >= 0 && elapsed >= checkpoint_seconds) {
-        progress->input_offset = resumable_offset;
-        progress->input_line = resumable_line;
+        progress->replay_position = resumable_offset;
         GS_RETURN_IF_ERROR(take_checkpoint());
       }
     }
     for (size_t i = 0; i < block.size; ++i) {
+      // Spilled when full and more is to come, not as soon as full: a buffer
+      // that fills up exactly at a block's end is spilled at the next block,
+      // at a resumable point (blocks that divide the buffer would otherwise
+      // never give one).
+      if (static_cast<int64_t>(buffer.size()) >= capacity) GS_RETURN_IF_ERROR(spill());
       buffer.push_back(block.observations[i]);
       stats.peak_observations_in_memory =
           std::max(stats.peak_observations_in_memory, static_cast<int64_t>(buffer.size()));
-      if (static_cast<int64_t>(buffer.size()) >= capacity) GS_RETURN_IF_ERROR(spill());
     }
     stats.observations += static_cast<int64_t>(block.size);
     resumable_offset = block.end_offset;
-    resumable_line = block.end_line;
     return Status::Ok();
   }));
   GS_RETURN_IF_ERROR(spill());
@@ -314,8 +315,7 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
                                 std::to_string(progress->bucket_observations[b]) +
                                 " observations spilled; the first pass counted " +
                                 std::to_string(bucket_observations_[b]));
-  progress->input_offset = resumable_offset;
-  progress->input_line = resumable_line;
+  progress->replay_position = resumable_offset;
   // Durable before the caller records that pass 2 is over.
   std::vector<std::string> paths;
   for (int64_t b = 0; b < num_buckets; ++b)
@@ -361,18 +361,65 @@ std::string BucketChunkSource::BucketPath(int64_t bucket) const {
 Status BucketChunkSource::LoadBucket(int64_t bucket) const {
   const std::string path = BucketPath(bucket);
   const int64_t n = bucket_observations_[bucket];
-  bucket_.clear();
-  bucket_.shrink_to_fit();  // the previous bucket's memory goes before the next one's
-  std::vector<core::Observation> read;
-  read.reserve(static_cast<size_t>(n));
-  File file(std::fopen(path.c_str(), "rb"));
-  if (!file) return IoError(path, "open for reading");
-  SpillFrameDecoder decoder;
-  GS_RETURN_IF_ERROR(decoder.ReadFile(path, file.get(), &read));
-  if (static_cast<int64_t>(read.size()) != n)
-    return Status::Corruption(path + ": " + std::to_string(read.size()) +
+  // The whole file (~16 B per observation), its frames found from the
+  // headers and decoded in parallel (a decoder per thread) into `read`.
+  // bucket_ keeps its pages from bucket to bucket (fresh pages cost a fault
+  // and zeroing each); `raw` and `read` are freed on return, so between two
+  // loads only bucket_ is held (the peak, inside this call, is raw + read +
+  // bucket_, ~2.2 K observations' worth).
+  std::vector<char> raw;
+  if (bucket_.capacity() < static_cast<size_t>(n)) {
+    // Would be reallocated below while `read` lives: freed first instead.
+    bucket_.clear();
+    bucket_.shrink_to_fit();
+  }
+  {
+    File file(std::fopen(path.c_str(), "rb"));
+    if (!file) return IoError(path, "open for reading");
+    if (std::fseek(file.get(), 0, SEEK_END) != 0) return IoError(path, "seek");
+    const long size = std::ftell(file.get());
+    if (size < 0) return IoError(path, "tell");
+    std::rewind(file.get());
+    raw.resize(static_cast<size_t>(size));
+    if (std::fread(raw.data(), 1, raw.size(), file.get()) != raw.size())
+      return IoError(path, "read");
+  }
+  std::vector<size_t> offsets;
+  std::vector<int64_t> firsts;
+  int64_t total = 0;
+  for (size_t offset = 0; offset < raw.size();) {
+    const std::string at = path + ": spill frame at byte " + std::to_string(offset) + ": ";
+    if (raw.size() - offset < kSpillFrameHeaderBytes)
+      return Status::Corruption(at + "truncated header (" + std::to_string(raw.size() - offset) +
+                                " of " + std::to_string(kSpillFrameHeaderBytes) + " bytes)");
+    uint32_t magic;
+    std::memcpy(&magic, raw.data() + offset, 4);
+    if (magic != kSpillFrameMagic) return Status::Corruption(at + "bad magic");
+    const size_t bytes = FrameBytes(raw.data() + offset);
+    if (bytes > raw.size() - offset)
+      return Status::Corruption(at + "truncated: payload of " +
+                                std::to_string(bytes - kSpillFrameHeaderBytes) +
+                                " bytes, the file has " +
+                                std::to_string(raw.size() - offset - kSpillFrameHeaderBytes));
+    offsets.push_back(offset);
+    firsts.push_back(total);
+    total += static_cast<int64_t>(FrameObservations(raw.data() + offset));
+    offset += bytes;
+  }
+  if (total != n)
+    return Status::Corruption(path + ": " + std::to_string(total) +
                               " observations in its frames; " + std::to_string(n) +
                               " were spilled into it");
+  std::vector<core::Observation> read(static_cast<size_t>(n));
+  std::vector<Status> statuses(offsets.size());
+  tbb::enumerable_thread_specific<SpillFrameDecoder> decoders;
+  tbb::parallel_for(size_t{0}, offsets.size(), [&](size_t f) {
+    const char* frame = raw.data() + offsets[f];
+    statuses[f] = decoders.local().DecodeFrame(path, static_cast<int64_t>(offsets[f]), frame,
+                                               FrameBytes(frame), read.data() + firsts[f]);
+  });
+  for (const Status& status : statuses) GS_RETURN_IF_ERROR(status);
+  raw = std::vector<char>();
   // Grouped by (chunk, feature) = by feature slot within the bucket: a
   // counting sort, stable, so each feature keeps its input order.
   const int64_t first_chunk = bucket_first_chunk_[bucket];

@@ -2,7 +2,8 @@
 // observations into feature-complete chunks without ever holding more than a
 // fixed number of observations in memory (issue 3, out of core).
 //
-// Two passes over the stream (an input file is read twice):
+// Two passes over the stream (the ingest of a native log replays pass 1's
+// parsed observations for pass 2, partition/replay_frames.h):
 //
 //   pass 1 (FeatureIndex): per feature, its number of observations n_f and the
 //     lowest pose that observes it p_f -- O(features) integers, nothing per
@@ -109,13 +110,14 @@ class FeatureIndex {
   int64_t observations_ = 0;
 };
 
-// A block of observations of pass 2, in input order, and where the input
-// stands after it (end_offset < 0: not a resumable point).
+// A block of observations of pass 2, in input order, and where the replay
+// stands after it (end_offset: the replay's resume position, e.g. the number
+// of observations replayed, partition/replay_frames.h; < 0: not a resumable
+// point).
 struct ObservationBlock {
   const core::Observation* observations = nullptr;
   size_t size = 0;
   int64_t end_offset = -1;
-  int32_t end_line = 0;
 };
 using ObservationBlockSink = std::function<Status(const ObservationBlock&)>;
 // Calls the sink for every block from the resume point on, in input order.
@@ -126,13 +128,12 @@ using ObservationBlockReplay = std::function<Status(const ObservationBlockSink& 
 // result.
 ObservationBlockReplay InBlocks(const ObservationReplay& replay);
 
-// How far pass 2 got: every observation of the input before byte
-// `input_offset` (line `input_line`) is in the bucket files, which hold
-// `bucket_observations[b]` observations each (durable when reported to a
-// SpillCheckpoint). The resume point of an interrupted spill.
+// How far pass 2 got: every observation of the replay before resume
+// position `replay_position` (a block's end_offset) is in the bucket files,
+// which hold `bucket_observations[b]` observations each (durable when
+// reported to a SpillCheckpoint). The resume point of an interrupted spill.
 struct SpillProgress {
-  int64_t input_offset = 0;
-  int32_t input_line = 0;
+  int64_t replay_position = 0;
   int64_t observations = 0;
   std::vector<int64_t> bucket_observations;
 };

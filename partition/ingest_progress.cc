@@ -128,7 +128,8 @@ bool IngestProgress::SameIngest(const IngestProgress& other) const {
          input_mtime_ns == other.input_mtime_ns && chunk_observations == other.chunk_observations &&
          buffer_observations == other.buffer_observations && compression == other.compression &&
          zstd_level == other.zstd_level && target_record_bytes == other.target_record_bytes &&
-         source == other.source;
+         source == other.source &&
+         replay_segment_observations == other.replay_segment_observations;
 }
 
 Status WriteIngestProgress(storage::Env* env, const std::string& path,
@@ -145,12 +146,12 @@ Status WriteIngestProgress(storage::Env* env, const std::string& path,
   json["zstd_level"] = progress.zstd_level;
   json["target_record_bytes"] = progress.target_record_bytes;
   json["source"] = progress.source;
+  json["replay_segment_observations"] = progress.replay_segment_observations;
   json["poses"] = progress.poses;
   json["features"] = progress.features;
   json["observations"] = progress.observations;
   json["stage"] = progress.stage;
-  json["spill"] = {{"input_offset", progress.spill.input_offset},
-                   {"input_line", progress.spill.input_line},
+  json["spill"] = {{"replay_position", progress.spill.replay_position},
                    {"observations", progress.spill.observations},
                    {"bucket_observations", progress.spill.bucket_observations}};
   json["chunks_durable"] = progress.chunks_durable;
@@ -181,6 +182,7 @@ StatusOr<IngestProgress> ReadIngestProgress(const std::string& path) {
   progress.zstd_level = static_cast<int>(ReadInt(json, "zstd_level", &ok));
   progress.target_record_bytes = ReadInt(json, "target_record_bytes", &ok);
   progress.source = ReadString(json, "source", &ok);
+  progress.replay_segment_observations = ReadInt(json, "replay_segment_observations", &ok);
   progress.poses = static_cast<int32_t>(ReadInt(json, "poses", &ok));
   progress.features = static_cast<int32_t>(ReadInt(json, "features", &ok));
   progress.observations = ReadInt(json, "observations", &ok);
@@ -190,8 +192,7 @@ StatusOr<IngestProgress> ReadIngestProgress(const std::string& path) {
   if (spill == json.end() || !spill->is_object()) {
     ok = false;
   } else {
-    progress.spill.input_offset = ReadInt(*spill, "input_offset", &ok);
-    progress.spill.input_line = static_cast<int32_t>(ReadInt(*spill, "input_line", &ok));
+    progress.spill.replay_position = ReadInt(*spill, "replay_position", &ok);
     progress.spill.observations = ReadInt(*spill, "observations", &ok);
     const auto buckets = spill->find("bucket_observations");
     if (buckets == spill->end() || !buckets->is_array()) {

@@ -9,9 +9,12 @@
 //   STORE/work/ingest_progress.json  where the ingest stands: the input's
 //                                 identity (path, size, mtime), the options
 //                                 that shape the store, the stage ("spill" or
-//                                 "chunks"), the spill's resume point (input
-//                                 byte offset and line, observations per
-//                                 bucket file) and the durable chunk count.
+//                                 "chunks"), the spill's resume point (replay
+//                                 position, observations per bucket file) and
+//                                 the durable chunk count.
+//   STORE/work/replay_NNNNNN.bin  pass 1's observations for pass 2
+//                                 (partition/replay_frames.h), durable before
+//                                 the first record.
 //                                 Rewritten atomically at every checkpoint.
 //
 // Every file that a progress record counts is durable before the record is
@@ -36,9 +39,12 @@ namespace graphslam::partition {
 inline constexpr const char* kPass1RecordName = "pass1.bin";
 inline constexpr const char* kIngestProgressName = "ingest_progress.json";
 inline constexpr const char* kIngestProgressFormat = "graphslam-ingest-progress";
-// 2: the bucket files are spill frames (partition/spill_frames.h); a version-1
-// record (raw 72-byte bucket records) is not resumed: the ingest starts afresh.
-inline constexpr int kIngestProgressVersion = 2;
+// 2: the bucket files are spill frames (partition/spill_frames.h); 3: pass 2
+// replays pass 1's observations from work/replay_NNNNNN.bin
+// (partition/replay_frames.h) and the spill position counts replayed
+// observations, not input bytes. An older record is not resumed: the ingest
+// starts afresh.
+inline constexpr int kIngestProgressVersion = 3;
 
 struct Pass1Record {
   std::vector<int64_t> pose_ids;
@@ -65,6 +71,9 @@ struct IngestProgress {
   int zstd_level = 0;
   int64_t target_record_bytes = 0;
   std::string source;
+  // Observations per replay segment (partition/replay_frames.h): where the
+  // spill position lies in the segments.
+  int64_t replay_segment_observations = 0;
   // Counts for the summary.
   int32_t poses = 0;
   int32_t features = 0;

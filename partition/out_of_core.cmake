@@ -2,6 +2,7 @@
 target_sources(graphslam_partition PRIVATE
   external_bucketing.cc
   spill_frames.cc
+  replay_frames.cc
   first_sight_initialization.cc
   ingest_progress.cc
   ingest_scans.cc

@@ -118,65 +118,89 @@ Status SpillFrameDecoder::ReadFile(const std::string& path, std::FILE* file,
   }
 }
 
+size_t FrameObservations(const char* frame) { return GetU32(frame + 4); }
+size_t FrameBytes(const char* frame) { return kSpillFrameHeaderBytes + GetU32(frame + 8); }
+
+StatusOr<bool> SpillFrameDecoder::ReadRawFrame(const std::string& path, std::FILE* file,
+                                               int64_t offset, std::vector<char>* frame) {
+  GS_CHECK(file != nullptr && frame != nullptr);
+  frame->resize(kSpillFrameHeaderBytes);
+  const size_t got = std::fread(frame->data(), 1, kSpillFrameHeaderBytes, file);
+  if (got == 0 && std::feof(file)) return false;
+  if (std::ferror(file)) return Status::IOError(path + ": read: " + std::strerror(errno));
+  if (got < kSpillFrameHeaderBytes)
+    return Status::Corruption(At(path, offset) + "truncated header (" + std::to_string(got) +
+                              " of " + std::to_string(kSpillFrameHeaderBytes) + " bytes)");
+  if (GetU32(frame->data()) != kSpillFrameMagic)
+    return Status::Corruption(At(path, offset) + "bad magic");
+  const size_t payload_bytes = GetU32(frame->data() + 8);
+  frame->resize(kSpillFrameHeaderBytes + payload_bytes);
+  const size_t read =
+      std::fread(frame->data() + kSpillFrameHeaderBytes, 1, payload_bytes, file);
+  if (std::ferror(file)) return Status::IOError(path + ": read: " + std::strerror(errno));
+  if (read < payload_bytes)
+    return Status::Corruption(At(path, offset) + "truncated: payload of " +
+                              std::to_string(payload_bytes) + " bytes, the file has " +
+                              std::to_string(read));
+  return true;
+}
+
+Status SpillFrameDecoder::DecodeFrame(const std::string& path, int64_t offset, const char* frame,
+                                      size_t size, core::Observation* out) {
+  GS_CHECK(size >= kSpillFrameHeaderBytes && size == FrameBytes(frame));
+  const char* header = frame;
+  const char* payload = frame + kSpillFrameHeaderBytes;
+  const size_t n = GetU32(header + 4);
+  const size_t payload_bytes = GetU32(header + 8);
+  if (FrameCrc(header, payload, payload_bytes) != GetU32(header + 12))
+    return Status::Corruption(At(path, offset) + "CRC mismatch");
+  columns_.resize(kSpillRecordBytes * n);
+  const size_t decompressed = ZSTD_decompressDCtx(context_->dctx, columns_.data(), columns_.size(),
+                                                  payload, payload_bytes);
+  if (ZSTD_isError(decompressed) || decompressed != columns_.size())
+    return Status::Corruption(At(path, offset) + "payload does not decompress to " +
+                              std::to_string(columns_.size()) + " bytes (" +
+                              (ZSTD_isError(decompressed) ? ZSTD_getErrorName(decompressed)
+                                                          : std::to_string(decompressed) + " bytes") +
+                              ")");
+  const Columns c(n);
+  const char* base = columns_.data();
+  uint32_t pose = 0, line = 0;
+  for (size_t i = 0; i < n; ++i) {
+    core::Observation& o = out[i];
+    pose += Get<uint32_t>(base, c.pose, i);
+    o.pose = static_cast<int32_t>(pose);
+    o.feature = Get<int32_t>(base, c.feature, i);
+    const uint8_t kind = Get<uint8_t>(base, c.kind, i);
+    if (kind > static_cast<uint8_t>(core::ObservationKind::kPointXY))
+      return Status::Corruption(At(path, offset) + "observation " + std::to_string(i) +
+                                " has kind " + std::to_string(kind) + "; expected 0 or 1");
+    o.kind = static_cast<core::ObservationKind>(kind);
+    o.z(0) = Get<double>(base, c.z, i);
+    o.z(1) = Get<double>(base, c.z + 8 * n, i);
+    for (int e = 0; e < 4; ++e) o.information(e) = Get<double>(base, c.information + 8 * n * e, i);
+    line += Get<uint32_t>(base, c.line, i);
+    o.line = static_cast<int32_t>(line);
+  }
+  return Status::Ok();
+}
+
 StatusOr<bool> SpillFrameDecoder::ReadFrame(const std::string& path, std::FILE* file,
                                             int64_t* offset_in_out,
                                             std::vector<core::Observation>* out) {
   GS_CHECK(file != nullptr && out != nullptr && offset_in_out != nullptr);
   const int64_t offset = *offset_in_out;
-  char header[kSpillFrameHeaderBytes];
-  {
-    const size_t got = std::fread(header, 1, sizeof(header), file);
-    if (got == 0 && std::feof(file)) return false;
-    if (std::ferror(file)) return Status::IOError(path + ": read: " + std::strerror(errno));
-    if (got < sizeof(header))
-      return Status::Corruption(At(path, offset) + "truncated header (" + std::to_string(got) +
-                                " of " + std::to_string(sizeof(header)) + " bytes)");
-    if (GetU32(header) != kSpillFrameMagic)
-      return Status::Corruption(At(path, offset) + "bad magic");
-    const size_t n = GetU32(header + 4);
-    const size_t payload_bytes = GetU32(header + 8);
-    payload_.resize(payload_bytes);
-    const size_t read = std::fread(payload_.data(), 1, payload_bytes, file);
-    if (std::ferror(file)) return Status::IOError(path + ": read: " + std::strerror(errno));
-    if (read < payload_bytes)
-      return Status::Corruption(At(path, offset) + "truncated: payload of " +
-                                std::to_string(payload_bytes) + " bytes, the file has " +
-                                std::to_string(read));
-    if (FrameCrc(header, payload_.data(), payload_bytes) != GetU32(header + 12))
-      return Status::Corruption(At(path, offset) + "CRC mismatch");
-    columns_.resize(kSpillRecordBytes * n);
-    const size_t size = ZSTD_decompressDCtx(context_->dctx, columns_.data(), columns_.size(),
-                                            payload_.data(), payload_bytes);
-    if (ZSTD_isError(size) || size != columns_.size())
-      return Status::Corruption(At(path, offset) + "payload does not decompress to " +
-                                std::to_string(columns_.size()) + " bytes (" +
-                                (ZSTD_isError(size) ? ZSTD_getErrorName(size)
-                                                    : std::to_string(size) + " bytes") +
-                                ")");
-    const Columns c(n);
-    const char* base = columns_.data();
-    const size_t first = out->size();
-    out->resize(first + n);
-    uint32_t pose = 0, line = 0;
-    for (size_t i = 0; i < n; ++i) {
-      core::Observation& o = (*out)[first + i];
-      pose += Get<uint32_t>(base, c.pose, i);
-      o.pose = static_cast<int32_t>(pose);
-      o.feature = Get<int32_t>(base, c.feature, i);
-      const uint8_t kind = Get<uint8_t>(base, c.kind, i);
-      if (kind > static_cast<uint8_t>(core::ObservationKind::kPointXY))
-        return Status::Corruption(At(path, offset) + "observation " + std::to_string(i) +
-                                  " has kind " + std::to_string(kind) + "; expected 0 or 1");
-      o.kind = static_cast<core::ObservationKind>(kind);
-      o.z(0) = Get<double>(base, c.z, i);
-      o.z(1) = Get<double>(base, c.z + 8 * n, i);
-      for (int e = 0; e < 4; ++e) o.information(e) = Get<double>(base, c.information + 8 * n * e, i);
-      line += Get<uint32_t>(base, c.line, i);
-      o.line = static_cast<int32_t>(line);
-    }
-    *offset_in_out = offset + static_cast<int64_t>(sizeof(header) + payload_bytes);
-    return true;
+  GS_ASSIGN_OR_RETURN(const bool more, ReadRawFrame(path, file, offset, &frame_));
+  if (!more) return false;
+  const size_t first = out->size();
+  out->resize(first + FrameObservations(frame_.data()));
+  const Status status = DecodeFrame(path, offset, frame_.data(), frame_.size(), out->data() + first);
+  if (!status.ok()) {
+    out->resize(first);
+    return status;
   }
+  *offset_in_out = offset + static_cast<int64_t>(frame_.size());
+  return true;
 }
 
 StatusOr<int64_t> SpillFrameBoundary(const std::string& path, int64_t observations) {

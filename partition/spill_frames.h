@@ -84,12 +84,29 @@ class SpillFrameDecoder {
   StatusOr<bool> ReadFrame(const std::string& path, std::FILE* file, int64_t* offset,
                            std::vector<core::Observation>* out);
 
+  // The two halves of ReadFrame, so that frames read in order can be decoded
+  // in parallel (a decoder per thread). ReadRawFrame: the frame's bytes
+  // (header + payload) at `offset` (the file positioned there) into *frame,
+  // checking magic and lengths; false at the end of the file.
+  static StatusOr<bool> ReadRawFrame(const std::string& path, std::FILE* file, int64_t offset,
+                                     std::vector<char>* frame);
+  // Decodes the whole frame `frame[0, size)` (read from `path` at `offset`:
+  // for messages) into out[0, n), n = FrameObservations(frame): CRC,
+  // decompression, kinds checked.
+  [[nodiscard]] Status DecodeFrame(const std::string& path, int64_t offset, const char* frame,
+                                   size_t size, core::Observation* out);
+
  private:
   struct Context;
   std::unique_ptr<Context> context_;
-  std::vector<char> payload_;
+  std::vector<char> frame_;
   std::vector<char> columns_;
 };
+
+// n of the frame whose (>= kSpillFrameHeaderBytes) bytes start at `frame`.
+size_t FrameObservations(const char* frame);
+// Header + payload bytes of that frame.
+size_t FrameBytes(const char* frame);
 
 // The byte offset at which the first `observations` observations of the
 // bucket file `path` end (a frame boundary), read from the frame headers

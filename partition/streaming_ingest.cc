@@ -11,7 +11,6 @@
 #include "partition/first_sight_initialization.h"
 #include "partition/ingest_progress.h"
 #include "storage/chunk_store_writer.h"
-#include "storage/native_log_observation_replay.h"
 #include "storage/native_log_reader.h"
 
 namespace graphslam::partition {
@@ -28,6 +27,7 @@ StatusOr<IngestProgress> ThisIngest(const std::string& input, const StreamingIng
   progress.zstd_level = options.store.chunk.zstd_level;
   progress.target_record_bytes = options.store.chunk.target_record_bytes;
   progress.source = options.store.source;
+  progress.replay_segment_observations = options.replay.segment_observations();
   return progress;
 }
 
@@ -41,17 +41,24 @@ struct FirstPass {
   std::vector<core::Pose3> scan_poses;        // their scans' logged poses
 };
 
+// Native logs: every observation also goes to `replay` (pass 2 reads it back
+// instead of the text); *replay_bytes gets the bytes it wrote.
 StatusOr<FirstPass> RunFirstPass(const std::string& input, const std::string& work,
-                                 const StreamingIngestOptions& options) {
+                                 const StreamingIngestOptions& options, int64_t* replay_bytes) {
   FirstPass pass;
   FirstSightInitialization init((std::filesystem::path(work) / kFirstSightScratchName).string());
+  std::unique_ptr<ReplayFrameWriter> replay;
   const storage::ObservationSink pass1 = [&](const core::Observation& observation) {
     GS_RETURN_IF_ERROR(init.Add(observation, pass.index));  // before the index counts it
     pass.index.Add(observation);
-    return Status::Ok();
+    return replay ? replay->Add(observation) : Status::Ok();
   };
   if (options.format == storage::InputFormat::kNative) {
+    replay = std::make_unique<ReplayFrameWriter>(work, options.replay);
     GS_ASSIGN_OR_RETURN(pass.problem, storage::ReadNativeLogStreaming(input, pass1, &pass.scans));
+    GS_RETURN_IF_ERROR(replay->Finish());  // durable before the first progress record
+    *replay_bytes = replay->bytes_written();
+    replay.reset();
     // The streaming native reader has no lines to give here; the count says enough.
     int64_t unidentified = 0;
     for (const int64_t id : pass.problem.feature_ids) unidentified += id == core::kNoFeatureId;
@@ -103,6 +110,7 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
   GS_CHECK(env != nullptr && summary != nullptr);
   *summary = IngestSummary();
   GS_RETURN_IF_ERROR(options.store.Validate());
+  GS_RETURN_IF_ERROR(options.replay.Validate());
   const std::filesystem::path dir(store_dir);
   const std::string work = (dir / kIngestWorkDirectory).string();
   const std::string progress_path = (dir / kIngestWorkDirectory / kIngestProgressName).string();
@@ -158,7 +166,7 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
     index.Assign(std::move(pass1.counts), std::move(pass1.first_pose), pass1.observations);
     summary->resumed_stage = progress.stage;
   } else {
-    GS_ASSIGN_OR_RETURN(FirstPass first, RunFirstPass(input, work, options));
+    GS_ASSIGN_OR_RETURN(FirstPass first, RunFirstPass(input, work, options, &summary->replay_bytes_written));
     if (native && options.copy_scans)
       GS_RETURN_IF_ERROR(SaveScanRecords(env, input, work, first.scans, first.scan_poses));
     GS_RETURN_IF_ERROR(writer.WriteProblem(first.problem));
@@ -174,8 +182,7 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
       pass1.first_pose = index.first_pose();
       pass1.observations = index.observations();
       GS_RETURN_IF_ERROR(WritePass1Record(env, pass1_path, pass1));
-      pass1.counts = std::vector<int32_t>();  // freed, not cleared: 8 B per feature
-      pass1.first_pose = std::vector<int32_t>();
+      pass1 = Pass1Record();  // freed: pass 2 needs neither ids nor counts (24 B per feature)
       progress.stage = "spill";
       GS_RETURN_IF_ERROR(WriteIngestProgress(env, progress_path, progress));
     }
@@ -191,32 +198,26 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
     SpillProgress spill;
     GS_RETURN_IF_ERROR(chunks->Spill(InBlocks(replay), &spill, nullptr, 0.0));
   } else if (progress.stage == "spill") {
-    summary->resumed_from_offset = resuming ? progress.spill.input_offset : 0;
-    const ObservationBlockReplay blocks = [&](const ObservationBlockSink& sink) -> Status {
-      storage::NativeLogReplayOptions replay_options;
-      replay_options.start_offset = progress.spill.input_offset;
-      replay_options.start_line = progress.spill.input_line;
-      replay_options.block_bytes = options.replay_block_bytes;
-      return storage::ReplayNativeLogObservations(
-          input, pass1.pose_ids, pass1.feature_ids, replay_options,
-          [&sink](const storage::NativeLogObservationBlock& block) {
-            ObservationBlock view;
-            view.observations = block.observations;
-            view.size = block.size;
-            view.end_offset = block.end_offset;
-            view.end_line = block.end_line;
-            return sink(view);
-          });
-    };
-    const SpillCheckpoint checkpoint = [&](const SpillProgress& spilled) {
+    summary->resumed_from_observation = resuming ? progress.spill.replay_position : 0;
+    pass1 = Pass1Record();  // pass 2 replays dense indices: no ids needed
+    const ObservationBlockReplay blocks = ReplayFrames(
+        work, options.replay, progress.spill.replay_position, observations,
+        &summary->replay_bytes_read);
+    const SpillCheckpoint checkpoint = [&](const SpillProgress& spilled) -> Status {
       progress.spill = spilled;
-      return WriteIngestProgress(env, progress_path, progress);
+      GS_RETURN_IF_ERROR(WriteIngestProgress(env, progress_path, progress));
+      // The buckets holding these observations are durable and recorded: the
+      // replay before them is needed no more, even by a resume.
+      ReleaseReplaySegmentsBefore(work, options.replay, spilled.replay_position);
+      return Status::Ok();
     };
     GS_RETURN_IF_ERROR(chunks->Spill(blocks, &progress.spill, checkpoint,
                                      options.checkpoint_seconds));
     progress.stage = "chunks";
     progress.chunks_durable = 0;
     GS_RETURN_IF_ERROR(WriteIngestProgress(env, progress_path, progress));
+    const int64_t segment = options.replay.segment_observations();
+    ReleaseReplaySegmentsBefore(work, options.replay, (observations + segment - 1) / segment * segment);
   }
   pass1 = Pass1Record();
 

@@ -9,7 +9,8 @@
 //      motion, GPS, FIX), the FeatureIndex, and the FirstSightInitialization
 //      (partition/first_sight_initialization.h: each feature's first sight
 //      appended to work/first_sight.bin, the <= poses - 1 joining observations
-//      kept). Native logs are streamed (ReadNativeLogStreaming: O(poses +
+//      kept); native logs: every observation appended to the replay frames
+//      (step 4). Native logs are streamed (ReadNativeLogStreaming: O(poses +
 //      features)); other formats (g2o, iSAM, MRCLAM) are read whole by their
 //      readers and replayed from memory -- only the native log path is bounded.
 //   3. Table 1 initialization (core/initialization.h) of the pose-only problem
@@ -19,9 +20,11 @@
 //      for native logs, work/pass1.bin and the first work/ingest_progress.json
 //      (stage "spill").
 //   4. pass 2: spill into bucket files in STORE/work/ (BucketChunkSource);
-//      native logs through ReplayNativeLogObservations (RB / XY lines only,
-//      parsed in parallel), with a checkpoint (input offset, bucket lengths)
-//      at most every checkpoint_seconds; then stage "chunks".
+//      native logs from the observations pass 1 parsed, kept as replay frames
+//      in work/replay_NNNNNN.bin (partition/replay_frames.h: binary, zstd,
+//      CRC32C; the text is read and parsed once), with a checkpoint (replay
+//      position, bucket lengths) at most every checkpoint_seconds, after
+//      which the replay segments it covers are deleted; then stage "chunks".
 //   5. chunks in order (ChunkStoreWriter: parallel encoding, grouped fsyncs),
 //      a checkpoint after every durable group;
 //   6. native logs with SCAN records: their .pcd files into STORE/scans/
@@ -50,8 +53,8 @@
 //     FEATURE-record rules; the FeatureIndex (count + lowest pose, 8), which
 //     makes the plan. ~47 B. The first sight (72 B) is on disk.
 //   pass 2: the plan (chunk + slot per feature, and each chunk's feature
-//     list: 12), the ids (8) and the replay's id -> index table (direct:
-//     ~9). ~29 B. The FeatureIndex and the problem are freed before it.
+//     list: 12). The FeatureIndex, the problem and the ids are freed before
+//     it (the replay frames hold dense indices: no id table).
 #pragma once
 
 #include <cstdint>
@@ -60,6 +63,7 @@
 #include "core/status.h"
 #include "partition/external_bucketing.h"
 #include "partition/ingest_scans.h"
+#include "partition/replay_frames.h"
 #include "storage/chunk_store.h"
 #include "storage/env.h"
 #include "storage/format_detection.h"
@@ -82,8 +86,9 @@ struct StreamingIngestOptions {
   // Least time between two pass-2 checkpoints (each fsyncs the bucket files
   // appended since the last); 0: at every buffer spill.
   double checkpoint_seconds = 30.0;
-  // Text read per block by pass 2 (a checkpoint falls between blocks).
-  int64_t replay_block_bytes = int64_t{1} << 20;
+  // How pass 1 keeps its observations for pass 2 (partition/replay_frames.h;
+  // a checkpoint falls between frames).
+  ReplayFrameOptions replay;
   // Copy a native log's SCAN .pcd files into STORE/scans/ (partition/ingest_scans.h),
   // in chunk files of about scan_chunk_bytes. `solve FILE --workdir` does not:
   // the solver needs no scans.
@@ -98,12 +103,16 @@ struct IngestSummary {
   int64_t chunks = 0;
   bool streamed = false;  // pass 1 and 2 streamed the file (native log)
   // Where a resumed ingest continued: "" (it started afresh), "spill"
-  // (pass 2, at resumed_from_offset of the input) or "chunks" (after
-  // resumed_from_chunk durable chunks).
+  // (pass 2, after resumed_from_observation replayed observations) or
+  // "chunks" (after resumed_from_chunk durable chunks).
   std::string resumed_stage;
-  int64_t resumed_from_offset = 0;
+  int64_t resumed_from_observation = 0;
   int64_t resumed_from_chunk = 0;
   BucketingStats bucketing;
+  // Pass 1's observations kept for pass 2 (native logs): bytes of replay
+  // frames written by pass 1 (0 if resumed past it) and read by pass 2.
+  int64_t replay_bytes_written = 0;
+  int64_t replay_bytes_read = 0;
   ScanIngestSummary scans;  // the log's SCAN records copied into STORE/scans/
 };
 

@@ -12,7 +12,6 @@ target_sources(graphslam_storage PRIVATE
   internal/text_reader.cc
   isam_reader.cc
   mrclam_reader.cc
-  native_log_observation_replay.cc
   native_log_reader.cc
   tum_writer.cc)
 # Observation chunk files (docs/formats/observation_chunk.md).

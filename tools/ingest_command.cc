@@ -105,8 +105,8 @@ int RunIngestCommand(const IngestCommandOptions& options) {
                 storage::InputFormatName(format), summary.streamed ? ", streamed" : ", read whole");
     std::printf("  store              %s\n", options.output_dir.c_str());
     if (summary.resumed_stage == "spill")
-      std::printf("  resumed            second pass, at input byte %lld\n",
-                  static_cast<long long>(summary.resumed_from_offset));
+      std::printf("  resumed            second pass, after %lld observations\n",
+                  static_cast<long long>(summary.resumed_from_observation));
     else if (summary.resumed_stage == "chunks")
       std::printf("  resumed            after %lld durable chunks\n",
                   static_cast<long long>(summary.resumed_from_chunk));
@@ -125,6 +125,10 @@ int RunIngestCommand(const IngestCommandOptions& options) {
                 static_cast<long long>(summary.bucketing.spills),
                 static_cast<long long>(ingest.buffer_observations),
                 static_cast<long long>(summary.bucketing.peak_observations_in_memory));
+    if (summary.streamed)
+      std::printf("  scratch            %.1f MB replay written, %.1f MB read; %.1f MB spilled\n",
+                  summary.replay_bytes_written / 1e6, summary.replay_bytes_read / 1e6,
+                  summary.bucketing.spilled_bytes / 1e6);
     std::printf("  peak RSS           %.1f MiB\n", PeakRssBytes() / (1024.0 * 1024.0));
   }
   return kExitOk;

@@ -70,7 +70,8 @@ class ExternalBucketingTest : public ::testing::Test {
     options.max_observations_per_chunk = 100;
     options.buffer_observations = 300;
     options.checkpoint_seconds = 0;
-    options.replay_block_bytes = 4096;
+    options.replay.frame_observations = 50;  // several frames and segments: mid-spill resume points
+    options.replay.frames_per_segment = 3;
     return options;
   }
 
@@ -485,6 +486,28 @@ TEST_F(ExternalBucketingTest, ResumeAfterATornSpillFrameGivesTheSameStoreBytes) 
   StreamingIngestOptions resume = options;
   resume.resume = true;
 
+  // The replay segments behind the first checkpoint (300 observations: two
+  // segments of 150) are gone, the later ones are there for the resume; a
+  // damaged one is Corruption naming it and the frame's offset.
+  die_in_the_spill();
+  const std::filesystem::path work = std::filesystem::path(store) / "work";
+  EXPECT_FALSE(std::filesystem::exists(work / "replay_000000.bin"));
+  EXPECT_FALSE(std::filesystem::exists(work / "replay_000001.bin"));
+  const std::string replay = (work / "replay_000003.bin").string();
+  ASSERT_TRUE(std::filesystem::exists(replay));
+  {
+    std::string bytes = ReadBytes(replay);
+    bytes[kSpillFrameHeaderBytes + 1] ^= 0x04;
+    std::ofstream(replay, std::ios::binary | std::ios::trunc) << bytes;
+    const Status status = IngestToStore(&no_sync, input, store, resume, &summary);
+    ASSERT_FALSE(status.ok());
+    EXPECT_TRUE(status.IsCorruption()) << status.ToString();
+    EXPECT_NE(status.message().find(replay + ": spill frame at byte 0: CRC mismatch"),
+              std::string::npos)
+        << status.ToString();
+    EXPECT_FALSE(storage::IsChunkStore(store));
+  }
+
   die_in_the_spill();
   const std::string frame_start = ReadBytes(bucket).substr(0, 20);
   for (const auto& entry : std::filesystem::directory_iterator(std::filesystem::path(store) / "work"))
@@ -610,7 +633,7 @@ TEST_F(ExternalBucketingTest, ZstdInputGivesThePlainInputsStoreBytesAndResumes) 
   resume.resume = true;
   ASSERT_TRUE(IngestToStore(Env::Default(), zst, Path("resumed"), resume, &summary).ok());
   EXPECT_EQ(summary.resumed_stage, "spill");
-  EXPECT_GT(summary.resumed_from_offset, 0);
+  EXPECT_GT(summary.resumed_from_observation, 0);
   ExpectSameBytes(Path("resumed"), Path("plain"));
 
   // Truncated: the error names the file and where it ends.

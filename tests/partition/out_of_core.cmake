@@ -1,5 +1,6 @@
 graphslam_test(partition/external_bucketing)
 graphslam_test(partition/spill_frames)
+graphslam_test(partition/replay_frames)
 graphslam_test(partition/first_sight_initialization)
 # The ingest copies a native log's .pcd scans into STORE/scans/ (PCL writes them in the test).
 graphslam_test(partition/ingest_scans)
