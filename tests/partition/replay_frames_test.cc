@@ -15,8 +15,13 @@
 #include <string>
 #include <vector>
 
+#include "tests/testing/random_observations.h"
+
 namespace graphslam::partition {
 namespace {
+
+using graphslam::testing::ExpectBitwiseEqual;
+using graphslam::testing::RandomObservations;
 
 class ReplayFramesTest : public ::testing::Test {
  protected:
@@ -31,22 +36,6 @@ class ReplayFramesTest : public ::testing::Test {
     options_.frames_per_segment = 3;  // S = 21
   }
   void TearDown() override { std::filesystem::remove_all(root_); }
-
-  static std::vector<core::Observation> Random(size_t n, uint32_t seed) {
-    std::mt19937 rng(seed);
-    std::normal_distribution<double> normal(0.0, 1e3);
-    std::vector<core::Observation> out(n);
-    for (size_t i = 0; i < n; ++i) {
-      core::Observation& o = out[i];
-      o.pose = static_cast<int32_t>(rng() % 1000);
-      o.feature = static_cast<int32_t>(rng() % 5000);
-      o.kind = (rng() & 1) ? core::ObservationKind::kPointXY : core::ObservationKind::kRangeBearing;
-      o.z = {normal(rng), normal(rng)};
-      o.information << normal(rng), normal(rng), normal(rng), normal(rng);
-      o.line = static_cast<int32_t>(i + 2);
-    }
-    return out;
-  }
 
   void Write(const std::vector<core::Observation>& observations, int64_t* bytes = nullptr) {
     ReplayFrameWriter writer(root_.string(), options_);
@@ -67,21 +56,12 @@ class ReplayFramesTest : public ::testing::Test {
         });
   }
 
-  static void ExpectBitwiseEqual(const core::Observation& a, const core::Observation& b) {
-    EXPECT_EQ(a.pose, b.pose);
-    EXPECT_EQ(a.feature, b.feature);
-    EXPECT_EQ(a.kind, b.kind);
-    EXPECT_EQ(std::memcmp(a.z.data(), b.z.data(), sizeof(double) * 2), 0);
-    EXPECT_EQ(std::memcmp(a.information.data(), b.information.data(), sizeof(double) * 4), 0);
-    EXPECT_EQ(a.line, b.line);
-  }
-
   std::filesystem::path root_;
   ReplayFrameOptions options_;
 };
 
 TEST_F(ReplayFramesTest, RoundTripsFromEveryPositionInFrameSteps) {
-  const std::vector<core::Observation> input = Random(100, 3);  // 4 full segments + 16
+  const std::vector<core::Observation> input = RandomObservations(100, 3);  // 4 full segments + 16
   int64_t written = 0;
   Write(input, &written);
   for (int64_t segment = 0; segment < 5; ++segment)
@@ -106,7 +86,7 @@ TEST_F(ReplayFramesTest, RoundTripsFromEveryPositionInFrameSteps) {
 }
 
 TEST_F(ReplayFramesTest, ReleaseDeletesTheSegmentsBeforeAPosition) {
-  Write(Random(100, 5));
+  Write(RandomObservations(100, 5));
   ReleaseReplaySegmentsBefore(root_.string(), options_, 50);  // segments 0, 1 end by 42
   EXPECT_FALSE(std::filesystem::exists(ReplaySegmentPath(root_.string(), 0)));
   EXPECT_FALSE(std::filesystem::exists(ReplaySegmentPath(root_.string(), 1)));
@@ -126,7 +106,7 @@ TEST_F(ReplayFramesTest, ReleaseDeletesTheSegmentsBeforeAPosition) {
 }
 
 TEST_F(ReplayFramesTest, DamageIsCorruptionNamingTheSegmentAndFrameOffset) {
-  Write(Random(60, 7));
+  Write(RandomObservations(60, 7));
   const std::string path = ReplaySegmentPath(root_.string(), 1);
   std::string bytes;
   {

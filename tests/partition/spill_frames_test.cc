@@ -16,8 +16,13 @@
 #include <string>
 #include <vector>
 
+#include "tests/testing/random_observations.h"
+
 namespace graphslam::partition {
 namespace {
+
+using graphslam::testing::ExpectBitwiseEqual;
+using graphslam::testing::RandomObservations;
 
 class SpillFramesTest : public ::testing::Test {
  protected:
@@ -32,34 +37,6 @@ class SpillFramesTest : public ::testing::Test {
   }
   void TearDown() override { std::filesystem::remove_all(root_); }
 
-  // Random observations: both kinds, poses and lines going down as well as
-  // up (the deltas wrap), asymmetric and extreme information entries.
-  static std::vector<core::Observation> Random(size_t n, uint32_t seed) {
-    std::mt19937 rng(seed);
-    std::uniform_int_distribution<int32_t> index(0, std::numeric_limits<int32_t>::max());
-    std::normal_distribution<double> normal(0.0, 1e3);
-    std::vector<core::Observation> out(n);
-    for (core::Observation& o : out) {
-      o.pose = index(rng);
-      o.feature = index(rng);
-      o.kind = (rng() & 1) ? core::ObservationKind::kPointXY : core::ObservationKind::kRangeBearing;
-      o.z = {normal(rng), normal(rng)};
-      o.information << normal(rng), normal(rng), normal(rng), normal(rng);
-      o.line = index(rng);
-    }
-    out[0].information(1) = std::numeric_limits<double>::denorm_min();
-    out[0].z(0) = -0.0;
-    return out;
-  }
-
-  static void ExpectBitwiseEqual(const core::Observation& a, const core::Observation& b) {
-    EXPECT_EQ(a.pose, b.pose);
-    EXPECT_EQ(a.feature, b.feature);
-    EXPECT_EQ(a.kind, b.kind);
-    EXPECT_EQ(std::memcmp(a.z.data(), b.z.data(), sizeof(double) * 2), 0);
-    EXPECT_EQ(std::memcmp(a.information.data(), b.information.data(), sizeof(double) * 4), 0);
-    EXPECT_EQ(a.line, b.line);
-  }
 
   // Appends one frame per run and returns the byte offset where each frame starts.
   std::vector<int64_t> WriteFrames(const std::vector<core::Observation>& all,
@@ -103,7 +80,7 @@ class SpillFramesTest : public ::testing::Test {
 };
 
 TEST_F(SpillFramesTest, ObservationsRoundTripBitForBit) {
-  const std::vector<core::Observation> all = Random(3000, 1);
+  const std::vector<core::Observation> all = RandomObservations(3000, 1);
   WriteFrames(all, {1, 0, 1999, 1000});
   std::vector<core::Observation> read;
   ASSERT_TRUE(Read(&read).ok());
@@ -133,7 +110,7 @@ TEST_F(SpillFramesTest, TheSimulatorsObservationsShrinkAboutThreefold) {
 }
 
 TEST_F(SpillFramesTest, DamageIsCorruptionNamingTheFileAndTheFramesOffset) {
-  const std::vector<core::Observation> all = Random(600, 3);
+  const std::vector<core::Observation> all = RandomObservations(600, 3);
   const std::vector<int64_t> starts = WriteFrames(all, {200, 300, 100});
   const std::string good = Bytes();
   struct Case {
@@ -174,7 +151,7 @@ TEST_F(SpillFramesTest, DamageIsCorruptionNamingTheFileAndTheFramesOffset) {
 }
 
 TEST_F(SpillFramesTest, BoundariesComeFromTheHeadersAndACountInsideAFrameIsCorruption) {
-  const std::vector<core::Observation> all = Random(600, 4);
+  const std::vector<core::Observation> all = RandomObservations(600, 4);
   const std::vector<int64_t> starts = WriteFrames(all, {200, 300, 100});
   EXPECT_EQ(*SpillFrameBoundary(path_, 0), 0);
   EXPECT_EQ(*SpillFrameBoundary(path_, 200), starts[1]);
