@@ -384,39 +384,20 @@ Status BucketChunkSource::LoadBucket(int64_t bucket) const {
     if (std::fread(raw.data(), 1, raw.size(), file.get()) != raw.size())
       return IoError(path, "read");
   }
-  std::vector<size_t> offsets;
-  std::vector<int64_t> firsts;
-  int64_t total = 0;
-  for (size_t offset = 0; offset < raw.size();) {
-    const std::string at = path + ": spill frame at byte " + std::to_string(offset) + ": ";
-    if (raw.size() - offset < kSpillFrameHeaderBytes)
-      return Status::Corruption(at + "truncated header (" + std::to_string(raw.size() - offset) +
-                                " of " + std::to_string(kSpillFrameHeaderBytes) + " bytes)");
-    uint32_t magic;
-    std::memcpy(&magic, raw.data() + offset, 4);
-    if (magic != kSpillFrameMagic) return Status::Corruption(at + "bad magic");
-    const size_t bytes = FrameBytes(raw.data() + offset);
-    if (bytes > raw.size() - offset)
-      return Status::Corruption(at + "truncated: payload of " +
-                                std::to_string(bytes - kSpillFrameHeaderBytes) +
-                                " bytes, the file has " +
-                                std::to_string(raw.size() - offset - kSpillFrameHeaderBytes));
-    offsets.push_back(offset);
-    firsts.push_back(total);
-    total += static_cast<int64_t>(FrameObservations(raw.data() + offset));
-    offset += bytes;
-  }
-  if (total != n)
-    return Status::Corruption(path + ": " + std::to_string(total) +
+  GS_ASSIGN_OR_RETURN(const SpillFrameIndex frames,
+                      IndexSpillFrames(path, raw.data(), raw.size()));
+  if (frames.observations != n)
+    return Status::Corruption(path + ": " + std::to_string(frames.observations) +
                               " observations in its frames; " + std::to_string(n) +
                               " were spilled into it");
   std::vector<core::Observation> read(static_cast<size_t>(n));
-  std::vector<Status> statuses(offsets.size());
+  std::vector<Status> statuses(frames.offsets.size());
   tbb::enumerable_thread_specific<SpillFrameDecoder> decoders;
-  tbb::parallel_for(size_t{0}, offsets.size(), [&](size_t f) {
-    const char* frame = raw.data() + offsets[f];
-    statuses[f] = decoders.local().DecodeFrame(path, static_cast<int64_t>(offsets[f]), frame,
-                                               FrameBytes(frame), read.data() + firsts[f]);
+  tbb::parallel_for(size_t{0}, frames.offsets.size(), [&](size_t f) {
+    const char* frame = raw.data() + frames.offsets[f];
+    statuses[f] = decoders.local().DecodeFrame(path, static_cast<int64_t>(frames.offsets[f]),
+                                               frame, FrameBytes(frame),
+                                               read.data() + frames.firsts[f]);
   });
   for (const Status& status : statuses) GS_RETURN_IF_ERROR(status);
   raw = std::vector<char>();

@@ -50,6 +50,26 @@ std::string At(const std::string& path, int64_t offset) {
   return path + ": spill frame at byte " + std::to_string(offset) + ": ";
 }
 
+// The checks of a frame's header before its payload is touched, for frames
+// read from a file and frames already in memory alike: `got` header bytes
+// were available, then `available` bytes for the payload.
+Status CheckHeader(const std::string& path, int64_t offset, const char* header, size_t got) {
+  if (got < kSpillFrameHeaderBytes)
+    return Status::Corruption(At(path, offset) + "truncated header (" + std::to_string(got) +
+                              " of " + std::to_string(kSpillFrameHeaderBytes) + " bytes)");
+  if (GetU32(header) != kSpillFrameMagic) return Status::Corruption(At(path, offset) + "bad magic");
+  return Status::Ok();
+}
+
+Status CheckPayload(const std::string& path, int64_t offset, size_t payload_bytes,
+                    size_t available) {
+  if (available < payload_bytes)
+    return Status::Corruption(At(path, offset) + "truncated: payload of " +
+                              std::to_string(payload_bytes) + " bytes, the file has " +
+                              std::to_string(available));
+  return Status::Ok();
+}
+
 }  // namespace
 
 struct SpillFrameEncoder::Context {
@@ -128,21 +148,31 @@ StatusOr<bool> SpillFrameDecoder::ReadRawFrame(const std::string& path, std::FIL
   const size_t got = std::fread(frame->data(), 1, kSpillFrameHeaderBytes, file);
   if (got == 0 && std::feof(file)) return false;
   if (std::ferror(file)) return Status::IOError(path + ": read: " + std::strerror(errno));
-  if (got < kSpillFrameHeaderBytes)
-    return Status::Corruption(At(path, offset) + "truncated header (" + std::to_string(got) +
-                              " of " + std::to_string(kSpillFrameHeaderBytes) + " bytes)");
-  if (GetU32(frame->data()) != kSpillFrameMagic)
-    return Status::Corruption(At(path, offset) + "bad magic");
+  GS_RETURN_IF_ERROR(CheckHeader(path, offset, frame->data(), got));
   const size_t payload_bytes = GetU32(frame->data() + 8);
   frame->resize(kSpillFrameHeaderBytes + payload_bytes);
   const size_t read =
       std::fread(frame->data() + kSpillFrameHeaderBytes, 1, payload_bytes, file);
   if (std::ferror(file)) return Status::IOError(path + ": read: " + std::strerror(errno));
-  if (read < payload_bytes)
-    return Status::Corruption(At(path, offset) + "truncated: payload of " +
-                              std::to_string(payload_bytes) + " bytes, the file has " +
-                              std::to_string(read));
+  GS_RETURN_IF_ERROR(CheckPayload(path, offset, payload_bytes, read));
   return true;
+}
+
+StatusOr<SpillFrameIndex> IndexSpillFrames(const std::string& path, const char* bytes,
+                                           size_t size) {
+  SpillFrameIndex index;
+  for (size_t offset = 0; offset < size;) {
+    const auto at = static_cast<int64_t>(offset);
+    GS_RETURN_IF_ERROR(CheckHeader(path, at, bytes + offset, size - offset));
+    const size_t payload_bytes = GetU32(bytes + offset + 8);
+    GS_RETURN_IF_ERROR(
+        CheckPayload(path, at, payload_bytes, size - offset - kSpillFrameHeaderBytes));
+    index.offsets.push_back(offset);
+    index.firsts.push_back(index.observations);
+    index.observations += static_cast<int64_t>(FrameObservations(bytes + offset));
+    offset += kSpillFrameHeaderBytes + payload_bytes;
+  }
+  return index;
 }
 
 Status SpillFrameDecoder::DecodeFrame(const std::string& path, int64_t offset, const char* frame,

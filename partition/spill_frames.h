@@ -108,6 +108,18 @@ size_t FrameObservations(const char* frame);
 // Header + payload bytes of that frame.
 size_t FrameBytes(const char* frame);
 
+// Where the frames of a whole spill file read into bytes[0, size) start
+// (offsets[f]) and which observation each begins with (firsts[f]), from the
+// headers alone; Corruption naming `path` and the offset for a damaged header
+// or a truncated frame (the same checks as ReadRawFrame).
+struct SpillFrameIndex {
+  std::vector<size_t> offsets;
+  std::vector<int64_t> firsts;
+  int64_t observations = 0;  // in all frames
+};
+StatusOr<SpillFrameIndex> IndexSpillFrames(const std::string& path, const char* bytes,
+                                           size_t size);
+
 // The byte offset at which the first `observations` observations of the
 // bucket file `path` end (a frame boundary), read from the frame headers
 // alone: where a resumed spill truncates the file. Corruption naming the
