@@ -1,14 +1,10 @@
 #include "partition/pose_graph_initialization.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
-#include <tbb/parallel_for.h>
-
 #include <atomic>
-#include <mutex>
 #include <string>
 #include <vector>
 
+#include "core/internal/ordered_chunk_pipeline.h"
 #include "core/point_observation_model.h"
 #include "core/range_bearing_model.h"
 
@@ -50,54 +46,34 @@ Status InitializeFromPoseGraph(const core::SolverOptions& solver, int max_iterat
   // Step 2: features from first sight with the new poses. Chunks are
   // feature-complete (docs/formats/observation_chunk.md), so chunks write
   // disjoint features and run in parallel (loading -- read, CRC, zstd,
-  // decode -- is most of this pass; it was one thread); a feature met in two
-  // chunks is a corrupt store, reported, never a race on its slot.
+  // decode -- is most of this pass), as many in flight as the solve allows; a
+  // feature met in two chunks is a corrupt store, reported (the first in chunk
+  // order), never a race on its slot.
   std::vector<std::atomic<uint8_t>> placed(problem->features.size());
-  tbb::enumerable_thread_specific<core::ObservationChunk> buffers;
-  std::atomic<int64_t> placed_features{0};
-  std::atomic<bool> failed{false};
-  std::mutex error_mutex;
-  int64_t error_chunk = chunks.NumChunks();
-  Status error;
-  tbb::parallel_for(
-      tbb::blocked_range<int64_t>(0, chunks.NumChunks(), 1),
-      [&](const tbb::blocked_range<int64_t>& range) {
-        core::ObservationChunk& chunk = buffers.local();
-        for (int64_t k = range.begin(); k < range.end() && !failed.load(); ++k) {
-          Status status = chunks.Load(k, &chunk);
-          int64_t placed_here = 0;
-          for (size_t slot = 0; status.ok() && slot < chunk.features.size(); ++slot) {
-            const int32_t feature = chunk.features[slot];
-            const int64_t first = chunk.feature_begin[slot];
-            if (first == chunk.feature_begin[slot + 1]) continue;
-            if (placed[feature].exchange(1) != 0) {
-              status = Status::Corruption("chunk " + std::to_string(k) + ": feature " +
-                                          std::to_string(feature) +
-                                          " is also in another chunk (chunks must be "
-                                          "feature-complete)");
-              break;
-            }
-            const core::Observation& o = chunk.observations[static_cast<size_t>(first)];
-            const core::Pose2& pose = problem->poses[static_cast<size_t>(o.pose)];
-            problem->features[feature] = o.kind == core::ObservationKind::kRangeBearing
-                                             ? core::InvertRangeBearing(pose, o.z)
-                                             : core::InvertPointObservation(pose, o.z);
-            ++placed_here;
-          }
-          placed_features += placed_here;
-          if (!status.ok()) {
-            // The first error in chunk order, as the serial loop reported it.
-            std::lock_guard<std::mutex> lock(error_mutex);
-            if (k < error_chunk) {
-              error_chunk = k;
-              error = status;
-            }
-            failed = true;
-          }
-        }
-      });
-  GS_RETURN_IF_ERROR(error);
-  summary->placed_features = placed_features.load();
+  const auto place = [&](const core::ObservationChunk& chunk, int64_t* placed_here) -> Status {
+    *placed_here = 0;
+    for (size_t slot = 0; slot < chunk.features.size(); ++slot) {
+      const int32_t feature = chunk.features[slot];
+      const int64_t first = chunk.feature_begin[slot];
+      if (first == chunk.feature_begin[slot + 1]) continue;
+      if (placed[feature].exchange(1) != 0)
+        return Status::Corruption("chunk " + std::to_string(chunk.index) + ": feature " +
+                                  std::to_string(feature) +
+                                  " is also in another chunk (chunks must be feature-complete)");
+      const core::Observation& o = chunk.observations[static_cast<size_t>(first)];
+      const core::Pose2& pose = problem->poses[static_cast<size_t>(o.pose)];
+      problem->features[feature] = o.kind == core::ObservationKind::kRangeBearing
+                                       ? core::InvertRangeBearing(pose, o.z)
+                                       : core::InvertPointObservation(pose, o.z);
+      ++*placed_here;
+    }
+    return Status::Ok();
+  };
+  GS_RETURN_IF_ERROR(core::internal::RunOrderedChunkPipeline<int64_t>(
+      chunks, solver.max_chunks_in_flight, place,
+      [&](const core::ObservationChunk&, int64_t placed_here) {
+        summary->placed_features += placed_here;
+      }));
   return Status::Ok();
 }
 
