@@ -197,7 +197,10 @@ Status RunLevenbergMarquardt(
             Space::kName, iteration, chi2, candidate_chi2, it.relative_decrease, it.lambda,
             it.step_norm, it.linear_iterations, it.accepted ? "accepted" : "rejected");
     if (options.iteration_callback) options.iteration_callback(it);
-    if (options.progress) options.progress("optimize", iteration, options.max_iterations);
+    // Total 0 (unknown): the loop stops on convergence, not at max_iterations.
+    // An iteration callback already shows every iteration.
+    if (options.progress && !options.iteration_callback)
+      options.progress("optimize", iteration, 0);
     if (!converged && radius < options.min_trust_region_radius) {
       summary->termination = "min_trust_region_radius";
       converged = true;  // no further decrease possible: a (local) minimum

@@ -27,6 +27,50 @@ void RemoveTemporary(Env* env, const std::string& temporary) {
   }
 }
 
+// Runs `writer` on `file`, then Sync and Close; the first error wins.
+Status WriteSyncClose(WritableFile* file, const std::function<Status(WritableFile*)>& writer) {
+  Status status = writer(file);
+  if (status.ok()) status = file->Sync();
+  if (status.ok()) return file->Close();
+  (void)file->Close();  // the first error is the one reported
+  return status;
+}
+
+// A device, a FIFO or standard output: written in place, never replaced.
+Status WriteStream(Env* env, const std::string& path,
+                   const std::function<Status(WritableFile*)>& writer) {
+  const std::string context =
+      "writing " + (path == kStandardOutput ? std::string("standard output") : path);
+  StatusOr<std::unique_ptr<WritableFile>> opened = env->OpenStream(path);
+  if (!opened.ok()) return opened.status().WithContext(context);
+  const Status status = WriteSyncClose(opened->get(), writer);
+  return status.ok() ? status : status.WithContext(context);
+}
+
+// Steps 1-5 of the header for the regular file `target`; `path` is the name
+// the caller gave, for messages.
+Status ReplaceAtomically(Env* env, const std::string& path, const std::string& target,
+                         const std::function<Status(WritableFile*)>& writer) {
+  const std::string context = "writing " + path;
+  const std::string temporary = TemporaryFileName(target);
+  StatusOr<std::unique_ptr<WritableFile>> opened = env->NewWritableFile(temporary);
+  if (!opened.ok()) {
+    RemoveTemporary(env, temporary);
+    return opened.status().WithContext(context);
+  }
+  std::unique_ptr<WritableFile> file = std::move(opened).value();
+  Status status = WriteSyncClose(file.get(), writer);
+  file.reset();
+  if (status.ok()) status = env->Rename(temporary, target);
+  if (!status.ok()) {
+    RemoveTemporary(env, temporary);
+    return status.WithContext(context);
+  }
+  status = env->SyncDirectory(DirectoryOf(target));
+  if (!status.ok()) return status.WithContext(context + " (file renamed, directory not synced)");
+  return Status::Ok();
+}
+
 }  // namespace
 
 std::string TemporaryFileName(const std::string& path) {
@@ -36,33 +80,24 @@ std::string TemporaryFileName(const std::string& path) {
 Status WriteFileAtomically(Env* env, const std::string& path,
                            const std::function<Status(WritableFile*)>& writer) {
   GS_CHECK(env != nullptr);
-  const std::string context = "writing " + path;
   if (path.empty()) return Status::InvalidArgument("output path is empty; expected a file name");
-  const std::string temporary = TemporaryFileName(path);
-
-  StatusOr<std::unique_ptr<WritableFile>> opened = env->NewWritableFile(temporary);
-  if (!opened.ok()) {
-    RemoveTemporary(env, temporary);
-    return opened.status().WithContext(context);
+  if (path == kStandardOutput) return WriteStream(env, path, writer);
+  switch (env->KindOf(path)) {
+    case FileKind::kMissing:
+      return ReplaceAtomically(env, path, path, writer);
+    case FileKind::kOther:
+      return WriteStream(env, path, writer);
+    case FileKind::kDirectory:
+      return Status::InvalidArgument("writing " + path +
+                                     ": is a directory; expected a file name");
+    case FileKind::kRegular: {
+      // Through a symbolic link: replace the file it names, keep the link.
+      StatusOr<std::string> target = env->ResolvePath(path);
+      if (!target.ok()) return target.status().WithContext("writing " + path);
+      return ReplaceAtomically(env, path, *target, writer);
+    }
   }
-  std::unique_ptr<WritableFile> file = std::move(opened).value();
-
-  Status status = writer(file.get());
-  if (status.ok()) status = file->Sync();
-  if (status.ok()) {
-    status = file->Close();
-  } else {
-    (void)file->Close();  // the first error is the one reported
-  }
-  file.reset();
-  if (status.ok()) status = env->Rename(temporary, path);
-  if (!status.ok()) {
-    RemoveTemporary(env, temporary);
-    return status.WithContext(context);
-  }
-  status = env->SyncDirectory(DirectoryOf(path));
-  if (!status.ok()) return status.WithContext(context + " (file renamed, directory not synced)");
-  return Status::Ok();
+  return Status::InvalidArgument("writing " + path + ": unknown file kind");
 }
 
 Status WriteStringAtomically(Env* env, const std::string& path, std::string_view contents) {

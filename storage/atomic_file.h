@@ -1,12 +1,17 @@
 // Atomic file replacement: a file is either its old contents or its complete
 // new contents, never a torn mix, even if the process dies or the disk fills
-// (STYLE.md rule 9; LevelDB SetCurrentFile in db/filename.cc).
+// (after LevelDB's SetCurrentFile in db/filename.cc).
 //
 //   1. write everything to  "<path>.tmp-<pid>"     (same directory => same fs)
 //   2. Sync  (fsync: the new bytes are durable)
 //   3. Close
 //   4. Rename "<path>.tmp-<pid>" -> "<path>"       (atomic on POSIX)
 //   5. SyncDirectory(dirname(path))                 (the rename is durable)
+// Outputs that are not regular files are never replaced: "-" is standard
+// output, an existing device or FIFO (or a symbolic link to one, such as
+// /dev/stdout) is written in place, and a symbolic link to a regular file has
+// that file replaced while the link stays. A directory is an error.
+//
 // If any of steps 1-4 fails, the temporary file is removed and an existing
 // `path` is left byte-for-byte untouched; the first error is returned, with
 // "writing <path>" as context. If step 5 fails the new file is already in place
@@ -25,6 +30,9 @@
 #include "storage/env.h"
 
 namespace graphslam::storage {
+
+// The output name that means standard output.
+inline constexpr const char* kStandardOutput = "-";
 
 // "<path>.tmp-<pid>": the temporary name WriteFileAtomically uses.
 std::string TemporaryFileName(const std::string& path);

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <utility>
 
@@ -20,7 +21,9 @@ class PosixWritableFile final : public WritableFile {
  public:
   static constexpr size_t kBufferSize = 64 * 1024;
 
-  PosixWritableFile(std::string path, int fd) : path_(std::move(path)), fd_(fd) {
+  // A stream (a device, a FIFO, standard output) is flushed, not fsynced.
+  PosixWritableFile(std::string path, int fd, bool stream = false)
+      : path_(std::move(path)), fd_(fd), stream_(stream) {
     buffer_.reserve(kBufferSize);
   }
   ~PosixWritableFile() override {
@@ -44,6 +47,7 @@ class PosixWritableFile final : public WritableFile {
   Status Sync() override {
     if (fd_ < 0) return Status::IOError(path_ + ": sync after close");
     GS_RETURN_IF_ERROR(Flush());
+    if (stream_) return Status::Ok();
     if (::fsync(fd_) != 0) return PosixError(path_, "fsync", errno);
     return Status::Ok();
   }
@@ -77,6 +81,7 @@ class PosixWritableFile final : public WritableFile {
 
   const std::string path_;
   int fd_;
+  const bool stream_;
   std::string buffer_;
 };
 
@@ -101,6 +106,35 @@ class PosixEnv final : public Env {
   }
 
   bool FileExists(const std::string& path) override { return ::access(path.c_str(), F_OK) == 0; }
+
+  FileKind KindOf(const std::string& path) override {
+    struct stat info;
+    if (::stat(path.c_str(), &info) != 0) return FileKind::kMissing;
+    if (S_ISREG(info.st_mode)) return FileKind::kRegular;
+    if (S_ISDIR(info.st_mode)) return FileKind::kDirectory;
+    return FileKind::kOther;
+  }
+
+  StatusOr<std::string> ResolvePath(const std::string& path) override {
+    char* resolved = ::realpath(path.c_str(), nullptr);
+    if (resolved == nullptr) return PosixError(path, "resolve path", errno);
+    std::string result(resolved);
+    std::free(resolved);
+    return result;
+  }
+
+  StatusOr<std::unique_ptr<WritableFile>> OpenStream(const std::string& path) override {
+    if (path == "-") {
+      const int fd = ::fcntl(STDOUT_FILENO, F_DUPFD_CLOEXEC, 0);
+      if (fd < 0) return PosixError("standard output", "dup", errno);
+      return std::unique_ptr<WritableFile>(
+          std::make_unique<PosixWritableFile>("standard output", fd, /*stream=*/true));
+    }
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+    if (fd < 0) return PosixError(path, "open for writing", errno);
+    return std::unique_ptr<WritableFile>(
+        std::make_unique<PosixWritableFile>(path, fd, /*stream=*/true));
+  }
 
   Status SyncDirectory(const std::string& path) override {
     const std::string directory = path.empty() ? "." : path;
@@ -219,6 +253,19 @@ Status FaultInjectionEnv::RemoveFile(const std::string& path) {
 }
 
 bool FaultInjectionEnv::FileExists(const std::string& path) { return base_->FileExists(path); }
+
+FileKind FaultInjectionEnv::KindOf(const std::string& path) { return base_->KindOf(path); }
+
+StatusOr<std::string> FaultInjectionEnv::ResolvePath(const std::string& path) {
+  return base_->ResolvePath(path);
+}
+
+StatusOr<std::unique_ptr<WritableFile>> FaultInjectionEnv::OpenStream(const std::string& path) {
+  GS_RETURN_IF_ERROR(MaybeFail(Operation::kNewWritableFile, path));
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<WritableFile> base, base_->OpenStream(path));
+  return std::unique_ptr<WritableFile>(
+      std::make_unique<FaultInjectionWritableFile>(path, std::move(base), this));
+}
 
 Status FaultInjectionEnv::SyncDirectory(const std::string& path) {
   GS_RETURN_IF_ERROR(MaybeFail(Operation::kSyncDirectory, path));

@@ -10,7 +10,9 @@
 //   WritableFile: Append* -> Sync (fsync: data durable) -> Close
 //   Env:          NewWritableFile, Rename (atomic on POSIX within one
 //                 filesystem), RemoveFile, FileExists, SyncDirectory (fsync of
-//                 a directory: makes a rename durable)
+//                 a directory: makes a rename durable), KindOf / ResolvePath /
+//                 OpenStream (outputs that are devices, FIFOs or symlinks are
+//                 written in place or through the link, never replaced)
 //
 // Every operation that touches the disk returns a Status; IOError messages name
 // the path and the errno text, e.g. "out.g2o: fsync: No space left on device".
@@ -45,6 +47,14 @@ class WritableFile {
   [[nodiscard]] virtual Status Close() = 0;
 };
 
+// What a path names, after following symbolic links.
+enum class FileKind {
+  kMissing,
+  kRegular,
+  kDirectory,
+  kOther,  // a character or block device, a FIFO, a socket
+};
+
 class Env {
  public:
   Env() = default;
@@ -61,6 +71,15 @@ class Env {
   // fsyncs the directory `path` so that renames and creations inside it are
   // durable ("" means the current directory).
   [[nodiscard]] virtual Status SyncDirectory(const std::string& path) = 0;
+  // What `path` names, following symbolic links (stat(2)).
+  virtual FileKind KindOf(const std::string& path) = 0;
+  // `path` with every symbolic link resolved (realpath(3)); it must exist.
+  virtual StatusOr<std::string> ResolvePath(const std::string& path) = 0;
+  // Opens a file that exists and is not a regular file (a device, a FIFO, a
+  // terminal) for writing in place, without creating or truncating it; "-"
+  // is standard output. Its Sync() flushes without fsync, which such files
+  // do not support.
+  virtual StatusOr<std::unique_ptr<WritableFile>> OpenStream(const std::string& path) = 0;
 
   // The process-wide POSIX Env. It is a function-local static, the one
   // singleton the project permits: it holds no state (every call goes straight
@@ -107,6 +126,9 @@ class FaultInjectionEnv : public Env {
   [[nodiscard]] Status RemoveFile(const std::string& path) override;
   bool FileExists(const std::string& path) override;
   [[nodiscard]] Status SyncDirectory(const std::string& path) override;
+  FileKind KindOf(const std::string& path) override;
+  StatusOr<std::string> ResolvePath(const std::string& path) override;
+  StatusOr<std::unique_ptr<WritableFile>> OpenStream(const std::string& path) override;
 
   // Counts a call of `operation`; returns IOError if this call is to fail.
   // Public for the wrapped files; not part of the test-facing API.

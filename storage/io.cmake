@@ -2,6 +2,7 @@
 target_sources(graphslam_storage PRIVATE
   atomic_file.cc
   env.cc
+  stop_point.cc
   format_detection.cc
   features_csv_writer.cc
   g2o_reader.cc

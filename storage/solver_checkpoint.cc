@@ -12,6 +12,7 @@
 #include "storage/chunk_format.h"
 #include "storage/feature_record_file.h"
 #include "storage/solver_state_file.h"
+#include "storage/stop_point.h"
 
 namespace graphslam::storage {
 namespace {
@@ -378,12 +379,16 @@ StatusOr<Checkpoint> Read(const std::string& path, const std::string& input) {
 
 Status WriteSolverCheckpoint(Env* env, const std::string& path, const std::string& input,
                              const core::SolverCheckpoint& checkpoint) {
-  return Write<Planar>(env, path, input, checkpoint);
+  GS_RETURN_IF_ERROR(Write<Planar>(env, path, input, checkpoint));
+  StopPointForTests("solver_checkpoint " + std::to_string(checkpoint.iterations));
+  return Status::Ok();
 }
 
 Status WriteSolverCheckpoint(Env* env, const std::string& path, const std::string& input,
                              const core::SolverCheckpoint3d& checkpoint) {
-  return Write<Spatial>(env, path, input, checkpoint);
+  GS_RETURN_IF_ERROR(Write<Spatial>(env, path, input, checkpoint));
+  StopPointForTests("solver_checkpoint " + std::to_string(checkpoint.iterations));
+  return Status::Ok();
 }
 
 Status WriteSolverCheckpointWithFeatureFile(Env* env, const std::string& path,
@@ -422,6 +427,7 @@ Status WriteSolverCheckpointWithFeatureFile(Env* env, const std::string& path,
       if (name.rfind(base + kind, 0) == 0) garbage.push_back(entry.path().string());
   }
   for (const std::string& name : garbage) GS_RETURN_IF_ERROR(env->RemoveFile(name));
+  StopPointForTests("solver_checkpoint " + std::to_string(checkpoint.iterations));
   return Status::Ok();
 }
 

@@ -14,6 +14,7 @@
 #include "storage/tiled_voxel_cloud.h"
 #include "storage/atomic_file.h"
 #include "storage/env.h"
+#include "storage/stop_point.h"
 
 namespace graphslam::map {
 namespace {
@@ -83,11 +84,13 @@ StatusOr<MapSummary> BuildMap(const MapOptions& options, const ScanSource& scans
   std::vector<WorldScan> batch;
   int64_t batch_points = 0;
   double seconds = 0.0;
+  int64_t batches = 0;
   auto flush = [&]() -> Status {
     if (fuse) {  // without a .bt nothing is fused, and no time is counted
       const auto start = std::chrono::steady_clock::now();
       GS_RETURN_IF_ERROR(fusion.Insert(batch));
       seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      storage::StopPointForTests("map_batch " + std::to_string(++batches));
     }
     batch.clear();
     batch_points = 0;

@@ -1,47 +1,93 @@
-// ProgressDisplay: turns library progress callbacks into what a person sees.
+// ProgressDisplay: turns library progress and iteration callbacks into what a
+// person sees.
 //
-// On a terminal (stderr is a TTY) it redraws one line:
-//   [optimize] 12/100  3.4/s  ETA 26s
-// Otherwise (batch jobs, CI, log files) it writes a plain log line at most once
-// per `min_log_interval` seconds per stage, plus one when a stage completes.
+// On a terminal (stderr is a TTY) it redraws one line, cleared before each
+// redraw so that a shorter line never leaves pieces of a longer one:
+//   [campus_1 with GPS: reduce] 12/100  3.4/s  ETA 26s
+// and prints the solver's iterations as a table in the manner of Ceres'
+// minimizer output (one header per solve, one row per iteration):
+//   iter        chi2   chi2_change   |gradient|     |step|    lambda    rho  lin_it  it_time  total
+//      1  8.4128e+07   -8.3795e+07     1.21e+03   3.42e+01  1.00e-04  0.998       1    0.12s   0.12s
+// Otherwise (batch jobs, CI, log files) it writes plain log lines: at most one
+// per `min_log_interval` seconds per stage (the first one at once), plus one
+// per iteration. Rate and ETA are printed only once they are known.
 //
-// THREAD SAFETY: Update() may be called from any thread (guarded by a mutex).
+// rate = (done - done at the start of this pass) / seconds since that start;
+// a pass starts when a stage is first seen or its `done` goes backwards.
+// ETA  = (total - done) / rate.
+//
+// The clock is injectable so that tests can start it anywhere (a machine
+// booted a minute ago has a steady_clock near zero).
+//
+// THREAD SAFETY: every method may be called from any thread (one mutex).
 #pragma once
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <string_view>
 
 #include "core/progress.h"
 
+namespace graphslam::core {
+struct IterationSummary;
+}
+
 namespace graphslam::tools {
 
 class ProgressDisplay {
  public:
+  using Clock = std::chrono::steady_clock;
+  using NowFunction = std::function<Clock::time_point()>;
+
+  // Writes to a terminal when stderr is one.
   explicit ProgressDisplay(bool enabled, double min_log_interval = 5.0);
+  // For tests: the output kind and the clock are given.
+  ProgressDisplay(bool enabled, double min_log_interval, bool terminal, NowFunction now);
   ~ProgressDisplay();
 
+  // Names what runs now ("campus_1 with GPS"); shown before every stage and
+  // starts a new iteration table. Empty: no name.
+  void SetContext(std::string context);
+
   void Update(std::string_view stage, int64_t done, int64_t total);
+  // One row of the iteration table.
+  void Iteration(const core::IterationSummary& iteration);
   // Ends the current terminal line, if any.
   void Finish();
+
   ProgressCallback AsCallback();
+  std::function<void(const core::IterationSummary&)> AsIterationCallback();
 
  private:
-  using Clock = std::chrono::steady_clock;
+  struct Pass {
+    Clock::time_point start;
+    int64_t start_done = 0;
+    int64_t last_done = 0;
+    std::optional<Clock::time_point> last_log;  // plain output only
+  };
+
+  std::string Label(std::string_view stage) const;
+  void CloseLineLocked();
+
   std::mutex mutex_;
-  bool enabled_;
-  bool terminal_;
-  double min_log_interval_;
-  std::string stage_;
-  Clock::time_point stage_start_;
-  // When each stage was first seen, so that rates span interleaved passes.
-  std::map<std::string, Clock::time_point, std::less<>> stage_starts_;
-  std::map<std::string, Clock::time_point, std::less<>> stage_outputs_;
-  Clock::time_point last_output_;
+  const bool enabled_;
+  const bool terminal_;
+  const double min_log_interval_;
+  const NowFunction now_;
+  std::string context_;
+  std::map<std::string, Pass, std::less<>> passes_;
+  std::optional<Clock::time_point> last_redraw_;  // terminal only
   bool line_open_ = false;
+  bool table_header_printed_ = false;
+  double table_seconds_ = 0.0;  // sum of the iterations' seconds in this table
 };
+
+// "26s", "3m05s", "2h01m": how long, for a person.
+std::string FormatDuration(double seconds);
 
 }  // namespace graphslam::tools

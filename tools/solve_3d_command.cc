@@ -126,6 +126,7 @@ int RunSolve3dCommand(const SolveCommandOptions& options, storage::InputFormat f
   solver_options.observation_kernel = observation_kernel;
   solver_options.pose_kernels = pose_kernels;
   solver_options.progress = display.AsCallback();
+  solver_options.iteration_callback = display.AsIterationCallback();
   // Checkpoints: one durable file replaced after every iteration; --resume
   // continues from it, bit-identical to an uninterrupted solve.
   core::Checkpointing3d checkpointing;
@@ -178,12 +179,13 @@ int RunSolve3dCommand(const SolveCommandOptions& options, storage::InputFormat f
       return fail(status);
   }
   if (!options.quiet) {
-    std::printf("graphslam solve summary (3-D)\n");
-    std::printf("  input              %s (%s)\n", options.input.c_str(), format_name);
-    std::printf("  poses / features   %d / %d\n", problem.num_poses(), problem.num_features());
-    std::printf("  relative poses     %zu\n", problem.relative_poses.size());
-    std::printf("  observations       %zu\n", problem.observations.size());
-    PrintSolverSummaryLines(summary, total_seconds);
+    std::FILE* const out = WritesToStandardOutput(options) ? stderr : stdout;
+    std::fprintf(out, "graphslam solve summary (3-D)\n");
+    std::fprintf(out, "  input              %s (%s)\n", options.input.c_str(), format_name);
+    std::fprintf(out, "  poses / features   %d / %d\n", problem.num_poses(), problem.num_features());
+    std::fprintf(out, "  relative poses     %zu\n", problem.relative_poses.size());
+    std::fprintf(out, "  observations       %zu\n", problem.observations.size());
+    PrintSolverSummaryLines(out, summary, total_seconds);
   }
   return summary.converged ? kExitOk : kExitNotConverged;
 }

@@ -255,6 +255,13 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
   solve->callback([options, exit_code]() { *exit_code = RunSolveCommand(*options); });
 }
 
+bool WritesToStandardOutput(const SolveCommandOptions& options) {
+  for (const std::string* path :
+       {&options.output_g2o, &options.tum, &options.features_csv, &options.report})
+    if (*path == storage::kStandardOutput) return true;
+  return false;
+}
+
 int RunSolveCommand(const SolveCommandOptions& options) {
   const Clock::time_point start = Clock::now();
   SetLogVerbosity(options.verbosity);
@@ -441,6 +448,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   solver_options.initial_trust_region_radius = options.initial_trust_region_radius;
   solver_options.fused_chunk_pass = !options.two_pass;
   solver_options.progress = display.AsCallback();
+  solver_options.iteration_callback = display.AsIterationCallback();
   {
     StatusOr<int> in_flight = ChunksInFlightForMemoryLimit(
         memory_limit, problem.num_poses(), problem.num_features(), options.chunk_observations,
@@ -617,16 +625,18 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   }
 
   if (!options.quiet) {
-    std::printf("graphslam solve summary\n");
-    std::printf("  input              %s (%s)\n", options.input.c_str(), format_name);
-    std::printf("  poses / features   %d / %d (%lld eliminated, %lld excluded)\n",
+    // With an output on standard output ("-"), the summary goes to stderr.
+    std::FILE* const out = WritesToStandardOutput(options) ? stderr : stdout;
+    std::fprintf(out, "graphslam solve summary\n");
+    std::fprintf(out, "  input              %s (%s)\n", options.input.c_str(), format_name);
+    std::fprintf(out, "  poses / features   %d / %d (%lld eliminated, %lld excluded)\n",
                 problem.num_poses(), problem.num_features(),
                 static_cast<long long>(summary.eliminated_features),
                 static_cast<long long>(summary.excluded_features));
-    std::printf("  observations       %lld%s\n", static_cast<long long>(num_observations),
+    std::fprintf(out, "  observations       %lld%s\n", static_cast<long long>(num_observations),
                 streaming ? " (streamed from disk)" : "");
     if (options.associate) {
-      std::printf("  association        %lld -> %lld features, %lld merges (%lld undone), "
+      std::fprintf(out, "  association        %lld -> %lld features, %lld merges (%lld undone), "
                   "%zu rounds, %.3f s\n",
                   static_cast<long long>(association_summary.initial_features),
                   static_cast<long long>(association_summary.final_features),
@@ -634,7 +644,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                   static_cast<long long>(association_summary.undone),
                   association_summary.rounds.size(), association_summary.seconds);
     }
-    PrintSolverSummaryLines(summary, total_seconds);
+    PrintSolverSummaryLines(out, summary, total_seconds);
   }
   return summary.converged ? kExitOk : kExitNotConverged;
 }

@@ -63,6 +63,10 @@ struct SolveCommandOptions {
 // the exit code in *exit_code.
 void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code);
 
+// Whether an output is "-" (standard output): the summary then goes to
+// stderr so that it does not mix with the output.
+bool WritesToStandardOutput(const SolveCommandOptions& options);
+
 // Runs a solve; returns the process exit code (tools/exit_codes.h).
 int RunSolveCommand(const SolveCommandOptions& options);
 

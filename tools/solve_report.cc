@@ -57,13 +57,14 @@ nlohmann::json SolverReport(const SolveCommandOptions& options, const core::Solv
   return report;
 }
 
-void PrintSolverSummaryLines(const core::SolverSummary& summary, double total_seconds) {
-  std::printf("  linear solver      %s\n", core::LinearSolverName(summary.linear_solver_used));
-  std::printf("  initial chi2       %.9g\n", summary.initial_chi2);
-  std::printf("  final chi2         %.9g\n", summary.final_chi2);
-  std::printf("  iterations         %d (%s)\n", summary.iterations, summary.termination.c_str());
-  std::printf("  seconds            %.3f\n", total_seconds);
-  std::printf("  peak RSS           %.1f MiB\n", PeakRssBytes() / (1024.0 * 1024.0));
+void PrintSolverSummaryLines(std::FILE* out, const core::SolverSummary& summary,
+                             double total_seconds) {
+  std::fprintf(out, "  linear solver      %s\n", core::LinearSolverName(summary.linear_solver_used));
+  std::fprintf(out, "  initial chi2       %.9g\n", summary.initial_chi2);
+  std::fprintf(out, "  final chi2         %.9g\n", summary.final_chi2);
+  std::fprintf(out, "  iterations         %d (%s)\n", summary.iterations, summary.termination.c_str());
+  std::fprintf(out, "  seconds            %.3f\n", total_seconds);
+  std::fprintf(out, "  peak RSS           %.1f MiB\n", PeakRssBytes() / (1024.0 * 1024.0));
 }
 
 }  // namespace graphslam::tools

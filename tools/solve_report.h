@@ -8,6 +8,8 @@
 // THREAD SAFETY: plain functions. ALLOCATION: O(iterations).
 #pragma once
 
+#include <cstdio>
+
 #include <nlohmann/json.hpp>
 
 #include "core/graphslam_solver.h"
@@ -24,6 +26,7 @@ nlohmann::json SolverReport(const SolveCommandOptions& options, const core::Solv
 
 // The terminal summary's closing lines: linear solver, chi2s, iterations,
 // seconds, peak RSS.
-void PrintSolverSummaryLines(const core::SolverSummary& summary, double total_seconds);
+void PrintSolverSummaryLines(std::FILE* out, const core::SolverSummary& summary,
+                             double total_seconds);
 
 }  // namespace graphslam::tools

@@ -404,6 +404,15 @@ class NoSyncEnv final : public Env {
   Status RemoveFile(const std::string& path) override { return Env::Default()->RemoveFile(path); }
   bool FileExists(const std::string& path) override { return Env::Default()->FileExists(path); }
   Status SyncDirectory(const std::string&) override { return Status::Ok(); }
+  storage::FileKind KindOf(const std::string& path) override {
+    return Env::Default()->KindOf(path);
+  }
+  StatusOr<std::string> ResolvePath(const std::string& path) override {
+    return Env::Default()->ResolvePath(path);
+  }
+  StatusOr<std::unique_ptr<storage::WritableFile>> OpenStream(const std::string& path) override {
+    return Env::Default()->OpenStream(path);
+  }
 
  private:
   class File final : public storage::WritableFile {

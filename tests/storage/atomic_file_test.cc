@@ -1,11 +1,13 @@
 #include "storage/atomic_file.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <thread>
 
 namespace graphslam::storage {
 namespace {
@@ -140,6 +142,68 @@ TEST_F(AtomicFileTest, MissingDirectoryIsAnIOError) {
   const Status status =
       WriteStringAtomically(Env::Default(), dir_ + "/missing/out.g2o", "x");
   EXPECT_TRUE(status.IsIOError()) << status.ToString();
+}
+
+// Outputs that are not regular files are written in place, never replaced:
+// as root, renaming over /dev/null replaced the machine's /dev/null.
+
+bool IsSymlink(const std::string& path) {
+  struct stat info;
+  return ::lstat(path.c_str(), &info) == 0 && S_ISLNK(info.st_mode);
+}
+
+TEST_F(AtomicFileTest, SymlinkToACharacterDeviceIsWrittenThroughNotReplaced) {
+  const std::string link = dir_ + "/null.g2o";
+  std::filesystem::create_symlink("/dev/null", link);
+  ASSERT_TRUE(WriteFileAtomically(Env::Default(), link, WriteNew).ok());
+  EXPECT_TRUE(IsSymlink(link));
+  EXPECT_EQ(std::filesystem::read_symlink(link), "/dev/null");
+  EXPECT_TRUE(std::filesystem::is_character_file("/dev/null"));
+  // Nothing was created beside it (no temporary, no stray copy).
+  EXPECT_EQ(Files().size(), 2u);
+}
+
+TEST_F(AtomicFileTest, FifoIsWrittenInPlaceNotReplaced) {
+  const std::string fifo = dir_ + "/pipe.g2o";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  std::string received;
+  // A reader like `cat pipe.g2o`: opening the FIFO for writing waits for it.
+  std::thread reader([&] { received = Slurp(fifo); });
+  const Status status = WriteFileAtomically(Env::Default(), fifo, WriteNew);
+  reader.join();
+  ASSERT_TRUE(status.ok()) << status.ToString();
+  EXPECT_EQ(received, "new contents\n");
+  struct stat info;
+  ASSERT_EQ(::lstat(fifo.c_str(), &info), 0);
+  EXPECT_TRUE(S_ISFIFO(info.st_mode));
+}
+
+TEST_F(AtomicFileTest, SymlinkToARegularFileReplacesTheTargetAndKeepsTheLink) {
+  const std::string link = dir_ + "/latest.g2o";
+  std::filesystem::create_symlink("checkpoint.g2o", link);
+  ASSERT_TRUE(WriteFileAtomically(Env::Default(), link, WriteNew).ok());
+  EXPECT_TRUE(IsSymlink(link));
+  EXPECT_EQ(Slurp(path_), "new contents\n");
+  EXPECT_EQ(Files().size(), 2u);
+}
+
+TEST_F(AtomicFileTest, DirectoryIsRefusedAndLeftAlone) {
+  const std::string folder = dir_ + "/results";
+  std::filesystem::create_directories(folder);
+  std::ofstream(folder + "/mine.txt") << "user data\n";
+  const Status status = WriteFileAtomically(Env::Default(), folder, WriteNew);
+  ASSERT_TRUE(status.IsInvalidArgument()) << status.ToString();
+  EXPECT_NE(status.ToString().find("is a directory"), std::string::npos) << status.ToString();
+  EXPECT_EQ(Slurp(folder + "/mine.txt"), "user data\n");
+}
+
+TEST_F(AtomicFileTest, DashIsStandardOutput) {
+  ::testing::internal::CaptureStdout();
+  const Status status = WriteFileAtomically(Env::Default(), "-", WriteNew);
+  const std::string printed = ::testing::internal::GetCapturedStdout();
+  ASSERT_TRUE(status.ok()) << status.ToString();
+  EXPECT_EQ(printed, "new contents\n");
+  EXPECT_FALSE(std::filesystem::exists("-"));
 }
 
 }  // namespace

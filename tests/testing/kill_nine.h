@@ -37,6 +37,22 @@ inline bool SpawnAndKillWhenFileExists(const std::vector<std::string>& args,
   return WIFSIGNALED(status);
 }
 
+// Runs `graphslam args...` with GRAPHSLAM_STOP_AT=`point` (storage/
+// stop_point.h): the child stops itself right after that point, is killed
+// with SIGKILL there and reaped. Deterministic: no polling, no deadline.
+// Returns true if the child was killed at the point, false if it ended
+// without reaching it.
+inline bool SpawnAndKillAtStopPoint(const std::vector<std::string>& args,
+                                    const std::string& point) {
+  const pid_t pid = SpawnGraphslamRedirected(args, "", {{"GRAPHSLAM_STOP_AT", point}});
+  int status = 0;
+  if (waitpid(pid, &status, WUNTRACED) != pid) return false;
+  if (!WIFSTOPPED(status)) return false;  // ended (exited or crashed) first
+  kill(pid, SIGKILL);
+  waitpid(pid, &status, 0);  // always reaped: no child outlives the test
+  return WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL;
+}
+
 // Resumes `graphslam solve input` from `checkpoint` into DIR/resumed.g2o and
 // DIR/resumed.json, and expects what the uninterrupted run wrote to
 // DIR/full.g2o and DIR/full.json: the same final chi2 and iteration count

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace graphslam::testing {
@@ -18,15 +19,18 @@ inline const std::string& GraphslamBinary() {
 }
 
 // Starts `graphslam args...` and returns its pid; unless `stderr_path` is
-// empty the child's stderr goes to that file (truncated).
-inline pid_t SpawnGraphslamRedirected(const std::vector<std::string>& args,
-                                      const std::string& stderr_path) {
+// empty the child's stderr goes to that file (truncated). `environment`
+// holds NAME=VALUE pairs added to the child's environment.
+inline pid_t SpawnGraphslamRedirected(
+    const std::vector<std::string>& args, const std::string& stderr_path,
+    const std::vector<std::pair<std::string, std::string>>& environment = {}) {
   std::vector<char*> argv;
   argv.push_back(const_cast<char*>(GraphslamBinary().c_str()));
   for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
   const pid_t pid = fork();
   if (pid == 0) {
+    for (const auto& [name, value] : environment) setenv(name.c_str(), value.c_str(), 1);
     if (!stderr_path.empty()) {
       const int fd = open(stderr_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
       if (fd >= 0) dup2(fd, 2);

@@ -1,7 +1,8 @@
 // kill -9 during a solve, then --resume: the same result as without the kill.
 //
 // The graphslam binary is started as a child process on a simulated campus,
-// killed with SIGKILL as soon as its first checkpoint is on disk (mid-solve),
+// killed with SIGKILL right after its first checkpoint is durable (a stop
+// point, storage/stop_point.h: no race with the solve),
 // and resumed. The final chi2 and the optimized graph must equal those of an
 // uninterrupted run bit for bit: the checkpoint carries every piece of solver
 // state, written atomically.
@@ -49,17 +50,15 @@ TEST(SolveResume, KillNineMidSolveThenResumeEqualsUninterruptedRun) {
 
   // Killed as soon as the first checkpoint exists.
   const fs::path checkpoint = dir / "checkpoint.json";
-  const bool signaled = graphslam::testing::SpawnAndKillWhenFileExists(
+  const bool signaled = graphslam::testing::SpawnAndKillAtStopPoint(
       {"solve", input, "-o", (dir / "resumed.g2o").string(), "--checkpoint", checkpoint.string(),
        "-q"},
-      checkpoint, std::chrono::seconds(120));
+      "solver_checkpoint 1");
+  ASSERT_TRUE(signaled) << "the solve ended before its checkpoint 1";
   ASSERT_TRUE(fs::exists(checkpoint)) << "no checkpoint was written";
   const nlohmann::json at_kill = nlohmann::json::parse(ReadWholeFile(checkpoint));
-  // Usually killed mid-solve; if the solve won the race, resuming must still agree.
-  std::printf("killed after iteration %d (signaled: %d)\n", at_kill["iterations"].get<int>(),
-              signaled ? 1 : 0);
-  EXPECT_FALSE(fs::exists(dir / "resumed.g2o") && signaled)
-      << "a killed solve must not leave its output";
+  ASSERT_EQ(at_kill["iterations"].get<int>(), 1);
+  EXPECT_FALSE(fs::exists(dir / "resumed.g2o")) << "a killed solve must not leave its output";
 
   ExpectResumeEqualsUninterrupted(input, dir, checkpoint, at_kill["iterations"].get<int>());
   fs::remove_all(dir);
@@ -93,14 +92,14 @@ TEST(SolveResume, KillNineMidPcgSolveThenResumeEqualsUninterruptedRun) {
   ASSERT_GE(full["iterations"].get<int>(), 4);
 
   const fs::path checkpoint = dir / "checkpoint.json";
-  const bool signaled = graphslam::testing::SpawnAndKillWhenFileExists(
+  const bool signaled = graphslam::testing::SpawnAndKillAtStopPoint(
       with_pcg({"solve", input, "-o", (dir / "resumed.g2o").string(), "--checkpoint",
                 checkpoint.string(), "-q"}),
-      checkpoint, std::chrono::seconds(120));
+      "solver_checkpoint 2");
+  ASSERT_TRUE(signaled) << "the solve ended before its checkpoint 2";
   ASSERT_TRUE(fs::exists(checkpoint)) << "no checkpoint was written";
   const nlohmann::json at_kill = nlohmann::json::parse(ReadWholeFile(checkpoint));
-  std::printf("killed after iteration %d (signaled: %d)\n", at_kill["iterations"].get<int>(),
-              signaled ? 1 : 0);
+  ASSERT_EQ(at_kill["iterations"].get<int>(), 2);
   ASSERT_TRUE(at_kill.contains("pcg"));
   EXPECT_EQ(at_kill["version"].get<int>(), 2);
   EXPECT_FALSE(at_kill["pcg"]["forest_order"].empty());

@@ -26,6 +26,7 @@
 #include "storage/g2o_writer.h"
 #include "storage/native_log_reader.h"
 #include "storage/solver_checkpoint.h"
+#include "storage/stop_point.h"
 #include "storage/tum_writer.h"
 #include "tools/job/job_data.h"
 #include "tools/job/job_map.h"
@@ -331,8 +332,24 @@ Status SolveComponents(Context& ctx, bool checkpoints, JobData* data, json* comp
     core::Problem2d sub = ExtractComponent(*data, c, &pose_map, &feature_map);
     partition::ChunkingOptions chunking;
     partition::InMemoryChunkSource chunks(sub, chunking);
+    json runs = json::array();
+    int64_t gps_fixes = 0;
+    std::string run_names;
+    for (const RunInfo& run : data->runs) {
+      if (run.component != c) continue;
+      runs.push_back(run.name);
+      gps_fixes += run.gps_fixes;
+      run_names += (run_names.empty() ? "" : ", ") + run.name;
+    }
     core::SolverOptions options = *base;
-    if (ctx.display) options.progress = ctx.display->AsCallback();
+    if (ctx.display) {
+      // Names which solve runs: a job solves each component, and again
+      // without GPS when asked.
+      ctx.display->SetContext("optimize " + run_names +
+                              (data->problem.gps.empty() ? " (no GPS)" : " (with GPS)"));
+      options.progress = ctx.display->AsCallback();
+      options.iteration_callback = ctx.display->AsIterationCallback();
+    }
     const std::string tag = "c" + std::to_string(c);
     const std::string checkpoint_path = ctx.Work("optimize_" + tag + ".checkpoint.json");
     const std::string history_path = ctx.Work("optimize_" + tag + ".history.json");
@@ -364,17 +381,13 @@ Status SolveComponents(Context& ctx, bool checkpoints, JobData* data, json* comp
     }
     core::SolverSummary summary;
     GS_RETURN_IF_ERROR(core::SolveGraphSlam(options, chunks, &sub, &summary));
-    if (ctx.display) ctx.display->Finish();
+    if (ctx.display) {
+      ctx.display->Finish();
+      ctx.display->SetContext("");
+    }
     ScatterComponent(sub, pose_map, feature_map, &data->problem);
     for (size_t f = 0; f < feature_map.size(); ++f)
       (*excluded)[static_cast<size_t>(feature_map[f])] = summary.excluded[f];
-    json runs = json::array();
-    int64_t gps_fixes = 0;
-    for (const RunInfo& run : data->runs) {
-      if (run.component != c) continue;
-      runs.push_back(run.name);
-      gps_fixes += run.gps_fixes;
-    }
     if (history.empty() && !checkpoints)
       for (const core::IterationSummary& it : summary.per_iteration)
         history.push_back({{"iteration", it.iteration}, {"chi2", it.chi2}});
@@ -804,6 +817,7 @@ Status RunJob(const RunJobOptions& options) {
     }
     ctx.log.Write({{"event", "stage_start"}, {"stage", name}, {"done", done},
                    {"total", static_cast<int64_t>(stages.size())}});
+    storage::StopPointForTests("job_stage_start " + name);
     if (!options.quiet) ctx.Info(name, "stage " + std::to_string(done + 1) + "/" +
                                            std::to_string(stages.size()) + " started");
     const Clock::time_point start = Clock::now();
@@ -817,6 +831,7 @@ Status RunJob(const RunJobOptions& options) {
     completed.peak_rss_bytes = PeakRssBytes();
     ctx.state.completed.push_back(completed);
     GS_RETURN_IF_ERROR(WriteJobState(state_path, ctx.state));
+    storage::StopPointForTests("job_stage_done " + name);
     ++done;
     ctx.display->Update("job", done, static_cast<int64_t>(stages.size()));
     ctx.log.Write({{"event", "stage_done"},

@@ -2,27 +2,24 @@
 // final outputs equal those of an uninterrupted run byte for byte.
 //
 // The graphslam binary runs as a child process (as in solve_resume_test.cc)
-// on a simulated two-run campus with GPS; the test watches the job's own
-// files to pick the moment: the structured log's stage_start events, the
-// state file, and the solver checkpoint written after every iteration. The
-// job has scans, so the map stage (OctoMap fusion) is killed too, and the
-// outputs of an earlier job in the folder must survive a killed new one.
+// on a simulated two-run campus with GPS and is killed at named stop points
+// (storage/stop_point.h): a stage's start, a completed stage, the solver
+// checkpoint of an iteration, the first fused batch of scans. The job has
+// scans, so the map stage (OctoMap fusion) is killed too, and the outputs of
+// an earlier job in the folder must survive a killed new one.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <functional>
-#include <memory>
-#include <optional>
 #include <sstream>
 #include <string>
-#include <thread>
 #include <vector>
 
+#include "tests/testing/kill_nine.h"
 #include "tests/testing/subprocess.h"
 
 namespace {
@@ -71,27 +68,17 @@ class JobResume : public ::testing::Test {
     for (const std::string& r : reference_) ASSERT_FALSE(r.empty());
   }
 
-  // Starts the job into `name`, kills it with SIGKILL as soon as `ready`
-  // holds (polling every millisecond), resumes it, and compares the outputs
-  // with the uninterrupted run's. Returns false if the job finished before
-  // `ready` held (nothing was interrupted).
+  // Starts the job into `name`, kills it with SIGKILL at the stop point
+  // `point` (storage/stop_point.h: the child stops itself there, so the kill
+  // lands at exactly that step on any machine), resumes it, and compares the
+  // outputs with the uninterrupted run's. Returns false if the job ended
+  // without reaching `point` (nothing was interrupted).
   // `before_resume` (optional) runs between the kill and the resume.
-  bool KillAndResume(const std::string& name, const std::function<bool(const fs::path&)>& ready,
+  bool KillAndResume(const std::string& name, const std::string& point,
                      const std::function<void(const fs::path&)>& before_resume = nullptr) {
     const fs::path out = dir_ / name;
-    const pid_t pid = Spawn({"run", job_, "-o", out.string(), "-q"});
-    bool killed = false;
-    for (int i = 0; i < 600000; ++i) {
-      if (ready(out)) {
-        kill(pid, SIGKILL);
-        killed = true;
-        break;
-      }
-      int status = 0;
-      if (waitpid(pid, &status, WNOHANG) == pid) break;  // finished first
-      std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    }
-    if (killed) Wait(pid);
+    const bool killed = graphslam::testing::SpawnAndKillAtStopPoint(
+        {"run", job_, "-o", out.string(), "-q"}, point);
     if (before_resume) before_resume(out);
     EXPECT_EQ(Wait(Spawn({"run", job_, "-o", out.string(), "--resume", "-q"})), 0) << name;
     for (size_t k = 0; k < kCompared.size(); ++k)
@@ -110,21 +97,15 @@ bool LogHas(const fs::path& out, const std::string& text) {
 }
 
 TEST_F(JobResume, KillDuringIngest) {
-  EXPECT_TRUE(KillAndResume("ingest", [](const fs::path& out) {
-    return LogHas(out, "\"event\":\"stage_start\",\"stage\":\"ingest\"");
-  }));
+  EXPECT_TRUE(KillAndResume("ingest", "job_stage_start ingest"));
 }
 
 TEST_F(JobResume, KillBetweenStages) {
-  EXPECT_TRUE(KillAndResume("initialized", [](const fs::path& out) {
-    return ReadFile(out / ".job/state.json").find("\"initialize\"") != std::string::npos;
-  }));
+  EXPECT_TRUE(KillAndResume("initialized", "job_stage_done initialize"));
 }
 
 TEST_F(JobResume, KillInTheMiddleOfTheOptimization) {
-  const bool killed = KillAndResume("optimize", [](const fs::path& out) {
-    return fs::exists(out / ".job/optimize_c0.checkpoint.json");
-  });
+  const bool killed = KillAndResume("optimize", "solver_checkpoint 1");
   EXPECT_TRUE(killed);
   // The resumed solve continued from the checkpoint (the log says so).
   EXPECT_TRUE(LogHas(dir_ / "optimize", "resuming after iteration"));
@@ -138,26 +119,11 @@ int Count(const std::string& text, const std::string& what) {
 
 const std::string kMapStart = "\"event\":\"stage_start\",\"stage\":\"map\"";
 
-// True once the map stage has run for `delay`: its loading takes a few
-// milliseconds, the fusion of the 600 scans about a second.
-std::function<bool(const fs::path&)> InMapFusion(std::chrono::milliseconds delay) {
-  auto seen = std::make_shared<std::optional<std::chrono::steady_clock::time_point>>();
-  return [seen, delay](const fs::path& out) {
-    if (!seen->has_value()) {
-      if (LogHas(out, kMapStart)) *seen = std::chrono::steady_clock::now();
-      return false;
-    }
-    return std::chrono::steady_clock::now() - **seen >= delay;
-  };
-}
-
 TEST_F(JobResume, KillDuringMapFusion) {
   bool map_done_at_kill = true;
-  EXPECT_TRUE(KillAndResume("map", InMapFusion(std::chrono::milliseconds(150)),
-                            [&](const fs::path& out) {
-                              map_done_at_kill = ReadFile(out / ".job/state.json")
-                                                     .find("\"map\"") != std::string::npos;
-                            }));
+  EXPECT_TRUE(KillAndResume("map", "map_batch 1", [&](const fs::path& out) {
+    map_done_at_kill = ReadFile(out / ".job/state.json").find("\"map\"") != std::string::npos;
+  }));
   // Killed inside the map stage, which the resumed job ran again.
   EXPECT_FALSE(map_done_at_kill);
   EXPECT_EQ(Count(ReadFile(dir_ / "map" / "log.jsonl"), kMapStart), 2);
@@ -169,17 +135,14 @@ TEST_F(JobResume, AKilledJobLeavesTheOutputsOfTheEarlierJobUntouched) {
   const fs::path out = dir_ / "earlier";
   fs::create_directories(out / "trajectories");
   for (const std::string& file : kCompared) std::ofstream(out / file) << "earlier " << file;
-  EXPECT_TRUE(KillAndResume("earlier", InMapFusion(std::chrono::milliseconds(150)),
-                            [](const fs::path& out) {
-                              for (const std::string& file : kCompared)
-                                EXPECT_EQ(ReadFile(out / file), "earlier " + file) << file;
-                            }));
+  EXPECT_TRUE(KillAndResume("earlier", "map_batch 1", [](const fs::path& out) {
+    for (const std::string& file : kCompared)
+      EXPECT_EQ(ReadFile(out / file), "earlier " + file) << file;
+  }));
 }
 
 TEST_F(JobResume, KillDuringExport) {
-  EXPECT_TRUE(KillAndResume("export", [](const fs::path& out) {
-    return LogHas(out, "\"event\":\"stage_start\",\"stage\":\"export\"");
-  }));
+  EXPECT_TRUE(KillAndResume("export", "job_stage_start export"));
 }
 
 TEST_F(JobResume, ResumeIsRefusedWhenTheJobFileChanged) {

@@ -1,0 +1,26 @@
+// StopPointForTests: a fault-injection point for kill -9 tests.
+//
+// When the environment variable GRAPHSLAM_STOP_AT equals `point`, the process
+// stops itself (SIGSTOP) right there. A test that started it waits for the
+// stop (waitpid with WUNTRACED), then sends SIGKILL: the process dies at
+// exactly that point, whatever the machine's speed or load, and a test never
+// has to guess when to kill. Unset (always, outside tests), it is one getenv.
+//
+// Points (docs/guarantees.md lists them):
+//   "solver_checkpoint N"   after the checkpoint of iteration N is durable
+//   "job_stage_start S"     after a job logged the start of stage S
+//   "job_stage_done S"      after a job recorded stage S as completed
+//   "map_batch N"           after the N-th batch of scans was fused
+//
+// THREAD SAFETY: safe from any thread (getenv, raise). ALLOCATION: none.
+#pragma once
+
+#include <string_view>
+
+namespace graphslam::storage {
+
+inline constexpr const char* kStopPointVariable = "GRAPHSLAM_STOP_AT";
+
+void StopPointForTests(std::string_view point);
+
+}  // namespace graphslam::storage
