@@ -51,7 +51,9 @@ void ProgressDisplay::SetContext(std::string context) {
 
 std::string ProgressDisplay::Label(std::string_view stage) const {
   if (context_.empty()) return std::string(stage);
-  return context_ + ": " + std::string(stage);
+  std::string label = context_;
+  label.append(": ").append(stage);
+  return label;
 }
 
 void ProgressDisplay::Update(std::string_view stage, int64_t done, int64_t total) {
@@ -75,40 +77,44 @@ void ProgressDisplay::Update(std::string_view stage, int64_t done, int64_t total
   const bool eta_known = rate_known && total > done;
   const double eta = eta_known ? static_cast<double>(total - done) / rate : 0.0;
 
+  // A single-chunk pass is over as soon as it is shown: noise.
+  if (total == 1) return;
   std::string counts = std::to_string(done);
-  if (total > 0) counts += "/" + std::to_string(total);
+  if (total > 0) counts.append("/").append(std::to_string(total));
   if (terminal_) {
-    if (!complete && last_redraw_ &&
-        std::chrono::duration<double>(now - *last_redraw_).count() < 0.1)
+    if (complete) {  // the line is transient: what follows takes its place
+      CloseLineLocked();
+      std::fflush(stderr);
       return;
+    }
+    if (last_redraw_ && std::chrono::duration<double>(now - *last_redraw_).count() < 0.1) return;
     last_redraw_ = now;
-    std::string line = "[" + Label(stage) + "] " + counts;
+    std::string line = "[";
+    line.append(Label(stage)).append("] ").append(counts);
     char numbers[64];
     if (rate_known) {
       std::snprintf(numbers, sizeof(numbers), "  %.3g/s", rate);
       line += numbers;
     }
-    if (eta_known) line += "  ETA " + FormatDuration(eta);
+    if (eta_known) line.append("  ETA ").append(FormatDuration(eta));
     std::fprintf(stderr, "%s%s", kClearLine, line.c_str());
-    line_open_ = !complete;
-    if (complete) std::fprintf(stderr, "\n");
+    line_open_ = true;
     std::fflush(stderr);
     return;
   }
-  // A single-chunk pass is noise in a log.
-  if (total == 1) return;
   if (!complete && pass.last_log &&
       std::chrono::duration<double>(now - *pass.last_log).count() < min_log_interval_)
     return;
   pass.last_log = now;
-  std::string line = "progress stage=\"" + Label(stage) + "\" done=" + std::to_string(done);
-  if (total > 0) line += " total=" + std::to_string(total);
+  std::string line = "progress stage=\"";
+  line.append(Label(stage)).append("\" done=").append(std::to_string(done));
+  if (total > 0) line.append(" total=").append(std::to_string(total));
   char numbers[96];
   if (rate_known) {
     std::snprintf(numbers, sizeof(numbers), " rate=%.3g/s", rate);
     line += numbers;
   }
-  if (eta_known) line += " eta=" + FormatDuration(eta);
+  if (eta_known) line.append(" eta=").append(FormatDuration(eta));
   GS_LOG(INFO, "%s", line.c_str());
 }
 
@@ -133,6 +139,8 @@ void ProgressDisplay::Iteration(const core::IterationSummary& it) {
     std::fprintf(stderr, "%4s %13s %13s %11s %10s %9s %7s %7s %8s %8s\n", "iter", "chi2",
                  "chi2_change", "|gradient|", "|step|", "lambda", "rho", "lin_it", "it_time",
                  "total");
+    // Row 0: where this solve starts, as in Ceres' table.
+    if (it.iteration == 1) std::fprintf(stderr, "%4d %13.6e\n", 0, it.start_chi2);
     table_header_printed_ = true;
   }
   std::fprintf(stderr, "%4d %13.6e %13.4e %11.3e %10.3e %9.2e %7.3f %7d %7.2fs %7.2fs%s\n",

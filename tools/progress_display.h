@@ -1,16 +1,20 @@
 // ProgressDisplay: turns library progress and iteration callbacks into what a
 // person sees.
 //
-// On a terminal (stderr is a TTY) it redraws one line, cleared before each
-// redraw so that a shorter line never leaves pieces of a longer one:
+// On a terminal (stderr is a TTY) it redraws one transient line, cleared
+// before each redraw (a shorter line never leaves pieces of a longer one) and
+// when its stage completes:
 //   [campus_1 with GPS: reduce] 12/100  3.4/s  ETA 26s
 // and prints the solver's iterations as a table in the manner of Ceres'
-// minimizer output (one header per solve, one row per iteration):
+// minimizer output (one header per solve, row 0 the start, one row per
+// iteration):
 //   iter        chi2   chi2_change   |gradient|     |step|    lambda    rho  lin_it  it_time  total
-//      1  8.4128e+07   -8.3795e+07     1.21e+03   3.42e+01  1.00e-04  0.998       1    0.12s   0.12s
+//      0  5.3155e+03
+//      1  5.5857e+02    4.7570e+03    5.124e+02  4.150e+01  1.00e-04  0.973       1    0.57s   0.57s
 // Otherwise (batch jobs, CI, log files) it writes plain log lines: at most one
-// per `min_log_interval` seconds per stage (the first one at once), plus one
-// per iteration. Rate and ETA are printed only once they are known.
+// per `min_log_interval` seconds per stage (the first one at once, and one
+// when it completes), plus one per iteration. Rate and ETA are printed only
+// once they are known. Single-chunk passes (total 1) are not shown.
 //
 // rate = (done - done at the start of this pass) / seconds since that start;
 // a pass starts when a stage is first seen or its `done` goes backwards.

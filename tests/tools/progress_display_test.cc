@@ -96,13 +96,17 @@ TEST(ProgressDisplay, TerminalLineIsClearedAndNamesTheContext) {
   {
     ProgressDisplay display(true, 5.0, /*terminal=*/true, clock.Function());
     display.SetContext("campus_1 with GPS");
-    display.Update("screen", 1, 1);
+    display.Update("screen", 1, 1);  // a single-chunk pass: not shown
+    display.Update("screen", 3, 8);
     clock.Advance(1.0);
+    display.Update("screen", 8, 8);  // complete: the line is cleared, not kept
     display.Update("reduce", 605, 6969);
   }
   const std::string output = ::testing::internal::GetCapturedStderr();
-  EXPECT_NE(output.find("\r\033[K[campus_1 with GPS: screen] 1/1\n"), std::string::npos)
+  EXPECT_EQ(output.find("1/1"), std::string::npos) << output;
+  EXPECT_NE(output.find("\r\033[K[campus_1 with GPS: screen] 3/8\r\033[K"), std::string::npos)
       << output;
+  EXPECT_EQ(output.find("\n"), std::string::npos) << output;
   EXPECT_NE(output.find("\r\033[K[campus_1 with GPS: reduce] 605/6969"), std::string::npos)
       << output;
   // Finish clears the open line instead of leaving it under later output.
@@ -141,6 +145,9 @@ TEST(ProgressDisplay, TerminalIterationTableHasOneHeaderPerContext) {
   EXPECT_EQ(CountLines(output, "chi2_change"), 2) << output;
   EXPECT_NE(output.find("with GPS\n"), std::string::npos) << output;
   EXPECT_NE(output.find("without GPS\n"), std::string::npos) << output;
+  // Row 0 is the start of each solve.
+  EXPECT_NE(output.find("   0  1.000000e+03\n"), std::string::npos) << output;
+  EXPECT_NE(output.find("   0  9.000000e+02\n"), std::string::npos) << output;
   // chi2 after, change at the trial, |gradient|, |step|, lambda, rho, CG, times.
   EXPECT_NE(output.find("   1  4.000000e+02    6.0000e+02   1.250e+01  2.500e-01  1.00e-04"
                         "   0.990       7    0.50s    0.50s\n"),
