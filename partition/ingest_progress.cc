@@ -11,8 +11,10 @@
 #include <string_view>
 
 #include "storage/atomic_file.h"
+#include "storage/checksummed_json.h"
 #include "storage/chunk_format.h"
 #include "storage/crc32c.h"
+#include "storage/file_checksum.h"
 
 namespace graphslam::partition {
 namespace {
@@ -125,7 +127,7 @@ StatusOr<Pass1Record> ReadPass1Record(const std::string& path) {
 
 bool IngestProgress::SameIngest(const IngestProgress& other) const {
   return input == other.input && input_bytes == other.input_bytes &&
-         input_mtime_ns == other.input_mtime_ns && chunk_observations == other.chunk_observations &&
+         input_crc32c == other.input_crc32c && chunk_observations == other.chunk_observations &&
          buffer_observations == other.buffer_observations && compression == other.compression &&
          zstd_level == other.zstd_level && target_record_bytes == other.target_record_bytes &&
          source == other.source &&
@@ -139,7 +141,7 @@ Status WriteIngestProgress(storage::Env* env, const std::string& path,
   json["version"] = kIngestProgressVersion;
   json["input"] = progress.input;
   json["input_bytes"] = progress.input_bytes;
-  json["input_mtime_ns"] = progress.input_mtime_ns;
+  json["input_crc32c"] = storage::FormatCrc32c(progress.input_crc32c);
   json["chunk_observations"] = progress.chunk_observations;
   json["buffer_observations"] = progress.buffer_observations;
   json["compression"] = progress.compression;
@@ -155,6 +157,7 @@ Status WriteIngestProgress(storage::Env* env, const std::string& path,
                    {"observations", progress.spill.observations},
                    {"bucket_observations", progress.spill.bucket_observations}};
   json["chunks_durable"] = progress.chunks_durable;
+  storage::SealJson(&json);
   return storage::WriteStringAtomically(env, path, json.dump(1) + "\n");
 }
 
@@ -162,7 +165,7 @@ StatusOr<IngestProgress> ReadIngestProgress(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return Status::NotFound(path + ": no ingest progress");
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const nlohmann::json json = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  nlohmann::json json = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (json.is_discarded() || !json.is_object())
     return Status::Corruption(path + ": not a JSON object");
   bool ok = true;
@@ -172,10 +175,12 @@ StatusOr<IngestProgress> ReadIngestProgress(const std::string& path) {
   if (ReadInt(json, "version", &ok) != kIngestProgressVersion)
     return Status::NotSupported(path + ": version is not " +
                                 std::to_string(kIngestProgressVersion));
+  GS_RETURN_IF_ERROR(storage::UnsealJson(&json, path));
   IngestProgress progress;
   progress.input = ReadString(json, "input", &ok);
   progress.input_bytes = ReadInt(json, "input_bytes", &ok);
-  progress.input_mtime_ns = ReadInt(json, "input_mtime_ns", &ok);
+  if (!storage::ParseCrc32c(ReadString(json, "input_crc32c", &ok), &progress.input_crc32c))
+    ok = false;
   progress.chunk_observations = ReadInt(json, "chunk_observations", &ok);
   progress.buffer_observations = ReadInt(json, "buffer_observations", &ok);
   progress.compression = static_cast<int>(ReadInt(json, "compression", &ok));
@@ -210,15 +215,6 @@ StatusOr<IngestProgress> ReadIngestProgress(const std::string& path) {
     return Status::Corruption(path + ": stage is \"" + progress.stage +
                               "\"; expected \"spill\" or \"chunks\"");
   return progress;
-}
-
-Status InputIdentity(const std::string& path, int64_t* bytes, int64_t* mtime_ns) {
-  struct stat info {};
-  if (::stat(path.c_str(), &info) != 0)
-    return Status::IOError(path + ": stat: " + std::strerror(errno));
-  *bytes = static_cast<int64_t>(info.st_size);
-  *mtime_ns = static_cast<int64_t>(info.st_mtim.tv_sec) * 1000000000 + info.st_mtim.tv_nsec;
-  return Status::Ok();
 }
 
 }  // namespace graphslam::partition

@@ -7,7 +7,9 @@
 //                                 (n_f, p_f per feature). Binary, magic +
 //                                 version + CRC32C, written once, atomically.
 //   STORE/work/ingest_progress.json  where the ingest stands: the input's
-//                                 identity (path, size, mtime), the options
+//                                 identity (path, size, CRC32C of the
+//                                 contents; not the mtime, which a replaced
+//                                 file can keep), the options
 //                                 that shape the store, the stage ("spill" or
 //                                 "chunks"), the spill's resume point (replay
 //                                 position, observations per bucket file) and
@@ -42,9 +44,11 @@ inline constexpr const char* kIngestProgressFormat = "graphslam-ingest-progress"
 // 2: the bucket files are spill frames (partition/spill_frames.h); 3: pass 2
 // replays pass 1's observations from work/replay_NNNNNN.bin
 // (partition/replay_frames.h) and the spill position counts replayed
-// observations, not input bytes. An older record is not resumed: the ingest
+// observations, not input bytes; 4: the input is identified by its size and
+// CRC32C instead of its mtime, and the record carries its own checksum
+// (storage/checksummed_json.h). An older record is not resumed: the ingest
 // starts afresh.
-inline constexpr int kIngestProgressVersion = 3;
+inline constexpr int kIngestProgressVersion = 4;
 
 struct Pass1Record {
   std::vector<int64_t> pose_ids;
@@ -63,7 +67,7 @@ struct IngestProgress {
   // The input, as it was when the ingest started.
   std::string input;
   int64_t input_bytes = 0;
-  int64_t input_mtime_ns = 0;
+  uint32_t input_crc32c = 0;  // storage/file_checksum.h IdentifyInput
   // What shapes the store's bytes; a resume with other values starts afresh.
   int64_t chunk_observations = 0;
   int64_t buffer_observations = 0;
@@ -90,10 +94,9 @@ struct IngestProgress {
 
 [[nodiscard]] Status WriteIngestProgress(storage::Env* env, const std::string& path,
                                          const IngestProgress& progress);
-// NotFound if there is none; Corruption naming the field otherwise.
+// NotFound if there is none; Corruption naming the field, or a checksum
+// mismatch (an edited record), otherwise.
 StatusOr<IngestProgress> ReadIngestProgress(const std::string& path);
 
-// Size and modification time (ns) of `path`: the identity a resume checks.
-Status InputIdentity(const std::string& path, int64_t* bytes, int64_t* mtime_ns);
 
 }  // namespace graphslam::partition

@@ -10,6 +10,7 @@
 
 #include "core/logging.h"
 #include "storage/atomic_file.h"
+#include "storage/checksummed_json.h"
 #include "storage/chunk_format.h"
 #include "storage/crc32c.h"
 #include "storage/native_log_scans.h"
@@ -25,7 +26,9 @@ namespace format = storage::chunk_format;
 constexpr uint64_t kRecordsMagic = 0x0A524E4143535347ull;
 constexpr uint32_t kRecordsVersion = 1;
 constexpr const char* kProgressFormat = "graphslam-ingest-scans";
-constexpr int kProgressVersion = 1;
+// 2: the record carries its own checksum (storage/checksummed_json.h); a
+// version 1 record is not resumed (the scan copy restarts).
+constexpr int kProgressVersion = 2;
 
 struct ScanRecords {
   std::vector<storage::NativeLogScan> records;
@@ -107,11 +110,12 @@ Status WriteProgress(storage::Env* env, const std::string& path, const ScanProgr
   nlohmann::json chunks = nlohmann::json::array();
   for (const map::ScanStoreWriter::Entry& e : progress.chunks)
     chunks.push_back({{"file", e.file}, {"scans", e.scans}, {"points", e.points}, {"bytes", e.bytes}});
-  const nlohmann::json json = {{"format", kProgressFormat},
-                               {"version", kProgressVersion},
-                               {"scan_chunk_bytes", progress.scan_chunk_bytes},
-                               {"records", progress.records},
-                               {"chunks", chunks}};
+  nlohmann::json json = {{"format", kProgressFormat},
+                         {"version", kProgressVersion},
+                         {"scan_chunk_bytes", progress.scan_chunk_bytes},
+                         {"records", progress.records},
+                         {"chunks", chunks}};
+  storage::SealJson(&json);
   return storage::WriteStringAtomically(env, path, json.dump(1) + "\n");
 }
 
@@ -119,11 +123,12 @@ StatusOr<ScanProgress> ReadProgress(const std::string& path) {
   std::ifstream in(path);
   if (!in) return Status::NotFound(path + ": no scan progress");
   try {
-    const nlohmann::json json = nlohmann::json::parse(in);
+    nlohmann::json json = nlohmann::json::parse(in);
     if (json.at("format").get<std::string>() != kProgressFormat)
       return Status::Corruption(path + ": format is not " + kProgressFormat);
     if (json.at("version").get<int>() != kProgressVersion)
       return Status::NotSupported(path + ": version " + json.at("version").dump());
+    GS_RETURN_IF_ERROR(storage::UnsealJson(&json, path));
     ScanProgress progress;
     progress.scan_chunk_bytes = json.at("scan_chunk_bytes").get<int64_t>();
     progress.records = json.at("records").get<int64_t>();

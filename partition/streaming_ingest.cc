@@ -11,16 +11,20 @@
 #include "partition/first_sight_initialization.h"
 #include "partition/ingest_progress.h"
 #include "storage/chunk_store_writer.h"
+#include "storage/file_checksum.h"
 #include "storage/native_log_reader.h"
+#include "storage/store_directory.h"
 
 namespace graphslam::partition {
 namespace {
 
 // The identity and options a progress record must match to be resumed.
-StatusOr<IngestProgress> ThisIngest(const std::string& input, const StreamingIngestOptions& options) {
+IngestProgress ThisIngest(const std::string& input, const storage::FileChecksum& identity,
+                          const StreamingIngestOptions& options) {
   IngestProgress progress;
   progress.input = input;
-  GS_RETURN_IF_ERROR(InputIdentity(input, &progress.input_bytes, &progress.input_mtime_ns));
+  progress.input_bytes = identity.bytes;
+  progress.input_crc32c = identity.crc32c;
   progress.chunk_observations = options.max_observations_per_chunk;
   progress.buffer_observations = options.buffer_observations;
   progress.compression = static_cast<int>(options.store.chunk.compression);
@@ -121,13 +125,19 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
   bucketing.work_dir = work;
   GS_RETURN_IF_ERROR(bucketing.Validate());
   const bool native = options.format == storage::InputFormat::kNative;
+  // Never into a folder that is not ours (the commands hold its lock).
+  GS_RETURN_IF_ERROR(storage::ClaimStoreDirectory(env, store_dir));
+  // The input's identity (size, CRC32C) goes into the manifest, and a resume
+  // checks it: a replaced input is ingested afresh even if its mtime is kept.
+  storage::ChunkStoreWriteOptions store_options = options.store;
+  GS_ASSIGN_OR_RETURN(store_options.input, storage::IdentifyInput(input));
 
   // 1. Un-commit before reading anything: a kill from here on leaves a
   // directory without MANIFEST.json, i.e. an incomplete store.
   std::error_code error;
   std::filesystem::create_directories(dir, error);
   if (error) return Status::IOError(store_dir + ": mkdir: " + error.message());
-  storage::ChunkStoreWriter writer(env, store_dir, options.store);
+  storage::ChunkStoreWriter writer(env, store_dir, store_options);
   GS_RETURN_IF_ERROR(writer.Uncommit());
 
   // A resumable record of this very ingest, or a fresh start.
@@ -135,7 +145,7 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
   Pass1Record pass1;
   bool resuming = false;
   if (native) {
-    GS_ASSIGN_OR_RETURN(progress, ThisIngest(input, options));
+    progress = ThisIngest(input, store_options.input, options);
     if (options.resume) {
       StatusOr<IngestProgress> recorded = ReadIngestProgress(progress_path);
       StatusOr<Pass1Record> record = ReadPass1Record(pass1_path);

@@ -116,6 +116,9 @@ struct IngestSummary {
   ScanIngestSummary scans;  // the log's SCAN records copied into STORE/scans/
 };
 
+// `store_dir` must be missing, empty or a store of ours (storage/
+// store_directory.h; InvalidArgument naming it otherwise, before anything is
+// written); the caller holds its exclusive lock (OpenStoreForWriting).
 // Errors: the readers' (file:line), InvalidArgument from initialization or the
 // options, IOError naming the path. On error no MANIFEST.json exists.
 [[nodiscard]] Status IngestToStore(storage::Env* env, const std::string& input,

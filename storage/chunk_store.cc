@@ -1,5 +1,6 @@
 #include "storage/chunk_store.h"
 
+#include <algorithm>
 #include <cinttypes>
 #include <cstdio>
 #include <filesystem>
@@ -10,7 +11,9 @@
 #include <system_error>
 #include <utility>
 
+#include "core/logging.h"
 #include "storage/atomic_file.h"
+#include "storage/checksummed_json.h"
 #include "storage/chunk_reader.h"
 #include "storage/chunk_store_writer.h"
 #include "storage/native_log_reader.h"
@@ -36,6 +39,40 @@ Status ReadCount(const nlohmann::json& object, const char* key, const std::strin
   if (*value < 0)
     return Status::Corruption(where + ": \"" + key + "\" must be >= 0, got " +
                               std::to_string(*value));
+  return Status::Ok();
+}
+
+// Reads a "crc32c" string field; Corruption naming `where`.
+Status ReadCrc(const nlohmann::json& object, const std::string& where, uint32_t* crc) {
+  auto it = object.find("crc32c");
+  if (it == object.end() || !it->is_string() || !ParseCrc32c(it->get<std::string>(), crc))
+    return Status::Corruption(where + ": missing or malformed \"crc32c\" (8 hex digits)");
+  return Status::Ok();
+}
+
+// A "files" path: relative, '/'-separated, no empty, "." or ".." part.
+bool SafeRelativePath(const std::string& path) {
+  if (path.empty() || path.front() == '/') return false;
+  size_t begin = 0;
+  while (begin <= path.size()) {
+    const size_t end = std::min(path.find('/', begin), path.size());
+    const std::string part = path.substr(begin, end - begin);
+    if (part.empty() || part == "." || part == "..") return false;
+    begin = end + 1;
+  }
+  return true;
+}
+
+// Size, then CRC32C of `path` against the manifest's `bytes` and `crc`.
+Status CheckFileChecksum(const std::string& path, int64_t bytes, uint32_t crc) {
+  GS_ASSIGN_OR_RETURN(FileChecksum actual, ChecksumFile(path));
+  if (actual.bytes != bytes)
+    return Status::Corruption(path + ": size is " + std::to_string(actual.bytes) +
+                              " bytes; the manifest says " + std::to_string(bytes));
+  if (actual.crc32c != crc)
+    return Status::Corruption(path + ": crc32c is " + FormatCrc32c(actual.crc32c) +
+                              "; the manifest says " + FormatCrc32c(crc) +
+                              " (the file was damaged or edited)");
   return Status::Ok();
 }
 
@@ -76,16 +113,27 @@ bool IsChunkStore(const std::string& path) {
 }
 
 StatusOr<core::Problem2d> ReadChunkStoreProblem(const std::string& dir) {
-  GS_RETURN_IF_ERROR(CheckComplete(dir));
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<DiskChunkSource> store, DiskChunkSource::Open(dir));
   const std::string path = Join(dir, kChunkStoreProblemName);
   std::error_code error;
   if (!std::filesystem::exists(path, error))
     return Status::NotFound(path + ": chunk store problem file missing");
+  for (const ChunkStoreFile& file : store->files())
+    if (file.path == kChunkStoreProblemName)
+      GS_RETURN_IF_ERROR(CheckFileChecksum(path, file.bytes, file.crc32c));
   GS_ASSIGN_OR_RETURN(core::Problem2d problem, ReadNativeLog(path));
   if (!problem.observations.empty())
     return Status::Corruption(path + ": a chunk store problem holds no observations; found " +
                               std::to_string(problem.observations.size()));
   return problem;
+}
+
+Status VerifyChunkStoreFiles(const std::string& dir, const std::string& prefix) {
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<DiskChunkSource> store, DiskChunkSource::Open(dir));
+  for (const ChunkStoreFile& file : store->files())
+    if (file.path.compare(0, prefix.size(), prefix) == 0)
+      GS_RETURN_IF_ERROR(CheckFileChecksum(Join(dir, file.path), file.bytes, file.crc32c));
+  return Status::Ok();
 }
 
 StatusOr<std::unique_ptr<DiskChunkSource>> DiskChunkSource::Open(const std::string& dir) {
@@ -95,7 +143,7 @@ StatusOr<std::unique_ptr<DiskChunkSource>> DiskChunkSource::Open(const std::stri
   if (!in) return Status::IOError(path + ": cannot open for reading");
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   if (in.bad()) return Status::IOError(path + ": read failed");
-  const nlohmann::json manifest = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+  nlohmann::json manifest = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (manifest.is_discarded() || !manifest.is_object())
     return Status::Corruption(path + ": not a JSON object");
 
@@ -112,9 +160,22 @@ StatusOr<std::unique_ptr<DiskChunkSource>> DiskChunkSource::Open(const std::stri
   if (version < 1)
     return Status::Corruption(path + ": chunk store version " + std::to_string(version) +
                               "; expected >= 1");
+  // From version 2 the manifest checks itself before any field is trusted.
+  if (version >= 2) {
+    GS_RETURN_IF_ERROR(UnsealJson(&manifest, path));
+  } else if (manifest.contains(kJsonChecksumKey) || manifest.contains("files")) {
+    // A version 2 manifest edited down to version 1 would skip every check.
+    return Status::Corruption(path + ": \"version\" is 1 but the manifest has version 2 "
+                              "fields (\"checksum\", \"files\"): it was edited or damaged");
+  } else {
+    GS_LOG(WARNING, "%s: chunk store version 1: its files carry no checksums, so damage to "
+           "problem.graphslam or an edited manifest goes undetected; run graphslam ingest "
+           "again to make a version %d store", path.c_str(), kChunkStoreVersion);
+  }
 
   std::unique_ptr<DiskChunkSource> source(new DiskChunkSource());
   source->dir_ = dir;
+  source->version_ = static_cast<int>(version);
   if (auto it = manifest.find("source"); it != manifest.end() && it->is_string())
     source->source_ = it->get<std::string>();
   int64_t num_chunks = 0;
@@ -142,6 +203,7 @@ StatusOr<std::unique_ptr<DiskChunkSource>> DiskChunkSource::Open(const std::stri
     GS_RETURN_IF_ERROR(ReadCount(item, "features", where, &entry.features));
     GS_RETURN_IF_ERROR(ReadCount(item, "observations", where, &entry.observations));
     GS_RETURN_IF_ERROR(ReadCount(item, "bytes", where, &entry.bytes));
+    if (version >= 2) GS_RETURN_IF_ERROR(ReadCrc(item, where, &entry.crc32c));
     source->total_features_ += entry.features;
     source->total_observations_ += entry.observations;
     source->total_bytes_ += entry.bytes;
@@ -158,7 +220,65 @@ StatusOr<std::unique_ptr<DiskChunkSource>> DiskChunkSource::Open(const std::stri
       return Status::Corruption(path + ": \"" + key + "\" is " + std::to_string(value) +
                                 "; the chunk entries sum to " + std::to_string(sum));
   }
+  if (version >= 2) GS_RETURN_IF_ERROR(source->ReadVersion2Fields(manifest, path));
+  source->checked_ = std::make_unique<std::atomic<uint8_t>[]>(source->entries_.size());
+  for (size_t k = 0; k < source->entries_.size(); ++k) source->checked_[k] = 0;
   return source;
+}
+
+Status DiskChunkSource::ReadVersion2Fields(const nlohmann::json& manifest, const std::string& path) {
+  auto input = manifest.find("input");
+  if (input == manifest.end() || !(input->is_null() || input->is_object()))
+    return Status::Corruption(path + ": missing \"input\" (an object, or null)");
+  if (input->is_object()) {
+    GS_RETURN_IF_ERROR(ReadCount(*input, "bytes", path + ": input", &input_.bytes));
+    GS_RETURN_IF_ERROR(ReadCrc(*input, path + ": input", &input_.crc32c));
+  }
+  auto files = manifest.find("files");
+  if (files == manifest.end() || !files->is_array())
+    return Status::Corruption(path + ": missing \"files\" array");
+  bool problem_listed = false;
+  for (size_t i = 0; i < files->size(); ++i) {
+    const nlohmann::json& item = (*files)[i];
+    const std::string where = path + ": files[" + std::to_string(i) + "]";
+    if (!item.is_object()) return Status::Corruption(where + ": not an object");
+    ChunkStoreFile file;
+    auto name = item.find("path");
+    if (name == item.end() || !name->is_string() || !SafeRelativePath(name->get<std::string>()))
+      return Status::Corruption(where + ": missing \"path\", or not a relative path inside "
+                                "the store");
+    file.path = name->get<std::string>();
+    GS_RETURN_IF_ERROR(ReadCount(item, "bytes", where, &file.bytes));
+    GS_RETURN_IF_ERROR(ReadCrc(item, where, &file.crc32c));
+    problem_listed = problem_listed || file.path == kChunkStoreProblemName;
+    // Present and of its size now; the CRC32C when the file is read.
+    const std::string full = Join(dir_, file.path);
+    std::error_code error;
+    const std::uintmax_t bytes = std::filesystem::file_size(full, error);
+    if (error)
+      return Status::NotFound(full + ": listed in " + path + " but missing (" +
+                              error.message() + ")");
+    if (static_cast<int64_t>(bytes) != file.bytes)
+      return Status::Corruption(full + ": size is " + std::to_string(bytes) +
+                                " bytes; the manifest says " + std::to_string(file.bytes));
+    files_.push_back(std::move(file));
+  }
+  if (!problem_listed)
+    return Status::Corruption(path + ": \"files\" does not list " +
+                              std::string(kChunkStoreProblemName));
+  // Chunk files present and of their size now (a missing one fails here,
+  // not in the middle of a solve).
+  for (const ChunkStoreEntry& entry : entries_) {
+    const std::string chunk = ChunkPath(dir_, entry.file);
+    std::error_code error;
+    const std::uintmax_t bytes = std::filesystem::file_size(chunk, error);
+    if (error)
+      return Status::NotFound(chunk + ": chunk file missing (listed in " + path + ")");
+    if (static_cast<int64_t>(bytes) != entry.bytes)
+      return Status::Corruption(chunk + ": size is " + std::to_string(bytes) +
+                                " bytes; the manifest says " + std::to_string(entry.bytes));
+  }
+  return Status::Ok();
 }
 
 Status DiskChunkSource::Load(int64_t index, core::ObservationChunk* chunk) const {
@@ -177,6 +297,10 @@ Status DiskChunkSource::Load(int64_t index, core::ObservationChunk* chunk) const
   if (static_cast<int64_t>(bytes) != entry.bytes)
     return Status::Corruption(path + ": size is " + std::to_string(bytes) +
                               " bytes; the manifest says " + std::to_string(entry.bytes));
+  if (version_ >= 2 && checked_[static_cast<size_t>(index)].load() == 0) {
+    GS_RETURN_IF_ERROR(CheckFileChecksum(path, entry.bytes, entry.crc32c));
+    checked_[static_cast<size_t>(index)] = 1;
+  }
   core::ObservationChunk read;
   Status status = ReadObservationChunk(path, &read);
   if (!status.ok()) return status.WithContext(path);

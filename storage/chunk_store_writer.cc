@@ -14,10 +14,15 @@
 
 #include "core/logging.h"
 #include "storage/atomic_file.h"
+#include "storage/checksummed_json.h"
 #include "storage/chunk_format.h"
 #include "storage/chunk_writer.h"
 #include "storage/crc32c.h"
+#include "storage/directory_lock.h"
+#include "storage/file_checksum.h"
 #include "storage/native_log_reader.h"
+#include "storage/scan_store.h"
+#include "storage/store_directory.h"
 
 namespace graphslam::storage {
 namespace {
@@ -62,6 +67,33 @@ Status SyncAndCloseConcurrently(std::vector<PendingFile>* group, int max_threads
   return Status::Ok();
 }
 
+// The "files" of the manifest: problem.graphslam and every regular file
+// below STORE/scans/ (sorted, temporaries skipped), with sizes and CRC32Cs.
+StatusOr<nlohmann::json> ListStoreFiles(const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::vector<std::string> paths = {kChunkStoreProblemName};
+  const fs::path scans = fs::path(dir) / map::kScanStoreDirectory;
+  std::error_code error;
+  if (fs::is_directory(scans, error)) {
+    std::vector<std::string> found;
+    for (fs::recursive_directory_iterator it(scans, error), end; !error && it != end;
+         it.increment(error)) {
+      if (it->is_regular_file(error) && !IsTemporaryFileName(it->path().filename().string()) &&
+          it->path().filename() != kDirectoryLockName)
+        found.push_back(fs::relative(it->path(), dir, error).generic_string());
+    }
+    if (error) return Status::IOError(scans.string() + ": list: " + error.message());
+    std::sort(found.begin(), found.end());
+    paths.insert(paths.end(), found.begin(), found.end());
+  }
+  nlohmann::json files = nlohmann::json::array();
+  for (const std::string& path : paths) {
+    GS_ASSIGN_OR_RETURN(FileChecksum sum, ChecksumFile(Join(dir, path)));
+    files.push_back({{"path", path}, {"bytes", sum.bytes}, {"crc32c", FormatCrc32c(sum.crc32c)}});
+  }
+  return files;
+}
+
 void RemoveTemporaries(Env* env, std::vector<PendingFile>* group) {
   for (PendingFile& pending : *group) {
     pending.file.reset();
@@ -80,29 +112,30 @@ ChunkStoreWriter::ChunkStoreWriter(Env* env, std::string dir, ChunkStoreWriteOpt
 
 Status ChunkStoreWriter::Uncommit() {
   GS_RETURN_IF_ERROR(options_.Validate());
+  // Never into a folder that is not ours: nothing below is deleted there.
+  GS_RETURN_IF_ERROR(ClaimStoreDirectory(env_, dir_));
   const std::string chunk_dir = Join(dir_, kChunkStoreChunkDirectory);
   std::error_code error;
   std::filesystem::create_directories(chunk_dir, error);
   if (error) return Status::IOError(chunk_dir + ": mkdir: " + error.message());
   // Temporary files of a writer killed before its rename (TemporaryFileName:
-  // "NAME.tmp-PID") are never renamed by anyone: remove them, so a resumed
-  // or restarted ingest leaves exactly the files of an uninterrupted one.
-  // One writer per store at a time (chunk_store.h), so none is in use.
-  for (const std::string& folder : {dir_, chunk_dir}) {
-    for (const auto& entry : std::filesystem::directory_iterator(folder, error)) {
-      if (entry.is_regular_file() &&
-          entry.path().filename().string().find(".tmp-") != std::string::npos) {
-        GS_RETURN_IF_ERROR(env_->RemoveFile(entry.path().string()));
-      }
-    }
-    if (error) return Status::IOError(folder + ": list: " + error.message());
-  }
+  // "NAME.tmp-PID") are never renamed by anyone: remove them (also in work/
+  // and scans/), so a resumed or restarted ingest leaves exactly the files of
+  // an uninterrupted one. One writer per store at a time (the commands hold
+  // its exclusive lock, storage/store_directory.h), so none is in use.
+  GS_RETURN_IF_ERROR(RemoveStaleTemporaries(env_, dir_, /*recursive=*/true));
   // From here until the new manifest is durable the directory is an
   // incomplete store.
   const std::string manifest = Join(dir_, kChunkStoreManifestName);
   if (env_->FileExists(manifest)) {
     GS_RETURN_IF_ERROR(env_->RemoveFile(manifest));
     GS_RETURN_IF_ERROR(env_->SyncDirectory(dir_));
+  }
+  // A solver checkpoint of the old contents must not be resumed on the new
+  // ones (`graphslam solve STORE --resume`).
+  for (const char* suffix : {"", ".candidates.bin", ".ids.bin"}) {
+    const std::string path = Join(dir_, std::string(kChunkStoreCheckpointName) + suffix);
+    if (env_->FileExists(path)) GS_RETURN_IF_ERROR(env_->RemoveFile(path));
   }
   return Status::Ok();
 }
@@ -210,7 +243,8 @@ Status ChunkStoreWriter::WriteChunks(const core::ChunkSource& chunks, int64_t fi
                   observations = static_cast<int64_t>(chunk_format::DecodeFixed64(
                       item->bytes.data() + 32));
                   entries_.push_back({file, features, observations,
-                                      static_cast<int64_t>(item->bytes.size())});
+                                      static_cast<int64_t>(item->bytes.size()),
+                                      crc32c::Value(item->bytes)});
                   if (static_cast<int64_t>(group.size()) >= options_.sync_group_chunks ||
                       item->index + 1 == num_chunks)
                     status = flush_group();
@@ -252,12 +286,10 @@ Status ChunkStoreWriter::RecoverEntries(int64_t count) {
     if (index != k)
       return Status::Corruption(path + ": header chunk index is " + std::to_string(index) +
                                 "; expected " + std::to_string(k));
-    std::error_code error;
-    const std::uintmax_t bytes = std::filesystem::file_size(path, error);
-    if (error) return Status::IOError(path + ": stat: " + error.message());
+    GS_ASSIGN_OR_RETURN(FileChecksum sum, ChecksumFile(path));
     entries_.push_back({file, static_cast<int64_t>(chunk_format::DecodeFixed64(header + 24)),
                         static_cast<int64_t>(chunk_format::DecodeFixed64(header + 32)),
-                        static_cast<int64_t>(bytes)});
+                        sum.bytes, sum.crc32c});
   }
   return Status::Ok();
 }
@@ -269,22 +301,42 @@ Status ChunkStoreWriter::Commit() {
     entries.push_back({{"file", entry.file},
                        {"features", entry.features},
                        {"observations", entry.observations},
-                       {"bytes", entry.bytes}});
+                       {"bytes", entry.bytes},
+                       {"crc32c", FormatCrc32c(entry.crc32c)}});
     total_features += entry.features;
     total_observations += entry.observations;
     total_bytes += entry.bytes;
   }
+  // Every other file of the store: the problem, then the scans (sorted).
+  GS_ASSIGN_OR_RETURN(nlohmann::json files, ListStoreFiles(dir_));
   nlohmann::json manifest;
   manifest["format"] = kChunkStoreFormatName;
   manifest["version"] = kChunkStoreVersion;
   manifest["source"] = options_.source;
+  if (options_.input.bytes >= 0) {
+    manifest["input"] = {{"bytes", options_.input.bytes},
+                         {"crc32c", FormatCrc32c(options_.input.crc32c)}};
+  } else {
+    manifest["input"] = nullptr;
+  }
+  manifest["files"] = std::move(files);
   manifest["problem"] = kChunkStoreProblemName;
   manifest["num_chunks"] = static_cast<int64_t>(entries_.size());
   manifest["total_features"] = total_features;
   manifest["total_observations"] = total_observations;
   manifest["total_bytes"] = total_bytes;
   manifest["chunks"] = std::move(entries);
-  return WriteStringAtomically(env_, Join(dir_, kChunkStoreManifestName), manifest.dump(2) + "\n");
+  SealJson(&manifest);
+  GS_RETURN_IF_ERROR(
+      WriteStringAtomically(env_, Join(dir_, kChunkStoreManifestName), manifest.dump(2) + "\n"));
+  // Chunk files of an older, longer store: ours (our names, in a store of
+  // ours), listed by no manifest any more; the store holds exactly its files.
+  for (auto k = static_cast<int64_t>(entries_.size());; ++k) {
+    const std::string path = Join(Join(dir_, kChunkStoreChunkDirectory), ChunkStoreFileName(k));
+    if (!env_->FileExists(path)) break;
+    GS_RETURN_IF_ERROR(env_->RemoveFile(path));
+  }
+  return Status::Ok();
 }
 
 }  // namespace graphslam::storage

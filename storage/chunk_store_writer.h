@@ -21,7 +21,9 @@
 //                 durable under their final names.
 //   RecoverEntries  for a resumed writer: the manifest entries of chunks
 //                 [0, k) already on disk, from their 48-byte headers and sizes.
-//   Commit        MANIFEST.json, atomically: from here the store opens.
+//   Commit        MANIFEST.json, atomically: from here the store opens; then
+//                 chunk files of an older, longer store (numbers >= the new
+//                 count) are removed.
 //
 // Before Commit the directory is an incomplete store that every reader
 // rejects, whatever kills the process.

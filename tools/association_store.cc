@@ -10,6 +10,8 @@
 #include "core/logging.h"
 #include "partition/in_memory_chunk_source.h"
 #include "storage/chunk_store.h"
+#include "storage/directory_lock.h"
+#include "storage/store_directory.h"
 
 namespace graphslam::tools {
 namespace {
@@ -28,7 +30,8 @@ bool ExchangeDirectories(const std::string& a, const std::string& b) {
 
 Status RewriteAssociatedChunkStore(storage::Env* env, const std::string& store,
                                    const core::Problem2d& problem, int64_t chunk_observations,
-                                   const std::string& source) {
+                                   const std::string& source,
+                                   const storage::FileChecksum& input) {
   std::string dir = store;
   while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
   partition::ChunkingOptions chunking;
@@ -36,12 +39,20 @@ Status RewriteAssociatedChunkStore(storage::Env* env, const std::string& store,
   const partition::InMemoryChunkSource chunks(problem, chunking);
   storage::ChunkStoreWriteOptions options;
   options.source = source;
+  options.input = input;
 
   const std::string staging = dir + ".associating";
+  // A stale staging store of a killed rewrite is ours to remove; any other
+  // folder of that name is not (storage/store_directory.h).
+  GS_RETURN_IF_ERROR(storage::CheckStoreDirectory(staging));
   std::error_code error;
   std::filesystem::remove_all(staging, error);
   if (error) return Status::IOError(staging + ": remove stale staging store: " + error.message());
-  GS_RETURN_IF_ERROR(storage::WriteChunkStore(env, staging, problem, chunks, options));
+  {
+    // Locked while written; the caller holds the store's own lock.
+    GS_ASSIGN_OR_RETURN(storage::DirectoryLock lock, storage::OpenStoreForWriting(env, staging));
+    GS_RETURN_IF_ERROR(storage::WriteChunkStore(env, staging, problem, chunks, options));
+  }
   if (ExchangeDirectories(staging, dir)) {
     const std::filesystem::path parent = std::filesystem::absolute(dir).parent_path();
     GS_RETURN_IF_ERROR(env->SyncDirectory(parent.string()));

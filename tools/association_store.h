@@ -27,12 +27,14 @@
 #include "core/problem.h"
 #include "core/status.h"
 #include "storage/env.h"
+#include "storage/file_checksum.h"
 
 namespace graphslam::tools {
 
 [[nodiscard]] Status RewriteAssociatedChunkStore(storage::Env* env, const std::string& store,
                                                  const core::Problem2d& problem,
                                                  int64_t chunk_observations,
-                                                 const std::string& source);
+                                                 const std::string& source,
+                                                 const storage::FileChecksum& input = {-1, 0});
 
 }  // namespace graphslam::tools

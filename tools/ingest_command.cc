@@ -7,6 +7,7 @@
 #include "partition/streaming_ingest.h"
 #include "storage/chunk_store.h"
 #include "storage/env.h"
+#include "storage/store_directory.h"
 #include "storage/format_detection.h"
 #include "tools/exit_codes.h"
 #include "tools/memory_size.h"
@@ -93,6 +94,11 @@ int RunIngestCommand(const IngestCommandOptions& options) {
   ingest.scan_chunk_bytes = *scan_chunk;
   ingest.resume = options.resume;
   ingest.checkpoint_seconds = options.checkpoint_seconds;
+  // One writer per store: the exclusive lock, held to the end; a folder that
+  // is not ours is refused before anything is written.
+  StatusOr<storage::DirectoryLock> lock =
+      storage::OpenStoreForWriting(storage::Env::Default(), options.output_dir);
+  if (!lock.ok()) return fail(lock.status());
   partition::IngestSummary summary;
   if (Status status = partition::IngestToStore(storage::Env::Default(), options.input,
                                                options.output_dir, ingest, &summary);

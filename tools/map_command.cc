@@ -5,6 +5,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "storage/chunk_store.h"
+#include "storage/directory_lock.h"
 #include "storage/native_log_scans.h"
 #include "storage/threedtk_reader.h"
 #include "tools/exit_codes.h"
@@ -118,6 +120,17 @@ int RunMapCommand(const MapCommandOptions& options) {
   if (Status status = map_options.Validate(); !status.ok()) {
     std::fprintf(stderr, "graphslam map: %s\n", status.message().c_str());
     return kExitUsage;
+  }
+  // A chunk store's scans: read under its shared lock (no writer meanwhile),
+  // and only if they match the CRC32Cs of its manifest.
+  storage::DirectoryLock lock;
+  if (storage::IsChunkStore(options.input)) {
+    StatusOr<storage::DirectoryLock> locked =
+        storage::DirectoryLock::Acquire(options.input, storage::DirectoryLock::Mode::kShared);
+    if (!locked.ok()) return fail(locked.status());
+    lock = std::move(locked).value();
+    if (Status status = storage::VerifyChunkStoreFiles(options.input, "scans/"); !status.ok())
+      return fail(status);
   }
   StatusOr<std::unique_ptr<map::ScanSource>> source = OpenScanSource(options.input);
   if (!source.ok()) return fail(source.status());

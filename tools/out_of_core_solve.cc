@@ -9,6 +9,7 @@
 #include "partition/streaming_ingest.h"
 #include "storage/chunk_store.h"
 #include "storage/env.h"
+#include "storage/file_checksum.h"
 #include "storage/format_detection.h"
 
 namespace graphslam::tools {
@@ -40,13 +41,9 @@ int64_t IngestBufferObservations(int64_t limit_bytes, int64_t chunk_observations
 bool WorkdirStoreIsCurrent(const std::string& input, const std::string& workdir) {
   if (!storage::IsChunkStore(workdir)) return false;
   StatusOr<std::unique_ptr<storage::DiskChunkSource>> store = storage::DiskChunkSource::Open(workdir);
-  if (!store.ok() || (*store)->source() != input) return false;
-  std::error_code error;
-  const auto input_time = std::filesystem::last_write_time(input, error);
-  if (error) return false;
-  const auto store_time = std::filesystem::last_write_time(
-      std::filesystem::path(workdir) / storage::kChunkStoreManifestName, error);
-  return !error && input_time <= store_time;
+  if (!store.ok() || (*store)->source() != input || (*store)->input().bytes < 0) return false;
+  StatusOr<storage::FileChecksum> identity = storage::IdentifyInput(input);
+  return identity.ok() && *identity == (*store)->input();
 }
 
 Status IngestIntoWorkdir(const std::string& input, const std::string& format, int robot,

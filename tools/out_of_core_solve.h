@@ -65,9 +65,11 @@ StatusOr<int> ChunksInFlightForMemoryLimit(int64_t limit_bytes, int64_t poses, i
 int64_t IngestBufferObservations(int64_t limit_bytes, int64_t chunk_observations);
 
 // True if `workdir` holds a complete chunk store ingested from `input` (the
-// manifest's source) after `input` was last modified: `solve FILE --workdir
-// DIR --resume` then reuses it instead of ingesting again, so the checkpoint
-// in DIR matches the store it was made on.
+// manifest's source) whose recorded input identity (size and CRC32C,
+// storage/file_checksum.h) is that of `input` now: `solve FILE --workdir DIR
+// --resume` then reuses it instead of ingesting again, so the checkpoint in
+// DIR matches the store it was made on. An mtime is not trusted: a replaced
+// file can keep it. Version 1 stores (no identity) are never current.
 bool WorkdirStoreIsCurrent(const std::string& input, const std::string& workdir);
 
 // Ingests `input` (format "auto" or a name) into the store `workdir` with

@@ -24,6 +24,8 @@
 #include "storage/feature_id_file.h"
 #include "storage/chunk_store.h"
 #include "storage/dimension_detection.h"
+#include "storage/directory_lock.h"
+#include "storage/store_directory.h"
 #include "storage/features_csv_writer.h"
 #include "storage/format_detection.h"
 #include "storage/g2o_writer.h"
@@ -335,11 +337,45 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     }
     memory_limit = *parsed;
   }
+  // Locks (storage/directory_lock.h), held to the end: the workdir, or a
+  // store this solve writes into (STORE/checkpoint.json, an --associate
+  // rewrite), exclusively; a store it only reads, shared. A second writer
+  // fails here, naming the holder's pid.
+  storage::DirectoryLock lock;
+  const bool through_workdir = !options.workdir.empty() && !storage::IsChunkStore(options.input);
+  if (through_workdir) {
+    // A folder that is not ours is refused before anything is written.
+    StatusOr<storage::DirectoryLock> locked =
+        storage::OpenStoreForWriting(storage::Env::Default(), options.workdir);
+    if (!locked.ok()) return fail(locked.status());
+    lock = std::move(locked).value();
+  } else if (storage::IsChunkStore(options.input)) {
+    const bool writes = options.checkpoint.empty() || options.associate;
+    StatusOr<storage::DirectoryLock> locked = storage::DirectoryLock::Acquire(
+        options.input,
+        writes ? storage::DirectoryLock::Mode::kExclusive : storage::DirectoryLock::Mode::kShared);
+    if (!locked.ok()) return fail(locked.status());
+    lock = std::move(locked).value();
+    // Under the exclusive lock a temporary file in a store of ours is one a
+    // killed writer left (a checkpoint's): nobody will rename it.
+    if (writes && storage::CheckStoreDirectory(options.input).ok()) {
+      if (Status status = storage::RemoveStaleTemporaries(storage::Env::Default(), options.input,
+                                                          /*recursive=*/true);
+          !status.ok())
+        return fail(status);
+    }
+  }
   // --workdir: a FILE goes through a chunk store in DIR (bounded-memory ingest).
   std::string store_path = options.input;
-  if (!options.workdir.empty() && !storage::IsChunkStore(options.input)) {
-    // --resume reuses the store its checkpoint was made on, if still current.
-    if (!(options.resume && WorkdirStoreIsCurrent(options.input, options.workdir))) {
+  if (through_workdir) {
+    // --resume reuses the store its checkpoint was made on, if still current
+    // (the same input: size and CRC32C, not the mtime).
+    if (options.resume && WorkdirStoreIsCurrent(options.input, options.workdir)) {
+      if (Status status = storage::RemoveStaleTemporaries(storage::Env::Default(),
+                                                          options.workdir, /*recursive=*/true);
+          !status.ok())
+        return fail(status);
+    } else {
       if (Status status = IngestIntoWorkdir(options.input, options.format, options.robot,
                                             options.workdir, options.chunk_observations,
                                             memory_limit, options.resume);
@@ -574,7 +610,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     if (store) {
       if (Status status = RewriteAssociatedChunkStore(storage::Env::Default(), store_path,
                                                       problem, options.chunk_observations,
-                                                      store->source());
+                                                      store->source(), store->input());
           !status.ok())
         return fail(status);
     }

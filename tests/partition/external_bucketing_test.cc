@@ -14,6 +14,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <string>
 #include <tuple>
@@ -27,8 +28,10 @@
 #include "storage/chunk_writer.h"
 #include "storage/compressed_file.h"
 #include "storage/env.h"
+#include "storage/file_checksum.h"
 #include "storage/g2o_writer.h"
 #include "storage/native_log_reader.h"
+#include "storage/store_directory.h"
 #include "tests/testing/directory_bytes.h"
 #include "tests/testing/random_problem.h"
 
@@ -87,6 +90,9 @@ class ExternalBucketingTest : public ::testing::Test {
     const InMemoryChunkSource chunks(problem, chunking);
     storage::ChunkStoreWriteOptions options;
     options.source = input;
+    StatusOr<storage::FileChecksum> identity = storage::IdentifyInput(input);
+    ASSERT_TRUE(identity.ok());
+    options.input = *identity;  // as the ingest records it
     ASSERT_TRUE(storage::WriteChunkStore(Env::Default(), store, problem, chunks, options).ok());
   }
 
@@ -126,6 +132,19 @@ class ExternalBucketingTest : public ::testing::Test {
 
   static void ExpectSameBytes(const std::string& a, const std::string& b) {
     testing::ExpectSameFiles(testing::FilesUnder(a), testing::FilesUnder(b));
+  }
+  // As ExpectSameBytes, but for the manifest's record of the input's
+  // identity (size and CRC32C of the input file as stored) and the
+  // manifest's checksum over it: stores of two different input files.
+  static void ExpectSameBytesButInputIdentity(const std::string& a, const std::string& b) {
+    std::map<std::string, std::string> files[2] = {testing::FilesUnder(a), testing::FilesUnder(b)};
+    for (auto& store : files) {
+      nlohmann::json manifest = nlohmann::json::parse(store[storage::kChunkStoreManifestName]);
+      manifest.erase("input");
+      manifest.erase("checksum");
+      store[storage::kChunkStoreManifestName] = manifest.dump();
+    }
+    testing::ExpectSameFiles(files[0], files[1]);
   }
 
   core::Problem2d problem_;
@@ -272,6 +291,8 @@ TEST_F(ExternalBucketingTest, FirstSightScratchOfAKilledPassOneIsDiscarded) {
   const int64_t chunk = 100;
   WriteInMemoryStore(input, Path("memory"), chunk);
   const std::string store = Path("streamed");
+  // A store folder of ours (the marker is the first thing an ingest writes).
+  ASSERT_TRUE(storage::ClaimStoreDirectory(Env::Default(), store).ok());
   std::filesystem::create_directories(store + "/work");
   {
     std::ofstream stale(store + "/work/first_sight.bin", std::ios::binary);
@@ -488,7 +509,9 @@ TEST_F(ExternalBucketingTest, ResumeAfterATornSpillFrameGivesTheSameStoreBytes) 
   auto die_in_the_spill = [&]() {
     std::filesystem::remove_all(store);
     FaultInjectionEnv env(&no_sync);
-    env.FailAt(FaultInjectionEnv::Operation::kRename, 5);  // the second spill checkpoint
+    // Rename 1 is the folder's marker (storage/store_directory.h); 6 is the
+    // second spill checkpoint.
+    env.FailAt(FaultInjectionEnv::Operation::kRename, 6);
     ASSERT_FALSE(IngestToStore(&env, input, store, options, &summary).ok());
     ASSERT_TRUE(std::filesystem::exists(bucket));
   };
@@ -632,18 +655,19 @@ TEST_F(ExternalBucketingTest, ZstdInputGivesThePlainInputsStoreBytesAndResumes) 
   ASSERT_TRUE(storage::IsZstdFile(zst));
   const Status zstd_ingest = IngestToStore(Env::Default(), zst, Path("zstd"), options, &summary);
   ASSERT_TRUE(zstd_ingest.ok()) << zstd_ingest.ToString();
-  ExpectSameBytes(Path("zstd"), Path("plain"));
+  ExpectSameBytesButInputIdentity(Path("zstd"), Path("plain"));
 
-  // Dies at the 5th rename (a pass-2 checkpoint), resumes mid-stream.
+  // Dies at the 6th rename (the marker, then a pass-2 checkpoint), resumes
+  // mid-stream.
   FaultInjectionEnv env(Env::Default());
-  env.FailAt(FaultInjectionEnv::Operation::kRename, 5);
+  env.FailAt(FaultInjectionEnv::Operation::kRename, 6);
   ASSERT_FALSE(IngestToStore(&env, zst, Path("resumed"), options, &summary).ok());
   StreamingIngestOptions resume = options;
   resume.resume = true;
   ASSERT_TRUE(IngestToStore(Env::Default(), zst, Path("resumed"), resume, &summary).ok());
   EXPECT_EQ(summary.resumed_stage, "spill");
   EXPECT_GT(summary.resumed_from_observation, 0);
-  ExpectSameBytes(Path("resumed"), Path("plain"));
+  ExpectSameBytesButInputIdentity(Path("resumed"), Path("plain"));
 
   // Truncated: the error names the file and where it ends.
   const std::string bytes = ReadBytes(zst);

@@ -15,3 +15,7 @@ graphslam_test(storage/internal/text_reader)
 graphslam_test(storage/internal/text_blocks)
 graphslam_test(storage/internal/id_map)
 graphslam_test(storage/compressed_file)
+# Locks, ownership and checksums of stores (docs/guarantees.md, issue 22).
+graphslam_test(storage/directory_lock)
+graphslam_test(storage/store_directory)
+graphslam_test(storage/chunk_store_integrity)

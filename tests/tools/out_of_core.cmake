@@ -12,3 +12,7 @@ graphslam_test(tools/ingest_scans_kill)
 add_dependencies(ingest_scans_kill_test graphslam)
 target_include_directories(ingest_scans_kill_test SYSTEM PRIVATE ${PCL_INCLUDE_DIRS})
 target_link_libraries(ingest_scans_kill_test PRIVATE ${PCL_LIBRARIES})
+# Issue 22: locks, integrity, foreign folders, stale inputs and temporaries,
+# adversarially, against the binary.
+graphslam_test(tools/adversarial_store)
+add_dependencies(adversarial_store_test graphslam)

@@ -22,6 +22,8 @@
 #include "partition/in_memory_chunk_source.h"
 #include "partition/progressive_initialization.h"
 #include "storage/atomic_file.h"
+#include "storage/directory_lock.h"
+#include "storage/store_directory.h"
 #include "storage/features_csv_writer.h"
 #include "storage/g2o_writer.h"
 #include "storage/native_log_reader.h"
@@ -740,6 +742,33 @@ std::string ReadAll(const std::string& path) {
   return buffer.str();
 }
 
+// Removes the temporaries (storage/atomic_file.h "NAME.tmp-PID") a killed
+// job left: anywhere in OUTPUT/.job/ (ours), and in OUTPUT/ and
+// OUTPUT/trajectories/ only those of the files the export stage writes.
+Status RemoveStaleJobTemporaries(const std::string& output, const std::string& work) {
+  GS_RETURN_IF_ERROR(storage::RemoveStaleTemporaries(storage::Env::Default(), work, true));
+  static const std::vector<std::string> kExports = {"features.csv", "graph.g2o", "report.json",
+                                                    "report.html"};
+  for (const fs::path& folder : {fs::path(output), fs::path(output) / "trajectories"}) {
+    std::error_code error;
+    if (!fs::is_directory(folder, error)) continue;
+    std::vector<fs::path> stale;
+    for (const auto& entry : fs::directory_iterator(folder, error)) {
+      const std::string name = entry.path().filename().string();
+      if (!entry.is_regular_file(error) || !storage::IsTemporaryFileName(name)) continue;
+      const std::string base = name.substr(0, name.rfind(".tmp-"));
+      const bool ours = folder.filename() == "trajectories"
+                            ? base.size() > 4 && base.compare(base.size() - 4, 4, ".tum") == 0
+                            : std::find(kExports.begin(), kExports.end(), base) != kExports.end();
+      if (ours) stale.push_back(entry.path());
+    }
+    if (error) return Status::IOError(folder.string() + ": list: " + error.message());
+    for (const fs::path& path : stale)
+      GS_RETURN_IF_ERROR(storage::Env::Default()->RemoveFile(path.string()));
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 Status RunJob(const RunJobOptions& options) {
@@ -777,6 +806,13 @@ Status RunJob(const RunJobOptions& options) {
   std::error_code error;
   fs::create_directories(ctx.spec.output, error);
   if (error) return Status::IOError("cannot create " + ctx.spec.output + ": " + error.message());
+  // One job per output folder (storage/directory_lock.h): a second one fails
+  // here, naming the holder's pid, before it touches anything.
+  GS_ASSIGN_OR_RETURN(storage::DirectoryLock lock,
+                      storage::DirectoryLock::Acquire(ctx.spec.output,
+                                                      storage::DirectoryLock::Mode::kExclusive));
+  // Under the lock, temporaries of our own files are those a killed job left.
+  GS_RETURN_IF_ERROR(RemoveStaleJobTemporaries(ctx.spec.output, ctx.work));
   const std::string state_path = ctx.Work("state.json");
   if (options.resume && fs::exists(state_path)) {
     StatusOr<JobState> state = ReadJobState(state_path);
