@@ -138,7 +138,7 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"VERTEX2 0 0 0 0\nEDGE2 0 0 1 0 0 1 0 1 1 0 0\n",
                 "bad.graph:2: EDGE2 connects pose 0 to itself"},
         BadCase{"VERTEX2 0 0 0 0\nBR 0 7 0.1 5 0 0.1\n", "bad.graph:2: BR sigmas"},
-        BadCase{"VERTEX2 0 0 0 abc\n", "bad.graph:1: VERTEX2 field 4"},
+        BadCase{"VERTEX2 0 0 0 abc\n", "bad.graph:1: VERTEX2 field 5 (estimate) is 'abc'"},
         BadCase{"VERTEX2 0 0 0 0\nVERTEX3 1 0 0 0 0 0 0\n",
                 "bad.graph:2: VERTEX3 is a 3-D record in a 2-D file"},
         BadCase{"VERTEX2 0 0 0 0\nLANDMARK 0 1 2 3\n", "bad.graph:2: unknown record 'LANDMARK'"}));

@@ -37,7 +37,7 @@ std::set<std::string> HelpOptions(const std::string& help) {
   std::set<std::string> names;
   std::istringstream lines(help);
   std::string line;
-  const std::regex option_line(R"(^\s+(-[A-Za-z0-9][A-Za-z0-9,-]*))");
+  const std::regex option_line(R"(^\s+(--?[A-Za-z0-9][A-Za-z0-9,-]*))");
   while (std::getline(lines, line)) {
     std::smatch match;
     if (!std::regex_search(line, match, option_line)) continue;
