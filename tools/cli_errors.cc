@@ -130,8 +130,8 @@ std::string UsageErrorLine(const CLI::App& app, int argc, const char* const* arg
     if (std::find(known.begin(), known.end(), arg) != known.end()) continue;
     if (arg == "-h" || arg == "--help") continue;
     if (!sub && arg == "--version") continue;
-    // A negative number is a value, not an option.
-    if (arg[1] >= '0' && arg[1] <= '9') continue;
+    // A negative number (-1, -.5) is a value, not an option.
+    if ((arg[1] >= '0' && arg[1] <= '9') || arg[1] == '.') continue;
     std::string line = prefix + "unknown option '" + arg + "'";
     if (const std::string near = Suggest(arg, known); !near.empty())
       line += "; did you mean '" + near + "'?";
