@@ -18,6 +18,11 @@ int Classify(std::string_view tag, InputFormat format) {
     if (tag == "EDGE2" || tag == "ODOMETRY" || tag == "LANDMARK") return 0;
     return -1;
   }
+  if (format == InputFormat::kToro) {
+    if (tag == "VERTEX3" || tag == "EDGE3") return 1;
+    if (tag == "VERTEX2" || tag == "EDGE2" || tag == "BR" || tag == "EQUIV") return 0;
+    return -1;
+  }
   if (StartsWith(tag, "VERTEX_SE3") || tag == "VERTEX_TRACKXYZ" || StartsWith(tag, "EDGE_SE3") ||
       tag == "PARAMS_SE3OFFSET")
     return 1;
@@ -30,7 +35,8 @@ int Classify(std::string_view tag, InputFormat format) {
 }  // namespace
 
 StatusOr<bool> IsThreeDimensional(const std::string& path, InputFormat format) {
-  if (format != InputFormat::kG2o && format != InputFormat::kIsam) return false;
+  if (format != InputFormat::kG2o && format != InputFormat::kIsam && format != InputFormat::kToro)
+    return false;
   GS_ASSIGN_OR_RETURN(std::unique_ptr<internal::LineReader> reader,
                       internal::LineReader::Open(path));
   while (reader->Next()) {

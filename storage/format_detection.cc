@@ -6,6 +6,7 @@
 #include "storage/internal/text_reader.h"
 #include "storage/isam_reader.h"
 #include "storage/native_log_reader.h"
+#include "storage/toro_reader.h"
 
 namespace graphslam::storage {
 namespace {
@@ -60,11 +61,13 @@ StatusOr<InputFormat> DetectInputFormat(const std::string& path) {
       token == "POINT3") {
     return InputFormat::kIsam;
   }
+  if (token == "VERTEX2" || token == "VERTEX3" || token == "BR" || token == "EQUIV")
+    return InputFormat::kToro;
   return Status::NotSupported(
       reader->name() + ":" + std::to_string(reader->line_number()) + ": first record '" +
       std::string(token) +
       "' matches no known format; expected VERTEX_*/EDGE_*/FIX (g2o), ODOMETRY/EDGE2/LANDMARK "
-      "(iSAM) or " + kNativeLogMagic + " (native log)");
+      "(iSAM), VERTEX2/VERTEX3 (TORO .graph) or " + kNativeLogMagic + " (native log)");
 }
 
 StatusOr<InputFormat> ParseInputFormat(std::string_view name) {
@@ -72,8 +75,9 @@ StatusOr<InputFormat> ParseInputFormat(std::string_view name) {
   if (name == "isam") return InputFormat::kIsam;
   if (name == "mrclam") return InputFormat::kMrclam;
   if (name == "native") return InputFormat::kNative;
+  if (name == "toro") return InputFormat::kToro;
   return Status::InvalidArgument("input format '" + std::string(name) +
-                                 "'; expected g2o, isam, mrclam or native");
+                                 "'; expected auto, g2o, isam, mrclam, native or toro");
 }
 
 const char* InputFormatName(InputFormat format) {
@@ -82,6 +86,7 @@ const char* InputFormatName(InputFormat format) {
     case InputFormat::kIsam: return "isam";
     case InputFormat::kMrclam: return "mrclam";
     case InputFormat::kNative: return "native";
+    case InputFormat::kToro: return "toro";
   }
   return "unknown";
 }
@@ -93,8 +98,10 @@ StatusOr<core::Problem2d> ReadProblem(const std::string& path, InputFormat forma
     case InputFormat::kIsam: return ReadIsam(path);
     case InputFormat::kMrclam: return ReadMrclam(path, mrclam);
     case InputFormat::kNative: return ReadNativeLog(path);
+    case InputFormat::kToro: return ReadToro(path);
   }
-  return Status::InvalidArgument("unknown InputFormat value; expected g2o, isam, mrclam or native");
+  return Status::InvalidArgument(
+      "unknown InputFormat value; expected g2o, isam, mrclam, native or toro");
 }
 
 }  // namespace graphslam::storage

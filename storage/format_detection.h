@@ -5,6 +5,9 @@
 //   first record GRAPHSLAM_LOG                        -> kNative
 //   first record VERTEX_* / EDGE_* / FIX / DATA_*     -> kG2o
 //   first record ODOMETRY / EDGE2 / EDGE3 / LANDMARK / POINT3 -> kIsam
+//   first record VERTEX2 / VERTEX3 / BR / EQUIV       -> kToro (TORO / GTSAM .graph)
+// (a .graph file that starts with an EDGE2 or EDGE3 line reads as iSAM, whose
+// EDGE2/EDGE3 carry square-root information; --format toro reads it as TORO.)
 // ("first record": first line that is neither blank nor a '#' comment; only
 // that line is read.) 3-D g2o/iSAM files are detected as g2o/iSAM;
 // IsThreeDimensional then sends them to the 3-D reader and solver
@@ -22,14 +25,15 @@
 
 namespace graphslam::storage {
 
-enum class InputFormat { kG2o, kIsam, kMrclam, kNative };
+enum class InputFormat { kG2o, kIsam, kMrclam, kNative, kToro };
 
 // NotFound if `path` does not exist; NotSupported naming the first token if no
 // format matches; Corruption if the file has no record at all.
 StatusOr<InputFormat> DetectInputFormat(const std::string& path);
 
-// "g2o", "isam", "mrclam", "native" (the --format values); InvalidArgument
-// naming the accepted values otherwise.
+// "g2o", "isam", "mrclam", "native", "toro" (the --format values besides
+// "auto", which the commands resolve with DetectInputFormat); InvalidArgument
+// naming every --format value, "auto" included, otherwise.
 StatusOr<InputFormat> ParseInputFormat(std::string_view name);
 
 // The name ParseInputFormat accepts for `format`.

@@ -26,3 +26,5 @@ target_sources(graphslam_storage PRIVATE checksummed_json.cc directory_lock.cc f
   store_directory.cc)
 target_sources(graphslam_storage PRIVATE solver_checkpoint.cc feature_record_file.cc candidate_file.cc
   solver_state_file.cc feature_id_file.cc)
+# TORO / GTSAM .graph files, 2-D and 3-D (docs/formats/toro_graph.md).
+target_sources(graphslam_storage PRIVATE toro_reader.cc)

@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/logging.h"
 #include "storage/atomic_file.h"
 #include "storage/mrclam_reader.h"
 #include "tools/exit_codes.h"
@@ -69,10 +70,13 @@ void AddEvaluateCommand(CLI::App* app, EvaluateCommandOptions* options, int* exi
                        "pose matching tolerance [s] (default: min(0.05, GT spacing / 2))");
   evaluate->add_option("--report", options->report, "evaluation report (.json)");
   evaluate->add_flag("-q,--quiet", options->quiet, "no figures on the terminal");
+  evaluate->add_flag("-v,--verbose", options->verbosity, "more log detail (repeatable)");
   evaluate->callback([options, exit_code]() { *exit_code = RunEvaluateCommand(*options); });
 }
 
 int RunEvaluateCommand(const EvaluateCommandOptions& options) {
+  SetLogVerbosity(options.verbosity);
+  SetQuietLogging(options.quiet);
   auto fail = [](const Status& status) {
     std::fprintf(stderr, "graphslam evaluate: %s\n", status.ToString().c_str());
     return ExitCodeFor(status);

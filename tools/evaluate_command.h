@@ -25,6 +25,7 @@ struct EvaluateCommandOptions {
   std::string report;                 // JSON
   double max_time_difference = -1.0;  // s; < 0: automatic
   bool quiet = false;
+  int verbosity = 0;  // -v, repeatable (GS_VLOG level)
 };
 
 // Registers the subcommand on `app`; the callback stores the exit code in *exit_code.

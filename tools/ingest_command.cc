@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <utility>
 
+#include "core/logging.h"
 #include "partition/streaming_ingest.h"
 #include "storage/chunk_store.h"
 #include "storage/env.h"
@@ -21,7 +22,7 @@ void AddIngestCommand(CLI::App* app, IngestCommandOptions* options, int* exit_co
       "ingest", "Write an input (g2o, iSAM, MRCLAM folder, native log) as a chunk store");
   ingest->add_option("input", options->input, "input file or MRCLAM dataset folder")->required();
   ingest->add_option("-o,--output", options->output_dir, "store directory")->required();
-  ingest->add_option("--format", options->format, "input format: auto, g2o, isam, mrclam, native")
+  ingest->add_option("--format", options->format, "input format: auto, g2o, isam, mrclam, native, toro")
       ->capture_default_str();
   ingest->add_option("--robot", options->robot, "MRCLAM robot number")->capture_default_str();
   ingest->add_option("--chunk-observations", options->chunk_observations,
@@ -43,10 +44,13 @@ void AddIngestCommand(CLI::App* app, IngestCommandOptions* options, int* exit_co
                      "target size of a scan chunk file in STORE/scans/ (e.g. 256K, 16M)")
       ->capture_default_str();
   ingest->add_flag("-q,--quiet", options->quiet, "no summary on the terminal");
+  ingest->add_flag("-v,--verbose", options->verbosity, "more log detail (repeatable)");
   ingest->callback([options, exit_code]() { *exit_code = RunIngestCommand(*options); });
 }
 
 int RunIngestCommand(const IngestCommandOptions& options) {
+  SetLogVerbosity(options.verbosity);
+  SetQuietLogging(options.quiet);
   auto fail = [](const Status& status) {
     std::fprintf(stderr, "graphslam ingest: %s\n", status.ToString().c_str());
     return ExitCodeFor(status);

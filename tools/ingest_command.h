@@ -37,6 +37,7 @@ struct IngestCommandOptions {
   double checkpoint_seconds = 30.0;  // least time between pass-2 checkpoints
   std::string scan_chunk_size = "16M";  // target size of a scan chunk (STORE/scans/)
   bool quiet = false;
+  int verbosity = 0;  // -v, repeatable (GS_VLOG level)
 };
 
 // Registers the subcommand on `app`; the callback stores the exit code in *exit_code.

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "core/logging.h"
 #include "storage/chunk_store.h"
 #include "storage/directory_lock.h"
 #include "storage/native_log_scans.h"
@@ -98,10 +99,13 @@ void AddMapCommand(CLI::App* app, MapCommandOptions* options, int* exit_code) {
   cmd->add_option("--batch-points", m.batch_points, "points fused per parallel batch")
       ->capture_default_str();
   cmd->add_flag("-q,--quiet", options->quiet, "no summary on the terminal");
+  cmd->add_flag("-v,--verbose", options->verbosity, "more log detail (repeatable)");
   cmd->callback([options, exit_code]() { *exit_code = RunMapCommand(*options); });
 }
 
 int RunMapCommand(const MapCommandOptions& options) {
+  SetLogVerbosity(options.verbosity);
+  SetQuietLogging(options.quiet);
   auto fail = [](const Status& status) {
     std::fprintf(stderr, "graphslam map: %s\n", status.ToString().c_str());
     return ExitCodeFor(status);

@@ -32,6 +32,7 @@ struct MapCommandOptions {
   double memory_budget_mib = 4096.0;
   double pcd_memory_mib = 0.0;  // resident voxels of the .pcd; 0: memory_budget_mib / 4
   bool quiet = false;
+  int verbosity = 0;  // -v, repeatable (GS_VLOG level)
 };
 
 // A folder with scans/SCANS.json, a native log with SCAN records, else a 3DTK

@@ -6,6 +6,7 @@
 #include <system_error>
 #include <utility>
 
+#include "core/logging.h"
 #include "storage/features_csv_writer.h"
 #include "storage/g2o_writer.h"
 #include "storage/native_log_reader.h"
@@ -95,11 +96,14 @@ void AddSimulateCommand(CLI::App* app, SimulateCommandOptions* options, int* exi
                      "with --streaming: write the log zstd-compressed, as log.graphslam.zst "
                      "(about 4x smaller; ingest and solve read it transparently)");
   simulate->add_flag("-q,--quiet", options->quiet, "no summary on the terminal");
+  simulate->add_flag("-v,--verbose", options->verbosity, "more log detail (repeatable)");
   AddSimulate3dOptions(simulate, &options->sim3d);
   simulate->callback([options, exit_code]() { *exit_code = RunSimulateCommand(*options); });
 }
 
 int RunSimulateCommand(const SimulateCommandOptions& options) {
+  SetLogVerbosity(options.verbosity);
+  SetQuietLogging(options.quiet);
   auto fail = [](const Status& status) {
     std::fprintf(stderr, "graphslam simulate: %s\n", status.ToString().c_str());
     return ExitCodeFor(status);

@@ -31,6 +31,7 @@ struct SimulateCommandOptions {
   std::vector<double> alpha;  // --alpha a1..a6: replaces simulator.noise.alpha when given
   std::vector<double> landmark_spacing;  // --landmark-spacing MIN MAX (m)
   bool quiet = false;
+  int verbosity = 0;  // -v, repeatable (GS_VLOG level)
   Simulate3dOptions sim3d;  // --3d --scans (tools/simulate3d_command.h)
   bool streaming = false;  // --streaming: tools/streaming_campus_simulator.h (native only)
   bool compress = false;   // --compress: with --streaming, log.graphslam.zst

@@ -16,6 +16,7 @@
 #include "storage/g2o_3d_reader.h"
 #include "storage/g2o_3d_writer.h"
 #include "storage/isam_3d_reader.h"
+#include "storage/toro_reader.h"
 #include "partition/in_memory_chunk_source.h"
 #include "storage/solver_checkpoint.h"
 #include "tools/exit_codes.h"
@@ -63,10 +64,11 @@ StatusOr<core::Problem3d> ReadProblem3d(const std::string& path, storage::InputF
   switch (format) {
     case storage::InputFormat::kG2o: return storage::ReadG2o3d(path);
     case storage::InputFormat::kIsam: return storage::ReadIsam3d(path);
+    case storage::InputFormat::kToro: return storage::ReadToro3d(path);
     default: break;
   }
   return Status::NotSupported(path + ": format " + storage::InputFormatName(format) +
-                              " has no 3-D reader; expected g2o or isam");
+                              " has no 3-D reader; expected g2o, isam or toro");
 }
 
 StatusOr<core::OptimizedPoses3d> SolvePoses3dFile(const std::string& path,

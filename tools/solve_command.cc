@@ -110,6 +110,7 @@ const char* FormatName(storage::InputFormat format) {
     case storage::InputFormat::kIsam: return "isam";
     case storage::InputFormat::kMrclam: return "mrclam";
     case storage::InputFormat::kNative: return "native";
+    case storage::InputFormat::kToro: return "toro";
   }
   return "unknown";
 }
@@ -163,10 +164,12 @@ Status CheckEveryGuessGiven(const core::Problem2d& problem) {
 
 void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code) {
   CLI::App* solve = app->add_subcommand(
-      "solve", "Optimize one input (g2o, iSAM, MRCLAM folder, native log) and write the results");
+      "solve",
+      "Optimize one input (g2o, iSAM, TORO .graph, MRCLAM folder, native log, chunk store) and "
+      "write the results");
   solve->add_option("input", options->input, "input file or MRCLAM dataset folder")->required();
   solve->add_option("-o,--output", options->output_g2o, "optimized graph (.g2o)");
-  solve->add_option("--format", options->format, "input format: auto, g2o, isam, mrclam, native")
+  solve->add_option("--format", options->format, "input format: auto, g2o, isam, mrclam, native, toro")
       ->capture_default_str();
   solve->add_option("--solver", options->solver, "reduced system solver: auto, pcg, cholmod")
       ->capture_default_str();

@@ -47,7 +47,8 @@ TEST(FormatDetection, SmallFilesAndComments) {
   ASSERT_TRUE(unknown.status().IsNotSupported());
   EXPECT_EQ(unknown.status().message(),
             "c.txt:2: first record 'HELLO' matches no known format; expected VERTEX_*/EDGE_*/FIX "
-            "(g2o), ODOMETRY/EDGE2/LANDMARK (iSAM) or GRAPHSLAM_LOG (native log)");
+            "(g2o), ODOMETRY/EDGE2/LANDMARK (iSAM), VERTEX2/VERTEX3 (TORO .graph) or GRAPHSLAM_LOG "
+            "(native log)");
   EXPECT_TRUE(DetectInputFormat(WriteTemp("d.txt", "# only\n")).status().IsCorruption());
   EXPECT_TRUE(DetectInputFormat("/nonexistent/x.g2o").status().IsNotFound());
   EXPECT_TRUE(DetectInputFormat(std::filesystem::temp_directory_path().string())
@@ -57,11 +58,11 @@ TEST(FormatDetection, SmallFilesAndComments) {
 
 TEST(FormatDetection, ParseNamesRoundTrip) {
   for (InputFormat format : {InputFormat::kG2o, InputFormat::kIsam, InputFormat::kMrclam,
-                             InputFormat::kNative}) {
+                             InputFormat::kNative, InputFormat::kToro}) {
     EXPECT_EQ(*ParseInputFormat(InputFormatName(format)), format);
   }
-  EXPECT_EQ(ParseInputFormat("toro").status().message(),
-            "input format 'toro'; expected g2o, isam, mrclam or native");
+  EXPECT_EQ(ParseInputFormat("graph").status().message(),
+            "input format 'graph'; expected auto, g2o, isam, mrclam, native or toro");
 }
 
 TEST(FormatDetection, ReadProblemDispatches) {

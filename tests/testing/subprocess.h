@@ -7,6 +7,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -56,6 +58,44 @@ inline int WaitForExit(pid_t pid) {
 // Runs `graphslam args...` to the end; its exit code, -1 if it was killed.
 inline int RunGraphslam(const std::vector<std::string>& args) {
   return WaitForExit(SpawnGraphslam(args));
+}
+
+// What a finished `graphslam args...` printed and returned.
+struct GraphslamRun {
+  int exit_code = -1;  // -1 if it was killed
+  std::string out;     // stdout
+  std::string err;     // stderr
+};
+
+// Runs `graphslam args...` to the end with stdout and stderr captured through
+// the files `capture_prefix`.out / .err (the caller's scratch folder).
+inline GraphslamRun RunGraphslamCaptured(const std::vector<std::string>& args,
+                                         const std::string& capture_prefix) {
+  const std::string out_path = capture_prefix + ".out", err_path = capture_prefix + ".err";
+  std::vector<char*> argv;
+  argv.push_back(const_cast<char*>(GraphslamBinary().c_str()));
+  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int out = open(out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int err = open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (out >= 0) dup2(out, 1);
+    if (err >= 0) dup2(err, 2);
+    execv(GraphslamBinary().c_str(), argv.data());
+    _exit(127);
+  }
+  GraphslamRun run;
+  run.exit_code = WaitForExit(pid);
+  auto slurp = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+  };
+  run.out = slurp(out_path);
+  run.err = slurp(err_path);
+  return run;
 }
 
 }  // namespace graphslam::testing

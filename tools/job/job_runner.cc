@@ -780,6 +780,10 @@ Status RunJob(const RunJobOptions& options) {
   ctx.spec = std::move(spec).value();
   if (!options.output.empty())
     ctx.spec.output = fs::absolute(options.output).lexically_normal().string();
+  if (ctx.spec.output.empty())
+    return Status::InvalidArgument(options.job_path +
+                                   ": no 'output' and no -o; expected output: <folder> in the job "
+                                   "file or graphslam run -o DIR");
   ctx.quiet = options.quiet;
   ctx.fingerprint = Fingerprint(ReadAll(options.job_path));
   ctx.work = (fs::path(ctx.spec.output) / ".job").string();

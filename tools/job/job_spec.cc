@@ -378,8 +378,8 @@ StatusOr<JobSpec> ParseJobSpec(const std::string& text, const std::string& path)
                                   "compare_without_gps", "map"}));
   JobSpec job;
   job.path = path;
-  if (!root["output"]) return Error(path, root, "no 'output'; expected output: <folder>");
-  GS_RETURN_IF_ERROR(r.Path(root["output"], "output", &job.output));
+  // Without output: the folder must come from `graphslam run -o DIR` (RunJob checks).
+  if (root["output"]) GS_RETURN_IF_ERROR(r.Path(root["output"], "output", &job.output));
   if (root["threads"]) GS_RETURN_IF_ERROR(r.Int32(root["threads"], "threads", 0, 1024, &job.threads));
   if (root["memory_limit"])
     GS_RETURN_IF_ERROR(r.Bytes(root["memory_limit"], "memory_limit", &job.memory_limit));

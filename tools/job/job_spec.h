@@ -2,7 +2,7 @@
 // and validated: where the outputs go, how many threads, the memory budget,
 // which stages run, and the list of runs (inputs) to map together.
 //
-//   output: out/                  # required; relative paths are relative to
+//   output: out/                  # required unless -o; relative paths are relative to
 //   threads: 2                    #   the job file's folder
 //   memory_limit: 2GiB            # bytes, or with KiB/MiB/GiB
 //   stages: [ingest, initialize, optimize, export]   # default: all

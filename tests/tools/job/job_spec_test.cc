@@ -135,7 +135,6 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"output: o\nthreads: many\nruns:\n  - {name: a, format: g2o, path: x}\n",
                 "j.yaml:2:10", "expected an integer"},
         BadCase{"output: o\nruns: [\n", "j.yaml:3:1", "not valid YAML"},
-        BadCase{"runs:\n  - {name: a, format: g2o, path: x}\n", "j.yaml:1:1", "no 'output'"},
         BadCase{"output: o\nruns: []\n", "j.yaml:2:7", "non-empty list"},
         BadCase{"output: o\nstages: [ingest, polish]\nruns:\n  - {name: a, format: g2o, path: x}\n",
                 "j.yaml:2:18", "unknown stage 'polish'"},
