@@ -12,6 +12,9 @@ namespace graphslam::storage {
 namespace {
 
 constexpr unsigned char kZstdMagic[4] = {0x28, 0xB5, 0x2F, 0xFD};  // 0xFD2FB528, little endian
+// The decompressed-size sanity bound (compressed_file.h).
+constexpr int64_t kMaxExpansion = 1024;
+constexpr int64_t kExpansionSlack = int64_t{64} << 20;
 
 struct FileCloser {
   void operator()(std::FILE* file) const { std::fclose(file); }
@@ -51,6 +54,21 @@ class ZstdInputFile : public InputFile {
   size_t Read(char* data, size_t size, Status* status) override {
     ZSTD_outBuffer out = {data, size, 0};
     while (out.pos < out.size) {
+      // A sanity bound on the expansion (a "zstd bomb": 30 KB that inflate to
+      // 1 GB): text logs compress 3-20x; kMaxExpansion times what was read,
+      // plus kExpansionSlack, is far beyond that. Checked before producing
+      // more, so that a read that stops here gives fewer bytes than asked
+      // (the interface's sign of an error).
+      const int64_t produced = decompressed_ + static_cast<int64_t>(out.pos);
+      if (produced > kMaxExpansion * compressed_offset_ + kExpansionSlack) {
+        *status = Status::Corruption(
+            path_ + ": " + std::to_string(produced) + " decompressed bytes from " +
+            std::to_string(compressed_offset_) + " compressed bytes; expected at most " +
+            std::to_string(kMaxExpansion) + " times the compressed size plus " +
+            std::to_string(kExpansionSlack >> 20) +
+            " MiB (text compresses 3-20x; this looks like a decompression bomb)");
+        break;
+      }
       if (in_.pos == in_.size) {
         if (end_of_file_) {
           if (pending_ != 0)

@@ -21,6 +21,13 @@
 // stream: the file ends inside a frame at compressed offset C (decompressed
 // offset D)". A plain file's read error is IOError naming the offset.
 //
+// Decompressed-size sanity bound: a zstd stream may give at most 1024 bytes
+// per compressed byte read, plus 64 MiB; beyond that Read stops with
+// Corruption "<path>: D decompressed bytes from C compressed bytes; expected
+// at most 1024 times ..." (text compresses 3-20x; a 30 KB file that inflates
+// to 1 GB is a bomb). The line readers also cap a line at 1 MiB
+// (storage/internal/text_reader.h), which bounds their memory on any input.
+//
 // THREAD SAFETY: one object per thread. ALLOCATION: the zstd contexts and
 // their ~1 MiB of buffers (plus the compressor's window: 8 MiB at level 3).
 #pragma once

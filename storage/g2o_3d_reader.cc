@@ -123,7 +123,7 @@ class G2o3dParser {
     GS_ASSIGN_OR_RETURN(item.ids[1], reader.Id(2, "to id"));
     GS_ASSIGN_OR_RETURN(item.pose, ReadPose(reader, 3, "measurement"));
     double upper[21];
-    GS_RETURN_IF_ERROR(reader.Doubles(10, 21, "information", upper));
+    GS_RETURN_IF_ERROR(reader.Doubles(10, 21, "information", upper, internal::Magnitude::kInformation));
     item.information6 = internal::SymmetricFromUpper<6>(upper);
     if (!internal::IsPositiveDefiniteMatrix(item.information6))
       return reader.Error(
@@ -155,7 +155,8 @@ class G2o3dParser {
     }
     double z[3], upper[6];
     GS_RETURN_IF_ERROR(reader.Doubles(first, 3, "measurement", z));
-    GS_RETURN_IF_ERROR(reader.Doubles(first + 3, 6, "information", upper));
+    GS_RETURN_IF_ERROR(reader.Doubles(first + 3, 6, "information", upper,
+                                       internal::Magnitude::kInformation));
     item.point = Eigen::Vector3d(z[0], z[1], z[2]);
     item.information3 = internal::SymmetricFromUpper<3>(upper);
     if (!internal::IsPositiveDefiniteMatrix(item.information3))

@@ -110,7 +110,7 @@ class G2oParser {
     double z[3];
     double upper[6];
     GS_RETURN_IF_ERROR(reader.Doubles(3, 3, "measurement", z));
-    GS_RETURN_IF_ERROR(reader.Doubles(6, 6, "information", upper));
+    GS_RETURN_IF_ERROR(reader.Doubles(6, 6, "information", upper, internal::Magnitude::kInformation));
     item.pose_measurement = core::Pose2(z[0], z[1], z[2]);
     item.information3 = internal::SymmetricFromUpper3(upper);
     if (!internal::IsPositiveDefinite(item.information3)) {
@@ -141,7 +141,8 @@ class G2oParser {
     double z[2];
     double upper[3];
     GS_RETURN_IF_ERROR(reader.Doubles(1 + ids, 2, "measurement", z));
-    GS_RETURN_IF_ERROR(reader.Doubles(3 + ids, 3, "information", upper));
+    GS_RETURN_IF_ERROR(reader.Doubles(3 + ids, 3, "information", upper,
+                                       internal::Magnitude::kInformation));
     item.point_measurement = Eigen::Vector2d(z[0], z[1]);
     item.information2 = internal::SymmetricFromUpper2(upper);
     if (!internal::IsPositiveDefinite(item.information2)) {
@@ -169,7 +170,7 @@ class G2oParser {
     double z[2];
     double upper[3];
     GS_RETURN_IF_ERROR(reader.Doubles(3, 2, "measurement", z));
-    GS_RETURN_IF_ERROR(reader.Doubles(5, 3, "information", upper));
+    GS_RETURN_IF_ERROR(reader.Doubles(5, 3, "information", upper, internal::Magnitude::kInformation));
     core::Observation observation;
     observation.information = internal::SymmetricFromUpper2(upper);
     if (!internal::IsPositiveDefinite(observation.information)) {

@@ -1,6 +1,9 @@
 #include "storage/g2o_writer.h"
 
 #include <Eigen/LU>
+#include <algorithm>
+#include <limits>
+#include <vector>
 
 #include "core/se2.h"
 #include "core/velocity_motion_model.h"
@@ -38,10 +41,40 @@ void MotionToRelative(const core::Problem2d& problem, const core::VelocityMotion
 
 }  // namespace
 
+StatusOr<int64_t> G2oFeatureIdOffset(const core::Problem2d& problem) {
+  if (problem.feature_ids.empty() || problem.pose_ids.empty()) return int64_t{0};
+  std::vector<int64_t> poses(problem.pose_ids.begin(), problem.pose_ids.end());
+  std::sort(poses.begin(), poses.end());
+  bool collide = false;
+  for (int64_t id : problem.feature_ids) {
+    if (std::binary_search(poses.begin(), poses.end(), id)) {
+      collide = true;
+      break;
+    }
+  }
+  if (!collide) return int64_t{0};
+  const auto [min_feature, max_feature] =
+      std::minmax_element(problem.feature_ids.begin(), problem.feature_ids.end());
+  // offset = max pose + 1 - min feature; the largest written id is
+  // max feature + offset. Both in __int128 so the check cannot overflow.
+  const __int128 offset = static_cast<__int128>(poses.back()) + 1 - *min_feature;
+  const __int128 largest = static_cast<__int128>(*max_feature) + offset;
+  if (largest > std::numeric_limits<int64_t>::max() ||
+      offset > std::numeric_limits<int64_t>::max())
+    return Status::InvalidArgument(
+        "feature ids " + std::to_string(*min_feature) + ".." + std::to_string(*max_feature) +
+        " collide with pose ids and cannot be renumbered past the largest pose id " +
+        std::to_string(poses.back()) + "; expected ids that fit g2o's one int64 id space");
+  return static_cast<int64_t>(offset);
+}
+
 Status WriteG2o(const core::Problem2d& problem, const std::string& path, Env* env) {
   const std::string context = "writing " + path;
-  GS_RETURN_IF_ERROR(internal::ValidateProblemForWriting(problem, /*shared_id_space=*/true)
+  GS_RETURN_IF_ERROR(internal::ValidateProblemForWriting(problem, /*shared_id_space=*/false)
                          .WithContext(context));
+  StatusOr<int64_t> offset_or = G2oFeatureIdOffset(problem);
+  if (!offset_or.ok()) return offset_or.status().WithContext(context);
+  const int64_t offset = *offset_or;
   for (size_t k = 0; k < problem.observations.size(); ++k) {
     const auto& observation = problem.observations[k];
     if (observation.kind == core::ObservationKind::kRangeBearing && !(observation.z.x() > 0.0)) {
@@ -52,7 +85,7 @@ Status WriteG2o(const core::Problem2d& problem, const std::string& path, Env* en
     }
   }
   if (env == nullptr) env = Env::Default();
-  return WriteFileAtomically(env, path, [&problem](WritableFile* file) -> Status {
+  return WriteFileAtomically(env, path, [&problem, offset](WritableFile* file) -> Status {
     using internal::AppendField;
     using internal::AppendUpperTriangle;
     const auto& pose_ids = problem.pose_ids;
@@ -64,6 +97,11 @@ Status WriteG2o(const core::Problem2d& problem, const std::string& path, Env* en
       line.clear();
       return status;
     };
+    if (offset != 0) {
+      AppendField(&line, "# graphslam: feature ids renumbered: VERTEX_XY id = feature id +");
+      AppendField(&line, offset);
+      GS_RETURN_IF_ERROR(flush());
+    }
     for (int32_t i = 0; i < problem.num_poses(); ++i) {
       AppendField(&line, "VERTEX_SE2");
       AppendField(&line, pose_ids[i]);
@@ -72,7 +110,7 @@ Status WriteG2o(const core::Problem2d& problem, const std::string& path, Env* en
     }
     for (int32_t i = 0; i < problem.num_features(); ++i) {
       AppendField(&line, "VERTEX_XY");
-      AppendField(&line, feature_ids[i]);
+      AppendField(&line, feature_ids[i] + offset);
       AppendField(&line, problem.features[i].x());
       AppendField(&line, problem.features[i].y());
       GS_RETURN_IF_ERROR(flush());
@@ -110,7 +148,7 @@ Status WriteG2o(const core::Problem2d& problem, const std::string& path, Env* en
       }
       AppendField(&line, "EDGE_SE2_XY");
       AppendField(&line, pose_ids[observation.pose]);
-      AppendField(&line, feature_ids[observation.feature]);
+      AppendField(&line, feature_ids[observation.feature] + offset);
       AppendField(&line, point.x());
       AppendField(&line, point.y());
       AppendUpperTriangle(&line, information);

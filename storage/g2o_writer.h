@@ -10,8 +10,14 @@
 //                                                  observations (below)
 //   EDGE_PRIOR_SE2_XY i x y  xx xy yy              GPS (g2o EdgeSE2XYPrior)
 // Numbers are printed "%.17g" (exact round trip). Pose and feature ids share
-// g2o's one number space, so a collision is rejected (InvalidArgument) before
-// anything is written. g2o has no notion of an uninitialized vertex: such
+// g2o's one number space. When they collide (MRCLAM: poses 0..n-1, landmark
+// subjects 6..20), the features are renumbered past the largest pose id, in
+// their order: written id = feature id + G2oFeatureIdOffset(problem), with
+//   offset = max pose id + 1 - min feature id   (0 when the ids are disjoint),
+// and the file opens with the comment line
+//   # graphslam: feature ids renumbered: VERTEX_XY id = feature id + <offset>
+// (g2o and our reader skip '#' lines; the features CSV keeps the original
+// ids, and `solve --report` gives the offset as g2o_feature_id_offset). g2o has no notion of an uninitialized vertex: such
 // vertices are written with their current values.
 //
 // Range-bearing -> EDGE_SE2_XY. z = (r, phi) becomes the point in the robot
@@ -41,6 +47,9 @@
 #include "storage/env.h"
 
 namespace graphslam::storage {
+
+// The offset above; InvalidArgument if the renumbered ids would overflow.
+StatusOr<int64_t> G2oFeatureIdOffset(const core::Problem2d& problem);
 
 // `env` defaults to Env::Default(); an existing `path` survives any failure.
 [[nodiscard]] Status WriteG2o(const core::Problem2d& problem, const std::string& path,

@@ -41,7 +41,8 @@ StatusOr<core::Problem3d> ReadIsam3d(const std::string& path) {
       c.z.q = QuaternionFromRollPitchYaw(v[3], v[4], v[5]);
       if (reader->fields().size() == 30) {
         double s[21];
-        GS_RETURN_IF_ERROR(reader->Doubles(9, 21, "square-root information", s));
+        GS_RETURN_IF_ERROR(reader->Doubles(9, 21, "square-root information", s,
+                                             internal::Magnitude::kSqrtInformation));
         const core::Matrix6d sqrt_information = internal::UpperFromRowFirst<6>(s);
         c.information = sqrt_information.transpose() * sqrt_information;
         // Angles -> vec(q) = angles / 2 (isam_3d_reader.h).
@@ -71,7 +72,8 @@ StatusOr<core::Problem3d> ReadIsam3d(const std::string& path) {
       o.z = Eigen::Vector3d(v[0], v[1], v[2]);
       if (reader->fields().size() == 12) {
         double s[6];
-        GS_RETURN_IF_ERROR(reader->Doubles(6, 6, "square-root information", s));
+        GS_RETURN_IF_ERROR(reader->Doubles(6, 6, "square-root information", s,
+                                             internal::Magnitude::kSqrtInformation));
         const Eigen::Matrix3d sqrt_information = internal::UpperFromRowFirst<3>(s);
         o.information = sqrt_information.transpose() * sqrt_information;
         if (!internal::IsPositiveDefiniteMatrix(o.information))

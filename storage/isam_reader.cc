@@ -52,7 +52,8 @@ class IsamParser {
     double z[3];
     double r[6];
     GS_RETURN_IF_ERROR(reader.Doubles(3, 3, "measurement", z));
-    GS_RETURN_IF_ERROR(reader.Doubles(6, 6, "sqrt information", r));
+    GS_RETURN_IF_ERROR(reader.Doubles(6, 6, "sqrt information", r,
+                                       internal::Magnitude::kSqrtInformation));
     Eigen::Matrix3d root;
     root << r[0], r[1], r[2],  //
         0.0, r[3], r[4],       //
@@ -85,7 +86,8 @@ class IsamParser {
     double z[2];
     double r[3];
     GS_RETURN_IF_ERROR(reader.Doubles(3, 2, "measurement", z));
-    GS_RETURN_IF_ERROR(reader.Doubles(5, 3, "sqrt information", r));
+    GS_RETURN_IF_ERROR(reader.Doubles(5, 3, "sqrt information", r,
+                                       internal::Magnitude::kSqrtInformation));
     Eigen::Matrix2d root;
     root << r[0], r[1], 0.0, r[2];
     const Eigen::Matrix2d information = root.transpose() * root;

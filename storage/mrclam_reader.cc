@@ -64,7 +64,7 @@ StatusOr<TimedRecords> ReadTimedRecords(const std::string& path, const char* lay
                            " fields; expected " + std::to_string(expected) + " (" + layout + ")");
     }
     double values[4] = {0.0, 0.0, 0.0, 0.0};
-    GS_ASSIGN_OR_RETURN(values[0], reader->Double(0, "time"));
+    GS_ASSIGN_OR_RETURN(values[0], reader->Double(0, "time", internal::Magnitude::kTime));
     GS_RETURN_IF_ERROR(reader->Doubles(1, expected - 1, "value", values + 1));
     if (!records.stamps.empty() && values[0] < records.stamps.back()) {
       return reader->Error("time " + internal::FormatDouble(values[0]) +
@@ -229,7 +229,7 @@ StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOpti
                            " fields; expected 4 (t barcode range bearing)");
     }
     ++local_stats.measurements;
-    GS_ASSIGN_OR_RETURN(const double t, reader->Double(0, "time"));
+    GS_ASSIGN_OR_RETURN(const double t, reader->Double(0, "time", internal::Magnitude::kTime));
     GS_ASSIGN_OR_RETURN(const int64_t barcode, reader->Id(1, "barcode"));
     GS_ASSIGN_OR_RETURN(const double range, reader->Double(2, "range"));
     GS_ASSIGN_OR_RETURN(const double bearing, reader->Double(3, "bearing"));

@@ -142,7 +142,7 @@ class NativeLogParser {
     GS_ASSIGN_OR_RETURN(const int64_t id, reader.Id(1, "id"));
     double stamp = std::numeric_limits<double>::quiet_NaN();
     if (reader.fields()[2] != "-") {
-      GS_ASSIGN_OR_RETURN(stamp, reader.Double(2, "time"));
+      GS_ASSIGN_OR_RETURN(stamp, reader.Double(2, "time", internal::Magnitude::kTime));
     }
     const bool initialized = reader.fields().size() == 6;
     double guess[3] = {0.0, 0.0, 0.0};
@@ -222,7 +222,8 @@ class NativeLogParser {
 
   StatusOr<Eigen::Matrix3d> Information3(const LineReader& reader, size_t first) {
     double upper[6];
-    GS_RETURN_IF_ERROR(reader.Doubles(first, 6, "information", upper));
+    GS_RETURN_IF_ERROR(reader.Doubles(first, 6, "information", upper,
+                                       internal::Magnitude::kInformation));
     const Eigen::Matrix3d information = internal::SymmetricFromUpper3(upper);
     if (!internal::IsPositiveDefinite(information)) {
       return reader.Error(std::string(reader.fields()[0]) + " information " +
@@ -235,7 +236,8 @@ class NativeLogParser {
 
   StatusOr<Eigen::Matrix2d> Information2(const LineReader& reader, size_t first) {
     double upper[3];
-    GS_RETURN_IF_ERROR(reader.Doubles(first, 3, "information", upper));
+    GS_RETURN_IF_ERROR(reader.Doubles(first, 3, "information", upper,
+                                       internal::Magnitude::kInformation));
     const Eigen::Matrix2d information = internal::SymmetricFromUpper2(upper);
     if (!internal::IsPositiveDefinite(information)) {
       return reader.Error(std::string(reader.fields()[0]) + " information " +

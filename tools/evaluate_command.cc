@@ -12,6 +12,8 @@
 #include "storage/atomic_file.h"
 #include "storage/mrclam_reader.h"
 #include "tools/exit_codes.h"
+#include "tools/option_checks.h"
+#include "tools/output_paths.h"
 #include "tools/trajectory_metrics.h"
 
 namespace graphslam::tools {
@@ -65,9 +67,12 @@ void AddEvaluateCommand(CLI::App* app, EvaluateCommandOptions* options, int* exi
   evaluate->add_option("--ground-truth-features", options->ground_truth_features,
                        "true features (.csv)");
   evaluate->add_option("--mrclam", options->mrclam, "MRCLAM dataset folder (ground truth)");
-  evaluate->add_option("--robot", options->robot, "MRCLAM robot number")->capture_default_str();
+  evaluate->add_option("--robot", options->robot, "MRCLAM robot number")
+      ->check(Integer(1, 5))
+      ->capture_default_str();
   evaluate->add_option("--max-time-difference", options->max_time_difference,
-                       "pose matching tolerance [s] (default: min(0.05, GT spacing / 2))");
+                       "pose matching tolerance [s] (default: min(0.05, GT spacing / 2))")
+      ->check(PositiveReal());
   evaluate->add_option("--report", options->report, "evaluation report (.json)");
   evaluate->add_flag("-q,--quiet", options->quiet, "no figures on the terminal");
   evaluate->add_flag("-v,--verbose", options->verbosity, "more log detail (repeatable)");
@@ -86,6 +91,8 @@ int RunEvaluateCommand(const EvaluateCommandOptions& options) {
     return kExitUsage;
   }
 
+  if (Status status = CheckOutputPaths({{"--report", options.report}}); !status.ok())
+    return fail(status);
   // Read everything first.
   StatusOr<std::vector<StampedPose2>> estimated = ReadTum(options.trajectory);
   if (!estimated.ok()) return fail(estimated.status());

@@ -11,6 +11,8 @@
 #include "storage/store_directory.h"
 #include "storage/format_detection.h"
 #include "tools/exit_codes.h"
+#include "tools/option_checks.h"
+#include "tools/output_paths.h"
 #include "tools/memory_size.h"
 #include "tools/out_of_core_solve.h"
 #include "tools/resource_usage.h"
@@ -24,21 +26,26 @@ void AddIngestCommand(CLI::App* app, IngestCommandOptions* options, int* exit_co
   ingest->add_option("-o,--output", options->output_dir, "store directory")->required();
   ingest->add_option("--format", options->format, "input format: auto, g2o, isam, mrclam, native, toro")
       ->capture_default_str();
-  ingest->add_option("--robot", options->robot, "MRCLAM robot number")->capture_default_str();
+  ingest->add_option("--robot", options->robot, "MRCLAM robot number")
+      ->check(Integer(1, 5))
+      ->capture_default_str();
   ingest->add_option("--chunk-observations", options->chunk_observations,
                      "observations per chunk (feature-complete)")
+      ->check(Integer(1))
       ->capture_default_str();
   ingest->add_option("--memory-limit", options->memory_limit,
                      "memory budget of the observation buffer (e.g. 512M, 2G)")
       ->capture_default_str();
   ingest->add_option("--buffer-observations", options->buffer_observations,
-                     "observations held in memory at once (overrides --memory-limit)");
+                     "observations held in memory at once (overrides --memory-limit)")
+      ->check(Integer(0));
   ingest->add_flag("--compress", options->compress, "zstd-compress chunk blocks");
   ingest->add_flag("--resume", options->resume,
                    "continue an interrupted ingest of the same native log into STORE from its "
                    "last checkpoint (else start afresh)");
   ingest->add_option("--checkpoint-seconds", options->checkpoint_seconds,
                      "least time between two checkpoints of the second pass (0: every spill)")
+      ->check(NonNegativeReal())
       ->capture_default_str();
   ingest->add_option("--scan-chunk-size", options->scan_chunk_size,
                      "target size of a scan chunk file in STORE/scans/ (e.g. 256K, 16M)")
@@ -65,6 +72,9 @@ int RunIngestCommand(const IngestCommandOptions& options) {
     return usage("--chunk-observations must be > 0, got " +
                  std::to_string(options.chunk_observations));
 
+  if (Status status = CheckOutputPaths({{"-o", options.output_dir, /*folder=*/true}});
+      !status.ok())
+    return fail(status);
   storage::InputFormat format;
   if (options.format == "auto") {
     StatusOr<storage::InputFormat> detected = storage::DetectInputFormat(options.input);

@@ -11,6 +11,8 @@
 #include "storage/native_log_scans.h"
 #include "storage/threedtk_reader.h"
 #include "tools/exit_codes.h"
+#include "tools/option_checks.h"
+#include "tools/output_paths.h"
 
 namespace graphslam::tools {
 
@@ -76,27 +78,41 @@ void AddMapCommand(CLI::App* app, MapCommandOptions* options, int* exit_code) {
   cmd->add_option("--bt", m.bt_path, "OctoMap output (.bt)");
   cmd->add_option("--pcd", m.pcd_path, "registered cloud output (.pcd, binary_compressed)");
   cmd->add_option("--poses", options->poses_path, "TUM trajectory replacing the logged poses");
-  cmd->add_option("--resolution", m.fusion.resolution, "leaf size [m]")->capture_default_str();
-  cmd->add_option("--max-range", m.fusion.max_range, "ray length cap [m] (<0: none)")
+  cmd->add_option("--resolution", m.fusion.resolution, "leaf size [m]")
+      ->check(PositiveReal())
       ->capture_default_str();
-  cmd->add_option("--prob-hit", m.fusion.prob_hit, "P(occupied | hit)")->capture_default_str();
-  cmd->add_option("--prob-miss", m.fusion.prob_miss, "P(occupied | pass)")->capture_default_str();
+  cmd->add_option("--max-range", m.fusion.max_range, "ray length cap [m] (<0: none)")
+      ->check(Real(-kNoUpperBound, kNoUpperBound))
+      ->capture_default_str();
+  cmd->add_option("--prob-hit", m.fusion.prob_hit, "P(occupied | hit)")
+      ->check(Real(0.5, 1.0, Bounds::kOpen))
+      ->capture_default_str();
+  cmd->add_option("--prob-miss", m.fusion.prob_miss, "P(occupied | pass)")
+      ->check(Real(0.0, 0.5, Bounds::kOpen))
+      ->capture_default_str();
   cmd->add_option("--clamp-min", m.fusion.clamping_min, "lower clamping probability")
+      ->check(Real(0.0, 0.5, Bounds::kOpen))
       ->capture_default_str();
   cmd->add_option("--clamp-max", m.fusion.clamping_max, "upper clamping probability")
+      ->check(Real(0.5, 1.0, Bounds::kOpen))
       ->capture_default_str();
   cmd->add_option("--tile-bits", m.fusion.tile_bits, "tiles of 2^bits leaves a side")
+      ->check(Integer(1, 15))
       ->capture_default_str();
   cmd->add_option("--pcd-voxel", m.pcd_voxel, "cloud voxel [m] (0: the resolution)")
+      ->check(NonNegativeReal())
       ->capture_default_str();
   cmd->add_option("--memory-budget", options->memory_budget_mib,
                   "MiB for one tree; above it the .bt is written as tiles + index.json")
+      ->check(PositiveReal())
       ->capture_default_str();
   cmd->add_option("--pcd-memory-budget", options->pcd_memory_mib,
                   "MiB of resident voxels of the .pcd, spilled to OUT.voxels/ beyond "
                   "(0: a quarter of --memory-budget)")
+      ->check(NonNegativeReal())
       ->capture_default_str();
   cmd->add_option("--batch-points", m.batch_points, "points fused per parallel batch")
+      ->check(Integer(1))
       ->capture_default_str();
   cmd->add_flag("-q,--quiet", options->quiet, "no summary on the terminal");
   cmd->add_flag("-v,--verbose", options->verbosity, "more log detail (repeatable)");
@@ -125,6 +141,10 @@ int RunMapCommand(const MapCommandOptions& options) {
     std::fprintf(stderr, "graphslam map: %s\n", status.message().c_str());
     return kExitUsage;
   }
+  if (Status status = CheckOutputPaths({{"--bt", map_options.bt_path},
+                                        {"--pcd", map_options.pcd_path}});
+      !status.ok())
+    return fail(status);
   // A chunk store's scans: read under its shared lock (no writer meanwhile),
   // and only if they match the CRC32Cs of its manifest.
   storage::DirectoryLock lock;

@@ -12,6 +12,7 @@
 #include "storage/atomic_file.h"
 #include "storage/env.h"
 #include "tools/exit_codes.h"
+#include "tools/option_checks.h"
 
 namespace graphslam::tools {
 
@@ -19,17 +20,29 @@ void AddSimulate3dOptions(CLI::App* simulate, Simulate3dOptions* options) {
   map::Campus3dOptions& c = options->campus;
   simulate->add_flag("--3d", options->enabled, "simulate the 3-D campus (tools/campus3d.h) instead");
   simulate->add_flag("--scans", options->scans, "with --3d: write the laser scans (DIR/scans/)");
-  simulate->add_option("--columns", c.columns, "--3d: blocks along x")->capture_default_str();
-  simulate->add_option("--rows", c.rows, "--3d: blocks along y")->capture_default_str();
-  simulate->add_option("--block", c.block_size, "--3d: block pitch [m]")->capture_default_str();
-  simulate->add_option("--street", c.street_width, "--3d: street width [m]")->capture_default_str();
+  simulate->add_option("--columns", c.columns, "--3d: blocks along x")
+      ->check(Integer(1, std::numeric_limits<int>::max()))
+      ->capture_default_str();
+  simulate->add_option("--rows", c.rows, "--3d: blocks along y")
+      ->check(Integer(1, std::numeric_limits<int>::max()))
+      ->capture_default_str();
+  simulate->add_option("--block", c.block_size, "--3d: block pitch [m]")
+      ->check(PositiveReal())
+      ->capture_default_str();
+  simulate->add_option("--street", c.street_width, "--3d: street width [m]")
+      ->check(PositiveReal())
+      ->capture_default_str();
   simulate->add_option("--pose-spacing", c.pose_spacing, "--3d: metres between poses")
+      ->check(PositiveReal())
       ->capture_default_str();
   simulate->add_option("--beams", c.beams, "--3d: laser beams per (vertical, 360 deg) scan")
+      ->check(Integer(1, std::numeric_limits<int>::max()))
       ->capture_default_str();
   simulate->add_option("--scan-range", c.max_range, "--3d: laser max range [m]")
+      ->check(PositiveReal())
       ->capture_default_str();
   simulate->add_option("--scan-sigma", c.range_sigma, "--3d: laser range noise [m]")
+      ->check(NonNegativeReal())
       ->capture_default_str();
 }
 

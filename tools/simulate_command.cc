@@ -12,6 +12,7 @@
 #include "storage/native_log_reader.h"
 #include "storage/tum_writer.h"
 #include "tools/exit_codes.h"
+#include "tools/option_checks.h"
 #include "tools/streaming_campus_simulator.h"
 
 namespace graphslam::tools {
@@ -61,33 +62,52 @@ void AddSimulateCommand(CLI::App* app, SimulateCommandOptions* options, int* exi
   simulate->add_option("--format", options->format, "measurement file format: native, g2o")
       ->capture_default_str();
   simulate->add_option("--poses", sim.poses, "poses in total (split over the runs)")
+      ->check(Integer(2))
       ->capture_default_str();
   simulate->add_option("--features", sim.features, "landmarks (0: from the campus size)")
+      ->check(Integer(0))
       ->capture_default_str();
   simulate->add_option("--runs", sim.runs, "independent drives through the same campus")
+      ->check(Integer(1, std::numeric_limits<int>::max()))
       ->capture_default_str();
   simulate->add_option("--gps-every", sim.gps_every, "a GPS fix every K poses (0: none)")
+      ->check(Integer(0, std::numeric_limits<int>::max()))
       ->capture_default_str();
   simulate->add_option("--seed", sim.seed, "random seed")->capture_default_str();
-  simulate->add_option("--block-size", sim.block_size, "street pitch [m]")->capture_default_str();
+  simulate->add_option("--block-size", sim.block_size, "street pitch [m]")
+      ->check(PositiveReal())
+      ->capture_default_str();
   simulate->add_option("--street-width", sim.street_width, "street width [m]")
+      ->check(PositiveReal())
       ->capture_default_str();
-  simulate->add_option("--speed", sim.speed, "robot speed [m/s]")->capture_default_str();
-  simulate->add_option("--dt", sim.dt, "time between poses [s]")->capture_default_str();
+  simulate->add_option("--speed", sim.speed, "robot speed [m/s]")
+      ->check(PositiveReal())
+      ->capture_default_str();
+  simulate->add_option("--dt", sim.dt, "time between poses [s]")
+      ->check(PositiveReal())
+      ->capture_default_str();
   simulate->add_option("--sensor-range", sim.sensor_range, "sensor range [m]")
+      ->check(PositiveReal())
       ->capture_default_str();
-  simulate->add_option("--range-sigma", sim.range_sigma, "range noise [m]")->capture_default_str();
+  simulate->add_option("--range-sigma", sim.range_sigma, "range noise [m]")
+      ->check(PositiveReal())
+      ->capture_default_str();
   simulate->add_option("--bearing-sigma", sim.bearing_sigma, "bearing noise [rad]")
+      ->check(PositiveReal())
       ->capture_default_str();
-  simulate->add_option("--gps-sigma", sim.gps_sigma, "GPS noise [m]")->capture_default_str();
+  simulate->add_option("--gps-sigma", sim.gps_sigma, "GPS noise [m]")
+      ->check(PositiveReal())
+      ->capture_default_str();
   simulate->add_option("--landmark-spacing", options->landmark_spacing,
                        "MIN MAX: landmarks stand U(MIN, MAX) m apart along each side of a "
                        "street (default 6 10); a small spacing makes the dense landmark fields "
                        "of scaling runs (10^8 features over 10^6 poses)")
+      ->check(PositiveReal())
       ->expected(2);
   simulate->add_option("--alpha", options->alpha,
                        "control noise a1..a6 (Probabilistic Robotics Table 5.3; default "
                        "0.01 0.001 0.00003 0.01 0.00003 0.01)")
+      ->check(NonNegativeReal())
       ->expected(6);
   simulate->add_flag("--streaming", options->streaming,
                      "write as the robot drives, world generated per street segment: bounded "

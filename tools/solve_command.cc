@@ -34,6 +34,8 @@
 #include "tools/association_store.h"
 #include "tools/exit_codes.h"
 #include "tools/memory_size.h"
+#include "tools/option_checks.h"
+#include "tools/output_paths.h"
 #include "tools/out_of_core_solve.h"
 #include "tools/progress_display.h"
 #include "tools/resource_usage.h"
@@ -179,37 +181,49 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
   solve->add_option("--pcg-eta-min", options->pcg_eta_min,
                     "PCG: the tightest relative residual (the forcing sequence's floor, and the "
                     "tolerance of exact solves), in (0, --pcg-eta-max]")
+      ->check(Real(0.0, 1.0, Bounds::kOpen))
       ->capture_default_str();
   solve->add_option("--pcg-eta-max", options->pcg_eta_max,
                     "PCG: the loosest relative residual of the forcing sequence, in (0, 1)")
+      ->check(Real(1e-10, 1.0, Bounds::kOpenUpper))
       ->capture_default_str();
   solve->add_option("--pcg-deflation", options->pcg_deflation,
                     "PCG: deflate the trajectory's smooth error modes, in aggregates of this many "
                     "consecutive poses (constant and linear modes each); 0: off")
+      ->check(Integer(0, std::numeric_limits<int>::max()))
       ->capture_default_str();
   solve->add_option("--pcg-truncation", options->pcg_truncation,
                     "PCG: stop a solve once the chi2 decrease it still misses is estimated below "
                     "this x --function-tolerance x chi2, in [0, 1); 0: off")
+      ->check(Real(0.0, 1.0, Bounds::kOpenUpper))
       ->capture_default_str();
   solve->add_option("--max-iterations", options->max_iterations, "Levenberg-Marquardt iterations")
+      ->check(Integer(0, std::numeric_limits<int>::max()))
       ->capture_default_str();
   solve->add_option("--function-tolerance", options->function_tolerance,
                     "stop when the relative chi2 decrease of a step is below this")
+      ->check(Real(0.0, 1.0, Bounds::kOpenUpper))
       ->capture_default_str();
   solve->add_option("--initial-trust-region", options->initial_trust_region_radius,
                     "initial trust region radius (1 / initial damping)")
+      ->check(Real(0.0, core::SolverOptions().max_trust_region_radius, Bounds::kOpenLower))
       ->capture_default_str();
   solve->add_option("--threads", options->threads, "worker threads (0: all cores)")
+      ->check(Integer(0, 65536))
       ->capture_default_str();
   solve->add_option("--report", options->report, "run report (.json)");
   solve->add_option("--tum", options->tum, "optimized trajectory (TUM format)");
   solve->add_option("--features-csv", options->features_csv, "optimized features (.csv)");
-  solve->add_option("--robot", options->robot, "MRCLAM robot number")->capture_default_str();
+  solve->add_option("--robot", options->robot, "MRCLAM robot number")
+      ->check(Integer(1, 5))
+      ->capture_default_str();
   solve->add_option("--chunk-observations", options->chunk_observations,
                     "observations per chunk (feature-complete)")
+      ->check(Integer(1))
       ->capture_default_str();
   solve->add_option("--max-eliminated-observations", options->max_eliminated_observations,
                     "features with more observations stay unknowns instead of being eliminated")
+      ->check(Integer(0))
       ->capture_default_str();
   solve->add_option("--robust-kernel", options->robust_kernel,
                     "[TYPE=]K, K one of none, huber[:c], cauchy[:c]; TYPE one of observation "
@@ -224,6 +238,7 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
       ->capture_default_str();
   solve->add_option("--progressive-max-new-poses", options->progressive_max_new_poses,
                     "at most this many poses join per progressive stage")
+      ->check(Integer(0))
       ->capture_default_str();
   solve->add_option("--checkpoint", options->checkpoint,
                     "solver checkpoint file, replaced atomically after every iteration "
@@ -240,18 +255,22 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
                   "fused pass (for measurements; same results)");
   solve->add_option("--streaming-poses", options->streaming_poses,
                     "stores with more poses skip progressive initialization (streaming mode)")
+      ->check(Integer(0))
       ->capture_default_str();
   solve->add_option("--streaming-observations", options->streaming_observations,
                     "stores with more observations are solved without loading them (streaming mode)")
+      ->check(Integer(0))
       ->capture_default_str();
   solve->add_flag("--associate", options->associate,
                   "unknown correspondence: merge features by the correspondence test "
                   "(paper Tables 9-10; docs/association.md)");
   solve->add_option("--chi", options->chi,
                     "with --associate: merge when the correspondence probability exceeds this")
+      ->check(Real(0.0, 1.0))
       ->capture_default_str();
   solve->add_option("--association-radius", options->association_radius,
                     "with --associate: test feature pairs closer than this [m]")
+      ->check(PositiveReal())
       ->capture_default_str();
   solve->add_flag("--ignore-barcodes", options->ignore_barcodes,
                   "MRCLAM: drop the landmark identities (use with --associate)");
@@ -279,6 +298,15 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     std::fprintf(stderr, "graphslam solve: %s\n", status.ToString().c_str());
     return kExitUsage;
   }
+  // Every output must be writable where it goes before hours of solving.
+  if (Status status = CheckOutputPaths({{"-o", options.output_g2o},
+                                        {"--tum", options.tum},
+                                        {"--features-csv", options.features_csv},
+                                        {"--report", options.report},
+                                        {"--checkpoint", options.checkpoint},
+                                        {"--workdir", options.workdir, /*folder=*/true}});
+      !status.ok())
+    return fail(status);
   StatusOr<core::LinearSolverType> solver_type = core::ParseLinearSolverType(options.solver);
   if (!solver_type.ok()) {
     std::fprintf(stderr, "graphslam solve: --solver: %s\n", solver_type.status().ToString().c_str());
@@ -619,7 +647,9 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     }
   } else if (Status status = core::SolveGraphSlam(solver_options, chunks, &problem, &summary);
              !status.ok()) {
-    return fail(status);
+    // A numerical failure names the input it happened on; nothing is written
+    // (exit 5, not 4: tools/exit_codes.h).
+    return fail(status.IsNumerical() ? status.WithContext(options.input + ": solve") : status);
   }
   const double optimize_cpu_seconds = ProcessCpuSeconds() - optimize_cpu_start;
   display.Finish();
@@ -647,6 +677,12 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                                               progressive_seconds, total_seconds,
                                               num_observations);
     report["streaming"] = streaming;
+    // -o renumbers features past the largest pose id when the ids collide
+    // (storage/g2o_writer.h): the written id is the feature id plus this.
+    if (!options.output_g2o.empty()) {
+      StatusOr<int64_t> offset = storage::G2oFeatureIdOffset(problem);
+      if (offset.ok()) report["g2o_feature_id_offset"] = *offset;
+    }
     // CPU seconds (user + system, all threads) of the optimization and of the
     // whole process so far: on a shared machine the cost, where wall time
     // also counts the waits for a core.

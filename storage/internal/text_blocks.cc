@@ -88,7 +88,16 @@ bool TextBlockCutter::Next(TextBlock* block, Status* status) {
       return false;
     }
     if (got < want) end_of_file_ = true;
-    if (block->text.find('\n', old) != std::string::npos) break;
+    const size_t newline = block->text.find('\n', old);
+    // Until the first '\n', the block is one line (carry_ holds no '\n').
+    if ((newline == std::string::npos ? block->text.size() : newline) > kMaxLineBytes) {
+      *status = Status::Corruption(
+          BaseName(path_) + ":" + std::to_string(line_ + 1) + ": line is longer than " +
+          std::to_string(kMaxLineBytes) +
+          " bytes; expected text records (a line of a supported format is < 1 KiB)");
+      return false;
+    }
+    if (newline != std::string::npos) break;
   }
   if (!end_of_file_) {
     const size_t last = block->text.rfind('\n');

@@ -51,6 +51,13 @@ inline bool IsSpace(char c) {
 
 }  // namespace
 
+Status LineReader::LineTooLong(int32_t line) const {
+  return Status::Corruption(name_ + ":" + std::to_string(line) + ": line is longer than " +
+                            std::to_string(kMaxLineBytes) +
+                            " bytes; expected text records (a line of a supported format is < "
+                            "1 KiB)");
+}
+
 bool LineReader::ReadLine() {
   carry_.clear();
   bool carrying = false;
@@ -68,12 +75,20 @@ bool LineReader::ReadLine() {
           carry_.append(begin, length);
           line_ = carry_;
         }
+        if (line_.size() > kMaxLineBytes) {
+          status_ = LineTooLong(line_number_ + 1);
+          return false;
+        }
         return true;
       }
       // The line goes on in the next block.
       carry_.append(begin, available);
       carrying = true;
       block_begin_ = block_end_;
+      if (carry_.size() > kMaxLineBytes) {
+        status_ = LineTooLong(line_number_ + 1);
+        return false;
+      }
     }
     if (end_of_file_) break;
     if (block_.empty()) block_.resize(kBlockSize);
@@ -167,14 +182,43 @@ Status LineReader::FieldError(size_t index, std::string_view what,
                ") is '" + std::string(fields_[index]) + "'; expected " + std::string(expected));
 }
 
-StatusOr<double> LineReader::Double(size_t index, std::string_view what) const {
+double MagnitudeBound(Magnitude magnitude) {
+  switch (magnitude) {
+    case Magnitude::kValue: return 1e9;
+    case Magnitude::kInformation: return 1e15;
+    case Magnitude::kSqrtInformation: return 3.16e7;
+    case Magnitude::kTime: return 1e12;
+  }
+  return 0.0;
+}
+
+std::string MagnitudeExpectation(Magnitude magnitude) {
+  switch (magnitude) {
+    case Magnitude::kValue:
+      return "|x| <= 1e9 (the bound on coordinates, angles and measurements)";
+    case Magnitude::kInformation:
+      return "|x| <= 1e15 (the bound on information entries)";
+    case Magnitude::kSqrtInformation:
+      return "|x| <= 3.16e7 (the bound on square-root information entries)";
+    case Magnitude::kTime:
+      return "|x| <= 1e12 (the bound on time stamps in seconds)";
+  }
+  return "";
+}
+
+StatusOr<double> LineReader::Double(size_t index, std::string_view what,
+                                    Magnitude magnitude) const {
   GS_CHECK(index < fields_.size());
-  if (adopted_ != nullptr && index < static_cast<size_t>(TokenizedLine::kMaxConverted) &&
-      ((adopted_->converted >> index) & 1u) != 0)
-    return adopted_->values[index];  // converted by TokenizeBlock, same from_chars
   double value = 0.0;
-  if (!ParseDouble(fields_[index], &value)) return FieldError(index, what, "a number");
-  if (!std::isfinite(value)) return FieldError(index, what, "a finite number");
+  if (adopted_ != nullptr && index < static_cast<size_t>(TokenizedLine::kMaxConverted) &&
+      ((adopted_->converted >> index) & 1u) != 0) {
+    value = adopted_->values[index];  // converted by TokenizeBlock, same from_chars
+  } else {
+    if (!ParseDouble(fields_[index], &value)) return FieldError(index, what, "a number");
+    if (!std::isfinite(value)) return FieldError(index, what, "a finite number");
+  }
+  if (!(std::abs(value) <= MagnitudeBound(magnitude)))
+    return FieldError(index, what, MagnitudeExpectation(magnitude));
   return value;
 }
 
@@ -185,9 +229,10 @@ StatusOr<int64_t> LineReader::Id(size_t index, std::string_view what) const {
   return value;
 }
 
-Status LineReader::Doubles(size_t first, size_t count, std::string_view what, double* out) const {
+Status LineReader::Doubles(size_t first, size_t count, std::string_view what, double* out,
+                           Magnitude magnitude) const {
   for (size_t k = 0; k < count; ++k) {
-    GS_ASSIGN_OR_RETURN(out[k], Double(first + k, what));
+    GS_ASSIGN_OR_RETURN(out[k], Double(first + k, what, magnitude));
   }
   return Status::Ok();
 }

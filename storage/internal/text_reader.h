@@ -8,6 +8,22 @@
 //
 // Numbers are parsed with std::from_chars (locale-independent); a token must be
 // consumed whole, and nan/inf are rejected (they would poison the solver).
+// Magnitudes are bounded too (docs/cli.md, "Number ranges"): a value of 1e308
+// is finite, but its square is not, so chi2 would overflow or the solve would
+// "converge" on garbage. The bounds are far beyond any real data set (the
+// largest information entry among the shipped data sets is 4e8, CSAIL.g2o):
+//   kValue            |x| <= 1e9: coordinates [m], angles [rad], measurements,
+//                     controls, noise parameters
+//   kInformation      |x| <= 1e15: information matrix entries; with residuals
+//                     below 2e9 a chi2 term stays below 1e34
+//   kSqrtInformation  |x| <= 3.16e7 (sqrt 1e15): iSAM's square-root
+//                     information R, so that R^T R stays within kInformation
+//   kTime             |x| <= 1e12: time stamps [s] (year ~31 700)
+//
+// Lines are at most kMaxLineBytes (1 MiB) long: a longer line (e.g. a zstd
+// "bomb" that decompresses to one 1 GB comment line) is Corruption
+// "<file>:<line>: line is longer than 1048576 bytes; ...", found after at most
+// that many bytes of it were buffered.
 //
 // Speed: the ingest reads every observation line through this class (twice
 // for pass 1 of a native log), so the success path allocates nothing: lines are
@@ -36,6 +52,15 @@ namespace graphslam::storage::internal {
 std::string BaseName(const std::string& path);
 
 struct TokenizedLine;  // text_blocks.h
+
+// A record line of any supported format is < 1 KiB; 1 MiB leaves room.
+inline constexpr size_t kMaxLineBytes = size_t{1} << 20;
+
+// Which bound a number read from text must respect (above).
+enum class Magnitude { kValue, kInformation, kSqrtInformation, kTime };
+double MagnitudeBound(Magnitude magnitude);
+// "|x| <= 1e+09 (coordinates, angles and measurements)" and so on.
+std::string MagnitudeExpectation(Magnitude magnitude);
 
 class LineReader {
  public:
@@ -72,13 +97,16 @@ class LineReader {
   // Accepts either of two counts: "...; expected A or B".
   Status ExpectFieldCount(size_t first, size_t second) const;
 
-  // Field `index` as a finite double: "<tag> field 3 (x) is 'abc'; expected a
-  // number" or "... is 'nan'; expected a finite number".
-  StatusOr<double> Double(size_t index, std::string_view what) const;
+  // Field `index` as a finite double within the bound of `magnitude`:
+  // "<tag> field 3 (x) is 'abc'; expected a number", "... is 'nan'; expected a
+  // finite number" or "... is '1e308'; expected |x| <= 1e+09 (...)".
+  StatusOr<double> Double(size_t index, std::string_view what,
+                          Magnitude magnitude = Magnitude::kValue) const;
   // Field `index` as an integer id: "...; expected an integer id".
   StatusOr<int64_t> Id(size_t index, std::string_view what) const;
   // `count` doubles starting at `first`.
-  Status Doubles(size_t first, size_t count, std::string_view what, double* out) const;
+  Status Doubles(size_t first, size_t count, std::string_view what, double* out,
+                 Magnitude magnitude = Magnitude::kValue) const;
 
  private:
   LineReader(std::string name, std::string path);
@@ -86,6 +114,7 @@ class LineReader {
   // The next line (without '\n') into line_; false at the end or on error.
   bool ReadLine();
   Status FieldError(size_t index, std::string_view what, std::string_view expected) const;
+  Status LineTooLong(int32_t line) const;
 
   std::string name_;
   std::string path_;

@@ -6,6 +6,7 @@
 #include <Eigen/LU>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 #include <sstream>
 
@@ -170,14 +171,10 @@ TEST(G2oWriter, ConvertsMotionAndRangeBearingAndGps) {
 TEST(G2oWriter, RejectsBadProblemsBeforeWriting) {
   const std::string path = TempPath("rejected.g2o");
   std::ofstream(path) << "old\n";
-  core::Problem2d collision = SmallProblem();
-  collision.feature_ids[0] = 11;
-  Status status = WriteG2o(collision, path);
-  EXPECT_TRUE(status.IsInvalidArgument());
-  EXPECT_EQ(status.message(),
-            "writing " + path +
-                ": feature id 11 is also a pose id; expected one shared id space without "
-                "collisions (g2o)");
+  core::Problem2d duplicate = SmallProblem();
+  duplicate.AddFeature(100, core::Point2(1.0, 1.0), true);
+  EXPECT_EQ(WriteG2o(duplicate, path).message(),
+            "writing " + path + ": feature id 100 appears twice; expected unique feature ids");
   core::Problem2d zero_range = SmallProblem();
   zero_range.observations[0].z.x() = 0.0;
   EXPECT_TRUE(WriteG2o(zero_range, path).IsInvalidArgument());
@@ -206,6 +203,49 @@ TEST(G2oWriter, DiskFailureKeepsThePreviousFile) {
     ASSERT_TRUE(still.ok());
     EXPECT_EQ(still->poses[1].x(), 1.0);
   }
+}
+
+}  // namespace
+}  // namespace graphslam::storage
+
+namespace graphslam::storage {
+namespace {
+
+// Issue 22: a feature id that is also a pose id (MRCLAM: poses 0..n-1,
+// landmarks 6..20) does not make the write fail; the features are numbered
+// past the largest pose id, and a comment line says by how much.
+TEST(G2oWriter, CollidingFeatureIdsAreRenumberedPastThePoses) {
+  core::Problem2d problem = SmallProblem();  // poses 10, 11, 12
+  problem.feature_ids[0] = 11;
+  problem.AddFeature(9, core::Point2(5.0, 6.0), true);
+  core::Observation second = problem.observations[0];
+  second.feature = 1;
+  problem.observations.push_back(second);
+  StatusOr<int64_t> offset = G2oFeatureIdOffset(problem);
+  ASSERT_TRUE(offset.ok());
+  EXPECT_EQ(*offset, 12 + 1 - 9);  // the smallest feature id 9 becomes 13
+  const std::string path = TempPath("renumbered.g2o");
+  ASSERT_TRUE(WriteG2o(problem, path).ok());
+  const std::string text = Slurp(path);
+  EXPECT_EQ(text.substr(0, text.find('\n')),
+            "# graphslam: feature ids renumbered: VERTEX_XY id = feature id + 4");
+  const auto back = ReadG2o(path);
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  EXPECT_EQ(back->pose_ids, problem.pose_ids);
+  ASSERT_EQ(back->feature_ids.size(), 2u);
+  EXPECT_EQ(back->feature_ids[0], 15);
+  EXPECT_EQ(back->feature_ids[1], 13);
+  EXPECT_EQ(back->features[1], problem.features[1]);
+  ASSERT_EQ(back->observations.size(), 2u);
+  EXPECT_EQ(back->feature_ids[back->observations[1].feature], 13);
+  // Disjoint ids: written as they are, no comment line.
+  EXPECT_EQ(*G2oFeatureIdOffset(SmallProblem()), 0);
+  ASSERT_TRUE(WriteG2o(SmallProblem(), path).ok());
+  EXPECT_EQ(Slurp(path).rfind("VERTEX_SE2 10 ", 0), 0u);
+  // Renumbering that would overflow int64 is refused, naming the ids.
+  problem.feature_ids[0] = std::numeric_limits<int64_t>::max();
+  problem.feature_ids[1] = 11;
+  EXPECT_TRUE(G2oFeatureIdOffset(problem).status().IsInvalidArgument());
 }
 
 }  // namespace

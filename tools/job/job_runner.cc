@@ -825,6 +825,8 @@ Status RunJob(const RunJobOptions& options) {
       return Status::InvalidArgument(
           options.job_path + ": the job file changed since " + state_path +
           " was written; run without --resume to start over");
+    // The completed stages' results must be the bytes they wrote.
+    GS_RETURN_IF_ERROR(VerifyJobFiles(ctx.work, *state));
     ctx.state = std::move(state).value();
   } else {
     // A fresh start: stage results of an earlier job go, its final outputs stay
@@ -870,6 +872,9 @@ Status RunJob(const RunJobOptions& options) {
     completed.seconds = std::chrono::duration<double>(Clock::now() - start).count();
     completed.peak_rss_bytes = PeakRssBytes();
     ctx.state.completed.push_back(completed);
+    StatusOr<std::map<std::string, FileDigest>> files = DigestJobFiles(ctx.work);
+    if (!files.ok()) return files.status();
+    ctx.state.files = std::move(files).value();
     GS_RETURN_IF_ERROR(WriteJobState(state_path, ctx.state));
     storage::StopPointForTests("job_stage_done " + name);
     ++done;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -23,6 +24,31 @@ Status Error(const std::string& file, const YAML::Node& node, const std::string&
   out << ": " << message;
   return Status::InvalidArgument(out.str());
 }
+
+// yaml-cpp keeps both entries of a key given twice in one mapping, and
+// node[key] finds the first: a duplicate would silently drop a setting. Every
+// mapping of the tree is checked; the error names the second occurrence.
+Status CheckDuplicateKeys(const std::string& file, const YAML::Node& node) {
+  if (node.IsMap()) {
+    std::map<std::string, int> first_line;
+    for (const auto& entry : node) {
+      const std::string key = entry.first.Scalar();
+      const auto [it, inserted] = first_line.emplace(key, entry.first.Mark().line + 1);
+      if (!inserted)
+        return Error(file, entry.first,
+                     "duplicate key '" + key + "' (first at line " + std::to_string(it->second) +
+                         "); expected each key once per mapping");
+      GS_RETURN_IF_ERROR(CheckDuplicateKeys(file, entry.second));
+    }
+  } else if (node.IsSequence()) {
+    for (const auto& element : node) GS_RETURN_IF_ERROR(CheckDuplicateKeys(file, element));
+  }
+  return Status::Ok();
+}
+
+// A run's name names files (trajectories/<name>.tum, ...): a file name
+// component of at most this many bytes (NAME_MAX is 255).
+constexpr size_t kMaxRunNameBytes = 128;
 
 // Reads scalars of the YAML tree with file:line errors.
 class Reader {
@@ -243,6 +269,12 @@ Status ParseRun(const Reader& r, const YAML::Node& node, RunSpec* run) {
   run->line = node.Mark().line + 1;
   if (!node["name"]) return Error(r.file(), node, "run has no 'name'; expected name: <text>");
   GS_RETURN_IF_ERROR(r.String(node["name"], "name", &run->name));
+  if (run->name.size() > kMaxRunNameBytes)
+    return Error(r.file(), node["name"],
+                 "run name '" + run->name.substr(0, 32) + "...' is " +
+                     std::to_string(run->name.size()) + " bytes long; expected at most " +
+                     std::to_string(kMaxRunNameBytes) +
+                     " (it names files such as trajectories/<name>.tum)");
   const bool safe = !run->name.empty() &&
                     std::all_of(run->name.begin(), run->name.end(), [](char c) {
                       return std::isalnum(static_cast<unsigned char>(c)) || c == '_' ||
@@ -370,6 +402,7 @@ StatusOr<JobSpec> ParseJobSpec(const std::string& text, const std::string& path)
         << ": not valid YAML: " << error.msg;
     return Status::InvalidArgument(out.str());
   }
+  GS_RETURN_IF_ERROR(CheckDuplicateKeys(path, root));
   const Reader r(path);
   if (!root.IsMap())
     return Status::InvalidArgument(path + ":1:1: a job file is a mapping; expected output: and runs:");

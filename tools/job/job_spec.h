@@ -14,7 +14,10 @@
 // Every error is InvalidArgument "<job file>:<line>:<column>: <what>; expected
 // <what>", the line and column of the offending YAML node (yaml-cpp's Mark,
 // 0-based there, 1-based here). Unknown keys are errors (a typo must not
-// silently drop a setting).
+// silently drop a setting), and so is a key given twice in one mapping
+// (yaml-cpp keeps both; node[key] would silently take the first). A run name
+// names files: letters, digits, '_', '-', '.', not starting with '.', at most
+// 128 bytes.
 //
 // THREAD SAFETY: plain values and reentrant functions. ALLOCATION: O(file).
 #pragma once

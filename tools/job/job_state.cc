@@ -1,11 +1,15 @@
 #include "tools/job/job_state.h"
 
 #include <chrono>
+#include <filesystem>
 #include <ctime>
 #include <fstream>
+#include <cstdlib>
 #include <sstream>
+#include <vector>
 
 #include "storage/atomic_file.h"
+#include "storage/crc32c.h"
 
 namespace graphslam::tools::job {
 
@@ -28,6 +32,75 @@ std::string Fingerprint(const std::string& bytes) {
   return text;
 }
 
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kStateFile = "state.json";
+
+std::string Hex32(uint32_t value) {
+  char text[9];
+  std::snprintf(text, sizeof(text), "%08x", value);
+  return text;
+}
+
+// The checksum of the state object without its own "state_crc32c".
+std::string StateChecksum(nlohmann::json json) {
+  json.erase("state_crc32c");
+  return Hex32(storage::crc32c::Value(json.dump()));
+}
+
+StatusOr<FileDigest> DigestFile(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return Status::IOError(path.string() + ": cannot open to check its checksum");
+  FileDigest digest;
+  std::vector<char> buffer(size_t{1} << 20);
+  while (in) {
+    in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+    const auto got = static_cast<size_t>(in.gcount());
+    digest.crc32c = storage::crc32c::Extend(digest.crc32c, buffer.data(), got);
+    digest.bytes += static_cast<int64_t>(got);
+  }
+  if (in.bad()) return Status::IOError(path.string() + ": read failed");
+  return digest;
+}
+
+}  // namespace
+
+StatusOr<std::map<std::string, FileDigest>> DigestJobFiles(const std::string& work) {
+  std::map<std::string, FileDigest> files;
+  std::error_code error;
+  fs::recursive_directory_iterator it(work, error), end;
+  if (error) return Status::IOError("cannot list " + work + ": " + error.message());
+  for (; it != end; it.increment(error)) {
+    if (error) return Status::IOError("cannot list " + work + ": " + error.message());
+    if (!it->is_regular_file(error)) continue;
+    const std::string relative = fs::relative(it->path(), work, error).generic_string();
+    if (relative == kStateFile || relative.find(".tmp-") != std::string::npos) continue;
+    GS_ASSIGN_OR_RETURN(files[relative], DigestFile(it->path()));
+  }
+  return files;
+}
+
+Status VerifyJobFiles(const std::string& work, const JobState& state) {
+  for (const auto& [relative, expected] : state.files) {
+    const fs::path path = fs::path(work) / relative;
+    std::error_code error;
+    if (!fs::is_regular_file(path, error))
+      return Status::Corruption(path.string() +
+                                ": missing, but state.json lists it as the result of a completed "
+                                "stage; run without --resume to start over");
+    GS_ASSIGN_OR_RETURN(const FileDigest actual, DigestFile(path));
+    if (!(actual == expected))
+      return Status::Corruption(
+          path.string() + ": changed after the stage that wrote it completed (" +
+          std::to_string(actual.bytes) + " bytes, crc32c " + Hex32(actual.crc32c) +
+          "; state.json records " + std::to_string(expected.bytes) + " bytes, crc32c " +
+          Hex32(expected.crc32c) + "); run without --resume to start over");
+  }
+  return Status::Ok();
+}
+
 StatusOr<JobState> ReadJobState(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return Status::NotFound(path + ": cannot open the job state");
@@ -44,6 +117,20 @@ StatusOr<JobState> ReadJobState(const std::string& path) {
     return Status::NotSupported(path + ": job state version " +
                                 std::to_string(json["version"].get<int>()) + "; expected <= " +
                                 std::to_string(kJobStateVersion));
+  if (json["version"].get<int>() < kJobStateVersion)
+    return Status::Corruption(path + ": job state version " +
+                              std::to_string(json["version"].get<int>()) +
+                              " carries no checksums; expected version " +
+                              std::to_string(kJobStateVersion) +
+                              " (run without --resume to start over)");
+  if (!json.contains("state_crc32c") || !json["state_crc32c"].is_string())
+    return Status::Corruption(path + ": field 'state_crc32c' missing; expected a string");
+  if (json["state_crc32c"].get<std::string>() != StateChecksum(json))
+    return Status::Corruption(path + ": checksum mismatch (state_crc32c " +
+                              json["state_crc32c"].get<std::string>() + ", content " +
+                              StateChecksum(json) +
+                              "): the job state was edited or damaged; run without --resume "
+                              "to start over");
   JobState state;
   if (!json.contains("job_fingerprint") || !json["job_fingerprint"].is_string())
     return Status::Corruption(path + ": field 'job_fingerprint' missing; expected a string");
@@ -59,6 +146,19 @@ StatusOr<JobState> ReadJobState(const std::string& path) {
     stage.peak_rss_bytes = entry.value("peak_rss_bytes", int64_t{0});
     state.completed.push_back(stage);
   }
+  if (!json.contains("files") || !json["files"].is_object())
+    return Status::Corruption(path + ": field 'files' missing; expected an object");
+  for (const auto& [name, entry] : json["files"].items()) {
+    if (!entry.is_object() || !entry.contains("bytes") || !entry["bytes"].is_number_integer() ||
+        !entry.contains("crc32c") || !entry["crc32c"].is_string())
+      return Status::Corruption(path + ": files entry '" + name +
+                                "' is not {bytes: integer, crc32c: hex}");
+    FileDigest digest;
+    digest.bytes = entry["bytes"].get<int64_t>();
+    digest.crc32c = static_cast<uint32_t>(
+        std::strtoul(entry["crc32c"].get<std::string>().c_str(), nullptr, 16));
+    state.files[name] = digest;
+  }
   return state;
 }
 
@@ -71,6 +171,10 @@ Status WriteJobState(const std::string& path, const JobState& state) {
   for (const CompletedStage& c : state.completed)
     json["completed"].push_back(
         {{"stage", c.stage}, {"seconds", c.seconds}, {"peak_rss_bytes", c.peak_rss_bytes}});
+  json["files"] = nlohmann::json::object();
+  for (const auto& [name, digest] : state.files)
+    json["files"][name] = {{"bytes", digest.bytes}, {"crc32c", Hex32(digest.crc32c)}};
+  json["state_crc32c"] = StateChecksum(json);
   return storage::WriteStringAtomically(storage::Env::Default(), path, json.dump(2) + "\n");
 }
 

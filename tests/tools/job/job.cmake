@@ -10,3 +10,4 @@ graphslam_test(tools/job/job_map)
 graphslam_test(tools/job/job_associate)
 # The resume test runs the graphslam binary itself.
 add_dependencies(job_resume_test graphslam)
+graphslam_test(tools/job/job_input_checks)

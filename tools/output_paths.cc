@@ -1,0 +1,64 @@
+#include "tools/output_paths.h"
+
+#include <unistd.h>
+
+#include <filesystem>
+
+namespace graphslam::tools {
+namespace {
+
+namespace fs = std::filesystem;
+
+Status CheckWritableFolder(const OutputPath& output, const fs::path& folder) {
+  std::error_code error;
+  const fs::file_status status = fs::status(folder, error);
+  const std::string where = output.option + " " + output.path + ": ";
+  if (!fs::exists(status))
+    return Status::IOError(where + "the folder " + folder.string() +
+                           " does not exist; expected an existing folder to write the output into");
+  if (!fs::is_directory(status))
+    return Status::IOError(where + folder.string() +
+                           " is not a folder; expected a folder to write the output into");
+  if (access(folder.c_str(), W_OK | X_OK) != 0)
+    return Status::IOError(where + "the folder " + folder.string() +
+                           " is not writable; expected a folder this user may create files in");
+  return Status::Ok();
+}
+
+Status CheckOne(const OutputPath& output) {
+  if (output.path.empty() || output.path == "-") return Status::Ok();
+  const fs::path path(output.path);
+  std::error_code error;
+  const fs::file_status status = fs::status(path, error);
+  if (output.folder) {
+    if (fs::exists(status)) return CheckWritableFolder(output, path);
+    // Created with its parents: the nearest existing ancestor must take them.
+    fs::path ancestor = fs::absolute(path, error).parent_path();
+    while (!ancestor.empty() && !fs::exists(ancestor, error) &&
+           ancestor != ancestor.root_path())
+      ancestor = ancestor.parent_path();
+    return CheckWritableFolder(output, ancestor);
+  }
+  if (fs::is_directory(status))
+    return Status::IOError(output.option + " " + output.path +
+                           ": is a folder; expected a file path for the output");
+  // A device or FIFO is written in place (storage/atomic_file.h): its folder
+  // need not be writable (/dev), the file itself must be.
+  if (fs::exists(status) && !fs::is_regular_file(status)) {
+    if (::access(output.path.c_str(), W_OK) != 0)
+      return Status::IOError(output.option + " " + output.path + ": not writable");
+    return Status::Ok();
+  }
+  fs::path parent = path.parent_path();
+  if (parent.empty()) parent = ".";
+  return CheckWritableFolder(output, parent);
+}
+
+}  // namespace
+
+Status CheckOutputPaths(const std::vector<OutputPath>& outputs) {
+  for (const OutputPath& output : outputs) GS_RETURN_IF_ERROR(CheckOne(output));
+  return Status::Ok();
+}
+
+}  // namespace graphslam::tools
