@@ -97,11 +97,12 @@ Stage BuildStage(const core::Problem2d& problem, const std::vector<core::Pose2>&
 }
 
 Status CheckInput(const core::Problem2d& problem) {
-  const std::string prefix = (problem.source.empty() ? std::string("<input>") : problem.source) + ": ";
+  const std::string prefix =
+      (problem.source.empty() ? std::string("<input>") : problem.source) + ": ";
   const int32_t n = problem.num_poses();
   auto bad = [&](const char* what, int32_t index, int32_t line) {
-    return Status::InvalidArgument(prefix + (line > 0 ? "line " + std::to_string(line) + ": " : "") +
-                                   what + " index " + std::to_string(index) +
+    const std::string where = line > 0 ? "line " + std::to_string(line) + ": " : "";
+    return Status::InvalidArgument(prefix + where + what + " index " + std::to_string(index) +
                                    " out of range, expected 0.." + std::to_string(n - 1));
   };
   for (const core::RelativePoseConstraint& c : problem.relative_poses) {
@@ -373,20 +374,23 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
     // Solve the stage with its correspondences (nothing to do without new
     // observations: the chained poses already fit their odometry).
     if (any_new) {
-    const Clock::time_point solve_start = Clock::now();
-    Stage solved = BuildStage(*problem, poses, clusters, cluster_of, end, end);
-    core::SolverSummary solver_summary;
-    GS_RETURN_IF_ERROR(SolveWithoutSingletons(stage_options, chunking, &solved.sub, &solver_summary)
-                           .WithContext("incremental association, stage solve of poses 0.." +
-                                        std::to_string(end - 1)));
-    std::copy(solved.sub.poses.begin(), solved.sub.poses.end(), poses.begin());
-    for (size_t c = 0; c < clusters.size(); ++c)
-      if (solved.cluster_feature[c] >= 0) clusters[c].position = solved.sub.features[solved.cluster_feature[c]];
-    summary->chi2 = solver_summary.final_chi2;
-    if (options.scale_by_variance_factor)
-      scale = internal::VarianceFactor(solved.sub, solver_summary.final_chi2, options.min_redundancy);
-    summary->variance_factor = scale;
-    summary->solve_seconds += SecondsSince(solve_start);
+      const Clock::time_point solve_start = Clock::now();
+      Stage solved = BuildStage(*problem, poses, clusters, cluster_of, end, end);
+      core::SolverSummary solver_summary;
+      GS_RETURN_IF_ERROR(
+          SolveWithoutSingletons(stage_options, chunking, &solved.sub, &solver_summary)
+              .WithContext("incremental association, stage solve of poses 0.." +
+                           std::to_string(end - 1)));
+      std::copy(solved.sub.poses.begin(), solved.sub.poses.end(), poses.begin());
+      for (size_t c = 0; c < clusters.size(); ++c)
+        if (solved.cluster_feature[c] >= 0)
+          clusters[c].position = solved.sub.features[solved.cluster_feature[c]];
+      summary->chi2 = solver_summary.final_chi2;
+      if (options.scale_by_variance_factor)
+        scale = internal::VarianceFactor(solved.sub, solver_summary.final_chi2,
+                                         options.min_redundancy);
+      summary->variance_factor = scale;
+      summary->solve_seconds += SecondsSince(solve_start);
     }
 
     // Provisional features not seen for a while are clutter.

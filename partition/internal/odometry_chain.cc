@@ -9,7 +9,8 @@ namespace graphslam::partition::internal {
 namespace {
 
 // The pose `p` predicted through `edge` from the placed pose edge.other.
-core::Pose2 Chain(const core::Problem2d& problem, const std::vector<core::Pose2>& poses, const PoseEdge& edge) {
+core::Pose2 Chain(const core::Problem2d& problem, const std::vector<core::Pose2>& poses,
+                  const PoseEdge& edge) {
   const core::Pose2& from = poses[edge.other];
   if (edge.motion) {
     const core::VelocityControl& u = problem.motions[edge.constraint].control;

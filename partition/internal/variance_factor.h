@@ -36,7 +36,8 @@ inline double VarianceFactor(const core::Problem2d& problem, double chi2, int64_
   }
   if (!anchored && unknowns >= 3) unknowns -= 3;
   for (const core::Observation& o : problem.observations) {
-    if (o.feature >= 0 && static_cast<size_t>(o.feature) < observed.size() && !observed[o.feature]) {
+    if (o.feature >= 0 && static_cast<size_t>(o.feature) < observed.size() &&
+        !observed[o.feature]) {
       observed[o.feature] = 1;
       unknowns += 2;
     }

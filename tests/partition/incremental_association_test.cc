@@ -59,9 +59,9 @@ TEST(IncrementalAssociation, EasyDataEndsWithTheBatchCorrespondences) {
     batch_options.search_radius = 2.0;
     batch_options.incremental.enabled = false;
     AssociationSummary batch_summary;
-    ASSERT_TRUE(
-        AssociateAndSolve(batch_options, testing::TightCholmodSolverOptions(), &batch, &batch_summary)
-            .ok());
+    ASSERT_TRUE(AssociateAndSolve(batch_options, testing::TightCholmodSolverOptions(), &batch,
+                                  &batch_summary)
+                    .ok());
     const std::vector<int64_t> batch_labels =
         InputObservationLabels(batch, batch_summary, key.size());
 
@@ -106,7 +106,8 @@ TEST(IncrementalAssociation, MisdetectionSeenOnceEndsAsClutter) {
       if (local.norm() > 3.5) continue;
       const core::Point2 world = pose.head<2>() + Eigen::Rotation2Dd(pose.z()) * local;
       double nearest = 1e9;
-      for (const core::Point2& f : random.true_features) nearest = std::min(nearest, (f - world).norm());
+      for (const core::Point2& f : random.true_features)
+        nearest = std::min(nearest, (f - world).norm());
       if (nearest > clearance) {
         clearance = nearest;
         ghost = local;
