@@ -19,9 +19,9 @@
 // GS_STAGE_POSES and GS_INITIAL_RADIUS override the progressive stages'
 // iterations and new poses and the initial trust region radius;
 // GS_FULL_SOLVE_UNDOS=2 sets AssociationOptions::full_solve_undos; GS_INC_STAGE,
-// GS_INC_RADIUS, GS_INC_Z, GS_INC_CONFIRM, GS_INC_WINDOW set the incremental
-// pass's stage_poses, search_radius, joint.z, confirm_observations and
-// provisional_poses (partition/incremental_association.h), GS_INCREMENTAL=1 runs
+// GS_INC_RADIUS, GS_INC_Z, GS_INC_CONFIRM, GS_INC_WINDOW, GS_INC_ITERATIONS set
+// the incremental pass's stage_poses, search_radius, joint.z,
+// confirm_observations, provisional_poses and max_iterations_per_stage (partition/incremental_association.h), GS_INCREMENTAL=1 runs
 // it (off by default); GS_SCALE=0/1 sets the variance-factor scaling of both
 // passes (default: incremental pass on, batch rounds off); GS_SPLITS=1 prints
 // every key landmark split over several features with the pose spans.
@@ -190,6 +190,8 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("GS_INC_Z")) options.incremental.joint.z = std::atof(v);
   if (const char* v = std::getenv("GS_INC_CONFIRM")) options.incremental.confirm_observations = std::atoi(v);
   if (const char* v = std::getenv("GS_INC_WINDOW")) options.incremental.provisional_poses = std::atoll(v);
+  if (const char* v = std::getenv("GS_INC_ITERATIONS"))
+    options.incremental.max_iterations_per_stage = std::atoi(v);
   if (const char* v = std::getenv("GS_INCREMENTAL")) options.incremental.enabled = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_SCALE")) {
     options.scale_by_variance_factor = std::atoi(v) != 0;
