@@ -22,8 +22,11 @@
 #include "core/pose_marginals.h"
 #include "core/range_bearing_model.h"
 #include "core/unknown_layout.h"
+#include "partition/feature_covariances.h"
 #include "partition/in_memory_chunk_source.h"
+#include "partition/internal/chi_square.h"
 #include "partition/internal/rejected_pairs.h"
+#include "partition/internal/variance_factor.h"
 #include "partition/singleton_solve.h"
 
 namespace graphslam::partition {
@@ -53,13 +56,7 @@ core::Point2 FirstSight(const core::Observation& o, const core::Pose2& pose) {
                                                        : core::InvertPointObservation(pose, o.z);
 }
 
-// Chi-square quantile for `dof` degrees of freedom at standard normal z
-// (Wilson-Hilferty): dof (1 - 2/(9 dof) + z sqrt(2/(9 dof)))^3.
-double ChiSquareQuantile(double dof, double z) {
-  const double a = 2.0 / (9.0 * dof);
-  const double c = 1.0 - a + z * std::sqrt(a);
-  return dof * c * c * c;
-}
+using internal::ChiSquareQuantile;
 
 // Gauss-Newton on one feature's position with the poses held, step halving
 // while the cost does not decrease: the cheap stand-in for a full re-solve
@@ -118,99 +115,16 @@ struct UnionFind {
   }
 };
 
-// What the tests need of one feature at the current solution.
-struct FeatureState {
-  core::FeatureGain gain;
-  Eigen::Matrix2d information = Eigen::Matrix2d::Zero();  // C (weights merged positions)
-  bool usable = false;  // positive definite and observed
-};
-
-// The reduced system S at the solution (lambda = 0) and every feature's gain.
-Status LinearizeAtSolution(const core::SolverOptions& solver_options,
-                           const core::ChunkSource& chunks, const core::Problem2d& problem,
-                           core::PoseMarginals* marginals, std::vector<FeatureState>* states) {
-  core::UnknownLayout layout = core::UnknownLayout::FromProblem(problem);
-  core::PassContext context;
-  context.chunks = &chunks;
-  context.layout = &layout;
-  context.max_in_flight = solver_options.max_chunks_in_flight;
-  context.kernel = solver_options.observation_kernel;
-  core::ScreeningResult screening;
-  GS_RETURN_IF_ERROR(core::ScreenFeatures(context, problem.poses, problem.features,
-                                          solver_options.max_eliminated_observations,
-                                          &screening));
-  layout.KeepFeatures(screening.kept);
-  context.excluded = &screening.excluded;
-  std::vector<std::pair<int, int>> pairs;
-  core::AppendPoseFactorPattern(problem, layout, &pairs);
-  GS_RETURN_IF_ERROR(core::CollectReducedPattern(context, &pairs));
-  core::ReducedSystem system;
-  system.matrix = core::BlockSparseMatrix::FromPattern(core::UnknownLayout::kPoseDimension,
-                                                       layout.num_blocks(), std::move(pairs));
-  const int n = system.matrix.num_rows();
-  system.rhs.setZero(n);
-  system.gradient.setZero(n);
-  system.hessian_diagonal.setZero(n);
-  core::LinearizePoseFactors(problem, problem.poses, layout, &system.matrix, &system.gradient,
-                             &system.hessian_diagonal, solver_options.pose_kernels);
-  GS_RETURN_IF_ERROR(core::ReducePass(context, problem.poses, problem.features, 0.0, &system));
-  GS_RETURN_IF_ERROR(marginals->Factorize(system.matrix));
-
-  states->assign(problem.num_features(), FeatureState());
-  core::ObservationChunk chunk;
-  core::LinearizedFeature linearized;
-  for (int64_t c = 0; c < chunks.NumChunks(); ++c) {
-    GS_RETURN_IF_ERROR(chunks.Load(c, &chunk));
-    for (int64_t slot = 0; slot < chunk.num_features(); ++slot) {
-      const int32_t f = chunk.features[slot];
-      if (screening.excluded[f]) continue;
-      FeatureState& state = (*states)[f];
-      core::LinearizeFeature(chunk, slot, problem.poses, problem.features[f], layout,
-                             context.kernel, &linearized);
-      state.information = linearized.blocks.feature_information.topLeftCorner<2, 2>();
-      if (layout.IsKept(f)) {
-        state.gain.blocks = {layout.feature_unknown_index[f]};
-        Eigen::Matrix<double, 3, 2> select = Eigen::Matrix<double, 3, 2>::Zero();
-        select.topRows<2>().setIdentity();
-        state.gain.gains = {select};
-        state.gain.own_covariance.setZero();
-        state.usable = true;
-        continue;
-      }
-      const Eigen::LLT<Eigen::Matrix2d> llt(state.information);
-      if (llt.info() != Eigen::Success) continue;
-      const Eigen::Matrix2d covariance = llt.solve(Eigen::Matrix2d::Identity());
-      state.gain.own_covariance = covariance;
-      const size_t k = linearized.blocks.poses.size();
-      std::vector<size_t> order(k);
-      std::iota(order.begin(), order.end(), size_t{0});
-      std::sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-        return linearized.blocks.poses[a] < linearized.blocks.poses[b];
-      });
-      for (size_t i : order) {
-        state.gain.blocks.push_back(linearized.blocks.poses[i]);
-        state.gain.gains.push_back(
-            Eigen::Matrix<double, 3, 2>(-linearized.blocks.pose_feature[i] * covariance));
-      }
-      state.usable = true;
-    }
-  }
-  return Status::Ok();
-}
-
 struct Candidate {
   int32_t j = 0, k = 0;
   Eigen::Matrix4d joint = Eigen::Matrix4d::Zero();
   core::CorrespondenceResult result;
 };
 
-// Joint covariances of every candidate: own noise plus Gamma_j^T Sigma Gamma_k.
-// Each feature's gains are whitened once, y_j = L^{-1} P Gamma_j (sparse: the
-// elimination-tree reach of its poses), so Gamma_j^T Sigma Gamma_k = y_j^T y_k
-// is a sparse dot product per pair (core/pose_marginals.h). Features and
-// pairs are processed in parallel (TBB), each thread with its own workspace.
-Status JointCovariances(const core::PoseMarginals& marginals, int /*batch*/,
-                        const std::vector<FeatureState>& states,
+// Joint covariances of every candidate: own noise plus Gamma_j^T Sigma Gamma_k
+// (partition/feature_covariances.h): each feature whitened once, one sparse
+// dot product per pair, pairs in parallel (TBB).
+Status JointCovariances(const core::PoseMarginals& marginals, const std::vector<FeatureState>& states,
                         std::vector<Candidate>* candidates) {
   std::vector<int32_t> slot(states.size(), -1);
   std::vector<int32_t> features;
@@ -222,31 +136,17 @@ Status JointCovariances(const core::PoseMarginals& marginals, int /*batch*/,
       }
     }
   }
-  std::vector<core::PoseMarginals::WhitenedColumns> whitened(features.size());
-  std::vector<Eigen::Matrix2d> own(features.size());
-  tbb::enumerable_thread_specific<core::PoseMarginals::WhitenWorkspace> workspaces;
-  std::vector<Status> errors(features.size());
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, features.size(), 64),
-                    [&](const tbb::blocked_range<size_t>& range) {
-                      core::PoseMarginals::WhitenWorkspace& workspace = workspaces.local();
-                      for (size_t i = range.begin(); i != range.end(); ++i) {
-                        const core::FeatureGain& gain = states[features[i]].gain;
-                        errors[i] = marginals.Whiten(gain.blocks, gain.gains, &whitened[i],
-                                                     &workspace);
-                        own[i] = gain.own_covariance +
-                                 core::PoseMarginals::Dot(whitened[i], whitened[i]);
-                      }
-                    });
-  for (const Status& error : errors) GS_RETURN_IF_ERROR(error);
+  WhitenedFeatures whitened;
+  GS_RETURN_IF_ERROR(WhitenFeatures(marginals, states, features, &whitened));
   tbb::parallel_for(tbb::blocked_range<size_t>(0, candidates->size(), 256),
                     [&](const tbb::blocked_range<size_t>& range) {
                       for (size_t c = range.begin(); c != range.end(); ++c) {
                         Candidate& candidate = (*candidates)[c];
                         const int32_t a = slot[candidate.j], b = slot[candidate.k];
-                        const Eigen::Matrix2d cross =
-                            core::PoseMarginals::Dot(whitened[a], whitened[b]);
-                        candidate.joint.topLeftCorner<2, 2>() = own[a];
-                        candidate.joint.bottomRightCorner<2, 2>() = own[b];
+                        const Eigen::Matrix2d cross = core::PoseMarginals::Dot(
+                            whitened.whitened[a], whitened.whitened[b]);
+                        candidate.joint.topLeftCorner<2, 2>() = whitened.covariance[a];
+                        candidate.joint.bottomRightCorner<2, 2>() = whitened.covariance[b];
                         candidate.joint.topRightCorner<2, 2>() = cross;
                         candidate.joint.bottomLeftCorner<2, 2>() = cross.transpose();
                       }
@@ -354,11 +254,14 @@ Status AssociationOptions::Validate() const {
                                    std::to_string(full_solve_undos) + "; expected 1 or 2");
   if (chunk_observations < 1)
     return Status::InvalidArgument("association: chunk_observations must be >= 1");
+  if (min_redundancy < 0)
+    return Status::InvalidArgument("association: min_redundancy must be >= 0");
+  GS_RETURN_IF_ERROR(incremental.Validate());
   return Status::Ok();
 }
 
 Status TestCorrespondences(const core::SolverOptions& solver_options,
-                           const core::Problem2d& problem, int marginal_batch,
+                           const core::Problem2d& problem, int /*marginal_batch*/,
                            std::vector<CorrespondenceQuery>* queries) {
   InMemoryChunkSource chunks(problem, ChunkingOptions());
   core::PoseMarginals marginals;
@@ -381,7 +284,7 @@ Status TestCorrespondences(const core::SolverOptions& solver_options,
     candidates.push_back(candidate);
     where.push_back(q);
   }
-  GS_RETURN_IF_ERROR(JointCovariances(marginals, marginal_batch, states, &candidates));
+  GS_RETURN_IF_ERROR(JointCovariances(marginals, states, &candidates));
   for (size_t c = 0; c < candidates.size(); ++c) {
     CorrespondenceQuery& query = (*queries)[where[c]];
     query.joint_covariance = candidates[c].joint;
@@ -409,6 +312,20 @@ PairwiseScore ScorePairwise(const std::vector<int64_t>& assigned, const std::vec
   return score;
 }
 
+std::vector<int64_t> InputObservationLabels(const core::Problem2d& associated,
+                                            const AssociationSummary& summary,
+                                            size_t input_observations) {
+  std::vector<int64_t> labels(input_observations);
+  for (size_t i = 0; i < input_observations; ++i) labels[i] = -1 - static_cast<int64_t>(i);
+  for (size_t o = 0; o < associated.observations.size() && o < summary.input_observation.size();
+       ++o) {
+    const int32_t input = summary.input_observation[o];
+    if (input >= 0 && static_cast<size_t>(input) < input_observations)
+      labels[input] = associated.observations[o].feature;
+  }
+  return labels;
+}
+
 Status AssociateAndSolve(const AssociationOptions& options,
                          const core::SolverOptions& solver_options, core::Problem2d* problem,
                          AssociationSummary* summary) {
@@ -416,6 +333,12 @@ Status AssociateAndSolve(const AssociationOptions& options,
   const Clock::time_point start = Clock::now();
   *summary = AssociationSummary();
   summary->initial_features = problem->num_features();
+  GS_RETURN_IF_ERROR(AssociateIncrementally(options.incremental, solver_options, problem,
+                                            &summary->incremental,
+                                            &summary->input_observation));
+  summary->origin_observation.assign(problem->num_features(), -1);
+  for (size_t o = problem->observations.size(); o-- > 0;)
+    summary->origin_observation[problem->observations[o].feature] = static_cast<int32_t>(o);
   Labels labels(*problem);
   ChunkingOptions chunking;
   chunking.max_observations_per_chunk = options.chunk_observations;
@@ -501,6 +424,11 @@ Status AssociateAndSolve(const AssociationOptions& options,
       ++stats.solves;
       stats.solver_iterations += summary->final_solve.iterations;
       bool undone_since_solve = false;
+      // Residuals are judged against the noise the data show (s^2).
+      stats.variance_factor =
+          options.scale_by_variance_factor
+              ? internal::VarianceFactor(*problem, stats.chi2, options.min_redundancy)
+              : 1.0;
      for (;;) {
       const std::vector<std::vector<int32_t>> members = observations_by_feature();
       int64_t undone = 0;
@@ -529,8 +457,11 @@ Status AssociateAndSolve(const AssociationOptions& options,
             ++count_a;
           }
         }
-        const bool bad_b = count_b > 0 && chi2_b > ChiSquareQuantile(2.0 * count_b, options.undo_z);
-        const bool bad_a = count_a > 0 && chi2_a > ChiSquareQuantile(2.0 * count_a, options.undo_z);
+        const double s2 = stats.variance_factor;
+        const bool bad_b =
+            count_b > 0 && chi2_b > s2 * ChiSquareQuantile(2.0 * count_b, options.undo_z);
+        const bool bad_a =
+            count_a > 0 && chi2_a > s2 * ChiSquareQuantile(2.0 * count_a, options.undo_z);
         if (!bad_a && !bad_b) continue;
         record.undone = true;
         record.undone_round = round;
@@ -625,7 +556,9 @@ Status AssociateAndSolve(const AssociationOptions& options,
     stats.association_seconds += SecondsSince(association_start);
 
     const Clock::time_point covariance_start = Clock::now();
-    GS_RETURN_IF_ERROR(JointCovariances(marginals, options.marginal_batch, states, &candidates));
+    GS_RETURN_IF_ERROR(JointCovariances(marginals, states, &candidates));
+    if (stats.variance_factor != 1.0)
+      for (Candidate& candidate : candidates) candidate.joint *= stats.variance_factor;
     stats.marginal_seconds += SecondsSince(covariance_start);
 
     const Clock::time_point test_start = Clock::now();

@@ -41,6 +41,7 @@
 #include "core/graphslam_solver.h"
 #include "core/problem.h"
 #include "core/status.h"
+#include "partition/incremental_association.h"
 
 namespace graphslam::partition {
 
@@ -70,7 +71,17 @@ struct AssociationOptions {
   // of 1: 30 000-pose campus recall 0.948 -> 0.991 at equal precision,
   // Victoria Park 0.909 / 0.624 -> 0.917 / 0.642 (docs/benchmarks.md).
   int full_solve_undos = 2;
+  // Scale the covariances of the tests, and the undo test's chi2, by the
+  // variance factor s^2 of the round's solve (partition/internal/
+  // variance_factor.h; 1 below min_redundancy). Off by default (not yet
+  // measured on the batch rounds alone).
+  bool scale_by_variance_factor = false;
+  int64_t min_redundancy = 50;
   int64_t chunk_observations = 4096;
+  // The incremental pass before the rounds (id-less inputs only:
+  // partition/incremental_association.h). Its features are the ones the
+  // rounds start from ("input features" of the merge log and forced merges).
+  IncrementalAssociationOptions incremental;
   // Merged before the first round regardless of the test (tests of the undo).
   std::vector<std::pair<int32_t, int32_t>> forced_merges;
 
@@ -98,6 +109,7 @@ struct AssociationRound {
   int64_t merges = 0;      // unions made
   int64_t undone = 0;      // earlier merges undone at the start of the round
   double chi2 = 0.0;       // after the round's solve
+  double variance_factor = 1.0;  // s^2 of that solve (1 when not scaling)
   double solve_seconds = 0.0;
   double marginal_seconds = 0.0;  // reduced system, factorization, covariance columns
   double association_seconds = 0.0;  // candidates + tests + merges (excluding solves)
@@ -113,6 +125,13 @@ struct AssociationSummary {
   std::vector<AssociationRound> rounds;
   std::vector<MergeRecord> merge_log;
   core::SolverSummary final_solve;
+  IncrementalAssociationSummary incremental;
+  // Per observation of the returned problem: its index in the input (the
+  // incremental pass drops clutter observations).
+  std::vector<int32_t> input_observation;
+  // Per feature the rounds started from (index = MergeRecord origins): one of
+  // its observations, an index into the returned problem's observations.
+  std::vector<int32_t> origin_observation;
   bool converged = false;  // a round accepted nothing (not max_rounds)
   double seconds = 0.0;
 };
@@ -150,5 +169,12 @@ struct PairwiseScore {
   double recall() const { return actual > 0 ? double(true_positive) / actual : 1.0; }
 };
 PairwiseScore ScorePairwise(const std::vector<int64_t>& assigned, const std::vector<int64_t>& key);
+
+// The feature of every input observation after AssociateAndSolve, for
+// ScorePairwise: observations dropped as clutter get labels of their own
+// (-1 - input index), so they pair with nothing.
+std::vector<int64_t> InputObservationLabels(const core::Problem2d& associated,
+                                            const AssociationSummary& summary,
+                                            size_t input_observations);
 
 }  // namespace graphslam::partition

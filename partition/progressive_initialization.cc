@@ -11,6 +11,7 @@
 #include "core/se2.h"
 #include "core/velocity_motion_model.h"
 #include "partition/in_memory_chunk_source.h"
+#include "partition/internal/odometry_chain.h"
 #include "partition/singleton_solve.h"
 
 namespace graphslam::partition {
@@ -27,14 +28,6 @@ using core::Pose2;
 double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
-
-// An odometry-like edge seen from one of its poses.
-struct PoseEdge {
-  int32_t other = -1;       // the pose at the other end
-  int32_t constraint = -1;  // index into relative_poses or motions
-  bool motion = false;      // motions (else relative_poses)
-  bool incoming = false;    // this pose is the edge's `to`
-};
 
 std::string Prefix(const core::Problem2d& problem) {
   return (problem.source.empty() ? std::string("<input>") : problem.source) + ": ";
@@ -87,65 +80,6 @@ int32_t NextStageSize(const ProgressiveInitializationOptions& options, int64_t a
   int64_t next = grown >= static_cast<double>(n) ? n : static_cast<int64_t>(grown);
   if (allowed > 0) next = std::min<int64_t>(next, t + allowed);
   return static_cast<int32_t>(std::min<int64_t>(n, std::max<int64_t>(t + 1, next)));
-}
-
-// The pose `p` predicted through `edge` from the placed pose edge.other.
-Pose2 Chain(const core::Problem2d& problem, const std::vector<Pose2>& poses, const PoseEdge& edge) {
-  const Pose2& from = poses[edge.other];
-  if (edge.motion) {
-    const core::VelocityControl& u = problem.motions[edge.constraint].control;
-    return edge.incoming ? core::PredictVelocityMotion(from, u)
-                         : core::InverseVelocityMotion(from, u);
-  }
-  const Pose2& z = problem.relative_poses[edge.constraint].z;
-  return edge.incoming ? core::Compose(from, z) : core::Compose(from, core::Inverse(z));
-}
-
-// Places the poses [begin, end) by chaining odometry from placed poses.
-void PlacePoses(const core::Problem2d& problem, const std::vector<std::vector<PoseEdge>>& adjacency,
-                int32_t begin, int32_t end, std::vector<Pose2>* poses,
-                std::vector<uint8_t>* placed) {
-  std::vector<int32_t> pending;
-  for (int32_t p = begin; p < end; ++p)
-    if (!(*placed)[p]) pending.push_back(p);
-  while (!pending.empty()) {
-    // Increasing index, so a pose's odometry predecessor is placed first; more
-    // passes only for poses reached backwards (edges to a later pose).
-    bool progress = true;
-    while (progress && !pending.empty()) {
-      progress = false;
-      std::vector<int32_t> still_pending;
-      for (int32_t p : pending) {
-        const PoseEdge* best = nullptr;
-        for (const PoseEdge& edge : adjacency[p]) {
-          if (edge.other >= end || !(*placed)[edge.other]) continue;
-          if (best == nullptr || edge.other > best->other) best = &edge;
-        }
-        if (best == nullptr) {
-          still_pending.push_back(p);
-          continue;
-        }
-        (*poses)[p] = Chain(problem, *poses, *best);
-        (*placed)[p] = 1;
-        progress = true;
-      }
-      pending = std::move(still_pending);
-    }
-    if (pending.empty()) break;
-    // The lowest pose no odometry reaches from a placed pose starts another
-    // odometry chain (the first pose of a later run): nothing ties it to the
-    // poses placed so far, so it keeps its input guess, which is in the frame
-    // of the stage solutions (their gauge is the input's: pose 0 or the fixed
-    // poses held at their input values, or GPS). An offset from the input
-    // guess of an earlier pose would carry that pose's dead-reckoning drift
-    // over to an unrelated chain (a 10 000-pose run: tens of metres and a
-    // rotation, which left the full solve stuck far from its optimum).
-    // The poses after it then chain from it.
-    const int32_t start = pending.front();
-    (*poses)[start] = problem.poses[start];
-    (*placed)[start] = 1;
-    pending.erase(pending.begin());
-  }
 }
 
 // The sub-problem of the first `t` poses; local_feature[f] receives the index
@@ -237,19 +171,7 @@ Status InitializeProgressively(const ProgressiveInitializationOptions& options,
   std::vector<uint8_t> placed(n, 0);
   for (int32_t p = 0; p < n; ++p) placed[p] = problem->pose_fixed[p] != 0;  // anchors stay put
 
-  std::vector<std::vector<PoseEdge>> adjacency(n);
-  for (size_t k = 0; k < problem->relative_poses.size(); ++k) {
-    const core::RelativePoseConstraint& c = problem->relative_poses[k];
-    if (c.from == c.to) continue;
-    adjacency[c.to].push_back({c.from, static_cast<int32_t>(k), false, true});
-    adjacency[c.from].push_back({c.to, static_cast<int32_t>(k), false, false});
-  }
-  for (size_t k = 0; k < problem->motions.size(); ++k) {
-    const core::VelocityMotionConstraint& c = problem->motions[k];
-    if (c.from == c.to) continue;
-    adjacency[c.to].push_back({c.from, static_cast<int32_t>(k), true, true});
-    adjacency[c.from].push_back({c.to, static_cast<int32_t>(k), true, false});
-  }
+  const std::vector<std::vector<internal::PoseEdge>> adjacency = internal::OdometryAdjacency(*problem);
   // First sighting of each feature: lowest pose index, then input order.
   std::vector<int64_t> first_sight(problem->features.size(), -1);
   for (size_t k = 0; k < problem->observations.size(); ++k) {
@@ -278,7 +200,7 @@ Status InitializeProgressively(const ProgressiveInitializationOptions& options,
     if (stage == 0) {
       for (int32_t p = 0; p < t; ++p) placed[p] = 1;  // the input guess
     } else {
-      PlacePoses(*problem, adjacency, previous, t, &poses, &placed);
+      internal::PlacePoses(*problem, adjacency, previous, t, &poses, &placed);
     }
     for (size_t f = 0; f < first_sight.size(); ++f) {
       if (first_sight[f] < 0) continue;

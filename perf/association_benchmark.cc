@@ -18,7 +18,13 @@
 // worst pose error is printed for the campus); GS_STAGE_ITERATIONS,
 // GS_STAGE_POSES and GS_INITIAL_RADIUS override the progressive stages'
 // iterations and new poses and the initial trust region radius;
-// GS_FULL_SOLVE_UNDOS=2 sets AssociationOptions::full_solve_undos.
+// GS_FULL_SOLVE_UNDOS=2 sets AssociationOptions::full_solve_undos; GS_INC_STAGE,
+// GS_INC_RADIUS, GS_INC_Z, GS_INC_CONFIRM, GS_INC_WINDOW, GS_INC_ITERATIONS set
+// the incremental pass's stage_poses, search_radius, joint.z,
+// confirm_observations, provisional_poses and max_iterations_per_stage (partition/incremental_association.h), GS_INCREMENTAL=1 runs
+// it (off by default); GS_SCALE=0/1 sets the variance-factor scaling of both
+// passes (default: incremental pass on, batch rounds off); GS_SPLITS=1 prints
+// every key landmark split over several features with the pose spans.
 // Prints one line per round and a summary; the commands and figures are in
 // docs/benchmarks.md.
 #include <algorithm>
@@ -148,10 +154,8 @@ int main(int argc, char** argv) {
   if (argc > next_arg + 2) options.mutual_best_rounds = std::atoi(argv[next_arg + 2]);
   if (argc > next_arg + 3) options.refit_between_undos = std::atoi(argv[next_arg + 3]) != 0;
 
-  // Key of each input feature (one per observation in id-less inputs).
-  std::vector<int64_t> origin_key(problem.num_features(), -1);
-  for (size_t o = 0; o < problem.observations.size() && o < key.size(); ++o)
-    origin_key[problem.observations[o].feature] = key[o];
+  std::vector<int> input_pose_of;
+  for (const auto& o : problem.observations) input_pose_of.push_back(o.pose);
   const auto start = std::chrono::steady_clock::now();
   if (gs::Status status = gs::core::InitializeProblem(&problem); !status.ok()) return Fail(status);
   gs::partition::ProgressiveInitializationOptions progressive;
@@ -181,15 +185,26 @@ int main(int argc, char** argv) {
   if (std::getenv("GS_INIT_ONLY") != nullptr) return 0;
   if (const char* rounds = std::getenv("GS_MAX_ROUNDS")) options.max_rounds = std::atoi(rounds);
   if (const char* v = std::getenv("GS_FULL_SOLVE_UNDOS")) options.full_solve_undos = std::atoi(v);
+  if (const char* v = std::getenv("GS_INC_STAGE")) options.incremental.stage_poses = std::atoll(v);
+  if (const char* v = std::getenv("GS_INC_RADIUS")) options.incremental.search_radius = std::atof(v);
+  if (const char* v = std::getenv("GS_INC_Z")) options.incremental.joint.z = std::atof(v);
+  if (const char* v = std::getenv("GS_INC_CONFIRM")) options.incremental.confirm_observations = std::atoi(v);
+  if (const char* v = std::getenv("GS_INC_WINDOW")) options.incremental.provisional_poses = std::atoll(v);
+  if (const char* v = std::getenv("GS_INC_ITERATIONS"))
+    options.incremental.max_iterations_per_stage = std::atoi(v);
+  if (const char* v = std::getenv("GS_INCREMENTAL")) options.incremental.enabled = std::atoi(v) != 0;
+  if (const char* v = std::getenv("GS_SCALE")) {
+    options.scale_by_variance_factor = std::atoi(v) != 0;
+    options.incremental.scale_by_variance_factor = std::atoi(v) != 0;
+  }
   gs::partition::AssociationSummary summary;
   if (gs::Status status = gs::partition::AssociateAndSolve(options, solver, &problem, &summary);
       !status.ok())
     return Fail(status);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::vector<int64_t> assigned;
-  for (const auto& o : problem.observations) assigned.push_back(o.feature);
-  const gs::partition::PairwiseScore score = gs::partition::ScorePairwise(assigned, key);
+  const gs::partition::PairwiseScore score = gs::partition::ScorePairwise(
+      gs::partition::InputObservationLabels(problem, summary, key.size()), key);
   double round_seconds = 0.0;
   for (const auto& r : summary.rounds) {
     const double s = r.solve_seconds + r.marginal_seconds + r.association_seconds;
@@ -220,6 +235,47 @@ int main(int argc, char** argv) {
               static_cast<long long>(summary.merges), static_cast<long long>(summary.undone),
               summary.rounds.size(), round_seconds / std::max<size_t>(1, summary.rounds.size()),
               seconds);
+  if (std::getenv("GS_SPLITS") != nullptr) {
+    // Diagnosis: each key landmark's fragments (features) with their pose spans.
+    const std::vector<int64_t> labels =
+        gs::partition::InputObservationLabels(problem, summary, key.size());
+    std::map<int64_t, std::map<int64_t, std::tuple<int, int, int>>> fragments;
+    for (size_t i = 0; i < labels.size(); ++i) {
+      if (key[i] < 0) continue;
+      auto& [count, first, last] = fragments[key[i]][labels[i]];
+      const int pose = input_pose_of[i];
+      if (count == 0) first = last = pose;
+      first = std::min(first, pose);
+      last = std::max(last, pose);
+      ++count;
+    }
+    for (const auto& [landmark, parts] : fragments) {
+      if (parts.size() < 2) continue;
+      std::printf("landmark %lld:", static_cast<long long>(landmark));
+      for (const auto& [label, span] : parts)
+        std::printf(" [%d obs, poses %d..%d]", std::get<0>(span), std::get<1>(span), std::get<2>(span));
+      std::printf("\n");
+    }
+  }
+  // Key of each feature the rounds started from: that of one of its observations.
+  std::vector<int64_t> origin_key(summary.origin_observation.size(), -1);
+  for (size_t f = 0; f < origin_key.size(); ++f) {
+    const int32_t o = summary.origin_observation[f];
+    if (o >= 0 && static_cast<size_t>(o) < summary.input_observation.size())
+      origin_key[f] = key[summary.input_observation[o]];
+  }
+  const auto& inc = summary.incremental;
+  if (inc.ran)
+    std::printf("incremental: %lld stages, %lld scans, %lld paired, %lld features, %lld provisional "
+                "dropped (%lld observations), %lld JCBB capped, chi2 %.6f, s^2 %.4g; solve %.2f s, "
+                "covariances %.2f s, assignment %.2f s, total %.2f s\n",
+                static_cast<long long>(inc.stages), static_cast<long long>(inc.scans),
+                static_cast<long long>(inc.paired), static_cast<long long>(inc.features),
+                static_cast<long long>(inc.provisional_dropped),
+                static_cast<long long>(inc.clutter_observations),
+                static_cast<long long>(inc.exhausted_scans), inc.chi2, inc.variance_factor,
+                inc.solve_seconds,
+                inc.covariance_seconds, inc.assignment_seconds, inc.seconds);
   // Were the undone merges wrong (sides' representatives from different
   // landmarks) or right?
   int64_t undone_right = 0, undone_wrong = 0, kept_wrong = 0;

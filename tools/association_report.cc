@@ -19,6 +19,25 @@ nlohmann::json BuildAssociationReport(const partition::AssociationOptions& optio
   out["undone"] = summary.undone;
   out["converged"] = summary.converged;
   out["seconds"] = summary.seconds;
+  const partition::IncrementalAssociationSummary& inc = summary.incremental;
+  out["incremental"] = {{"ran", inc.ran},
+                        {"stage_poses", options.incremental.stage_poses},
+                        {"search_radius", options.incremental.search_radius},
+                        {"gate_z", options.incremental.joint.z},
+                        {"confirm_observations", options.incremental.confirm_observations},
+                        {"provisional_poses", options.incremental.provisional_poses},
+                        {"stages", inc.stages},
+                        {"scans", inc.scans},
+                        {"paired", inc.paired},
+                        {"features", inc.features},
+                        {"provisional_dropped", inc.provisional_dropped},
+                        {"clutter_observations", inc.clutter_observations},
+                        {"exhausted_scans", inc.exhausted_scans},
+                        {"chi2", inc.chi2},
+                        {"solve_seconds", inc.solve_seconds},
+                        {"covariance_seconds", inc.covariance_seconds},
+                        {"assignment_seconds", inc.assignment_seconds},
+                        {"seconds", inc.seconds}};
   nlohmann::json rounds = nlohmann::json::array();
   for (const auto& r : summary.rounds) {
     rounds.push_back({{"round", r.round},

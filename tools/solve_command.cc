@@ -718,6 +718,16 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                   static_cast<long long>(association_summary.merges),
                   static_cast<long long>(association_summary.undone),
                   association_summary.rounds.size(), association_summary.seconds);
+      const partition::IncrementalAssociationSummary& inc = association_summary.incremental;
+      if (inc.ran) {
+        std::printf("  incremental pass   %lld stages, %lld features found, %lld provisional "
+                    "dropped as clutter (%lld observations); solve %.2f s, covariances %.2f s, "
+                    "assignment %.2f s\n",
+                    static_cast<long long>(inc.stages), static_cast<long long>(inc.features),
+                    static_cast<long long>(inc.provisional_dropped),
+                    static_cast<long long>(inc.clutter_observations), inc.solve_seconds,
+                    inc.covariance_seconds, inc.assignment_seconds);
+      }
     }
     PrintSolverSummaryLines(out, summary, total_seconds);
   }

@@ -258,9 +258,8 @@ TEST(AssociationDriver, IdLessSimulationIsAssociatedAccurately) {
   options.refit_between_undos = refit;
   AssociationSummary summary;
   ASSERT_TRUE(AssociateAndSolve(options, TightSolverOptions(), &problem, &summary).ok());
-  std::vector<int64_t> assigned;
-  for (const core::Observation& o : problem.observations) assigned.push_back(o.feature);
-  const PairwiseScore score = ScorePairwise(assigned, key);
+  const PairwiseScore score =
+      ScorePairwise(InputObservationLabels(problem, summary, key.size()), key);
   EXPECT_GE(score.precision(), 0.99) << score.true_positive << "/" << score.predicted;
   EXPECT_GE(score.recall(), 0.95) << score.true_positive << "/" << score.actual;
   // Fresh ids above the pose ids for id-less inputs.

@@ -1,0 +1,444 @@
+#include "partition/incremental_association.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+#include <string>
+#include <unordered_map>
+#include <utility>
+
+#include "core/logging.h"
+#include "core/point_observation_model.h"
+#include "core/pose_marginals.h"
+#include "core/range_bearing_model.h"
+#include "core/unidentified_features.h"
+#include "partition/feature_covariances.h"
+#include "partition/in_memory_chunk_source.h"
+#include "partition/internal/odometry_chain.h"
+#include "partition/internal/variance_factor.h"
+#include "partition/singleton_solve.h"
+
+namespace graphslam::partition {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+core::Point2 FirstSight(const core::Observation& o, const core::Pose2& pose) {
+  return o.kind == core::ObservationKind::kRangeBearing ? core::InvertRangeBearing(pose, o.z)
+                                                       : core::InvertPointObservation(pose, o.z);
+}
+
+struct Cluster {
+  core::Point2 position = core::Point2::Zero();  // estimate after the last stage solve
+  std::vector<int32_t> members;                   // input observations
+  int32_t last_pose = -1;
+  bool dropped = false;
+  // In the current stage: the sub-problem feature that represents it in the
+  // tests (its latest singleton if seen in this stage) and where it is.
+  int32_t representative = -1;
+  core::Point2 representative_position = core::Point2::Zero();
+};
+
+// The prefix sub-problem of poses [0, end): every cluster not dropped with an
+// observation below `end`, and a singleton per unassigned observation of a pose
+// in [begin, end) at its first sight. cluster_feature / singleton_feature map
+// clusters / input observations to the sub-problem's features (-1: absent).
+struct Stage {
+  core::Problem2d sub;
+  std::vector<int32_t> cluster_feature;
+  std::unordered_map<int32_t, int32_t> singleton_feature;
+};
+
+Stage BuildStage(const core::Problem2d& problem, const std::vector<core::Pose2>& poses,
+                 const std::vector<Cluster>& clusters, const std::vector<int32_t>& cluster_of,
+                 int32_t begin, int32_t end) {
+  Stage stage;
+  core::Problem2d& sub = stage.sub;
+  sub.source = problem.source;
+  sub.poses.assign(poses.begin(), poses.begin() + end);
+  sub.pose_ids.assign(problem.pose_ids.begin(), problem.pose_ids.begin() + end);
+  sub.pose_fixed.assign(problem.pose_fixed.begin(), problem.pose_fixed.begin() + end);
+  sub.pose_initialized.assign(end, 1);
+  sub.pose_lines.assign(problem.pose_lines.begin(), problem.pose_lines.begin() + end);
+  sub.pose_stamps.assign(problem.pose_stamps.begin(), problem.pose_stamps.begin() + end);
+  for (const core::RelativePoseConstraint& c : problem.relative_poses)
+    if (c.from < end && c.to < end) sub.relative_poses.push_back(c);
+  for (const core::VelocityMotionConstraint& c : problem.motions)
+    if (c.from < end && c.to < end) sub.motions.push_back(c);
+  for (const core::GpsConstraint& c : problem.gps)
+    if (c.pose < end) sub.gps.push_back(c);
+  stage.cluster_feature.assign(clusters.size(), -1);
+  for (size_t o = 0; o < problem.observations.size(); ++o) {
+    const core::Observation& obs = problem.observations[o];
+    if (obs.pose >= end) continue;
+    int32_t feature = -1;
+    const int32_t c = cluster_of[o];
+    if (c >= 0) {
+      if (clusters[c].dropped) continue;
+      feature = stage.cluster_feature[c];
+      if (feature < 0) {
+        feature = sub.AddFeature(core::kNoFeatureId, clusters[c].position, true);
+        stage.cluster_feature[c] = feature;
+      }
+    } else {
+      if (obs.pose < begin) continue;  // cannot happen: every earlier observation is assigned
+      feature = sub.AddFeature(core::kNoFeatureId, FirstSight(obs, poses[obs.pose]), true);
+      stage.singleton_feature[static_cast<int32_t>(o)] = feature;
+    }
+    sub.observations.push_back(obs);
+    sub.observations.back().feature = feature;
+  }
+  return stage;
+}
+
+Status CheckInput(const core::Problem2d& problem) {
+  const std::string prefix =
+      (problem.source.empty() ? std::string("<input>") : problem.source) + ": ";
+  const int32_t n = problem.num_poses();
+  auto bad = [&](const char* what, int32_t index, int32_t line) {
+    const std::string where = line > 0 ? "line " + std::to_string(line) + ": " : "";
+    return Status::InvalidArgument(prefix + where + what + " index " + std::to_string(index) +
+                                   " out of range, expected 0.." + std::to_string(n - 1));
+  };
+  for (const core::RelativePoseConstraint& c : problem.relative_poses) {
+    if (c.from < 0 || c.from >= n) return bad("relative pose 'from' pose", c.from, c.line);
+    if (c.to < 0 || c.to >= n) return bad("relative pose 'to' pose", c.to, c.line);
+  }
+  for (const core::VelocityMotionConstraint& c : problem.motions) {
+    if (c.from < 0 || c.from >= n) return bad("motion 'from' pose", c.from, c.line);
+    if (c.to < 0 || c.to >= n) return bad("motion 'to' pose", c.to, c.line);
+  }
+  for (const core::GpsConstraint& c : problem.gps)
+    if (c.pose < 0 || c.pose >= n) return bad("GPS pose", c.pose, c.line);
+  for (const core::Observation& o : problem.observations)
+    if (o.pose < 0 || o.pose >= n) return bad("observation pose", o.pose, o.line);
+  return Status::Ok();
+}
+
+// Whitened gains of the stage's features, computed on first use.
+class WhitenedCache {
+ public:
+  WhitenedCache(const core::PoseMarginals& marginals, const std::vector<FeatureState>& states)
+      : marginals_(marginals), states_(states), slot_(states.size(), -1) {}
+
+  Status Ensure(const std::vector<int32_t>& features) {
+    std::vector<int32_t> missing;
+    for (int32_t f : features)
+      if (slot_[f] < 0) {
+        slot_[f] = -2;
+        missing.push_back(f);
+      }
+    if (missing.empty()) return Status::Ok();
+    WhitenedFeatures more;
+    GS_RETURN_IF_ERROR(WhitenFeatures(marginals_, states_, missing, &more));
+    for (size_t i = 0; i < missing.size(); ++i) {
+      slot_[missing[i]] = static_cast<int32_t>(whitened_.whitened.size());
+      whitened_.whitened.push_back(std::move(more.whitened[i]));
+      whitened_.covariance.push_back(more.covariance[i]);
+    }
+    return Status::Ok();
+  }
+  // Sigma_ab of two features (Ensure'd).
+  Eigen::Matrix2d Covariance(int32_t a, int32_t b) const {
+    if (a == b) return whitened_.covariance[slot_[a]];
+    return core::PoseMarginals::Dot(whitened_.whitened[slot_[a]], whitened_.whitened[slot_[b]]);
+  }
+
+ private:
+  const core::PoseMarginals& marginals_;
+  const std::vector<FeatureState>& states_;
+  std::vector<int32_t> slot_;
+  WhitenedFeatures whitened_;
+};
+
+int64_t CellKey(const core::Point2& p, double cell) {
+  const int64_t x = static_cast<int64_t>(std::floor(p.x() / cell));
+  const int64_t y = static_cast<int64_t>(std::floor(p.y() / cell));
+  return (x << 32) ^ (y & 0xffffffffLL);
+}
+
+}  // namespace
+
+Status IncrementalAssociationOptions::Validate() const {
+  if (stage_poses < 1)
+    return Status::InvalidArgument("incremental association: stage_poses must be >= 1, got " +
+                                   std::to_string(stage_poses));
+  if (max_iterations_per_stage < 0)
+    return Status::InvalidArgument(
+        "incremental association: max_iterations_per_stage must be >= 0, got " +
+        std::to_string(max_iterations_per_stage));
+  if (!(search_radius > 0.0) || !std::isfinite(search_radius))
+    return Status::InvalidArgument("incremental association: search_radius must be finite and "
+                                   "> 0, got " + std::to_string(search_radius));
+  if (!std::isfinite(joint.z) || joint.max_nodes < 1)
+    return Status::InvalidArgument(
+        "incremental association: joint.z must be finite and joint.max_nodes >= 1");
+  if (confirm_observations < 1)
+    return Status::InvalidArgument(
+        "incremental association: confirm_observations must be >= 1, got " +
+        std::to_string(confirm_observations));
+  if (provisional_poses < 0)
+    return Status::InvalidArgument("incremental association: provisional_poses must be >= 0, got " +
+                                   std::to_string(provisional_poses));
+  if (chunk_observations < 1)
+    return Status::InvalidArgument(
+        "incremental association: chunk_observations must be >= 1");
+  if (min_redundancy < 0)
+    return Status::InvalidArgument("incremental association: min_redundancy must be >= 0");
+  return Status::Ok();
+}
+
+Status AssociateIncrementally(const IncrementalAssociationOptions& options,
+                              const core::SolverOptions& solver_options, core::Problem2d* problem,
+                              IncrementalAssociationSummary* summary,
+                              std::vector<int32_t>* input_observation) {
+  *summary = IncrementalAssociationSummary();
+  GS_RETURN_IF_ERROR(options.Validate());
+  const Clock::time_point start = Clock::now();
+  const int64_t m = static_cast<int64_t>(problem->observations.size());
+  input_observation->resize(m);
+  std::iota(input_observation->begin(), input_observation->end(), 0);
+  if (!options.enabled || problem->num_poses() == 0) return Status::Ok();
+  {
+    // Only id-less inputs: one observation per feature.
+    std::vector<int32_t> count(problem->num_features(), 0);
+    for (const core::Observation& o : problem->observations) {
+      if (o.feature < 0 || o.feature >= problem->num_features())
+        return Status::InvalidArgument(
+            (problem->source.empty() ? std::string("<input>") : problem->source) + ": line " +
+            std::to_string(o.line) + ": observation feature index " + std::to_string(o.feature) +
+            " out of range, expected 0.." + std::to_string(problem->num_features() - 1));
+      if (++count[o.feature] > 1) return Status::Ok();
+    }
+  }
+  GS_RETURN_IF_ERROR(CheckInput(*problem));
+  summary->ran = true;
+  const int32_t n = problem->num_poses();
+
+  std::vector<std::vector<int32_t>> observations_of_pose(n);
+  for (int64_t o = 0; o < m; ++o)
+    observations_of_pose[problem->observations[o].pose].push_back(static_cast<int32_t>(o));
+  const std::vector<std::vector<internal::PoseEdge>> adjacency =
+      internal::OdometryAdjacency(*problem);
+  std::vector<core::Pose2> poses = problem->poses;
+  std::vector<uint8_t> placed(n, 0);
+  for (int32_t p = 0; p < n; ++p) placed[p] = problem->pose_fixed[p] != 0;
+
+  std::vector<Cluster> clusters;
+  std::vector<int32_t> cluster_of(m, -1);
+  ChunkingOptions chunking;
+  chunking.max_observations_per_chunk = options.chunk_observations;
+  core::SolverOptions stage_options = solver_options;
+  stage_options.max_iterations = options.max_iterations_per_stage;
+  stage_options.progress = nullptr;
+  stage_options.iteration_callback = nullptr;
+  const double radius_squared = options.search_radius * options.search_radius;
+  double scale = 1.0;  // variance factor of the last stage solve
+
+  for (int32_t begin = 0; begin < n;) {
+    const int32_t end = static_cast<int32_t>(std::min<int64_t>(n, begin + options.stage_poses));
+    internal::PlacePoses(*problem, adjacency, begin, end, &poses, &placed);
+    ++summary->stages;
+    bool any_new = false;
+    for (int32_t p = begin; p < end && !any_new; ++p) any_new = !observations_of_pose[p].empty();
+
+    if (any_new) {
+      // Covariances at the stage's start: the prefix solved, the new poses
+      // chained (they and their singletons fit their constraints exactly, so
+      // this is the optimum of the stage sub-problem before any pairing).
+      Clock::time_point t0 = Clock::now();
+      Stage stage = BuildStage(*problem, poses, clusters, cluster_of, begin, end);
+      InMemoryChunkSource chunks(stage.sub, chunking);
+      core::PoseMarginals marginals;
+      std::vector<FeatureState> states;
+      GS_RETURN_IF_ERROR(
+          LinearizeAtSolution(solver_options, chunks, stage.sub, &marginals, &states)
+              .WithContext("incremental association, poses " + std::to_string(begin) + ".." +
+                           std::to_string(end - 1)));
+      WhitenedCache cache(marginals, states);
+      summary->covariance_seconds += SecondsSince(t0);
+
+      t0 = Clock::now();
+      std::unordered_map<int64_t, std::vector<int32_t>> grid;
+      for (size_t c = 0; c < clusters.size(); ++c) {
+        Cluster& cluster = clusters[c];
+        cluster.representative = stage.cluster_feature[c];
+        if (cluster.dropped || cluster.representative < 0) continue;
+        cluster.representative_position = cluster.position;
+        grid[CellKey(cluster.position, options.search_radius)].push_back(static_cast<int32_t>(c));
+      }
+      std::vector<int32_t> touched;  // clusters seen (or made) in this stage
+      std::vector<uint8_t> is_touched(clusters.size(), 0);
+      for (int32_t p = begin; p < end; ++p) {
+        const std::vector<int32_t>& scan = observations_of_pose[p];
+        if (scan.empty()) continue;
+        ++summary->scans;
+        std::vector<int32_t> singles;
+        for (int32_t o : scan) singles.push_back(stage.singleton_feature.at(o));
+        // Targets near any observation of the scan.
+        std::vector<int32_t> targets;
+        std::vector<uint8_t> is_target(clusters.size(), 0);
+        auto consider = [&](int32_t c) {
+          const Cluster& cluster = clusters[c];
+          if (is_target[c] || cluster.dropped || cluster.representative < 0 ||
+              !states[cluster.representative].usable)
+            return;
+          for (int32_t s : singles) {
+            if ((cluster.representative_position - stage.sub.features[s]).squaredNorm() <=
+                radius_squared) {
+              is_target[c] = 1;
+              targets.push_back(c);
+              return;
+            }
+          }
+        };
+        for (int32_t s : singles) {
+          const core::Point2& q = stage.sub.features[s];
+          for (int dx = -1; dx <= 1; ++dx) {
+            for (int dy = -1; dy <= 1; ++dy) {
+              const core::Point2 probe =
+                  q + core::Point2(dx * options.search_radius, dy * options.search_radius);
+              const auto it = grid.find(CellKey(probe, options.search_radius));
+              if (it == grid.end()) continue;
+              for (int32_t c : it->second)
+                if (!is_touched[c]) consider(c);
+            }
+          }
+        }
+        for (int32_t c : touched) consider(c);
+        std::sort(targets.begin(), targets.end());
+
+        // Observations whose estimate has no proper covariance (excluded by
+        // the screening) start features of their own.
+        std::vector<int32_t> assignment(scan.size(), -1);
+        std::vector<size_t> tested;
+        for (size_t i = 0; i < scan.size(); ++i)
+          if (states[singles[i]].usable) tested.push_back(i);
+        if (!targets.empty() && !tested.empty()) {
+          std::vector<int32_t> features;
+          for (size_t i : tested) features.push_back(singles[i]);
+          for (int32_t c : targets) features.push_back(clusters[c].representative);
+          summary->assignment_seconds += SecondsSince(t0);
+          t0 = Clock::now();
+          GS_RETURN_IF_ERROR(cache.Ensure(features));
+          summary->covariance_seconds += SecondsSince(t0);
+          t0 = Clock::now();
+          ScanAssociationInput input;
+          input.observations = static_cast<int>(tested.size());
+          input.targets = static_cast<int>(targets.size());
+          const int k = static_cast<int>(features.size());
+          input.covariance.resize(2 * k, 2 * k);
+          for (int a = 0; a < k; ++a) {
+            input.means.push_back(stage.sub.features[features[a]]);
+            for (int b = 0; b <= a; ++b) {
+              const Eigen::Matrix2d block = scale * cache.Covariance(features[a], features[b]);
+              input.covariance.block<2, 2>(2 * a, 2 * b) = block;
+              input.covariance.block<2, 2>(2 * b, 2 * a) = block.transpose();
+            }
+          }
+          const ScanAssignment result = AssignScanJointly(input, options.joint);
+          if (result.exhausted) ++summary->exhausted_scans;
+          for (size_t t = 0; t < tested.size(); ++t)
+            if (result.target[t] >= 0) assignment[tested[t]] = targets[result.target[t]];
+        }
+        for (size_t i = 0; i < scan.size(); ++i) {
+          int32_t c = assignment[i];
+          if (c >= 0) {
+            ++summary->paired;
+          } else {
+            c = static_cast<int32_t>(clusters.size());
+            clusters.emplace_back();
+            clusters.back().position = stage.sub.features[singles[i]];
+            is_touched.push_back(0);
+          }
+          Cluster& cluster = clusters[c];
+          cluster.members.push_back(scan[i]);
+          cluster.last_pose = p;
+          cluster.representative = singles[i];
+          cluster.representative_position = stage.sub.features[singles[i]];
+          cluster_of[scan[i]] = c;
+          if (!is_touched[c]) {
+            is_touched[c] = 1;
+            touched.push_back(c);
+          }
+        }
+      }
+      summary->assignment_seconds += SecondsSince(t0);
+    }
+
+    // Solve the stage with its correspondences (nothing to do without new
+    // observations: the chained poses already fit their odometry).
+    if (any_new) {
+      const Clock::time_point solve_start = Clock::now();
+      Stage solved = BuildStage(*problem, poses, clusters, cluster_of, end, end);
+      core::SolverSummary solver_summary;
+      GS_RETURN_IF_ERROR(
+          SolveWithoutSingletons(stage_options, chunking, &solved.sub, &solver_summary)
+              .WithContext("incremental association, stage solve of poses 0.." +
+                           std::to_string(end - 1)));
+      std::copy(solved.sub.poses.begin(), solved.sub.poses.end(), poses.begin());
+      for (size_t c = 0; c < clusters.size(); ++c)
+        if (solved.cluster_feature[c] >= 0)
+          clusters[c].position = solved.sub.features[solved.cluster_feature[c]];
+      summary->chi2 = solver_summary.final_chi2;
+      if (options.scale_by_variance_factor)
+        scale = internal::VarianceFactor(solved.sub, solver_summary.final_chi2,
+                                         options.min_redundancy);
+      summary->variance_factor = scale;
+      summary->solve_seconds += SecondsSince(solve_start);
+    }
+
+    // Provisional features not seen for a while are clutter.
+    for (Cluster& cluster : clusters) {
+      if (cluster.dropped ||
+          static_cast<int64_t>(cluster.members.size()) >= options.confirm_observations)
+        continue;
+      if (static_cast<int64_t>(end) - cluster.last_pose > options.provisional_poses)
+        cluster.dropped = true;
+    }
+    GS_VLOG(1, "incremental association: poses 0..%d, %zu features, %lld paired, chi2 %.6g, "
+            "variance factor %.4g", end - 1, clusters.size(),
+            static_cast<long long>(summary->paired), summary->chi2, scale);
+    begin = end;
+  }
+
+  // The map: confirmed features and their observations, input order kept.
+  std::vector<int32_t> index(clusters.size(), -1);
+  std::vector<core::Point2> features;
+  for (size_t c = 0; c < clusters.size(); ++c) {
+    Cluster& cluster = clusters[c];
+    if (static_cast<int64_t>(cluster.members.size()) < options.confirm_observations)
+      cluster.dropped = true;
+    if (cluster.dropped) {
+      ++summary->provisional_dropped;
+      summary->clutter_observations += static_cast<int64_t>(cluster.members.size());
+      continue;
+    }
+    index[c] = static_cast<int32_t>(features.size());
+    features.push_back(cluster.position);
+  }
+  std::vector<core::Observation> kept;
+  input_observation->clear();
+  for (int64_t o = 0; o < m; ++o) {
+    const int32_t f = index[cluster_of[o]];
+    if (f < 0) continue;
+    kept.push_back(problem->observations[o]);
+    kept.back().feature = f;
+    input_observation->push_back(static_cast<int32_t>(o));
+  }
+  problem->observations = std::move(kept);
+  problem->features = std::move(features);
+  problem->feature_ids.assign(problem->features.size(), core::kNoFeatureId);
+  problem->feature_initialized.assign(problem->features.size(), 1);
+  problem->poses = std::move(poses);
+  summary->features = problem->num_features();
+  summary->seconds = SecondsSince(start);
+  return Status::Ok();
+}
+
+}  // namespace graphslam::partition
