@@ -68,6 +68,10 @@ StatusOr<std::unique_ptr<PetscReducedSolver>> MpiRanks::MakeLinearSolver(
       comm_, pattern, SplitRows(pattern.num_block_rows(), size_), options, &stats_);
   GS_RETURN_IF_ERROR(Agree(solver.status()));
   summary->linear_solver_used = core::LinearSolverType::kPcg;  // a Krylov solve (PETSc KSP)
+  // S's nonzero blocks over all ranks (the pattern passed in is this rank's).
+  int64_t blocks = stats_.row_blocks;
+  MPI_Allreduce(MPI_IN_PLACE, &blocks, 1, MPI_INT64_T, MPI_SUM, comm_);
+  summary->reduced_nonzero_blocks = blocks;
   return solver;
 }
 

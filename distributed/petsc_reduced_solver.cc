@@ -162,6 +162,7 @@ Status PetscReducedSolver::Setup(const core::BlockSparseMatrix& pattern,
     std::sort(cols.begin(), cols.end());
     cols.erase(std::unique(cols.begin(), cols.end()), cols.end());
     const int row = rows_begin + r;
+    stats_->row_blocks += static_cast<int64_t>(cols.size());
     for (int k : cols) {
       const bool local = k >= rows_begin && k < rows_end;
       (local ? d_nnz : o_nnz)[r] += 1;

@@ -55,6 +55,7 @@ namespace graphslam::distributed {
 struct ExchangeStats {
   int64_t bytes_sent_per_solve = 0;  // by this rank, its own copy excluded
   int64_t owned_blocks = 0;          // distinct upper blocks this rank assembles
+  int64_t row_blocks = 0;            // nonzero blocks of this rank's rows (both triangles)
   int64_t solves = 0;
   double exchange_seconds = 0;       // packing, MPI_Alltoallv, sums, PETSc assembly
   double ksp_seconds = 0;            // KSPSolve (setup of the preconditioner included)

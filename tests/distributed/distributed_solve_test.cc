@@ -97,6 +97,8 @@ class DistributedSolveTest : public ::testing::Test {
       EXPECT_EQ(run["iterations"].get<int>(), one["iterations"].get<int>());
       EXPECT_EQ(run["observations_used"], one["observations_used"]);
       EXPECT_EQ(run["kept_features"], one["kept_features"]);
+      // The assembled PETSc matrix has the one-process S's pattern.
+      EXPECT_EQ(run["reduced_nonzero_blocks"], one["reduced_nonzero_blocks"]);
     }
     if (!repeat) return;
     // Run to run: the same bits for the same number of ranks.
