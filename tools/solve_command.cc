@@ -32,6 +32,7 @@
 #include "storage/tum_writer.h"
 #include "tools/association_report.h"
 #include "tools/association_store.h"
+#include "tools/distributed_solve_command.h"
 #include "tools/exit_codes.h"
 #include "tools/memory_size.h"
 #include "tools/option_checks.h"
@@ -274,6 +275,9 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
       ->capture_default_str();
   solve->add_flag("--ignore-barcodes", options->ignore_barcodes,
                   "MRCLAM: drop the landmark identities (use with --associate)");
+  solve->add_option("--petsc-options", options->petsc_options,
+                    "under mpirun: PETSc options for the reduced system's solve, e.g. "
+                    "\"-ksp_type cg -pc_type gamg\" (PETSC_OPTIONS works too; docs/distributed.md)");
   solve->add_flag("-q,--quiet", options->quiet, "no progress or summary on the terminal");
   solve->add_flag("-v,--verbose", options->verbosity, "more log detail (repeatable)");
   solve->callback([options, exit_code]() { *exit_code = RunSolveCommand(*options); });
@@ -290,8 +294,12 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   const Clock::time_point start = Clock::now();
   SetLogVerbosity(options.verbosity);
   SetQuietLogging(options.quiet);
-  auto fail = [](const Status& status) {
+  // Under mpirun (see below) a failure of one rank ends them all: the
+  // others may be waiting for it in a collective call.
+  std::unique_ptr<DistributedSolveRun> distributed;
+  auto fail = [&distributed](const Status& status) {
     std::fprintf(stderr, "graphslam solve: %s\n", status.ToString().c_str());
+    if (distributed != nullptr && distributed->size() > 1) distributed->Abort(ExitCodeFor(status));
     return ExitCodeFor(status);
   };
   if (Status status = ValidateOptions(options); !status.ok()) {
@@ -342,6 +350,32 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                  options.pcg_eta_max);
     return kExitUsage;
   }
+  // Under mpirun a chunk store is solved over the launched processes
+  // (docs/distributed.md); rank 0 initializes (its start is broadcast),
+  // reports and writes the outputs.
+  if (const int launched = LaunchedProcesses();
+      launched > 0 && storage::IsChunkStore(options.input)) {
+    if (options.resume || !options.checkpoint.empty() || options.associate) {
+      std::fprintf(stderr, "graphslam solve: under mpirun, --resume, --checkpoint and "
+                   "--associate are not supported yet (docs/distributed.md)\n");
+      return kExitUsage;
+    }
+    StatusOr<std::unique_ptr<DistributedSolveRun>> started =
+        DistributedSolveRun::Start(options.petsc_options);
+    if (started.ok()) {
+      distributed = std::move(started).value();
+    } else if (launched > 1) {
+      return fail(started.status());
+    }  // else one launched process without MPI support: the usual solve
+  } else if (launched > 1) {
+    return fail(Status::NotSupported(
+        "under mpirun with " + std::to_string(launched) + " processes the input must be a "
+        "chunk store (graphslam ingest INPUT -o STORE/), got " + options.input));
+  }
+  const bool root = distributed == nullptr || distributed->rank() == 0;
+  const bool quiet = options.quiet || !root;
+  if (!root) SetQuietLogging(true);
+
   core::RobustKernel observation_kernel;
   core::PoseFactorKernels pose_kernels;
   if (Status kernels = core::ApplyRobustKernelOption(options.robust_kernel, &observation_kernel,
@@ -433,6 +467,8 @@ int RunSolveCommand(const SolveCommandOptions& options) {
       GS_LOG(INFO, "streaming mode: %d poses, %lld observations stay on disk; initial guess "
              "from the ingest (Table 1), no progressive initialization",
              problem.num_poses(), static_cast<long long>(num_observations));
+    } else if (!root) {
+      // Rank 0 loads them for the initialization; its start is broadcast.
     } else if (Status status = LoadObservations(*store, &problem); !status.ok()) {
       return fail(status);
     }
@@ -478,10 +514,10 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   // only checks: the input's guess is the start, bit for bit.
   const Clock::time_point initialize_start = Clock::now();
   // (Streaming: the ingest initialized and checked with every observation.)
-  if (!streaming && options.initialization == "as-given") {
+  if (!streaming && root && options.initialization == "as-given") {
     if (Status status = core::ValidateProblem(problem); !status.ok()) return fail(status);
     if (Status status = CheckEveryGuessGiven(problem); !status.ok()) return fail(status);
-  } else if (!streaming) {
+  } else if (!streaming && root) {
     if (Status status = core::InitializeProblem(&problem); !status.ok()) return fail(status);
   }
   const double initialize_seconds = Seconds(initialize_start);
@@ -499,7 +535,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   const core::ChunkSource& chunks =
       store ? static_cast<const core::ChunkSource&>(*store) : *in_memory;
 
-  ProgressDisplay display(!options.quiet);
+  ProgressDisplay display(!quiet);
   core::SolverOptions solver_options;
   solver_options.linear_solver = *solver_type;
   solver_options.preconditioner = *preconditioner;
@@ -526,7 +562,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   // Checkpoints: one durable file, replaced atomically after every iteration;
   // --resume continues from it (bit-identical to an uninterrupted solve).
   std::string checkpoint_path = options.checkpoint;
-  if (checkpoint_path.empty() && store && !options.associate)
+  if (checkpoint_path.empty() && store && !options.associate && !distributed)
     checkpoint_path = store_path + "/checkpoint.json";
   if (options.resume && checkpoint_path.empty()) {
     std::fprintf(stderr, "graphslam solve: --resume needs --checkpoint FILE (or a chunk store)\n");
@@ -550,7 +586,8 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   // solved briefly, put the guess into the basin of the global optimum.
   const Clock::time_point progressive_start = Clock::now();
   partition::ProgressiveInitializationOptions progressive;
-  progressive.enabled = options.initialization == "progressive" && !resuming && !streaming;
+  progressive.enabled =
+      options.initialization == "progressive" && !resuming && !streaming && root;
   progressive.max_observations_per_chunk = options.chunk_observations;
   progressive.max_new_poses = options.progressive_max_new_poses;
   if (Status status = progressive.Validate(); !status.ok()) {
@@ -564,7 +601,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     return fail(status);
   // Streaming mode: the pose-graph initializer (no in-memory sub-problems);
   // --initialization pose-graph asks for it in memory too.
-  if (!resuming && ((streaming && options.initialization == "progressive") ||
+  if (!resuming && root && ((streaming && options.initialization == "progressive") ||
                     options.initialization == "pose-graph")) {
     // Both first put the dead reckoning onto the GPS fixes, segment by segment:
     // far from them the pose-only LM creeps (20 000 poses: pose-only chi2
@@ -628,6 +665,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   const double optimize_cpu_start = ProcessCpuSeconds();
   partition::AssociationOptions association;
   partition::AssociationSummary association_summary;
+  nlohmann::json distributed_report = nlohmann::json::object();
   if (options.associate) {
     association.chi = options.chi;
     association.search_radius = options.association_radius;
@@ -645,6 +683,11 @@ int RunSolveCommand(const SolveCommandOptions& options) {
           !status.ok())
         return fail(status);
     }
+  } else if (distributed) {
+    if (Status status = distributed->Solve(solver_options, *store, &problem, &summary,
+                                           &distributed_report);
+        !status.ok())
+      return fail(status);
   } else if (Status status = core::SolveGraphSlam(solver_options, chunks, &problem, &summary);
              !status.ok()) {
     // A numerical failure names the input it happened on; nothing is written
@@ -657,7 +700,8 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     if (Status status = id_file->Restore(&problem.feature_ids); !status.ok()) return fail(status);
   }
 
-  // Write outputs (each atomically).
+  // Write outputs (each atomically); under mpirun rank 0 only.
+  if (!root) return summary.converged ? kExitOk : kExitNotConverged;
   if (!options.output_g2o.empty()) {
     if (Status status = storage::WriteG2o(problem, options.output_g2o); !status.ok())
       return fail(status);
@@ -691,6 +735,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     report["chunks_in_flight"] = solver_options.max_chunks_in_flight;
     report["memory_limit_bytes"] = memory_limit;
     if (store) report["store"] = store_path;
+    if (distributed) report["distributed"] = distributed_report["distributed"];
     if (options.associate)
       report["association"] = BuildAssociationReport(association, association_summary, 200);
     if (Status status = storage::WriteStringAtomically(storage::Env::Default(), options.report,
@@ -699,7 +744,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
       return fail(status);
   }
 
-  if (!options.quiet) {
+  if (!quiet) {
     // With an output on standard output ("-"), the summary goes to stderr.
     std::FILE* const out = WritesToStandardOutput(options) ? stderr : stdout;
     std::fprintf(out, "graphslam solve summary\n");
@@ -720,7 +765,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                   association_summary.rounds.size(), association_summary.seconds);
       const partition::IncrementalAssociationSummary& inc = association_summary.incremental;
       if (inc.ran) {
-        std::printf("  incremental pass   %lld stages, %lld features found, %lld provisional "
+        std::fprintf(out, "  incremental pass   %lld stages, %lld features found, %lld provisional "
                     "dropped as clutter (%lld observations); solve %.2f s, covariances %.2f s, "
                     "assignment %.2f s\n",
                     static_cast<long long>(inc.stages), static_cast<long long>(inc.features),

@@ -48,6 +48,7 @@ struct SolveCommandOptions {
   std::string workdir;       // --workdir DIR: ingest FILE into the store DIR, solve from it
   std::string memory_limit;  // --memory-limit SIZE: bounds chunks in flight ("" = none)
   bool two_pass = false;     // --two-pass: no fused recover + reduce pass (same results)
+  std::string petsc_options;  // --petsc-options: under mpirun, PETSc options ("-ksp_type cg")
   int64_t streaming_poses = 100'000;            // stores above: streaming initialization
   int64_t streaming_observations = 10'000'000;  // stores above: streaming initialization
   // Data association (unknown correspondence, docs/association.md).

@@ -16,8 +16,10 @@
 //
 // The pose-only factors come from the overloads LinearizePoseFactors /
 // PoseFactorsChi2 / AppendPoseFactorPattern of core/pose_factors.h (planar)
-// and core/pose_factors_3d.h (3-D). Defined and instantiated for the two
-// spaces in chunked_solve.cc.
+// and core/pose_factors_3d.h (3-D). The body is SolveChunkedWith
+// (chunked_solve_impl.h) with the one-process policy (single_process.h);
+// instantiated for the two spaces in chunked_solve.cc. The solve over MPI
+// ranks (distributed/distributed_solve.h) runs the same body.
 //
 // THREAD SAFETY and ALLOCATION: as SolveGraphSlam.
 #pragma once

@@ -9,6 +9,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   liboctomap-dev libpcl-dev libgeographiclib-dev libplplot-dev plplot-driver-cairo pkg-config
   clang libclang-rt-14-dev
+  libopenmpi-dev openmpi-bin libpetsc-real-dev
 )
 missing=()
 for p in "${packages[@]}"; do

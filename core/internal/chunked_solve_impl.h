@@ -1,0 +1,444 @@
+// SolveChunkedWith: the body of SolveChunked (core/internal/chunked_solve.h)
+// as a template on a Ranks policy, so that the one-process solve and the
+// solve over MPI ranks (core/distributed/) run the very same setup, passes and
+// Levenberg-Marquardt space. The one-process policy is SingleProcess
+// (core/internal/single_process.h). A Ranks policy provides:
+//
+//   using LinearSolver;   // Solve(lambda, D, &system, &x, &iterations, chi2):
+//                         //   solves (S + lambda diag(D)) x = rhs; StepResult,
+//                         //   SaveState, RestoreState as ReducedSystemSolver
+//   bool AddsPoseFactors();               // this process linearizes the pose-only
+//                                         // factors (exactly one process does)
+//   Status Agree(Status);                 // the status every process shares: its
+//                                         // own error, or that of another one
+//   void SumSystem(ReducedSystem*);       // gradient, hessian_diagonal, chi2
+//                                         // summed over processes (matrix and
+//                                         // rhs stay partial: the solver sums them)
+//   void SumRecovery(RecoveryResult*);    // the recovery's sums
+//   void SumScreening(ScreeningResult*);  // the feature partition of all chunks
+//   void SumChi2(double*);
+//   StatusOr<unique_ptr<LinearSolver>> MakeLinearSolver(pattern, options, summary);
+//
+// Each process passes only its own chunks; everything the Levenberg-Marquardt
+// control (core/levenberg_marquardt.h) reads is summed before it reads it, so
+// every process takes the same decisions. With SingleProcess every hook is
+// the identity and the solve is the one-process one, bit for bit.
+//
+// THREAD SAFETY and ALLOCATION: as SolveGraphSlam.
+#pragma once
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include "core/block_sparse_matrix.h"
+#include "core/candidate_store.h"
+#include "core/chunk_passes.h"
+#include "core/internal/chunked_solve.h"
+#include "core/levenberg_marquardt.h"
+#include "core/logging.h"
+#include "core/pose_factors.h"
+#include "core/pose_factors_3d.h"
+#include "core/reduced_system_solver.h"
+#include "core/unknown_layout.h"
+
+namespace graphslam::core::internal {
+namespace chunked_solve_detail {
+
+using Clock = SolverClock;
+
+template <class Space>
+std::vector<typename Space::Pose> ApplyPoseStep(const std::vector<typename Space::Pose>& poses,
+                                                const UnknownLayout& layout,
+                                                const Eigen::VectorXd& step) {
+  constexpr int P = Space::kPoseDim;
+  std::vector<typename Space::Pose> out = poses;
+  for (size_t p = 0; p < poses.size(); ++p) {
+    const int32_t u = layout.unknown_index[p];
+    if (u < 0) continue;
+    out[p] = Space::Retract(poses[p], step.template segment<P>(P * u));
+  }
+  return out;
+}
+
+// The problem space of RunLevenbergMarquardt (core/levenberg_marquardt.h)
+// for either space: observations streamed from the ChunkSource chunk by
+// chunk (core/chunk_passes.h), the pose-only factors from the problem.
+template <class Space, class Ranks>
+class ChunkedSpace {
+ public:
+  using Checkpoint = CheckpointOf<Space>;
+  static constexpr const char* kName = Space::kName;
+  using Pose = typename Space::Pose;
+  using Point = typename Space::Point;
+
+  // fused: one RecoverAndReducePass per accepted iteration (see TryStep).
+  // candidate_store (optional): the step's candidate features go there
+  // instead of into an array of one per feature (core/candidate_store.h).
+  // kept and excluded are lent to the checkpoint too (LendState), so they
+  // are held by non-const reference.
+  ChunkedSpace(const BasicPassContext<Space>& context, const UnknownLayout& layout,
+               std::vector<uint8_t>* kept, const PoseFactorKernels& pose_kernels,
+               typename Space::Problem* problem, ReducedSystem* system,
+               typename Ranks::LinearSolver* solver, std::vector<uint8_t>* excluded, bool fused,
+               BasicCandidateStore<Point>* candidate_store, Ranks* ranks)
+      : context_(context), layout_(layout), kept_(*kept), pose_kernels_(pose_kernels),
+        problem_(*problem), system_(*system), solver_(*solver), excluded_(*excluded),
+        fused_(fused), candidate_store_(candidate_store), ranks_(*ranks) {}
+
+  Status Linearize(double lambda, IterationSummary* it, bool* usable) {
+    const int num_rows = system_.matrix.num_rows();
+    *usable = true;
+    if (speculation_ready_ && lambda == speculative_lambda_) {
+      // The previous iteration's fused pass reduced at this very state with
+      // this very lambda into system_ (RecoverAndReducePass): no pass.
+      speculation_ready_ = false;
+      it->gradient_max_norm = num_rows > 0 ? system_.gradient.cwiseAbs().maxCoeff() : 0.0;
+      return Status::Ok();
+    }
+    speculation_ready_ = false;
+    ResetSystem(problem_.poses, &system_);
+    GS_RETURN_IF_ERROR(ranks_.Agree(
+        ReducePass(context_, problem_.poses, problem_.features, lambda, &system_)));
+    ranks_.SumSystem(&system_);
+    ++it->chunk_passes;
+    it->gradient_max_norm = num_rows > 0 ? system_.gradient.cwiseAbs().maxCoeff() : 0.0;
+    return Status::Ok();
+  }
+
+  // Reduces at the current state with damping lambda before the first
+  // iteration, whose Linearize(lambda) then reuses the system (as after an
+  // accepted fused step); *observations_chi2 is the system's chi2, the sum
+  // ObservationsChi2 gives, in the same order. This pass replaces the
+  // separate initial-cost pass. On an error nothing is reused: the caller
+  // falls back to ObservationsChi2, and Linearize reduces (and fails) again.
+  Status ReduceAhead(double lambda, double* observations_chi2) {
+    speculation_ready_ = false;
+    ResetSystem(problem_.poses, &system_);
+    GS_RETURN_IF_ERROR(ranks_.Agree(
+        ReducePass(context_, problem_.poses, problem_.features, lambda, &system_)));
+    ranks_.SumSystem(&system_);
+    speculation_ready_ = true;
+    speculative_lambda_ = lambda;
+    *observations_chi2 = system_.chi2;
+    return Status::Ok();
+  }
+
+  Status TryStep(double lambda, double speculative_lambda, bool /*usable*/, IterationSummary* it,
+                 TrialStep* trial) {
+    const std::vector<Pose>& poses = problem_.poses;
+    damping_ = system_.hessian_diagonal.cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal);
+    speculation_built_ = false;
+
+    // Damp and solve the reduced pose system (Ranks::LinearSolver).
+    const Clock::time_point solve_start = Clock::now();
+    Status solve_status = solver_.Solve(lambda, damping_, &system_, &pose_step_,
+                                        &it->linear_iterations, it->start_chi2);
+    trial->ok = solve_status.ok();
+    it->solve_seconds = SecondsSince(solve_start);
+    const Clock::time_point recover_start = Clock::now();
+    if (!trial->ok)
+      GS_VLOG(1, "linear solve failed (%s); raising damping", solve_status.ToString().c_str());
+    if (trial->ok) {
+      // Recover the features and evaluate the candidate; in the same pass,
+      // reduce at the candidate for the next iteration when there is one.
+      RecoveryResult recovery;
+      candidate_poses_ = ApplyPoseStep<Space>(poses, layout_, pose_step_);
+      CandidateSink<Space> sink = CandidateSinkForThisStep();
+      if (candidate_store_ != nullptr) GS_RETURN_IF_ERROR(candidate_store_->Begin());
+      if (fused_ && speculative_lambda > 0.0) {
+        // Once solved, this linearization's matrix and rhs are dead (a
+        // rejected step re-reduces at x from scratch): the next system is
+        // reduced into the same buffer. Only g_x is still needed, for the
+        // model decrease below.
+        step_gradient_.swap(system_.gradient);
+        ResetSystem(candidate_poses_, &system_);
+        Status next_status;
+        GS_RETURN_IF_ERROR(ranks_.Agree(RecoverAndReducePass<Space>(
+            context_, poses, problem_.features, lambda, pose_step_, candidate_poses_, sink,
+            &recovery, speculative_lambda, &system_, &next_status)));
+        // Built only if every rank built its part.
+        next_status = ranks_.Agree(std::move(next_status));
+        if (next_status.ok()) ranks_.SumSystem(&system_);
+        speculation_built_ = next_status.ok();
+        speculative_lambda_ = speculative_lambda;
+        if (!next_status.ok())
+          GS_VLOG(1, "speculative reduce failed (%s)", next_status.ToString().c_str());
+      } else {
+        GS_RETURN_IF_ERROR(ranks_.Agree(RecoverPass<Space>(context_, poses, problem_.features,
+                                                           lambda, pose_step_, candidate_poses_,
+                                                           sink, &recovery)));
+        step_gradient_ = system_.gradient;
+      }
+      if (candidate_store_ != nullptr) GS_RETURN_IF_ERROR(candidate_store_->Finish());
+      ranks_.SumRecovery(&recovery);
+      ++it->chunk_passes;
+      trial->candidate_chi2 =
+          PoseFactorsChi2(problem_, candidate_poses_, pose_kernels_) + recovery.candidate_chi2;
+      trial->model_decrease = -(step_gradient_.dot(pose_step_) + recovery.gradient_dot_step) +
+                              lambda * (pose_step_.dot(damping_.cwiseProduct(pose_step_)) +
+                                        recovery.damped_step_norm);
+      it->step_norm = std::sqrt(pose_step_.squaredNorm() + recovery.step_squared_norm);
+      trial->state_norm_squared = recovery.state_squared_norm;
+      for (size_t p = 0; p < poses.size(); ++p) {
+        if (layout_.unknown_index[p] >= 0)
+          trial->state_norm_squared += Space::StateSquaredNorm(poses[p]);
+      }
+    }
+    it->recover_seconds = SecondsSince(recover_start);
+    return Status::Ok();
+  }
+
+  void StepResult(bool accepted) { solver_.StepResult(accepted); }
+
+  Status Accept() {
+    // The speculative system was reduced at exactly the state taken here.
+    speculation_ready_ = speculation_built_;
+    problem_.poses = std::move(candidate_poses_);
+    if (candidate_store_ != nullptr) {
+      std::vector<Point>& features = problem_.features;
+      const std::vector<uint8_t>& excluded = excluded_;
+      return candidate_store_->ForEach([&](int32_t g, const Point& value) {
+        if (!excluded[g]) features[g] = value;
+      });
+    }
+    for (size_t g = 0; g < problem_.features.size(); ++g)
+      if (!excluded_[g]) problem_.features[g] = candidate_features_[g];
+    return Status::Ok();
+  }
+
+  // Moves (not copies) the poses, feature estimates and per-feature flags
+  // into the checkpoint for the callback; ReturnState must follow before the
+  // state is used again. A moved vector keeps its buffer, so the state comes
+  // back at the same addresses (context_.excluded points at excluded_).
+  void LendState(Checkpoint* checkpoint) {
+    checkpoint->poses = std::move(problem_.poses);
+    checkpoint->features = std::move(problem_.features);
+    checkpoint->excluded = std::move(excluded_);
+    checkpoint->kept = std::move(kept_);
+    solver_.SaveState(&checkpoint->pcg);
+  }
+
+  void ReturnState(Checkpoint* checkpoint) {
+    problem_.poses = std::move(checkpoint->poses);
+    problem_.features = std::move(checkpoint->features);
+    excluded_ = std::move(checkpoint->excluded);
+    kept_ = std::move(checkpoint->kept);
+  }
+
+ private:
+  // Where RecoverChunk's per-chunk candidates go: the store, or one slot per
+  // feature in candidate_features_.
+  CandidateSink<Space> CandidateSinkForThisStep() {
+    using Chunk = BasicObservationChunk<typename Space::Observation>;
+    if (candidate_store_ != nullptr) {
+      return [this](const Chunk& chunk, const std::vector<Point>& candidates) {
+        return candidate_store_->Append(chunk.index, chunk.features.data(), candidates.data(),
+                                        chunk.num_features());
+      };
+    }
+    candidate_features_.resize(problem_.features.size());
+    return [this](const Chunk& chunk, const std::vector<Point>& candidates) {
+      for (int64_t k = 0; k < chunk.num_features(); ++k) {
+        const int32_t g = chunk.features[k];
+        if (!excluded_[g]) candidate_features_[g] = candidates[static_cast<size_t>(k)];
+      }
+      return Status::Ok();
+    };
+  }
+
+  // Zeroes *system and adds the pose-only factors at `poses`: the state
+  // ReducePass (or the reduce half of the fused pass) starts from.
+  void ResetSystem(const std::vector<Pose>& poses, ReducedSystem* system) const {
+    const int num_rows = system->matrix.num_rows();
+    system->matrix.SetZero();
+    system->rhs.setZero(num_rows);
+    system->gradient.setZero(num_rows);
+    system->hessian_diagonal.setZero(num_rows);
+    system->chi2 = 0.0;
+    if (ranks_.AddsPoseFactors()) {
+      LinearizePoseFactors(problem_, poses, layout_, &system->matrix, &system->gradient,
+                           &system->hessian_diagonal, pose_kernels_);
+    }
+    system->rhs -= system->gradient;
+  }
+
+  const BasicPassContext<Space>& context_;
+  const UnknownLayout& layout_;
+  std::vector<uint8_t>& kept_;
+  const PoseFactorKernels& pose_kernels_;
+  typename Space::Problem& problem_;
+  ReducedSystem& system_;
+  typename Ranks::LinearSolver& solver_;
+  std::vector<uint8_t>& excluded_;
+  const bool fused_;
+  BasicCandidateStore<Point>* const candidate_store_;  // may be null
+  Ranks& ranks_;
+  Eigen::VectorXd step_gradient_;  // g_x of the linearization the last step solved
+  Eigen::VectorXd damping_;
+  Eigen::VectorXd pose_step_;
+  std::vector<Pose> candidate_poses_;
+  std::vector<Point> candidate_features_;
+  // Speculation: system_ holds the reduction at the last candidate (built by
+  // the last TryStep); ready once that step was accepted.
+  bool speculation_built_ = false;
+  bool speculation_ready_ = false;
+  double speculative_lambda_ = 0.0;
+};
+
+}  // namespace chunked_solve_detail
+
+template <class Space, class Ranks>
+Status SolveChunkedWith(
+    const SolverOptions& options, const BasicChunkSource<typename Space::Observation>& chunks,
+    typename Space::Problem* problem, SolverSummary* summary, const CheckpointOf<Space>* resume,
+    const std::function<Status(const CheckpointOf<Space>&)>& checkpoint_callback,
+    Ranks* ranks) {
+  constexpr int kDim = Space::kPoseDim;
+  GS_RETURN_IF_ERROR(options.Validate());
+  const SolverClock::time_point start = SolverClock::now();
+  *summary = SolverSummary();
+
+  UnknownLayout layout = UnknownLayout::FromProblem(*problem);
+  summary->unknown_poses = layout.num_unknown_poses;
+  BasicPassContext<Space> context;
+  context.chunks = &chunks;
+  context.layout = &layout;
+  context.max_in_flight = options.max_chunks_in_flight;
+  context.progress = options.progress;
+  context.kernel = options.observation_kernel;
+
+  // Which features can be eliminated (positive definite information), and in
+  // the same pass the pattern of S under that partition. A resume keeps the
+  // checkpoint's partition instead, whose pattern takes a pass of its own.
+  ScreeningResult screening;
+  ScreenedPattern screened_pattern;
+  GS_RETURN_IF_ERROR(ranks->Agree(ScreenFeatures(context, problem->poses, problem->features,
+                                                 options.max_eliminated_observations, &screening,
+                                                 resume == nullptr ? &screened_pattern : nullptr)));
+  ranks->SumScreening(&screening);
+  // A resume whose feature array is empty while the problem has features:
+  // the caller moved the checkpoint's estimates into problem->features
+  // already (SolverOptions::resume_from), so no second copy is held.
+  const bool resume_features_in_problem =
+      resume != nullptr && resume->features.empty() && !problem->features.empty();
+  if (resume != nullptr) {
+    if (resume->poses.size() != problem->poses.size() ||
+        (!resume_features_in_problem && resume->features.size() != problem->features.size()) ||
+        resume->excluded.size() != problem->features.size() ||
+        resume->kept.size() != problem->features.size()) {
+      return Status::InvalidArgument(
+          "checkpoint does not match the problem: " + std::to_string(resume->poses.size()) +
+          " poses and " + std::to_string(resume->features.size()) + " features, expected " +
+          std::to_string(problem->poses.size()) + " and " +
+          std::to_string(problem->features.size()));
+    }
+    // The checkpoint's partition of the features, not one recomputed at the
+    // resumed state: the continued solve must be the interrupted one.
+    const int64_t unobserved = screening.unobserved;
+    screening.excluded = resume->excluded;
+    screening.kept = resume->kept;
+    screening.kept_count = std::count(screening.kept.begin(), screening.kept.end(), 1);
+    screening.excluded_not_positive_definite =
+        std::count(screening.excluded.begin(), screening.excluded.end(), 1) - unobserved;
+    problem->poses = resume->poses;
+    if (!resume_features_in_problem) problem->features = resume->features;
+    summary->resumed_from_iteration = resume->iterations;
+  }
+  layout.KeepFeatures(screening.kept);
+  summary->kept_features = screening.kept_count;
+  summary->excluded_features = screening.excluded_not_positive_definite;
+  summary->unobserved_features = screening.unobserved;
+  summary->observations_used = screening.observations;
+  summary->eliminated_features =
+      problem->num_features() - screening.excluded_not_positive_definite - screening.unobserved -
+      screening.kept_count;
+  if (screening.excluded_not_positive_definite > 0) {
+    GS_LOG(WARNING,
+           "%lld features have information that is not positive definite (too few or "
+           "degenerate observations); they are kept out of the solve",
+           static_cast<long long>(screening.excluded_not_positive_definite));
+  }
+  // Moved, not copied: one byte per feature (the screening's copy is dead).
+  summary->excluded = std::move(screening.excluded);
+  context.excluded = &summary->excluded;
+
+  // The reduced matrix's pattern: pose-only factors plus co-observing poses.
+  std::vector<std::pair<int, int>> pairs;
+  if (ranks->AddsPoseFactors()) AppendPoseFactorPattern(*problem, layout, &pairs);
+  if (resume == nullptr) {
+    AppendScreenedPattern(layout, &screened_pattern, &pairs);
+  } else {
+    GS_RETURN_IF_ERROR(ranks->Agree(CollectReducedPattern(context, &pairs)));
+  }
+  ReducedSystem system;
+  system.matrix = BlockSparseMatrix::FromPattern(kDim, layout.num_blocks(), std::move(pairs));
+  pairs = {};
+  summary->reduced_nonzero_blocks = system.matrix.num_nonzero_blocks();
+  GS_VLOG(1, "reduced system: %d poses, %lld stored blocks; product: %d ranges, %lld accumulator rows, "
+          "%lld far blocks", system.matrix.num_block_rows(),
+          static_cast<long long>(system.matrix.num_stored_blocks()),
+          system.matrix.num_product_ranges(), static_cast<long long>(system.matrix.num_accumulator_rows()),
+          static_cast<long long>(system.matrix.num_far_blocks()));
+
+  // The reduced system's solver (core/reduced_system_solver.h): kAuto picks
+  // CHOLMOD or PCG from CHOLMOD's symbolic analysis of this pattern.
+  ReducedSystemSolverOptions linear_options;
+  linear_options.type = options.linear_solver;
+  linear_options.preconditioner = options.preconditioner;
+  linear_options.pcg_max_iterations = options.pcg_max_iterations;
+  linear_options.pcg_relative_tolerance = options.pcg_relative_tolerance;
+  linear_options.forcing_sequence = options.pcg_forcing_sequence;
+  linear_options.eta_max = options.pcg_eta_max;
+  // Landmark problems only (core/graphslam_solver.h, pcg_truncation).
+  linear_options.truncation = summary->eliminated_features > 0
+                                  ? options.pcg_truncation * options.function_tolerance
+                                  : 0.0;
+  linear_options.warm_start = options.pcg_warm_start;
+  linear_options.deflation_poses = options.pcg_deflation_poses;
+  linear_options.max_analysis_unknowns = options.auto_cholmod_max_unknowns;
+  linear_options.max_factor_bytes = options.auto_cholmod_max_factor_bytes;
+  linear_options.eliminated_features = summary->eliminated_features > 0;
+  GS_RETURN_IF_ERROR(linear_options.Validate());
+  StatusOr<std::unique_ptr<typename Ranks::LinearSolver>> solver =
+      ranks->MakeLinearSolver(system.matrix, linear_options, summary);
+  GS_RETURN_IF_ERROR(solver.status());
+  // The PCG's forcing term, warm start and forest of the interrupted solve.
+  if (resume != nullptr)
+    GS_RETURN_IF_ERROR((*solver)->RestoreState(resume->pcg, system.matrix));
+
+  // The candidate store holds planar points (SolverOptions is shared with the
+  // 3-D solver, which keeps its candidates in memory).
+  BasicCandidateStore<typename Space::Point>* candidate_store = nullptr;
+  if constexpr (std::is_same_v<Space, Space2d>) candidate_store = options.candidate_store;
+  chunked_solve_detail::ChunkedSpace<Space, Ranks> space(context, layout, &screening.kept, options.pose_kernels,
+                                   problem, &system, solver->get(), &summary->excluded,
+                                   options.fused_chunk_pass, candidate_store, ranks);
+  // The first iteration's reduction (at the lambda RunLevenbergMarquardt
+  // starts with) gives the initial chi2 of the observations too: one pass
+  // instead of two before the first solve (fused schedule; --two-pass keeps
+  // its two passes in every iteration).
+  double observations_chi2 = 0.0;
+  const bool iterates = resume == nullptr ? options.max_iterations >= 1
+                                          : !resume->converged &&
+                                                resume->iterations + 1 <= options.max_iterations;
+  const double first_radius = resume != nullptr ? resume->trust_region_radius
+                                                : options.initial_trust_region_radius;
+  if (!iterates || !options.fused_chunk_pass ||
+      !space.ReduceAhead(1.0 / first_radius, &observations_chi2).ok()) {
+    GS_RETURN_IF_ERROR(ranks->Agree(
+        ObservationsChi2(context, problem->poses, problem->features, &observations_chi2)));
+    ranks->SumChi2(&observations_chi2);
+  }
+  const double chi2 =
+      PoseFactorsChi2(*problem, problem->poses, options.pose_kernels) + observations_chi2;
+  return RunLevenbergMarquardt(options, chi2, resume, checkpoint_callback, start, &space,
+                               summary);
+}
+
+}  // namespace graphslam::core::internal
