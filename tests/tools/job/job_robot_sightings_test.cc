@@ -40,11 +40,16 @@ std::string Stamp(int k) {
 }
 
 // Writes robots 1 and 2 (barcodes 5 and 14) into `folder`: Vicon ground
-// truth, odometry with noise and a yaw-rate bias (so dead reckoning drifts),
-// and every 0.5 s each robot's range-bearing measurement of the other.
+// truth, odometry with zero-mean noise, and every 0.5 s each robot's
+// range-bearing measurement of the other. (Without landmarks a drift common
+// to both robots is unobservable, so the odometry has no bias: what is tested
+// is the relative placement of the two robots, which only the sightings give;
+// each starts at the origin of its own frame, 4.5 m and 180 degrees from the
+// truth of the other.)
 void WriteDataset(const fs::path& folder, Robot* robots) {
   fs::create_directories(folder);
   std::ofstream(folder / "Barcodes.dat") << "# Subject # Barcode #\n1 5\n2 14\n6 72\n";
+  std::ofstream(folder / "Landmark_Groundtruth.dat") << "# Subject # x y sx sy (no landmark)\n";
   std::mt19937_64 engine(11);
   std::normal_distribution<double> normal;
   const int barcode[2] = {5, 14};
@@ -61,7 +66,7 @@ void WriteDataset(const fs::path& folder, Robot* robots) {
       if (k + 1 < kSteps) robot.truth.push_back(core::PredictVelocityMotion(robot.truth.back(), control));
       const core::Pose2& x = robot.truth[static_cast<size_t>(k)];
       odometry << Stamp(k) << " " << robot.v + 0.02 * normal(engine) << " "
-               << robot.omega + 0.01 + 0.02 * normal(engine) << "\n";
+               << robot.omega + 0.02 * normal(engine) << "\n";
       truth << Stamp(k) << " " << x.x() << " " << x.y() << " " << x.z() << "\n";
     }
   }
@@ -92,11 +97,11 @@ TEST_F(JobRobotSightings, TwoRobotsThatOnlySeeEachOtherEndInOneFrame) {
   robots[1].omega = -0.1;
   WriteDataset(dir_ / "together", robots);
   const std::string solver = "solver: {initialization: odometry}\n";
-  ASSERT_TRUE(Run("output: out\n" + solver +
-                  "runs:\n"
-                  "  - {name: r1, format: mrclam, robot: 1, path: together}\n"
-                  "  - {name: r2, format: mrclam, robot: 2, path: together}\n")
-                  .ok());
+  const Status together = Run("output: out\n" + solver +
+                              "runs:\n"
+                              "  - {name: r1, format: mrclam, robot: 1, path: together}\n"
+                              "  - {name: r2, format: mrclam, robot: 2, path: together}\n");
+  ASSERT_TRUE(together.ok()) << together.ToString();
   const nlohmann::json report = ReadJsonFile(dir_ / "out/report.json");
   ASSERT_EQ(report["components"].size(), 1u);
   EXPECT_TRUE(report["runs"][0]["tied"].get<bool>());
@@ -113,9 +118,10 @@ TEST_F(JobRobotSightings, TwoRobotsThatOnlySeeEachOtherEndInOneFrame) {
   ASSERT_EQ(report["joint_trajectory_errors"].size(), 1u);
   const nlohmann::json& joint = report["joint_trajectory_errors"][0];
   EXPECT_EQ(joint["matched_poses"].get<int>(), 2 * kSteps);
-  EXPECT_LT(joint["position_rmse_m"].get<double>(), 0.1);
+  // (0.013 m here; a robot left where its own frame puts it would be metres off.)
+  EXPECT_LT(joint["position_rmse_m"].get<double>(), 0.05);
   for (const nlohmann::json& run : joint["runs"]) {
-    EXPECT_LT(run["position_rmse_m"].get<double>(), 0.1) << run["name"];
+    EXPECT_LT(run["position_rmse_m"].get<double>(), 0.05) << run["name"];
     EXPECT_LT(run["heading_rmse_rad"].get<double>(), 0.1) << run["name"];
   }
   EXPECT_DOUBLE_EQ(report["runs"][1]["joint_position_rmse_m"].get<double>(),
@@ -124,12 +130,12 @@ TEST_F(JobRobotSightings, TwoRobotsThatOnlySeeEachOtherEndInOneFrame) {
   // The same files in two folders: nothing ties the robots.
   fs::create_directories(dir_ / "apart");
   fs::copy(dir_ / "together", dir_ / "apart", fs::copy_options::recursive);
-  ASSERT_TRUE(Run("output: out2\n" + solver +
-                  "runs:\n"
-                  "  - {name: r1, format: mrclam, robot: 1, path: together}\n"
-                  "  - {name: r2, format: mrclam, robot: 2, path: apart}\n",
-                  "job2.yaml")
-                  .ok());
+  const Status apart_status = Run("output: out2\n" + solver +
+                                  "runs:\n"
+                                  "  - {name: r1, format: mrclam, robot: 1, path: together}\n"
+                                  "  - {name: r2, format: mrclam, robot: 2, path: apart}\n",
+                                  "job2.yaml");
+  ASSERT_TRUE(apart_status.ok()) << apart_status.ToString();
   const nlohmann::json apart = ReadJsonFile(dir_ / "out2/report.json");
   EXPECT_EQ(apart["components"].size(), 2u);
   EXPECT_FALSE(apart["runs"][1]["tied"].get<bool>());
