@@ -101,6 +101,13 @@ Status CheckConstraints(const Problem2d& problem) {
     GS_RETURN_IF_ERROR(CheckInformation<2>(problem, c.information, c.line,
                                            "GPS fix of " + PoseName(problem, c.pose)));
   }
+  for (const PoseRangeBearingConstraint& c : problem.pose_range_bearings) {
+    GS_RETURN_IF_ERROR(CheckIndex(problem, c.from, num_poses, c.line, "robot sighting", "pose"));
+    GS_RETURN_IF_ERROR(CheckIndex(problem, c.to, num_poses, c.line, "robot sighting", "pose"));
+    GS_RETURN_IF_ERROR(CheckInformation<2>(
+        problem, c.information, c.line,
+        "robot sighting " + PoseName(problem, c.from) + " -> " + PoseName(problem, c.to)));
+  }
   for (const Observation& c : problem.observations)
     GS_RETURN_IF_ERROR(CheckObservation(problem, c));
   return Status::Ok();
@@ -146,6 +153,8 @@ int32_t FirstConstraintLine(const Problem2d& problem, int32_t pose) {
     if (c.from == pose || c.to == pose) consider(c.line);
   for (const auto& c : problem.gps)
     if (c.pose == pose) consider(c.line);
+  for (const auto& c : problem.pose_range_bearings)
+    if (c.from == pose || c.to == pose) consider(c.line);
   for (const auto& c : problem.observations)
     if (c.pose == pose) consider(c.line);
   return best;
@@ -158,6 +167,7 @@ Status CheckConnectivity(const Problem2d& problem) {
   DisjointSets sets(num_poses + problem.num_features());
   for (const auto& c : problem.relative_poses) sets.Union(c.from, c.to);
   for (const auto& c : problem.motions) sets.Union(c.from, c.to);
+  for (const auto& c : problem.pose_range_bearings) sets.Union(c.from, c.to);
   for (const auto& c : problem.observations) sets.Union(c.pose, num_poses + c.feature);
 
   std::vector<int32_t> fixed_poses;

@@ -24,8 +24,8 @@
 //   - every information matrix is finite, symmetric and positive definite
 //     (Cholesky succeeds);
 //   - every pose is connected to an anchor (a fixed pose; pose 0 when none is
-//     fixed; any pose with a GPS fix) through relative poses, motions or a
-//     shared feature (union-find). Otherwise the Hessian is singular; the
+//     fixed; any pose with a GPS fix) through relative poses, motions, robot
+//     sightings (pose_range_bearings) or a shared feature (union-find). Otherwise the Hessian is singular; the
 //     message names the source file, the pose's line and its id.
 // Failures are Status::InvalidArgument, e.g.
 //   "intel.g2o:57: pose 56 is not connected to the anchor (pose 0) by any

@@ -3,6 +3,7 @@ target_sources(graphslam_core PRIVATE
   gps_model.cc
   initialization.cc
   point_observation_model.cc
+  pose_range_bearing_model.cc
   range_bearing_model.cc
   relative_pose_model.cc
   velocity_motion_model.cc)

@@ -3,6 +3,7 @@
 #include "core/check.h"
 #include "core/gps_model.h"
 #include "core/internal/robust_term.h"
+#include "core/pose_range_bearing_model.h"
 #include "core/relative_pose_model.h"
 #include "core/velocity_motion_model.h"
 
@@ -67,6 +68,12 @@ double PoseFactorsChi2(const Problem2d& problem, const std::vector<Pose2>& poses
     EvaluateGps(poses[c.pose], c.z, &e2, nullptr);
     chi2 += RobustTerm<2>(kernels.gps, e2, c.information, nullptr);
   }
+  for (const PoseRangeBearingConstraint& c : problem.pose_range_bearings) {
+    // Coincident positions (undefined bearing) contribute nothing, as an
+    // observation at its feature's position does in the feature linearizer.
+    if (!EvaluatePoseRangeBearing(poses[c.from], poses[c.to], c.z, &e2, nullptr, nullptr)) continue;
+    chi2 += RobustTerm<2>(kernels.robot, e2, c.information, nullptr);
+  }
   return chi2;
 }
 
@@ -106,6 +113,14 @@ double LinearizePoseFactors(const Problem2d& problem, const std::vector<Pose2>& 
     gradient->segment<kDim>(kDim * u) += w * e2;
     hessian_diagonal->segment<kDim>(kDim * u) += h.diagonal();
   }
+  Eigen::Matrix<double, 2, 3> j2b;
+  for (const PoseRangeBearingConstraint& c : problem.pose_range_bearings) {
+    if (!EvaluatePoseRangeBearing(poses[c.from], poses[c.to], c.z, &e2, &j2, &j2b)) continue;
+    chi2 += RobustTerm<2>(kernels.robot, e2, c.information, &w2);
+    j2 = j2 * RetractionJacobian(poses[c.from]);
+    j2b = j2b * RetractionJacobian(poses[c.to]);
+    AddBinary<2>(layout, c.from, c.to, j2, j2b, w2, e2, hessian, gradient, hessian_diagonal);
+  }
   return chi2;
 }
 
@@ -117,6 +132,7 @@ void AppendPoseFactorPattern(const Problem2d& problem, const UnknownLayout& layo
   };
   for (const RelativePoseConstraint& c : problem.relative_poses) add(c.from, c.to);
   for (const VelocityMotionConstraint& c : problem.motions) add(c.from, c.to);
+  for (const PoseRangeBearingConstraint& c : problem.pose_range_bearings) add(c.from, c.to);
 }
 
 }  // namespace graphslam::core

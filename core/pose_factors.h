@@ -1,5 +1,7 @@
 // Linearization of the pose-only constraints: relative-pose odometry, velocity
-// motion and GPS (paper Table 2 l.4-9 for motion; eq. 3 for GPS).
+// motion, GPS (paper Table 2 l.4-9 for motion; eq. 3 for GPS) and
+// range-bearing measurements of one pose from another (robot to robot,
+// core/pose_range_bearing_model.h).
 //
 // For each constraint with residual e(x) (Jacobians A_k w.r.t. the poses it
 // touches) and information W, in increment form about the current estimate:

@@ -8,6 +8,8 @@
 //   - velocity motion between consecutive poses         (velocity_motion_model.h)
 //   - GPS position fixes of a pose                      (gps_model.h)
 //   - observations of a feature from a pose: range-bearing or point-in-frame
+//   - range-bearing measurements of one pose's position from another pose
+//     (a robot seeing another robot)                    (pose_range_bearing_model.h)
 // Indices are dense (0..n-1); the ids of the input file are kept beside them so
 // outputs reuse them. Pose and feature ids may share one number space (g2o).
 //
@@ -62,6 +64,16 @@ struct GpsConstraint {
   int32_t line = 0;
 };
 
+// Pose `to`'s position (x, y) measured as (range, bearing) from pose `from`
+// (core/pose_range_bearing_model.h): a robot seeing another robot.
+struct PoseRangeBearingConstraint {
+  int32_t from = -1;  // observing pose
+  int32_t to = -1;    // observed pose
+  Eigen::Vector2d z = Eigen::Vector2d::Zero();  // range, bearing
+  Eigen::Matrix2d information = Eigen::Matrix2d::Identity();
+  int32_t line = 0;
+};
+
 struct Problem2d {
   std::string source;  // path of the input, for messages
 
@@ -81,6 +93,7 @@ struct Problem2d {
   std::vector<RelativePoseConstraint> relative_poses;
   std::vector<VelocityMotionConstraint> motions;
   std::vector<GpsConstraint> gps;
+  std::vector<PoseRangeBearingConstraint> pose_range_bearings;
   std::vector<Observation> observations;
 
   int32_t num_poses() const { return static_cast<int32_t>(poses.size()); }

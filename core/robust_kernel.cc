@@ -61,10 +61,12 @@ Status ApplyOne(std::string_view text, RobustKernel* observation, PoseFactorKern
     pose_factors->motion = *kernel;
   } else if (type == "gps") {
     pose_factors->gps = *kernel;
+  } else if (type == "robot") {
+    pose_factors->robot = *kernel;
   } else {
     return Status::InvalidArgument("robust kernel '" + std::string(text) +
                                    "': unknown constraint type '" + std::string(type) +
-                                   "'; expected observation, odometry, motion or gps");
+                                   "'; expected observation, odometry, motion, gps or robot");
   }
   return Status::Ok();
 }
@@ -108,6 +110,7 @@ std::string RobustKernelsName(const RobustKernel& observation, const PoseFactorK
     out += "motion=" + RobustKernelName(pose.motion);
   }
   add("gps", pose.gps);
+  add("robot", pose.robot);
   return out.empty() ? "none" : out;
 }
 

@@ -18,7 +18,8 @@
 //
 // Kernels are chosen per constraint type (issue 6, item 3): observations
 // (feature_linearizer.h) and the pose-only constraints (pose_factors.h):
-// relative-pose edges (odometry and loop closures), velocity motion and GPS.
+// relative-pose edges (odometry and loop closures), velocity motion, GPS and
+// range-bearing measurements of other robots.
 // A wrong loop closure or a GPS multipath fix is the pose-graph analogue of a
 // misread barcode. kNone is exactly the plain least-squares term (the solver
 // skips the scaling, so results without kernels are bit for bit unchanged).
@@ -62,9 +63,11 @@ struct PoseFactorKernels {
   RobustKernel relative_pose;  // odometry and loop-closure edges
   RobustKernel motion;         // velocity motion (paper Table 2 l.4-9)
   RobustKernel gps;            // GPS position fixes
+  RobustKernel robot;          // range-bearing of another robot (pose_range_bearing_model.h)
   bool AllNone() const {
     return relative_pose.type == RobustKernel::Type::kNone &&
-           motion.type == RobustKernel::Type::kNone && gps.type == RobustKernel::Type::kNone;
+           motion.type == RobustKernel::Type::kNone && gps.type == RobustKernel::Type::kNone &&
+           robot.type == RobustKernel::Type::kNone;
   }
 };
 
@@ -75,7 +78,8 @@ std::string RobustKernelName(const RobustKernel& kernel);
 // Applies `--robust-kernel` values, separated by spaces, commas or newlines:
 // "K" alone (the old form) or "observation=K" sets `*observation`;
 // "odometry=K" sets the relative-pose edges and the velocity motion;
-// "motion=K" the velocity motion only; "gps=K" the GPS fixes. Values apply
+// "motion=K" the velocity motion only; "gps=K" the GPS fixes; "robot=K" the
+// range-bearing measurements of other robots. Values apply
 // left to right, later ones win. On error nothing is changed.
 Status ApplyRobustKernelOption(std::string_view text, RobustKernel* observation,
                                PoseFactorKernels* pose_factors);

@@ -92,11 +92,12 @@ const char* InputFormatName(InputFormat format) {
 }
 
 StatusOr<core::Problem2d> ReadProblem(const std::string& path, InputFormat format,
-                                      const MrclamOptions& mrclam) {
+                                      const MrclamOptions& mrclam,
+                                      MrclamReadStats* mrclam_stats) {
   switch (format) {
     case InputFormat::kG2o: return ReadG2o(path);
     case InputFormat::kIsam: return ReadIsam(path);
-    case InputFormat::kMrclam: return ReadMrclam(path, mrclam);
+    case InputFormat::kMrclam: return ReadMrclam(path, mrclam, mrclam_stats);
     case InputFormat::kNative: return ReadNativeLog(path);
     case InputFormat::kToro: return ReadToro(path);
   }

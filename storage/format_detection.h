@@ -39,8 +39,10 @@ StatusOr<InputFormat> ParseInputFormat(std::string_view name);
 // The name ParseInputFormat accepts for `format`.
 const char* InputFormatName(InputFormat format);
 
-// Reads `path` with the reader of `format`; `mrclam` is used for kMrclam only.
+// Reads `path` with the reader of `format`; `mrclam` and `mrclam_stats` (if
+// given) are used for kMrclam only.
 StatusOr<core::Problem2d> ReadProblem(const std::string& path, InputFormat format,
-                                      const MrclamOptions& mrclam);
+                                      const MrclamOptions& mrclam,
+                                      MrclamReadStats* mrclam_stats = nullptr);
 
 }  // namespace graphslam::storage

@@ -180,7 +180,7 @@ StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOpti
   // The anchor: ground truth nearest to t_0 if present, else the origin.
   core::Pose2 initial = core::Pose2::Zero();
   const std::string truth_path = RobotFile(folder, options.robot, "Groundtruth");
-  if (std::filesystem::exists(truth_path, error)) {
+  if (options.start_at_ground_truth && std::filesystem::exists(truth_path, error)) {
     GS_ASSIGN_OR_RETURN(const TimedRecords truth, ReadTimedRecords(truth_path, "t x y theta"));
     initial = truth.values[NearestStamp(truth.stamps, odometry.stamps[0])];
   }
@@ -235,14 +235,30 @@ StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOpti
     GS_ASSIGN_OR_RETURN(const double bearing, reader->Double(3, "bearing"));
     const auto subject = subject_of_barcode.find(barcode);
     if (subject == subject_of_barcode.end()) {
-      return reader->Error("barcode " + std::to_string(barcode) +
-                           " is not in Barcodes.dat; expected a known barcode");
+      // A misread barcode of the published data: skipped, not fatal.
+      if (local_stats.unknown_barcode_lines.size() < MrclamReadStats::kMaxUnknownBarcodeLines) {
+        std::string text;
+        for (std::string_view field : reader->fields()) {
+          if (!text.empty()) text += ' ';
+          text += field;
+        }
+        local_stats.unknown_barcode_lines.push_back(
+            reader->name() + ":" + std::to_string(reader->line_number()) + ": " + text);
+      }
+      ++local_stats.unknown_barcodes_skipped;
+      continue;
     }
     if (!(range > 0.0)) {
       return reader->Error("range " + internal::FormatDouble(range) + "; expected range > 0");
     }
     if (subject->second <= kLastRobotSubject) {
       ++local_stats.robot_measurements_dropped;
+      MrclamRobotSighting sighting;
+      sighting.stamp = t;
+      sighting.observed_robot = static_cast<int>(subject->second);
+      sighting.z = Eigen::Vector2d(range, bearing);
+      sighting.line = reader->line_number();
+      local_stats.robot_sightings.push_back(sighting);
       continue;
     }
     const size_t pose = NearestStamp(odometry.stamps, t);
@@ -274,6 +290,12 @@ StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOpti
     ++local_stats.landmark_observations;
   }
   GS_RETURN_IF_ERROR(reader->status());
+  if (local_stats.unknown_barcodes_skipped > 0) {
+    GS_LOG(WARNING, "%s: %lld measurements have a barcode that is in no row of Barcodes.dat "
+           "(first: %s); skipped", reader->name().c_str(),
+           static_cast<long long>(local_stats.unknown_barcodes_skipped),
+           local_stats.unknown_barcode_lines.front().c_str());
+  }
   GS_VLOG(1, "%s robot %d: %lld poses, %lld landmark observations, %lld robot measurements "
           "dropped, %lld out of time range",
           folder.c_str(), options.robot, static_cast<long long>(local_stats.odometry_records),

@@ -16,17 +16,26 @@
 //   Omega_k = R_k^{-1},  R_k = VelocityMotionCovariance(x_k, u_k, noise),
 // evaluated at the dead-reckoned pose x_k (x_0 (+) the controls so far), the
 // only estimate available when reading. Pose 0 is the ground-truth pose
-// nearest to t_0 if RobotN_Groundtruth.dat exists, else the origin; it is
-// initialized and fixed (the map frame is the ground-truth frame). Poses
+// nearest to t_0 if RobotN_Groundtruth.dat exists (and start_at_ground_truth),
+// else the origin; it is initialized and fixed (the map frame is then the
+// ground-truth frame). Poses
 // 1..T-1 are uninitialized (pose_initialized = 0) but hold the dead-reckoned
 // pose at which their motion information was linearized.
 //
 // Measurements: attached to the pose with the nearest time stamp (ties go to
 // the earlier pose), dropped if that is farther than max_time_offset.
-// Barcodes of robots (subjects 1..5) are dropped and counted; a landmark
-// barcode becomes feature id = its subject number (6..20), created
-// uninitialized at its first observation. z = (range, bearing), kRangeBearing,
-// information = options.measurement_information.
+// Barcodes of robots (subjects 1..5) are dropped from the problem and counted;
+// they are kept in MrclamReadStats::robot_sightings (a job of several robots
+// of one dataset turns them into robot-to-robot constraints,
+// tools/job/robot_sightings.h). A landmark barcode becomes feature id = its
+// subject number (6..20), created uninitialized at its first observation.
+// z = (range, bearing), kRangeBearing, information =
+// options.measurement_information.
+//
+// Barcodes in no row of Barcodes.dat: the published data has a few misread
+// ones (dataset 1: barcode 43 in robots 3 and 5). Such a measurement is
+// skipped and counted, its first lines are kept for the report, one warning
+// is logged per file, and the read goes on.
 //
 // THREAD SAFETY: reentrant. ALLOCATION: O(records); files streamed by line.
 #pragma once
@@ -58,18 +67,40 @@ struct MrclamOptions {
       (Eigen::Matrix2d() << 1.0 / (0.1 * 0.1), 0.0, 0.0, 1.0 / (0.05 * 0.05)).finished();
   // Measurements farther than this from every odometry stamp are dropped [s].
   double max_time_offset = 0.5;
+  // true: pose 0 starts at the ground-truth pose (the Vicon frame) when
+  // RobotN_Groundtruth.dat exists; false: at the origin, in the robot's own
+  // frame (a job of several robots, where nothing may give the runs their
+  // relative placement).
+  bool start_at_ground_truth = true;
 
   // InvalidArgument naming the bad field and its value.
   [[nodiscard]] Status Validate() const;
 };
 
+// A measurement of another robot's barcode, as read (not in the problem).
+struct MrclamRobotSighting {
+  double stamp = 0.0;       // s, the measurement's time
+  int observed_robot = 0;   // subject 1..5
+  Eigen::Vector2d z = Eigen::Vector2d::Zero();  // range, bearing
+  int32_t line = 0;         // in RobotN_Measurement.dat
+};
+
 // What ReadMrclam read and dropped.
 struct MrclamReadStats {
+  // How many "file:line: text" of unknown barcodes are kept.
+  static constexpr size_t kMaxUnknownBarcodeLines = 5;
+
   int64_t odometry_records = 0;
   int64_t measurements = 0;             // all records of RobotN_Measurement.dat
   int64_t robot_measurements_dropped = 0;   // barcodes of robots
   int64_t out_of_time_range_dropped = 0;    // no pose within max_time_offset
   int64_t landmark_observations = 0;        // became Observations
+  int64_t unknown_barcodes_skipped = 0;     // barcode in no row of Barcodes.dat
+  // The first kMaxUnknownBarcodeLines of those, "Robot3_Measurement.dat:4938:
+  // 942.52 43 1.992 -0.287".
+  std::vector<std::string> unknown_barcode_lines;
+  // Every robot barcode measurement, in file order.
+  std::vector<MrclamRobotSighting> robot_sightings;
 };
 
 StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOptions& options,

@@ -31,7 +31,7 @@ using internal::FormatDouble;
 using internal::LineReader;
 
 constexpr const char* kKnownTags =
-    "POSE, FEATURE, CONTROL, CONTROL_INFO, ODOM, RB, XY, GPS, FIX or SCAN";
+    "POSE, FEATURE, CONTROL, CONTROL_INFO, ODOM, RB, RB_POSE, XY, GPS, FIX or SCAN";
 
 class NativeLogParser {
  public:
@@ -129,6 +129,7 @@ class NativeLogParser {
     if (tag == "ODOM") return ParseOdometry(reader);
     if (tag == "RB" || tag == "XY") return ParseObservation(reader);
     if (tag == "GPS") return ParseGps(reader);
+    if (tag == "RB_POSE") return ParsePoseRangeBearing(reader);
     if (tag == "FIX") return ParseFix(reader);
     if (tag == "SCAN") return ParseScan(reader);
     if (tag == kNativeLogMagic) {
@@ -349,6 +350,23 @@ class NativeLogParser {
     return Status::Ok();
   }
 
+  // RB_POSE from to range bearing i11 i12 i22: pose `to` seen from pose `from`.
+  Status ParsePoseRangeBearing(const LineReader& reader) {
+    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(8));
+    core::PoseRangeBearingConstraint constraint;
+    GS_RETURN_IF_ERROR(PosePair(reader, &constraint.from, &constraint.to));
+    double z[2];
+    GS_RETURN_IF_ERROR(reader.Doubles(3, 2, "measurement", z));
+    if (!(z[0] > 0.0)) {
+      return reader.Error("RB_POSE range is " + FormatDouble(z[0]) + "; expected range > 0");
+    }
+    constraint.z = Eigen::Vector2d(z[0], z[1]);
+    GS_ASSIGN_OR_RETURN(constraint.information, Information2(reader, 5));
+    constraint.line = reader.line_number();
+    problem_.pose_range_bearings.push_back(constraint);
+    return Status::Ok();
+  }
+
   Status ParseFix(const LineReader& reader) {
     GS_RETURN_IF_ERROR(reader.ExpectFieldCount(2));
     GS_ASSIGN_OR_RETURN(const int32_t pose, Pose(reader, 1));
@@ -562,6 +580,17 @@ Status WriteNativeLog(const core::Problem2d& problem, const std::string& path, E
           AppendField(out, gps.z.x());
           AppendField(out, gps.z.y());
           AppendUpperTriangle(out, gps.information);
+        })));
+    GS_RETURN_IF_ERROR(AppendRecords(
+        file, static_cast<int64_t>(problem.pose_range_bearings.size()),
+        lines([&](int64_t i, std::string* out) {
+          const auto& c = problem.pose_range_bearings[static_cast<size_t>(i)];
+          AppendField(out, "RB_POSE");
+          AppendField(out, pose_ids[c.from]);
+          AppendField(out, pose_ids[c.to]);
+          AppendField(out, c.z.x());
+          AppendField(out, c.z.y());
+          AppendUpperTriangle(out, c.information);
         })));
     return Status::Ok();
   });

@@ -8,6 +8,8 @@
 //   RB pose feature range bearing i11 i12 i22   (feature '-': unknown, for --associate)
 //   XY pose feature x y i11 i12 i22
 //   GPS pose x y i11 i12 i22       FIX pose      # comment
+//   RB_POSE from to range bearing i11 i12 i22   (pose `to`'s position seen from
+//                                                pose `from`: robot to robot)
 //   SCAN pose file.pcd             (a scan of the pose, path relative to the log)
 //
 // CONTROL without explicit information gets Omega = R^{-1} with
@@ -22,7 +24,7 @@
 // (id core::kNoFeatureId, core/unidentified_features.h).
 //
 // WriteNativeLog writes through WriteFileAtomically (atomic_file.h): poses,
-// features, FIX, then CONTROL_INFO / ODOM / RB / XY / GPS records, numbers as
+// features, FIX, then CONTROL_INFO / ODOM / RB / XY / GPS / RB_POSE records, numbers as
 // "%.17g", so reading the file back gives the same problem (exactly: same
 // numbers, same dense order; uninitialized values come back as reader hints).
 //

@@ -8,6 +8,7 @@ target_sources(graphslam_tools PRIVATE
   job/job_state.cc
   job/plots.cc
   job/report_html.cc
+  job/robot_sightings.cc
   job/simulated_scans.cc)
 target_link_libraries(graphslam_tools PRIVATE
   yaml-cpp ${GeographicLib_LIBRARIES} PkgConfig::PLPLOT)

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <string_view>
 
 #include "core/graphslam_solver.h"
 #include "core/initialization.h"
@@ -92,11 +93,13 @@ nlohmann::json BuildReport(const SolveCommandOptions& options, const core::Probl
   report["relative_pose_constraints"] = static_cast<int64_t>(problem.relative_poses.size());
   report["motion_constraints"] = static_cast<int64_t>(problem.motions.size());
   report["gps_constraints"] = static_cast<int64_t>(problem.gps.size());
+  report["robot_sighting_constraints"] = static_cast<int64_t>(problem.pose_range_bearings.size());
   // Degrees of freedom: chi2 / (residual_dimension - unknowns) should be near 1
   // when the noise is what the model says.
   const int64_t residual_dimension =
       3 * static_cast<int64_t>(problem.relative_poses.size() + problem.motions.size()) +
-      2 * static_cast<int64_t>(problem.gps.size()) + 2 * summary.observations_used;
+      2 * static_cast<int64_t>(problem.gps.size() + problem.pose_range_bearings.size()) +
+      2 * summary.observations_used;
   report["residual_dimension"] = residual_dimension;
   report["unknowns"] =
       3 * summary.unknown_poses + 2 * (summary.eliminated_features + summary.kept_features);
@@ -392,6 +395,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   std::unique_ptr<storage::DiskChunkSource> store;
   core::Problem2d problem;
   const char* format_name = "chunk-store";
+  storage::MrclamReadStats mrclam_stats;  // an MRCLAM input's skipped records
   int64_t memory_limit = 0;
   if (!options.memory_limit.empty()) {
     StatusOr<int64_t> parsed = ParseMemorySize(options.memory_limit);
@@ -493,7 +497,8 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     storage::MrclamOptions mrclam;
     mrclam.robot = options.robot;
     mrclam.ignore_barcodes = options.ignore_barcodes;
-    StatusOr<core::Problem2d> read = storage::ReadProblem(options.input, format, mrclam);
+    StatusOr<core::Problem2d> read =
+        storage::ReadProblem(options.input, format, mrclam, &mrclam_stats);
     if (!read.ok()) return fail(read.status());
     problem = std::move(read).value();
     const core::UnidentifiedObservations unidentified =
@@ -736,6 +741,11 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     report["memory_limit_bytes"] = memory_limit;
     if (store) report["store"] = store_path;
     if (distributed) report["distributed"] = distributed_report["distributed"];
+    if (format_name == std::string_view("mrclam"))
+      report["mrclam"] = {{"robot_measurements_dropped", mrclam_stats.robot_measurements_dropped},
+                          {"out_of_time_range_dropped", mrclam_stats.out_of_time_range_dropped},
+                          {"unknown_barcodes_skipped", mrclam_stats.unknown_barcodes_skipped},
+                          {"unknown_barcode_lines", mrclam_stats.unknown_barcode_lines}};
     if (options.associate)
       report["association"] = BuildAssociationReport(association, association_summary, 200);
     if (Status status = storage::WriteStringAtomically(storage::Env::Default(), options.report,

@@ -308,6 +308,51 @@ StatusOr<TrajectoryErrors> CompareTrajectories(const std::vector<StampedPose2>& 
   return errors;
 }
 
+StatusOr<JointTrajectoryErrors> CompareTrajectoriesJointly(
+    const std::vector<std::vector<StampedPose2>>& estimated,
+    const std::vector<std::vector<StampedPose2>>& ground_truth,
+    const TrajectoryMatchOptions& options) {
+  if (estimated.size() != ground_truth.size())
+    return Status::InvalidArgument(std::to_string(estimated.size()) + " estimated runs but " +
+                                   std::to_string(ground_truth.size()) + " ground truths");
+  // Matching per run (its own alignment only decides nothing here).
+  std::vector<core::Point2> from, to;
+  for (size_t r = 0; r < estimated.size(); ++r) {
+    StatusOr<TrajectoryErrors> own = CompareTrajectories(estimated[r], ground_truth[r], options);
+    if (!own.ok()) return own.status().WithContext("run " + std::to_string(r));
+    for (size_t k = 0; k < own->estimated_index.size(); ++k) {
+      from.push_back(estimated[r][static_cast<size_t>(own->estimated_index[k])].pose.head<2>());
+      to.push_back(ground_truth[r][static_cast<size_t>(own->ground_truth_index[k])].pose.head<2>());
+    }
+  }
+  JointTrajectoryErrors joint;
+  if (options.align) joint.alignment = AlignRigid(from, to);
+  const double rotation = RotationAngle(joint.alignment);
+  TrajectoryMatchOptions in_truth_frame = options;
+  in_truth_frame.align = false;
+  double position_sum = 0.0, heading_sum = 0.0;
+  for (size_t r = 0; r < estimated.size(); ++r) {
+    std::vector<StampedPose2> moved = estimated[r];
+    for (StampedPose2& pose : moved) {
+      pose.pose.head<2>() = joint.alignment * pose.pose.head<2>();
+      pose.pose.z() = core::WrapAngle(pose.pose.z() + rotation);
+    }
+    StatusOr<TrajectoryErrors> errors = CompareTrajectories(moved, ground_truth[r], in_truth_frame);
+    if (!errors.ok()) return errors.status().WithContext("run " + std::to_string(r));
+    errors->alignment = joint.alignment;
+    const double n = static_cast<double>(errors->matched);
+    position_sum += errors->position_rmse * errors->position_rmse * n;
+    heading_sum += errors->heading_rmse_rad * errors->heading_rmse_rad * n;
+    joint.matched += errors->matched;
+    joint.runs.push_back(std::move(errors).value());
+  }
+  if (joint.matched > 0) {
+    joint.position_rmse = std::sqrt(position_sum / static_cast<double>(joint.matched));
+    joint.heading_rmse_rad = std::sqrt(heading_sum / static_cast<double>(joint.matched));
+  }
+  return joint;
+}
+
 double FeatureRmse(const std::map<int64_t, core::Point2>& estimated,
                    const std::map<int64_t, core::Point2>& ground_truth,
                    const Eigen::Isometry2d& estimated_to_ground_truth, int64_t* matched) {

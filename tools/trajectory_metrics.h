@@ -99,6 +99,28 @@ StatusOr<TrajectoryErrors> CompareTrajectories(const std::vector<StampedPose2>& 
                                                const std::vector<StampedPose2>& ground_truth,
                                                const TrajectoryMatchOptions& options = {});
 
+// Several runs in ONE frame (a multi-robot map) against their ground truths,
+// after ONE rigid alignment T of all runs together: each run's poses are
+// matched to its own ground truth by time (as CompareTrajectories), T is
+// AlignRigid over the matched positions of all runs, and every error uses T.
+// A run mapped in a wrong place relative to the others therefore shows up in
+// its error, which a per-run alignment would hide.
+struct JointTrajectoryErrors {
+  Eigen::Isometry2d alignment = Eigen::Isometry2d::Identity();  // estimate -> truth
+  std::vector<TrajectoryErrors> runs;  // per run, all with `alignment`
+  int64_t matched = 0;
+  double position_rmse = 0.0;     // m, over every matched pose of every run
+  double heading_rmse_rad = 0.0;
+};
+
+// `estimated[r]` is matched with `ground_truth[r]` (one run each).
+// InvalidArgument when the sizes differ, a ground truth is empty or a run has
+// no pose matched (the message names the run index).
+StatusOr<JointTrajectoryErrors> CompareTrajectoriesJointly(
+    const std::vector<std::vector<StampedPose2>>& estimated,
+    const std::vector<std::vector<StampedPose2>>& ground_truth,
+    const TrajectoryMatchOptions& options = {});
+
 // RMSE of |T m_id - m*_id| over the ids in both maps; NaN when none match.
 // `matched`, if given, receives the number of common ids.
 double FeatureRmse(const std::map<int64_t, core::Point2>& estimated,

@@ -62,6 +62,14 @@ Status ValidateConstraintsForWriting(const core::Problem2d& problem) {
     GS_RETURN_IF_ERROR(CheckFinite(name + ".z", c.z));
     GS_RETURN_IF_ERROR(CheckFinite(name + ".information", c.information));
   }
+  for (size_t k = 0; k < problem.pose_range_bearings.size(); ++k) {
+    const auto& c = problem.pose_range_bearings[k];
+    const std::string name = "pose_range_bearings[" + std::to_string(k) + "]";
+    GS_RETURN_IF_ERROR(CheckPose(name + ".from", c.from, problem));
+    GS_RETURN_IF_ERROR(CheckPose(name + ".to", c.to, problem));
+    GS_RETURN_IF_ERROR(CheckFinite(name + ".z", c.z));
+    GS_RETURN_IF_ERROR(CheckFinite(name + ".information", c.information));
+  }
   for (size_t k = 0; k < problem.observations.size(); ++k) {
     const auto& c = problem.observations[k];
     const std::string name = "observations[" + std::to_string(k) + "]";

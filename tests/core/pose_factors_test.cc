@@ -12,6 +12,7 @@
 
 #include "core/gps_model.h"
 #include "core/graphslam_solver.h"
+#include "core/pose_range_bearing_model.h"
 #include "core/relative_pose_model.h"
 #include "core/velocity_motion_model.h"
 #include "partition/in_memory_chunk_source.h"
@@ -175,6 +176,65 @@ TEST(PoseFactors, RobustHessianIsTheWeightedGaussNewtonBlock) {
           << "constraint type " << type << " " << RobustKernelName(kernel);
       EXPECT_NEAR(lin.chi2, kernel.Cost(s), 1e-12 * s);
     }
+  }
+}
+
+// Robot-to-robot range-bearing constraints (pose_range_bearings) between
+// unknown poses and to the anchor: gradient against the numeric derivative of
+// the (robust) cost, and H = sum rho'(s) A^T W A with A the numeric Jacobian
+// of the stacked residuals w.r.t. the body-frame increments of both poses.
+TEST(PoseFactors, RobotSightingMatchesNumericDifferentiation) {
+  Problem2d problem;
+  problem.AddPose(0, Pose2(0.0, 0.0, 0.2), true, 0);
+  problem.AddPose(1, Pose2(3.0, 1.0, 2.8), true, 0);
+  problem.AddPose(2, Pose2(-1.0, 4.0, -1.9), true, 0);
+  problem.pose_fixed[0] = 1;
+  const Eigen::Matrix2d w = Eigen::Vector2d(100.0, 400.0).asDiagonal();
+  problem.pose_range_bearings = {{1, 2, Eigen::Vector2d(4.9, 1.2), w, 0},
+                                 {2, 1, Eigen::Vector2d(5.1, -2.3), w, 0},
+                                 {0, 1, Eigen::Vector2d(3.3, 0.05), w, 0}};
+  const UnknownLayout layout = UnknownLayout::FromProblem(problem);
+  ASSERT_EQ(layout.num_unknown_poses, 2);
+  const auto residuals = [&](const std::vector<Pose2>& x) {
+    Eigen::VectorXd e(6);
+    for (size_t k = 0; k < 3; ++k) {
+      const PoseRangeBearingConstraint& c = problem.pose_range_bearings[k];
+      Eigen::Vector2d ek;
+      EXPECT_TRUE(EvaluatePoseRangeBearing(x[c.from], x[c.to], c.z, &ek, nullptr, nullptr));
+      e.segment<2>(2 * static_cast<Eigen::Index>(k)) = ek;
+    }
+    return e;
+  };
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(6);
+  const Eigen::MatrixXd jacobian = testing::NumericJacobian(
+      [&](const Eigen::VectorXd& delta) { return residuals(Retracted(problem, layout, delta)); },
+      zero);
+  const Eigen::VectorXd e = residuals(problem.poses);
+  for (RobustKernel::Type type :
+       {RobustKernel::Type::kNone, RobustKernel::Type::kHuber, RobustKernel::Type::kCauchy}) {
+    PoseFactorKernels kernels;
+    kernels.robot = Kernel(type, 1.5);
+    const Linearization lin = Linearize(problem, layout, kernels);
+    Eigen::MatrixXd expected = Eigen::MatrixXd::Zero(6, 6);
+    double cost = 0.0;
+    for (Eigen::Index k = 0; k < 3; ++k) {
+      const Eigen::Vector2d ek = e.segment<2>(2 * k);
+      const double s = ek.dot(w * ek);
+      cost += kernels.robot.Cost(s);
+      const Eigen::MatrixXd a = jacobian.middleRows(2 * k, 2);
+      expected += kernels.robot.Weight(s) * a.transpose() * w * a;
+    }
+    EXPECT_NEAR(lin.chi2, cost, 1e-9 * cost);
+    EXPECT_LT((lin.hessian - expected).norm(), 1e-6 * expected.norm()) << RobustKernelName(kernels.robot);
+    const Eigen::MatrixXd numeric = testing::NumericJacobian(
+        [&](const Eigen::VectorXd& delta) {
+          return Eigen::VectorXd::Constant(
+              1, PoseFactorsChi2(problem, Retracted(problem, layout, delta), kernels));
+        },
+        zero, 1e-6);
+    const Eigen::VectorXd gradient = 0.5 * numeric.transpose();
+    EXPECT_LT((lin.gradient - gradient).norm(), 1e-5 * std::max(1.0, gradient.norm()))
+        << RobustKernelName(kernels.robot);
   }
 }
 

@@ -80,7 +80,7 @@ TEST(RobustKernel, PerConstraintTypeOptions) {
   EXPECT_TRUE(bad.IsInvalidArgument());
   EXPECT_EQ(bad.message(),
             "robust kernel 'wheel=cauchy': unknown constraint type 'wheel'; expected "
-            "observation, odometry, motion or gps");
+            "observation, odometry, motion, gps or robot");
   EXPECT_EQ(observation.type, before.type);
   EXPECT_TRUE(ApplyRobustKernelOption("gps=cauchy:0", &observation, &pose).IsInvalidArgument());
   EXPECT_TRUE(ApplyRobustKernelOption("gps=", &observation, &pose).IsInvalidArgument());

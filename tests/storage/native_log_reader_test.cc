@@ -45,7 +45,8 @@ constexpr const char* kExample =
     "FEATURE 3 5 1\n"
     "RB 0 7 5.2 0.3 100 0 400\n"
     "XY 1 3 4.8 0.33 100 0 400\n"
-    "GPS 2 1.0 0.1 4 0 4\n";
+    "GPS 2 1.0 0.1 4 0 4\n"
+    "RB_POSE 1 2 3.5 -0.2 100 0 400\n";
 
 TEST(NativeLogReader, ReadsEveryRecordOfTheSpecExample) {
   const auto problem = ReadNativeLog(WriteTemp("example.log", kExample));
@@ -77,6 +78,13 @@ TEST(NativeLogReader, ReadsEveryRecordOfTheSpecExample) {
   EXPECT_EQ(problem->observations[1].kind, core::ObservationKind::kPointXY);
   ASSERT_EQ(problem->gps.size(), 1u);
   EXPECT_EQ(problem->gps[0].pose, 2);
+  ASSERT_EQ(problem->pose_range_bearings.size(), 1u);
+  EXPECT_EQ(problem->pose_range_bearings[0].from, 1);
+  EXPECT_EQ(problem->pose_range_bearings[0].to, 2);
+  EXPECT_EQ(problem->pose_range_bearings[0].z, Eigen::Vector2d(3.5, -0.2));
+  EXPECT_EQ(problem->pose_range_bearings[0].information,
+            Eigen::Matrix2d(Eigen::Vector2d(100.0, 400.0).asDiagonal()));
+  EXPECT_EQ(problem->pose_range_bearings[0].line, 14);
 }
 
 TEST(NativeLogReader, RoundTripIsExact) {
@@ -110,6 +118,12 @@ TEST(NativeLogReader, RoundTripIsExact) {
   }
   EXPECT_EQ(back->relative_poses[0].z, problem.relative_poses[0].z);
   EXPECT_EQ(back->gps[0].z, problem.gps[0].z);
+  ASSERT_EQ(back->pose_range_bearings.size(), 1u);
+  EXPECT_EQ(back->pose_range_bearings[0].from, problem.pose_range_bearings[0].from);
+  EXPECT_EQ(back->pose_range_bearings[0].to, problem.pose_range_bearings[0].to);
+  EXPECT_EQ(back->pose_range_bearings[0].z, problem.pose_range_bearings[0].z);
+  EXPECT_EQ(back->pose_range_bearings[0].information,
+            problem.pose_range_bearings[0].information);
 }
 
 TEST(NativeLogReader, RejectsBadHeaders) {
@@ -144,11 +158,15 @@ TEST(NativeLogReader, RejectsMalformedRecords) {
             "bad.log:4: CONTROL dt is -0.10000000000000001; expected dt >= 0");
   EXPECT_EQ(ReadError(header + "RB 1 4 0 0 1 0 1\n").message(),
             "bad.log:4: RB range is 0; expected range > 0");
+  EXPECT_EQ(ReadError(header + "RB_POSE 1 0 0 0 1 0 1\n").message(),
+            "bad.log:4: RB_POSE range is 0; expected range > 0");
+  EXPECT_EQ(ReadError(header + "RB_POSE 1 1 2 0 1 0 1\n").message(),
+            "bad.log:4: RB_POSE connects pose 1 to itself; expected two distinct poses");
   const Status unknown = ReadError(header + "LIDAR 1 2 3\n");
   EXPECT_TRUE(unknown.IsNotSupported());
   EXPECT_EQ(unknown.message(),
             "bad.log:4: unknown tag 'LIDAR'; expected POSE, FEATURE, CONTROL, CONTROL_INFO, ODOM, "
-            "RB, XY, GPS, FIX or SCAN");
+            "RB, RB_POSE, XY, GPS, FIX or SCAN");
 }
 
 TEST(NativeLogReader, UnknownCorrespondenceGivesAFeaturePerObservation) {

@@ -404,5 +404,27 @@ TEST_F(MrclamSolveTest, Dataset1RobotOneMatchesViconFarBetterThanOdometry) {
             2.0 * solved.features.rmse_trajectory_aligned);
 }
 
+// Robot 3 of the published dataset 1 has barcode 43, in no row of
+// Barcodes.dat, twice: the solve goes on and its report counts them and names
+// their lines.
+TEST_F(MrclamSolveTest, Dataset1RobotThreeReportsItsUnknownBarcodes) {
+  GS_REQUIRE_DATASET("mrclam_dataset1_sampled50hz/Robot3_Measurement.dat");
+  SolveCommandOptions options;
+  options.input = ::graphslam::testing::DatasetPath("mrclam_dataset1_sampled50hz");
+  options.robot = 3;
+  options.initialization = "odometry";
+  options.max_iterations = 0;
+  options.report = Path("robot3.json");
+  options.quiet = true;
+  const int code = RunSolveCommand(options);
+  EXPECT_TRUE(code == kExitOk || code == kExitNotConverged) << code;
+  const nlohmann::json report = ReadJson(options.report);
+  EXPECT_EQ(report["mrclam"]["unknown_barcodes_skipped"].get<int>(), 2);
+  EXPECT_EQ(report["mrclam"]["unknown_barcode_lines"],
+            nlohmann::json({"Robot3_Measurement.dat:4938: 942.52 43 1.992 -0.287",
+                            "Robot3_Measurement.dat:4943: 943.22 43 1.953 -0.293"}));
+  EXPECT_EQ(report["mrclam"]["robot_measurements_dropped"].get<int>(), 1969);
+}
+
 }  // namespace
 }  // namespace graphslam::tools

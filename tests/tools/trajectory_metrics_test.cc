@@ -108,6 +108,44 @@ TEST(TrajectoryMetrics, NoisyCopyHasTheExpectedRmse) {
               0.03 * sigma_xy);  // Rayleigh mean
 }
 
+// Two runs moved by one rigid transform align jointly to zero error; when one
+// of them is misplaced relative to the other (shifted by 1 m), each run alone
+// still aligns to zero, but the joint alignment shows the misplacement.
+TEST(TrajectoryMetrics, JointAlignmentOfSeveralRunsShowsAMisplacedRun) {
+  const std::vector<StampedPose2> truth_a = Trajectory(400);
+  std::vector<StampedPose2> truth_b = Trajectory(400);
+  for (StampedPose2& pose : truth_b) pose.pose = core::Compose(core::Pose2(3.0, 20.0, 1.0), pose.pose);
+  const core::Pose2 transform(12.5, -3.25, 0.7);
+  std::vector<std::vector<StampedPose2>> estimated = {Transformed(truth_a, transform),
+                                                      Transformed(truth_b, transform)};
+  const std::vector<std::vector<StampedPose2>> truth = {truth_a, truth_b};
+  StatusOr<JointTrajectoryErrors> joint = CompareTrajectoriesJointly(estimated, truth);
+  ASSERT_TRUE(joint.ok()) << joint.status().ToString();
+  EXPECT_EQ(joint->matched, 800);
+  ASSERT_EQ(joint->runs.size(), 2u);
+  EXPECT_LT(joint->position_rmse, 1e-9);
+  EXPECT_LT(joint->heading_rmse_rad, 1e-9);
+  EXPECT_NEAR(RotationAngle(joint->alignment), core::Inverse(transform).z(), 1e-12);
+
+  for (StampedPose2& pose : estimated[1]) pose.pose.x() += 1.0;
+  joint = CompareTrajectoriesJointly(estimated, truth);
+  ASSERT_TRUE(joint.ok());
+  StatusOr<TrajectoryErrors> alone = CompareTrajectories(estimated[1], truth_b);
+  ASSERT_TRUE(alone.ok());
+  EXPECT_LT(alone->position_rmse, 1e-9);
+  // Half the points 1 m off: a translation-only fit leaves 0.5 m; the
+  // rotation can take a little more off.
+  EXPECT_GT(joint->position_rmse, 0.3);
+  EXPECT_LE(joint->position_rmse, 0.5 + 1e-9);
+  EXPECT_GT(joint->runs[0].position_rmse, 0.2);
+  EXPECT_GT(joint->runs[1].position_rmse, 0.2);
+  EXPECT_NEAR(joint->position_rmse * joint->position_rmse * 800,
+              (joint->runs[0].position_rmse * joint->runs[0].position_rmse +
+               joint->runs[1].position_rmse * joint->runs[1].position_rmse) * 400,
+              1e-9);
+  EXPECT_FALSE(CompareTrajectoriesJointly(estimated, {truth_a}).ok());
+}
+
 TEST(TrajectoryMetrics, MatchesByNearestStampWithinTolerance) {
   // Ground truth at 100 Hz over 0..10 s; the estimate at 10 Hz over -1..12 s,
   // offset by 2 ms: only stamps inside the ground truth's span match.

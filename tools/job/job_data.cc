@@ -12,6 +12,7 @@
 #include <numeric>
 #include <sstream>
 
+#include "core/range_bearing_model.h"
 #include "core/unidentified_features.h"
 #include "storage/format_detection.h"
 #include "tools/campus_simulator.h"
@@ -26,6 +27,9 @@ struct Block {
   std::vector<std::vector<StampedPose2>> ground_truth;  // per run, or empty
   std::map<int64_t, core::Point2> ground_truth_features;
   std::vector<std::vector<uint8_t>> indoor;  // per run, or empty
+  // MRCLAM (one run): what the reader skipped, and the robot sightings.
+  storage::MrclamReadStats mrclam;
+  RunSightings sightings;
 };
 
 bool Inside(const std::array<double, 4>& box, double x, double y) {
@@ -80,13 +84,25 @@ StatusOr<Block> ReadRun(const RunSpec& spec) {
   if (!format.ok()) return format.status();
   storage::MrclamOptions mrclam;
   mrclam.robot = spec.robot;
+  // Each robot in its own frame: its Vicon pose would place it for free.
+  mrclam.start_at_ground_truth = false;
   if (spec.range_sigma) mrclam.measurement_information(0, 0) = 1.0 / (*spec.range_sigma * *spec.range_sigma);
   if (spec.bearing_sigma)
     mrclam.measurement_information(1, 1) = 1.0 / (*spec.bearing_sigma * *spec.bearing_sigma);
-  StatusOr<core::Problem2d> read = storage::ReadProblem(spec.path, *format, mrclam);
+  storage::MrclamReadStats stats;
+  StatusOr<core::Problem2d> read = storage::ReadProblem(spec.path, *format, mrclam, &stats);
   if (!read.ok()) return read.status();
   Block block;
   block.problem = std::move(read).value();
+  if (*format == storage::InputFormat::kMrclam) {
+    std::error_code error;
+    block.sightings.dataset = std::filesystem::weakly_canonical(spec.path, error).string();
+    if (error) block.sightings.dataset = spec.path;
+    block.sightings.robot = spec.robot;
+    block.sightings.information = mrclam.measurement_information;
+    block.sightings.sightings = std::move(stats.robot_sightings);
+    block.mrclam = std::move(stats);
+  }
   if (block.problem.num_poses() == 0)
     return Status::InvalidArgument(spec.path + ": run '" + spec.name + "' has no poses");
   block.runs.emplace_back(spec.name, block.problem.num_poses());
@@ -242,6 +258,11 @@ void Append(const core::Problem2d& part, std::map<int64_t, int32_t>* feature_ind
     c.pose += offset;
     merged->gps.push_back(c);
   }
+  for (core::PoseRangeBearingConstraint c : part.pose_range_bearings) {
+    c.from += offset;
+    c.to += offset;
+    merged->pose_range_bearings.push_back(c);
+  }
   for (core::Observation o : part.observations) {
     o.pose += offset;
     o.feature = feature_map[static_cast<size_t>(o.feature)];
@@ -284,6 +305,9 @@ void FindComponents(JobData* data) {
   }
   // Odometry never crosses runs, but relative-pose files could tie them.
   for (const core::RelativePoseConstraint& c : problem.relative_poses)
+    unite(run_of_pose[static_cast<size_t>(c.from)], run_of_pose[static_cast<size_t>(c.to)]);
+  // Robots seeing each other.
+  for (const core::PoseRangeBearingConstraint& c : problem.pose_range_bearings)
     unite(run_of_pose[static_cast<size_t>(c.from)], run_of_pose[static_cast<size_t>(c.to)]);
   int32_t first_gps_run = -1;
   for (int32_t r = 0; r < runs; ++r) {
@@ -337,6 +361,7 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
   JobData data;
   data.problem.source = job.path;
   std::map<int64_t, int32_t> feature_index;
+  std::vector<RunSightings> sightings;
   for (const RunSpec& spec : job.runs) {
     StatusOr<Block> read = ReadRun(spec);
     if (!read.ok()) return read.status();
@@ -363,6 +388,11 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
         ++fixes[run_of_pose[static_cast<size_t>(gps.pose)]];
     }
     int32_t first = data.problem.num_poses();
+    if (!block.sightings.dataset.empty()) {
+      block.sightings.first_pose = first;
+      block.sightings.num_poses = block.problem.num_poses();
+      sightings.push_back(std::move(block.sightings));
+    }
     Append(block.problem, &feature_index, &data.problem);
     for (size_t r = 0; r < block.runs.size(); ++r) {
       RunInfo run;
@@ -374,6 +404,8 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
       if (run.has_ground_truth) data.ground_truth[run.name] = block.ground_truth[r];
       run.indoor = block.indoor[r];
       run.unidentified = unidentified;
+      run.unknown_barcodes_skipped = block.mrclam.unknown_barcodes_skipped;
+      run.unknown_barcode_lines = block.mrclam.unknown_barcode_lines;
       first += run.num_poses;
       for (const RunInfo& other : data.runs)
         if (other.name == run.name)
@@ -400,6 +432,7 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
       break;
     }
   for (int32_t i = 0; i < problem.num_poses(); ++i) problem.pose_ids[static_cast<size_t>(i)] = base + i;
+  data.sightings = AddRobotSightings(sightings, kDefaultSightingMaxTimeDifference, &problem);
   FindComponents(&data);
   SetGauge(&data);
   return data;
@@ -453,6 +486,12 @@ core::Problem2d ExtractComponent(const JobData& data, int32_t component,
     if (!in(c.pose)) continue;
     c.pose = map(c.pose);
     sub.gps.push_back(c);
+  }
+  for (core::PoseRangeBearingConstraint c : problem.pose_range_bearings) {
+    if (!in(c.from)) continue;
+    c.from = map(c.from);
+    c.to = map(c.to);
+    sub.pose_range_bearings.push_back(c);
   }
   for (core::Observation o : problem.observations) {
     if (!in(o.pose)) continue;
@@ -514,50 +553,93 @@ int AlignRunFrames(const JobData& data, int32_t component, core::Problem2d* sub)
     next += run.num_poses;
   }
   if (next != sub->num_poses()) return 0;
+  const size_t num_runs = ranges.size();
   std::vector<int32_t> run_of_pose(static_cast<size_t>(sub->num_poses()));
-  for (size_t r = 0; r < ranges.size(); ++r)
+  for (size_t r = 0; r < num_runs; ++r)
     for (int32_t i = 0; i < ranges[r].second; ++i)
       run_of_pose[static_cast<size_t>(ranges[r].first + i)] = static_cast<int32_t>(r);
-  // First observation of each feature (its index) and the run that made it.
-  std::vector<int64_t> first(static_cast<size_t>(sub->num_features()), -1);
+  const auto num_features = static_cast<size_t>(sub->num_features());
+  // First observation of each feature overall (its run owns the feature's
+  // guess) and by each run (for the correspondences).
+  std::vector<int32_t> first_run(num_features, -1);
+  std::vector<std::vector<int64_t>> first_by_run(num_runs, std::vector<int64_t>(num_features, -1));
   for (size_t k = 0; k < sub->observations.size(); ++k) {
-    int64_t& f = first[static_cast<size_t>(sub->observations[k].feature)];
-    if (f < 0) f = static_cast<int64_t>(k);
+    const core::Observation& o = sub->observations[k];
+    const auto f = static_cast<size_t>(o.feature);
+    const auto r = static_cast<size_t>(run_of_pose[static_cast<size_t>(o.pose)]);
+    if (first_run[f] < 0) first_run[f] = static_cast<int32_t>(r);
+    if (first_by_run[r][f] < 0) first_by_run[r][f] = static_cast<int64_t>(k);
   }
-  auto first_run = [&](int32_t feature) {
-    const int64_t k = first[static_cast<size_t>(feature)];
-    return k < 0 ? -1 : run_of_pose[static_cast<size_t>(sub->observations[static_cast<size_t>(k)].pose)];
+  auto sight = [&](int64_t k) {
+    const core::Observation& o = sub->observations[static_cast<size_t>(k)];
+    return FirstSight(sub->poses[static_cast<size_t>(o.pose)], o);
   };
+  auto move = [&](size_t r, const Eigen::Isometry2d& t) {
+    for (int32_t i = ranges[r].first; i < ranges[r].first + ranges[r].second; ++i)
+      Apply(t, &sub->poses[static_cast<size_t>(i)]);
+    for (size_t f = 0; f < num_features; ++f)
+      if (first_run[f] == static_cast<int32_t>(r)) sub->features[f] = t * sub->features[f];
+  };
+  std::vector<uint8_t> placed(num_runs, 0);
   int moved = 0;
-  for (size_t r = 0; r < ranges.size(); ++r) {
-    const auto run = static_cast<int32_t>(r);
+  // GPS: a run with >= 2 fixes goes onto them.
+  for (size_t r = 0; r < num_runs; ++r) {
     std::vector<core::Point2> own, reference;
     for (const core::GpsConstraint& gps : sub->gps) {
-      if (run_of_pose[static_cast<size_t>(gps.pose)] != run) continue;
+      if (run_of_pose[static_cast<size_t>(gps.pose)] != static_cast<int32_t>(r)) continue;
       own.push_back(sub->poses[static_cast<size_t>(gps.pose)].head<2>());
       reference.push_back(gps.z);
     }
-    if (own.size() < 2) {
-      own.clear();
-      reference.clear();
-      if (r == 0) continue;  // the first run's frame is the component's
-      std::vector<uint8_t> used(static_cast<size_t>(sub->num_features()), 0);
-      for (const core::Observation& o : sub->observations) {
-        const auto f = static_cast<size_t>(o.feature);
-        if (run_of_pose[static_cast<size_t>(o.pose)] != run || used[f]) continue;
-        const int32_t seen_first = first_run(o.feature);
-        if (seen_first < 0 || seen_first >= run) continue;
-        used[f] = 1;
-        own.push_back(FirstSight(sub->poses[static_cast<size_t>(o.pose)], o));
-        reference.push_back(sub->features[f]);
+    if (own.size() < 2) continue;
+    move(r, AlignRigid(own, reference));
+    placed[r] = 1;
+    ++moved;
+  }
+  if (std::find(placed.begin(), placed.end(), 1) == placed.end() && num_runs > 0) placed[0] = 1;
+  // Landmarks and robot sightings shared with placed runs.
+  auto correspondences = [&](size_t r, std::vector<core::Point2>* own,
+                             std::vector<core::Point2>* reference) {
+    own->clear();
+    reference->clear();
+    for (size_t f = 0; f < num_features; ++f) {
+      if (first_by_run[r][f] < 0) continue;
+      for (size_t q = 0; q < num_runs; ++q) {
+        if (!placed[q] || first_by_run[q][f] < 0) continue;
+        own->push_back(sight(first_by_run[r][f]));
+        reference->push_back(sight(first_by_run[q][f]));
+        break;
       }
-      if (own.size() < 2) continue;
     }
-    const Eigen::Isometry2d t = AlignRigid(own, reference);
-    for (int32_t i = ranges[r].first; i < ranges[r].first + ranges[r].second; ++i)
-      Apply(t, &sub->poses[static_cast<size_t>(i)]);
-    for (int32_t f = 0; f < sub->num_features(); ++f)
-      if (first_run(f) == run) sub->features[static_cast<size_t>(f)] = t * sub->features[static_cast<size_t>(f)];
+    for (const core::PoseRangeBearingConstraint& c : sub->pose_range_bearings) {
+      const auto observer = static_cast<size_t>(run_of_pose[static_cast<size_t>(c.from)]);
+      const auto observed = static_cast<size_t>(run_of_pose[static_cast<size_t>(c.to)]);
+      const core::Point2 seen = core::InvertRangeBearing(sub->poses[static_cast<size_t>(c.from)], c.z);
+      const core::Point2 at = sub->poses[static_cast<size_t>(c.to)].head<2>();
+      if (observer == r && placed[observed]) {
+        own->push_back(seen);
+        reference->push_back(at);
+      } else if (observed == r && placed[observer]) {
+        own->push_back(at);
+        reference->push_back(seen);
+      }
+    }
+  };
+  // Greedily: the unplaced run with the most correspondences next.
+  std::vector<core::Point2> own, reference;
+  for (;;) {
+    size_t best = num_runs, best_count = 1;
+    for (size_t r = 0; r < num_runs; ++r) {
+      if (placed[r]) continue;
+      correspondences(r, &own, &reference);
+      if (own.size() > best_count) {
+        best = r;
+        best_count = own.size();
+      }
+    }
+    if (best == num_runs) break;
+    correspondences(best, &own, &reference);
+    move(best, AlignRigid(own, reference));
+    placed[best] = 1;
     ++moved;
   }
   return moved;

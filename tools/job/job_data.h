@@ -4,7 +4,7 @@
 // Merge. Runs are appended in job order; every run keeps its own frame (its
 // poses' guesses are those of its input). Features with the same id in two
 // runs are the same landmark (known correspondences); that is what ties runs
-// together, with GPS. Pose ids are renumbered 0..P-1 in run order, shifted
+// together, with GPS and robot sightings. Pose ids are renumbered 0..P-1 in run order, shifted
 // past the largest feature id when they would collide with one (g2o keeps
 // poses and features in one id space).
 //
@@ -21,8 +21,16 @@
 // get fresh ids above every other feature id (so they survive the native
 // logs of .job/), for the associate stage to tie.
 //
-// Components. Runs are joined (union-find) when they share a feature id, and
-// all runs with GPS are joined (GPS is one global frame). Each component is
+// MRCLAM. Every robot starts at the origin of its own frame (never at its
+// Vicon pose: nothing may give the runs their relative placement); its
+// ground truth is kept for the report only. Barcodes in no row of
+// Barcodes.dat are skipped and counted per run. Robots of the same dataset
+// folder drove at the same time: a measurement of another robot's barcode
+// becomes a robot-to-robot constraint (tools/job/robot_sightings.h).
+//
+// Components. Runs are joined (union-find) when they share a feature id, when
+// a robot sighting ties them, and all runs with GPS are joined (GPS is one
+// global frame). Each component is
 // solved on its own: a run tied to nothing is its own component, reported as
 // such and never silently merged into another's frame. Gauge: a component
 // with GPS has no fixed pose; one without fixes the first pose of its first
@@ -41,6 +49,7 @@
 #include "core/problem.h"
 #include "core/status.h"
 #include "tools/job/job_spec.h"
+#include "tools/job/robot_sightings.h"
 #include "tools/trajectory_metrics.h"
 
 namespace graphslam::tools::job {
@@ -57,6 +66,10 @@ struct RunInfo {
   bool unidentified = false;
   // Poses whose true position lies in the run's GPS-denied region (simulate).
   std::vector<uint8_t> indoor;  // one per pose of the run, or empty
+  // MRCLAM: measurements with a barcode in no row of Barcodes.dat (skipped),
+  // and the first of them as "file:line: text".
+  int64_t unknown_barcodes_skipped = 0;
+  std::vector<std::string> unknown_barcode_lines;
 };
 
 struct JobData {
@@ -67,6 +80,9 @@ struct JobData {
   std::map<std::string, std::vector<StampedPose2>> ground_truth;
   std::map<int64_t, core::Point2> ground_truth_features;
   std::optional<std::array<double, 3>> enu_origin;  // lat, lon, height of the GPS frame
+  // Robot sightings read (tools/job/robot_sightings.h): how many became
+  // constraints (problem.pose_range_bearings) and how many were dropped.
+  SightingCounts sightings;
 };
 
 // Reads / simulates every run of `job`, attaches GPS, merges, and finds the
@@ -86,10 +102,13 @@ core::Problem2d ExtractComponent(const JobData& data, int32_t component,
 // core::InitializeProblem (features placed from their first sight). Runs are
 // visited in order; a run with >= 2 GPS fixes is moved onto its fixes, else a
 // later run with >= 2 landmarks first seen by earlier runs is moved onto
-// those: the rigid T minimizing sum |T p_own - p_ref|^2 (Umeyama), with p_own
-// the landmark's first-sight position from this run's own poses. T is applied
-// to the run's poses and to the landmarks it saw first. Returns the number of
-// runs moved.
+// those and onto the robot sightings between it and earlier runs: the rigid T
+// minimizing sum |T p_own - p_ref|^2 (Umeyama), with p_own the landmark's
+// first-sight position from this run's own poses, and for a sighting the
+// observed robot's position (this run's pose, or the point the range-bearing
+// puts it at from this run's observing pose) against the same point from the
+// earlier run. T is applied to the run's poses and to the landmarks it saw
+// first. Returns the number of runs moved.
 int AlignRunFrames(const JobData& data, int32_t component, core::Problem2d* sub);
 
 // Copies the sub-problem's pose and feature values back into `problem`.

@@ -99,7 +99,9 @@ json RunsToJson(const JobData& data) {
                     {"gps_fixes", run.gps_fixes},
                     {"has_ground_truth", run.has_ground_truth},
                     {"unidentified", run.unidentified},
-                    {"indoor", run.indoor}});
+                    {"indoor", run.indoor},
+                    {"unknown_barcodes_skipped", run.unknown_barcodes_skipped},
+                    {"unknown_barcode_lines", run.unknown_barcode_lines}});
   }
   json truth = json::object();
   for (const auto& [name, poses] : data.ground_truth) {
@@ -117,7 +119,11 @@ json RunsToJson(const JobData& data) {
           {"num_components", data.num_components},
           {"ground_truth", truth},
           {"ground_truth_features", features},
-          {"enu_origin", origin}};
+          {"enu_origin", origin},
+          {"robot_sightings",
+           {{"constraints", data.sightings.constraints},
+            {"robot_not_in_job", data.sightings.robot_not_in_job},
+            {"no_pose_at_stamp", data.sightings.no_pose_at_stamp}}}};
 }
 
 // The runs (and components) that go with a stage's problem: after data
@@ -146,6 +152,9 @@ Status LoadData(const Context& ctx, const std::string& problem_file, JobData* da
       run.has_ground_truth = r.at("has_ground_truth").get<bool>();
       run.unidentified = r.value("unidentified", false);
       run.indoor = r.at("indoor").get<std::vector<uint8_t>>();
+      run.unknown_barcodes_skipped = r.value("unknown_barcodes_skipped", int64_t{0});
+      run.unknown_barcode_lines =
+          r.value("unknown_barcode_lines", std::vector<std::string>());
       data->runs.push_back(std::move(run));
     }
     data->num_components = runs.at("num_components").get<int32_t>();
@@ -163,6 +172,12 @@ Status LoadData(const Context& ctx, const std::string& problem_file, JobData* da
           core::Point2(f.at(1).get<double>(), f.at(2).get<double>());
     if (!runs.at("enu_origin").is_null())
       data->enu_origin = runs.at("enu_origin").get<std::array<double, 3>>();
+    if (runs.contains("robot_sightings")) {
+      const json& sightings = runs.at("robot_sightings");
+      data->sightings.constraints = sightings.at("constraints").get<int64_t>();
+      data->sightings.robot_not_in_job = sightings.at("robot_not_in_job").get<int64_t>();
+      data->sightings.no_pose_at_stamp = sightings.at("no_pose_at_stamp").get<int64_t>();
+    }
   } catch (const json::exception& error) {
     return Status::Corruption(ctx.Work(runs_file) + ": " + error.what());
   }
@@ -190,6 +205,9 @@ StatusOr<core::SolverOptions> SolverOptionsFor(const JobSpec& spec) {
     return Status::InvalidArgument(spec.path + ": solver.robust_kernel: " + kernel.status().message());
   options.linear_solver = *type;
   options.observation_kernel = *kernel;
+  // A robot's barcode is read by the same camera as a landmark's: robot
+  // sightings get the same kernel (misreads happen to both).
+  options.pose_kernels.robot = *kernel;
   options.max_iterations = spec.solver.max_iterations;
   options.function_tolerance = spec.solver.function_tolerance;
   return options;
@@ -226,7 +244,21 @@ Status StageIngest(Context& ctx) {
                  std::to_string(run.gps_fixes) + " GPS fixes, component " +
                  std::to_string(run.component),
              {{"run", run.name}, {"poses", run.num_poses}, {"gps_fixes", run.gps_fixes}});
+    if (run.unknown_barcodes_skipped > 0)
+      ctx.Info("ingest",
+               "run " + run.name + ": warning: " + std::to_string(run.unknown_barcodes_skipped) +
+                   " measurements with a barcode in no row of Barcodes.dat skipped (first: " +
+                   run.unknown_barcode_lines.front() + ")",
+               {{"run", run.name}, {"unknown_barcodes_skipped", run.unknown_barcodes_skipped}});
   }
+  if (data.sightings.constraints + data.sightings.robot_not_in_job +
+          data.sightings.no_pose_at_stamp > 0)
+    ctx.Info("ingest",
+             "robot sightings: " + std::to_string(data.sightings.constraints) +
+                 " robot-to-robot constraints; dropped " +
+                 std::to_string(data.sightings.robot_not_in_job) + " of robots not in the job, " +
+                 std::to_string(data.sightings.no_pose_at_stamp) + " without a pose at their stamp",
+             {{"robot_sighting_constraints", data.sightings.constraints}});
   GS_RETURN_IF_ERROR(storage::WriteNativeLog(data.problem, ctx.Work("ingested.graphslam")));
   // Scans of simulated runs, generated now into disk-backed scan chunks.
   StatusOr<int64_t> scans = WriteSimulatedScans(ctx.spec, data, ctx.work);
@@ -540,20 +572,72 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
   int64_t indoor_count = 0, all_count = 0;
   TrajectoryPlot plot;
   plot.title = "Trajectories per run over the map";
+  // Per component, every run with ground truth after ONE rigid alignment of
+  // them all (tools/trajectory_metrics.h, CompareTrajectoriesJointly).
+  json joint_errors = json::array();
+  std::map<std::string, TrajectoryErrors> joint_of_run;
+  for (int32_t c = 0; c < data.num_components; ++c) {
+    std::vector<std::vector<StampedPose2>> estimated, truth;
+    json names = json::array();
+    for (const RunInfo& run : data.runs) {
+      if (run.component != c || !data.ground_truth.contains(run.name)) continue;
+      estimated.push_back(Stamped(data.problem, run));
+      truth.push_back(data.ground_truth.at(run.name));
+      names.push_back(run.name);
+    }
+    if (estimated.empty()) continue;
+    StatusOr<JointTrajectoryErrors> joint = CompareTrajectoriesJointly(estimated, truth);
+    if (!joint.ok()) {
+      warnings.push_back("component " + std::to_string(c) +
+                         ": no joint trajectory error: " + joint.status().message());
+      continue;
+    }
+    json per_run = json::array();
+    for (size_t k = 0; k < joint->runs.size(); ++k) {
+      const TrajectoryErrors& e = joint->runs[k];
+      joint_of_run[names[k].get<std::string>()] = e;
+      per_run.push_back({{"name", names[k]},
+                         {"matched_poses", e.matched},
+                         {"position_rmse_m", e.position_rmse},
+                         {"heading_rmse_rad", e.heading_rmse_rad},
+                         {"position_max_m", e.position_max}});
+    }
+    joint_errors.push_back(
+        {{"component", c},
+         {"runs", per_run},
+         {"matched_poses", joint->matched},
+         {"position_rmse_m", joint->position_rmse},
+         {"heading_rmse_rad", joint->heading_rmse_rad},
+         {"alignment",
+          {{"x", joint->alignment.translation().x()},
+           {"y", joint->alignment.translation().y()},
+           {"theta", RotationAngle(joint->alignment)}}}});
+  }
   for (const RunInfo& run : data.runs) {
     const std::string tum = ctx.Output("trajectories/" + run.name + ".tum");
     GS_RETURN_IF_ERROR(storage::WriteTum(RunTrajectory(data.problem, run), tum));
     const bool tied = runs_in_component[static_cast<size_t>(run.component)] > 1 || run.gps_fixes > 0;
     if (!tied && data.runs.size() > 1)
       warnings.push_back("run " + run.name +
-                         " is tied to no other run (no shared landmark, no GPS): it is mapped on "
-                         "its own, in its own frame");
+                         " is tied to no other run (no shared landmark, no robot sighting, no "
+                         "GPS): it is mapped on its own, in its own frame");
     json entry = {{"name", run.name},
                   {"poses", run.num_poses},
                   {"component", run.component},
                   {"gps_fixes", run.gps_fixes},
                   {"tied", tied},
                   {"trajectory", "trajectories/" + run.name + ".tum"}};
+    if (run.unknown_barcodes_skipped > 0) {
+      entry["unknown_barcodes_skipped"] = run.unknown_barcodes_skipped;
+      entry["unknown_barcode_lines"] = run.unknown_barcode_lines;
+      warnings.push_back("run " + run.name + ": " + std::to_string(run.unknown_barcodes_skipped) +
+                         " measurements with a barcode in no row of Barcodes.dat were skipped "
+                         "(first: " + run.unknown_barcode_lines.front() + ")");
+    }
+    if (auto joint = joint_of_run.find(run.name); joint != joint_of_run.end()) {
+      entry["joint_position_rmse_m"] = joint->second.position_rmse;
+      entry["joint_heading_rmse_rad"] = joint->second.heading_rmse_rad;
+    }
     XySeries series;
     series.name = run.name;
     for (int32_t i = run.first_pose; i < run.first_pose + run.num_poses; ++i) {
@@ -598,6 +682,24 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
     plot.features.y.push_back(data.problem.features[static_cast<size_t>(f)].y());
   }
   report["runs"] = runs;
+  report["joint_trajectory_errors"] = joint_errors;
+  if (data.sightings.constraints + data.sightings.robot_not_in_job +
+          data.sightings.no_pose_at_stamp > 0) {
+    std::vector<int32_t> run_of_pose(static_cast<size_t>(data.problem.num_poses()));
+    for (size_t r = 0; r < data.runs.size(); ++r)
+      for (int32_t i = 0; i < data.runs[r].num_poses; ++i)
+        run_of_pose[static_cast<size_t>(data.runs[r].first_pose + i)] = static_cast<int32_t>(r);
+    json pairs = json::array();
+    for (const auto& [pair, count] : CountSightingsPerRunPair(data.problem, run_of_pose))
+      pairs.push_back({{"runs",
+                        {data.runs[static_cast<size_t>(pair.first)].name,
+                         data.runs[static_cast<size_t>(pair.second)].name}},
+                       {"constraints", count}});
+    report["robot_sightings"] = {{"constraints", data.sightings.constraints},
+                                 {"robot_not_in_job", data.sightings.robot_not_in_job},
+                                 {"no_pose_at_stamp", data.sightings.no_pose_at_stamp},
+                                 {"pairs", pairs}};
+  }
   report["components"] = optimize["components"];
   if (fs::exists(ctx.Work("associate.json"))) {
     json association;

@@ -99,7 +99,12 @@ std::string RenderReportHtml(const nlohmann::json& report,
   }
   out << "<h2>Runs</h2>\n"
       << Table(report["runs"], {"name", "poses", "component", "gps_fixes", "tied",
-                                "position_rmse_m", "heading_rmse_rad", "indoor_position_rmse_m"});
+                                "position_rmse_m", "heading_rmse_rad", "joint_position_rmse_m",
+                                "joint_heading_rmse_rad", "indoor_position_rmse_m",
+                                "unknown_barcodes_skipped"});
+  if (report.contains("robot_sightings"))
+    out << "<h2>Robot-to-robot constraints per pair of runs</h2>\n"
+        << Table(report["robot_sightings"]["pairs"], {"runs", "constraints"});
   out << "<h2>Components (solved independently)</h2>\n"
       << Table(report["components"], {"component", "runs", "poses", "features", "gps_fixes",
                                       "iterations", "initial_chi2", "final_chi2", "termination"});

@@ -1,0 +1,147 @@
+// Two robots that only see each other (no landmark at all), as an MRCLAM
+// dataset folder: a job of the two runs ties them by their robot-to-robot
+// constraints alone (tools/job/robot_sightings.h) and maps both in one frame,
+// each robot starting at the origin of its own frame. The same robots in two
+// different dataset folders (so nothing says they drove together) stay two
+// components.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <random>
+#include <string>
+
+#include "core/angle.h"
+#include "core/velocity_motion_model.h"
+#include "tests/tools/job/job_test_folder.h"
+
+namespace graphslam::tools::job {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kSteps = 3000;         // 60 s at 50 Hz
+constexpr int kSightingEvery = 25;   // 0.5 s
+constexpr double kDt = 0.02;
+
+struct Robot {
+  core::Pose2 start;
+  double v = 0.0, omega = 0.0;
+  std::vector<core::Pose2> truth;
+};
+
+std::string Stamp(int k) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%.2f", k * kDt);
+  return buffer;
+}
+
+// Writes robots 1 and 2 (barcodes 5 and 14) into `folder`: Vicon ground
+// truth, odometry with zero-mean noise, and every 0.5 s each robot's
+// range-bearing measurement of the other. (Without landmarks a drift common
+// to both robots is unobservable, so the odometry has no bias: what is tested
+// is the relative placement of the two robots, which only the sightings give;
+// each starts at the origin of its own frame, 4.5 m and 180 degrees from the
+// truth of the other.)
+void WriteDataset(const fs::path& folder, Robot* robots) {
+  fs::create_directories(folder);
+  std::ofstream(folder / "Barcodes.dat") << "# Subject # Barcode #\n1 5\n2 14\n6 72\n";
+  std::ofstream(folder / "Landmark_Groundtruth.dat") << "# Subject # x y sx sy (no landmark)\n";
+  std::mt19937_64 engine(11);
+  std::normal_distribution<double> normal;
+  const int barcode[2] = {5, 14};
+  for (int r = 0; r < 2; ++r) {
+    Robot& robot = robots[r];
+    robot.truth.assign(1, robot.start);
+    std::ofstream odometry(folder / ("Robot" + std::to_string(r + 1) + "_Odometry.dat"));
+    std::ofstream truth(folder / ("Robot" + std::to_string(r + 1) + "_Groundtruth.dat"));
+    for (int k = 0; k < kSteps; ++k) {
+      core::VelocityControl control;
+      control.v = robot.v;
+      control.omega = robot.omega;
+      control.dt = kDt;
+      if (k + 1 < kSteps) robot.truth.push_back(core::PredictVelocityMotion(robot.truth.back(), control));
+      const core::Pose2& x = robot.truth[static_cast<size_t>(k)];
+      odometry << Stamp(k) << " " << robot.v + 0.02 * normal(engine) << " "
+               << robot.omega + 0.02 * normal(engine) << "\n";
+      truth << Stamp(k) << " " << x.x() << " " << x.y() << " " << x.z() << "\n";
+    }
+  }
+  for (int r = 0; r < 2; ++r) {
+    std::ofstream measurement(folder / ("Robot" + std::to_string(r + 1) + "_Measurement.dat"));
+    measurement.precision(17);
+    for (int k = 0; k < kSteps; k += kSightingEvery) {
+      const core::Pose2& a = robots[r].truth[static_cast<size_t>(k)];
+      const core::Pose2& b = robots[1 - r].truth[static_cast<size_t>(k)];
+      const Eigen::Vector2d d = b.head<2>() - a.head<2>();
+      const double range = d.norm() + 0.03 * normal(engine);
+      const double bearing = core::WrapAngle(std::atan2(d.y(), d.x()) - a.z() + 0.01 * normal(engine));
+      measurement << Stamp(k) << " " << barcode[1 - r] << " " << range << " " << bearing << "\n";
+    }
+  }
+}
+
+class JobRobotSightings : public JobTestFolder {};
+
+TEST_F(JobRobotSightings, TwoRobotsThatOnlySeeEachOtherEndInOneFrame) {
+  // Two circles that overlap, driven at the same time.
+  Robot robots[2];
+  robots[0].start = core::Pose2(3.0, 0.0, std::numbers::pi / 2);
+  robots[0].v = 0.3;
+  robots[0].omega = 0.1;
+  robots[1].start = core::Pose2(-1.0, 1.0, -std::numbers::pi / 2);
+  robots[1].v = 0.2;
+  robots[1].omega = -0.1;
+  WriteDataset(dir_ / "together", robots);
+  const std::string solver = "solver: {initialization: odometry}\n";
+  const Status together = Run("output: out\n" + solver +
+                              "runs:\n"
+                              "  - {name: r1, format: mrclam, robot: 1, path: together}\n"
+                              "  - {name: r2, format: mrclam, robot: 2, path: together}\n");
+  ASSERT_TRUE(together.ok()) << together.ToString();
+  const nlohmann::json report = ReadJsonFile(dir_ / "out/report.json");
+  ASSERT_EQ(report["components"].size(), 1u);
+  EXPECT_TRUE(report["runs"][0]["tied"].get<bool>());
+  EXPECT_TRUE(report["runs"][1]["tied"].get<bool>());
+  // 120 sightings each way, all on the shared 0.02 s grid.
+  const int expected = 2 * kSteps / kSightingEvery;
+  EXPECT_EQ(report["robot_sightings"]["constraints"].get<int>(), expected);
+  EXPECT_EQ(report["robot_sightings"]["no_pose_at_stamp"].get<int>(), 0);
+  ASSERT_EQ(report["robot_sightings"]["pairs"].size(), 1u);
+  EXPECT_EQ(report["robot_sightings"]["pairs"][0]["runs"], nlohmann::json({"r1", "r2"}));
+  EXPECT_EQ(report["robot_sightings"]["pairs"][0]["constraints"].get<int>(), expected);
+  // One frame: after ONE rigid alignment of both runs together, both lie on
+  // their Vicon paths.
+  ASSERT_EQ(report["joint_trajectory_errors"].size(), 1u);
+  const nlohmann::json& joint = report["joint_trajectory_errors"][0];
+  EXPECT_EQ(joint["matched_poses"].get<int>(), 2 * kSteps);
+  // (0.013 m here; a robot left where its own frame puts it would be metres off.)
+  EXPECT_LT(joint["position_rmse_m"].get<double>(), 0.05);
+  for (const nlohmann::json& run : joint["runs"]) {
+    EXPECT_LT(run["position_rmse_m"].get<double>(), 0.05) << run["name"];
+    EXPECT_LT(run["heading_rmse_rad"].get<double>(), 0.1) << run["name"];
+  }
+  EXPECT_DOUBLE_EQ(report["runs"][1]["joint_position_rmse_m"].get<double>(),
+                   joint["runs"][1]["position_rmse_m"].get<double>());
+
+  // The same files in two folders: nothing ties the robots.
+  fs::create_directories(dir_ / "apart");
+  fs::copy(dir_ / "together", dir_ / "apart", fs::copy_options::recursive);
+  const Status apart_status = Run("output: out2\n" + solver +
+                                  "runs:\n"
+                                  "  - {name: r1, format: mrclam, robot: 1, path: together}\n"
+                                  "  - {name: r2, format: mrclam, robot: 2, path: apart}\n",
+                                  "job2.yaml");
+  ASSERT_TRUE(apart_status.ok()) << apart_status.ToString();
+  const nlohmann::json apart = ReadJsonFile(dir_ / "out2/report.json");
+  EXPECT_EQ(apart["components"].size(), 2u);
+  EXPECT_FALSE(apart["runs"][1]["tied"].get<bool>());
+  EXPECT_EQ(apart["robot_sightings"]["constraints"].get<int>(), 0);
+  EXPECT_EQ(apart["robot_sightings"]["robot_not_in_job"].get<int>(), expected);
+}
+
+}  // namespace
+}  // namespace graphslam::tools::job
