@@ -484,7 +484,8 @@ int RunSolveCommand(const SolveCommandOptions& options) {
 
   // --initialization auto: the full solve from the Table 1 guess, abandoned
   // at its first step whose model failed (rho < kAutoAbandonRho on a step
-  // that meant to matter, core/levenberg_marquardt.h). Most pose graphs
+  // that meant to matter, core/levenberg_marquardt.h); kept if it converged,
+  // else (abandoned, or stopped by --max-iterations) the restart. Most pose graphs
   // converge from their odometry in 5-30 well-modelled steps (intel, M3500,
   // city10000 reach their optima); a start outside the optimum's basin
   // (Victoria Park: rho 0.22 at step 6, then rejections, a local minimum at
@@ -506,15 +507,17 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     probe_options.abandon_below_rho = kAutoAbandonRho;
     const Status status = core::SolveGraphSlam(probe_options, chunks, &problem, &summary);
     if (!status.ok() && !status.IsNumerical()) return fail(status);
-    probe_solved = status.ok() && summary.termination != "abandoned";
+    // Kept only when it converged: a probe stopped by --max-iterations
+    // (never abandoned, never converged) is no answer either.
+    probe_solved = status.ok() && summary.converged;
     probe_report = {{"iterations", summary.iterations},
                     {"final_chi2", summary.final_chi2},
                     {"termination", status.ok() ? summary.termination : status.ToString()},
                     {"seconds", Seconds(probe_start)}};
     if (!probe_solved) {
-      GS_LOG(INFO, "initialization auto: the odometry start was abandoned after %d iterations "
-             "(%s, chi2 %.6g): progressive initialization", summary.iterations,
-             status.ok() ? "a step with rho < 0.25" : status.ToString().c_str(),
+      GS_LOG(INFO, "initialization auto: the solve from odometry ended unconverged after %d "
+             "iterations (%s, chi2 %.6g): progressive initialization", summary.iterations,
+             status.ok() ? summary.termination.c_str() : status.ToString().c_str(),
              summary.final_chi2);
       problem.poses = guess_poses;
       problem.features = guess_features;
