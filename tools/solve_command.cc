@@ -500,6 +500,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   bool probe_solved = false;
   nlohmann::json probe_report;
   const Clock::time_point probe_start = Clock::now();
+  const double probe_cpu_start = ProcessCpuSeconds();
   if (probe) {
     const std::vector<core::Pose2> guess_poses = problem.poses;
     const std::vector<core::Point2> guess_features = problem.features;
@@ -525,6 +526,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     }
   }
   const double probe_seconds = Seconds(probe_start);
+  const double probe_cpu_seconds = ProcessCpuSeconds() - probe_cpu_start;
 
   // Progressive initialization: growing prefixes of the trajectory, each
   // solved briefly, put the guess into the basin of the global optimum.
@@ -632,7 +634,9 @@ int RunSolveCommand(const SolveCommandOptions& options) {
         !status.ok())
       return fail(status);
   }
-  const double optimize_cpu_seconds = ProcessCpuSeconds() - optimize_cpu_start;
+  // A kept probe was the optimization.
+  const double optimize_cpu_seconds =
+      probe_solved ? probe_cpu_seconds : ProcessCpuSeconds() - optimize_cpu_start;
   display.Finish();
   if (id_file) {
     if (Status status = id_file->Restore(&problem.feature_ids); !status.ok()) return fail(status);
@@ -658,8 +662,8 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                                               progressive_seconds, total_seconds,
                                               num_observations);
     report["streaming"] = streaming;
-    // What --initialization auto did: the odometry start's solve (the final
-    // one when it was not abandoned), then progressive or not.
+    // What --initialization auto did: the solve from odometry (the final one
+    // when it converged), or progressive initialization after it.
     report["initialization_used"] =
         options.initialization != "auto" ? options.initialization
         : streaming                      ? "pose-graph"
