@@ -54,6 +54,9 @@ Status SolverOptions::Validate() const {
     return Status::InvalidArgument("PCG needs max_iterations > 0 and relative_tolerance > 0");
   if (max_eliminated_observations < 0)
     return Status::InvalidArgument("max_eliminated_observations must be >= 0");
+  if (!(abandon_below_rho >= 0.0) || !(abandon_below_rho < 1.0))
+    return Status::InvalidArgument("abandon_below_rho must be in [0, 1), got " +
+                                   std::to_string(abandon_below_rho));
   if (max_chunks_in_flight <= 0)
     return Status::InvalidArgument("max_chunks_in_flight must be > 0");
   return Status::Ok();

@@ -119,6 +119,12 @@ struct SolverOptions {
   double max_trust_region_radius = 1e16;
   double min_trust_region_radius = 1e-32;
   double min_relative_decrease = 1e-3;
+  // > 0: stop at the first step whose ratio rho is below this (a rejected
+  // step counts), with termination "abandoned" and converged false. A caller
+  // probing whether a start is in the basin of the optimum (rho < 1/4: the
+  // quadratic model failed) restarts from a better guess then
+  // (tools/solve_command.cc, --initialization auto). 0: off.
+  double abandon_below_rho = 0.0;
   PreconditionerType preconditioner = PreconditionerType::kSubgraph;  // for PCG (measured, issue 4)
   int pcg_max_iterations = 2000;
   double pcg_relative_tolerance = 1e-10;

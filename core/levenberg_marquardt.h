@@ -16,6 +16,10 @@
 //   convergence        (chi2 - chi2') / chi2 < function_tolerance, or
 //                      |d| <= parameter_tolerance (|state| + parameter_tolerance),
 //                      or mu < min_trust_region_radius (no further decrease)
+//   abandon            rho < abandon_below_rho (if > 0) on a step whose model
+//                      decrease is > 1e-3 chi2                          -> stop,
+//                      termination "abandoned", not converged (the probe of
+//                      --initialization auto: the start is not in the basin)
 //   after every iteration: summary, iteration callback, progress, and the
 //   checkpoint (control state + the space's state) for a bit-identical resume.
 //
@@ -205,6 +209,12 @@ Status RunLevenbergMarquardt(
       summary->termination = "min_trust_region_radius";
       converged = true;  // no further decrease possible: a (local) minimum
     }
+    // Only a step that meant to matter (a model decrease above 0.1 % of
+    // chi2) tells about the start: near a minimum rho is roundoff.
+    const bool abandoned = !converged && options.abandon_below_rho > 0.0 &&
+                           !(it.relative_decrease >= options.abandon_below_rho) &&
+                           trial.model_decrease > 1e-3 * it.start_chi2;
+    if (abandoned) summary->termination = "abandoned";
     if (checkpoint_callback) {
       typename Space::Checkpoint checkpoint;
       checkpoint.iterations = iteration;
@@ -223,6 +233,7 @@ Status RunLevenbergMarquardt(
       summary->converged = true;
       break;
     }
+    if (abandoned) break;
   }
   summary->seconds = SecondsSince(start);
   return Status::Ok();

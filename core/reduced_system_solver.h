@@ -18,8 +18,10 @@
 //    iterations of inexact steps. It differs by problem class
 //    (docs/benchmarks.md, issue 4, "crossover"): pose graphs (no eliminated
 //    features) need hundreds of CG iterations per solve on loop closures and
-//    CHOLMOD won on every one measured (cost ratio up to 69), so
-//    K = kPoseGraphCrossover; on landmark problems (features eliminated into
+//    CHOLMOD won on every one measured, so K = kPoseGraphCrossover = 1000:
+//    the 3-D pose graphs sphere2500 and torus3D (cost ratios 318 and 567
+//    against K = 100) took PCG with K = 100, at 2.5x CHOLMOD's CPU time on
+//    sphere2500 with OpenBLAS (docs/benchmarks.md, issue 25); on landmark problems (features eliminated into
 //    S, here with GPS) the subgraph-preconditioned CG converges in ~50
 //    iterations per solve and PCG won from a ratio of 50 (sim1e5) on, so
 //    K = kLandmarkCrossover. On the densely observed fields sim1e5obs (ratio
@@ -158,7 +160,7 @@ void ChooseFromAnalysis(double nonzeros, double n, double b,
 
 // Products with S per solve at which PCG and CHOLMOD cost the same (item 1),
 // measured in docs/benchmarks.md (issue 4).
-inline constexpr double kPoseGraphCrossover = 100.0;
+inline constexpr double kPoseGraphCrossover = 1000.0;
 inline constexpr double kLandmarkCrossover = 40.0;
 
 class ReducedSystemSolver {

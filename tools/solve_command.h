@@ -40,7 +40,7 @@ struct SolveCommandOptions {
   // observation, odometry, motion, gps; several separated by spaces or commas
   // (core/robust_kernel.h ApplyRobustKernelOption).
   std::string robust_kernel = "none";
-  std::string initialization = "progressive";  // progressive, odometry, pose-graph, as-given
+  std::string initialization = "auto";  // auto, progressive, odometry, pose-graph, as-given
   int64_t progressive_max_new_poses = 500;     // poses added per progressive stage
   std::string checkpoint;  // --checkpoint FILE (default STORE/checkpoint.json for stores)
   bool resume = false;     // --resume: continue from the checkpoint if there is one

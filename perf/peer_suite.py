@@ -1,0 +1,187 @@
+#!/usr/bin/env python3
+"""Ours against peers on the everyday pose-graph suite, in one go (issue 25).
+
+Runs `graphslam solve FILE` with default options on each problem of the suite
+and, when pointed at them, the peers on the same files:
+  G2O_BIN=/path/to/g2o        g2o's command-line app (built from source, not in
+                              Debian): `g2o -i -1 -ig MAX -gain 1e-6 -v -solver S FILE`
+                              for S in G2O_SOLVERS (default
+                              "gn_var_cholmod lm_var_cholmod"); MAX is
+                              G2O_MAX_ITERATIONS (default 1000). -i -1 stops
+                              on a relative chi2 gain below 1e-6 (our
+                              --function-tolerance).
+  CERES_PEER=/path/to/graphslam_ceres_peer        2-D files (docs/peers.md)
+  CERES_PEER_3D=/path/to/graphslam_ceres_peer_3d  3-D files
+Each configuration runs RUNS times (default 5), interleaved: round r runs
+every configuration on every file before round r+1 starts, so a burst of load
+from other work on the machine spreads over all of them. Wall time is the
+whole process (start to exit), measured here; chi2 is the configuration's
+final chi2 (ours and Ceres: the report; g2o: the last `chi2=` line of -v).
+
+Writes OUT/peer_suite.csv (one row per run) and OUT/peer_suite.md: per file,
+the median wall time of each configuration, its chi2 and iterations, and
+ours / best peer (median wall time ratio, and chi2 difference in %).
+
+  perf/peer_suite.py --graphslam build/bin/graphslam --out /tmp/peers \
+      [--datasets ../shared/datasets] [--runs 5] [--problems intel,M3500,...]
+      [--ours-args "--solver cholmod"]
+"""
+import argparse
+import csv
+import json
+import os
+import re
+import shlex
+import statistics
+import subprocess
+import sys
+import time
+
+# name -> path under the datasets folder, dimension
+SUITE = [
+    ("intel", "freiburg_course_g2o/intel.g2o", 2),
+    ("M3500", "freiburg_course_g2o/input_M3500_g2o.g2o", 2),
+    ("city10000", "sesync_posegraphs/city10000.g2o", 2),
+    ("parking-garage", "sesync_posegraphs/parking-garage.g2o", 3),
+    ("sphere2500", "sesync_posegraphs/sphere2500.g2o", 3),
+    ("torus3D", "sesync_posegraphs/torus3D.g2o", 3),
+    ("victoriaPark", "victoria_park/victoriaPark-full.g2o", 2),
+]
+
+CHI2_RE = re.compile(r"chi2=\s*([0-9.eE+-]+)")
+ITER_RE = re.compile(r"iteration=\s*(\d+)")
+
+
+def run_timed(cmd, timeout):
+    start = time.perf_counter()
+    try:
+        proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              timeout=timeout)
+        code, out, err = proc.returncode, proc.stdout, proc.stderr
+    except subprocess.TimeoutExpired as e:
+        code = "timeout"
+        out = e.stdout.decode() if isinstance(e.stdout, bytes) else (e.stdout or "")
+        err = e.stderr.decode() if isinstance(e.stderr, bytes) else (e.stderr or "")
+    return time.perf_counter() - start, code, out, err
+
+
+def configurations(args, dim):
+    """(name, function(path, scratch) -> (cmd, parse(out, err) -> (chi2, iterations)))"""
+    configs = []
+
+    def ours(path, scratch):
+        report = os.path.join(scratch, "ours.json")
+        cmd = [args.graphslam, "solve", path, "--report", report, "-q"] + shlex.split(
+            args.ours_args)
+
+        def parse(out, err):
+            with open(report) as f:
+                r = json.load(f)
+            os.remove(report)
+            return r["final_chi2"], r["iterations"]
+        return cmd, parse
+    configs.append(("graphslam", ours))
+
+    g2o = os.environ.get("G2O_BIN")
+    if g2o:
+        max_iterations = os.environ.get("G2O_MAX_ITERATIONS", "1000")
+        for solver in os.environ.get("G2O_SOLVERS", "gn_var_cholmod lm_var_cholmod").split():
+            def g2o_run(path, scratch, solver=solver):
+                cmd = [g2o, "-i", "-1", "-ig", max_iterations, "-gain", "1e-6", "-v",
+                       "-solver", solver, path]
+
+                def parse(out, err):
+                    text = out + err
+                    chi2 = CHI2_RE.findall(text)
+                    its = ITER_RE.findall(text)
+                    return (float(chi2[-1]) if chi2 else float("nan"),
+                            int(its[-1]) + 1 if its else 0)
+                return cmd, parse
+            configs.append(("g2o " + solver, g2o_run))
+
+    ceres = os.environ.get("CERES_PEER_3D" if dim == 3 else "CERES_PEER")
+    if ceres:
+        def ceres_run(path, scratch):
+            report = os.path.join(scratch, "ceres.json")
+            cmd = [ceres, path, "--report", report]
+
+            def parse(out, err):
+                with open(report) as f:
+                    r = json.load(f)
+                os.remove(report)
+                return r["final_chi2"], r["iterations"]
+            return cmd, parse
+        configs.append(("ceres", ceres_run))
+    return configs
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    here = os.path.dirname(os.path.abspath(__file__))
+    parser.add_argument("--graphslam", default=os.path.join(here, "..", "build", "bin", "graphslam"))
+    parser.add_argument("--datasets", default=os.path.join(here, "..", "..", "shared", "datasets"))
+    parser.add_argument("--out", required=True)
+    parser.add_argument("--runs", type=int, default=5)
+    parser.add_argument("--problems", default=",".join(name for name, _, _ in SUITE))
+    parser.add_argument("--ours-args", default="", help="extra options for graphslam solve")
+    parser.add_argument("--timeout", type=float, default=600)
+    args = parser.parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    wanted = args.problems.split(",")
+    unknown = [w for w in wanted if w not in [name for name, _, _ in SUITE]]
+    if unknown:
+        sys.exit(f"unknown problem(s) {unknown}; expected some of "
+                 f"{[name for name, _, _ in SUITE]}")
+    suite = [(n, os.path.join(args.datasets, p), d) for n, p, d in SUITE if n in wanted]
+    for name, path, _ in suite:
+        if not os.path.exists(path):
+            sys.exit(f"{name}: dataset {path} not found (--datasets)")
+
+    rows = []
+    with open(os.path.join(args.out, "peer_suite.csv"), "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["problem", "config", "run", "wall_seconds", "exit", "chi2", "iterations"])
+        for run in range(1, args.runs + 1):
+            for name, path, dim in suite:
+                for config, make in configurations(args, dim):
+                    cmd, parse = make(path, args.out)
+                    wall, code, out, err = run_timed(cmd, args.timeout)
+                    try:
+                        chi2, iterations = parse(out, err)
+                    except (OSError, ValueError, KeyError):
+                        chi2, iterations = float("nan"), 0
+                    row = [name, config, run, f"{wall:.4f}", code, f"{chi2:.10g}", iterations]
+                    writer.writerow(row)
+                    f.flush()
+                    rows.append(row)
+                    print(" ".join(str(x) for x in row), flush=True)
+
+    lines = ["| problem | configuration | median wall s | chi2 | iterations | "
+             "wall / best peer | chi2 vs best peer |", "|---|---|---|---|---|---|---|"]
+    for name, _, _ in suite:
+        by_config = {}
+        for r in rows:
+            if r[0] == name:
+                by_config.setdefault(r[1], []).append(r)
+        medians = {c: statistics.median(float(r[3]) for r in rs) for c, rs in by_config.items()}
+        last = {c: rs[-1] for c, rs in by_config.items()}
+        peers = [c for c in by_config if c != "graphslam"]
+        best_time = min((medians[c] for c in peers), default=None)
+        best_chi2 = min((float(last[c][5]) for c in peers), default=None)
+        for c in by_config:
+            ratio = chi2_delta = ""
+            if c == "graphslam" and best_time:
+                ratio = f"{medians[c] / best_time:.2f}x"
+                chi2_delta = f"{100 * (float(last[c][5]) - best_chi2) / best_chi2:+.3f} %"
+            lines.append(f"| {name} | {c} | {medians[c]:.3f} | {float(last[c][5]):.6g} | "
+                         f"{last[c][6]} | {ratio} | {chi2_delta} |")
+    table = "\n".join(lines) + "\n"
+    with open(os.path.join(args.out, "peer_suite.md"), "w") as f:
+        f.write(f"Medians of {args.runs} interleaved runs; wall time of the whole process.\n\n")
+        f.write(table)
+    print(table)
+
+
+if __name__ == "__main__":
+    main()
