@@ -1,5 +1,5 @@
 // Angle helpers. Every angle residual in graphslam is wrapped to (-pi, pi]
-// (ARCHITECTURE.md, "Numerics that matter"), so that a bearing of +179 deg and
+// (docs/design.md), so that a bearing of +179 deg and
 // a prediction of -179 deg differ by 2 deg, not 358.
 #pragma once
 

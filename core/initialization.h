@@ -19,7 +19,7 @@
 // measurement model: m = t + r (cos(th + phi), sin(th + phi)) for range-bearing,
 // m = t + R(th) z for point observations. Unobserved features are left alone.
 //
-// Checks, all done before anything is modified (STYLE.md rule 9):
+// Checks, all done before anything is modified:
 //   - every index of every constraint is in range;
 //   - every information matrix is finite, symmetric and positive definite
 //     (Cholesky succeeds);

@@ -1,7 +1,7 @@
 // The two problem spaces of the GraphSLAM solve, as compile-time traits: the
 // chunk passes (core/chunk_passes.h), the feature linearizer and the solver
 // loop are written once as templates on a Space and instantiated for these
-// two in their .cc files (STYLE.md 5: fixed block sizes in the hot loops).
+// two in their .cc files (fixed block sizes in the hot loops).
 //
 //   Space2d: poses SE(2) (x, y, theta), pose block kPoseDim = 3; features
 //            R^2, kFeatureDim = 2; Observation (range-bearing or point-xy).

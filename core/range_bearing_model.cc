@@ -20,7 +20,7 @@ bool EvaluateRangeBearing(const Pose2& pose, const Point2& feature,
     (*residual)(0) = range - measurement(0);
     (*residual)(1) = WrapAngle(std::atan2(delta.y(), delta.x()) - pose.z() - measurement(1));
   }
-  // Table 2 l.17 with the corrected rows (ARCHITECTURE.md errata).
+  // Table 2 l.17 with the corrected rows (errata: docs/design.md).
   const double dx = delta.x(), dy = delta.y();
   if (jacobian_pose != nullptr) {
     *jacobian_pose << -dx / range, -dy / range, 0.0,  //

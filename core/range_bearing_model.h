@@ -5,7 +5,7 @@
 //   e = ( sqrt(q) - r, wrap(atan2(delta_y, delta_x) - theta - phi) )
 //
 // Jacobian of h (and of e) with respect to (x, y, theta, m_x, m_y), Table 2 l.17
-// with the corrected rows (ARCHITECTURE.md errata):
+// with the corrected rows (errata: docs/design.md):
 //   range:   ( -dx/sqrt(q), -dy/sqrt(q),  0,  dx/sqrt(q), dy/sqrt(q) )
 //   bearing: (  dy/q,       -dx/q,       -1, -dy/q,       dx/q       )
 // The bearing residual is wrapped, so a bearing across +-pi is handled.

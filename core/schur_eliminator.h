@@ -31,7 +31,7 @@
 // in memmove and ~19 % in the serial merge, perf on store1e7;
 // docs/benchmarks.md).
 //
-// C must be positive definite (ARCHITECTURE.md "Numerics that matter": a
+// C must be positive definite (a
 // feature seen once by bearing only is not); otherwise EliminateFeature
 // returns Status::Numerical and the caller keeps the feature out of the solve.
 //

@@ -1,7 +1,7 @@
 // UnknownLayout: which poses are unknowns of the reduced system, and where.
 //
 // The gauge is fixed by removing anchored poses from the unknowns (never by a
-// huge "infinite" prior, which would ruin PCG's conditioning; ARCHITECTURE.md):
+// huge "infinite" prior, which would ruin PCG's conditioning):
 // poses marked fixed are anchors; when none is fixed and no GPS constraint ties
 // the map to the world, pose 0 is the anchor. Free pose p owns the block
 // unknown_index[p] of the pose block size (3 in the plane, 6 in 3-D:

@@ -11,7 +11,7 @@
 //                     [0 1 -v/w sin th + v/w sin(th + w dt)]
 //                     [0 0 1                               ]
 // (Table 2 l.6 has the wrong sign in the third column; this is the corrected one,
-// ARCHITECTURE.md errata.) Near omega = 0 the series expansion is used so that
+// docs/design.md errata.) Near omega = 0 the series expansion is used so that
 // both g and G are smooth through omega = 0.
 //
 // The constraint residual is e = wrap(x_t - g(u, x_{t-1})) with

@@ -19,7 +19,7 @@
 // slot's feature, pose >= 0, kind valid, z and information finite.
 // The write is atomic (storage/atomic_file.h): temp file, fsync, rename, fsync
 // of the directory; on failure an existing file at `path` is left untouched and
-// the temporary is removed (STYLE.md rule 9).
+// the temporary is removed.
 //
 // THREAD SAFETY: safe to call concurrently for different paths.
 // ALLOCATION: one block (about target_record_bytes, plus its compressed copy)

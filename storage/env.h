@@ -5,7 +5,7 @@
 // uses Env::Default() (POSIX); tests substitute FaultInjectionEnv, which wraps a
 // real Env and makes the N-th Append/Sync/Close/Rename/... fail with IOError, so
 // the "kill between write and rename" and "disk full during write" paths of
-// WriteFileAtomically (atomic_file.h) can be asserted (STYLE.md rules 12, 16).
+// WriteFileAtomically (atomic_file.h) can be asserted.
 //
 //   WritableFile: Append* -> Sync (fsync: data durable) -> Close
 //   Env:          NewWritableFile, Rename (atomic on POSIX within one

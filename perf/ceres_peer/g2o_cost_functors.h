@@ -24,7 +24,7 @@
 // where e_th^2 is the same.
 //
 // Templates: Ceres' AutoDiffCostFunction evaluates the functor on Jets, so
-// these are header templates by necessity (STYLE.md rule 5 exception).
+// these are header templates by necessity.
 //
 // THREAD SAFETY: the functors are immutable after construction; Ceres may
 // evaluate them concurrently. ALLOCATION: none inside operator().

@@ -1,5 +1,5 @@
-// Checks a core::Problem2d before a writer turns it into bytes (STYLE.md rule
-// 9: bad input is rejected before anything is written): array sizes agree,
+// Checks a core::Problem2d before a writer turns it into bytes (bad input
+// is rejected before anything is written): array sizes agree,
 // every index is in range, ids are unique, values are finite.
 //
 // THREAD SAFETY: pure. ALLOCATION: O(poses + features) for the id sets.

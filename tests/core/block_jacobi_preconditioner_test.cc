@@ -1,5 +1,4 @@
-// BlockJacobiPreconditioner against dense inverses of the diagonal blocks
-// (STYLE rule 15).
+// BlockJacobiPreconditioner against dense inverses of the diagonal blocks.
 #include "core/block_jacobi_preconditioner.h"
 
 #include <gtest/gtest.h>

@@ -1,5 +1,5 @@
 // Property tests of BlockSparseMatrix against dense Eigen reference math on
-// random seeded patterns (STYLE rule 15).
+// random seeded patterns.
 #include "core/block_sparse_matrix.h"
 
 #include <gtest/gtest.h>

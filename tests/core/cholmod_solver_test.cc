@@ -1,5 +1,4 @@
-// CholmodSolver against dense LDLT solves on random seeded SPD block systems
-// (STYLE rule 15).
+// CholmodSolver against dense LDLT solves on random seeded SPD block systems.
 #include "core/cholmod_solver.h"
 #include "tests/testing/random_linear_system.h"
 

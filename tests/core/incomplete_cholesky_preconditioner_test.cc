@@ -1,5 +1,5 @@
-// IncompleteCholeskyPreconditioner against dense reference math (STYLE rule
-// 15): PCG with it equals a dense LDLT solve on random seeded SPD block
+// IncompleteCholeskyPreconditioner against dense reference math: PCG
+// with it equals a dense LDLT solve on random seeded SPD block
 // systems; its product equals Eigen's own IncompleteCholesky::solve and is a
 // symmetric positive definite operator; and on a loop-closing pose graph it
 // needs far fewer PCG iterations than block-Jacobi (counts and times printed).

@@ -1,5 +1,4 @@
-// PCG against dense LDLT solves on random seeded SPD block systems
-// (STYLE rule 15).
+// PCG against dense LDLT solves on random seeded SPD block systems.
 #include "core/preconditioned_conjugate_gradient.h"
 #include "tests/testing/random_linear_system.h"
 

@@ -1,5 +1,5 @@
 // Schur elimination of features, feature by feature, against the dense Schur
-// complement and the dense solution of the whole system (STYLE rule 15).
+// complement and the dense solution of the whole system.
 #include "core/schur_eliminator.h"
 
 #include <gtest/gtest.h>

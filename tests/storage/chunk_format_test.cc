@@ -1,6 +1,6 @@
 // Tests of the observation chunk format (docs/formats/observation_chunk.md):
-// CRC32C vectors, bit-exact round trips, and faults made on purpose (STYLE.md
-// rule 16): flipped bytes in header, payload and CRC, truncations, bad lengths,
+// CRC32C vectors, bit-exact round trips, and faults made on purpose:
+// flipped bytes in header, payload and CRC, truncations, bad lengths,
 // injected I/O errors, and the dropped-byte counts of non-paranoid reads.
 #include <gtest/gtest.h>
 #include <unistd.h>

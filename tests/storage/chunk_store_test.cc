@@ -1,7 +1,7 @@
 // Tests of the chunk store (storage/chunk_store.h, docs/formats/chunk_store.md):
 // bit-exact round trips of every chunk, store-vs-in-memory solve equality
 // (final chi2 within 1e-9 relative) on a random problem and on Victoria Park,
-// and rejection of incomplete or damaged stores (STYLE.md rules 15, 16).
+// and rejection of incomplete or damaged stores.
 #include "storage/chunk_store.h"
 
 #include <gmock/gmock.h>

@@ -1,4 +1,4 @@
-// Central-difference Jacobians for checking analytic ones (STYLE.md rule 15).
+// Central-difference Jacobians for checking analytic ones.
 //
 //   J[:, k] = (f(x + h e_k) - f(x - h e_k)) / (2 h)
 // Angle outputs must be wrapped by `f` itself, so differences across +-pi stay

@@ -1,5 +1,5 @@
-// Random linear systems for the linear-algebra tests (STYLE.md rule 15:
-// seeded property tests against dense reference math).
+// Random linear systems for the linear-algebra tests:
+// seeded property tests against dense reference math.
 #pragma once
 
 #include <Eigen/Dense>

@@ -1,7 +1,7 @@
 // End-to-end tests of `graphslam ingest` (tools/ingest_command.h) and of
 // `graphslam solve STORE/`: solving the store gives the same final chi2 (1e-9
 // relative) as solving the input directly with the same options; bad options
-// and bad input leave no store behind (STYLE.md rule 9).
+// and bad input leave no store behind.
 #include "tools/ingest_command.h"
 
 #include <gmock/gmock.h>

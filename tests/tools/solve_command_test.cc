@@ -1,6 +1,6 @@
 // End-to-end tests of `graphslam solve` (tools/solve_command.h): exit codes
 // (tools/exit_codes.h, docs/cli.md), the files it writes and, above all, the
-// files it must not write when the input is bad (STYLE.md rule 9), plus two
+// files it must not write when the input is bad, plus two
 // real datasets (Victoria Park: counts only; MRCLAM: accuracy against Vicon).
 #include "tools/solve_command.h"
 
