@@ -20,27 +20,43 @@ inline const std::string& GraphslamBinary() {
   return path;
 }
 
-// Starts `graphslam args...` and returns its pid; unless `stderr_path` is
-// empty the child's stderr goes to that file (truncated). `environment`
-// holds NAME=VALUE pairs added to the child's environment.
-inline pid_t SpawnGraphslamRedirected(
-    const std::vector<std::string>& args, const std::string& stderr_path,
-    const std::vector<std::pair<std::string, std::string>>& environment = {}) {
+// Where a child's output goes and what it adds to its environment.
+struct SpawnOptions {
+  std::string stdout_path;  // "" : inherited; else this file (truncated)
+  std::string stderr_path;  // "" : inherited; else this file (truncated)
+  std::vector<std::pair<std::string, std::string>> environment;  // NAME, VALUE
+};
+
+// Starts `graphslam args...` as `options` say and returns its pid.
+inline pid_t SpawnGraphslamWith(const std::vector<std::string>& args,
+                                const SpawnOptions& options) {
   std::vector<char*> argv;
   argv.push_back(const_cast<char*>(GraphslamBinary().c_str()));
   for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
   const pid_t pid = fork();
   if (pid == 0) {
-    for (const auto& [name, value] : environment) setenv(name.c_str(), value.c_str(), 1);
-    if (!stderr_path.empty()) {
-      const int fd = open(stderr_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      if (fd >= 0) dup2(fd, 2);
+    for (const auto& [name, value] : options.environment)
+      setenv(name.c_str(), value.c_str(), 1);
+    for (const auto& [path, target] : {std::pair{&options.stdout_path, 1},
+                                       std::pair{&options.stderr_path, 2}}) {
+      if (path->empty()) continue;
+      const int fd = open(path->c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      if (fd >= 0) dup2(fd, target);
     }
     execv(GraphslamBinary().c_str(), argv.data());
     _exit(127);
   }
   return pid;
+}
+
+// Starts `graphslam args...` and returns its pid; unless `stderr_path` is
+// empty the child's stderr goes to that file (truncated). `environment`
+// holds NAME=VALUE pairs added to the child's environment.
+inline pid_t SpawnGraphslamRedirected(
+    const std::vector<std::string>& args, const std::string& stderr_path,
+    const std::vector<std::pair<std::string, std::string>>& environment = {}) {
+  return SpawnGraphslamWith(args, SpawnOptions{"", stderr_path, environment});
 }
 
 // Starts `graphslam args...` and returns its pid.
@@ -72,19 +88,7 @@ struct GraphslamRun {
 inline GraphslamRun RunGraphslamCaptured(const std::vector<std::string>& args,
                                          const std::string& capture_prefix) {
   const std::string out_path = capture_prefix + ".out", err_path = capture_prefix + ".err";
-  std::vector<char*> argv;
-  argv.push_back(const_cast<char*>(GraphslamBinary().c_str()));
-  for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  const pid_t pid = fork();
-  if (pid == 0) {
-    const int out = open(out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const int err = open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    if (out >= 0) dup2(out, 1);
-    if (err >= 0) dup2(err, 2);
-    execv(GraphslamBinary().c_str(), argv.data());
-    _exit(127);
-  }
+  const pid_t pid = SpawnGraphslamWith(args, SpawnOptions{out_path, err_path, {}});
   GraphslamRun run;
   run.exit_code = WaitForExit(pid);
   auto slurp = [](const std::string& path) {
