@@ -60,7 +60,8 @@ nlohmann::json SolverReport(const SolveCommandOptions& options, const core::Solv
 void PrintSolverSummaryLines(std::FILE* out, const core::SolverSummary& summary,
                              double total_seconds) {
   std::fprintf(out, "  linear solver      %s\n", core::LinearSolverName(summary.linear_solver_used));
-  std::fprintf(out, "  initial chi2       %.9g\n", summary.initial_chi2);
+  std::fprintf(out, "  initial chi2       %.9g (where the solve started, after initialization)\n",
+               summary.initial_chi2);
   std::fprintf(out, "  final chi2         %.9g\n", summary.final_chi2);
   std::fprintf(out, "  iterations         %d (%s)\n", summary.iterations, summary.termination.c_str());
   std::fprintf(out, "  seconds            %.3f\n", total_seconds);
