@@ -432,7 +432,9 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     if (!locked.ok()) return fail(locked.status());
     lock = std::move(locked).value();
   } else if (storage::IsChunkStore(options.input)) {
-    const bool writes = options.checkpoint.empty() || options.associate;
+    // Under mpirun no rank writes into the store (no checkpoint, no
+    // --associate): every rank holds it shared.
+    const bool writes = (options.checkpoint.empty() && !distributed) || options.associate;
     StatusOr<storage::DirectoryLock> locked = storage::DirectoryLock::Acquire(
         options.input,
         writes ? storage::DirectoryLock::Mode::kExclusive : storage::DirectoryLock::Mode::kShared);

@@ -1,5 +1,6 @@
-// Reads a 2-D g2o file, solves it as `graphslam solve` does (Table 1 guess,
-// progressive initialization, Levenberg-Marquardt) and writes the result.
+// Reads a 2-D g2o file, solves it as `graphslam solve --initialization
+// progressive` does (Table 1 guess, progressive initialization,
+// Levenberg-Marquardt) and writes the result.
 //   usage: graphslam_example IN.g2o OUT.g2o
 #include <cstdio>
 
@@ -15,7 +16,7 @@ int main(int argc, char** argv) {
   if (argc != 3) return std::fprintf(stderr, "usage: %s IN.g2o OUT.g2o\n", argv[0]), 1;
   StatusOr<core::Problem2d> problem = storage::ReadG2o(argv[1]);
   if (!problem.ok()) return std::fprintf(stderr, "%s\n", problem.status().ToString().c_str()), 2;
-  core::SolverOptions options;  // the defaults of `graphslam solve`
+  core::SolverOptions options;  // the solver defaults of `graphslam solve`
   partition::ProgressiveSummary progressive;
   core::SolverSummary summary;
   Status status = core::InitializeProblem(&*problem);

@@ -279,6 +279,9 @@ TEST_F(MapCommandTest, TheCloudWithinATinyBudgetIsTheUnboundedCloud) {
 }
 
 TEST_F(MapCommandTest, BadInputsExitNonZero) {
+  // The output folder exists: a missing one is found first (exit 3, before
+  // any input is read; early_checks_test).
+  fs::create_directories(root_);
   MapCommandOptions options;
   options.input = (root_ / "missing").string();
   options.map.bt_path = (root_ / "x.bt").string();
