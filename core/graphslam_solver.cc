@@ -46,10 +46,10 @@ Status SolverOptions::Validate() const {
                                    std::to_string(max_iterations));
   if (!(function_tolerance >= 0) || !(gradient_tolerance >= 0) || !(parameter_tolerance >= 0))
     return Status::InvalidArgument("tolerances must be non-negative");
-  if (!(initial_trust_region_radius > 0) ||
+  if (!(initial_trust_region_radius >= 0) ||
       !(max_trust_region_radius >= initial_trust_region_radius))
     return Status::InvalidArgument(
-        "trust region radii must satisfy 0 < initial <= max");
+        "trust region radii must satisfy 0 <= initial <= max (0: by the linear solver)");
   if (pcg_max_iterations <= 0 || !(pcg_relative_tolerance > 0))
     return Status::InvalidArgument("PCG needs max_iterations > 0 and relative_tolerance > 0");
   if (max_eliminated_observations < 0)

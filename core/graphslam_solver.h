@@ -109,12 +109,22 @@ struct BasicSolverCheckpoint {
 };
 using SolverCheckpoint = BasicSolverCheckpoint<Pose2, Point2>;
 
+// The initial trust region radius that `initial_trust_region_radius = 0`
+// asks for, by the linear solver chosen: nearly undamped for CHOLMOD, where
+// lambda * diag(H) = 1e-4 holds back a long pose chain's smallest eigenmodes
+// (M3500: 26 iterations instead of 6, docs/benchmarks.md, "Against g2o");
+// 1e4 for PCG, whose solves the damping conditions.
+inline constexpr double kDirectInitialTrustRegion = 1e8;
+inline constexpr double kIterativeInitialTrustRegion = 1e4;
+
 struct SolverOptions {
   LinearSolverType linear_solver = LinearSolverType::kAuto;
   int max_iterations = 100;
   double function_tolerance = 1e-6;
   double gradient_tolerance = 1e-10;
   double parameter_tolerance = 1e-8;
+  // > 0: the radius (1 / initial lambda); 0: by the linear solver chosen
+  // (kDirectInitialTrustRegion, kIterativeInitialTrustRegion).
   double initial_trust_region_radius = 1e4;
   double max_trust_region_radius = 1e16;
   double min_trust_region_radius = 1e-32;

@@ -31,7 +31,7 @@ struct SolveCommandOptions {
   double pcg_truncation = core::SolverOptions().pcg_truncation;
   int max_iterations = 100;
   double function_tolerance = 1e-6;
-  double initial_trust_region_radius = 1e4;
+  double initial_trust_region_radius = 0;  // 0: by the linear solver (1e8 / 1e4)
   int threads = 0;                  // 0: all cores
   int robot = 1;                    // MRCLAM robot number
   int64_t chunk_observations = 4096;

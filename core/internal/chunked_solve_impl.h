@@ -427,8 +427,14 @@ Status SolveChunkedWith(
   const bool iterates = resume == nullptr ? options.max_iterations >= 1
                                           : !resume->converged &&
                                                 resume->iterations + 1 <= options.max_iterations;
+  // A radius of 0 is the linear solver's default (core/graphslam_solver.h).
+  SolverOptions resolved = options;
+  if (resolved.initial_trust_region_radius == 0)
+    resolved.initial_trust_region_radius =
+        summary->linear_solver_used == LinearSolverType::kCholmod ? kDirectInitialTrustRegion
+                                                                  : kIterativeInitialTrustRegion;
   const double first_radius = resume != nullptr ? resume->trust_region_radius
-                                                : options.initial_trust_region_radius;
+                                                : resolved.initial_trust_region_radius;
   if (!iterates || !options.fused_chunk_pass ||
       !space.ReduceAhead(1.0 / first_radius, &observations_chi2).ok()) {
     GS_RETURN_IF_ERROR(ranks->Agree(
@@ -437,7 +443,7 @@ Status SolveChunkedWith(
   }
   const double chi2 =
       PoseFactorsChi2(*problem, problem->poses, options.pose_kernels) + observations_chi2;
-  return RunLevenbergMarquardt(options, chi2, resume, checkpoint_callback, start, &space,
+  return RunLevenbergMarquardt(resolved, chi2, resume, checkpoint_callback, start, &space,
                                summary);
 }
 

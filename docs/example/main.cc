@@ -16,7 +16,8 @@ int main(int argc, char** argv) {
   if (argc != 3) return std::fprintf(stderr, "usage: %s IN.g2o OUT.g2o\n", argv[0]), 1;
   StatusOr<core::Problem2d> problem = storage::ReadG2o(argv[1]);
   if (!problem.ok()) return std::fprintf(stderr, "%s\n", problem.status().ToString().c_str()), 2;
-  core::SolverOptions options;  // the solver defaults of `graphslam solve`
+  core::SolverOptions options;  // the solver defaults of `graphslam solve`:
+  options.initial_trust_region_radius = 0;  // by the linear solver (1e8 CHOLMOD, 1e4 PCG)
   partition::ProgressiveSummary progressive;
   core::SolverSummary summary;
   Status status = core::InitializeProblem(&*problem);

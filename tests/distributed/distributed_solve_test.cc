@@ -74,7 +74,10 @@ class DistributedSolveTest : public ::testing::Test {
     std::vector<std::string> args = {"solve",  store.string(),
                                      "--report", (dir_ / (name + ".json")).string(),
                                      "--tum",    (dir_ / (name + ".tum")).string(),
-                                     "--threads", "1", "-q"};
+                                     "--threads", "1", "-q",
+                                     // One start for both: the default radius
+                                     // follows the solver (CHOLMOD / KSP).
+                                     "--initial-trust-region", "1e4"};
     if (ranks == 0) args.insert(args.end(), {"--solver", "cholmod"});
     if (ranks > 0 && !petsc_options.empty())
       args.insert(args.end(), {"--petsc-options", petsc_options});
