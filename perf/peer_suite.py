@@ -52,6 +52,16 @@ CHI2_RE = re.compile(r"chi2=\s*([0-9.eE+-]+)")
 ITER_RE = re.compile(r"iteration=\s*(\d+)")
 
 
+def report_parser(report):
+    """Parser of a run that writes a JSON report (ours, the Ceres peer)."""
+    def parse(out, err):
+        with open(report) as f:
+            r = json.load(f)
+        os.remove(report)
+        return r["final_chi2"], r["iterations"]
+    return parse
+
+
 def run_timed(cmd, timeout):
     start = time.perf_counter()
     try:
@@ -74,12 +84,7 @@ def configurations(args, dim):
         cmd = [args.graphslam, "solve", path, "--report", report, "-q"] + shlex.split(
             args.ours_args)
 
-        def parse(out, err):
-            with open(report) as f:
-                r = json.load(f)
-            os.remove(report)
-            return r["final_chi2"], r["iterations"]
-        return cmd, parse
+        return cmd, report_parser(report)
     configs.append(("graphslam", ours))
 
     g2o = os.environ.get("G2O_BIN")
@@ -105,12 +110,7 @@ def configurations(args, dim):
             report = os.path.join(scratch, "ceres.json")
             cmd = [ceres, path, "--report", report]
 
-            def parse(out, err):
-                with open(report) as f:
-                    r = json.load(f)
-                os.remove(report)
-                return r["final_chi2"], r["iterations"]
-            return cmd, parse
+            return cmd, report_parser(report)
         configs.append(("ceres", ceres_run))
     return configs
 

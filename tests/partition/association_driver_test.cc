@@ -92,18 +92,8 @@ TEST(AssociationDriver, CorrespondenceMatchesDenseInverseWithKeptFeatures) {
   ExpectMatchesDense(true, 3);  // features with > 3 observations stay unknowns
 }
 
-testing::RandomProblem SmallWorld(uint32_t seed) {
-  testing::RandomProblemOptions options;
-  options.num_poses = 40;
-  options.num_features = 10;
-  options.range_bearing = false;
-  options.sensor_range = 4.0;
-  options.seed = seed;
-  return testing::MakeRandomProblem(options);
-}
-
 TEST(AssociationDriver, TwoCopiesOfOneLandmarkMergeBack) {
-  testing::RandomProblem random = SmallWorld(11);
+  testing::RandomProblem random = testing::MakeSmallPointWorld(11);
   core::Problem2d known = random.problem;
   ASSERT_TRUE(core::InitializeProblem(&known).ok());
   const double known_chi2 = SolveKnown(&known);
@@ -135,7 +125,7 @@ TEST(AssociationDriver, TwoCopiesOfOneLandmarkMergeBack) {
 }
 
 TEST(AssociationDriver, WrongForcedMergeIsUndone) {
-  testing::RandomProblem random = SmallWorld(12);
+  testing::RandomProblem random = testing::MakeSmallPointWorld(12);
   core::Problem2d known = random.problem;
   ASSERT_TRUE(core::InitializeProblem(&known).ok());
   const double known_chi2 = SolveKnown(&known);
@@ -235,7 +225,7 @@ TEST(AssociationDriver, WrongMergeIsUndoneAndStaysUndone) {
 }
 
 TEST(AssociationDriver, IdLessSimulationIsAssociatedAccurately) {
-  testing::RandomProblem random = SmallWorld(13);
+  testing::RandomProblem random = testing::MakeSmallPointWorld(13);
   // Forget the ids: one feature per observation.
   core::Problem2d problem = random.problem;
   std::vector<int64_t> key;

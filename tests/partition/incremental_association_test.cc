@@ -33,20 +33,10 @@ std::vector<int64_t> ForgetIds(core::Problem2d* problem) {
   return key;
 }
 
-testing::RandomProblem EasyWorld(uint32_t seed) {
-  testing::RandomProblemOptions options;
-  options.num_poses = 40;
-  options.num_features = 10;
-  options.range_bearing = false;
-  options.sensor_range = 4.0;
-  options.seed = seed;
-  return testing::MakeRandomProblem(options);
-}
-
 TEST(IncrementalAssociation, EasyDataEndsWithTheBatchCorrespondences) {
   for (uint32_t seed : {13u, 14u}) {
     SCOPED_TRACE("seed " + std::to_string(seed));
-    testing::RandomProblem random = EasyWorld(seed);
+    testing::RandomProblem random = testing::MakeSmallPointWorld(seed);
     core::Problem2d input = random.problem;
     const std::vector<int64_t> key = ForgetIds(&input);
     std::map<int64_t, int> seen;
@@ -94,7 +84,7 @@ TEST(IncrementalAssociation, EasyDataEndsWithTheBatchCorrespondences) {
 }
 
 TEST(IncrementalAssociation, MisdetectionSeenOnceEndsAsClutter) {
-  testing::RandomProblem random = EasyWorld(13);
+  testing::RandomProblem random = testing::MakeSmallPointWorld(13);
   core::Problem2d input = random.problem;
   // One detection of nothing, from pose 20, where no landmark is within 1.5 m.
   const core::Pose2& pose = random.true_poses[20];

@@ -126,4 +126,16 @@ inline RandomProblem MakeRandomProblem(const RandomProblemOptions& options) {
   return out;
 }
 
+// The small point-landmark world of the association tests: 40 poses, 10
+// landmarks seen as points within 4 m.
+inline RandomProblem MakeSmallPointWorld(uint32_t seed) {
+  RandomProblemOptions options;
+  options.num_poses = 40;
+  options.num_features = 10;
+  options.range_bearing = false;
+  options.sensor_range = 4.0;
+  options.seed = seed;
+  return MakeRandomProblem(options);
+}
+
 }  // namespace graphslam::testing
