@@ -22,6 +22,7 @@
 #include <tbb/parallel_for.h>
 
 #include "partition/spill_frames.h"
+#include "storage/stop_point.h"
 
 namespace graphslam::partition {
 namespace {
@@ -258,6 +259,7 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
     progress->observations += static_cast<int64_t>(buffer.size());
     ++stats.spills;
     buffer.clear();
+    storage::StopPointAtCountForTests("ingest_spill", stats.spills);
     return Status::Ok();
   };
   // Makes the touched bucket files durable, then reports *progress.

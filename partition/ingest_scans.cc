@@ -15,6 +15,7 @@
 #include "storage/crc32c.h"
 #include "storage/native_log_scans.h"
 #include "storage/scan_store.h"
+#include "storage/stop_point.h"
 
 namespace graphslam::partition {
 namespace {
@@ -252,6 +253,8 @@ Status IngestScans(storage::Env* env, const std::string& log_path, const std::st
     if (writer->entries().size() != durable) {
       progress.chunks = writer->entries();
       GS_RETURN_IF_ERROR(WriteProgress(env, progress_path, progress));
+      storage::StopPointAtCountForTests("ingest_scan_chunks",
+                                        static_cast<long long>(progress.chunks.size()));
     }
   }
   GS_RETURN_IF_ERROR(writer->Finish());

@@ -13,6 +13,7 @@
 #include "storage/chunk_store_writer.h"
 #include "storage/file_checksum.h"
 #include "storage/native_log_reader.h"
+#include "storage/stop_point.h"
 #include "storage/store_directory.h"
 
 namespace graphslam::partition {
@@ -195,6 +196,7 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
       pass1 = Pass1Record();  // freed: pass 2 needs neither ids nor counts (24 B per feature)
       progress.stage = "spill";
       GS_RETURN_IF_ERROR(WriteIngestProgress(env, progress_path, progress));
+      storage::StopPointForTests("ingest_pass1");
     }
   }
   summary->streamed = native;
@@ -242,6 +244,7 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
     if (native) {
       progress.chunks_durable = durable;
       GS_RETURN_IF_ERROR(WriteIngestProgress(env, progress_path, progress));
+      storage::StopPointAtCountForTests("ingest_chunks", durable);
     }
     chunks->ReleaseBucketsBefore(durable);
     return Status::Ok();

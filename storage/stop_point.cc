@@ -3,14 +3,36 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 
 namespace graphslam::storage {
+
+namespace {
+
+void StopHere() {
+  std::fflush(nullptr);  // what was printed so far reaches the test
+  std::raise(SIGSTOP);
+}
+
+}  // namespace
 
 void StopPointForTests(std::string_view point) {
   const char* wanted = std::getenv(kStopPointVariable);
   if (wanted == nullptr || point != wanted) return;
-  std::fflush(nullptr);  // what was printed so far reaches the test
-  std::raise(SIGSTOP);
+  StopHere();
+}
+
+void StopPointAtCountForTests(std::string_view name, long long count) {
+  const char* wanted = std::getenv(kStopPointVariable);
+  if (wanted == nullptr) return;
+  const std::string_view value(wanted);
+  if (value.size() <= name.size() + 1 || value.substr(0, name.size()) != name ||
+      value[name.size()] != ' ')
+    return;
+  char* end = nullptr;
+  const long long threshold = std::strtoll(wanted + name.size() + 1, &end, 10);
+  if (end == wanted + name.size() + 1 || *end != '\0') return;
+  if (count >= threshold) StopHere();
 }
 
 }  // namespace graphslam::storage

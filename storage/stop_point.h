@@ -11,6 +11,15 @@
 //   "job_stage_start S"     after a job logged the start of stage S
 //   "job_stage_done S"      after a job recorded stage S as completed
 //   "map_batch N"           after the N-th batch of scans was fused
+//   "ingest_pass1"          after an ingest recorded its first pass
+//   "ingest_spill N"        after the N-th spill of the observation buffer
+//   "ingest_chunks N"       after chunks [0, k) with k >= N are durable and
+//                           recorded in the ingest's progress
+//   "ingest_scan_chunks N"  after k >= N scan chunks are durable and recorded
+//
+// The counted points (StopPointAtCountForTests) stop at the first count that
+// reaches N: chunks become durable in parallel groups, so an exact count may
+// never be reported.
 //
 // THREAD SAFETY: safe from any thread (getenv, raise). ALLOCATION: none.
 #pragma once
@@ -22,5 +31,8 @@ namespace graphslam::storage {
 inline constexpr const char* kStopPointVariable = "GRAPHSLAM_STOP_AT";
 
 void StopPointForTests(std::string_view point);
+
+// Stops when GRAPHSLAM_STOP_AT is "`name` N" and `count` >= N.
+void StopPointAtCountForTests(std::string_view name, long long count);
 
 }  // namespace graphslam::storage

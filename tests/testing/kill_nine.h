@@ -1,5 +1,5 @@
-// kill -9 tests: start the graphslam binary, kill it with SIGKILL the moment
-// a file (its first checkpoint) appears, so a resume can be compared with an
+// kill -9 tests: start the graphslam binary, kill it with SIGKILL at a stop
+// point (storage/stop_point.h), so a resume can be compared with an
 // uninterrupted run.
 #pragma once
 
@@ -7,35 +7,17 @@
 #include <signal.h>
 #include <sys/wait.h>
 
-#include <chrono>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <fstream>
 #include <sstream>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "tests/testing/directory_bytes.h"
 #include "tests/testing/subprocess.h"
 
 namespace graphslam::testing {
-
-// Runs `graphslam args...` and sends SIGKILL as soon as `file` exists (or
-// after `timeout`). Returns true if the child died of the signal, false if it
-// had already ended on its own.
-inline bool SpawnAndKillWhenFileExists(const std::vector<std::string>& args,
-                                       const std::filesystem::path& file,
-                                       std::chrono::seconds timeout) {
-  const pid_t pid = SpawnGraphslam(args);
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (!std::filesystem::exists(file) && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  kill(pid, SIGKILL);
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFSIGNALED(status);
-}
 
 // Runs `graphslam args...` with GRAPHSLAM_STOP_AT=`point` (storage/
 // stop_point.h): the child stops itself right after that point, is killed

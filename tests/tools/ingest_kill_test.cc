@@ -8,7 +8,6 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -16,7 +15,6 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "tests/testing/directory_bytes.h"
@@ -30,7 +28,6 @@ namespace fs = std::filesystem;
 
 using graphslam::testing::GraphslamBinary;
 using graphslam::testing::RunGraphslam;
-using graphslam::testing::SpawnGraphslam;
 
 using graphslam::testing::ReadJson;
 
@@ -42,30 +39,14 @@ TEST_F(IngestKillTest, KillNineDuringIngestNeverLeavesAStoreThatOpens) {
   // A complete store first, so the kill must also un-commit an old manifest.
   ASSERT_EQ(RunGraphslam({"ingest", input, "-o", store.string(), "-q"}), 0);
   ASSERT_TRUE(fs::exists(store / "MANIFEST.json"));
-  // A small buffer makes the ingest spill many times; kill it once it spills.
-  const pid_t pid = SpawnGraphslam({"ingest", input, "-o", store.string(), "--chunk-observations", "256",
-                           "--buffer-observations", "256", "-q"});
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-  auto spilled = [&]() {
-    std::error_code error;
-    if (!fs::is_directory(store / "work", error)) return false;
-    for (const auto& entry : fs::directory_iterator(store / "work", error)) {
-      (void)entry;
-      return true;
-    }
-    return false;
-  };
-  while (!spilled() && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  kill(pid, SIGKILL);
-  int status = 0;
-  waitpid(pid, &status, 0);
-  if (WIFSIGNALED(status)) {
-    EXPECT_FALSE(fs::exists(store / "MANIFEST.json")) << "a killed ingest left a manifest";
-    EXPECT_EQ(RunGraphslam({"solve", store.string(), "-q"}), 2) << "incomplete store accepted";
-  } else {
-    std::printf("the ingest finished before the kill (exit %d)\n", WEXITSTATUS(status));
-  }
+  // A small buffer makes the ingest spill many times; kill it after the second spill.
+  ASSERT_TRUE(graphslam::testing::SpawnAndKillAtStopPoint(
+      {"ingest", input, "-o", store.string(), "--chunk-observations", "256",
+       "--buffer-observations", "256", "-q"},
+      "ingest_spill 2"))
+      << "the ingest ended before its second spill";
+  EXPECT_FALSE(fs::exists(store / "MANIFEST.json")) << "a killed ingest left a manifest";
+  EXPECT_EQ(RunGraphslam({"solve", store.string(), "-q"}), 2) << "incomplete store accepted";
   // Rerun: complete, and solving it equals the in-memory solve.
   ASSERT_EQ(RunGraphslam({"ingest", input, "-o", store.string(), "--chunk-observations", "256",
                           "--buffer-observations", "256", "-q"}),
@@ -96,27 +77,18 @@ TEST_F(IngestKillTest, KillNineAtSeveralPointsThenResumeGivesTheSameStoreBytes) 
   const auto expected = graphslam::testing::FilesUnder(dir_ / "full");
   ASSERT_GT(expected.size(), 50u);
   const fs::path store = dir_ / "store";
-  int killed = 0;
-  for (const fs::path& trigger : {fs::path("work/ingest_progress.json"),
-                                 fs::path("work/bucket_000012.bin"),
-                                 fs::path("chunks/000030.gsc")}) {
-    SCOPED_TRACE("killed once " + trigger.string() + " exists");
+  // After the first pass was recorded, during the spill, and during the chunk
+  // writes (storage/stop_point.h).
+  for (const std::string point : {"ingest_pass1", "ingest_spill 3", "ingest_chunks 30"}) {
+    SCOPED_TRACE("killed at " + point);
     fs::remove_all(store);
-    if (graphslam::testing::SpawnAndKillWhenFileExists(ingest(store, false), store / trigger,
-                                                       std::chrono::seconds(60))) {
-      // The last chunks are written in parallel groups: the ingest may commit
-      // (manifest written, work/ removed) between the trigger file appearing
-      // and the signal landing. Then it was not interrupted; the resume below
-      // must still leave the same bytes.
-      if (!fs::exists(store / "MANIFEST.json")) {
-        ++killed;
-        EXPECT_TRUE(fs::exists(store / "work" / "ingest_progress.json"));
-      }
-    }
+    ASSERT_TRUE(graphslam::testing::SpawnAndKillAtStopPoint(ingest(store, false), point))
+        << "the ingest ended before " << point;
+    EXPECT_FALSE(fs::exists(store / "MANIFEST.json")) << "a killed ingest committed";
+    EXPECT_TRUE(fs::exists(store / "work" / "ingest_progress.json"));
     ASSERT_EQ(RunGraphslam(ingest(store, true)), 0);
     graphslam::testing::ExpectSameFiles(graphslam::testing::FilesUnder(store), expected);
   }
-  if (killed < 3) std::printf("only %d of 3 ingests were still running at the kill\n", killed);
 }
 
 TEST_F(IngestKillTest, KillNineDuringWorkdirSolveThenResumeEqualsUninterruptedRun) {
@@ -126,15 +98,12 @@ TEST_F(IngestKillTest, KillNineDuringWorkdirSolveThenResumeEqualsUninterruptedRu
             0);
   const fs::path store = dir_ / "store";
   const fs::path checkpoint = store / "checkpoint.json";
-  const pid_t pid = SpawnGraphslam({"solve", input, "--workdir", store.string(), "-q"});
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-  while (!fs::exists(checkpoint) && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  kill(pid, SIGKILL);
-  int status = 0;
-  waitpid(pid, &status, 0);
+  ASSERT_TRUE(graphslam::testing::SpawnAndKillAtStopPoint(
+      {"solve", input, "--workdir", store.string(), "-q"}, "solver_checkpoint 1"))
+      << "the solve ended before its first checkpoint";
   ASSERT_TRUE(fs::exists(checkpoint)) << "no checkpoint was written";
   const int killed_after = ReadJson(checkpoint)["iterations"].get<int>();
+  ASSERT_EQ(killed_after, 1);
   // --resume reuses the store (no second ingest) and continues from the checkpoint.
   const auto manifest_time = fs::last_write_time(store / "MANIFEST.json");
   ASSERT_EQ(RunGraphslam({"solve", input, "--workdir", store.string(), "--resume", "--report",

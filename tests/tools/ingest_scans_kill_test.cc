@@ -7,7 +7,6 @@
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_types.h>
 
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -84,22 +83,19 @@ TEST_F(IngestScansKillTest, KillNineThenResumeGivesTheSameStoreWithItsScans) {
   ASSERT_TRUE(expected.count("scans/SCANS.json"));
 
   const fs::path store = dir_ / "store";
-  int killed = 0;
-  for (const fs::path& trigger :
-       {fs::path("work/ingest_progress.json"), fs::path("chunks/000030.gsc"),
-        fs::path("scans/000002.gss"), fs::path("scans/000025.gss")}) {
-    SCOPED_TRACE("killed once " + trigger.string() + " exists");
+  // After the first pass, during the chunk writes, and early and late in the
+  // scan copy (storage/stop_point.h).
+  for (const std::string point :
+       {"ingest_pass1", "ingest_chunks 30", "ingest_scan_chunks 2", "ingest_scan_chunks 25"}) {
+    SCOPED_TRACE("killed at " + point);
     fs::remove_all(store);
-    if (graphslam::testing::SpawnAndKillWhenFileExists(ingest(store, false), store / trigger,
-                                                       std::chrono::seconds(60)) &&
-        !fs::exists(store / "MANIFEST.json")) {
-      ++killed;
-      EXPECT_FALSE(fs::exists(store / "scans" / "SCANS.json")) << "killed, yet scans committed";
-    }
+    ASSERT_TRUE(graphslam::testing::SpawnAndKillAtStopPoint(ingest(store, false), point))
+        << "the ingest ended before " << point;
+    EXPECT_FALSE(fs::exists(store / "MANIFEST.json")) << "a killed ingest committed";
+    EXPECT_FALSE(fs::exists(store / "scans" / "SCANS.json")) << "killed, yet scans committed";
     ASSERT_EQ(RunGraphslam(ingest(store, true)), 0);
     graphslam::testing::ExpectSameFiles(graphslam::testing::FilesUnder(store), expected);
   }
-  if (killed < 4) std::printf("only %d of 4 ingests were still running at the kill\n", killed);
 
   // The map from the store equals the map from the log (and its .pcd files).
   const std::vector<std::string> map_options = {"--resolution", "0.25", "--max-range", "10", "-q"};
