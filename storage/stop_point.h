@@ -11,6 +11,8 @@
 //   "job_stage_start S"     after a job logged the start of stage S
 //   "job_stage_done S"      after a job recorded stage S as completed
 //   "map_batch N"           after the N-th batch of scans was fused
+//   "associate_exchanged"   after `solve STORE --associate` put the rewritten
+//                           store in place
 //   "ingest_pass1"          after an ingest recorded its first pass
 //   "ingest_spill N"        after the N-th spill of the observation buffer
 //   "ingest_chunks N"       after chunks [0, k) with k >= N are durable and

@@ -11,6 +11,7 @@
 #include "partition/in_memory_chunk_source.h"
 #include "storage/chunk_store.h"
 #include "storage/directory_lock.h"
+#include "storage/stop_point.h"
 #include "storage/store_directory.h"
 
 namespace graphslam::tools {
@@ -31,7 +32,8 @@ bool ExchangeDirectories(const std::string& a, const std::string& b) {
 Status RewriteAssociatedChunkStore(storage::Env* env, const std::string& store,
                                    const core::Problem2d& problem, int64_t chunk_observations,
                                    const std::string& source,
-                                   const storage::FileChecksum& input) {
+                                   const storage::FileChecksum& input,
+                                   storage::DirectoryLock* store_lock) {
   std::string dir = store;
   while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
   partition::ChunkingOptions chunking;
@@ -48,12 +50,12 @@ Status RewriteAssociatedChunkStore(storage::Env* env, const std::string& store,
   std::error_code error;
   std::filesystem::remove_all(staging, error);
   if (error) return Status::IOError(staging + ": remove stale staging store: " + error.message());
-  {
-    // Locked while written; the caller holds the store's own lock.
-    GS_ASSIGN_OR_RETURN(storage::DirectoryLock lock, storage::OpenStoreForWriting(env, staging));
-    GS_RETURN_IF_ERROR(storage::WriteChunkStore(env, staging, problem, chunks, options));
-  }
+  // Locked while written, and after the exchange, when it is STORE's lock.
+  GS_ASSIGN_OR_RETURN(storage::DirectoryLock staging_lock,
+                      storage::OpenStoreForWriting(env, staging));
+  GS_RETURN_IF_ERROR(storage::WriteChunkStore(env, staging, problem, chunks, options));
   if (ExchangeDirectories(staging, dir)) {
+    *store_lock = std::move(staging_lock);
     const std::filesystem::path parent = std::filesystem::absolute(dir).parent_path();
     GS_RETURN_IF_ERROR(env->SyncDirectory(parent.string()));
     std::filesystem::remove_all(staging, error);
@@ -61,11 +63,13 @@ Status RewriteAssociatedChunkStore(storage::Env* env, const std::string& store,
       GS_LOG(WARNING, "%s: could not remove the old store after the rewrite: %s",
              staging.c_str(), error.message().c_str());
     }
+    storage::StopPointForTests("associate_exchanged");
     return Status::Ok();
   }
   const int exchange_errno = errno;
   GS_LOG(WARNING, "%s: cannot exchange directories (%s); rewriting the store in place",
          dir.c_str(), std::strerror(exchange_errno));
+  staging_lock.Release();
   std::filesystem::remove_all(staging, error);
   // In place: the commit rule of WriteChunkStore; chunk files beyond the new
   // count are removed after the new manifest is durable.

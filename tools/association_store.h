@@ -17,6 +17,12 @@
 // Other files in STORE (a solver checkpoint) are dropped: they describe the
 // problem before association.
 //
+// Locking: the caller holds STORE's exclusive lock; the staging store is
+// locked while it is written, and that lock moves with the folder in the
+// exchange (flock belongs to the open lock file, whose folder is now STORE).
+// It is handed to the caller in `*store_lock`, replacing the lock of the old
+// store, so STORE stays locked from before the rewrite to the caller's exit.
+//
 // THREAD SAFETY: one rewrite per store at a time. ALLOCATION: one chunk at a
 // time beyond the problem.
 #pragma once
@@ -26,6 +32,7 @@
 
 #include "core/problem.h"
 #include "core/status.h"
+#include "storage/directory_lock.h"
 #include "storage/env.h"
 #include "storage/file_checksum.h"
 
@@ -35,6 +42,7 @@ namespace graphslam::tools {
                                                  const core::Problem2d& problem,
                                                  int64_t chunk_observations,
                                                  const std::string& source,
-                                                 const storage::FileChecksum& input = {-1, 0});
+                                                 const storage::FileChecksum& input,
+                                                 storage::DirectoryLock* store_lock);
 
 }  // namespace graphslam::tools

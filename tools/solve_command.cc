@@ -751,7 +751,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     if (store) {
       if (Status status = RewriteAssociatedChunkStore(storage::Env::Default(), store_path,
                                                       problem, options.chunk_observations,
-                                                      store->source(), store->input());
+                                                      store->source(), store->input(), &lock);
           !status.ok())
         return fail(status);
     }

@@ -20,7 +20,9 @@
 //     store, a workdir or a job folder; other files stay.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -411,6 +413,33 @@ TEST_F(AdversarialStore, StaleTemporariesAreRemovedOnResume) {
   EXPECT_FALSE(fs::exists(out / "graph.g2o.tmp-999995"));
   EXPECT_FALSE(fs::exists(out / "trajectories" / "campus.tum.tmp-999994"));
   EXPECT_EQ(Read(out / "mine.txt.tmp-999993"), "not ours");
+}
+
+// `solve STORE --associate` exchanges STORE with its rewritten copy; from the
+// exchange to the exit STORE stays locked (the rewrite's lock moved with the
+// folder), so a second writer in that window is refused.
+TEST_F(AdversarialStore, AssociateRewriteKeepsTheStoreLockedToTheExit) {
+  const fs::path store = Path("store");
+  Ingest(0, store);
+  const pid_t pid = SpawnGraphslamRedirected({"solve", store.string(), "--associate", "-q"},
+                                             Path("associate.txt").string(),
+                                             {{"GRAPHSLAM_STOP_AT", "associate_exchanged"}});
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, WUNTRACED), pid);
+  ASSERT_TRUE(WIFSTOPPED(status)) << "the solve ended before the exchange: "
+                                  << Read(Path("associate.txt"));
+  ASSERT_TRUE(fs::exists(store / "MANIFEST.json"));
+  EXPECT_FALSE(fs::exists(store.string() + ".associating"));
+  const std::map<std::string, std::string> rewritten = Snapshot(store);
+  std::string err;
+  const int ingest = Run({"ingest", inputs_[1], "-o", store.string(), "-q"}, &err);
+  kill(pid, SIGKILL);
+  waitpid(pid, &status, 0);
+  EXPECT_EQ(ingest, 3) << err;
+  EXPECT_THAT(err, HasSubstr(kLocked));
+  EXPECT_THAT(err, HasSubstr("pid " + std::to_string(pid) + ")"));
+  EXPECT_EQ(Snapshot(store), rewritten);
+  EXPECT_EQ(Run({"solve", store.string(), "-q"}, &err) % 4, 0) << err;
 }
 
 }  // namespace
