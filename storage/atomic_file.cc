@@ -1,5 +1,7 @@
 #include "storage/atomic_file.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
 #include <unistd.h>
 
 #include <memory>
@@ -59,9 +61,15 @@ Status ReplaceAtomically(Env* env, const std::string& path, const std::string& t
     return opened.status().WithContext(context);
   }
   std::unique_ptr<WritableFile> file = std::move(opened).value();
+  // Held until the rename: a locked temporary is never taken for abandoned
+  // (storage/abandoned_temporaries.h). Best effort: an Env whose files are
+  // not on this file system has no descriptor to lock.
+  const int lock_fd = ::open(temporary.c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
+  if (lock_fd >= 0) (void)::flock(lock_fd, LOCK_EX | LOCK_NB);
   Status status = WriteSyncClose(file.get(), writer);
   file.reset();
   if (status.ok()) status = env->Rename(temporary, target);
+  if (lock_fd >= 0) ::close(lock_fd);
   if (!status.ok()) {
     RemoveTemporary(env, temporary);
     return status.WithContext(context);

@@ -1,5 +1,6 @@
 # Importers, exporters, files.
 target_sources(graphslam_storage PRIVATE
+  abandoned_temporaries.cc
   atomic_file.cc
   env.cc
   stop_point.cc

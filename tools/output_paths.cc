@@ -4,6 +4,9 @@
 
 #include <filesystem>
 
+#include "core/logging.h"
+#include "storage/abandoned_temporaries.h"
+
 namespace graphslam::tools {
 namespace {
 
@@ -51,7 +54,14 @@ Status CheckOne(const OutputPath& output) {
   }
   fs::path parent = path.parent_path();
   if (parent.empty()) parent = ".";
-  return CheckWritableFolder(output, parent);
+  GS_RETURN_IF_ERROR(CheckWritableFolder(output, parent));
+  // What a killed earlier writer of this output left behind goes now.
+  StatusOr<int64_t> removed = storage::RemoveAbandonedTemporaries(output.path);
+  if (!removed.ok()) return removed.status().WithContext(output.option + " " + output.path);
+  if (*removed > 0)
+    GS_LOG(INFO, "%s: removed %lld temporary file(s) a killed run left", output.path.c_str(),
+           static_cast<long long>(*removed));
+  return Status::Ok();
 }
 
 }  // namespace

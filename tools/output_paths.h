@@ -11,6 +11,9 @@
 //                   not, its nearest existing ancestor is (it will be created
 //                   with its parents).
 //
+// A file output's temporaries that a killed earlier run left next to it are
+// removed here once proved abandoned (storage/abandoned_temporaries.h).
+//
 // Failures are IOError (exit 3, tools/exit_codes.h) naming the option and the
 // path: "--report /nodir/x.json: the folder /nodir does not exist; expected an
 // existing folder to write the output into". The check is advisory as any

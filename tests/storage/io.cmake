@@ -1,6 +1,7 @@
 # Tests of importers and exporters.
 graphslam_test(storage/env)
 graphslam_test(storage/atomic_file)
+graphslam_test(storage/abandoned_temporaries)
 graphslam_test(storage/g2o_reader)
 graphslam_test(storage/isam_reader)
 graphslam_test(storage/mrclam_reader)

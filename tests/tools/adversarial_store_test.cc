@@ -413,6 +413,29 @@ TEST_F(AdversarialStore, StaleTemporariesAreRemovedOnResume) {
   EXPECT_FALSE(fs::exists(out / "graph.g2o.tmp-999995"));
   EXPECT_FALSE(fs::exists(out / "trajectories" / "campus.tum.tmp-999994"));
   EXPECT_EQ(Read(out / "mine.txt.tmp-999993"), "not ours");
+
+  // Plain outputs in a folder that is not ours: a temporary whose writer is
+  // gone (no such pid, no lock on it) goes; a live process's stays.
+  const fs::path plain = Path("plain");
+  const pid_t child = ::fork();
+  if (child == 0) ::_exit(0);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  const std::string dead = std::to_string(child);
+  const std::string alive = std::to_string(::getpid());
+  Write(plain / ("c.json.tmp-" + dead), "stale");
+  Write(plain / ("c.json.state.1.bin.tmp-" + dead), "stale");
+  Write(plain / ("x.g2o.tmp-" + dead), "stale");
+  Write(plain / ("x.g2o.tmp-" + alive), "live");
+  ASSERT_EQ(Run({"solve", inputs_[0], "--checkpoint", (plain / "c.json").string(), "-o",
+                 (plain / "x.g2o").string(), "-q"},
+                &err) % 4,
+            0)
+      << err;
+  EXPECT_FALSE(fs::exists(plain / ("c.json.tmp-" + dead)));
+  EXPECT_FALSE(fs::exists(plain / ("c.json.state.1.bin.tmp-" + dead)));
+  EXPECT_FALSE(fs::exists(plain / ("x.g2o.tmp-" + dead)));
+  EXPECT_EQ(Read(plain / ("x.g2o.tmp-" + alive)), "live");
 }
 
 // `solve STORE --associate` exchanges STORE with its rewritten copy; from the
