@@ -25,7 +25,7 @@ target_sources(graphslam_storage PRIVATE chunk_store.cc chunk_store_writer.cc)
 # Locks, ownership and checksums of stores and job folders (docs/guarantees.md).
 target_sources(graphslam_storage PRIVATE checksummed_json.cc directory_lock.cc file_checksum.cc
   store_directory.cc)
-target_sources(graphslam_storage PRIVATE solver_checkpoint.cc feature_record_file.cc candidate_file.cc
+target_sources(graphslam_storage PRIVATE solver_checkpoint.cc sealed_json_text.cc feature_record_file.cc candidate_file.cc
   solver_state_file.cc feature_id_file.cc)
 # TORO / GTSAM .graph files, 2-D and 3-D (docs/formats/toro_graph.md).
 target_sources(graphslam_storage PRIVATE toro_reader.cc)

@@ -12,6 +12,8 @@
 #include "storage/chunk_format.h"
 #include "storage/feature_record_file.h"
 #include "storage/solver_state_file.h"
+#include "storage/crc32c.h"
+#include "storage/sealed_json_text.h"
 #include "storage/stop_point.h"
 
 namespace graphslam::storage {
@@ -121,8 +123,10 @@ Status Write(Env* env, const std::string& path, const std::string& input,
   // double, as nlohmann's dump does, so the document reads as before.
   return WriteFileAtomically(env, path, [&](WritableFile* file) -> Status {
     std::string text = std::move(head);
+    uint32_t crc = 0;  // of every byte appended: the seal covers them
     const auto spill = [&](bool force) -> Status {
       if (!force && text.size() < (size_t{1} << 20)) return Status::Ok();
+      crc = crc32c::Extend(crc, text.data(), text.size());
       Status status = file->Append(text);
       text.clear();
       return status;
@@ -162,8 +166,8 @@ Status Write(Env* env, const std::string& path, const std::string& input,
     }
     text.push_back(']');
     GS_RETURN_IF_ERROR(append_flags("kept", checkpoint.kept));
-    text += "}\n";
-    return spill(true);
+    GS_RETURN_IF_ERROR(spill(true));
+    return file->Append(JsonSealFor(crc));
   });
 }
 
@@ -271,9 +275,11 @@ Status ReadFeatureFile(const std::string& file_path, int64_t expected,
 
 template <class Layout, class Checkpoint>
 StatusOr<Checkpoint> Read(const std::string& path, const std::string& input) {
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
   if (!in) return Status::NotFound(path + ": cannot open checkpoint");
-  nlohmann::json json = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  GS_RETURN_IF_ERROR(CheckJsonTextSeal(path, text));
+  nlohmann::json json = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (json.is_discarded() || !json.is_object()) return Bad(path, "not a JSON object");
   if (json.value("format", "") != kSolverCheckpointFormat)
     return Bad(path, std::string("format is not '") + kSolverCheckpointFormat + "'");
@@ -407,7 +413,7 @@ Status WriteSolverCheckpointWithFeatureFile(Env* env, const std::string& path,
   json["features_file"] = std::filesystem::path(file_path).filename().string();
   json["features_count"] = checkpoint.features.size();
   json["state_file"] = std::filesystem::path(state_path).filename().string();
-  GS_RETURN_IF_ERROR(WriteStringAtomically(env, path, json.dump() + "\n"));
+  GS_RETURN_IF_ERROR(WriteStringAtomically(env, path, SealJsonText(json.dump())));
   // 3. other generations are garbage now (a kill before this leaves them:
   //    the next checkpoint removes them)
   const std::filesystem::path directory =

@@ -2,16 +2,19 @@
 // states read back bit for bit; a checkpoint of the other dimension, of
 // another input, or with a truncated pose array is refused with the path.
 #include "storage/solver_checkpoint.h"
+#include "storage/sealed_json_text.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <tuple>
 
 #include "core/se3_lie.h"
 #include "tests/testing/directory_bytes.h"
@@ -148,10 +151,11 @@ TEST(SolverCheckpoint, TruncatedSpatialPosesAreCorruption) {
   const std::string path = TempPath("bad3d.json");
   {
     std::ofstream out(path);
-    out << R"({"format":"graphslam-solver-checkpoint","version":1,"input":"x","dimension":3,)"
-        << R"("iterations":1,"trust_region_radius":1.0,"decrease_factor":2.0,"initial_chi2":1.0,)"
-        << R"("chi2":1.0,"converged":false,"termination":"","poses":[0,0,0,0,0,0],)"
-        << R"("features":[],"excluded":[],"kept":[]})";
+    out << SealJsonText(
+        R"({"format":"graphslam-solver-checkpoint","version":1,"input":"x","dimension":3,)"
+        R"("iterations":1,"trust_region_radius":1.0,"decrease_factor":2.0,"initial_chi2":1.0,)"
+        R"("chi2":1.0,"converged":false,"termination":"","poses":[0,0,0,0,0,0],)"
+        R"("features":[],"excluded":[],"kept":[]})");
   }
   StatusOr<core::SolverCheckpoint3d> read = ReadSolverCheckpoint3d(path, "x");
   ASSERT_FALSE(read.ok());
@@ -207,10 +211,11 @@ TEST(SolverCheckpoint, CholmodCheckpointStaysVersion1AndVersion1LoadsWithoutPcgS
   // A file as version 1 wrote it (before the pcg state existed).
   {
     std::ofstream out(path);
-    out << R"({"format":"graphslam-solver-checkpoint","version":1,"input":"x",)"
-        << R"("iterations":3,"trust_region_radius":2.5,"decrease_factor":2.0,"initial_chi2":9.0,)"
-        << R"("chi2":4.0,"converged":false,"termination":"","poses":[0,0,0,1,0,0],)"
-        << R"("features":[],"excluded":[],"kept":[]})";
+    out << SealJsonText(
+        R"({"format":"graphslam-solver-checkpoint","version":1,"input":"x",)"
+        R"("iterations":3,"trust_region_radius":2.5,"decrease_factor":2.0,"initial_chi2":9.0,)"
+        R"("chi2":4.0,"converged":false,"termination":"","poses":[0,0,0,1,0,0],)"
+        R"("features":[],"excluded":[],"kept":[]})");
   }
   StatusOr<core::SolverCheckpoint> read = ReadSolverCheckpoint(path, "x");
   ASSERT_TRUE(read.ok()) << read.status().ToString();
@@ -245,7 +250,7 @@ TEST(SolverCheckpoint, MalformedPcgStateIsCorruption) {
   for (const auto& [pcg, message] : cases) {
     {
       std::ofstream out(path);
-      out << head << pcg << "}";
+      out << SealJsonText(head + pcg + "}");
     }
     StatusOr<core::SolverCheckpoint> read = ReadSolverCheckpoint(path, "x");
     ASSERT_FALSE(read.ok()) << pcg;
@@ -398,7 +403,7 @@ TEST(SolverCheckpoint, Version3CheckpointStillLoadsAndVersion5IsRefused) {
                  {"forest_order", c.pcg.forest_order},
                  {"forest_parent", c.pcg.forest_parent}};
   std::filesystem::remove(path + ".state.7.bin");
-  std::ofstream(path, std::ios::trunc) << json.dump();
+  std::ofstream(path, std::ios::trunc) << SealJsonText(json.dump());
   StatusOr<core::SolverCheckpoint> read = ReadSolverCheckpoint(path, "in");
   ASSERT_TRUE(read.ok()) << read.status().ToString();
   ExpectSameControl(c, *read);
@@ -407,7 +412,7 @@ TEST(SolverCheckpoint, Version3CheckpointStillLoadsAndVersion5IsRefused) {
   EXPECT_EQ(read->pcg.forest_parent, c.pcg.forest_parent);
 
   json["version"] = 5;
-  std::ofstream(path, std::ios::trunc) << json.dump();
+  std::ofstream(path, std::ios::trunc) << SealJsonText(json.dump());
   read = ReadSolverCheckpoint(path, "in");
   ASSERT_FALSE(read.ok());
   EXPECT_TRUE(read.status().IsNotSupported()) << read.status().ToString();
@@ -505,4 +510,39 @@ TEST(SolverCheckpoint, DamagedFeatureFileIsCorruptionNamingTheFileAndOffset) {
 }
 
 }  // namespace
+// Every checkpoint carries a crc32c seal over its bytes: a changed digit, a
+// deleted entry or a missing seal is Corruption naming the file, never a
+// resume from edited state (a job's interrupted stage resumes from one).
+TEST(SolverCheckpoint, EditedOrUnsealedCheckpointIsCorruption) {
+  core::SolverCheckpoint c;
+  FillControl(&c);
+  c.poses.emplace_back(1.0, 2.0, 0.5);
+  c.poses.emplace_back(3.0, 2.0, 0.25);
+  const std::string path = TempPath("sealed.json");
+  ASSERT_TRUE(WriteSolverCheckpoint(Env::Default(), path, "in.g2o", c).ok());
+  std::string text;
+  {
+    std::ifstream in(path);
+    text.assign((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  }
+  ASSERT_TRUE(ReadSolverCheckpoint(path, "in.g2o").ok());
+  const size_t digit = text.find("\"chi2\":") + 7;
+  ASSERT_TRUE(std::isdigit(static_cast<unsigned char>(text[digit]))) << text;
+  std::string changed = text;
+  changed[digit] = changed[digit] == '9' ? '8' : static_cast<char>(changed[digit] + 1);
+  std::string unsealed = text.substr(0, text.rfind(",\"crc32c\"")) + "}";
+  for (const auto& [name, bytes, message] :
+       {std::tuple<std::string, std::string, std::string>{"digit", changed, "crc32c of its"},
+        {"no seal", unsealed, "no crc32c seal"}}) {
+    SCOPED_TRACE(name);
+    std::ofstream(path, std::ios::trunc) << bytes;
+    StatusOr<core::SolverCheckpoint> read = ReadSolverCheckpoint(path, "in.g2o");
+    ASSERT_FALSE(read.ok());
+    EXPECT_TRUE(read.status().IsCorruption()) << read.status().ToString();
+    EXPECT_NE(read.status().ToString().find(path + ": " + message), std::string::npos)
+        << read.status().ToString();
+  }
+  std::filesystem::remove(path);
+}
+
 }  // namespace graphslam::storage

@@ -12,6 +12,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -157,6 +158,28 @@ TEST_F(JobResume, ResumeIsRefusedWhenTheJobFileChanged) {
   fs::copy_file(job_, job, fs::copy_options::overwrite_existing);
   EXPECT_EQ(Wait(Spawn({"run", job, "-o", out.string(), "-q"})), 0);
   EXPECT_EQ(ReadFile(out / "graph.g2o"), before);
+}
+
+// The solver checkpoint of an interrupted optimize stage is sealed
+// (storage/sealed_json_text.h): a digit changed in it while the job was
+// down makes --resume fail naming the file, not resume from edited state.
+TEST_F(JobResume, EditedCheckpointOfAnInterruptedStageIsRefused) {
+  const fs::path out = dir_ / "edited";
+  ASSERT_TRUE(graphslam::testing::SpawnAndKillAtStopPoint({"run", job_, "-o", out.string(), "-q"},
+                                                          "solver_checkpoint 1"));
+  const fs::path checkpoint = out / ".job" / "optimize_c0.checkpoint.json";
+  std::string text = ReadFile(checkpoint);
+  const size_t digit = text.find("\"chi2\":") + 7;
+  ASSERT_LT(digit, text.size());
+  ASSERT_TRUE(std::isdigit(static_cast<unsigned char>(text[digit]))) << text.substr(0, 400);
+  text[digit] = text[digit] == '9' ? '8' : static_cast<char>(text[digit] + 1);
+  std::ofstream(checkpoint, std::ios::binary | std::ios::trunc) << text;
+  const std::string log = (dir_ / "edited_stderr.txt").string();
+  EXPECT_EQ(Wait(graphslam::testing::SpawnGraphslamRedirected(
+                {"run", job_, "-o", out.string(), "--resume", "-q"}, log)),
+            2);
+  EXPECT_NE(ReadFile(log).find(checkpoint.string() + ": crc32c of its"), std::string::npos)
+      << ReadFile(log);
 }
 
 }  // namespace
