@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <string>
 
+#include "tools/benchmark/benchmark_command.h"
 #include "tools/cli_errors.h"
 #include "tools/evaluate_command.h"
 #include "tools/exit_codes.h"
@@ -33,6 +34,8 @@ int main(int argc, char** argv) {
   graphslam::tools::AddMapCommand(&app, &map_options, &exit_code);
   graphslam::tools::RunCommandOptions run_options;
   graphslam::tools::AddRunCommand(&app, &run_options, &exit_code);
+  graphslam::tools::BenchmarkCommandOptions benchmark_options;
+  graphslam::tools::AddBenchmarkCommand(&app, &benchmark_options, &exit_code);
   if (const std::string line = graphslam::tools::UnknownSubcommandLine(app, argc, argv);
       !line.empty()) {
     std::fprintf(stderr, "%s\n", line.c_str());

@@ -85,7 +85,7 @@ TEST_F(CliConventions, MistypedSubcommandSuggestsTheNearest) {
   ExpectOneLine(run);
   EXPECT_EQ(run.err,
             "graphslam: unknown subcommand 'slove'; did you mean 'solve'? (expected one of "
-            "solve, simulate, evaluate, ingest, map or run)\n");
+            "solve, simulate, evaluate, ingest, map, run or benchmark)\n");
 }
 
 TEST_F(CliConventions, NoSubcommandIsAUsageError) {

@@ -27,8 +27,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const std::vector<std::string> kSubcommands = {"solve", "simulate", "evaluate",
-                                               "ingest", "map", "run"};
+const std::vector<std::string> kSubcommands = {"solve", "simulate", "evaluate", "ingest",
+                                               "map",   "run",      "benchmark"};
 const std::string kTopLevel = "(graphslam)";
 
 // Option names in the help of CLI11: lines "  -o,--output TEXT  ..." under
