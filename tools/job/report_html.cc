@@ -141,7 +141,7 @@ void Summary(const json& report, const ReportInputs& inputs, std::ostringstream&
 Status MapSection(const json& report, const ReportInputs& inputs, std::ostringstream& out) {
   out << "<section id=\"map\"><h2>Map</h2>\n";
   if (inputs.map_pcds.empty()) {
-    out << "<p class=\"note\">This job built no point cloud (no scans, or a tiled map), so there is "
+    out << "<p class=\"note\">This job built no point cloud (no scans), so there is "
            "no picture of the 3-D map; the trajectory figure below shows the landmark map.</p>";
   } else {
     // A pixel no smaller than the map's voxels: finer pixels leave gaps.
