@@ -163,14 +163,24 @@ std::string ResidualHistogram(const ConstraintChi2& residuals, int64_t* beyond) 
   return RenderSvg(f);
 }
 
-std::string ConvergenceFigure(const json& components) {
+namespace {
+
+// A log-scale quantity per iteration.
+SvgFigure IterationFigure(const std::string& title, const std::string& y_label) {
   SvgFigure f;
-  f.title = "Convergence: chi2 per iteration";
+  f.title = title;
   f.x_label = "iteration";
-  f.y_label = "chi2 (log scale)";
+  f.y_label = y_label;
   f.width = 720;
   f.height = 400;
   f.log_y = true;
+  return f;
+}
+
+}  // namespace
+
+std::string ConvergenceFigure(const json& components) {
+  SvgFigure f = IterationFigure("Convergence: chi2 per iteration", "chi2 (log scale)");
   SvgSeries rejected{"rejected step (chi2 it led to)", kRejectedColour, Style::kCrosses, 4.0, false,
                      {}, {}};
   size_t i = 0;
@@ -202,13 +212,7 @@ std::string ConvergenceFigure(const json& components) {
 }
 
 std::string DampingFigure(const json& components) {
-  SvgFigure f;
-  f.title = "Damping lambda per iteration";
-  f.x_label = "iteration";
-  f.y_label = "lambda (log scale)";
-  f.width = 720;
-  f.height = 400;
-  f.log_y = true;
+  SvgFigure f = IterationFigure("Damping lambda per iteration", "lambda (log scale)");
   SvgSeries rejected{"rejected step", kRejectedColour, Style::kCrosses, 4.0, false, {}, {}};
   size_t i = 0;
   for (const json& c : components) {
