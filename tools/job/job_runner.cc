@@ -772,7 +772,8 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
   GS_RETURN_IF_ERROR(storage::WriteFeaturesCsv(data.problem, ctx.Output("features.csv"), &excluded));
   GS_RETURN_IF_ERROR(storage::WriteG2o(data.problem, ctx.Output("graph.g2o")));
   GS_RETURN_IF_ERROR(WriteJson(ctx.Output("report.json"), report));
-  StatusOr<ReportInputs> report_inputs = CollectReportInputs(data, excluded, report, ctx.spec.output);
+  StatusOr<ReportInputs> report_inputs =
+      CollectReportInputs(data, excluded, report, ctx.spec.output);
   if (!report_inputs.ok()) return report_inputs.status();
   StatusOr<std::string> html = RenderReportHtml(report, *report_inputs);
   if (!html.ok()) return html.status();
