@@ -34,8 +34,8 @@
 #include "tools/job/job_map.h"
 #include "tools/job/job_spec.h"
 #include "tools/job/job_state.h"
-#include "tools/job/plots.h"
 #include "tools/job/report_html.h"
+#include "tools/job/report_inputs.h"
 #include "tools/progress_display.h"
 #include "tools/resource_usage.h"
 #include "tools/trajectory_metrics.h"
@@ -353,6 +353,20 @@ Status StageAssociate(Context& ctx) {
   return Status::Ok();
 }
 
+// Every iteration's damping and whether its step was taken, for the report's
+// convergence plots (iterations before a resume keep only their chi2).
+void RecordIterations(const std::vector<core::IterationSummary>& iterations, json* history) {
+  for (const core::IterationSummary& it : iterations) {
+    const json entry = {{"iteration", it.iteration}, {"chi2", it.chi2}, {"lambda", it.lambda},
+                        {"accepted", it.accepted}, {"candidate_chi2", it.candidate_chi2}};
+    auto same = std::find_if(history->begin(), history->end(), [&](const json& h) {
+      return h.value("iteration", 0) == it.iteration;
+    });
+    if (same != history->end()) *same = entry;
+    else history->push_back(entry);
+  }
+}
+
 // Solves every component of `data`; with `checkpoints`, each one continues
 // from / writes .job/optimize_c<k>.checkpoint.json and its chi2 history.
 Status SolveComponents(Context& ctx, bool checkpoints, JobData* data, json* components,
@@ -384,7 +398,8 @@ Status SolveComponents(Context& ctx, bool checkpoints, JobData* data, json* comp
       options.progress = ctx.display->AsCallback();
       options.iteration_callback = ctx.display->AsIterationCallback();
     }
-    const std::string tag = "c" + std::to_string(c);
+    // Not "c" + std::to_string(c): a GCC 12 -Wrestrict false positive here.
+    const std::string tag = std::string("c").append(std::to_string(c));
     const std::string checkpoint_path = ctx.Work("optimize_" + tag + ".checkpoint.json");
     const std::string history_path = ctx.Work("optimize_" + tag + ".history.json");
     const std::string input = ctx.spec.path + "#component" + std::to_string(c);
@@ -422,9 +437,7 @@ Status SolveComponents(Context& ctx, bool checkpoints, JobData* data, json* comp
     ScatterComponent(sub, pose_map, feature_map, &data->problem);
     for (size_t f = 0; f < feature_map.size(); ++f)
       (*excluded)[static_cast<size_t>(feature_map[f])] = summary.excluded[f];
-    if (history.empty() && !checkpoints)
-      for (const core::IterationSummary& it : summary.per_iteration)
-        history.push_back({{"iteration", it.iteration}, {"chi2", it.chi2}});
+    RecordIterations(summary.per_iteration, &history);
     components->push_back({{"component", c},
                            {"runs", runs},
                            {"poses", sub.num_poses()},
@@ -570,8 +583,6 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
   for (const RunInfo& run : data.runs) ++runs_in_component[static_cast<size_t>(run.component)];
   double indoor_sum = 0, all_sum = 0;
   int64_t indoor_count = 0, all_count = 0;
-  TrajectoryPlot plot;
-  plot.title = "Trajectories per run over the map";
   // Per component, every run with ground truth after ONE rigid alignment of
   // them all (tools/trajectory_metrics.h, CompareTrajectoriesJointly).
   json joint_errors = json::array();
@@ -638,13 +649,6 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
       entry["joint_position_rmse_m"] = joint->second.position_rmse;
       entry["joint_heading_rmse_rad"] = joint->second.heading_rmse_rad;
     }
-    XySeries series;
-    series.name = run.name;
-    for (int32_t i = run.first_pose; i < run.first_pose + run.num_poses; ++i) {
-      series.x.push_back(data.problem.poses[static_cast<size_t>(i)].x());
-      series.y.push_back(data.problem.poses[static_cast<size_t>(i)].y());
-    }
-    plot.estimated.push_back(series);
     const RunErrors errors = EvaluateRun(data, run);
     if (errors.valid) {
       entry["position_rmse_m"] = errors.errors.position_rmse;
@@ -659,27 +663,8 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
       indoor_count += errors.indoor_count;
       all_sum += errors.all_sum;
       all_count += errors.all_count;
-      // Ground truth drawn in the estimate's frame.
-      XySeries truth;
-      truth.name = run.name + " ground truth";
-      const Eigen::Isometry2d inverse = errors.errors.alignment.inverse();
-      for (const StampedPose2& p : data.ground_truth.at(run.name)) {
-        const Eigen::Vector2d q = inverse * p.pose.head<2>();
-        truth.x.push_back(q.x());
-        truth.y.push_back(q.y());
-      }
-      plot.ground_truth.push_back(truth);
     }
     runs.push_back(entry);
-  }
-  for (const core::GpsConstraint& gps : data.problem.gps) {
-    plot.gps.x.push_back(gps.z.x());
-    plot.gps.y.push_back(gps.z.y());
-  }
-  for (int32_t f = 0; f < data.problem.num_features(); ++f) {
-    if (excluded[static_cast<size_t>(f)]) continue;
-    plot.features.x.push_back(data.problem.features[static_cast<size_t>(f)].x());
-    plot.features.y.push_back(data.problem.features[static_cast<size_t>(f)].y());
   }
   report["runs"] = runs;
   report["joint_trajectory_errors"] = joint_errors;
@@ -757,7 +742,6 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
 
   // Stages: time and memory.
   json stages = json::array();
-  std::vector<StageBar> bars;
   for (Stage stage : ctx.spec.stages) {
     const std::string name = StageName(stage);
     const CompletedStage* done = ctx.state.Find(name);
@@ -773,7 +757,6 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
     json entry = {{"stage", name}, {"seconds", seconds}, {"peak_rss_bytes", rss}};
     if (stage == Stage::kMap) entry["note"] = map_summary.is_null() ? "no scans" : "scans fused";
     stages.push_back(entry);
-    bars.push_back({name, seconds, static_cast<double>(rss) / (1024.0 * 1024.0)});
   }
   report["stages"] = stages;
   if (ctx.spec.memory_limit > 0 && PeakRssBytes() > ctx.spec.memory_limit)
@@ -785,38 +768,17 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
   for (const std::string& file : map_files) report["outputs"].push_back(file);
   if (!map_summary.is_null()) report["map"] = map_summary;
 
-  // Plots.
-  std::vector<std::pair<std::string, std::string>> images;
-  const std::string scratch = ctx.Work("plot.png");
-  StatusOr<std::string> trajectories = PlotTrajectories(plot, scratch);
-  if (!trajectories.ok()) return trajectories.status();
-  images.emplace_back("Trajectories per run over the map (GPS fixes, ground truth)", *trajectories);
-  std::vector<XySeries> curves;
-  for (const json& c : optimize["components"]) {
-    XySeries curve;
-    curve.name = "component " + std::to_string(c.value("component", 0));
-    curve.x.push_back(0);
-    curve.y.push_back(c.value("initial_chi2", 1.0));
-    for (const json& h : c["history"]) {
-      curve.x.push_back(h.value("iteration", 0));
-      curve.y.push_back(h.value("chi2", 1.0));
-    }
-    curves.push_back(curve);
-  }
-  StatusOr<std::string> convergence = PlotConvergence(curves, scratch);
-  if (!convergence.ok()) return convergence.status();
-  images.emplace_back("Convergence (chi2 per iteration)", *convergence);
-  StatusOr<std::string> stage_plot = PlotStages(bars, scratch);
-  if (!stage_plot.ok()) return stage_plot.status();
-  images.emplace_back("Time and memory per stage", *stage_plot);
-
   // Outputs, each atomically.
   GS_RETURN_IF_ERROR(storage::WriteFeaturesCsv(data.problem, ctx.Output("features.csv"), &excluded));
   GS_RETURN_IF_ERROR(storage::WriteG2o(data.problem, ctx.Output("graph.g2o")));
   GS_RETURN_IF_ERROR(WriteJson(ctx.Output("report.json"), report));
-  GS_RETURN_IF_ERROR(storage::WriteStringAtomically(storage::Env::Default(),
-                                                    ctx.Output("report.html"),
-                                                    RenderReportHtml(report, images)));
+  StatusOr<ReportInputs> report_inputs =
+      CollectReportInputs(data, excluded, report, ctx.spec.output);
+  if (!report_inputs.ok()) return report_inputs.status();
+  StatusOr<std::string> html = RenderReportHtml(report, *report_inputs);
+  if (!html.ok()) return html.status();
+  GS_RETURN_IF_ERROR(
+      storage::WriteStringAtomically(storage::Env::Default(), ctx.Output("report.html"), *html));
   for (const json& w : warnings) ctx.Info("export", "warning: " + w.get<std::string>());
   std::string map_list;
   for (const std::string& file : map_files) map_list += ", " + file;

@@ -61,7 +61,8 @@ TEST(JobGpsIndoor, OutdoorGpsLowersTheIndoorError) {
   std::ifstream html_in(dir / "out/report.html");
   std::stringstream html;
   html << html_in.rdbuf();
-  EXPECT_NE(html.str().find("indoor_rmse_without_gps_m"), std::string::npos);
+  EXPECT_NE(html.str().find("<table class=\"gps-comparison\""), std::string::npos);
+  EXPECT_NE(html.str().find("<th>without GPS</th>"), std::string::npos);
   fs::remove_all(dir);
 }
 

@@ -187,8 +187,8 @@ TEST_F(JobMap, ScansAreFusedAtTheOptimizedPosesIntoAMapOfTheTrueWorld) {
   // Half the memory limit is the fusion's tile budget.
   EXPECT_EQ(report["map"]["memory_budget_bytes"].get<int64_t>(), int64_t{256} << 20);
   const std::string html = ReadFile(out / "report.html");
-  EXPECT_NE(html.find("3-D map"), std::string::npos);
-  EXPECT_NE(html.find("map.pcd"), std::string::npos);
+  EXPECT_NE(html.find("<figure class=\"map-image"), std::string::npos);  // the picture
+  EXPECT_NE(html.find("map.bt, map.pcd</td>"), std::string::npos);
 }
 
 // memory_limit is applied: at 40 MiB the fusion's tile budget (20 MiB) is
