@@ -1,17 +1,12 @@
 #include "tools/benchmark/scaling_report.h"
 
-#include <plplot/plstream.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
-#include <memory>
 #include <sstream>
 
 #include "storage/atomic_file.h"
-#include "tools/job/report_html.h"
+#include "tools/job/svg_figure.h"
 
 namespace graphslam::tools::benchmark {
 namespace {
@@ -24,63 +19,40 @@ std::string Format(const char* format, double value) {
   return text;
 }
 
-// A log-log PNG of `q` (points and the fitted line), via PLplot's pngcairo.
-StatusOr<std::string> PlotQuantity(const ScalingQuantity& q, const std::string& scratch) {
-  std::vector<double> lx, ly;
-  for (size_t i = 0; i < q.features.size(); ++i) {
-    if (!(q.features[i] > 0) || !(q.values[i] > 0)) continue;
-    lx.push_back(std::log10(q.features[i]));
-    ly.push_back(std::log10(q.values[i]));
+// A log-log figure of `q`: the measured points and the fitted power law.
+std::string PlotQuantity(const ScalingQuantity& q) {
+  job::SvgFigure figure;
+  figure.title = q.name + (q.fit.valid ? "  (k = " + Format("%.2f", q.fit.exponent) + ")" : "");
+  figure.x_label = "features";
+  figure.y_label = q.name + " [" + q.unit + "]";
+  figure.width = 640;
+  figure.height = 400;
+  figure.log_x = figure.log_y = true;
+  job::SvgSeries measured{"measured", job::SeriesColour(0), job::SvgSeries::Style::kLine, 1.5,
+                          false, q.features, q.values};
+  job::SvgSeries points = measured;
+  points.name.clear();
+  points.style = job::SvgSeries::Style::kPoints;
+  points.width = 4;
+  figure.series = {measured, points};
+  if (q.fit.valid && !q.features.empty()) {
+    const auto [lo, hi] = std::minmax_element(q.features.begin(), q.features.end());
+    job::SvgSeries fit{"c N^k", job::SeriesColour(1), job::SvgSeries::Style::kLine, 1.5, true,
+                       {*lo, *hi}, {}};
+    for (double n : fit.x) fit.y.push_back(q.fit.coefficient * std::pow(n, q.fit.exponent));
+    figure.series.push_back(fit);
   }
-  if (lx.empty()) return std::string();
-  const auto [x0, x1] = std::minmax_element(lx.begin(), lx.end());
-  const auto [y0, y1] = std::minmax_element(ly.begin(), ly.end());
-  const double xmin = *x0 - 0.2, xmax = *x1 + 0.2;
-  const double ymin = *y0 - 0.3, ymax = *y1 + 0.3;
-  {
-    auto pls = std::make_unique<plstream>();
-    pls->sdev("pngcairo");
-    pls->sfnam(scratch.c_str());
-    pls->spage(0, 0, 640, 440, 0, 0);
-    pls->scolbg(255, 255, 255);
-    pls->init();
-    pls->scol0(1, 0, 0, 0);
-    pls->scol0(2, 31, 119, 180);
-    pls->scol0(3, 214, 39, 40);
-    pls->col0(1);
-    pls->env(xmin, xmax, ymin, ymax, 0, 30);  // log x, log y
-    const std::string title =
-        q.name + (q.fit.valid ? "  (k = " + Format("%.2f", q.fit.exponent) + ")" : "");
-    pls->lab("features", (q.name + " [" + q.unit + "]").c_str(), title.c_str());
-    pls->col0(2);
-    pls->poin(static_cast<PLINT>(lx.size()), lx.data(), ly.data(), 17);
-    pls->line(static_cast<PLINT>(lx.size()), lx.data(), ly.data());
-    if (q.fit.valid) {
-      double fx[2] = {*x0, *x1};
-      double fy[2];
-      for (int k = 0; k < 2; ++k) fy[k] = std::log10(q.fit.coefficient) + q.fit.exponent * fx[k];
-      pls->col0(3);
-      pls->lsty(2);
-      pls->line(2, fx, fy);
-    }
-  }  // plend1: the file is complete
-  std::ifstream in(scratch, std::ios::binary);
-  std::stringstream bytes;
-  bytes << in.rdbuf();
-  std::error_code error;
-  std::filesystem::remove(scratch, error);
-  if (bytes.str().size() < 8) return Status::IOError(scratch + ": PLplot wrote no PNG");
-  return bytes.str();
+  return job::RenderSvg(figure);
 }
 
 std::string Html(const std::vector<ScalingRow>& rows, const std::vector<ScalingQuantity>& quantities,
-                 const std::vector<std::string>& images, const nlohmann::json& proportion) {
+                 const nlohmann::json& proportion) {
   std::ostringstream html;
   html << "<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>graphslam scaling "
           "benchmark</title><style>body{font-family:sans-serif;margin:1.5em;max-width:1400px}"
           "table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:3px 8px;"
           "text-align:right}.wrap{overflow-x:auto}.plots{display:flex;flex-wrap:wrap;gap:12px}"
-          "img{max-width:100%}</style></head><body><h1>Scaling benchmark</h1>\n";
+          "figure{width:640px;max-width:100%;margin:0}</style></head><body><h1>Scaling benchmark</h1>\n";
   html << "<p>One proportion at every size: " << proportion.dump()
        << ". Each size is simulated, ingested and solved with default options "
           "(<code>graphslam benchmark</code>, docs/benchmarks.md).</p>\n";
@@ -104,10 +76,9 @@ std::string Html(const std::vector<ScalingRow>& rows, const std::vector<ScalingQ
          << Format("%.1f", r.store_bytes / kMiB) << "</td><td>" << Format("%.4f", r.chi2_per_dof)
          << "</td><td>" << r.termination << "</td></tr>\n";
   html << "</table></div>\n<h2>Plots</h2><div class=\"plots\">\n";
-  for (size_t i = 0; i < images.size(); ++i)
-    if (!images[i].empty())
-      html << "<figure><img alt=\"" << quantities[i].name << "\" src=\"data:image/png;base64,"
-           << job::Base64(images[i]) << "\"></figure>\n";
+  for (const ScalingQuantity& q : quantities)
+    html << "<figure data-quantity=\"" << job::EscapeXml(q.name) << "\">" << PlotQuantity(q)
+         << "</figure>\n";
   html << "</div></body></html>\n";
   return html.str();
 }
@@ -153,15 +124,8 @@ Status WriteScalingResults(const std::string& output, const std::vector<ScalingR
                            const nlohmann::json& proportion) {
   storage::Env* env = storage::Env::Default();
   GS_RETURN_IF_ERROR(storage::WriteStringAtomically(env, output + "/scaling.csv", ScalingCsv(rows)));
-  const std::vector<ScalingQuantity> quantities = ScalingQuantities(rows);
-  std::vector<std::string> images;
-  for (size_t i = 0; i < quantities.size(); ++i) {
-    GS_ASSIGN_OR_RETURN(std::string png,
-                        PlotQuantity(quantities[i], output + "/.benchmark/plot.png"));
-    images.push_back(std::move(png));
-  }
   return storage::WriteStringAtomically(env, output + "/scaling.html",
-                                        Html(rows, quantities, images, proportion));
+                                        Html(rows, ScalingQuantities(rows), proportion));
 }
 
 }  // namespace graphslam::tools::benchmark

@@ -7,8 +7,9 @@
 //                  seconds, seconds per iteration, peak RSS, store bytes),
 //                  each with the fitted power-law exponent k of y ~ c·N^k
 //                  (tools/benchmark/power_law_fit.h): k near 1 is linear.
+//                  The plots are inline SVG (tools/job/svg_figure.h).
 //
-// THREAD SAFETY: PLplot keeps global tables: one thread. ALLOCATION: O(rows).
+// THREAD SAFETY: reentrant. ALLOCATION: O(rows).
 #pragma once
 
 #include <nlohmann/json.hpp>

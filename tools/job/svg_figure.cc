@@ -87,6 +87,7 @@ std::string SeriesColour(size_t i) {
 
 std::string RenderSvg(const SvgFigure& f) {
   auto y_of = [&](double y) { return f.log_y ? (y > 0 ? std::log10(y) : NAN) : y; };
+  auto x_of = [&](double x) { return f.log_x ? (x > 0 ? std::log10(x) : NAN) : x; };
   Range xr, yr;
   if (f.image) xr.Add(f.image->x0), xr.Add(f.image->x1), yr.Add(f.image->y0), yr.Add(f.image->y1);
   for (const SvgBars& b : f.bars)
@@ -94,11 +95,12 @@ std::string RenderSvg(const SvgFigure& f) {
       xr.Add(b.left[i]), xr.Add(b.right[i]), yr.Add(0), yr.Add(b.height[i]);
   for (const SvgSeries& s : f.series)
     for (size_t i = 0; i < s.x.size(); ++i)
-      if (std::isfinite(y_of(s.y[i]))) xr.Add(s.x[i]), yr.Add(y_of(s.y[i]));
+      if (std::isfinite(y_of(s.y[i])) && std::isfinite(x_of(s.x[i])))
+        xr.Add(x_of(s.x[i])), yr.Add(y_of(s.y[i]));
   if (!xr.Valid()) xr.lo = 0, xr.hi = 1;
   if (!yr.Valid()) yr.lo = 0, yr.hi = 1;
-  if (f.x_min) xr.lo = *f.x_min;
-  if (f.x_max) xr.hi = *f.x_max;
+  if (f.x_min) xr.lo = x_of(*f.x_min);
+  if (f.x_max) xr.hi = x_of(*f.x_max);
   if (f.y_min) yr.lo = y_of(*f.y_min);
   if (f.y_max) yr.hi = y_of(*f.y_max);
   if (xr.hi - xr.lo < 1e-12) xr.lo -= 0.5, xr.hi += 0.5;
@@ -145,16 +147,16 @@ std::string RenderSvg(const SvgFigure& f) {
       << "\" width=\"" << Num(area_w) << "\" height=\"" << Num(area_h) << "\"/></clipPath></defs>\n";
   // Grid and ticks.
   out << "<g stroke=\"#e4e4e4\">";
-  for (double t : Ticks(xr.lo, xr.hi, false))
+  for (double t : Ticks(xr.lo, xr.hi, f.log_x))
     out << "<line x1=\"" << Num(px(t)) << "\" x2=\"" << Num(px(t)) << "\" y1=\"" << Num(area_y)
         << "\" y2=\"" << Num(area_y + area_h) << "\"/>";
   for (double t : Ticks(yr.lo, yr.hi, f.log_y))
     out << "<line x1=\"" << Num(area_x) << "\" x2=\"" << Num(area_x + area_w) << "\" y1=\""
         << Num(py(t)) << "\" y2=\"" << Num(py(t)) << "\"/>";
   out << "</g>\n<g fill=\"#333\">";
-  for (double t : Ticks(xr.lo, xr.hi, false))
+  for (double t : Ticks(xr.lo, xr.hi, f.log_x))
     out << "<text x=\"" << Num(px(t)) << "\" y=\"" << Num(area_y + area_h + 17)
-        << "\" text-anchor=\"middle\">" << TickLabel(t, false) << "</text>";
+        << "\" text-anchor=\"middle\">" << TickLabel(t, f.log_x) << "</text>";
   for (double t : Ticks(yr.lo, yr.hi, f.log_y))
     out << "<text x=\"" << Num(area_x - 6) << "\" y=\"" << Num(py(t) + 4)
         << "\" text-anchor=\"end\">" << TickLabel(t, f.log_y) << "</text>";
@@ -190,11 +192,12 @@ std::string RenderSvg(const SvgFigure& f) {
       bool pen = false;
       for (size_t i = 0; i < s.x.size(); ++i) {
         const double y = y_of(s.y[i]);
-        if (!std::isfinite(y) || !std::isfinite(s.x[i])) {
+        const double x = x_of(s.x[i]);
+        if (!std::isfinite(y) || !std::isfinite(x)) {
           pen = false;
           continue;
         }
-        out << (pen ? "L" : "M") << Num(px(s.x[i])) << " " << Num(py(y));
+        out << (pen ? "L" : "M") << Num(px(x)) << " " << Num(py(y));
         pen = true;
       }
       out << "\"/>\n";
@@ -206,8 +209,9 @@ std::string RenderSvg(const SvgFigure& f) {
       const double r = s.width;
       for (size_t i = 0; i < s.x.size(); ++i) {
         const double y = y_of(s.y[i]);
-        if (!std::isfinite(y)) continue;
-        const double cx = px(s.x[i]), cy = py(y);
+        const double x = x_of(s.x[i]);
+        if (!std::isfinite(y) || !std::isfinite(x)) continue;
+        const double cx = px(x), cy = py(y);
         if (s.style == SvgSeries::Style::kPoints)
           out << "<circle cx=\"" << Num(cx) << "\" cy=\"" << Num(cy) << "\" r=\"" << r << "\"/>";
         else

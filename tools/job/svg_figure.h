@@ -5,7 +5,8 @@
 // Coordinates: the data range is the union of every series, bar and image
 // (plus the explicit limits, if set), padded by 3 %; with equal_axes one data
 // unit has the same length on both axes (maps). A log y axis plots log10(y)
-// and drops y <= 0. Ticks: 1, 2 or 5 times a power of ten, about 6 per axis;
+// and drops y <= 0; a log x axis (series only, not bars or images) the same
+// for x. Ticks: 1, 2 or 5 times a power of ten, about 6 per axis;
 // on a log axis the powers of ten.
 //
 // The SVG scales with its container (viewBox, width 100 %); the plot area is
@@ -49,6 +50,7 @@ struct SvgFigure {
   std::string title, x_label, y_label;
   int width = 900, height = 480;  // viewBox, px
   bool log_y = false;
+  bool log_x = false;
   bool equal_axes = false;
   std::optional<double> x_min, x_max, y_min, y_max;  // forced limits
   std::optional<SvgImage> image;  // drawn first

@@ -84,7 +84,7 @@ TEST_F(BenchmarkCommandTest, EverySizeIsSolvedToConvergenceAndReported) {
   const std::string html = Read(out / "scaling.html");
   EXPECT_NE(html.find("Fitted exponents"), std::string::npos);
   for (const char* plot : {"end-to-end seconds", "seconds per iteration", "peak RSS", "store bytes"})
-    EXPECT_NE(html.find(std::string("alt=\"") + plot + "\" src=\"data:image/png;base64,"),
+    EXPECT_NE(html.find(std::string("<figure data-quantity=\"") + plot + "\"><svg"),
               std::string::npos)
         << plot;
   // The stores are removed once a size is done; the steps' logs stay.

@@ -132,6 +132,24 @@ TEST(SvgFigure, EqualAxesKeepTheScale) {
   EXPECT_NEAR(dx / dy, 10.0, 0.2);  // 0.1 px rounding
 }
 
+// Log-log (the scaling benchmark's figures): points a decade apart on both
+// axes are equally spaced, and x <= 0 is dropped.
+TEST(SvgFigure, LogAxesSpaceDecadesEqually) {
+  SvgFigure f;
+  f.log_x = f.log_y = true;
+  f.series.push_back(
+      {"", "#000000", SvgSeries::Style::kPoints, 1, false, {0, 1e4, 1e5, 1e6}, {5, 1, 10, 100}});
+  const std::string svg = RenderSvg(f);
+  std::vector<std::pair<double, double>> points;
+  const std::regex circle("<circle cx=\"([-0-9.]+)\" cy=\"([-0-9.]+)\"");
+  for (std::sregex_iterator it(svg.begin(), svg.end(), circle), end; it != end; ++it)
+    points.emplace_back(std::stod((*it)[1]), std::stod((*it)[2]));
+  ASSERT_EQ(points.size(), 3u);
+  EXPECT_NEAR(points[1].first - points[0].first, points[2].first - points[1].first, 0.2);
+  EXPECT_NEAR(points[0].second - points[1].second, points[1].second - points[2].second, 0.2);
+  EXPECT_GT(points[0].second - points[1].second, 10.0);
+}
+
 TEST(EncodePng, InflatesToTheFilteredRows) {
   const std::vector<uint8_t> rgb = {255, 0, 0, 0, 255, 0, 0, 0, 255, 10, 20, 30};  // 2 x 2
   const std::string png = EncodePng(2, 2, rgb);
