@@ -12,15 +12,10 @@
 
 namespace graphslam::tools {
 
-void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code) {
-  CLI::App* solve = app->add_subcommand(
-      "solve",
-      "Optimize one input (g2o, iSAM, TORO .graph, MRCLAM folder, native log, chunk store) and "
-      "write the results");
-  solve->add_option("input", options->input, "input file or MRCLAM dataset folder")->required();
-  solve->add_option("-o,--output", options->output_g2o, "optimized graph (.g2o)");
-  solve->add_option("--format", options->format, "input format: auto, g2o, isam, mrclam, native, toro")
-      ->capture_default_str();
+namespace {
+
+// The linear solver, PCG and Levenberg-Marquardt settings.
+void AddSolverOptions(CLI::App* solve, SolveCommandOptions* options) {
   solve->add_option("--solver", options->solver, "reduced system solver: auto, pcg, cholmod")
       ->capture_default_str();
   solve->add_option("--preconditioner", options->preconditioner,
@@ -59,6 +54,10 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
   solve->add_option("--threads", options->threads, "worker threads (0: all cores)")
       ->check(Integer(0, 65536))
       ->capture_default_str();
+}
+
+// The outputs besides -o, and how the problem is read and modelled.
+void AddOutputAndModelOptions(CLI::App* solve, SolveCommandOptions* options) {
   solve->add_option("--report", options->report, "run report (.json)");
   solve->add_option("--tum", options->tum, "optimized trajectory (TUM format)");
   solve->add_option("--features-csv", options->features_csv, "optimized features (.csv)");
@@ -78,6 +77,10 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
                     "(the default), odometry, motion, gps; repeatable")
       ->join(' ')
       ->capture_default_str();
+}
+
+// The initial guess, checkpoints and the out-of-core solve.
+void AddInitializationAndOutOfCoreOptions(CLI::App* solve, SolveCommandOptions* options) {
   solve->add_option("--initialization", options->initialization,
                     "initial guess: auto (odometry, then progressive if the first steps show "
                     "it is outside the optimum's basin), "
@@ -111,6 +114,10 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
                     "stores with more observations are solved without loading them (streaming mode)")
       ->check(Integer(0))
       ->capture_default_str();
+}
+
+// Unknown correspondence (docs/association.md).
+void AddAssociationOptions(CLI::App* solve, SolveCommandOptions* options) {
   solve->add_flag("--associate", options->associate,
                   "unknown correspondence: merge features by the correspondence test "
                   "(paper Tables 9-10; docs/association.md)");
@@ -124,6 +131,23 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
       ->capture_default_str();
   solve->add_flag("--ignore-barcodes", options->ignore_barcodes,
                   "MRCLAM: drop the landmark identities (use with --associate)");
+}
+
+}  // namespace
+
+void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code) {
+  CLI::App* solve = app->add_subcommand(
+      "solve",
+      "Optimize one input (g2o, iSAM, TORO .graph, MRCLAM folder, native log, chunk store) and "
+      "write the results");
+  solve->add_option("input", options->input, "input file or MRCLAM dataset folder")->required();
+  solve->add_option("-o,--output", options->output_g2o, "optimized graph (.g2o)");
+  solve->add_option("--format", options->format, "input format: auto, g2o, isam, mrclam, native, toro")
+      ->capture_default_str();
+  AddSolverOptions(solve, options);
+  AddOutputAndModelOptions(solve, options);
+  AddInitializationAndOutOfCoreOptions(solve, options);
+  AddAssociationOptions(solve, options);
   solve->add_option("--petsc-options", options->petsc_options,
                     "under mpirun: PETSc options for the reduced system's solve, e.g. "
                     "\"-ksp_type cg -pc_type gamg\" (PETSC_OPTIONS works too; docs/distributed.md)");

@@ -158,7 +158,8 @@ Status LockStore(const SolveRun& run, Solve2d& s) {
   }
   if (options.workdir.empty()) return Status::Ok();
   // A folder that is not ours is refused before anything is written.
-  GS_ASSIGN_OR_RETURN(s.lock, storage::OpenStoreForWriting(storage::Env::Default(), options.workdir));
+  GS_ASSIGN_OR_RETURN(s.lock,
+                      storage::OpenStoreForWriting(storage::Env::Default(), options.workdir));
   s.store_path = options.workdir;
   // --resume reuses the store its checkpoint was made on, if still current
   // (the same input: size and CRC32C, not the mtime).
@@ -350,9 +351,9 @@ Status ImproveGuess(const SolveRun& run, Solve2d& s) {
   const SolveClock::time_point progressive_start = SolveClock::now();
   const Initialization init = run.request.initialization;
   partition::ProgressiveInitializationOptions progressive;
-  progressive.enabled =
-      (init == Initialization::kProgressive || (init == Initialization::kAuto && !s.probe_solved)) &&
-      !s.resuming && !s.streaming && run.root;
+  const bool wanted = init == Initialization::kProgressive ||
+                      (init == Initialization::kAuto && !s.probe_solved);
+  progressive.enabled = wanted && !s.resuming && !s.streaming && run.root;
   progressive.max_observations_per_chunk = run.options.chunk_observations;
   progressive.max_new_poses = run.options.progressive_max_new_poses;
   partition::ProgressiveSummary progressive_summary;

@@ -30,8 +30,8 @@ Status NamedError(const std::string& name, const Status& status) {
 Status CheckPcgSettings(const SolverSettings& s) {
   // The exact-solve tolerance (1e-10) is the tightest forcing term.
   if (!(s.pcg_eta_min > 0.0) || !(s.pcg_eta_min <= s.pcg_eta_max))
-    return Usage("--pcg-eta-min must be in (0, --pcg-eta-max = " + Number(s.pcg_eta_max) + "], got " +
-                 Number(s.pcg_eta_min));
+    return Usage("--pcg-eta-min must be in (0, --pcg-eta-max = " + Number(s.pcg_eta_max) +
+                 "], got " + Number(s.pcg_eta_min));
   if (s.pcg_deflation < 0 || s.pcg_deflation == 1)
     return Usage("--pcg-deflation must be 0 (off) or >= 2 poses, got " +
                  std::to_string(s.pcg_deflation));
