@@ -103,18 +103,22 @@ TEST(SolveRequest, NamesTheOptionThatDoesNotParse) {
   EXPECT_NE(format.find("expected auto, g2o, isam, mrclam, native or toro"), std::string::npos)
       << format;
 
-  options = Options();
-  options.solver = "foo";
-  EXPECT_TRUE(StartsWith(ErrorFor(options), "--solver: ")) << ErrorFor(options);
-  options = Options();
-  options.preconditioner = "foo";
-  EXPECT_TRUE(StartsWith(ErrorFor(options), "--preconditioner: ")) << ErrorFor(options);
-  options = Options();
-  options.robust_kernel = "bogus";
-  EXPECT_TRUE(StartsWith(ErrorFor(options), "--robust-kernel: ")) << ErrorFor(options);
-  options = Options();
-  options.memory_limit = "lots";
-  EXPECT_TRUE(StartsWith(ErrorFor(options), "--memory-limit: ")) << ErrorFor(options);
+  struct Case {
+    void (*set)(SolveCommandOptions*);
+    std::string prefix;
+  };
+  const Case cases[] = {
+      {[](SolveCommandOptions* o) { o->solver = "foo"; }, "--solver: "},
+      {[](SolveCommandOptions* o) { o->preconditioner = "foo"; }, "--preconditioner: "},
+      {[](SolveCommandOptions* o) { o->robust_kernel = "bogus"; }, "--robust-kernel: "},
+      {[](SolveCommandOptions* o) { o->memory_limit = "lots"; }, "--memory-limit: "},
+  };
+  for (const Case& c : cases) {
+    options = Options();
+    c.set(&options);
+    const std::string error = ErrorFor(options);
+    EXPECT_TRUE(StartsWith(error, c.prefix)) << error;
+  }
   options = Options();
   options.initialization = "magic";
   EXPECT_EQ(ErrorFor(options),
@@ -123,28 +127,31 @@ TEST(SolveRequest, NamesTheOptionThatDoesNotParse) {
 }
 
 TEST(SolveRequest, RejectsValuesOutOfRangeWithTheirRange) {
-  SolveCommandOptions options = Options();
-  options.pcg_eta_min = 0.5;  // above --pcg-eta-max's 0.01
-  EXPECT_EQ(ErrorFor(options), "--pcg-eta-min must be in (0, --pcg-eta-max = 0.01], got 0.5");
-  options = Options();
-  options.pcg_deflation = 1;
-  EXPECT_EQ(ErrorFor(options), "--pcg-deflation must be 0 (off) or >= 2 poses, got 1");
-  options = Options();
-  options.pcg_truncation = 1.0;
-  EXPECT_EQ(ErrorFor(options), "--pcg-truncation must be in [0, 1), got 1");
-  options = Options();
-  options.max_iterations = -1;
-  EXPECT_EQ(ErrorFor(options), "--max-iterations must be >= 0, got -1");
-  options = Options();
-  options.chunk_observations = 0;
-  EXPECT_EQ(ErrorFor(options), "--chunk-observations must be > 0");
-  options = Options();
-  options.progressive_max_new_poses = -2;
-  EXPECT_NE(ErrorFor(options).find("max_new_poses must be >= 0"), std::string::npos)
-      << ErrorFor(options);
-  options = Options();
-  options.input.clear();
-  EXPECT_EQ(ErrorFor(options), "no INPUT given");
+  struct Case {
+    void (*set)(SolveCommandOptions*);
+    std::string message;
+  };
+  const Case cases[] = {
+      // above --pcg-eta-max's default 0.01
+      {[](SolveCommandOptions* o) { o->pcg_eta_min = 0.5; },
+       "--pcg-eta-min must be in (0, --pcg-eta-max = 0.01], got 0.5"},
+      {[](SolveCommandOptions* o) { o->pcg_deflation = 1; },
+       "--pcg-deflation must be 0 (off) or >= 2 poses, got 1"},
+      {[](SolveCommandOptions* o) { o->pcg_truncation = 1.0; },
+       "--pcg-truncation must be in [0, 1), got 1"},
+      {[](SolveCommandOptions* o) { o->max_iterations = -1; },
+       "--max-iterations must be >= 0, got -1"},
+      {[](SolveCommandOptions* o) { o->chunk_observations = 0; },
+       "--chunk-observations must be > 0"},
+      {[](SolveCommandOptions* o) { o->progressive_max_new_poses = -2; },
+       "progressive initialization: max_new_poses must be >= 0 (0: no cap), got -2"},
+      {[](SolveCommandOptions* o) { o->input.clear(); }, "no INPUT given"},
+  };
+  for (const Case& c : cases) {
+    SolveCommandOptions options = Options();
+    c.set(&options);
+    EXPECT_EQ(ErrorFor(options), c.message);
+  }
 }
 
 TEST(SolveRequest, RejectsCombinationsThatCannotWork) {
