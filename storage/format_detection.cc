@@ -2,8 +2,10 @@
 
 #include <filesystem>
 
+#include "storage/g2o_3d_reader.h"
 #include "storage/g2o_reader.h"
 #include "storage/internal/text_reader.h"
+#include "storage/isam_3d_reader.h"
 #include "storage/isam_reader.h"
 #include "storage/native_log_reader.h"
 #include "storage/toro_reader.h"
@@ -103,6 +105,17 @@ StatusOr<core::Problem2d> ReadProblem(const std::string& path, InputFormat forma
   }
   return Status::InvalidArgument(
       "unknown InputFormat value; expected g2o, isam, mrclam, native or toro");
+}
+
+StatusOr<core::Problem3d> ReadProblem3d(const std::string& path, InputFormat format) {
+  switch (format) {
+    case InputFormat::kG2o: return ReadG2o3d(path);
+    case InputFormat::kIsam: return ReadIsam3d(path);
+    case InputFormat::kToro: return ReadToro3d(path);
+    default: break;
+  }
+  return Status::NotSupported(path + ": format " + InputFormatName(format) +
+                              " has no 3-D reader; expected g2o, isam or toro");
 }
 
 }  // namespace graphslam::storage

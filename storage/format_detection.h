@@ -1,5 +1,5 @@
 // Input format detection and the one entry point that reads any supported
-// input into a core::Problem2d.
+// input into a core::Problem2d (ReadProblem) or core::Problem3d (ReadProblem3d).
 //
 //   directory containing RobotN_Odometry.dat         -> kMrclam
 //   first record GRAPHSLAM_LOG                        -> kNative
@@ -9,9 +9,9 @@
 // (a .graph file that starts with an EDGE2 or EDGE3 line reads as iSAM, whose
 // EDGE2/EDGE3 carry square-root information; --format toro reads it as TORO.)
 // ("first record": first line that is neither blank nor a '#' comment; only
-// that line is read.) 3-D g2o/iSAM files are detected as g2o/iSAM;
-// IsThreeDimensional then sends them to the 3-D reader and solver
-// (tools/solve_3d_command.h).
+// that line is read.) 3-D g2o/iSAM/TORO files are detected as g2o/iSAM/TORO;
+// IsThreeDimensional (storage/dimension_detection.h) then sends them to
+// ReadProblem3d.
 //
 // THREAD SAFETY: reentrant. ALLOCATION: one line.
 #pragma once
@@ -20,6 +20,7 @@
 #include <string_view>
 
 #include "core/problem.h"
+#include "core/problem_3d.h"
 #include "core/status.h"
 #include "storage/mrclam_reader.h"
 
@@ -44,5 +45,9 @@ const char* InputFormatName(InputFormat format);
 StatusOr<core::Problem2d> ReadProblem(const std::string& path, InputFormat format,
                                       const MrclamOptions& mrclam,
                                       MrclamReadStats* mrclam_stats = nullptr);
+
+// Reads a 3-D `path` with the 3-D reader of `format` (g2o, iSAM, TORO);
+// NotSupported for the formats that have none (MRCLAM, native).
+StatusOr<core::Problem3d> ReadProblem3d(const std::string& path, InputFormat format);
 
 }  // namespace graphslam::storage

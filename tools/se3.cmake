@@ -1,3 +1,2 @@
-# The 3-D branch of `graphslam solve`.
-target_sources(graphslam_tools PRIVATE solve_3d_command.cc)
+# The solve report and summary lines shared by the 2-D and 3-D steps.
 target_sources(graphslam_tools PRIVATE solve_report.cc)

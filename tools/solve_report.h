@@ -1,6 +1,6 @@
 // The parts of `graphslam solve`'s JSON report and terminal summary that the
-// planar (tools/solve_command.cc) and the 3-D (tools/solve_3d_command.cc)
-// branches share: the solver's outcome, the feature partition, timings,
+// 2-D (tools/pipeline/solve_2d.cc) and the 3-D (tools/pipeline/solve_3d.cc)
+// steps share: the solver's outcome, the feature partition, timings,
 // resources and one entry per Levenberg-Marquardt iteration
 // (docs/formats/report.md lists the keys). Each branch adds its own counts
 // (constraints, residual dimension, unknowns) and stage timings.

@@ -20,7 +20,7 @@
 #include "storage/isam_3d_reader.h"
 #include "tests/testing/datasets.h"
 #include "tools/exit_codes.h"
-#include "tools/solve_3d_command.h"
+#include "tools/pipeline/solve_pipeline.h"
 #include "tools/solve_command.h"
 
 namespace graphslam::tools {

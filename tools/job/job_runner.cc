@@ -36,6 +36,7 @@
 #include "tools/job/job_state.h"
 #include "tools/job/report_html.h"
 #include "tools/job/report_inputs.h"
+#include "tools/pipeline/solve_request.h"
 #include "tools/progress_display.h"
 #include "tools/resource_usage.h"
 #include "tools/trajectory_metrics.h"
@@ -195,21 +196,20 @@ Status LoadData(const Context& ctx, const std::string& problem_file, JobData* da
 
 // ---- solver settings shared by initialize and optimize ----------------------
 
+// The job file's solver settings through the application layer
+// (tools/pipeline/solve_request.h), as `graphslam solve` builds its own.
 StatusOr<core::SolverOptions> SolverOptionsFor(const JobSpec& spec) {
-  core::SolverOptions options;
-  StatusOr<core::LinearSolverType> type = core::ParseLinearSolverType(spec.solver.linear_solver);
-  if (!type.ok())
-    return Status::InvalidArgument(spec.path + ": solver.linear_solver: " + type.status().message());
-  StatusOr<core::RobustKernel> kernel = core::ParseRobustKernel(spec.solver.robust_kernel);
-  if (!kernel.ok())
-    return Status::InvalidArgument(spec.path + ": solver.robust_kernel: " + kernel.status().message());
-  options.linear_solver = *type;
-  options.observation_kernel = *kernel;
+  SolverSettings settings;
+  settings.linear_solver = spec.solver.linear_solver;
+  settings.robust_kernel = spec.solver.robust_kernel;
+  settings.max_iterations = spec.solver.max_iterations;
+  settings.function_tolerance = spec.solver.function_tolerance;
+  StatusOr<core::SolverOptions> options = MakeSolverOptions(
+      settings, {"solver.linear_solver", "solver.preconditioner", "solver.robust_kernel"});
+  if (!options.ok()) return options.status().WithContext(spec.path);
   // A robot's barcode is read by the same camera as a landmark's: robot
   // sightings get the same kernel (misreads happen to both).
-  options.pose_kernels.robot = *kernel;
-  options.max_iterations = spec.solver.max_iterations;
-  options.function_tolerance = spec.solver.function_tolerance;
+  options->pose_kernels.robot = options->observation_kernel;
   return options;
 }
 

@@ -1,0 +1,578 @@
+// Steps 3-7 of RunSolve for a 2-D input (tools/pipeline/solve_pipeline.h):
+//
+//   LockStore        the locks, and a FILE ingested into --workdir
+//   ReadInput        a chunk store (poses; observations loaded unless it
+//                    streams) or a file in its format
+//   InitializeGuess  Table 1, or as-given's check
+//   ConfigureSolver  chunks, progress, chunks in flight, checkpoint, resume
+//   TryOdometry      --initialization auto: the solve from Table 1's guess,
+//                    kept if it converged
+//   ImproveGuess     progressive or pose-graph initialization
+//   AttachCheckpoints  resume state, streaming scratch files, the callback
+//   Optimize         association, the MPI solve, or SolveGraphSlam
+//   WriteOutputs     -o, --tum, --features-csv, --report, the summary
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <memory>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/graphslam_solver.h"
+#include "core/initialization.h"
+#include "core/logging.h"
+#include "core/unidentified_features.h"
+#include "partition/association_driver.h"
+#include "partition/gps_segment_alignment.h"
+#include "partition/in_memory_chunk_source.h"
+#include "partition/pose_graph_initialization.h"
+#include "partition/progressive_initialization.h"
+#include "storage/candidate_file.h"
+#include "storage/chunk_store.h"
+#include "storage/directory_lock.h"
+#include "storage/feature_id_file.h"
+#include "storage/features_csv_writer.h"
+#include "storage/g2o_writer.h"
+#include "storage/solver_checkpoint.h"
+#include "storage/store_directory.h"
+#include "storage/tum_writer.h"
+#include "tools/association_report.h"
+#include "tools/association_store.h"
+#include "tools/exit_codes.h"
+#include "tools/out_of_core_solve.h"
+#include "tools/pipeline/solve_run.h"
+#include "tools/progress_display.h"
+#include "tools/resource_usage.h"
+#include "tools/solve_report.h"
+
+namespace graphslam::tools {
+namespace {
+
+// --initialization auto abandons the odometry start at a step with rho below
+// this: the classic trust-region bound of a poor quadratic model
+// (docs/benchmarks.md gives the lowest rho of each dataset's steps).
+constexpr double kAutoAbandonRho = 0.25;
+
+// Everything one 2-D solve holds, in the order the steps fill it.
+struct Solve2d {
+  storage::DirectoryLock lock;  // held to the end
+  std::string store_path;       // the store solved from ("": a file in memory)
+  std::unique_ptr<storage::DiskChunkSource> store;
+  core::Problem2d problem;
+  const char* format_name = "chunk-store";
+  storage::MrclamReadStats mrclam_stats;  // an MRCLAM input's skipped records
+  bool streaming = false;  // observations stay on disk; the ingest's guess starts
+  int64_t num_observations = 0;
+  double read_seconds = 0, initialize_seconds = 0, progressive_seconds = 0;
+
+  std::unique_ptr<tbb::global_control> threads;
+  std::unique_ptr<partition::InMemoryChunkSource> in_memory;
+  const core::ChunkSource* chunks = nullptr;
+  std::unique_ptr<ProgressDisplay> display;
+  core::SolverOptions solver;
+  std::string checkpoint_path;
+  core::SolverCheckpoint resume_state;
+  bool resuming = false;
+  std::unique_ptr<storage::CandidateFile> candidate_file;
+  std::unique_ptr<storage::FeatureIdFile> id_file;
+
+  // --initialization auto's solve from odometry.
+  bool probe = false, probe_solved = false;
+  double input_chi2 = std::numeric_limits<double>::quiet_NaN();
+  nlohmann::json probe_report;
+  double probe_seconds = 0, probe_cpu_seconds = 0, optimize_cpu_seconds = 0;
+
+  core::SolverSummary summary;
+  partition::AssociationOptions association;
+  partition::AssociationSummary association_summary;
+  nlohmann::json distributed_report = nlohmann::json::object();
+};
+
+// Appends every observation of `chunks`, in chunk order, to problem->observations.
+// Each feature's observations keep their input order (chunks are
+// feature-complete), which is all progressive initialization and the
+// in-memory chunking depend on, so they behave as on the original input.
+Status LoadObservations(const core::ChunkSource& chunks, core::Problem2d* problem) {
+  core::ObservationChunk chunk;
+  for (int64_t k = 0; k < chunks.NumChunks(); ++k) {
+    GS_RETURN_IF_ERROR(chunks.Load(k, &chunk));
+    problem->observations.insert(problem->observations.end(), chunk.observations.begin(),
+                                 chunk.observations.end());
+  }
+  return Status::Ok();
+}
+
+// --initialization as-given (after ValidateProblem, so indices are in range):
+// the input must give every pose and every observed feature a guess (a g2o
+// file with all its VERTEX lines, e.g. one written by `graphslam solve -o`),
+// since nothing will be filled in.
+Status CheckEveryGuessGiven(const core::Problem2d& problem) {
+  const std::string needs =
+      " has no initial guess in the input; --initialization as-given needs a guess (VERTEX "
+      "line) for every pose and observed feature, expected e.g. a graph written by "
+      "`graphslam solve -o`";
+  for (int32_t i = 0; i < problem.num_poses(); ++i) {
+    if (problem.pose_initialized[i] != 0) continue;
+    // Built by append: GCC 12 gives a false -Wrestrict on `":" + std::string` at -O3.
+    std::string where = problem.source;
+    if (problem.pose_lines[i] > 0) {
+      where.push_back(':');
+      where.append(std::to_string(problem.pose_lines[i]));
+    }
+    return Status::InvalidArgument(where + ": pose " + std::to_string(problem.pose_ids[i]) +
+                                   needs);
+  }
+  std::vector<uint8_t> observed(problem.features.size(), 0);
+  for (const core::Observation& o : problem.observations) observed[o.feature] = 1;
+  for (int32_t j = 0; j < problem.num_features(); ++j) {
+    if (observed[j] == 0 || problem.feature_initialized[j] != 0) continue;
+    return Status::InvalidArgument(problem.source + ": feature " +
+                                   std::to_string(problem.feature_ids[j]) + needs);
+  }
+  return Status::Ok();
+}
+
+// Locks (storage/directory_lock.h), held to the end: the workdir, or a store
+// this solve writes into (STORE/checkpoint.json, an --associate rewrite),
+// exclusively; a store it only reads, shared. A second writer fails here,
+// naming the holder's pid. --workdir: a FILE goes through a chunk store in
+// DIR (bounded-memory ingest).
+Status LockStore(const SolveRun& run, Solve2d& s) {
+  const SolveCommandOptions& options = run.options;
+  s.store_path = options.input;
+  if (storage::IsChunkStore(options.input)) {
+    // Under mpirun no rank writes into the store (no checkpoint, no
+    // --associate): every rank holds it shared.
+    const bool writes = (options.checkpoint.empty() && !run.distributed) || options.associate;
+    GS_ASSIGN_OR_RETURN(s.lock, storage::DirectoryLock::Acquire(
+                                    options.input, writes ? storage::DirectoryLock::Mode::kExclusive
+                                                          : storage::DirectoryLock::Mode::kShared));
+    // Under the exclusive lock a temporary file in a store of ours is one a
+    // killed writer left (a checkpoint's): nobody will rename it.
+    if (writes && storage::CheckStoreDirectory(options.input).ok())
+      GS_RETURN_IF_ERROR(storage::RemoveStaleTemporaries(storage::Env::Default(), options.input,
+                                                         /*recursive=*/true));
+    return Status::Ok();
+  }
+  if (options.workdir.empty()) return Status::Ok();
+  // A folder that is not ours is refused before anything is written.
+  GS_ASSIGN_OR_RETURN(s.lock,
+                      storage::OpenStoreForWriting(storage::Env::Default(), options.workdir));
+  s.store_path = options.workdir;
+  // --resume reuses the store its checkpoint was made on, if still current
+  // (the same input: size and CRC32C, not the mtime).
+  if (options.resume && WorkdirStoreIsCurrent(options.input, options.workdir))
+    return storage::RemoveStaleTemporaries(storage::Env::Default(), options.workdir,
+                                           /*recursive=*/true);
+  return IngestIntoWorkdir(options.input, options.format, options.robot, options.workdir,
+                           options.chunk_observations, run.request.memory_limit_bytes,
+                           options.resume);
+}
+
+// A chunk store (graphslam ingest) is its pose-only native log, and the solve
+// streams its chunks from disk. Its observations are also loaded back into
+// the problem, for progressive initialization (which needs them) and the
+// report, unless the store is large enough to stream.
+Status ReadStore(const SolveRun& run, Solve2d& s) {
+  const SolveCommandOptions& options = run.options;
+  GS_ASSIGN_OR_RETURN(s.store, storage::DiskChunkSource::Open(s.store_path));
+  GS_ASSIGN_OR_RETURN(s.problem, storage::ReadChunkStoreProblem(s.store_path));
+  s.num_observations = s.store->total_observations();
+  // --associate merges in memory (then rewrites the store): never streams.
+  s.streaming = !options.associate && (s.problem.num_poses() > options.streaming_poses ||
+                                       s.num_observations > options.streaming_observations);
+  if (s.streaming) {
+    GS_LOG(INFO, "streaming mode: %d poses, %lld observations stay on disk; initial guess "
+           "from the ingest (Table 1), no progressive initialization",
+           s.problem.num_poses(), static_cast<long long>(s.num_observations));
+    return Status::Ok();
+  }
+  // Under mpirun rank 0 loads them for the initialization; its start is broadcast.
+  if (!run.root) return Status::Ok();
+  return LoadObservations(*s.store, &s.problem);
+}
+
+Status ReadFile(const SolveRun& run, const DetectedInput& file, Solve2d& s) {
+  const SolveCommandOptions& options = run.options;
+  storage::MrclamOptions mrclam;
+  mrclam.robot = options.robot;
+  mrclam.ignore_barcodes = options.ignore_barcodes;
+  GS_ASSIGN_OR_RETURN(s.problem,
+                      storage::ReadProblem(options.input, file.format, mrclam, &s.mrclam_stats));
+  const core::UnidentifiedObservations unidentified =
+      core::CountUnidentifiedObservations(s.problem);
+  if (unidentified.count > 0 && !options.associate) {
+    return Status::NotSupported(
+        options.input + ":" + std::to_string(unidentified.first_line) + ": " +
+        std::to_string(unidentified.count) +
+        " observations have no feature id (unknown correspondence); expected ids, or "
+        "--associate to find the correspondences");
+  }
+  s.format_name = storage::InputFormatName(file.format);
+  return Status::Ok();
+}
+
+Status ReadInput(const SolveRun& run, const DetectedInput* file, Solve2d& s) {
+  GS_RETURN_IF_ERROR(LockStore(run, s));
+  if (storage::IsChunkStore(s.store_path)) {
+    GS_RETURN_IF_ERROR(ReadStore(run, s));
+  } else {
+    GS_CHECK(file != nullptr);  // RunSolve detects every input that is not a store
+    GS_RETURN_IF_ERROR(ReadFile(run, *file, s));
+  }
+  if (!s.streaming) s.num_observations = static_cast<int64_t>(s.problem.observations.size());
+  s.read_seconds = SecondsSince(run.start);
+  return Status::Ok();
+}
+
+// Table 1 and connectivity. --initialization as-given only checks: the
+// input's guess is the start, bit for bit. (Streaming: the ingest
+// initialized and checked with every observation.)
+Status InitializeGuess(const SolveRun& run, Solve2d& s) {
+  const SolveClock::time_point initialize_start = SolveClock::now();
+  if (!s.streaming && run.root) {
+    if (run.request.initialization == Initialization::kAsGiven) {
+      GS_RETURN_IF_ERROR(core::ValidateProblem(s.problem));
+      GS_RETURN_IF_ERROR(CheckEveryGuessGiven(s.problem));
+    } else {
+      GS_RETURN_IF_ERROR(core::InitializeProblem(&s.problem));
+    }
+  }
+  s.initialize_seconds = SecondsSince(initialize_start);
+  return Status::Ok();
+}
+
+// The chunks, the solver options, and the checkpoint to write or resume
+// from (one durable file, replaced atomically after every iteration; --resume
+// continues from it bit-identical to an uninterrupted solve).
+Status ConfigureSolver(const SolveRun& run, Solve2d& s) {
+  const SolveCommandOptions& options = run.options;
+  s.threads = LimitThreads(options.threads);
+  partition::ChunkingOptions chunking;
+  chunking.max_observations_per_chunk = options.chunk_observations;
+  if (!s.store) s.in_memory = std::make_unique<partition::InMemoryChunkSource>(s.problem, chunking);
+  s.chunks = s.store ? static_cast<const core::ChunkSource*>(s.store.get()) : s.in_memory.get();
+  s.display = std::make_unique<ProgressDisplay>(!run.quiet);
+  s.solver = run.request.solver;
+  s.solver.progress = s.display->AsCallback();
+  s.solver.iteration_callback = s.display->AsIterationCallback();
+  GS_ASSIGN_OR_RETURN(s.solver.max_chunks_in_flight,
+                      ChunksInFlightForMemoryLimit(run.request.memory_limit_bytes,
+                                                   s.problem.num_poses(), s.problem.num_features(),
+                                                   options.chunk_observations,
+                                                   s.solver.max_chunks_in_flight, s.streaming));
+  s.checkpoint_path = options.checkpoint;
+  if (s.checkpoint_path.empty() && s.store && !options.associate && !run.distributed)
+    s.checkpoint_path = s.store_path + "/checkpoint.json";
+  s.resuming = options.resume && std::filesystem::exists(s.checkpoint_path);
+  if (s.resuming) {
+    GS_ASSIGN_OR_RETURN(s.resume_state,
+                        storage::ReadSolverCheckpoint(s.checkpoint_path, options.input));
+    GS_LOG(INFO, "resuming from %s after iteration %d (chi2 %.9g)", s.checkpoint_path.c_str(),
+           s.resume_state.iterations, s.resume_state.chi2);
+  } else if (options.resume) {
+    GS_LOG(WARNING, "no checkpoint at %s yet: starting from the beginning",
+           s.checkpoint_path.c_str());
+  }
+  return Status::Ok();
+}
+
+// --initialization auto: the full solve from the Table 1 guess, abandoned at
+// its first step whose model failed (rho < kAutoAbandonRho on a step that
+// meant to matter, core/levenberg_marquardt.h); kept if it converged, else
+// (abandoned, or stopped by --max-iterations) the restart. Most pose graphs
+// converge from their odometry in a few well-modelled steps; a start outside
+// the optimum's basin shows it within its first steps, and the solve restarts
+// from the Table 1 guess with progressive initialization. Not with
+// checkpoints (a probe's checkpoint would resume the wrong solve),
+// --associate, streaming or under mpirun (a store's ranks start
+// progressively, as one process does).
+Status TryOdometry(const SolveRun& run, Solve2d& s) {
+  s.probe = run.request.initialization == Initialization::kAuto && !s.resuming && !s.streaming &&
+            s.checkpoint_path.empty() && !run.options.associate && !run.distributed &&
+            run.options.max_iterations > 0;
+  const SolveClock::time_point probe_start = SolveClock::now();
+  const double probe_cpu_start = ProcessCpuSeconds();
+  if (s.probe) {
+    const std::vector<core::Pose2> guess_poses = s.problem.poses;
+    const std::vector<core::Point2> guess_features = s.problem.features;
+    core::SolverOptions probe_options = s.solver;
+    probe_options.abandon_below_rho = kAutoAbandonRho;
+    const Status status = core::SolveGraphSlam(probe_options, *s.chunks, &s.problem, &s.summary);
+    if (!status.ok() && !status.IsNumerical()) return status;
+    // Kept only when it converged: a probe stopped by --max-iterations
+    // (never abandoned, never converged) is no answer either. chi2 of the
+    // input's own estimate (Table 1 fills only what it lacks) is its start.
+    s.probe_solved = status.ok() && s.summary.converged;
+    s.input_chi2 = s.summary.initial_chi2;
+    s.probe_report = {{"iterations", s.summary.iterations},
+                      {"final_chi2", s.summary.final_chi2},
+                      {"termination", status.ok() ? s.summary.termination : status.ToString()},
+                      {"seconds", SecondsSince(probe_start)}};
+    if (!s.probe_solved) {
+      GS_LOG(INFO, "initialization auto: the solve from odometry ended unconverged after %d "
+             "iterations (%s, chi2 %.6g): progressive initialization", s.summary.iterations,
+             status.ok() ? s.summary.termination.c_str() : status.ToString().c_str(),
+             s.summary.final_chi2);
+      s.problem.poses = guess_poses;
+      s.problem.features = guess_features;
+      s.summary = core::SolverSummary();
+    }
+  }
+  s.probe_seconds = SecondsSince(probe_start);
+  s.probe_cpu_seconds = ProcessCpuSeconds() - probe_cpu_start;
+  return Status::Ok();
+}
+
+// The pose-graph initializer (streaming mode: no in-memory sub-problems;
+// --initialization pose-graph asks for it in memory too). It first puts the
+// dead reckoning onto the GPS fixes, segment by segment: far from them the
+// pose-only LM creeps (docs/benchmarks.md). Without GPS nothing moves.
+Status StartFromPoseGraph(const Solve2d& s, core::Problem2d* problem) {
+  const partition::GpsAlignmentSummary aligned = partition::AlignOdometryToGps(problem);
+  GS_LOG(INFO, "GPS alignment: %lld chains, %lld segments, %lld poses moved",
+         static_cast<long long>(aligned.chains), static_cast<long long>(aligned.segments),
+         static_cast<long long>(aligned.poses_moved));
+  partition::PoseGraphInitializationSummary pose_graph;
+  GS_RETURN_IF_ERROR(
+      partition::InitializeFromPoseGraph(s.solver, 20, *s.chunks, problem, &pose_graph));
+  GS_LOG(INFO, "pose-graph initialization: %d iterations, pose-only chi2 %.6g -> %.6g, %lld "
+         "features re-placed", pose_graph.iterations, pose_graph.initial_chi2,
+         pose_graph.final_chi2, static_cast<long long>(pose_graph.placed_features));
+  return Status::Ok();
+}
+
+// Progressive initialization (growing prefixes of the trajectory, each
+// solved briefly, put the guess into the basin of the global optimum) or the
+// pose-graph initializer.
+Status ImproveGuess(const SolveRun& run, Solve2d& s) {
+  const SolveClock::time_point progressive_start = SolveClock::now();
+  const Initialization init = run.request.initialization;
+  partition::ProgressiveInitializationOptions progressive;
+  const bool wanted = init == Initialization::kProgressive ||
+                      (init == Initialization::kAuto && !s.probe_solved);
+  progressive.enabled = wanted && !s.resuming && !s.streaming && run.root;
+  progressive.max_observations_per_chunk = run.options.chunk_observations;
+  progressive.max_new_poses = run.options.progressive_max_new_poses;
+  partition::ProgressiveSummary progressive_summary;
+  GS_RETURN_IF_ERROR(
+      partition::InitializeProgressively(progressive, s.solver, &s.problem, &progressive_summary));
+  const bool streaming_start =
+      s.streaming && (init == Initialization::kProgressive || init == Initialization::kAuto);
+  if (!s.resuming && run.root && (streaming_start || init == Initialization::kPoseGraph))
+    GS_RETURN_IF_ERROR(StartFromPoseGraph(s, &s.problem));
+  s.progressive_seconds = SecondsSince(progressive_start);
+  return Status::Ok();
+}
+
+Status AttachCheckpoints(const SolveRun& run, Solve2d& s) {
+  if (s.resuming) {
+    // The solve continues from these estimates: moved into the problem, not
+    // held twice (16 bytes per feature for the whole solve).
+    if (s.resume_state.features.size() == s.problem.features.size() &&
+        !s.problem.features.empty()) {
+      s.problem.features = std::move(s.resume_state.features);
+      s.resume_state.features = {};
+    }
+    s.solver.resume_from = &s.resume_state;
+  }
+  if (s.checkpoint_path.empty()) return Status::Ok();
+  if (s.streaming) {
+    // Streaming mode keeps no per-feature array of candidates (a scratch file
+    // beside the checkpoint, storage/candidate_file.h) and parks the feature
+    // ids there while it solves (8 B per feature, the passes' peak included;
+    // only the outputs read them, storage/feature_id_file.h); the
+    // checkpoint's feature estimates go to a binary file, not JSON arrays.
+    s.candidate_file = std::make_unique<storage::CandidateFile>(
+        storage::Env::Default(), s.checkpoint_path + ".candidates.bin");
+    s.solver.candidate_store = s.candidate_file.get();
+    s.id_file = std::make_unique<storage::FeatureIdFile>(storage::Env::Default(),
+                                                         s.checkpoint_path + ".ids.bin");
+    GS_RETURN_IF_ERROR(s.id_file->Park(&s.problem.feature_ids));
+  }
+  const std::string& input = run.options.input;
+  s.solver.checkpoint_callback = [&s, &input](const core::SolverCheckpoint& checkpoint) {
+    if (s.streaming)
+      return storage::WriteSolverCheckpointWithFeatureFile(storage::Env::Default(),
+                                                           s.checkpoint_path, input, checkpoint);
+    return storage::WriteSolverCheckpoint(storage::Env::Default(), s.checkpoint_path, input,
+                                          checkpoint);
+  };
+  return Status::Ok();
+}
+
+// Unknown correspondence (docs/association.md): merges, then the final
+// solve; a chunk store gets the associated problem (tools/association_store.h).
+Status Associate(const SolveRun& run, Solve2d& s) {
+  s.association.chi = run.options.chi;
+  s.association.search_radius = run.options.association_radius;
+  s.association.chunk_observations = run.options.chunk_observations;
+  GS_RETURN_IF_ERROR(partition::AssociateAndSolve(s.association, s.solver, &s.problem,
+                                                  &s.association_summary));
+  s.summary = s.association_summary.final_solve;
+  if (!s.store) return Status::Ok();
+  return RewriteAssociatedChunkStore(storage::Env::Default(), s.store_path, s.problem,
+                                     run.options.chunk_observations, s.store->source(),
+                                     s.store->input(), &s.lock);
+}
+
+Status Optimize(const SolveRun& run, Solve2d& s) {
+  const double optimize_cpu_start = ProcessCpuSeconds();
+  if (run.options.associate) {
+    GS_RETURN_IF_ERROR(Associate(run, s));
+  } else if (run.distributed) {
+    GS_RETURN_IF_ERROR(run.distributed->Solve(s.solver, *s.store, &s.problem, &s.summary,
+                                              &s.distributed_report));
+  } else if (!s.probe_solved) {
+    const Status status = core::SolveGraphSlam(s.solver, *s.chunks, &s.problem, &s.summary);
+    // A numerical failure names the input it happened on; nothing is
+    // written (exit 5, not 4: tools/exit_codes.h).
+    if (!status.ok())
+      return status.IsNumerical() ? status.WithContext(run.options.input + ": solve") : status;
+  }
+  // A kept probe was the optimization.
+  s.optimize_cpu_seconds =
+      s.probe_solved ? s.probe_cpu_seconds : ProcessCpuSeconds() - optimize_cpu_start;
+  s.display->Finish();
+  if (s.id_file) GS_RETURN_IF_ERROR(s.id_file->Restore(&s.problem.feature_ids));
+  return Status::Ok();
+}
+
+nlohmann::json ProblemReport(const SolveRun& run, const Solve2d& s, double total_seconds) {
+  const core::Problem2d& problem = s.problem;
+  const core::SolverSummary& summary = s.summary;
+  nlohmann::json report = SolverReport(run.options, summary, s.format_name, total_seconds);
+  report["poses"] = problem.num_poses();
+  report["features"] = problem.num_features();
+  report["observations"] = s.num_observations;
+  report["relative_pose_constraints"] = static_cast<int64_t>(problem.relative_poses.size());
+  report["motion_constraints"] = static_cast<int64_t>(problem.motions.size());
+  report["gps_constraints"] = static_cast<int64_t>(problem.gps.size());
+  report["robot_sighting_constraints"] = static_cast<int64_t>(problem.pose_range_bearings.size());
+  // Degrees of freedom: chi2 / (residual_dimension - unknowns) should be near 1
+  // when the noise is what the model says.
+  report["residual_dimension"] =
+      3 * static_cast<int64_t>(problem.relative_poses.size() + problem.motions.size()) +
+      2 * static_cast<int64_t>(problem.gps.size() + problem.pose_range_bearings.size()) +
+      2 * summary.observations_used;
+  report["unknowns"] =
+      3 * summary.unknown_poses + 2 * (summary.eliminated_features + summary.kept_features);
+  report["stage_seconds"] = {{"read", s.read_seconds},
+                             {"initialize", s.initialize_seconds},
+                             {"progressive_initialization", s.progressive_seconds},
+                             {"optimize", summary.seconds}};
+  report["streaming"] = s.streaming;
+  if (std::isfinite(s.input_chi2)) report["input_chi2"] = s.input_chi2;
+  return report;
+}
+
+nlohmann::json Report2d(const SolveRun& run, const Solve2d& s, double total_seconds) {
+  const SolveCommandOptions& options = run.options;
+  nlohmann::json report = ProblemReport(run, s, total_seconds);
+  // -o renumbers features past the largest pose id when the ids collide
+  // (storage/g2o_writer.h): the written id is the feature id plus this.
+  if (!options.output_g2o.empty()) {
+    StatusOr<int64_t> offset = storage::G2oFeatureIdOffset(s.problem);
+    if (offset.ok()) report["g2o_feature_id_offset"] = *offset;
+  }
+  // What --initialization auto did: the solve from odometry (the final one
+  // when it converged), or progressive initialization after it.
+  report["initialization_used"] = options.initialization != "auto" ? options.initialization
+                                  : s.streaming                    ? "pose-graph"
+                                  : s.probe_solved                 ? "odometry"
+                                                                   : "progressive";
+  if (s.probe) {
+    report["odometry_attempt"] = s.probe_report;
+    report["stage_seconds"]["odometry_attempt"] = s.probe_seconds;
+  }
+  // CPU seconds (user + system, all threads) of the optimization and of the
+  // whole process so far: on a shared machine the cost, where wall time
+  // also counts the waits for a core.
+  report["optimize_cpu_seconds"] = s.optimize_cpu_seconds;
+  report["cpu_seconds"] = ProcessCpuSeconds();
+  report["chunks_in_flight"] = s.solver.max_chunks_in_flight;
+  report["memory_limit_bytes"] = run.request.memory_limit_bytes;
+  if (s.store) report["store"] = s.store_path;
+  if (run.distributed) report["distributed"] = s.distributed_report["distributed"];
+  if (s.format_name == std::string_view("mrclam"))
+    report["mrclam"] = {
+        {"robot_measurements_dropped", s.mrclam_stats.robot_measurements_dropped},
+        {"out_of_time_range_dropped", s.mrclam_stats.out_of_time_range_dropped},
+        {"unknown_barcodes_skipped", s.mrclam_stats.unknown_barcodes_skipped},
+        {"unknown_barcode_lines", s.mrclam_stats.unknown_barcode_lines}};
+  if (options.associate)
+    report["association"] = BuildAssociationReport(s.association, s.association_summary, 200);
+  return report;
+}
+
+void PrintAssociation(std::FILE* out, const partition::AssociationSummary& a) {
+  std::fprintf(out, "  association        %lld -> %lld features, %lld merges (%lld undone), "
+               "%zu rounds, %.3f s\n",
+               static_cast<long long>(a.initial_features), static_cast<long long>(a.final_features),
+               static_cast<long long>(a.merges), static_cast<long long>(a.undone), a.rounds.size(),
+               a.seconds);
+  const partition::IncrementalAssociationSummary& inc = a.incremental;
+  if (!inc.ran) return;
+  std::fprintf(out, "  incremental pass   %lld stages, %lld features found, %lld provisional "
+               "dropped as clutter (%lld observations); solve %.2f s, covariances %.2f s, "
+               "assignment %.2f s\n",
+               static_cast<long long>(inc.stages), static_cast<long long>(inc.features),
+               static_cast<long long>(inc.provisional_dropped),
+               static_cast<long long>(inc.clutter_observations), inc.solve_seconds,
+               inc.covariance_seconds, inc.assignment_seconds);
+}
+
+void PrintSummary2d(const SolveRun& run, const Solve2d& s, double total_seconds) {
+  const SolveCommandOptions& options = run.options;
+  std::FILE* const out = SummaryStream(options);
+  std::fprintf(out, "graphslam solve summary\n");
+  std::fprintf(out, "  input              %s (%s)\n", options.input.c_str(), s.format_name);
+  std::fprintf(out, "  poses / features   %d / %d (%lld eliminated, %lld excluded)\n",
+               s.problem.num_poses(), s.problem.num_features(),
+               static_cast<long long>(s.summary.eliminated_features),
+               static_cast<long long>(s.summary.excluded_features));
+  std::fprintf(out, "  observations       %lld%s\n", static_cast<long long>(s.num_observations),
+               s.streaming ? " (streamed from disk)" : "");
+  if (options.associate) PrintAssociation(out, s.association_summary);
+  if (std::isfinite(s.input_chi2))
+    std::fprintf(out, "  input chi2         %.9g (the input's own estimate)\n", s.input_chi2);
+  PrintSolverSummaryLines(out, s.summary, total_seconds);
+}
+
+// Each output atomically; under mpirun rank 0 only.
+Status WriteOutputs(const SolveRun& run, Solve2d& s) {
+  const SolveOutputs& outputs = run.request.outputs;
+  if (!outputs.g2o.empty()) GS_RETURN_IF_ERROR(storage::WriteG2o(s.problem, outputs.g2o));
+  if (!outputs.tum.empty()) GS_RETURN_IF_ERROR(storage::WriteTum(s.problem, outputs.tum));
+  if (!outputs.features_csv.empty())
+    GS_RETURN_IF_ERROR(
+        storage::WriteFeaturesCsv(s.problem, outputs.features_csv, &s.summary.excluded));
+  const double total_seconds = SecondsSince(run.start);
+  if (!outputs.report.empty())
+    GS_RETURN_IF_ERROR(WriteReport(outputs.report, Report2d(run, s, total_seconds)));
+  if (!run.quiet) PrintSummary2d(run, s, total_seconds);
+  return Status::Ok();
+}
+
+Status Solve(SolveRun& run, const DetectedInput* file, Solve2d& s) {
+  GS_RETURN_IF_ERROR(ReadInput(run, file, s));
+  GS_RETURN_IF_ERROR(InitializeGuess(run, s));
+  GS_RETURN_IF_ERROR(ConfigureSolver(run, s));
+  GS_RETURN_IF_ERROR(TryOdometry(run, s));
+  GS_RETURN_IF_ERROR(ImproveGuess(run, s));
+  GS_RETURN_IF_ERROR(AttachCheckpoints(run, s));
+  GS_RETURN_IF_ERROR(Optimize(run, s));
+  return run.root ? WriteOutputs(run, s) : Status::Ok();
+}
+
+}  // namespace
+
+int RunSolve2d(SolveRun& run, const DetectedInput* file) {
+  Solve2d s;
+  if (Status status = Solve(run, file, s); !status.ok()) return run.Fail(status);
+  return s.summary.converged ? kExitOk : kExitNotConverged;
+}
+
+}  // namespace graphslam::tools
