@@ -4,6 +4,7 @@ target_sources(graphslam_tools PRIVATE
   evaluate_command.cc
   simulate_command.cc
   trajectory_metrics.cc)
+target_sources(graphslam_tools PRIVATE ground_truth.cc)
 target_sources(graphslam_tools PRIVATE ingest_command.cc)
 target_sources(graphslam_tools PRIVATE out_of_core_solve.cc)
 target_sources(graphslam_tools PRIVATE streaming_campus_simulator.cc)

@@ -108,7 +108,8 @@ StatusOr<Block> ReadRun(const RunSpec& spec) {
   block.runs.emplace_back(spec.name, block.problem.num_poses());
   block.indoor.emplace_back();
   if (!spec.ground_truth.empty()) {
-    StatusOr<std::vector<StampedPose2>> truth = ReadTum(spec.ground_truth);
+    StatusOr<std::vector<StampedPose2>> truth = ReadGroundTruth(
+        {spec.ground_truth, spec.ground_truth_format, spec.ground_truth_times});
     if (!truth.ok()) return truth.status();
     block.ground_truth.push_back(std::move(truth).value());
   } else if (*format == storage::InputFormat::kMrclam &&
