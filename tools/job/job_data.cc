@@ -16,6 +16,7 @@
 #include "core/unidentified_features.h"
 #include "storage/format_detection.h"
 #include "tools/campus_simulator.h"
+#include "tools/ground_truth.h"
 
 namespace graphslam::tools::job {
 namespace {
