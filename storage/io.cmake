@@ -30,3 +30,5 @@ target_sources(graphslam_storage PRIVATE solver_checkpoint.cc feature_record_fil
 target_sources(graphslam_storage PRIVATE toro_reader.cc)
 # Trajectory files as ground truth: TUM and KITTI odometry poses (issue 23).
 target_sources(graphslam_storage PRIVATE tum_reader.cc kitti_pose_reader.cc trajectory_format.cc)
+# The run name table beside a job's map.pcd (issue 23).
+target_sources(graphslam_storage PRIVATE pcd_run_names.cc)

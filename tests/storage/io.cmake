@@ -24,3 +24,4 @@ graphslam_test(storage/input_limits)
 # Trajectory files as ground truth (issue 23).
 graphslam_test(storage/tum_reader)
 graphslam_test(storage/kitti_pose_reader)
+graphslam_test(storage/pcd_run_names)

@@ -390,6 +390,10 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
         ++fixes[run_of_pose[static_cast<size_t>(gps.pose)]];
     }
     int32_t first = data.problem.num_poses();
+    const bool synthetic_time =
+        spec.format == "simulate" ||
+        !std::all_of(block.problem.pose_stamps.begin(), block.problem.pose_stamps.end(),
+                     [](double t) { return std::isfinite(t); });
     if (!block.sightings.dataset.empty()) {
       block.sightings.first_pose = first;
       block.sightings.num_poses = block.problem.num_poses();
@@ -403,6 +407,7 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
       run.num_poses = block.runs[r].second;
       run.gps_fixes = fixes[r];
       run.has_ground_truth = !block.ground_truth[r].empty();
+      run.synthetic_time = synthetic_time;
       if (run.has_ground_truth) data.ground_truth[run.name] = block.ground_truth[r];
       run.indoor = block.indoor[r];
       run.unidentified = unidentified;

@@ -61,6 +61,9 @@ struct RunInfo {
   int32_t component = 0;
   int64_t gps_fixes = 0;
   bool has_ground_truth = false;
+  // No time stamps of its own (g2o, iSAM) or the simulator's, which start at
+  // 0 in every run: its TUM files get a synthetic clock (job_export.h).
+  bool synthetic_time = false;
   // Came with unknown correspondences (ids: false, or observations without a
   // feature id): the associate stage runs data association.
   bool unidentified = false;
