@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "core/graphslam_solver.h"
+#include "core/information_repair.h"
 #include "core/initialization.h"
 #include "core/logging.h"
 #include "core/unidentified_features.h"
@@ -85,6 +86,8 @@ Status ValidateOptions(const SolveCommandOptions& options) {
     return Status::InvalidArgument("--chunk-observations must be > 0");
   if (options.associate && (options.resume || !options.checkpoint.empty()))
     return Status::InvalidArgument("--associate cannot be combined with --checkpoint/--resume");
+  if (options.repair_information && !options.workdir.empty())
+    return Status::InvalidArgument("--repair-information cannot be combined with --workdir");
   if (options.associate && !options.workdir.empty())
     return Status::InvalidArgument(
         "--associate cannot be combined with --workdir (merges rewrite the in-memory chunks "
@@ -294,6 +297,9 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
   solve->add_option("--petsc-options", options->petsc_options,
                     "under mpirun: PETSc options for the reduced system's solve, e.g. "
                     "\"-ksp_type cg -pc_type gamg\" (PETSC_OPTIONS works too; docs/distributed.md)");
+  solve->add_flag("--repair-information", options->repair_information,
+                  "repair non-positive-definite information matrices (g2o, TORO) instead of "
+                  "rejecting the file");
   solve->add_flag("-q,--quiet", options->quiet, "no progress or summary on the terminal");
   solve->add_flag("-v,--verbose", options->verbosity, "more log detail (repeatable)");
   solve->callback([options, exit_code]() { *exit_code = RunSolveCommand(*options); });
@@ -409,6 +415,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   core::Problem2d problem;
   const char* format_name = "chunk-store";
   storage::MrclamReadStats mrclam_stats;  // an MRCLAM input's skipped records
+  core::InformationRepairs repairs;       // --repair-information
   int64_t memory_limit = 0;
   if (!options.memory_limit.empty()) {
     StatusOr<int64_t> parsed = ParseMemorySize(options.memory_limit);
@@ -508,12 +515,15 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     // 3-D inputs (SE(3) poses) take the 3-D path (tools/solve_3d_command.h).
     StatusOr<bool> three_d = storage::IsThreeDimensional(options.input, format);
     if (!three_d.ok()) return fail(three_d.status());
+    if (*three_d && options.repair_information)
+      return fail(Status::NotSupported("--repair-information covers 2-D g2o and TORO files"));
     if (*three_d) return RunSolve3dCommand(options, format, *solver_type, *preconditioner);
     storage::MrclamOptions mrclam;
     mrclam.robot = options.robot;
     mrclam.ignore_barcodes = options.ignore_barcodes;
     StatusOr<core::Problem2d> read =
-        storage::ReadProblem(options.input, format, mrclam, &mrclam_stats);
+        storage::ReadProblem(options.input, format, mrclam, &mrclam_stats,
+                             options.repair_information ? &repairs : nullptr);
     if (!read.ok()) return fail(read.status());
     problem = std::move(read).value();
     const core::UnidentifiedObservations unidentified =
@@ -829,6 +839,10 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                           {"out_of_time_range_dropped", mrclam_stats.out_of_time_range_dropped},
                           {"unknown_barcodes_skipped", mrclam_stats.unknown_barcodes_skipped},
                           {"unknown_barcode_lines", mrclam_stats.unknown_barcode_lines}};
+    if (options.repair_information)
+      report["information_repairs"] = {{"repaired", repairs.count},
+                                       {"first_lines", repairs.first_lines},
+                                       {"eigenvalue_floor_relative", core::kInformationEigenvalueFloor}};
     if (options.associate)
       report["association"] = BuildAssociationReport(association, association_summary, 200);
     if (Status status = storage::WriteStringAtomically(storage::Env::Default(), options.report,
@@ -867,6 +881,9 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                     inc.covariance_seconds, inc.assignment_seconds);
       }
     }
+    if (options.repair_information)
+      std::fprintf(out, "  information        %lld matrices were not positive definite: repaired\n",
+                   static_cast<long long>(repairs.count));
     if (std::isfinite(input_chi2))
       std::fprintf(out, "  input chi2         %.9g (the input's own estimate)\n", input_chi2);
     PrintSolverSummaryLines(out, summary, total_seconds);

@@ -31,6 +31,7 @@ struct Block {
   // MRCLAM (one run): what the reader skipped, and the robot sightings.
   storage::MrclamReadStats mrclam;
   RunSightings sightings;
+  core::InformationRepairs repairs;  // solver.repair_information
 };
 
 bool Inside(const std::array<double, 4>& box, double x, double y) {
@@ -79,7 +80,7 @@ StatusOr<Block> SimulateRun(const RunSpec& spec) {
   return block;
 }
 
-StatusOr<Block> ReadRun(const RunSpec& spec) {
+StatusOr<Block> ReadRun(const RunSpec& spec, bool repair_information) {
   if (spec.format == "simulate") return SimulateRun(spec);
   StatusOr<storage::InputFormat> format = storage::ParseInputFormat(spec.format);
   if (!format.ok()) return format.status();
@@ -91,9 +92,12 @@ StatusOr<Block> ReadRun(const RunSpec& spec) {
   if (spec.bearing_sigma)
     mrclam.measurement_information(1, 1) = 1.0 / (*spec.bearing_sigma * *spec.bearing_sigma);
   storage::MrclamReadStats stats;
-  StatusOr<core::Problem2d> read = storage::ReadProblem(spec.path, *format, mrclam, &stats);
+  core::InformationRepairs repairs;
+  StatusOr<core::Problem2d> read = storage::ReadProblem(spec.path, *format, mrclam, &stats,
+                                                        repair_information ? &repairs : nullptr);
   if (!read.ok()) return read.status();
   Block block;
+  block.repairs = std::move(repairs);
   block.problem = std::move(read).value();
   if (*format == storage::InputFormat::kMrclam) {
     std::error_code error;
@@ -365,7 +369,7 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
   std::map<int64_t, int32_t> feature_index;
   std::vector<RunSightings> sightings;
   for (const RunSpec& spec : job.runs) {
-    StatusOr<Block> read = ReadRun(spec);
+    StatusOr<Block> read = ReadRun(spec, job.solver.repair_information);
     if (!read.ok()) return read.status();
     Block block = std::move(read).value();
     if (!spec.ids) {
@@ -408,6 +412,7 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
       run.gps_fixes = fixes[r];
       run.has_ground_truth = !block.ground_truth[r].empty();
       run.synthetic_time = synthetic_time;
+      run.information_repairs = block.repairs;
       if (run.has_ground_truth) data.ground_truth[run.name] = block.ground_truth[r];
       run.indoor = block.indoor[r];
       run.unidentified = unidentified;

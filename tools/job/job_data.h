@@ -46,6 +46,7 @@
 #include <string>
 #include <vector>
 
+#include "core/information_repair.h"
 #include "core/problem.h"
 #include "core/status.h"
 #include "tools/job/job_spec.h"
@@ -64,6 +65,8 @@ struct RunInfo {
   // No time stamps of its own (g2o, iSAM) or the simulator's, which start at
   // 0 in every run: its TUM files get a synthetic clock (job_export.h).
   bool synthetic_time = false;
+  // solver.repair_information: information matrices repaired, first lines.
+  core::InformationRepairs information_repairs;
   // Came with unknown correspondences (ids: false, or observations without a
   // feature id): the associate stage runs data association.
   bool unidentified = false;

@@ -120,6 +120,10 @@ json RunEntry(const JobData& data, const RunInfo& run, bool tied, json* warnings
                 {"trajectory", "trajectories/" + run.name + ".tum"}};
   if (data.ground_truth.contains(run.name))
     entry["ground_truth_trajectory"] = "trajectories/" + run.name + "_groundtruth.tum";
+  if (run.information_repairs.count > 0) {
+    entry["information_repairs"] = run.information_repairs.count;
+    entry["information_repair_lines"] = run.information_repairs.first_lines;
+  }
   if (run.unknown_barcodes_skipped > 0) {
     entry["unknown_barcodes_skipped"] = run.unknown_barcodes_skipped;
     entry["unknown_barcode_lines"] = run.unknown_barcode_lines;

@@ -100,6 +100,8 @@ json RunsToJson(const JobData& data) {
                     {"gps_fixes", run.gps_fixes},
                     {"has_ground_truth", run.has_ground_truth},
                     {"synthetic_time", run.synthetic_time},
+                    {"information_repairs", run.information_repairs.count},
+                    {"information_repair_lines", run.information_repairs.first_lines},
                     {"unidentified", run.unidentified},
                     {"indoor", run.indoor},
                     {"unknown_barcodes_skipped", run.unknown_barcodes_skipped},
@@ -153,6 +155,9 @@ Status LoadData(const Context& ctx, const std::string& problem_file, JobData* da
       run.gps_fixes = r.at("gps_fixes").get<int64_t>();
       run.has_ground_truth = r.at("has_ground_truth").get<bool>();
       run.synthetic_time = r.value("synthetic_time", false);
+      run.information_repairs.count = r.value("information_repairs", int64_t{0});
+      run.information_repairs.first_lines =
+          r.value("information_repair_lines", std::vector<int32_t>());
       run.unidentified = r.value("unidentified", false);
       run.indoor = r.at("indoor").get<std::vector<uint8_t>>();
       run.unknown_barcodes_skipped = r.value("unknown_barcodes_skipped", int64_t{0});

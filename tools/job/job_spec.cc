@@ -374,7 +374,7 @@ Status ParseMap(const Reader& r, const YAML::Node& node, MapSpec* map) {
 Status ParseSolver(const Reader& r, const YAML::Node& node, SolverSpec* solver) {
   GS_RETURN_IF_ERROR(r.ExpectMap(node, "solver",
                                  {"max_iterations", "function_tolerance", "robust_kernel",
-                                  "initialization", "linear_solver"}));
+                                  "initialization", "linear_solver", "repair_information"}));
   if (node["max_iterations"])
     GS_RETURN_IF_ERROR(
         r.Int32(node["max_iterations"], "max_iterations", 0, 100000, &solver->max_iterations));
@@ -385,6 +385,9 @@ Status ParseSolver(const Reader& r, const YAML::Node& node, SolverSpec* solver) 
     GS_RETURN_IF_ERROR(r.String(node["robust_kernel"], "robust_kernel", &solver->robust_kernel));
   if (node["linear_solver"])
     GS_RETURN_IF_ERROR(r.String(node["linear_solver"], "linear_solver", &solver->linear_solver));
+  if (node["repair_information"])
+    GS_RETURN_IF_ERROR(
+        r.Bool(node["repair_information"], "repair_information", &solver->repair_information));
   if (node["initialization"]) {
     GS_RETURN_IF_ERROR(
         r.String(node["initialization"], "initialization", &solver->initialization));

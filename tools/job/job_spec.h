@@ -95,6 +95,9 @@ struct SolverSpec {
   std::string robust_kernel = "none";
   std::string initialization = "progressive";  // progressive, odometry
   std::string linear_solver = "auto";
+  // Repair non-positive-definite information of g2o / TORO runs instead of
+  // rejecting them (core/information_repair.h); counted per run in the report.
+  bool repair_information = false;
 };
 
 // The map stage (tools/job/job_map.h): OctoMap fusion of every run's scans
