@@ -7,3 +7,5 @@ target_sources(graphslam_core PRIVATE
   range_bearing_model.cc
   relative_pose_model.cc
   velocity_motion_model.cc)
+# Opt-in repair of non-positive-definite information matrices (issue 23).
+target_sources(graphslam_core PRIVATE information_repair.cc)

@@ -95,13 +95,14 @@ const char* InputFormatName(InputFormat format) {
 
 StatusOr<core::Problem2d> ReadProblem(const std::string& path, InputFormat format,
                                       const MrclamOptions& mrclam,
-                                      MrclamReadStats* mrclam_stats) {
+                                      MrclamReadStats* mrclam_stats,
+                                      core::InformationRepairs* repairs) {
   switch (format) {
-    case InputFormat::kG2o: return ReadG2o(path);
+    case InputFormat::kG2o: return ReadG2o(path, repairs);
     case InputFormat::kIsam: return ReadIsam(path);
     case InputFormat::kMrclam: return ReadMrclam(path, mrclam, mrclam_stats);
     case InputFormat::kNative: return ReadNativeLog(path);
-    case InputFormat::kToro: return ReadToro(path);
+    case InputFormat::kToro: return ReadToro(path, repairs);
   }
   return Status::InvalidArgument(
       "unknown InputFormat value; expected g2o, isam, mrclam, native or toro");

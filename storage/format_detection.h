@@ -19,6 +19,7 @@
 #include <string>
 #include <string_view>
 
+#include "core/information_repair.h"
 #include "core/problem.h"
 #include "core/problem_3d.h"
 #include "core/status.h"
@@ -41,10 +42,13 @@ StatusOr<InputFormat> ParseInputFormat(std::string_view name);
 const char* InputFormatName(InputFormat format);
 
 // Reads `path` with the reader of `format`; `mrclam` and `mrclam_stats` (if
-// given) are used for kMrclam only.
+// given) are used for kMrclam only. `repairs` (opt-in; kG2o and kToro, whose
+// files carry information matrices as written): repair non-positive-definite
+// information and count it there instead of rejecting the file.
 StatusOr<core::Problem2d> ReadProblem(const std::string& path, InputFormat format,
                                       const MrclamOptions& mrclam,
-                                      MrclamReadStats* mrclam_stats = nullptr);
+                                      MrclamReadStats* mrclam_stats = nullptr,
+                                      core::InformationRepairs* repairs = nullptr);
 
 // Reads a 3-D `path` with the 3-D reader of `format` (g2o, iSAM, TORO);
 // NotSupported for the formats that have none (MRCLAM, native).

@@ -4,6 +4,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "core/information_repair.h"
 #include "core/unidentified_features.h"
 #include "storage/internal/g2o_vertices.h"
 #include "storage/internal/text_reader.h"
@@ -48,7 +49,8 @@ constexpr const char* kKnownTags =
 
 class G2oParser {
  public:
-  explicit G2oParser(const std::string& path) : path_(path) {}
+  G2oParser(const std::string& path, core::InformationRepairs* repairs)
+      : path_(path), repairs_(repairs) {}
 
   StatusOr<core::Problem2d> Parse() {
     GS_ASSIGN_OR_RETURN(std::unique_ptr<LineReader> reader, LineReader::Open(path_));
@@ -65,6 +67,16 @@ class G2oParser {
   }
 
  private:
+  // With repair on (core/information_repair.h): repairs and counts a matrix
+  // that is not positive definite; false when repair is off (reject it).
+  template <typename Matrix>
+  bool Repaired(const LineReader& reader, Matrix* information) {
+    if (repairs_ == nullptr) return false;
+    core::RepairInformation(information);
+    repairs_->Record(reader.line_number());
+    return true;
+  }
+
   Status ParseLine(const LineReader& reader) {
     const std::string_view tag = reader.fields()[0];
     if (tag == "VERTEX_SE2") return ParseVertex(reader, VertexKind::kPose);
@@ -113,7 +125,7 @@ class G2oParser {
     GS_RETURN_IF_ERROR(reader.Doubles(6, 6, "information", upper, internal::Magnitude::kInformation));
     item.pose_measurement = core::Pose2(z[0], z[1], z[2]);
     item.information3 = internal::SymmetricFromUpper3(upper);
-    if (!internal::IsPositiveDefinite(item.information3)) {
+    if (!internal::IsPositiveDefinite(item.information3) && !Repaired(reader, &item.information3)) {
       return reader.Error("EDGE_SE2 information " + internal::UpperTriangleString(upper, 6) +
                           " is not positive definite; expected a symmetric positive definite "
                           "matrix (upper triangle xx xy xt yy yt tt)");
@@ -145,7 +157,7 @@ class G2oParser {
                                        internal::Magnitude::kInformation));
     item.point_measurement = Eigen::Vector2d(z[0], z[1]);
     item.information2 = internal::SymmetricFromUpper2(upper);
-    if (!internal::IsPositiveDefinite(item.information2)) {
+    if (!internal::IsPositiveDefinite(item.information2) && !Repaired(reader, &item.information2)) {
       return reader.Error(std::string(PendingTag(kind)) + " information " +
                           internal::UpperTriangleString(upper, 3) +
                           " is not positive definite; expected a symmetric positive definite "
@@ -173,7 +185,8 @@ class G2oParser {
     GS_RETURN_IF_ERROR(reader.Doubles(5, 3, "information", upper, internal::Magnitude::kInformation));
     core::Observation observation;
     observation.information = internal::SymmetricFromUpper2(upper);
-    if (!internal::IsPositiveDefinite(observation.information)) {
+    if (!internal::IsPositiveDefinite(observation.information) &&
+        !Repaired(reader, &observation.information)) {
       return reader.Error("DATA_FEATURE_POINTXY information " +
                           internal::UpperTriangleString(upper, 3) +
                           " is not positive definite; expected a symmetric positive definite "
@@ -260,6 +273,7 @@ class G2oParser {
   }
 
   const std::string path_;
+  core::InformationRepairs* const repairs_;  // null: reject non-PD information
   std::string name_;
   core::Problem2d problem_;
   internal::G2oVertices vertices_{"VERTEX_SE2", "VERTEX_XY"};
@@ -269,6 +283,8 @@ class G2oParser {
 
 }  // namespace
 
-StatusOr<core::Problem2d> ReadG2o(const std::string& path) { return G2oParser(path).Parse(); }
+StatusOr<core::Problem2d> ReadG2o(const std::string& path, core::InformationRepairs* repairs) {
+  return G2oParser(path, repairs).Parse();
+}
 
 }  // namespace graphslam::storage

@@ -37,12 +37,16 @@
 
 #include <string>
 
+#include "core/information_repair.h"
 #include "core/problem.h"
 #include "core/status.h"
 
 namespace graphslam::storage {
 
-// Sets problem.source = path and the `line` field of every element.
-StatusOr<core::Problem2d> ReadG2o(const std::string& path);
+// Sets problem.source = path and the `line` field of every element. With
+// `repairs` (opt-in), an information matrix that is not positive definite is
+// repaired (core/information_repair.h) and counted there instead of rejected.
+StatusOr<core::Problem2d> ReadG2o(const std::string& path,
+                                  core::InformationRepairs* repairs = nullptr);
 
 }  // namespace graphslam::storage

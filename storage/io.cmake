@@ -29,3 +29,7 @@ target_sources(graphslam_storage PRIVATE solver_checkpoint.cc sealed_json_text.c
   solver_state_file.cc feature_id_file.cc)
 # TORO / GTSAM .graph files, 2-D and 3-D (docs/formats/toro_graph.md).
 target_sources(graphslam_storage PRIVATE toro_reader.cc)
+# Trajectory files as ground truth: TUM and KITTI odometry poses (issue 23).
+target_sources(graphslam_storage PRIVATE tum_reader.cc kitti_pose_reader.cc trajectory_format.cc)
+# The run name table beside a job's map.pcd (issue 23).
+target_sources(graphslam_storage PRIVATE pcd_run_names.cc)

@@ -59,7 +59,7 @@ bool IsTwoDimensionalTag(std::string_view tag) {
 
 }  // namespace
 
-StatusOr<core::Problem2d> ReadToro(const std::string& path) {
+StatusOr<core::Problem2d> ReadToro(const std::string& path, core::InformationRepairs* repairs) {
   GS_ASSIGN_OR_RETURN(std::unique_ptr<internal::LineReader> reader,
                       internal::LineReader::Open(path));
   core::Problem2d problem;
@@ -87,6 +87,10 @@ StatusOr<core::Problem2d> ReadToro(const std::string& path) {
       c.information << t[0], t[1], t[4],  //
           t[1], t[2], t[5],               //
           t[4], t[5], t[3];
+      if (!internal::IsPositiveDefinite(c.information) && repairs != nullptr) {
+        core::RepairInformation(&c.information);
+        repairs->Record(reader->line_number());
+      }
       if (!internal::IsPositiveDefinite(c.information))
         return reader->Error("EDGE2 information " + internal::UpperTriangleString(t, 6) +
                              " is not positive definite; expected a symmetric positive definite "

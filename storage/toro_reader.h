@@ -41,13 +41,18 @@
 
 #include <string>
 
+#include "core/information_repair.h"
 #include "core/problem.h"
 #include "core/problem_3d.h"
 #include "core/status.h"
 
 namespace graphslam::storage {
 
-StatusOr<core::Problem2d> ReadToro(const std::string& path);
+// With `repairs` (opt-in), an EDGE2 information matrix that is not positive
+// definite is repaired (core/information_repair.h) and counted instead of
+// rejected.
+StatusOr<core::Problem2d> ReadToro(const std::string& path,
+                                   core::InformationRepairs* repairs = nullptr);
 StatusOr<core::Problem3d> ReadToro3d(const std::string& path);
 
 }  // namespace graphslam::storage

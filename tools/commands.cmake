@@ -5,6 +5,7 @@ target_sources(graphslam_tools PRIVATE
   simulate_command.cc
   trajectory_metrics.cc
   trajectory_statistics.cc)
+target_sources(graphslam_tools PRIVATE ground_truth.cc)
 target_sources(graphslam_tools PRIVATE ingest_command.cc)
 target_sources(graphslam_tools PRIVATE out_of_core_solve.cc)
 target_sources(graphslam_tools PRIVATE streaming_campus_simulator.cc)

@@ -11,7 +11,9 @@
 #include "core/logging.h"
 #include "storage/atomic_file.h"
 #include "storage/mrclam_reader.h"
+#include "storage/trajectory_format.h"
 #include "tools/exit_codes.h"
+#include "tools/ground_truth.h"
 #include "tools/option_checks.h"
 #include "tools/output_paths.h"
 #include "tools/trajectory_metrics.h"
@@ -26,6 +28,14 @@ Status ValidateOptions(const EvaluateCommandOptions& options) {
   if (tum_truth == mrclam_truth) {
     return Status::InvalidArgument(
         "give exactly one ground truth: --ground-truth GT.tum or --mrclam DIR");
+  }
+  if (options.ground_truth_format != "auto") {
+    if (Status status = storage::ParseTrajectoryFormat(options.ground_truth_format).status();
+        !status.ok())
+      return Status::InvalidArgument("--ground-truth-format: " + status.message());
+  }
+  if (!options.ground_truth_times.empty() && !tum_truth) {
+    return Status::InvalidArgument("--ground-truth-times needs --ground-truth POSES.txt (KITTI)");
   }
   if (mrclam_truth && !options.ground_truth_features.empty()) {
     return Status::InvalidArgument(
@@ -62,7 +72,13 @@ void AddEvaluateCommand(CLI::App* app, EvaluateCommandOptions* options, int* exi
       "evaluate", "Trajectory and landmark RMSE of an estimate against ground truth");
   evaluate->add_option("--trajectory", options->trajectory, "estimated trajectory (TUM)")
       ->required();
-  evaluate->add_option("--ground-truth", options->ground_truth, "true trajectory (TUM)");
+  evaluate->add_option("--ground-truth", options->ground_truth,
+                       "true trajectory (TUM or KITTI poses)");
+  evaluate->add_option("--ground-truth-format", options->ground_truth_format,
+                       "format of --ground-truth: auto, tum, kitti")
+      ->capture_default_str();
+  evaluate->add_option("--ground-truth-times", options->ground_truth_times,
+                       "KITTI times file (default: stamps are frame indices)");
   evaluate->add_option("--features", options->features, "estimated features (.csv)");
   evaluate->add_option("--ground-truth-features", options->ground_truth_features,
                        "true features (.csv)");
@@ -110,7 +126,8 @@ int RunEvaluateCommand(const EvaluateCommandOptions& options) {
     truth_features = std::move(mrclam->landmarks);
     have_truth_features = true;
   } else {
-    StatusOr<std::vector<StampedPose2>> read = ReadTum(options.ground_truth);
+    StatusOr<std::vector<StampedPose2>> read = ReadGroundTruth(
+        {options.ground_truth, options.ground_truth_format, options.ground_truth_times});
     if (!read.ok()) return fail(read.status());
     truth = std::move(read).value();
     if (!options.ground_truth_features.empty()) {

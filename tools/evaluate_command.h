@@ -17,7 +17,9 @@ namespace graphslam::tools {
 
 struct EvaluateCommandOptions {
   std::string trajectory;             // estimated TUM
-  std::string ground_truth;           // ground-truth TUM
+  std::string ground_truth;           // ground-truth trajectory (TUM or KITTI)
+  std::string ground_truth_format = "auto";  // auto, tum, kitti
+  std::string ground_truth_times;     // KITTI: times file (else stamps = frame index)
   std::string features;               // estimated features CSV
   std::string ground_truth_features;  // ground-truth features CSV
   std::string mrclam;                 // MRCLAM folder (instead of the two ground truths)

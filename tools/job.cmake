@@ -2,6 +2,7 @@
 target_sources(graphslam_tools PRIVATE
   run_command.cc
   job/job_data.cc
+  job/job_export.cc
   job/job_map.cc
   job/job_runner.cc
   job/job_spec.cc

@@ -56,6 +56,7 @@ struct SolveCommandOptions {
   double chi = 1e-3;                // --chi: accept pi_{j=k} > chi
   double association_radius = 5.0;  // --association-radius [m]
   bool ignore_barcodes = false;     // --ignore-barcodes (MRCLAM)
+  bool repair_information = false;  // --repair-information (core/information_repair.h)
   bool quiet = false;
   int verbosity = 0;
 };

@@ -12,21 +12,10 @@
 
 #include "core/angle.h"
 #include "core/check.h"
+#include "storage/tum_reader.h"
 
 namespace graphslam::tools {
 namespace {
-
-std::vector<std::string_view> SplitWhitespace(std::string_view line) {
-  std::vector<std::string_view> fields;
-  size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
-    const size_t start = i;
-    while (i < line.size() && line[i] != ' ' && line[i] != '\t' && line[i] != '\r') ++i;
-    if (i > start) fields.push_back(line.substr(start, i - start));
-  }
-  return fields;
-}
 
 std::string_view Trim(std::string_view text) {
   while (!text.empty() && (text.front() == ' ' || text.front() == '\t')) text.remove_prefix(1);
@@ -103,44 +92,12 @@ double MedianSpacing(const std::vector<StampedPose2>& poses,
 }  // namespace
 
 StatusOr<std::vector<StampedPose2>> ReadTum(const std::string& path) {
-  std::ifstream in;
-  GS_RETURN_IF_ERROR(OpenForReading(path, &in));
-  std::vector<StampedPose2> poses;
-  std::string line;
-  int64_t line_number = 0;
-  while (std::getline(in, line)) {
-    ++line_number;
-    const std::vector<std::string_view> fields = SplitWhitespace(line);
-    if (fields.empty() || fields[0].front() == '#') continue;
-    if (fields.size() != 8) {
-      return Status::Corruption(Where(path, line_number) +
-                                "expected 8 fields 't x y z qx qy qz qw', got " +
-                                std::to_string(fields.size()));
-    }
-    double values[8];
-    static const char* const kNames[8] = {"t", "x", "y", "z", "qx", "qy", "qz", "qw"};
-    for (int i = 0; i < 8; ++i) {
-      if (!ParseDouble(fields[static_cast<size_t>(i)], &values[i])) {
-        return Status::Corruption(Where(path, line_number) + "field " + std::to_string(i + 1) +
-                                  " (" + kNames[i] + "): expected a finite number, got '" +
-                                  std::string(fields[static_cast<size_t>(i)]) + "'");
-      }
-    }
-    const double qx = values[4], qy = values[5], qz = values[6], qw = values[7];
-    const double norm = std::sqrt(qx * qx + qy * qy + qz * qz + qw * qw);
-    if (!(norm > 1e-9)) {
-      return Status::Corruption(Where(path, line_number) +
-                                "quaternion (qx qy qz qw) has norm " + std::to_string(norm) +
-                                "; expected a unit quaternion");
-    }
-    StampedPose2 pose;
-    pose.stamp = values[0];
-    pose.pose = core::Pose2(values[1], values[2],
-                            std::atan2(2.0 * (qw * qz + qx * qy), norm * norm - 2.0 * (qy * qy + qz * qz)));
-    poses.push_back(pose);
-  }
-  if (in.bad()) return Status::IOError(path + ": read error after line " + std::to_string(line_number));
-  return poses;
+  GS_ASSIGN_OR_RETURN(std::vector<storage::StampedPose3> poses, storage::ReadTumTrajectory(path));
+  std::vector<StampedPose2> planar;
+  planar.reserve(poses.size());
+  for (const storage::StampedPose3& pose : poses)
+    planar.push_back(StampedPose2{pose.stamp, storage::ProjectToPlane(pose)});
+  return planar;
 }
 
 StatusOr<std::map<int64_t, core::Point2>> ReadFeaturesCsv(const std::string& path,

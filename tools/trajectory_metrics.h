@@ -47,11 +47,9 @@ struct StampedPose2 {
   core::Pose2 pose = core::Pose2::Zero();
 };
 
-// Reads a TUM trajectory ("t x y z qx qy qz qw" per line; '#' comments and
-// blank lines skipped) as planar poses: z is ignored, theta is the yaw of the
-// quaternion, atan2(2 (qw qz + qx qy), 1 - 2 (qy^2 + qz^2)). Corruption
-// "<file>:<line>: ..." for a wrong field count, a bad or non-finite number or a
-// zero quaternion; NotFound / IOError if the file cannot be read.
+// Reads a TUM trajectory (storage/tum_reader.h: "t x y z qx qy qz qw" per
+// line, errors "<file>:<line>: ...") as planar poses: z is ignored, theta is
+// the yaw of the quaternion (storage/stamped_pose.h, ProjectToPlane).
 StatusOr<std::vector<StampedPose2>> ReadTum(const std::string& path);
 
 // Reads a feature CSV as storage/features_csv_writer.h writes it

@@ -1,6 +1,8 @@
 #include "storage/g2o_reader.h"
 
 #include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
 #include <unistd.h>
 
 #include <filesystem>
@@ -254,6 +256,32 @@ TEST(G2oReader, RejectsSelfLoopEmptyFileAndMissingFile) {
   EXPECT_EQ(ReadError("# only a comment\n").message(),
             "bad.g2o: has no vertices or edges; expected a g2o graph");
   EXPECT_TRUE(ReadG2o("/nonexistent/graph.g2o").status().IsNotFound());
+}
+
+// Not positive definite: rejected naming the line by default; with repair on
+// (core/information_repair.h), repaired to positive definite and counted.
+TEST(G2oReader, RepairsNonPositiveDefiniteInformationOnlyWhenAsked) {
+  const std::string path = WriteTemp(
+      "indefinite.g2o",
+      "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nVERTEX_XY 2 1 1\n"
+      "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\n"              // PD: kept as is
+      "EDGE_SE2 0 1 1 0 0 1 2 0 1 0 1\n"              // eigenvalues 1 +- 2: indefinite
+      "EDGE_SE2_XY 1 2 0 1 1 0 0\n");                 // yy = 0: semidefinite
+  const Status rejected = ReadG2o(path).status();
+  EXPECT_TRUE(rejected.IsCorruption());
+  EXPECT_NE(rejected.message().find("indefinite.g2o:5: EDGE_SE2 information"), std::string::npos)
+      << rejected.message();
+  core::InformationRepairs repairs;
+  StatusOr<core::Problem2d> problem = ReadG2o(path, &repairs);
+  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+  EXPECT_EQ(repairs.count, 2);
+  EXPECT_EQ(repairs.first_lines, (std::vector<int32_t>{5, 6}));
+  EXPECT_EQ(problem->relative_poses[0].information, Eigen::Matrix3d::Identity());
+  for (const Eigen::Matrix3d& m : {problem->relative_poses[1].information})
+    EXPECT_EQ(Eigen::LLT<Eigen::Matrix3d>(m).info(), Eigen::Success);
+  EXPECT_EQ(Eigen::LLT<Eigen::Matrix2d>(problem->observations[0].information).info(),
+            Eigen::Success);
+  EXPECT_NEAR(problem->observations[0].information(1, 1), 1e-6, 1e-18);
 }
 
 }  // namespace

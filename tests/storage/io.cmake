@@ -22,3 +22,7 @@ graphslam_test(storage/store_directory)
 graphslam_test(storage/chunk_store_integrity)
 graphslam_test(storage/toro_reader)
 graphslam_test(storage/input_limits)
+# Trajectory files as ground truth (issue 23).
+graphslam_test(storage/tum_reader)
+graphslam_test(storage/kitti_pose_reader)
+graphslam_test(storage/pcd_run_names)

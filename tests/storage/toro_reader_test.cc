@@ -151,5 +151,25 @@ TEST(ToroReader, UnknownFormatNameListsToroAndAuto) {
   EXPECT_EQ(*ParseInputFormat("toro"), InputFormat::kToro);
 }
 
+// An EDGE2 information that is not positive definite: rejected naming the
+// line, or, with repair on (core/information_repair.h), repaired and counted.
+TEST(ToroReader, RepairsIndefiniteInformationOnlyWhenAsked) {
+  const std::string path = WriteTemp("indefinite.graph",
+                                     "VERTEX2 0 0 0 0\nVERTEX2 1 1 0 0\n"
+                                     "EDGE2 0 1 1 0 0 1 0 1 1 0 0\n"
+                                     "EDGE2 0 1 1 0 0 1 2 1 1 0 0\n");
+  const Status rejected = ReadToro(path).status();
+  EXPECT_TRUE(rejected.IsCorruption());
+  EXPECT_NE(rejected.message().find(":4: EDGE2 information"), std::string::npos)
+      << rejected.message();
+  core::InformationRepairs repairs;
+  StatusOr<core::Problem2d> problem = ReadToro(path, &repairs);
+  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+  EXPECT_EQ(repairs.count, 1);
+  EXPECT_EQ(repairs.first_lines, (std::vector<int32_t>{4}));
+  EXPECT_EQ(problem->relative_poses[0].information, Eigen::Matrix3d::Identity());
+  EXPECT_GT(problem->relative_poses[1].information.determinant(), 0.0);
+}
+
 }  // namespace
 }  // namespace graphslam::storage

@@ -158,5 +158,64 @@ TEST_F(EvaluateCommandTest, MrclamGroundTruthItselfHasZeroError) {
   EXPECT_LT(report["features"]["rmse_self_aligned_m"].get<double>(), 1e-9);
 }
 
+// KITTI poses as ground truth: camera frame (x right, y down, z forward) of
+// the true planar poses; the estimate is the truth moved rigidly, with stamps
+// = pose index (matched by index) or with the times of a times file.
+TEST_F(EvaluateCommandTest, KittiGroundTruthMatchesByIndexOrByTimesFile) {
+  CampusSimulatorOptions simulator;
+  simulator.poses = 300;
+  StatusOr<SimulatedCampus> campus = SimulateCampus(simulator);
+  ASSERT_TRUE(campus.ok());
+  Eigen::Matrix3d c;  // body -> camera is C^T (storage/kitti_pose_reader.h)
+  c << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  std::ofstream kitti(Path("00.txt")), times(Path("times.txt"));
+  core::Problem2d by_index, by_time;
+  const core::Pose2 moved(5.0, -3.0, 0.7);
+  for (size_t i = 0; i < campus->true_poses.size(); ++i) {
+    const core::Pose2& p = campus->true_poses[i];
+    const Eigen::Matrix3d r =
+        c.transpose() * Eigen::AngleAxisd(p.z(), Eigen::Vector3d::UnitZ()).toRotationMatrix() * c;
+    const Eigen::Vector3d t = c.transpose() * Eigen::Vector3d(p.x(), p.y(), 0.0);
+    char line[600];
+    std::snprintf(line, sizeof(line),
+                  "%.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n",
+                  r(0, 0), r(0, 1), r(0, 2), t.x(), r(1, 0), r(1, 1), r(1, 2), t.y(), r(2, 0),
+                  r(2, 1), r(2, 2), t.z());
+    kitti << line;
+    times << campus->problem.pose_stamps[i] << "\n";
+    by_index.AddPose(static_cast<int64_t>(i), core::Compose(moved, p), true, 0);
+    by_time.AddPose(static_cast<int64_t>(i), core::Compose(moved, p), true, 0,
+                    campus->problem.pose_stamps[i]);
+  }
+  kitti.close();
+  times.close();
+  ASSERT_TRUE(storage::WriteTum(by_index, Path("by_index.tum")).ok());
+  ASSERT_TRUE(storage::WriteTum(by_time, Path("by_time.tum")).ok());
+  for (const bool with_times : {false, true}) {
+    EvaluateCommandOptions options;
+    options.trajectory = Path(with_times ? "by_time.tum" : "by_index.tum");
+    options.ground_truth = Path("00.txt");
+    if (with_times) options.ground_truth_times = Path("times.txt");
+    options.report = Path("report.json");
+    options.quiet = true;
+    ASSERT_EQ(RunEvaluateCommand(options), kExitOk) << with_times;
+    const nlohmann::json report = ReadJson(options.report);
+    EXPECT_EQ(report["matched_poses"].get<int64_t>(), 300) << with_times;
+    EXPECT_LT(report["position_rmse_m"].get<double>(), 1e-6) << with_times;
+    EXPECT_LT(report["heading_rmse_rad"].get<double>(), 1e-9) << with_times;
+    EXPECT_NEAR(report["alignment"]["theta"].get<double>(), -0.7, 1e-9) << with_times;
+  }
+  // Malformed KITTI: exit 2, nothing written; a times file without KITTI: exit 1.
+  std::ofstream(Path("bad.txt")) << "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1\n";
+  EvaluateCommandOptions bad;
+  bad.trajectory = Path("by_index.tum");
+  bad.ground_truth = Path("bad.txt");
+  bad.ground_truth_format = "kitti";
+  bad.quiet = true;
+  EXPECT_EQ(RunEvaluateCommand(bad), kExitBadInput);
+  bad.ground_truth_format = "euroc";
+  EXPECT_EQ(RunEvaluateCommand(bad), kExitUsage);
+}
+
 }  // namespace
 }  // namespace graphslam::tools

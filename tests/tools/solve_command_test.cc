@@ -426,5 +426,27 @@ TEST_F(MrclamSolveTest, Dataset1RobotThreeReportsItsUnknownBarcodes) {
   EXPECT_EQ(report["mrclam"]["robot_measurements_dropped"].get<int>(), 1969);
 }
 
+// --repair-information: the default still rejects a non-PD information naming
+// the line; with the flag the solve runs, and the report and summary count it.
+TEST_F(SolveCommandTest, RepairInformationIsOptInAndCounted) {
+  std::vector<std::string> lines = SmallProblemLines();
+  lines[10] = "EDGE_SE2 1 2 0.98 -0.01 -0.02 100 0 0 -100 0 400";  // line 11: indefinite
+  const std::string input = WriteLines("in.g2o", lines);
+  const auto [code, message] = RunCapturingStderr(AllOutputs(input));
+  EXPECT_EQ(code, kExitBadInput) << message;
+  EXPECT_THAT(message, HasSubstr("in.g2o:11: EDGE_SE2 information"));
+  SolveCommandOptions options = AllOutputs(input);
+  options.repair_information = true;
+  ASSERT_EQ(RunSolveCommand(options), kExitOk);
+  const nlohmann::json report = ReadJson(options.report);
+  EXPECT_EQ(report["information_repairs"]["repaired"].get<int64_t>(), 1);
+  EXPECT_EQ(report["information_repairs"]["first_lines"], nlohmann::json({11}));
+  options.quiet = false;
+  ::testing::internal::CaptureStdout();
+  ASSERT_EQ(RunSolveCommand(options), kExitOk);
+  EXPECT_THAT(::testing::internal::GetCapturedStdout(),
+              HasSubstr("information        1 matrices were not positive definite: repaired"));
+}
+
 }  // namespace
 }  // namespace graphslam::tools

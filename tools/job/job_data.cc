@@ -16,6 +16,7 @@
 #include "core/unidentified_features.h"
 #include "storage/format_detection.h"
 #include "tools/campus_simulator.h"
+#include "tools/ground_truth.h"
 
 namespace graphslam::tools::job {
 namespace {
@@ -30,6 +31,7 @@ struct Block {
   // MRCLAM (one run): what the reader skipped, and the robot sightings.
   storage::MrclamReadStats mrclam;
   RunSightings sightings;
+  core::InformationRepairs repairs;  // solver.repair_information
 };
 
 bool Inside(const std::array<double, 4>& box, double x, double y) {
@@ -78,7 +80,7 @@ StatusOr<Block> SimulateRun(const RunSpec& spec) {
   return block;
 }
 
-StatusOr<Block> ReadRun(const RunSpec& spec) {
+StatusOr<Block> ReadRun(const RunSpec& spec, bool repair_information) {
   if (spec.format == "simulate") return SimulateRun(spec);
   StatusOr<storage::InputFormat> format = storage::ParseInputFormat(spec.format);
   if (!format.ok()) return format.status();
@@ -90,9 +92,12 @@ StatusOr<Block> ReadRun(const RunSpec& spec) {
   if (spec.bearing_sigma)
     mrclam.measurement_information(1, 1) = 1.0 / (*spec.bearing_sigma * *spec.bearing_sigma);
   storage::MrclamReadStats stats;
-  StatusOr<core::Problem2d> read = storage::ReadProblem(spec.path, *format, mrclam, &stats);
+  core::InformationRepairs repairs;
+  StatusOr<core::Problem2d> read = storage::ReadProblem(spec.path, *format, mrclam, &stats,
+                                                        repair_information ? &repairs : nullptr);
   if (!read.ok()) return read.status();
   Block block;
+  block.repairs = std::move(repairs);
   block.problem = std::move(read).value();
   if (*format == storage::InputFormat::kMrclam) {
     std::error_code error;
@@ -108,7 +113,8 @@ StatusOr<Block> ReadRun(const RunSpec& spec) {
   block.runs.emplace_back(spec.name, block.problem.num_poses());
   block.indoor.emplace_back();
   if (!spec.ground_truth.empty()) {
-    StatusOr<std::vector<StampedPose2>> truth = ReadTum(spec.ground_truth);
+    StatusOr<std::vector<StampedPose2>> truth = ReadGroundTruth(
+        {spec.ground_truth, spec.ground_truth_format, spec.ground_truth_times});
     if (!truth.ok()) return truth.status();
     block.ground_truth.push_back(std::move(truth).value());
   } else if (*format == storage::InputFormat::kMrclam &&
@@ -363,7 +369,7 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
   std::map<int64_t, int32_t> feature_index;
   std::vector<RunSightings> sightings;
   for (const RunSpec& spec : job.runs) {
-    StatusOr<Block> read = ReadRun(spec);
+    StatusOr<Block> read = ReadRun(spec, job.solver.repair_information);
     if (!read.ok()) return read.status();
     Block block = std::move(read).value();
     if (!spec.ids) {
@@ -388,6 +394,10 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
         ++fixes[run_of_pose[static_cast<size_t>(gps.pose)]];
     }
     int32_t first = data.problem.num_poses();
+    const bool synthetic_time =
+        spec.format == "simulate" ||
+        !std::all_of(block.problem.pose_stamps.begin(), block.problem.pose_stamps.end(),
+                     [](double t) { return std::isfinite(t); });
     if (!block.sightings.dataset.empty()) {
       block.sightings.first_pose = first;
       block.sightings.num_poses = block.problem.num_poses();
@@ -401,6 +411,8 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
       run.num_poses = block.runs[r].second;
       run.gps_fixes = fixes[r];
       run.has_ground_truth = !block.ground_truth[r].empty();
+      run.synthetic_time = synthetic_time;
+      run.information_repairs = block.repairs;
       if (run.has_ground_truth) data.ground_truth[run.name] = block.ground_truth[r];
       run.indoor = block.indoor[r];
       run.unidentified = unidentified;

@@ -46,6 +46,7 @@
 #include <string>
 #include <vector>
 
+#include "core/information_repair.h"
 #include "core/problem.h"
 #include "core/status.h"
 #include "tools/job/job_spec.h"
@@ -61,6 +62,11 @@ struct RunInfo {
   int32_t component = 0;
   int64_t gps_fixes = 0;
   bool has_ground_truth = false;
+  // No time stamps of its own (g2o, iSAM) or the simulator's, which start at
+  // 0 in every run: its TUM files get a synthetic clock (job_export.h).
+  bool synthetic_time = false;
+  // solver.repair_information: information matrices repaired, first lines.
+  core::InformationRepairs information_repairs;
   // Came with unknown correspondences (ids: false, or observations without a
   // feature id): the associate stage runs data association.
   bool unidentified = false;

@@ -31,6 +31,7 @@
 #include "storage/stop_point.h"
 #include "storage/tum_writer.h"
 #include "tools/job/job_data.h"
+#include "tools/job/job_export.h"
 #include "tools/job/job_map.h"
 #include "tools/job/job_spec.h"
 #include "tools/job/job_state.h"
@@ -99,6 +100,9 @@ json RunsToJson(const JobData& data) {
                     {"component", run.component},
                     {"gps_fixes", run.gps_fixes},
                     {"has_ground_truth", run.has_ground_truth},
+                    {"synthetic_time", run.synthetic_time},
+                    {"information_repairs", run.information_repairs.count},
+                    {"information_repair_lines", run.information_repairs.first_lines},
                     {"unidentified", run.unidentified},
                     {"indoor", run.indoor},
                     {"unknown_barcodes_skipped", run.unknown_barcodes_skipped},
@@ -151,6 +155,10 @@ Status LoadData(const Context& ctx, const std::string& problem_file, JobData* da
       run.component = r.at("component").get<int32_t>();
       run.gps_fixes = r.at("gps_fixes").get<int64_t>();
       run.has_ground_truth = r.at("has_ground_truth").get<bool>();
+      run.synthetic_time = r.value("synthetic_time", false);
+      run.information_repairs.count = r.value("information_repairs", int64_t{0});
+      run.information_repairs.first_lines =
+          r.value("information_repair_lines", std::vector<int32_t>());
       run.unidentified = r.value("unidentified", false);
       run.indoor = r.at("indoor").get<std::vector<uint8_t>>();
       run.unknown_barcodes_skipped = r.value("unknown_barcodes_skipped", int64_t{0});
@@ -509,238 +517,8 @@ Status StageMap(Context& ctx) {
 
 // ---- export -------------------------------------------------------------------
 
-std::vector<StampedPose2> Stamped(const core::Problem2d& problem, const RunInfo& run) {
-  std::vector<StampedPose2> poses;
-  for (int32_t i = run.first_pose; i < run.first_pose + run.num_poses; ++i) {
-    StampedPose2 p;
-    const double stamp = problem.pose_stamps[static_cast<size_t>(i)];
-    p.stamp = std::isfinite(stamp) ? stamp : i - run.first_pose;
-    p.pose = problem.poses[static_cast<size_t>(i)];
-    poses.push_back(p);
-  }
-  return poses;
-}
-
-struct RunErrors {
-  bool valid = false;
-  TrajectoryErrors errors;
-  double indoor_sum = 0;  // squared position errors of indoor poses
-  int64_t indoor_count = 0;
-  double all_sum = 0;
-  int64_t all_count = 0;
-};
-
-RunErrors EvaluateRun(const JobData& data, const RunInfo& run) {
-  RunErrors result;
-  auto truth = data.ground_truth.find(run.name);
-  if (truth == data.ground_truth.end()) return result;
-  StatusOr<TrajectoryErrors> errors = CompareTrajectories(Stamped(data.problem, run), truth->second);
-  if (!errors.ok()) return result;
-  result.valid = true;
-  result.errors = *errors;
-  const std::vector<StampedPose2> estimated = Stamped(data.problem, run);
-  for (size_t k = 0; k < errors->estimated_index.size(); ++k) {
-    const auto e = static_cast<size_t>(errors->estimated_index[k]);
-    const auto g = static_cast<size_t>(errors->ground_truth_index[k]);
-    const Eigen::Vector2d p = errors->alignment * estimated[e].pose.head<2>();
-    const double squared = (p - truth->second[g].pose.head<2>()).squaredNorm();
-    result.all_sum += squared;
-    ++result.all_count;
-    if (e < run.indoor.size() && run.indoor[e]) {
-      result.indoor_sum += squared;
-      ++result.indoor_count;
-    }
-  }
-  return result;
-}
-
-double Rmse(double sum, int64_t count) {
-  return count > 0 ? std::sqrt(sum / static_cast<double>(count)) : std::nan("");
-}
-
-Status StageExport(Context& ctx, const Clock::time_point export_start) {
-  JobData data;
-  GS_RETURN_IF_ERROR(LoadData(ctx, "optimized.graphslam", &data));
-  json optimize;
-  GS_RETURN_IF_ERROR(ReadJson(ctx.Work("optimize.json"), &optimize));
-  std::vector<uint8_t> excluded = optimize.value("excluded", std::vector<uint8_t>());
-  if (excluded.size() != static_cast<size_t>(data.problem.num_features()))
-    return Status::Corruption(ctx.Work("optimize.json") + ": 'excluded' has " +
-                              std::to_string(excluded.size()) + " entries; expected " +
-                              std::to_string(data.problem.num_features()));
-  std::error_code error;
-  fs::create_directories(ctx.Output("trajectories"), error);
-  if (error) return Status::IOError("cannot create " + ctx.Output("trajectories") + ": " + error.message());
-
-  json report;
-  report["job"] = ctx.spec.path;
-  report["output"] = ctx.spec.output;
-  report["threads"] = ctx.spec.threads > 0 ? ctx.spec.threads : tbb::info::default_concurrency();
-  report["memory_limit_bytes"] = ctx.spec.memory_limit;
-  json warnings = json::array();
-  json runs = json::array();
-  std::vector<int> runs_in_component(static_cast<size_t>(data.num_components), 0);
-  for (const RunInfo& run : data.runs) ++runs_in_component[static_cast<size_t>(run.component)];
-  double indoor_sum = 0, all_sum = 0;
-  int64_t indoor_count = 0, all_count = 0;
-  // Per component, every run with ground truth after ONE rigid alignment of
-  // them all (tools/trajectory_metrics.h, CompareTrajectoriesJointly).
-  json joint_errors = json::array();
-  std::map<std::string, TrajectoryErrors> joint_of_run;
-  for (int32_t c = 0; c < data.num_components; ++c) {
-    std::vector<std::vector<StampedPose2>> estimated, truth;
-    json names = json::array();
-    for (const RunInfo& run : data.runs) {
-      if (run.component != c || !data.ground_truth.contains(run.name)) continue;
-      estimated.push_back(Stamped(data.problem, run));
-      truth.push_back(data.ground_truth.at(run.name));
-      names.push_back(run.name);
-    }
-    if (estimated.empty()) continue;
-    StatusOr<JointTrajectoryErrors> joint = CompareTrajectoriesJointly(estimated, truth);
-    if (!joint.ok()) {
-      warnings.push_back("component " + std::to_string(c) +
-                         ": no joint trajectory error: " + joint.status().message());
-      continue;
-    }
-    json per_run = json::array();
-    for (size_t k = 0; k < joint->runs.size(); ++k) {
-      const TrajectoryErrors& e = joint->runs[k];
-      joint_of_run[names[k].get<std::string>()] = e;
-      per_run.push_back({{"name", names[k]},
-                         {"matched_poses", e.matched},
-                         {"position_rmse_m", e.position_rmse},
-                         {"heading_rmse_rad", e.heading_rmse_rad},
-                         {"position_max_m", e.position_max}});
-    }
-    joint_errors.push_back(
-        {{"component", c},
-         {"runs", per_run},
-         {"matched_poses", joint->matched},
-         {"position_rmse_m", joint->position_rmse},
-         {"heading_rmse_rad", joint->heading_rmse_rad},
-         {"alignment",
-          {{"x", joint->alignment.translation().x()},
-           {"y", joint->alignment.translation().y()},
-           {"theta", RotationAngle(joint->alignment)}}}});
-  }
-  for (const RunInfo& run : data.runs) {
-    const std::string tum = ctx.Output("trajectories/" + run.name + ".tum");
-    GS_RETURN_IF_ERROR(storage::WriteTum(RunTrajectory(data.problem, run), tum));
-    const bool tied = runs_in_component[static_cast<size_t>(run.component)] > 1 || run.gps_fixes > 0;
-    if (!tied && data.runs.size() > 1)
-      warnings.push_back("run " + run.name +
-                         " is tied to no other run (no shared landmark, no robot sighting, no "
-                         "GPS): it is mapped on its own, in its own frame");
-    json entry = {{"name", run.name},
-                  {"poses", run.num_poses},
-                  {"component", run.component},
-                  {"gps_fixes", run.gps_fixes},
-                  {"tied", tied},
-                  {"trajectory", "trajectories/" + run.name + ".tum"}};
-    if (run.unknown_barcodes_skipped > 0) {
-      entry["unknown_barcodes_skipped"] = run.unknown_barcodes_skipped;
-      entry["unknown_barcode_lines"] = run.unknown_barcode_lines;
-      warnings.push_back("run " + run.name + ": " + std::to_string(run.unknown_barcodes_skipped) +
-                         " measurements with a barcode in no row of Barcodes.dat were skipped "
-                         "(first: " + run.unknown_barcode_lines.front() + ")");
-    }
-    if (auto joint = joint_of_run.find(run.name); joint != joint_of_run.end()) {
-      entry["joint_position_rmse_m"] = joint->second.position_rmse;
-      entry["joint_heading_rmse_rad"] = joint->second.heading_rmse_rad;
-    }
-    const RunErrors errors = EvaluateRun(data, run);
-    if (errors.valid) {
-      entry["position_rmse_m"] = errors.errors.position_rmse;
-      entry["heading_rmse_rad"] = errors.errors.heading_rmse_rad;
-      entry["position_max_m"] = errors.errors.position_max;
-      entry["matched_poses"] = errors.errors.matched;
-      if (errors.indoor_count > 0) {
-        entry["indoor_poses"] = errors.indoor_count;
-        entry["indoor_position_rmse_m"] = Rmse(errors.indoor_sum, errors.indoor_count);
-      }
-      indoor_sum += errors.indoor_sum;
-      indoor_count += errors.indoor_count;
-      all_sum += errors.all_sum;
-      all_count += errors.all_count;
-    }
-    runs.push_back(entry);
-  }
-  report["runs"] = runs;
-  report["joint_trajectory_errors"] = joint_errors;
-  if (data.sightings.constraints + data.sightings.robot_not_in_job +
-          data.sightings.no_pose_at_stamp > 0) {
-    std::vector<int32_t> run_of_pose(static_cast<size_t>(data.problem.num_poses()));
-    for (size_t r = 0; r < data.runs.size(); ++r)
-      for (int32_t i = 0; i < data.runs[r].num_poses; ++i)
-        run_of_pose[static_cast<size_t>(data.runs[r].first_pose + i)] = static_cast<int32_t>(r);
-    json pairs = json::array();
-    for (const auto& [pair, count] : CountSightingsPerRunPair(data.problem, run_of_pose))
-      pairs.push_back({{"runs",
-                        {data.runs[static_cast<size_t>(pair.first)].name,
-                         data.runs[static_cast<size_t>(pair.second)].name}},
-                       {"constraints", count}});
-    report["robot_sightings"] = {{"constraints", data.sightings.constraints},
-                                 {"robot_not_in_job", data.sightings.robot_not_in_job},
-                                 {"no_pose_at_stamp", data.sightings.no_pose_at_stamp},
-                                 {"pairs", pairs}};
-  }
-  report["components"] = optimize["components"];
-  if (fs::exists(ctx.Work("associate.json"))) {
-    json association;
-    GS_RETURN_IF_ERROR(ReadJson(ctx.Work("associate.json"), &association));
-    report["association"] = association;
-  }
-  if (all_count > 0) report["position_rmse_m"] = Rmse(all_sum, all_count);
-  if (data.enu_origin)
-    report["enu_origin"] = {{"latitude", (*data.enu_origin)[0]},
-                            {"longitude", (*data.enu_origin)[1]},
-                            {"height", (*data.enu_origin)[2]}};
-
-  // Features against ground truth, in the frame of the first run's alignment.
-  if (!data.ground_truth_features.empty()) {
-    std::map<int64_t, core::Point2> estimated;
-    for (int32_t f = 0; f < data.problem.num_features(); ++f)
-      if (!excluded[static_cast<size_t>(f)])
-        estimated[data.problem.feature_ids[static_cast<size_t>(f)]] =
-            data.problem.features[static_cast<size_t>(f)];
-    const FeatureErrors features =
-        CompareFeatures(estimated, data.ground_truth_features, Eigen::Isometry2d::Identity());
-    report["features"] = {{"matched", features.matched},
-                          {"rmse_self_aligned_m", features.rmse_self_aligned}};
-  }
-
-  // GPS ablation (Figure 6).
-  if (fs::exists(ctx.Work("optimized_without_gps.graphslam"))) {
-    JobData without;
-    GS_RETURN_IF_ERROR(LoadData(ctx, "optimized_without_gps.graphslam", &without));
-    double w_indoor = 0, w_all = 0;
-    int64_t w_indoor_count = 0, w_all_count = 0;
-    for (const RunInfo& run : without.runs) {
-      const RunErrors errors = EvaluateRun(without, run);
-      w_indoor += errors.indoor_sum;
-      w_indoor_count += errors.indoor_count;
-      w_all += errors.all_sum;
-      w_all_count += errors.all_count;
-    }
-    report["gps_comparison"] = {{"indoor_poses", indoor_count},
-                                {"indoor_rmse_with_gps_m", Rmse(indoor_sum, indoor_count)},
-                                {"indoor_rmse_without_gps_m", Rmse(w_indoor, w_indoor_count)},
-                                {"position_rmse_with_gps_m", Rmse(all_sum, all_count)},
-                                {"position_rmse_without_gps_m", Rmse(w_all, w_all_count)}};
-  }
-
-  // The map (map stage): its files, atomically, and its summary.
-  json map_summary = nullptr;
-  std::vector<std::string> map_files;
-  if (ctx.spec.HasStage(Stage::kMap) && fs::exists(ctx.Work("map.json"))) {
-    GS_RETURN_IF_ERROR(ReadJson(ctx.Work("map.json"), &map_summary));
-    StatusOr<std::vector<std::string>> files = ExportJobMap(ctx.work, ctx.spec.output);
-    if (!files.ok()) return files.status();
-    map_files = std::move(files).value();
-  }
-
-  // Stages: time and memory.
+// The report's stage table: time and memory of every stage, the export's so far.
+json StagesReport(const Context& ctx, Clock::time_point export_start, bool has_map) {
   json stages = json::array();
   for (Stage stage : ctx.spec.stages) {
     const std::string name = StageName(stage);
@@ -755,10 +533,92 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
       rss = PeakRssBytes();
     }
     json entry = {{"stage", name}, {"seconds", seconds}, {"peak_rss_bytes", rss}};
-    if (stage == Stage::kMap) entry["note"] = map_summary.is_null() ? "no scans" : "scans fused";
+    if (stage == Stage::kMap) entry["note"] = has_map ? "scans fused" : "no scans";
     stages.push_back(entry);
   }
-  report["stages"] = stages;
+  return stages;
+}
+
+// optimize.json's `excluded`: one flag per feature of `data`.
+StatusOr<std::vector<uint8_t>> ExcludedFeatures(const Context& ctx, const json& optimize,
+                                                const JobData& data) {
+  std::vector<uint8_t> excluded = optimize.value("excluded", std::vector<uint8_t>());
+  if (excluded.size() != static_cast<size_t>(data.problem.num_features()))
+    return Status::Corruption(ctx.Work("optimize.json") + ": 'excluded' has " +
+                              std::to_string(excluded.size()) + " entries; expected " +
+                              std::to_string(data.problem.num_features()));
+  return excluded;
+}
+
+// The map (map stage): its files copied atomically, with their run name
+// tables, and its summary (null without a map).
+StatusOr<json> ExportMap(const Context& ctx, const JobData& data,
+                         std::vector<std::string>* map_files) {
+  if (!ctx.spec.HasStage(Stage::kMap) || !fs::exists(ctx.Work("map.json"))) return json(nullptr);
+  json summary;
+  GS_RETURN_IF_ERROR(ReadJson(ctx.Work("map.json"), &summary));
+  GS_ASSIGN_OR_RETURN(*map_files, ExportJobMap(ctx.work, ctx.spec.output));
+  GS_ASSIGN_OR_RETURN(std::vector<std::string> tables,
+                      WriteMapRunNames(data, ctx.spec.output, *map_files));
+  map_files->insert(map_files->end(), tables.begin(), tables.end());
+  return summary;
+}
+
+// report.json's keys beyond the runs (tools/job/job_export.h has the steps).
+Status AddJobReport(Context& ctx, const JobData& data, const std::vector<uint8_t>& excluded,
+                    const ErrorSums& sums, json* report) {
+  if (json sightings = RobotSightingsReport(data); !sightings.is_null())
+    (*report)["robot_sightings"] = sightings;
+  if (fs::exists(ctx.Work("associate.json"))) {
+    json association;
+    GS_RETURN_IF_ERROR(ReadJson(ctx.Work("associate.json"), &association));
+    (*report)["association"] = association;
+  }
+  if (sums.all_count > 0) (*report)["position_rmse_m"] = Rmse(sums.all_sum, sums.all_count);
+  if (data.enu_origin)
+    (*report)["enu_origin"] = {{"latitude", (*data.enu_origin)[0]},
+                               {"longitude", (*data.enu_origin)[1]},
+                               {"height", (*data.enu_origin)[2]}};
+  if (!data.ground_truth_features.empty())
+    (*report)["features"] = FeatureErrorsReport(data, excluded);
+  // GPS ablation (Figure 6).
+  if (fs::exists(ctx.Work("optimized_without_gps.graphslam"))) {
+    JobData without;
+    GS_RETURN_IF_ERROR(LoadData(ctx, "optimized_without_gps.graphslam", &without));
+    const ErrorSums w = SumRunErrors(without);
+    (*report)["gps_comparison"] = {
+        {"indoor_poses", sums.indoor_count},
+        {"indoor_rmse_with_gps_m", Rmse(sums.indoor_sum, sums.indoor_count)},
+        {"indoor_rmse_without_gps_m", Rmse(w.indoor_sum, w.indoor_count)},
+        {"position_rmse_with_gps_m", Rmse(sums.all_sum, sums.all_count)},
+        {"position_rmse_without_gps_m", Rmse(w.all_sum, w.all_count)}};
+  }
+  return Status::Ok();
+}
+
+Status StageExport(Context& ctx, const Clock::time_point export_start) {
+  JobData data;
+  GS_RETURN_IF_ERROR(LoadData(ctx, "optimized.graphslam", &data));
+  json optimize;
+  GS_RETURN_IF_ERROR(ReadJson(ctx.Work("optimize.json"), &optimize));
+  GS_ASSIGN_OR_RETURN(const std::vector<uint8_t> excluded, ExcludedFeatures(ctx, optimize, data));
+  GS_RETURN_IF_ERROR(WriteRunTrajectories(data, ctx.spec.output));
+
+  json report;
+  report["job"] = ctx.spec.path;
+  report["output"] = ctx.spec.output;
+  report["threads"] = ctx.spec.threads > 0 ? ctx.spec.threads : tbb::info::default_concurrency();
+  report["memory_limit_bytes"] = ctx.spec.memory_limit;
+  json warnings = json::array();
+  const RunsReport runs = ReportRuns(data, &warnings);
+  report["runs"] = runs.runs;
+  report["joint_trajectory_errors"] = runs.joint_trajectory_errors;
+  report["components"] = optimize["components"];
+  GS_RETURN_IF_ERROR(AddJobReport(ctx, data, excluded, runs.sums, &report));
+  std::vector<std::string> map_files;
+  GS_ASSIGN_OR_RETURN(const json map_summary, ExportMap(ctx, data, &map_files));
+
+  report["stages"] = StagesReport(ctx, export_start, !map_summary.is_null());
   if (ctx.spec.memory_limit > 0 && PeakRssBytes() > ctx.spec.memory_limit)
     warnings.push_back("peak resident memory " + std::to_string(PeakRssBytes() >> 20) +
                        " MiB exceeded the memory limit of " +

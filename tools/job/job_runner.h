@@ -16,7 +16,8 @@
 //               the chi2 history (.job/optimize_c<k>.history.json)
 //               -> .job/optimized.graphslam, .job/optimize.json
 //   map         3-D map fusion of the runs' scans (none yet: logged)
-//   export      OUTPUT/trajectories/<run>.tum, features.csv, graph.g2o,
+//   export      OUTPUT/trajectories/<run>.tum (and <run>_groundtruth.tum),
+//               map.runs.json, features.csv, graph.g2o,
 //               report.json, report.html (each atomically)
 //
 // --resume skips the stages state.json lists and continues the optimize

@@ -262,6 +262,29 @@ Status ParseGps(const Reader& r, const YAML::Node& node, RunSpec* run) {
   return Status::Ok();
 }
 
+// ground_truth: FILE, or {path: FILE, format: auto|tum|kitti, times: FILE}.
+Status ParseGroundTruth(const Reader& r, const YAML::Node& node, RunSpec* run) {
+  if (node.IsScalar()) return r.Path(node, "ground_truth", &run->ground_truth);
+  GS_RETURN_IF_ERROR(r.ExpectMap(node, "ground_truth", {"path", "format", "times"}));
+  if (!node["path"])
+    return Error(r.file(), node, "ground_truth has no 'path'; expected a TUM or KITTI file");
+  GS_RETURN_IF_ERROR(r.Path(node["path"], "path", &run->ground_truth));
+  if (node["format"]) {
+    GS_RETURN_IF_ERROR(r.String(node["format"], "format", &run->ground_truth_format));
+    if (run->ground_truth_format != "auto" && run->ground_truth_format != "tum" &&
+        run->ground_truth_format != "kitti")
+      return Error(r.file(), node["format"],
+                   "ground_truth format '" + run->ground_truth_format +
+                       "'; expected auto, tum or kitti");
+  }
+  if (node["times"]) {
+    if (run->ground_truth_format == "tum")
+      return Error(r.file(), node["times"], "'times' goes with KITTI poses; TUM carries its times");
+    GS_RETURN_IF_ERROR(r.Path(node["times"], "times", &run->ground_truth_times));
+  }
+  return Status::Ok();
+}
+
 Status ParseRun(const Reader& r, const YAML::Node& node, RunSpec* run) {
   GS_RETURN_IF_ERROR(r.ExpectMap(node, "a run",
                                  {"name", "format", "path", "robot", "simulate", "gps",
@@ -319,8 +342,7 @@ Status ParseRun(const Reader& r, const YAML::Node& node, RunSpec* run) {
   }
   if (node["gps"]) GS_RETURN_IF_ERROR(ParseGps(r, node["gps"], run));
   if (node["ids"]) GS_RETURN_IF_ERROR(r.Bool(node["ids"], "ids", &run->ids));
-  if (node["ground_truth"])
-    GS_RETURN_IF_ERROR(r.Path(node["ground_truth"], "ground_truth", &run->ground_truth));
+  if (node["ground_truth"]) GS_RETURN_IF_ERROR(ParseGroundTruth(r, node["ground_truth"], run));
   if (node["scans"]) GS_RETURN_IF_ERROR(r.Path(node["scans"], "scans", &run->scans));
   return Status::Ok();
 }
@@ -352,7 +374,7 @@ Status ParseMap(const Reader& r, const YAML::Node& node, MapSpec* map) {
 Status ParseSolver(const Reader& r, const YAML::Node& node, SolverSpec* solver) {
   GS_RETURN_IF_ERROR(r.ExpectMap(node, "solver",
                                  {"max_iterations", "function_tolerance", "robust_kernel",
-                                  "initialization", "linear_solver"}));
+                                  "initialization", "linear_solver", "repair_information"}));
   if (node["max_iterations"])
     GS_RETURN_IF_ERROR(
         r.Int32(node["max_iterations"], "max_iterations", 0, 100000, &solver->max_iterations));
@@ -363,6 +385,9 @@ Status ParseSolver(const Reader& r, const YAML::Node& node, SolverSpec* solver) 
     GS_RETURN_IF_ERROR(r.String(node["robust_kernel"], "robust_kernel", &solver->robust_kernel));
   if (node["linear_solver"])
     GS_RETURN_IF_ERROR(r.String(node["linear_solver"], "linear_solver", &solver->linear_solver));
+  if (node["repair_information"])
+    GS_RETURN_IF_ERROR(
+        r.Bool(node["repair_information"], "repair_information", &solver->repair_information));
   if (node["initialization"]) {
     GS_RETURN_IF_ERROR(
         r.String(node["initialization"], "initialization", &solver->initialization));

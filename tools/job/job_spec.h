@@ -79,7 +79,10 @@ struct RunSpec {
   // which are the same (partition/association_driver.h), within the run and
   // across runs.
   bool ids = true;
-  std::string ground_truth;  // optional TUM file
+  // optional ground truth: a TUM or KITTI trajectory (tools/ground_truth.h)
+  std::string ground_truth;
+  std::string ground_truth_format = "auto";  // auto, tum, kitti
+  std::string ground_truth_times;            // KITTI: optional times file
   // optional scan store folder (storage/scan_store.h: DIR/scans/SCANS.json)
   // whose scans' `pose` is the 0-based pose index within this run (map stage)
   std::string scans;
@@ -92,6 +95,9 @@ struct SolverSpec {
   std::string robust_kernel = "none";
   std::string initialization = "progressive";  // progressive, odometry
   std::string linear_solver = "auto";
+  // Repair non-positive-definite information of g2o / TORO runs instead of
+  // rejecting them (core/information_repair.h); counted per run in the report.
+  bool repair_information = false;
 };
 
 // The map stage (tools/job/job_map.h): OctoMap fusion of every run's scans

@@ -17,8 +17,15 @@ StatusOr<ReportInputs> CollectReportInputs(const JobData& data,
         ReadTum((fs::path(output_dir) / "trajectories" / (run.name + ".tum")).string());
     if (!estimated.ok()) return estimated.status();
     r.estimated = std::move(estimated).value();
-    if (auto truth = data.ground_truth.find(run.name); truth != data.ground_truth.end())
-      r.ground_truth = truth->second;
+    // The ground truth as exported beside the estimate, on the same clock
+    // (a synthetic run's times are shifted to follow the previous run's).
+    const fs::path truth_file =
+        fs::path(output_dir) / "trajectories" / (run.name + "_groundtruth.tum");
+    if (data.ground_truth.contains(run.name) && fs::exists(truth_file)) {
+      StatusOr<std::vector<StampedPose2>> truth = ReadTum(truth_file.string());
+      if (!truth.ok()) return truth.status();
+      r.ground_truth = std::move(truth).value();
+    }
     inputs.runs.push_back(std::move(r));
   }
   for (size_t f = 0; f < data.problem.features.size(); ++f)

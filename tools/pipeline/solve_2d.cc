@@ -22,6 +22,7 @@
 
 #include "core/graphslam_solver.h"
 #include "core/initialization.h"
+#include "core/information_repair.h"
 #include "core/logging.h"
 #include "core/unidentified_features.h"
 #include "partition/association_driver.h"
@@ -63,6 +64,7 @@ struct Solve2d {
   core::Problem2d problem;
   const char* format_name = "chunk-store";
   storage::MrclamReadStats mrclam_stats;  // an MRCLAM input's skipped records
+  core::InformationRepairs repairs;       // --repair-information
   bool streaming = false;  // observations stay on disk; the ingest's guess starts
   int64_t num_observations = 0;
   double read_seconds = 0, initialize_seconds = 0, progressive_seconds = 0;
@@ -200,7 +202,8 @@ Status ReadFile(const SolveRun& run, const DetectedInput& file, Solve2d& s) {
   mrclam.robot = options.robot;
   mrclam.ignore_barcodes = options.ignore_barcodes;
   GS_ASSIGN_OR_RETURN(s.problem,
-                      storage::ReadProblem(options.input, file.format, mrclam, &s.mrclam_stats));
+                      storage::ReadProblem(options.input, file.format, mrclam, &s.mrclam_stats,
+                                           options.repair_information ? &s.repairs : nullptr));
   const core::UnidentifiedObservations unidentified =
       core::CountUnidentifiedObservations(s.problem);
   if (unidentified.count > 0 && !options.associate) {
@@ -502,6 +505,11 @@ nlohmann::json Report2d(const SolveRun& run, const Solve2d& s, double total_seco
         {"out_of_time_range_dropped", s.mrclam_stats.out_of_time_range_dropped},
         {"unknown_barcodes_skipped", s.mrclam_stats.unknown_barcodes_skipped},
         {"unknown_barcode_lines", s.mrclam_stats.unknown_barcode_lines}};
+  if (options.repair_information)
+    report["information_repairs"] = {{"repaired", s.repairs.count},
+                                     {"first_lines", s.repairs.first_lines},
+                                     {"eigenvalue_floor_relative",
+                                      core::kInformationEigenvalueFloor}};
   if (options.associate)
     report["association"] = BuildAssociationReport(s.association, s.association_summary, 200);
   return report;
@@ -536,6 +544,9 @@ void PrintSummary2d(const SolveRun& run, const Solve2d& s, double total_seconds)
   std::fprintf(out, "  observations       %lld%s\n", static_cast<long long>(s.num_observations),
                s.streaming ? " (streamed from disk)" : "");
   if (options.associate) PrintAssociation(out, s.association_summary);
+  if (options.repair_information)
+    std::fprintf(out, "  information        %lld matrices were not positive definite: repaired\n",
+                 static_cast<long long>(s.repairs.count));
   if (std::isfinite(s.input_chi2))
     std::fprintf(out, "  input chi2         %.9g (the input's own estimate)\n", s.input_chi2);
   PrintSolverSummaryLines(out, s.summary, total_seconds);

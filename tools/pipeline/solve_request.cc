@@ -57,6 +57,8 @@ Status CheckCommandOptions(const SolveCommandOptions& options) {
     return Usage("--resume needs --checkpoint FILE (or a chunk store as input)");
   if (options.associate && (options.resume || !options.checkpoint.empty()))
     return Usage("--associate cannot be combined with --checkpoint/--resume");
+  if (options.repair_information && !options.workdir.empty())
+    return Usage("--repair-information cannot be combined with --workdir");
   if (options.associate && !options.workdir.empty())
     return Usage("--associate cannot be combined with --workdir (merges rewrite the in-memory "
                  "chunks only)");

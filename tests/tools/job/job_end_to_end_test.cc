@@ -61,16 +61,32 @@ TEST_F(JobEndToEnd, MultiRunJobWritesOutputsThatMatchGroundTruth) {
   campus_options.seed = 4;
   StatusOr<SimulatedCampus> campus = SimulateCampus(campus_options);
   ASSERT_TRUE(campus.ok());
+  // The simulator's times start at 0 in every run; the job's TUM files
+  // continue them: run 2 starts 1 s after run 1 ended (tools/job/job_export.h).
+  double offset = 0.0;
   for (int run = 0; run < 2; ++run) {
     std::vector<StampedPose2> truth;
     for (size_t i = 0; i < campus->true_poses.size(); ++i) {
       if (campus->run_of_pose[i] != run) continue;
-      truth.push_back({campus->problem.pose_stamps[i], campus->true_poses[i]});
+      truth.push_back({offset + campus->problem.pose_stamps[i], campus->true_poses[i]});
     }
-    StatusOr<std::vector<StampedPose2>> estimate =
-        ReadTum((out / ("trajectories/campus_" + std::to_string(run + 1) + ".tum")).string());
+    offset = truth.back().stamp + 1.0;
+    const std::string name = "trajectories/campus_" + std::to_string(run + 1);
+    StatusOr<std::vector<StampedPose2>> estimate = ReadTum((out / (name + ".tum")).string());
     ASSERT_TRUE(estimate.ok()) << estimate.status().ToString();
     ASSERT_EQ(estimate->size(), truth.size());
+    EXPECT_DOUBLE_EQ(estimate->front().stamp, truth.front().stamp);
+    // The ground truth beside it, re-read: the same poses at the same times,
+    // so `evo_ape tum campus_N_groundtruth.tum campus_N.tum` pairs them.
+    StatusOr<std::vector<StampedPose2>> written =
+        ReadTum((out / (name + "_groundtruth.tum")).string());
+    ASSERT_TRUE(written.ok()) << written.status().ToString();
+    ASSERT_EQ(written->size(), truth.size());
+    for (size_t i = 0; i < truth.size(); ++i) {
+      EXPECT_DOUBLE_EQ((*written)[i].stamp, truth[i].stamp);
+      EXPECT_NEAR(((*written)[i].pose - truth[i].pose).norm(), 0.0, 1e-12);
+    }
+
     // With GPS the estimate is in the true frame: compare without alignment.
     TrajectoryMatchOptions unaligned;
     unaligned.align = false;
@@ -100,6 +116,21 @@ TEST_F(JobEndToEnd, MultiRunJobWritesOutputsThatMatchGroundTruth) {
 
   // The report: the unrelated run is its own component, and said so.
   const nlohmann::json report = nlohmann::json::parse(ReadFile(out / "report.json"));
+  for (int run = 0; run < 3; ++run) {
+    EXPECT_EQ(report["runs"][run]["time"], "synthetic");
+    const std::string name = report["runs"][run]["name"].get<std::string>();
+    EXPECT_EQ(report["runs"][run]["ground_truth_trajectory"],
+              "trajectories/" + name + "_groundtruth.tum");
+  }
+  // Times never restart: each run's TUM starts after the previous one ended.
+  double previous_end = -1.0;
+  for (const char* name : {"campus_1", "campus_2", "lonely"}) {
+    StatusOr<std::vector<StampedPose2>> poses =
+        ReadTum((out / "trajectories" / (std::string(name) + ".tum")).string());
+    ASSERT_TRUE(poses.ok()) << poses.status().ToString();
+    EXPECT_GT(poses->front().stamp, previous_end) << name;
+    previous_end = poses->back().stamp;
+  }
   ASSERT_EQ(report["components"].size(), 2u);
   ASSERT_EQ(report["runs"].size(), 3u);
   EXPECT_EQ(report["runs"][0]["component"], 0);

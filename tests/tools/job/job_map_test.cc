@@ -21,6 +21,7 @@
 #include "partition/streaming_ingest.h"
 #include "storage/env.h"
 #include "storage/pcd_io.h"
+#include "storage/pcd_run_names.h"
 #include "storage/scan_store.h"
 #include "tools/campus_simulator.h"
 #include "tools/job/job_map.h"
@@ -76,11 +77,15 @@ TEST_F(JobMap, ScansAreFusedAtTheOptimizedPosesIntoAMapOfTheTrueWorld) {
   const map::Campus3d world = MakeCampusWorld3d(CampusOptions(), *campus, kSensorHeight);
 
   // Trajectories: with GPS the estimate is in the true frame.
+  // (The job's TUM times continue from run to run: run 2 starts 1 s after
+  // run 1 ended, tools/job/job_export.h.)
+  double offset = 0.0;
   for (int run = 0; run < 2; ++run) {
     std::vector<StampedPose2> truth;
     for (size_t i = 0; i < campus->true_poses.size(); ++i)
       if (campus->run_of_pose[i] == run)
-        truth.push_back({campus->problem.pose_stamps[i], campus->true_poses[i]});
+        truth.push_back({offset + campus->problem.pose_stamps[i], campus->true_poses[i]});
+    offset = truth.back().stamp + 1.0;
     StatusOr<std::vector<StampedPose2>> estimate =
         ReadTum((out / ("trajectories/campus_" + std::to_string(run + 1) + ".tum")).string());
     ASSERT_TRUE(estimate.ok()) << estimate.status().ToString();
@@ -176,6 +181,10 @@ TEST_F(JobMap, ScansAreFusedAtTheOptimizedPosesIntoAMapOfTheTrueWorld) {
   ASSERT_EQ(cloud->run.size(), cloud->points.size());
   std::set<float> runs(cloud->run.begin(), cloud->run.end());
   EXPECT_EQ(runs, (std::set<float>{0.0f, 1.0f}));
+  // The name of each run index, read back from the table beside the cloud.
+  StatusOr<std::vector<std::string>> names = storage::ReadPcdRunNames((out / "map.pcd").string());
+  ASSERT_TRUE(names.ok()) << names.status().ToString();
+  EXPECT_EQ(*names, (std::vector<std::string>{"campus_1", "campus_2"}));
 
   // The report says what was fused and where it went.
   const nlohmann::json report = nlohmann::json::parse(ReadFile(out / "report.json"));
@@ -261,6 +270,11 @@ TEST_F(JobMap, ARunTiedToNothingIsMappedOnItsOwn) {
   ASSERT_TRUE(lonely.ok()) << lonely.status().ToString();
   EXPECT_EQ(std::set<float>(main->run.begin(), main->run.end()), (std::set<float>{0.0f, 1.0f}));
   EXPECT_EQ(std::set<float>(lonely->run.begin(), lonely->run.end()), (std::set<float>{2.0f}));
+  // Run index 2 of map_c1.pcd is "lonely": one index space for all maps.
+  StatusOr<std::vector<std::string>> names =
+      storage::ReadPcdRunNames((out / "map_c1.pcd").string());
+  ASSERT_TRUE(names.ok()) << names.status().ToString();
+  EXPECT_EQ(*names, (std::vector<std::string>{"campus_1", "campus_2", "lonely"}));
   octomap::OcTree tree(0.1);
   EXPECT_TRUE(tree.readBinary((out / "map_c1.bt").string()));
   const nlohmann::json report = nlohmann::json::parse(ReadFile(out / "report.json"));

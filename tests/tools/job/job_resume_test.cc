@@ -40,6 +40,7 @@ std::string ReadFile(const fs::path& path) {
 
 // The deterministic outputs (the report holds wall times, so it is not one).
 std::vector<std::string> kCompared = {"trajectories/campus_1.tum", "trajectories/campus_2.tum",
+                                      "trajectories/campus_1_groundtruth.tum", "map.runs.json",
                                       "features.csv", "graph.g2o", "map.bt", "map.pcd"};
 
 class JobResume : public ::testing::Test {

@@ -108,6 +108,27 @@ TEST(JobSpec, MapScansAndIds) {
   EXPECT_TRUE(plain->runs[0].ids);
 }
 
+TEST(JobSpec, GroundTruthFilesAndInformationRepair) {
+  const std::string text =
+      "output: o\n"
+      "solver: {repair_information: true}\n"
+      "runs:\n"
+      "  - {name: a, format: g2o, path: a.g2o, ground_truth: a.tum}\n"
+      "  - {name: b, format: g2o, path: b.g2o,\n"
+      "     ground_truth: {path: poses/00.txt, format: kitti, times: seq/times.txt}}\n";
+  StatusOr<JobSpec> job = ParseJobSpec(text, "/jobs/j.yaml");
+  ASSERT_TRUE(job.ok()) << job.status().ToString();
+  EXPECT_TRUE(job->solver.repair_information);
+  EXPECT_EQ(job->runs[0].ground_truth, "/jobs/a.tum");
+  EXPECT_EQ(job->runs[0].ground_truth_format, "auto");
+  EXPECT_EQ(job->runs[1].ground_truth, "/jobs/poses/00.txt");
+  EXPECT_EQ(job->runs[1].ground_truth_format, "kitti");
+  EXPECT_EQ(job->runs[1].ground_truth_times, "/jobs/seq/times.txt");
+  StatusOr<JobSpec> plain = ParseJobSpec("output: o\nruns:\n  - {name: s, format: simulate}\n", "j.yaml");
+  ASSERT_TRUE(plain.ok());
+  EXPECT_FALSE(plain->solver.repair_information);
+}
+
 struct BadCase {
   std::string text;
   std::string location;  // "j.yaml:<line>:<column>"
@@ -163,7 +184,13 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"output: o\nruns:\n  - {name: s, format: simulate, simulate: {scan_max_range: 0}}\n",
                 "j.yaml:3:60", "'scan_max_range' must be > 0"},
         BadCase{"output: o\nruns:\n  - {name: s, format: simulate, ids: perhaps}\n",
-                "j.yaml:3:38", "expected true or false"}));
+                "j.yaml:3:38", "expected true or false"},
+        BadCase{"output: o\nruns:\n  - {name: a, format: g2o, path: x, ground_truth: {path: g, format: gpx}}\n", "j.yaml:3:69",
+                "ground_truth format 'gpx'; expected auto, tum or kitti"},
+        BadCase{"output: o\nruns:\n  - {name: a, format: g2o, path: x, ground_truth: {format: kitti}}\n", "j.yaml:3:51",
+                "ground_truth has no 'path'"},
+        BadCase{"output: o\nsolver: {repair_information: sometimes}\nruns:\n  - {name: s, format: simulate}\n",
+                "j.yaml:2:30", "expected true or false"}));
 
 TEST(JobSpec, MissingFileIsNotFound) {
   StatusOr<JobSpec> job = ReadJobSpec("/nonexistent/job.yaml");
