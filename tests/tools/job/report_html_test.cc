@@ -325,10 +325,19 @@ TEST_F(ReportOfAJob, ShowsEveryTableAndFigure) {
   ASSERT_TRUE(campus.ok());
   for (int run = 0; run < 2; ++run) {
     const std::string name = "campus_" + std::to_string(run + 1);
+    // The exported ground truth is the simulator's, on the estimate's clock
+    // (a synthetic run's times follow the previous run's: job_export.h).
+    StatusOr<std::vector<StampedPose2>> exported_truth =
+        ReadTum((out / "trajectories" / (name + "_groundtruth.tum")).string());
+    ASSERT_TRUE(exported_truth.ok()) << exported_truth.status().ToString();
     std::vector<StampedPose2> truth_poses;
     for (size_t i = 0; i < campus->true_poses.size(); ++i)
       if (campus->run_of_pose[i] == run)
         truth_poses.push_back({campus->problem.pose_stamps[i], campus->true_poses[i]});
+    ASSERT_EQ(exported_truth->size(), truth_poses.size());
+    for (size_t i = 0; i < truth_poses.size(); ++i)
+      EXPECT_LT((exported_truth->at(i).pose - truth_poses[i].pose).norm(), 1e-6) << name << " " << i;
+    truth_poses = *exported_truth;
     StatusOr<std::vector<StampedPose2>> estimate = ReadTum((out / "trajectories" / (name + ".tum")).string());
     ASSERT_TRUE(estimate.ok()) << estimate.status().ToString();
     StatusOr<TrajectoryErrors> matching = CompareTrajectories(*estimate, truth_poses);
