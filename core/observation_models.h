@@ -37,6 +37,7 @@
 #include <type_traits>
 #include <utility>
 
+#include "core/bearing_model.h"
 #include "core/point_observation_model.h"
 #include "core/range_bearing_model.h"
 #include "core/se2.h"
@@ -49,6 +50,7 @@ namespace graphslam::core {
 enum class ObservationKind : uint8_t {
   kRangeBearing = 0,  // RangeBearingModel: z = (range, bearing)
   kPointXY = 1,       // PointXYModel: z = the feature in the robot frame
+  kBearing = 2,       // BearingModel: z = (bearing, 0)
 };
 
 template <class... Models>
@@ -57,7 +59,7 @@ struct ModelList {
 };
 
 // In ObservationKind order.
-using ObservationModelList = ModelList<RangeBearingModel, PointXYModel>;
+using ObservationModelList = ModelList<RangeBearingModel, PointXYModel, BearingModel>;
 
 inline constexpr int kNumObservationKinds = static_cast<int>(ObservationModelList::kSize);
 
