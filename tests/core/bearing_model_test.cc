@@ -22,6 +22,7 @@
 #include "storage/native_log_reader.h"
 #include "tests/testing/dense_reference.h"
 #include "tests/testing/numeric_diff.h"
+#include "tests/testing/planar_draws.h"
 #include "tests/testing/random_problem.h"
 #include "tests/testing/tight_solver_options.h"
 
@@ -58,19 +59,12 @@ TEST(BearingModel, FeatureOnTheRobotIsDegenerate) {
 
 TEST(BearingModel, JacobiansMatchCentralDifferencesIncludingAcrossPi) {
   std::mt19937 rng(kSeed);
-  std::uniform_real_distribution<double> position(-20.0, 20.0), angle(-kPi, kPi), range(0.2, 30.0),
-      small(-0.05, 0.05);
+  std::uniform_real_distribution<double> small(-0.05, 0.05);
   for (int i = 0; i < 1000; ++i) {
-    Pose2 pose(position(rng), position(rng), angle(rng));
-    double world_angle = angle(rng);
-    if (i % 4 == 0) pose.z() = (i % 8 == 0 ? kPi : -kPi) + small(rng) * 1e-3;  // theta near +-pi
-    if (i % 4 == 1) world_angle = pose.z() + kPi + small(rng) * 1e-3;          // feature behind
-    if (i % 4 == 2) world_angle = kPi + small(rng) * 1e-3;                     // atan2 jumps
-    const Point2 feature =
-        pose.head<2>() + range(rng) * Eigen::Vector2d(std::cos(world_angle), std::sin(world_angle));
+    const auto [pose, feature, world_angle] = testing::DrawAcrossPi(i, rng);
     const Eigen::Vector2d z(WrapAngle(world_angle - pose.z() + small(rng)), 0.0);
-    SCOPED_TRACE(::testing::Message() << "draw " << i << " pose " << pose.transpose()
-                                      << " feature " << feature.transpose());
+    SCOPED_TRACE(::testing::Message() << "bearing draw " << i << ": " << pose.transpose() << " -> "
+                                      << feature.transpose());
     Eigen::Matrix<double, 2, 3> jacobian_pose;
     Eigen::Matrix2d jacobian_feature;
     ASSERT_TRUE(
