@@ -8,8 +8,7 @@
 #include <utility>
 #include <vector>
 
-#include "core/point_observation_model.h"
-#include "core/range_bearing_model.h"
+#include "core/observation_models.h"
 #include "core/se2.h"
 #include "core/velocity_motion_model.h"
 
@@ -336,9 +335,8 @@ void PlaceFeature(Problem2d* problem, const Observation& observation) {
   uint8_t& initialized = problem->feature_initialized[observation.feature];
   if (initialized != 0) return;
   const Pose2& pose = problem->poses[observation.pose];
-  problem->features[observation.feature] = observation.kind == ObservationKind::kRangeBearing
-                                               ? InvertRangeBearing(pose, observation.z)
-                                               : InvertPointObservation(pose, observation.z);
+  problem->features[observation.feature] =
+      InvertObservation(observation.kind, pose, observation.z);
   initialized = 1;
 }
 

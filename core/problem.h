@@ -7,7 +7,8 @@
 //   - relative-pose odometry between two poses        (relative_pose_model.h)
 //   - velocity motion between consecutive poses         (velocity_motion_model.h)
 //   - GPS position fixes of a pose                      (gps_model.h)
-//   - observations of a feature from a pose: range-bearing or point-in-frame
+//   - observations of a feature from a pose, one of the observation models
+//     of the registry                                   (observation_models.h)
 //   - range-bearing measurements of one pose's position from another pose
 //     (a robot seeing another robot)                    (pose_range_bearing_model.h)
 // Indices are dense (0..n-1); the ids of the input file are kept beside them so
@@ -22,15 +23,11 @@
 #include <string>
 #include <vector>
 
+#include "core/observation_models.h"
 #include "core/se2.h"
 #include "core/velocity_motion_model.h"
 
 namespace graphslam::core {
-
-enum class ObservationKind : uint8_t {
-  kRangeBearing = 0,  // z = (range, bearing)
-  kPointXY = 1,       // z = feature position in the robot frame (g2o EDGE_SE2_XY)
-};
 
 struct Observation {
   int32_t pose = -1;     // index into Problem2d::poses

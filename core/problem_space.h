@@ -4,7 +4,8 @@
 // two in their .cc files (fixed block sizes in the hot loops).
 //
 //   Space2d: poses SE(2) (x, y, theta), pose block kPoseDim = 3; features
-//            R^2, kFeatureDim = 2; Observation (range-bearing or point-xy).
+//            R^2, kFeatureDim = 2; Observation (any model of the registry,
+//            core/observation_models.h).
 //   Space3d: poses SE(3) (unit quaternion, translation), kPoseDim = 6;
 //            features R^3, kFeatureDim = 3; Point3Observation (a point in
 //            the frame of the pose).
@@ -22,11 +23,10 @@
 
 #include <Eigen/Core>
 
+#include "core/observation_models.h"
 #include "core/point3_observation_model.h"
-#include "core/point_observation_model.h"
 #include "core/problem.h"
 #include "core/problem_3d.h"
-#include "core/range_bearing_model.h"
 #include "core/se2.h"
 #include "core/se3_lie.h"
 
@@ -43,22 +43,12 @@ struct Space2d {
   using PoseVector = Eigen::Matrix<double, kPoseDim, 1>;
 
   // Residual and Jacobians (any of them may be nullptr); false if the
-  // observation is degenerate (range-bearing with the feature on the robot).
+  // observation is degenerate (e.g. range-bearing with the feature on the robot).
   static bool Evaluate(const Observation& observation, const Pose& pose, const Point& feature,
                        Eigen::Vector2d* residual, Eigen::Matrix<double, 2, 3>* jacobian_pose,
                        Eigen::Matrix2d* jacobian_feature) {
-    bool ok = false;
-    switch (observation.kind) {
-      case ObservationKind::kRangeBearing:
-        ok = EvaluateRangeBearing(pose, feature, observation.z, residual, jacobian_pose,
-                                  jacobian_feature);
-        break;
-      case ObservationKind::kPointXY:
-        EvaluatePointObservation(pose, feature, observation.z, residual, jacobian_pose,
-                                 jacobian_feature);
-        ok = true;
-        break;
-    }
+    const bool ok = EvaluateObservation(observation.kind, pose, feature, observation.z, residual,
+                                        jacobian_pose, jacobian_feature);
     if (ok && jacobian_pose != nullptr) *jacobian_pose = *jacobian_pose * RetractionJacobian(pose);
     return ok;
   }

@@ -31,4 +31,23 @@ bool EvaluateRangeBearing(const Pose2& pose, const Point2& feature,
 //   m = (x, y) + r (cos(theta + phi), sin(theta + phi)).
 Point2 InvertRangeBearing(const Pose2& pose, const Eigen::Vector2d& measurement);
 
+// The model's entry in the registry (core/observation_models.h). A range of 0
+// is rejected by the readers: the bearing and the polar Jacobian are undefined.
+struct RangeBearingModel {
+  static constexpr const char* kName = "range-bearing";
+  static constexpr const char* kNativeLogTag = "RB";
+  static constexpr int kMeasurementDim = 2;
+  static constexpr const char* kMeasurementFields[2] = {"range", "bearing"};
+  static constexpr const char* kMeasurementRule = "range > 0";
+  static int InvalidMeasurementField(const Eigen::Vector2d& z) { return z(0) > 0.0 ? -1 : 0; }
+  static bool Evaluate(const Pose2& pose, const Point2& feature, const Eigen::Vector2d& z,
+                       Eigen::Vector2d* residual, Eigen::Matrix<double, 2, 3>* jacobian_pose,
+                       Eigen::Matrix2d* jacobian_feature) {
+    return EvaluateRangeBearing(pose, feature, z, residual, jacobian_pose, jacobian_feature);
+  }
+  static Point2 Invert(const Pose2& pose, const Eigen::Vector2d& z) {
+    return InvertRangeBearing(pose, z);
+  }
+};
+
 }  // namespace graphslam::core

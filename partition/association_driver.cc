@@ -42,18 +42,13 @@ double SecondsSince(Clock::time_point t) {
 double ObservationChi2(const core::Observation& o, const core::Pose2& pose,
                        const core::Point2& feature) {
   Eigen::Vector2d e;
-  if (o.kind == core::ObservationKind::kRangeBearing) {
-    if (!core::EvaluateRangeBearing(pose, feature, o.z, &e, nullptr, nullptr))
-      return std::numeric_limits<double>::infinity();
-  } else {
-    core::EvaluatePointObservation(pose, feature, o.z, &e, nullptr, nullptr);
-  }
+  if (!core::EvaluateObservation(o.kind, pose, feature, o.z, &e, nullptr, nullptr))
+    return std::numeric_limits<double>::infinity();
   return e.dot(o.information * e);
 }
 
 core::Point2 FirstSight(const core::Observation& o, const core::Pose2& pose) {
-  return o.kind == core::ObservationKind::kRangeBearing ? core::InvertRangeBearing(pose, o.z)
-                                                       : core::InvertPointObservation(pose, o.z);
+  return core::InvertObservation(o.kind, pose, o.z);
 }
 
 using internal::ChiSquareQuantile;
@@ -79,12 +74,9 @@ void RefitFeature(const core::Problem2d& problem, const std::vector<int32_t>& ob
       const core::Observation& obs = problem.observations[o];
       Eigen::Vector2d e;
       Eigen::Matrix2d j;
-      if (obs.kind == core::ObservationKind::kRangeBearing) {
-        if (!core::EvaluateRangeBearing(problem.poses[obs.pose], *feature, obs.z, &e, nullptr, &j))
-          continue;
-      } else {
-        core::EvaluatePointObservation(problem.poses[obs.pose], *feature, obs.z, &e, nullptr, &j);
-      }
+      if (!core::EvaluateObservation(obs.kind, problem.poses[obs.pose], *feature, obs.z, &e,
+                                     nullptr, &j))
+        continue;
       h += j.transpose() * obs.information * j;
       g += j.transpose() * obs.information * e;
     }

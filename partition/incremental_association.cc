@@ -29,8 +29,7 @@ double SecondsSince(Clock::time_point t) {
 }
 
 core::Point2 FirstSight(const core::Observation& o, const core::Pose2& pose) {
-  return o.kind == core::ObservationKind::kRangeBearing ? core::InvertRangeBearing(pose, o.z)
-                                                       : core::InvertPointObservation(pose, o.z);
+  return core::InvertObservation(o.kind, pose, o.z);
 }
 
 struct Cluster {

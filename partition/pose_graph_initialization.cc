@@ -62,9 +62,7 @@ Status InitializeFromPoseGraph(const core::SolverOptions& solver, int max_iterat
                                   " is also in another chunk (chunks must be feature-complete)");
       const core::Observation& o = chunk.observations[static_cast<size_t>(first)];
       const core::Pose2& pose = problem->poses[static_cast<size_t>(o.pose)];
-      problem->features[feature] = o.kind == core::ObservationKind::kRangeBearing
-                                       ? core::InvertRangeBearing(pose, o.z)
-                                       : core::InvertPointObservation(pose, o.z);
+      problem->features[feature] = core::InvertObservation(o.kind, pose, o.z);
       ++*placed_here;
     }
     return Status::Ok();

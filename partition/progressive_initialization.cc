@@ -208,9 +208,7 @@ Status InitializeProgressively(const ProgressiveInitializationOptions& options,
       if (first_sight[f] < 0) continue;
       const core::Observation& o = problem->observations[first_sight[f]];
       if (o.pose < previous || o.pose >= t) continue;
-      features[f] = o.kind == core::ObservationKind::kRangeBearing
-                        ? core::InvertRangeBearing(poses[o.pose], o.z)
-                        : core::InvertPointObservation(poses[o.pose], o.z);
+      features[f] = core::InvertObservation(o.kind, poses[o.pose], o.z);
     }
     previous = t;
     if (t == n && !options.solve_last_stage) break;

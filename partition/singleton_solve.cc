@@ -2,8 +2,7 @@
 
 #include <vector>
 
-#include "core/point_observation_model.h"
-#include "core/range_bearing_model.h"
+#include "core/observation_models.h"
 
 namespace graphslam::partition {
 
@@ -17,11 +16,12 @@ Status SolveWithoutSingletons(const core::SolverOptions& options, const Chunking
     const int32_t f = problem->observations[o].feature;
     if (++count[f] == 1) only[f] = static_cast<int64_t>(o);
   }
-  // A range-bearing observation at range 0 does not determine its feature
-  // (E is singular): such a feature stays in the solve.
+  // A measurement its model rejects (a range-bearing observation at range 0)
+  // does not determine its feature (E is singular): such a feature stays in
+  // the solve.
   auto invertible = [&](int64_t o) {
     const core::Observation& obs = problem->observations[o];
-    return obs.kind != core::ObservationKind::kRangeBearing || obs.z.x() > 0.0;
+    return core::IsValidMeasurement(obs.kind, obs.z);
   };
   std::vector<uint8_t> left_out(problem->features.size(), 0);
   int64_t left_out_count = 0;
@@ -52,9 +52,7 @@ Status SolveWithoutSingletons(const core::SolverOptions& options, const Chunking
     if (!left_out[f]) continue;
     const core::Observation& o = problem->observations[only[f]];
     const core::Pose2& pose = problem->poses[o.pose];
-    problem->features[f] = o.kind == core::ObservationKind::kRangeBearing
-                               ? core::InvertRangeBearing(pose, o.z)
-                               : core::InvertPointObservation(pose, o.z);
+    problem->features[f] = core::InvertObservation(o.kind, pose, o.z);
   }
   return Status::Ok();
 }

@@ -202,9 +202,10 @@ Status SpillFrameDecoder::DecodeFrame(const std::string& path, int64_t offset, c
     o.pose = static_cast<int32_t>(pose);
     o.feature = Get<int32_t>(base, c.feature, i);
     const uint8_t kind = Get<uint8_t>(base, c.kind, i);
-    if (kind > static_cast<uint8_t>(core::ObservationKind::kPointXY))
+    if (!core::IsObservationKind(kind))
       return Status::Corruption(At(path, offset) + "observation " + std::to_string(i) +
-                                " has kind " + std::to_string(kind) + "; expected 0 or 1");
+                                " has kind " + std::to_string(kind) + "; expected " +
+                                core::ObservationKindRange());
     o.kind = static_cast<core::ObservationKind>(kind);
     o.z(0) = Get<double>(base, c.z, i);
     o.z(1) = Get<double>(base, c.z + 8 * n, i);

@@ -18,6 +18,8 @@
 //              observation * (sum of observation_count)
 //   observation := pose:i32 feature:i32 kind:u8 z[2]:f64
 //                  information[4]:f64 (column-major) line:i32  (61 bytes)
+//              kind: a model of core/observation_models.h, which says how
+//              that model fills z and the information.
 //   footer payload (type 2, never compressed, last record of the file):
 //              num_features:i64 num_observations:i64 num_blocks:u32
 //              chain_crc:u32 = Mask(CRC32C(header_crc || crc of each block))
@@ -149,9 +151,7 @@ inline bool IsValidObservation(const core::Observation& observation,
   bool finite = std::isfinite(observation.z[0]) && std::isfinite(observation.z[1]);
   for (int i = 0; i < 4; ++i) finite = finite && std::isfinite(observation.information.data()[i]);
   return observation.feature == expected_feature && observation.pose >= 0 &&
-         (kind == static_cast<uint8_t>(core::ObservationKind::kRangeBearing) ||
-          kind == static_cast<uint8_t>(core::ObservationKind::kPointXY)) &&
-         finite;
+         core::IsObservationKind(kind) && finite;
 }
 
 // "" when `observation` may be stored in the slot of feature `expected_feature`,
@@ -168,9 +168,9 @@ inline std::string DescribeInvalidObservation(const core::Observation& observati
     return "pose " + std::to_string(observation.pose) + " is negative";
   }
   const auto kind = static_cast<uint8_t>(observation.kind);
-  if (kind != static_cast<uint8_t>(core::ObservationKind::kRangeBearing) &&
-      kind != static_cast<uint8_t>(core::ObservationKind::kPointXY)) {
-    return "kind " + std::to_string(kind) + " is not an ObservationKind (expected 0 or 1)";
+  if (!core::IsObservationKind(kind)) {
+    return "kind " + std::to_string(kind) + " is not an ObservationKind (expected " +
+           core::ObservationKindRange() + ")";
   }
   for (int i = 0; i < 2; ++i) {
     if (!std::isfinite(observation.z[i])) return "z[" + std::to_string(i) + "] is not finite";

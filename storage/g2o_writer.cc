@@ -77,6 +77,13 @@ Status WriteG2o(const core::Problem2d& problem, const std::string& path, Env* en
   const int64_t offset = *offset_or;
   for (size_t k = 0; k < problem.observations.size(); ++k) {
     const auto& observation = problem.observations[k];
+    if (observation.kind != core::ObservationKind::kRangeBearing &&
+        observation.kind != core::ObservationKind::kPointXY) {
+      return Status::InvalidArgument(context + ": observations[" + std::to_string(k) + "] is a " +
+                                     core::ObservationKindName(observation.kind) +
+                                     " observation; expected range-bearing or point-xy (g2o "
+                                     "has no edge for the others)");
+    }
     if (observation.kind == core::ObservationKind::kRangeBearing && !(observation.z.x() > 0.0)) {
       return Status::InvalidArgument(
           context + ": observations[" + std::to_string(k) + "] range is " +

@@ -30,8 +30,14 @@ namespace {
 using internal::FormatDouble;
 using internal::LineReader;
 
-constexpr const char* kKnownTags =
-    "POSE, FEATURE, CONTROL, CONTROL_INFO, ODOM, RB, RB_POSE, XY, GPS, FIX or SCAN";
+// The tags ParseLine knows: the observation models' tags come from the
+// registry (core/observation_models.h).
+std::string KnownTags() {
+  std::string tags = "POSE, FEATURE, CONTROL, CONTROL_INFO, ODOM, ";
+  for (int k = 0; k < core::kNumObservationKinds; ++k)
+    tags += std::string(core::NativeLogTag(static_cast<core::ObservationKind>(k))) + ", ";
+  return tags + "RB_POSE, GPS, FIX or SCAN";
+}
 
 class NativeLogParser {
  public:
@@ -127,7 +133,8 @@ class NativeLogParser {
     if (tag == "CONTROL") return ParseControl(reader, /*explicit_information=*/false);
     if (tag == "CONTROL_INFO") return ParseControl(reader, /*explicit_information=*/true);
     if (tag == "ODOM") return ParseOdometry(reader);
-    if (tag == "RB" || tag == "XY") return ParseObservation(reader);
+    core::ObservationKind kind;
+    if (core::ObservationKindOfNativeLogTag(tag, &kind)) return ParseObservation(reader, kind);
     if (tag == "GPS") return ParseGps(reader);
     if (tag == "RB_POSE") return ParsePoseRangeBearing(reader);
     if (tag == "FIX") return ParseFix(reader);
@@ -135,7 +142,7 @@ class NativeLogParser {
     if (tag == kNativeLogMagic) {
       return reader.Error("a second header; expected one header, on the first line");
     }
-    return reader.Unsupported("unknown tag '" + std::string(tag) + "'; expected " + kKnownTags);
+    return reader.Unsupported("unknown tag '" + std::string(tag) + "'; expected " + KnownTags());
   }
 
   Status ParsePose(const LineReader& reader) {
@@ -249,6 +256,18 @@ class NativeLogParser {
     return information;
   }
 
+  // The information of a 1-D measurement: one positive number.
+  StatusOr<double> Information1(const LineReader& reader, size_t first) {
+    double w = 0.0;
+    GS_RETURN_IF_ERROR(
+        reader.Doubles(first, 1, "information", &w, internal::Magnitude::kInformation));
+    if (!(w > 0.0)) {
+      return reader.Error(std::string(reader.fields()[0]) + " information " + FormatDouble(w) +
+                          " is not positive; expected a positive number (i11)");
+    }
+    return w;
+  }
+
   // Spec rule 3: the first constraint reaching an uninitialized pose sets its
   // value (the linearization point of later CONTROL records).
   void Reach(int32_t to, const core::Pose2& predicted) {
@@ -314,21 +333,33 @@ class NativeLogParser {
     return Status::Ok();
   }
 
-  Status ParseObservation(const LineReader& reader) {
-    const bool range_bearing = reader.fields()[0] == "RB";
-    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(8));
+  // TAG pose feature z[m] upper(information)[m (m + 1) / 2], m the model's
+  // measurement dimension; a 1-D model's record is padded to the 2-D slot as
+  // core/observation_models.h says.
+  Status ParseObservation(const LineReader& reader, core::ObservationKind kind) {
+    const int dim = core::MeasurementDim(kind);
+    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(static_cast<size_t>(3 + dim + dim * (dim + 1) / 2)));
     core::Observation observation;
     GS_ASSIGN_OR_RETURN(observation.pose, Pose(reader, 1));
-    double z[2];
-    GS_RETURN_IF_ERROR(reader.Doubles(3, 2, "measurement", z));
-    if (range_bearing && !(z[0] > 0.0)) {
-      return reader.Error("RB range is " + FormatDouble(z[0]) + "; expected range > 0");
-    }
-    GS_ASSIGN_OR_RETURN(observation.information, Information2(reader, 5));
-    GS_ASSIGN_OR_RETURN(observation.feature, Feature(reader, 2));
-    observation.kind =
-        range_bearing ? core::ObservationKind::kRangeBearing : core::ObservationKind::kPointXY;
+    double z[2] = {0.0, 0.0};
+    GS_RETURN_IF_ERROR(reader.Doubles(3, static_cast<size_t>(dim), "measurement", z));
     observation.z = Eigen::Vector2d(z[0], z[1]);
+    const int invalid = core::InvalidMeasurementField(kind, observation.z);
+    if (invalid >= 0) {
+      return reader.Error(std::string(reader.fields()[0]) + " " +
+                          core::MeasurementFieldName(kind, invalid) + " is " +
+                          FormatDouble(z[invalid]) + "; expected " +
+                          core::MeasurementRule(kind));
+    }
+    const size_t information_at = static_cast<size_t>(3 + dim);
+    if (dim == 2) {
+      GS_ASSIGN_OR_RETURN(observation.information, Information2(reader, information_at));
+    } else {
+      GS_ASSIGN_OR_RETURN(const double w, Information1(reader, information_at));
+      observation.information = Eigen::Vector2d(w, 1.0).asDiagonal();
+    }
+    GS_ASSIGN_OR_RETURN(observation.feature, Feature(reader, 2));
+    observation.kind = kind;
     observation.line = reader.line_number();
     // Streaming (ReadNativeLogStreaming): the observation goes to the sink,
     // the problem keeps O(poses + features).
@@ -564,13 +595,16 @@ Status WriteNativeLog(const core::Problem2d& problem, const std::string& path, E
         file, static_cast<int64_t>(problem.observations.size()),
         lines([&](int64_t i, std::string* out) {
           const auto& observation = problem.observations[static_cast<size_t>(i)];
-          const bool range_bearing = observation.kind == core::ObservationKind::kRangeBearing;
-          AppendField(out, range_bearing ? "RB" : "XY");
+          const int dim = core::MeasurementDim(observation.kind);
+          AppendField(out, core::NativeLogTag(observation.kind));
           AppendField(out, pose_ids[observation.pose]);
           AppendField(out, feature_ids[observation.feature]);
-          AppendField(out, observation.z.x());
-          AppendField(out, observation.z.y());
-          AppendUpperTriangle(out, observation.information);
+          for (int k = 0; k < dim; ++k) AppendField(out, observation.z[k]);
+          if (dim == 2) {
+            AppendUpperTriangle(out, observation.information);
+          } else {
+            AppendField(out, observation.information(0, 0));
+          }
         })));
     GS_RETURN_IF_ERROR(AppendRecords(
         file, static_cast<int64_t>(problem.gps.size()), lines([&](int64_t i, std::string* out) {

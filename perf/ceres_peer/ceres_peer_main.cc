@@ -144,7 +144,8 @@ Status CheckSupported(const core::Problem2d& problem) {
   for (const core::Observation& o : problem.observations) {
     if (o.kind != core::ObservationKind::kPointXY)
       return Status::NotSupported(problem.source + ":" + std::to_string(o.line) +
-                                  ": range-bearing observation; expected EDGE_SE2_XY");
+                                  ": " + core::ObservationKindName(o.kind) +
+                                  " observation; expected EDGE_SE2_XY");
   }
   return Status::Ok();
 }

@@ -1,4 +1,5 @@
 # Tests of the models.
+graphslam_test(core/bearing_model)
 graphslam_test(core/gps_model)
 graphslam_test(core/initialization)
 graphslam_test(core/point_observation_model)

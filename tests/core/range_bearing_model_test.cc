@@ -7,6 +7,7 @@
 #include <random>
 
 #include "tests/testing/numeric_diff.h"
+#include "tests/testing/planar_draws.h"
 
 namespace graphslam::core {
 namespace {
@@ -58,16 +59,12 @@ TEST(RangeBearingModel, BearingResidualIsWrappedForFeatureBehindRobotNearPi) {
 
 TEST(RangeBearingModel, JacobiansMatchCentralDifferencesIncludingAcrossPi) {
   std::mt19937 rng(kSeed);
-  std::uniform_real_distribution<double> position(-20.0, 20.0), angle(-kPi, kPi), range(0.2, 30.0),
-      small(-0.05, 0.05);
+  std::uniform_real_distribution<double> small(-0.05, 0.05);
   for (int i = 0; i < 1000; ++i) {
-    Pose2 pose(position(rng), position(rng), angle(rng));
-    double world_angle = angle(rng);
-    if (i % 4 == 0) pose.z() = (i % 8 == 0 ? kPi : -kPi) + small(rng) * 1e-3;  // theta near +-pi
-    if (i % 4 == 1) world_angle = pose.z() + kPi + small(rng) * 1e-3;          // feature behind
-    if (i % 4 == 2) world_angle = kPi + small(rng) * 1e-3;                     // atan2 jumps
-    const Point2 feature =
-        pose.head<2>() + range(rng) * Eigen::Vector2d(std::cos(world_angle), std::sin(world_angle));
+    const testing::PlanarDraw draw = testing::DrawAcrossPi(i, rng);
+    const Pose2& pose = draw.pose;
+    const Point2& feature = draw.feature;
+    const double world_angle = draw.world_angle;
     // A measurement near the prediction, so the residual itself is small.
     const Eigen::Vector2d z = Eigen::Vector2d((feature - pose.head<2>()).norm() + small(rng),
                                               WrapAngle(world_angle - pose.z() + small(rng)));

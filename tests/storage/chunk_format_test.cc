@@ -668,7 +668,8 @@ TEST_F(ChunkFormatTest, InvalidObservationUnderAValidCrcNamesObservationAndSlot)
     std::string problem;
   };
   const std::vector<Edit> edits = {
-      {8, 7, 1, "kind 7 is not an ObservationKind (expected 0 or 1)"},
+      {8, 7, 1,
+       "kind 7 is not an ObservationKind (expected " + core::ObservationKindRange() + ")"},
       {4, 999999, 4,
        "feature is 999999, expected " + std::to_string(chunk.features[0]) +
            " (the feature of its slot)"},

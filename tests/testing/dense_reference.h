@@ -15,9 +15,8 @@
 #include <vector>
 
 #include "core/gps_model.h"
-#include "core/point_observation_model.h"
+#include "core/observation_models.h"
 #include "core/problem.h"
-#include "core/range_bearing_model.h"
 #include "core/relative_pose_model.h"
 #include "core/unknown_layout.h"
 #include "core/velocity_motion_model.h"
@@ -77,11 +76,7 @@ class DenseReference {
       push(e2, c.information);
     }
     for (const auto& o : problem_.observations) {
-      if (o.kind == core::ObservationKind::kRangeBearing) {
-        core::EvaluateRangeBearing(x[o.pose], m[o.feature], o.z, &e2, nullptr, nullptr);
-      } else {
-        core::EvaluatePointObservation(x[o.pose], m[o.feature], o.z, &e2, nullptr, nullptr);
-      }
+      core::EvaluateObservation(o.kind, x[o.pose], m[o.feature], o.z, &e2, nullptr, nullptr);
       push(e2, o.information);
     }
     return Eigen::Map<Eigen::VectorXd>(r.data(), static_cast<int>(r.size()));

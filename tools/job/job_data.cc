@@ -540,11 +540,7 @@ namespace {
 
 // The landmark position implied by one observation from `pose`.
 core::Point2 FirstSight(const core::Pose2& pose, const core::Observation& o) {
-  if (o.kind == core::ObservationKind::kRangeBearing) {
-    const double angle = pose.z() + o.z.y();
-    return pose.head<2>() + o.z.x() * Eigen::Vector2d(std::cos(angle), std::sin(angle));
-  }
-  return pose.head<2>() + Eigen::Rotation2Dd(pose.z()) * o.z;
+  return core::InvertObservation(o.kind, pose, o.z);
 }
 
 void Apply(const Eigen::Isometry2d& t, core::Pose2* pose) {
