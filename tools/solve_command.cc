@@ -21,6 +21,7 @@
 #include "partition/gps_segment_alignment.h"
 #include "partition/in_memory_chunk_source.h"
 #include "partition/pose_graph_initialization.h"
+#include "partition/incremental_initialization.h"
 #include "partition/progressive_initialization.h"
 #include "storage/atomic_file.h"
 #include "storage/solver_checkpoint.h"
@@ -72,11 +73,12 @@ Status ValidateOptions(const SolveCommandOptions& options) {
     return Status::InvalidArgument("--threads must be >= 0, got " + std::to_string(options.threads));
   if (options.max_eliminated_observations < 0)
     return Status::InvalidArgument("--max-eliminated-observations must be >= 0");
-  if (options.initialization != "auto" && options.initialization != "progressive" &&
-      options.initialization != "odometry" && options.initialization != "pose-graph" &&
-      options.initialization != "as-given")
+  if (options.initialization != "auto" && options.initialization != "incremental" &&
+      options.initialization != "progressive" && options.initialization != "odometry" &&
+      options.initialization != "pose-graph" && options.initialization != "as-given")
     return Status::InvalidArgument(
-        "--initialization must be auto, progressive, odometry, pose-graph or as-given, got '" +
+        "--initialization must be auto, incremental, progressive, odometry, pose-graph or "
+        "as-given, got '" +
         options.initialization + "'");
   if (options.resume && options.checkpoint.empty() && !storage::IsChunkStore(options.input) &&
       options.workdir.empty())
@@ -246,8 +248,9 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
       ->join(' ')
       ->capture_default_str();
   solve->add_option("--initialization", options->initialization,
-                    "initial guess: auto (odometry, then progressive if the first steps show "
-                    "it is outside the optimum's basin), "
+                    "initial guess: auto (odometry, then incremental if the first steps show "
+                    "it is outside the optimum's basin; incremental at once with a checkpoint), "
+                    "incremental (solve a window of recent poses per stage, linear in poses), "
                     "progressive (solve growing prefixes of the trajectory), "
                     "odometry (the paper's Table 1 only), pose-graph (Table 1, then the pose-only "
                     "problem solved and the features re-placed) or as-given (the input's guess "
@@ -656,10 +659,9 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   // Progressive initialization: growing prefixes of the trajectory, each
   // solved briefly, put the guess into the basin of the global optimum.
   const Clock::time_point progressive_start = Clock::now();
+  const double initialization_cpu_start = ProcessCpuSeconds();
   partition::ProgressiveInitializationOptions progressive;
-  progressive.enabled = (options.initialization == "progressive" ||
-                         (options.initialization == "auto" && !probe_solved)) &&
-                        !resuming && !streaming && root;
+  progressive.enabled = options.initialization == "progressive" && !resuming && !streaming && root;
   progressive.max_observations_per_chunk = options.chunk_observations;
   progressive.max_new_poses = options.progressive_max_new_poses;
   if (Status status = progressive.Validate(); !status.ok()) {
@@ -671,9 +673,22 @@ int RunSolveCommand(const SolveCommandOptions& options) {
                                                          &progressive_summary);
       !status.ok())
     return fail(status);
+  // Incremental initialization (the default's restart): the same stages, each
+  // re-solving a bounded window of recent poses (linear in poses).
+  partition::IncrementalInitializationOptions incremental;
+  incremental.enabled = (options.initialization == "incremental" ||
+                         (options.initialization == "auto" && !probe_solved)) &&
+                        !resuming && !streaming && root;
+  incremental.max_observations_per_chunk = options.chunk_observations;
+  partition::IncrementalSummary incremental_summary;
+  if (Status status = partition::InitializeIncrementally(incremental, solver_options, &problem,
+                                                         &incremental_summary);
+      !status.ok())
+    return fail(status);
   // Streaming mode: the pose-graph initializer (no in-memory sub-problems);
   // --initialization pose-graph asks for it in memory too.
   if (!resuming && root && ((streaming && (options.initialization == "progressive" ||
+                                            options.initialization == "incremental" ||
                                             options.initialization == "auto")) ||
                     options.initialization == "pose-graph")) {
     // Both first put the dead reckoning onto the GPS fixes, segment by segment:
@@ -697,6 +712,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
            pose_graph.final_chi2, static_cast<long long>(pose_graph.placed_features));
   }
   const double progressive_seconds = Seconds(progressive_start);
+  const double initialization_cpu_seconds = ProcessCpuSeconds() - initialization_cpu_start;
 
   if (resuming) {
     // The solve continues from these estimates: moved into the problem, not
@@ -805,12 +821,21 @@ int RunSolveCommand(const SolveCommandOptions& options) {
       if (offset.ok()) report["g2o_feature_id_offset"] = *offset;
     }
     // What --initialization auto did: the solve from odometry (the final one
-    // when it converged), or progressive initialization after it.
+    // when it converged), or incremental initialization after it.
     report["initialization_used"] =
         options.initialization != "auto" ? options.initialization
         : streaming                      ? "pose-graph"
         : probe_solved                   ? "odometry"
-                                         : "progressive";
+                                         : "incremental";
+    if (incremental_summary.ran) {
+      int64_t most_solved = 0;
+      for (const partition::IncrementalStageSummary& stage : incremental_summary.stages)
+        most_solved = std::max(most_solved, stage.solved_poses);
+      report["incremental_initialization"] = {
+          {"stages", static_cast<int64_t>(incremental_summary.stages.size())},
+          {"most_poses_solved_in_a_stage", most_solved},
+          {"seconds", incremental_summary.seconds}};
+    }
     if (probe) {
       report["odometry_attempt"] = probe_report;
       report["stage_seconds"]["odometry_attempt"] = probe_seconds;
@@ -819,6 +844,9 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     // whole process so far: on a shared machine the cost, where wall time
     // also counts the waits for a core.
     report["optimize_cpu_seconds"] = optimize_cpu_seconds;
+    // Of the progressive, incremental or pose-graph initialization (its wall
+    // time is stage_seconds.progressive_initialization).
+    report["initialization_cpu_seconds"] = initialization_cpu_seconds;
     report["cpu_seconds"] = ProcessCpuSeconds();
     report["chunks_in_flight"] = solver_options.max_chunks_in_flight;
     report["memory_limit_bytes"] = memory_limit;

@@ -90,7 +90,9 @@ struct SolverSpec {
   int max_iterations = 100;
   double function_tolerance = 1e-6;
   std::string robust_kernel = "none";
-  std::string initialization = "progressive";  // progressive, odometry
+  // auto (= incremental: the job's solve is checkpointed, so no odometry
+  // probe as in `graphslam solve`), incremental, progressive, odometry.
+  std::string initialization = "auto";
   std::string linear_solver = "auto";
 };
 
