@@ -12,6 +12,7 @@
 #include "partition/gps_segment_alignment.h"
 #include "partition/in_memory_chunk_source.h"
 #include "partition/internal/odometry_chain.h"
+#include "partition/internal/stage_growth.h"
 #include "partition/singleton_solve.h"
 
 namespace graphslam::partition {
@@ -21,9 +22,6 @@ using Clock = std::chrono::steady_clock;
 using core::Point2;
 using core::Pose2;
 
-// A stage stopped by its iteration cap whose last iteration still lowered
-// chi2 by more than this fraction is "unsettled" (header: A_{k+1}).
-constexpr double kUnsettledDecrease = 1e-2;
 
 double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
@@ -97,15 +95,6 @@ Indices BuildIndices(const core::Problem2d& problem) {
         emit(problem.observations[by_pose.items[i]].feature, by_pose.items[i]);
   });
   return index;
-}
-
-// The prefix length after t poses: geometric growth, at most `allowed` new
-// poses, at least one (as progressive initialization).
-int32_t NextStageSize(double growth, int64_t allowed, int32_t t, int32_t n) {
-  const double grown = std::ceil(growth * static_cast<double>(t));
-  int64_t next = grown >= static_cast<double>(n) ? n : static_cast<int64_t>(grown);
-  next = std::min<int64_t>(next, t + allowed);
-  return static_cast<int32_t>(std::min<int64_t>(n, std::max<int64_t>(t + 1, next)));
 }
 
 // One stage's sub-problem W_k (header) and where its unknowns came from.
@@ -386,7 +375,7 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
   int32_t previous = 0;
   int32_t t = static_cast<int32_t>(std::min<int64_t>(options.first_poses, n));
   for (int32_t stage = 0;; ++stage) {
-    if (stage > 0) t = NextStageSize(options.growth, allowed, previous, n);
+    if (stage > 0) t = internal::NextStageSize(options.growth, allowed, previous, n);
     const Clock::time_point stage_start = Clock::now();
     if (stage == 0) {
       for (int32_t p = 0; p < t; ++p) placed[p] = 1;  // the input guess
@@ -452,16 +441,8 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
       // Unsettled: stopped by the iteration cap while its last iteration still
       // lowered chi2 by more than 1 % (its chained segment started far from
       // the optimum): fewer new poses next time.
-      const auto& iterations = solver_summary.per_iteration;
-      const double last_before = iterations.empty() ? 0.0
-                                 : iterations.size() == 1 ? solver_summary.initial_chi2
-                                                          : iterations[iterations.size() - 2].chi2;
-      const bool unsettled = !solver_summary.converged && !iterations.empty() &&
-                             last_before - solver_summary.final_chi2 >
-                                 kUnsettledDecrease * solver_summary.final_chi2;
-      const int64_t floor = std::min(options.min_new_poses, options.max_new_poses);
-      allowed = unsettled ? std::max(floor, allowed / 2)
-                          : std::min(options.max_new_poses, 2 * allowed);
+      allowed = internal::NextAllowedNewPoses(solver_summary, allowed, options.min_new_poses,
+                                              options.max_new_poses);
     }
   }
 
