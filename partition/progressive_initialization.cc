@@ -12,6 +12,7 @@
 #include "core/velocity_motion_model.h"
 #include "partition/in_memory_chunk_source.h"
 #include "partition/internal/odometry_chain.h"
+#include "partition/internal/stage_growth.h"
 #include "partition/singleton_solve.h"
 
 namespace graphslam::partition {
@@ -19,9 +20,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// A stage stopped by its iteration cap whose last iteration still lowered
-// chi2 by more than this fraction is "unsettled" (header: A_{k+1}).
-constexpr double kUnsettledDecrease = 1e-2;
 using core::Point2;
 using core::Pose2;
 
@@ -70,16 +68,6 @@ Status CheckIndices(const core::Problem2d& problem) {
     GS_RETURN_IF_ERROR(CheckIndex(problem, o.feature, m, o.line, "observation feature"));
   }
   return Status::Ok();
-}
-
-// The prefix length after t poses (header): geometric growth, at most
-// `allowed` new poses, at least one.
-int32_t NextStageSize(const ProgressiveInitializationOptions& options, int64_t allowed, int32_t t,
-                      int32_t n) {
-  const double grown = std::ceil(options.growth * static_cast<double>(t));
-  int64_t next = grown >= static_cast<double>(n) ? n : static_cast<int64_t>(grown);
-  if (allowed > 0) next = std::min<int64_t>(next, t + allowed);
-  return static_cast<int32_t>(std::min<int64_t>(n, std::max<int64_t>(t + 1, next)));
 }
 
 // The sub-problem of the first `t` poses; local_feature[f] receives the index
@@ -197,7 +185,7 @@ Status InitializeProgressively(const ProgressiveInitializationOptions& options,
   int32_t previous = 0;
   int32_t t = static_cast<int32_t>(std::min<int64_t>(options.first_poses, n));
   for (size_t stage = 0;; ++stage) {
-    if (stage > 0) t = NextStageSize(options, allowed, previous, n);
+    if (stage > 0) t = internal::NextStageSize(options.growth, allowed, previous, n);
     const Clock::time_point stage_start = Clock::now();
     if (stage == 0) {
       for (int32_t p = 0; p < t; ++p) placed[p] = 1;  // the input guess
@@ -245,16 +233,8 @@ Status InitializeProgressively(const ProgressiveInitializationOptions& options,
       // Unsettled: stopped by the iteration cap while its last iteration still
       // lowered chi2 by more than 1 % (far from the stage optimum, not merely
       // short of the tight function tolerance).
-      const auto& iterations = solver_summary.per_iteration;
-      const double last_before = iterations.empty() ? 0.0
-                                 : iterations.size() == 1 ? solver_summary.initial_chi2
-                                                          : iterations[iterations.size() - 2].chi2;
-      const bool unsettled = !solver_summary.converged && !iterations.empty() &&
-                             last_before - solver_summary.final_chi2 >
-                                 kUnsettledDecrease * solver_summary.final_chi2;
-      const int64_t floor = std::min(options.min_new_poses, options.max_new_poses);
-      allowed = unsettled ? std::max(floor, allowed / 2)
-                          : std::min(options.max_new_poses, 2 * allowed);
+      allowed = internal::NextAllowedNewPoses(solver_summary, allowed, options.min_new_poses,
+                                              options.max_new_poses);
     }
   }
 

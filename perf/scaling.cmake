@@ -3,3 +3,8 @@
 pkg_check_modules(GRAPHSLAM_PLPLOT_C REQUIRED IMPORTED_TARGET plplot)
 add_executable(scaling_plot scaling_plot.cc)
 target_link_libraries(scaling_plot PRIVATE PkgConfig::GRAPHSLAM_PLPLOT_C)
+# The initialization scaling plot (perf/initialization_scaling.py).
+add_executable(initialization_plot initialization_plot.cc)
+target_link_libraries(initialization_plot PRIVATE PkgConfig::GRAPHSLAM_PLPLOT_C)
+target_include_directories(scaling_plot PRIVATE ${PROJECT_SOURCE_DIR})
+target_include_directories(initialization_plot PRIVATE ${PROJECT_SOURCE_DIR})

@@ -17,31 +17,18 @@
 #include <string>
 #include <vector>
 
+#include "perf/csv_columns.h"
+
 int main(int argc, char** argv) {
   if (argc != 3) {
     std::fprintf(stderr, "usage: scaling_plot CSV PNG\n");
     return 1;
   }
-  std::ifstream in(argv[1]);
-  std::string line;
-  if (!std::getline(in, line)) {
-    std::fprintf(stderr, "%s: empty\n", argv[1]);
-    return 2;
-  }
-  std::vector<std::string> header;
-  {
-    std::stringstream fields(line);
-    for (std::string field; std::getline(fields, field, ',');) header.push_back(field);
-  }
   std::map<std::string, std::vector<double>> columns;
   int rows = 0;
-  while (std::getline(in, line)) {
-    if (line.empty()) continue;
-    std::stringstream fields(line);
-    size_t i = 0;
-    for (std::string field; std::getline(fields, field, ',') && i < header.size(); ++i)
-      columns[header[i]].push_back(std::atof(field.c_str()));
-    ++rows;
+  if (!graphslam::perf::ReadCsvColumns(argv[1], &columns, &rows)) {
+    std::fprintf(stderr, "%s: empty\n", argv[1]);
+    return 2;
   }
   const char* required[] = {"features", "ingest_seconds", "seconds_per_iteration",
                             "solve_peak_rss_bytes", "ingest_peak_rss_bytes", "store_bytes"};

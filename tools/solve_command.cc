@@ -82,8 +82,9 @@ void AddOutputAndModelOptions(CLI::App* solve, SolveCommandOptions* options) {
 // The initial guess, checkpoints and the out-of-core solve.
 void AddInitializationAndOutOfCoreOptions(CLI::App* solve, SolveCommandOptions* options) {
   solve->add_option("--initialization", options->initialization,
-                    "initial guess: auto (odometry, then progressive if the first steps show "
-                    "it is outside the optimum's basin), "
+                    "initial guess: auto (odometry, then incremental if the first steps show "
+                    "it is outside the optimum's basin; incremental at once with a checkpoint), "
+                    "incremental (solve a window of recent poses per stage, linear in poses), "
                     "progressive (solve growing prefixes of the trajectory), "
                     "odometry (the paper's Table 1 only), pose-graph (Table 1, then the pose-only "
                     "problem solved and the features re-placed) or as-given (the input's guess "

@@ -20,6 +20,7 @@
 #include "core/robust_kernel.h"
 #include "partition/association_driver.h"
 #include "partition/in_memory_chunk_source.h"
+#include "partition/incremental_initialization.h"
 #include "partition/progressive_initialization.h"
 #include "storage/atomic_file.h"
 #include "storage/directory_lock.h"
@@ -221,7 +222,8 @@ StatusOr<core::SolverOptions> SolverOptionsFor(const JobSpec& spec) {
   return options;
 }
 
-// Table 1 and (optionally) progressive initialization of every component.
+// Table 1 and (optionally) incremental or progressive initialization of every
+// component.
 Status InitializeComponents(const JobSpec& spec, const core::SolverOptions& base,
                             ProgressDisplay* display, JobData* data) {
   for (int32_t c = 0; c < data->num_components; ++c) {
@@ -229,12 +231,18 @@ Status InitializeComponents(const JobSpec& spec, const core::SolverOptions& base
     core::Problem2d sub = ExtractComponent(*data, c, &pose_map, &feature_map);
     GS_RETURN_IF_ERROR(core::InitializeProblem(&sub));
     AlignRunFrames(*data, c, &sub);
-    partition::ProgressiveInitializationOptions progressive;
-    progressive.enabled = spec.solver.initialization == "progressive";
     core::SolverOptions options = base;
     if (display) options.progress = display->AsCallback();
+    partition::ProgressiveInitializationOptions progressive;
+    progressive.enabled = spec.solver.initialization == "progressive";
     partition::ProgressiveSummary summary;
     GS_RETURN_IF_ERROR(partition::InitializeProgressively(progressive, options, &sub, &summary));
+    partition::IncrementalInitializationOptions incremental;
+    incremental.enabled =
+        spec.solver.initialization == "auto" || spec.solver.initialization == "incremental";
+    partition::IncrementalSummary incremental_summary;
+    GS_RETURN_IF_ERROR(
+        partition::InitializeIncrementally(incremental, options, &sub, &incremental_summary));
     ScatterComponent(sub, pose_map, feature_map, &data->problem);
   }
   return Status::Ok();

@@ -391,10 +391,11 @@ Status ParseSolver(const Reader& r, const YAML::Node& node, SolverSpec* solver) 
   if (node["initialization"]) {
     GS_RETURN_IF_ERROR(
         r.String(node["initialization"], "initialization", &solver->initialization));
-    if (solver->initialization != "progressive" && solver->initialization != "odometry")
+    if (solver->initialization != "auto" && solver->initialization != "incremental" &&
+        solver->initialization != "progressive" && solver->initialization != "odometry")
       return Error(r.file(), node["initialization"],
                    "initialization '" + solver->initialization +
-                       "'; expected progressive or odometry");
+                       "'; expected auto, incremental, progressive or odometry");
   }
   return Status::Ok();
 }

@@ -93,7 +93,9 @@ struct SolverSpec {
   int max_iterations = 100;
   double function_tolerance = 1e-6;
   std::string robust_kernel = "none";
-  std::string initialization = "progressive";  // progressive, odometry
+  // auto (= incremental: the job's solve is checkpointed, so no odometry
+  // probe as in `graphslam solve`), incremental, progressive, odometry.
+  std::string initialization = "auto";
   std::string linear_solver = "auto";
   // Repair non-positive-definite information of g2o / TORO runs instead of
   // rejecting them (core/information_repair.h); counted per run in the report.

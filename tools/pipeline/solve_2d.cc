@@ -28,6 +28,7 @@
 #include "partition/association_driver.h"
 #include "partition/gps_segment_alignment.h"
 #include "partition/in_memory_chunk_source.h"
+#include "partition/incremental_initialization.h"
 #include "partition/pose_graph_initialization.h"
 #include "partition/progressive_initialization.h"
 #include "storage/candidate_file.h"
@@ -68,6 +69,8 @@ struct Solve2d {
   bool streaming = false;  // observations stay on disk; the ingest's guess starts
   int64_t num_observations = 0;
   double read_seconds = 0, initialize_seconds = 0, progressive_seconds = 0;
+  double initialization_cpu_seconds = 0;  // of the initializer that improved the guess
+  partition::IncrementalSummary incremental_summary;
 
   std::unique_ptr<tbb::global_control> threads;
   std::unique_ptr<partition::InMemoryChunkSource> in_memory;
@@ -288,10 +291,10 @@ Status ConfigureSolver(const SolveRun& run, Solve2d& s) {
 // (abandoned, or stopped by --max-iterations) the restart. Most pose graphs
 // converge from their odometry in a few well-modelled steps; a start outside
 // the optimum's basin shows it within its first steps, and the solve restarts
-// from the Table 1 guess with progressive initialization. Not with
+// from the Table 1 guess with incremental initialization. Not with
 // checkpoints (a probe's checkpoint would resume the wrong solve),
 // --associate, streaming or under mpirun (a store's ranks start
-// progressively, as one process does).
+// incrementally, as one process does).
 Status TryOdometry(const SolveRun& run, Solve2d& s) {
   s.probe = run.request.initialization == Initialization::kAuto && !s.resuming && !s.streaming &&
             s.checkpoint_path.empty() && !run.options.associate && !run.distributed &&
@@ -316,7 +319,7 @@ Status TryOdometry(const SolveRun& run, Solve2d& s) {
                       {"seconds", SecondsSince(probe_start)}};
     if (!s.probe_solved) {
       GS_LOG(INFO, "initialization auto: the solve from odometry ended unconverged after %d "
-             "iterations (%s, chi2 %.6g): progressive initialization", s.summary.iterations,
+             "iterations (%s, chi2 %.6g): incremental initialization", s.summary.iterations,
              status.ok() ? s.summary.termination.c_str() : status.ToString().c_str(),
              s.summary.final_chi2);
       s.problem.poses = guess_poses;
@@ -347,26 +350,36 @@ Status StartFromPoseGraph(const Solve2d& s, core::Problem2d* problem) {
   return Status::Ok();
 }
 
-// Progressive initialization (growing prefixes of the trajectory, each
-// solved briefly, put the guess into the basin of the global optimum) or the
-// pose-graph initializer.
+// The initializers that improve the Table 1 guess: incremental (the default's
+// restart: stages re-solving a bounded window of recent poses, linear in
+// poses), progressive (growing prefixes, each solved briefly) or, for a
+// streaming solve and --initialization pose-graph, the pose-graph initializer.
 Status ImproveGuess(const SolveRun& run, Solve2d& s) {
   const SolveClock::time_point progressive_start = SolveClock::now();
+  const double initialization_cpu_start = ProcessCpuSeconds();
   const Initialization init = run.request.initialization;
+  const bool in_memory = !s.resuming && !s.streaming && run.root;
   partition::ProgressiveInitializationOptions progressive;
-  const bool wanted = init == Initialization::kProgressive ||
-                      (init == Initialization::kAuto && !s.probe_solved);
-  progressive.enabled = wanted && !s.resuming && !s.streaming && run.root;
+  progressive.enabled = init == Initialization::kProgressive && in_memory;
   progressive.max_observations_per_chunk = run.options.chunk_observations;
   progressive.max_new_poses = run.options.progressive_max_new_poses;
   partition::ProgressiveSummary progressive_summary;
   GS_RETURN_IF_ERROR(
       partition::InitializeProgressively(progressive, s.solver, &s.problem, &progressive_summary));
+  partition::IncrementalInitializationOptions incremental;
+  incremental.enabled = (init == Initialization::kIncremental ||
+                         (init == Initialization::kAuto && !s.probe_solved)) &&
+                        in_memory;
+  incremental.max_observations_per_chunk = run.options.chunk_observations;
+  GS_RETURN_IF_ERROR(partition::InitializeIncrementally(incremental, s.solver, &s.problem,
+                                                        &s.incremental_summary));
   const bool streaming_start =
-      s.streaming && (init == Initialization::kProgressive || init == Initialization::kAuto);
+      s.streaming && (init == Initialization::kProgressive || init == Initialization::kAuto ||
+                      init == Initialization::kIncremental);
   if (!s.resuming && run.root && (streaming_start || init == Initialization::kPoseGraph))
     GS_RETURN_IF_ERROR(StartFromPoseGraph(s, &s.problem));
   s.progressive_seconds = SecondsSince(progressive_start);
+  s.initialization_cpu_seconds = ProcessCpuSeconds() - initialization_cpu_start;
   return Status::Ok();
 }
 
@@ -481,11 +494,20 @@ nlohmann::json Report2d(const SolveRun& run, const Solve2d& s, double total_seco
     if (offset.ok()) report["g2o_feature_id_offset"] = *offset;
   }
   // What --initialization auto did: the solve from odometry (the final one
-  // when it converged), or progressive initialization after it.
+  // when it converged), or incremental initialization after it.
   report["initialization_used"] = options.initialization != "auto" ? options.initialization
                                   : s.streaming                    ? "pose-graph"
                                   : s.probe_solved                 ? "odometry"
-                                                                   : "progressive";
+                                                                   : "incremental";
+  if (s.incremental_summary.ran) {
+    int64_t most_solved = 0;
+    for (const partition::IncrementalStageSummary& stage : s.incremental_summary.stages)
+      most_solved = std::max(most_solved, stage.solved_poses);
+    report["incremental_initialization"] = {
+        {"stages", static_cast<int64_t>(s.incremental_summary.stages.size())},
+        {"most_poses_solved_in_a_stage", most_solved},
+        {"seconds", s.incremental_summary.seconds}};
+  }
   if (s.probe) {
     report["odometry_attempt"] = s.probe_report;
     report["stage_seconds"]["odometry_attempt"] = s.probe_seconds;
@@ -494,6 +516,9 @@ nlohmann::json Report2d(const SolveRun& run, const Solve2d& s, double total_seco
   // whole process so far: on a shared machine the cost, where wall time
   // also counts the waits for a core.
   report["optimize_cpu_seconds"] = s.optimize_cpu_seconds;
+  // Of the incremental, progressive or pose-graph initialization (its wall
+  // time is stage_seconds.progressive_initialization).
+  report["initialization_cpu_seconds"] = s.initialization_cpu_seconds;
   report["cpu_seconds"] = ProcessCpuSeconds();
   report["chunks_in_flight"] = s.solver.max_chunks_in_flight;
   report["memory_limit_bytes"] = run.request.memory_limit_bytes;

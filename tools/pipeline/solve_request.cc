@@ -76,12 +76,13 @@ Status CheckCommandOptions(const SolveCommandOptions& options) {
 
 StatusOr<Initialization> ParseInitialization(const std::string& name) {
   if (name == "auto") return Initialization::kAuto;
+  if (name == "incremental") return Initialization::kIncremental;
   if (name == "progressive") return Initialization::kProgressive;
   if (name == "odometry") return Initialization::kOdometry;
   if (name == "pose-graph") return Initialization::kPoseGraph;
   if (name == "as-given") return Initialization::kAsGiven;
-  return Usage("--initialization must be auto, progressive, odometry, pose-graph or as-given, "
-               "got '" + name + "'");
+  return Usage("--initialization must be auto, incremental, progressive, odometry, pose-graph or "
+               "as-given, got '" + name + "'");
 }
 
 }  // namespace

@@ -65,7 +65,7 @@ StatusOr<core::SolverOptions> MakeSolverOptions(const SolverSettings& settings,
 SolverSettings SolverSettingsFrom(const SolveCommandOptions& options);
 
 // --initialization (docs/cli.md): how the start is made.
-enum class Initialization { kAuto, kProgressive, kOdometry, kPoseGraph, kAsGiven };
+enum class Initialization { kAuto, kIncremental, kProgressive, kOdometry, kPoseGraph, kAsGiven };
 
 struct SolveOutputs {
   std::string g2o;           // -o
