@@ -44,6 +44,9 @@ void AddBenchmarkCommand(CLI::App* app, BenchmarkCommandOptions* options, int* e
       ->check(Integer(1, 1000))
       ->capture_default_str();
   benchmark->add_option("--seed", options->seed, "simulation seed")->capture_default_str();
+  benchmark->add_option("--initialization", options->initialization,
+                        "the solve's --initialization (default: the solve's own default)")
+      ->check(CLI::IsMember({"auto", "incremental", "progressive", "odometry", "pose-graph"}));
   benchmark->add_flag("--keep-stores", options->keep_stores,
                       "keep every size's chunk store under DIR/.benchmark/");
   benchmark->add_flag("--resume", options->resume,
@@ -69,6 +72,7 @@ int RunBenchmarkCommand(const BenchmarkCommandOptions& options) {
   sweep.proportion.poses_per_feature = options.poses_per_feature;
   sweep.proportion.runs = options.runs;
   sweep.proportion.seed = options.seed;
+  sweep.proportion.initialization = options.initialization;
   sweep.keep_stores = options.keep_stores;
   sweep.resume = options.resume;
   sweep.quiet = options.quiet;

@@ -18,6 +18,7 @@ struct BenchmarkCommandOptions {
   double poses_per_feature = 0.01;
   int runs = 2;
   unsigned seed = 1;
+  std::string initialization;  // the solve's --initialization ("": its default)
   bool keep_stores = false;
   bool resume = false;
   bool quiet = false;

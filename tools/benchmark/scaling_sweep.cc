@@ -39,7 +39,8 @@ json ProportionJson(const ScalingProportion& p) {
           {"speed", p.speed},
           {"landmark_spacing", {p.landmark_spacing_min, p.landmark_spacing_max}},
           {"sensor_range", p.sensor_range},
-          {"seed", p.seed}};
+          {"seed", p.seed},
+          {"initialization", p.initialization.empty() ? "default" : p.initialization}};
 }
 
 json RowJson(const ScalingRow& r) {
@@ -184,10 +185,14 @@ StatusOr<ScalingRow> RunSize(const ScalingSweepOptions& options, int64_t feature
                            work, options.quiet));
   fs::remove_all(sim, error);  // the store is the input from here on
   row.store_bytes = BytesUnder(store);
+  std::vector<std::string> solve_args = {"solve", store.string(), "--report", report.string(),
+                                         "-q"};
+  if (!p.initialization.empty()) {
+    solve_args.push_back("--initialization");
+    solve_args.push_back(p.initialization);
+  }
   GS_ASSIGN_OR_RETURN(const ChildCost solve,
-                      Step("solve", features,
-                           {"solve", store.string(), "--report", report.string(), "-q"}, work,
-                           options.quiet));
+                      Step("solve", features, solve_args, work, options.quiet));
   std::ifstream in(report);
   const json r = json::parse(in, nullptr, /*allow_exceptions=*/false);
   if (r.is_discarded() || !r.is_object())

@@ -7,7 +7,8 @@
 //
 //   1. simulate   a streamed, zstd-compressed campus log of N features
 //   2. ingest     the log into a chunk store
-//   3. solve      the store to convergence (`graphslam solve STORE`)
+//   3. solve      the store to convergence (`graphslam solve STORE`, with
+//                 --initialization only if one is given)
 //
 // and one row records what each cost (wall, CPU, peak RSS), the store's
 // bytes, the iterations, seconds per iteration and chi2 per degree of freedom
@@ -48,6 +49,8 @@ struct ScalingProportion {
   double landmark_spacing_max = 0.025;  // m
   double sensor_range = 8.0;        // m
   uint32_t seed = 1;
+  // The solve's --initialization; "" (the default): the solve's own default.
+  std::string initialization;
 };
 
 struct ScalingSweepOptions {

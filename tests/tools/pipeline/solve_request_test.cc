@@ -122,7 +122,7 @@ TEST(SolveRequest, NamesTheOptionThatDoesNotParse) {
   options = Options();
   options.initialization = "magic";
   EXPECT_EQ(ErrorFor(options),
-            "--initialization must be auto, progressive, odometry, pose-graph or as-given, got "
+            "--initialization must be auto, incremental, progressive, odometry, pose-graph or as-given, got "
             "'magic'");
 }
 
