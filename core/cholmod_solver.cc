@@ -28,7 +28,7 @@ class SupernodalLlt : public Eigen::CholmodSupernodalLLT<SparseUpper, Eigen::Upp
 // fixed num_threads(4) clause, which OMP_NUM_THREADS cannot lower; they only
 // clear and scatter memory, and on 2 cores beside TBB's threads, waking four
 // OpenMP threads per supernode and spinning them afterwards costs more than
-// it saves (sphere2500: 0.58 -> 0.31 CPU s, same chi2; docs/benchmarks.md).
+// it saves (docs/benchmarks.md, "Where the time goes").
 // max-active-levels 0 makes every region inactive; the caller's value comes
 // back on exit. Our own parallelism is TBB's.
 class SerialOpenMpRegions {
