@@ -2,11 +2,13 @@
 # (docs/library.md):
 #   PREFIX/include/graphslam/{core,storage,partition}/*.h  public headers
 #   PREFIX/lib/libgraphslam_{core,storage,partition}.a   the libraries
+#   PREFIX/lib/graphslam/libgraphslam_pcl.so              PCD files through PCL,
+#       loaded by graphslam::storage on the first .pcd operation
 #   PREFIX/lib/cmake/graphslam/                           graphslamConfig.cmake,
 #       its version file, the exported targets graphslam::core,
 #       graphslam::storage, graphslam::partition and FindCHOLMOD.cmake
 # The libraries are static, so their private dependencies (CHOLMOD, spdlog,
-# fmt, zstd, nlohmann-json, PCL, OctoMap) are link dependencies of the
+# fmt, zstd, nlohmann-json, OctoMap) are link dependencies of the
 # consumer too: the config file finds them with find_dependency.
 include(CMakePackageConfigHelpers)
 
@@ -19,6 +21,8 @@ install(TARGETS graphslam_core graphslam_storage graphslam_partition
   EXPORT graphslamTargets
   ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
   LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+# The same folder as GRAPHSLAM_PCL_MODULE_INSTALL_PATH (storage/map.cmake).
+install(TARGETS graphslam_pcl LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}/graphslam)
 foreach(folder core storage partition)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${folder}/
     DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/graphslam/${folder}

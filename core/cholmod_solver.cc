@@ -2,6 +2,7 @@
 
 #include <Eigen/CholmodSupport>
 #include <fmt/format.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <utility>
@@ -20,6 +21,25 @@ using SparseUpper = Eigen::SparseMatrix<double>;
 class SupernodalLlt : public Eigen::CholmodSupernodalLLT<SparseUpper, Eigen::Upper> {
  public:
   const cholmod_factor* factor() const { return m_cholmodFactor; }
+};
+
+// Makes CHOLMOD's OpenMP regions run on the calling thread alone while it
+// lives. Debian's CHOLMOD opens them in the supernodal factorization with a
+// fixed num_threads(4) clause, which OMP_NUM_THREADS cannot lower; they only
+// clear and scatter memory, and on 2 cores beside TBB's threads, waking four
+// OpenMP threads per supernode and spinning them afterwards costs more than
+// it saves (docs/benchmarks.md, "Where the time goes").
+// max-active-levels 0 makes every region inactive; the caller's value comes
+// back on exit. Our own parallelism is TBB's.
+class SerialOpenMpRegions {
+ public:
+  SerialOpenMpRegions() : saved_(omp_get_max_active_levels()) { omp_set_max_active_levels(0); }
+  ~SerialOpenMpRegions() { omp_set_max_active_levels(saved_); }
+  SerialOpenMpRegions(const SerialOpenMpRegions&) = delete;
+  SerialOpenMpRegions& operator=(const SerialOpenMpRegions&) = delete;
+
+ private:
+  int saved_;
 };
 
 }  // namespace
@@ -65,6 +85,7 @@ Status CholmodSolver::Factorize(const BlockSparseMatrix& a) {
     return Status::Ok();
   }
   const SparseUpper upper = a.ToSparseUpper();
+  const SerialOpenMpRegions serial_openmp;
   if (!impl.SamePattern(upper)) {
     impl.analyzed = false;
     impl.llt.analyzePattern(upper);

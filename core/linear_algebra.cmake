@@ -9,3 +9,7 @@ target_sources(graphslam_core PRIVATE
   schur_eliminator.cc
   subgraph_preconditioner.cc
   trajectory_deflation.cc)
+# CHOLMOD's OpenMP regions are made serial (core/cholmod_solver.cc): only
+# omp_set_max_active_levels from the runtime CHOLMOD loads, no -fopenmp here.
+find_package(OpenMP REQUIRED COMPONENTS CXX)
+target_link_libraries(graphslam_core PRIVATE ${OpenMP_CXX_LIBRARIES})

@@ -1,8 +1,17 @@
 #!/usr/bin/env python3
 """Ours against peers on the everyday pose-graph suite, in one go (issue 25).
 
-Runs `graphslam solve FILE` with default options on each problem of the suite
-and, when pointed at them, the peers on the same files:
+Runs `graphslam solve FILE` with default options on each problem of the suite,
+Ceres Solver (Debian's libceres-dev) always, and, when pointed at them, the
+other peers on the same files:
+  ceres                       perf/ceres_peer, Levenberg-Marquardt with
+                              SPARSE_NORMAL_CHOLESKY (CHOLMOD), function
+                              tolerance 1e-6 (ours) and Ceres' defaults
+                              otherwise (docs/peers.md); the binaries
+                              graphslam_ceres_peer and graphslam_ceres_peer_3d
+                              beside --graphslam, built there by this script
+                              (cmake --build) when missing; CERES_PEER and
+                              CERES_PEER_3D point elsewhere
   G2O_BIN=/path/to/g2o        g2o's command-line app (built from source, not in
                               Debian): `g2o -i -1 -ig MAX -gain 1e-6 -v -solver S FILE`
                               for S in G2O_SOLVERS (default
@@ -10,8 +19,6 @@ and, when pointed at them, the peers on the same files:
                               G2O_MAX_ITERATIONS (default 1000). -i -1 stops
                               on a relative chi2 gain below 1e-6 (our
                               --function-tolerance).
-  CERES_PEER=/path/to/graphslam_ceres_peer        2-D files (docs/peers.md)
-  CERES_PEER_3D=/path/to/graphslam_ceres_peer_3d  3-D files
 Each configuration runs RUNS times (default 5), interleaved: round r runs
 every configuration on every file before round r+1 starts, so a burst of load
 from other work on the machine spreads over all of them. Wall time is the
@@ -104,15 +111,39 @@ def configurations(args, dim):
                 return cmd, parse
             configs.append(("g2o " + solver, g2o_run))
 
-    ceres = os.environ.get("CERES_PEER_3D" if dim == 3 else "CERES_PEER")
-    if ceres:
-        def ceres_run(path, scratch):
-            report = os.path.join(scratch, "ceres.json")
-            cmd = [ceres, path, "--report", report]
+    ceres = args.ceres_peers[dim]
 
-            return cmd, report_parser(report)
-        configs.append(("ceres", ceres_run))
+    def ceres_run(path, scratch):
+        report = os.path.join(scratch, "ceres.json")
+        cmd = [ceres, path, "--report", report, "-q"]
+        if dim == 2:
+            cmd += ["--linear-solver", "sparse_normal_cholesky"]
+        else:  # the 3-D peer's own defaults are 1e-12 (a reference run)
+            cmd += ["--function-tolerance", "1e-6", "--gradient-tolerance", "1e-10",
+                    "--parameter-tolerance", "1e-8"]
+        return cmd, report_parser(report)
+    configs.append(("ceres", ceres_run))
     return configs
+
+
+def ceres_peers(graphslam):
+    """{dimension: Ceres peer binary}: CERES_PEER / CERES_PEER_3D, else the
+    binaries beside `graphslam`, built with its build folder's CMake when
+    missing (perf/CMakeLists.txt adds them when Ceres is found)."""
+    bin_dir = os.path.dirname(os.path.abspath(graphslam))
+    peers = {2: os.environ.get("CERES_PEER") or os.path.join(bin_dir, "graphslam_ceres_peer"),
+             3: os.environ.get("CERES_PEER_3D") or os.path.join(bin_dir, "graphslam_ceres_peer_3d")}
+    missing = [os.path.basename(p) for p in peers.values() if not os.access(p, os.X_OK)]
+    build_dir = os.path.dirname(bin_dir)
+    if missing and os.path.exists(os.path.join(build_dir, "CMakeCache.txt")):
+        print(f"building {' '.join(missing)} in {build_dir}", flush=True)
+        subprocess.run(["cmake", "--build", build_dir, "-j2", "--target"] + missing, check=False)
+    missing = [p for p in peers.values() if not os.access(p, os.X_OK)]
+    if missing:
+        sys.exit(f"Ceres peer(s) {missing} not found: install Ceres (apt-get install "
+                 "libceres-dev, or GRAPHSLAM_WITH_CERES=1 tools/setup/install_dependencies.sh), "
+                 "reconfigure the build, or set CERES_PEER / CERES_PEER_3D")
+    return peers
 
 
 def main():
@@ -134,6 +165,7 @@ def main():
         sys.exit(f"unknown problem(s) {unknown}; expected some of "
                  f"{[name for name, _, _ in SUITE]}")
     suite = [(n, os.path.join(args.datasets, p), d) for n, p, d in SUITE if n in wanted]
+    args.ceres_peers = ceres_peers(args.graphslam)
     for name, path, _ in suite:
         if not os.path.exists(path):
             sys.exit(f"{name}: dataset {path} not found (--datasets)")

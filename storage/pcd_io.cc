@@ -1,10 +1,5 @@
 #include "storage/pcd_io.h"
 
-#include <pcl/PCLPointCloud2.h>
-#include <pcl/conversions.h>
-#include <pcl/io/lzf.h>
-#include <pcl/io/pcd_io.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -13,34 +8,13 @@
 
 #include "storage/atomic_file.h"
 #include "storage/env.h"
+#include "storage/internal/pcl_module_loader.h"
 
 namespace graphslam::map {
 namespace {
 
 constexpr int64_t kVoxelOffset = int64_t{1} << 20;  // 21 bits an axis: +-1e6 voxels
 constexpr uint64_t kVoxelMask = (uint64_t{1} << 21) - 1;
-
-// An unorganized cloud of `points` points with one FLOAT32 field per name,
-// packed in order (PCL's point_step / row_step conventions); data left empty.
-pcl::PCLPointCloud2 Float32CloudLayout(const std::vector<std::string>& names, uint32_t points) {
-  pcl::PCLPointCloud2 blob;
-  uint32_t offset = 0;
-  for (const std::string& name : names) {
-    pcl::PCLPointField field;
-    field.name = name;
-    field.offset = offset;
-    field.datatype = pcl::PCLPointField::FLOAT32;
-    field.count = 1;
-    blob.fields.push_back(field);
-    offset += 4;
-  }
-  blob.point_step = offset;
-  blob.width = points;
-  blob.height = 1;
-  blob.row_step = blob.point_step * blob.width;
-  blob.is_dense = true;
-  return blob;
-}
 
 }  // namespace
 
@@ -82,48 +56,52 @@ std::vector<VoxelCloud::Point> VoxelCloud::Points() const {
 }
 
 Status WritePcd(const std::string& path, const VoxelCloud& cloud) {
+  StatusOr<const internal::PclModuleApi*> pcl = internal::LoadPclModule();
+  GS_RETURN_IF_ERROR(pcl.status());
   const std::vector<VoxelCloud::Point> points = cloud.Points();
   std::vector<std::string> names = {"x", "y", "z"};
   if (cloud.has_intensity()) names.push_back("intensity");
   if (cloud.has_run()) names.push_back("run");
-  pcl::PCLPointCloud2 blob = Float32CloudLayout(names, static_cast<uint32_t>(points.size()));
-  blob.data.resize(static_cast<size_t>(blob.row_step));
-  uint8_t* out = blob.data.data();
+  std::vector<float> values;
+  values.reserve(points.size() * names.size());
   for (const VoxelCloud::Point& p : points) {
-    float values[5] = {p.xyz.x(), p.xyz.y(), p.xyz.z(), 0, 0};
-    int n = 3;
-    if (cloud.has_intensity()) values[n++] = p.intensity;
-    if (cloud.has_run()) values[n++] = p.run;
-    std::memcpy(out, values, sizeof(float) * static_cast<size_t>(n));
-    out += blob.point_step;
+    values.insert(values.end(), {p.xyz.x(), p.xyz.y(), p.xyz.z()});
+    if (cloud.has_intensity()) values.push_back(p.intensity);
+    if (cloud.has_run()) values.push_back(p.run);
   }
-  std::ostringstream stream;
-  pcl::PCDWriter writer;
-  if (writer.writeBinaryCompressed(stream, blob) != 0) {
-    return Status::IOError("writing " + path + ": PCL could not encode the cloud");
-  }
-  return storage::WriteStringAtomically(storage::Env::Default(), path, stream.str());
+  std::string encoded;
+  if (const std::string error = (*pcl)->encode_binary_compressed(
+          names, values, static_cast<uint32_t>(points.size()), &encoded);
+      !error.empty())
+    return Status::IOError("writing " + path + ": " + error);
+  return storage::WriteStringAtomically(storage::Env::Default(), path, encoded);
 }
 
-std::string BinaryCompressedPcdHeader(const std::vector<std::string>& names, uint32_t points) {
-  const pcl::PCLPointCloud2 blob = Float32CloudLayout(names, points);
-  pcl::PCDWriter writer;
+StatusOr<std::string> BinaryCompressedPcdHeader(const std::vector<std::string>& names,
+                                                uint32_t points) {
+  StatusOr<const internal::PclModuleApi*> pcl = internal::LoadPclModule();
+  GS_RETURN_IF_ERROR(pcl.status());
+  std::string header;
+  if (const std::string error = (*pcl)->binary_compressed_header(names, points, &header);
+      !error.empty())
+    return Status::IOError("PCD header: " + error);
   // PCL 1.13's string variant stops before the DATA line (its stream variant
   // and writeBinaryCompressed add it).
-  return writer.generateHeaderBinaryCompressed(blob, Eigen::Vector4f::Zero(),
-                                               Eigen::Quaternionf::Identity()) +
-         "DATA binary_compressed\n";
+  return header + "DATA binary_compressed\n";
 }
 
 Status AppendLzfSegment(const char* data, size_t n, std::string* out) {
   if (n == 0) return Status::Ok();
   if (n > (size_t{1} << 30)) return Status::InvalidArgument("LZF segment above 1 GiB");
+  StatusOr<const internal::PclModuleApi*> pcl = internal::LoadPclModule();
+  GS_RETURN_IF_ERROR(pcl.status());
   // LZF expands incompressible input by at most 1 byte in 32 (a literal-run header).
   const size_t capacity = n + n / 16 + 64;
   const size_t start = out->size();
   out->resize(start + capacity);
-  const unsigned int written = pcl::lzfCompress(data, static_cast<unsigned int>(n), out->data() + start,
-                                                static_cast<unsigned int>(capacity));
+  const unsigned int written =
+      (*pcl)->lzf_compress(data, static_cast<unsigned int>(n), out->data() + start,
+                           static_cast<unsigned int>(capacity));
   if (written == 0) {
     out->resize(start);
     return Status::IOError("PCL's lzfCompress failed on " + std::to_string(n) + " bytes");
@@ -174,10 +152,11 @@ Status CheckPcdHeader(const std::string& path) {
 
 StatusOr<PcdContents> ReadPcd(const std::string& path) {
   GS_RETURN_IF_ERROR(CheckPcdHeader(path));
-  pcl::PCLPointCloud2 blob;
-  if (pcl::io::loadPCDFile(path, blob) != 0) {
-    return Status::Corruption(path + ": PCL's loadPCDFile failed");
-  }
+  StatusOr<const internal::PclModuleApi*> pcl = internal::LoadPclModule();
+  GS_RETURN_IF_ERROR(pcl.status());
+  internal::PcdBlob blob;
+  if (const std::string error = (*pcl)->load(path, &blob); !error.empty())
+    return Status::Corruption(path + ": " + error);
   PcdContents contents;
   {
     std::ifstream in(path, std::ios::binary);
@@ -190,8 +169,8 @@ StatusOr<PcdContents> ReadPcd(const std::string& path) {
     }
   }
   auto field_offset = [&](const std::string& name) -> int {
-    for (const pcl::PCLPointField& f : blob.fields) {
-      if (f.name == name && f.datatype == pcl::PCLPointField::FLOAT32) return static_cast<int>(f.offset);
+    for (const internal::PcdField& f : blob.fields) {
+      if (f.name == name && f.float32) return static_cast<int>(f.offset);
     }
     return -1;
   };

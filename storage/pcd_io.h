@@ -15,7 +15,10 @@
 // (storage/tiled_voxel_cloud.h: the same points within a memory budget,
 // streamed through BinaryCompressedPcdHeader and AppendLzfSegment below).
 //
-// PCL is confined to pcd_io.cc (its headers are heavy to compile).
+// PCL is confined to the module libgraphslam_pcl, loaded on the first call
+// here (storage/internal/pcl_module_api.h): it costs process start nothing
+// when no .pcd is touched. Each function returns NotSupported when the module
+// cannot load.
 // THREAD SAFETY: a VoxelCloud is used by one thread at a time.
 // ALLOCATION: one accumulator (~48 bytes) per occupied voxel.
 #pragma once
@@ -69,7 +72,8 @@ class VoxelCloud {
 // Building blocks of a streamed binary_compressed file (storage/tiled_voxel_cloud.h):
 // PCL's header (PCDWriter::generateHeaderBinaryCompressed) for `points`
 // points of the float32 fields `names`, ending with "DATA binary_compressed\n";
-std::string BinaryCompressedPcdHeader(const std::vector<std::string>& names, uint32_t points);
+StatusOr<std::string> BinaryCompressedPcdHeader(const std::vector<std::string>& names,
+                                                uint32_t points);
 // and `n` bytes compressed by PCL's lzfCompress, appended to *out as one
 // self-contained LZF segment (segments concatenate into a valid stream).
 [[nodiscard]] Status AppendLzfSegment(const char* data, size_t n, std::string* out);

@@ -247,7 +247,9 @@ Status TiledVoxelCloud::Finish(const std::string& path) {
                                    "expected a coarser --pcd-voxel");
   if (points > std::numeric_limits<uint32_t>::max())
     return Status::InvalidArgument(path + ": too many points for a PCD width");
-  std::string head = BinaryCompressedPcdHeader(names, static_cast<uint32_t>(points));
+  StatusOr<std::string> header = BinaryCompressedPcdHeader(names, static_cast<uint32_t>(points));
+  GS_RETURN_IF_ERROR(header.status());
+  std::string head = std::move(header).value();
   format::PutFixed32(&head, static_cast<uint32_t>(compressed));
   format::PutFixed32(&head, static_cast<uint32_t>(uncompressed));
   GS_RETURN_IF_ERROR(storage::WriteFileAtomically(

@@ -2,7 +2,8 @@
 // Mierle et al., http://ceres-solver.org) so that `graphslam solve` can be
 // compared against a well-known peer on identical data (docs/peers.md).
 //
-//   graphslam_ceres_peer INPUT.g2o --linear-solver sparse_schur|iterative_schur
+//   graphslam_ceres_peer INPUT.g2o
+//                        --linear-solver sparse_schur|iterative_schur|sparse_normal_cholesky
 //                        --report REPORT.json [--max-iterations N] [--threads N]
 //                        [--function-tolerance T] [--eta E] [--max-linear-iterations N]
 //                        [--iteration-log FILE] [-q]
@@ -69,7 +70,8 @@ double Seconds(Clock::time_point since) {
 
 struct PeerOptions {
   std::string input;
-  std::string linear_solver = "sparse_schur";  // sparse_schur, iterative_schur
+  // sparse_schur, iterative_schur, sparse_normal_cholesky
+  std::string linear_solver = "sparse_schur";
   std::string report;
   int max_iterations = 200;
   double function_tolerance = 1e-6;
@@ -83,9 +85,11 @@ struct PeerOptions {
 
   Status Validate() const {
     if (input.empty()) return Status::InvalidArgument("no INPUT given");
-    if (linear_solver != "sparse_schur" && linear_solver != "iterative_schur")
+    if (linear_solver != "sparse_schur" && linear_solver != "iterative_schur" &&
+        linear_solver != "sparse_normal_cholesky")
       return Status::InvalidArgument(
-          "--linear-solver must be sparse_schur or iterative_schur, got '" + linear_solver + "'");
+          "--linear-solver must be sparse_schur, iterative_schur or sparse_normal_cholesky, "
+          "got '" + linear_solver + "'");
     if (max_iterations < 0)
       return Status::InvalidArgument("--max-iterations must be >= 0, got " +
                                      std::to_string(max_iterations));
@@ -258,7 +262,11 @@ std::string TerminationName(const ceres::Solver::Summary& summary) {
 void ConfigureLinearSolver(const PeerOptions& options, bool fallback,
                            ceres::Solver::Options* solver_options) {
   const bool iterative = options.linear_solver == "iterative_schur";
-  if (!fallback) {
+  if (options.linear_solver == "sparse_normal_cholesky") {
+    // CHOLMOD on J^T J of all unknowns: what Ceres' own pose-graph examples use.
+    solver_options->linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    solver_options->preconditioner_type = ceres::JACOBI;
+  } else if (!fallback) {
     solver_options->linear_solver_type =
         iterative ? ceres::ITERATIVE_SCHUR : ceres::SPARSE_SCHUR;
     solver_options->preconditioner_type = ceres::SCHUR_JACOBI;
@@ -328,7 +336,8 @@ int Run(const PeerOptions& options) {
     build_seconds = Seconds(build_start);
     ConfigureLinearSolver(options, fallback, &solver_options);
     // Landmarks first; a pose-only graph lets Ceres choose (see header).
-    solver_options.linear_solver_ordering = landmarks_used > 0 ? ordering : nullptr;
+    const bool schur = options.linear_solver != "sparse_normal_cholesky";
+    solver_options.linear_solver_ordering = schur && landmarks_used > 0 ? ordering : nullptr;
     std::string error;
     if (!solver_options.IsValid(&error))
       return fail(Status::InvalidArgument("Ceres options: " + error));
@@ -448,7 +457,8 @@ int main(int argc, char** argv) {
   graphslam::perf::PeerOptions options;
   CLI::App app{"Solve a 2-D g2o graph with Ceres Solver and write a graphslam-style report"};
   app.add_option("input", options.input, "input .g2o file")->required();
-  app.add_option("--linear-solver", options.linear_solver, "sparse_schur or iterative_schur")
+  app.add_option("--linear-solver", options.linear_solver,
+                 "sparse_schur, iterative_schur or sparse_normal_cholesky")
       ->capture_default_str();
   app.add_option("--report", options.report, "run report (.json)");
   app.add_option("--max-iterations", options.max_iterations, "Levenberg-Marquardt iterations")
