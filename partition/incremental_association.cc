@@ -203,7 +203,13 @@ int64_t CloseLoop(const IncrementalAssociationOptions& options, const core::Prob
     return true;
   };
   const SubmapMatch match = MatchSubmap(local, map, options.loop, allowed);
-  if (!match.accepted) return 0;
+  if (!match.accepted) {
+    if (match.best_inliers >= 3)
+      GS_VLOG(2, "incremental association: no loop closure at pose %d: best %d inliers, "
+              "runner-up %d, %zu local, %zu older", begin, match.best_inliers,
+              match.runner_up_inliers, local.size(), map.size());
+    return 0;
+  }
   core::Point2 centre = core::Point2::Zero();
   for (const auto& [l, a] : match.pairs) centre += local[l];
   centre /= static_cast<double>(match.pairs.size());
