@@ -37,6 +37,7 @@ struct Cluster {
   std::vector<int32_t> members;                   // input observations
   int32_t last_pose = -1;
   bool dropped = false;
+  bool absorbed = false;  // joined to an older feature by a loop closure (no members left)
   // In the current stage: the sub-problem feature that represents it in the
   // tests (its latest singleton if seen in this stage) and where it is.
   int32_t representative = -1;
@@ -161,6 +162,85 @@ int64_t CellKey(const core::Point2& p, double cell) {
   return (x << 32) ^ (y & 0xffffffffLL);
 }
 
+
+// Loop closure of one stage: the local map (clusters seen from pose
+// begin - window on) against the older confirmed clusters, matched as a rigid
+// whole (partition/submap_matching.h). Each inlier pair is joined: the local
+// cluster's observations go to the older one. Returns the pairs joined.
+int64_t CloseLoop(const IncrementalAssociationOptions& options, const core::Problem2d& problem,
+                  int32_t begin, const std::vector<uint8_t>& solved_before,
+                  std::vector<Cluster>* clusters, std::vector<int32_t>* cluster_of) {
+  std::vector<int32_t> local_ids, map_ids;
+  std::vector<core::Point2> local, map;
+  const int64_t first_local = static_cast<int64_t>(begin) - options.local_window;
+  for (size_t c = 0; c < clusters->size(); ++c) {
+    const Cluster& cluster = (*clusters)[c];
+    if (cluster.dropped || cluster.absorbed || cluster.members.empty()) continue;
+    if (cluster.last_pose >= first_local) {
+      local_ids.push_back(static_cast<int32_t>(c));
+      // Seen before this stage: its solved estimate; new: where it was seen.
+      local.push_back(c < solved_before.size() && solved_before[c] ? cluster.position
+                                                                    : cluster.representative_position);
+    } else if (static_cast<int64_t>(cluster.members.size()) >= options.confirm_observations) {
+      map_ids.push_back(static_cast<int32_t>(c));
+      map.push_back(cluster.position);
+    }
+  }
+  auto poses_of = [&](int32_t c) {
+    std::vector<int32_t> poses;
+    for (int32_t o : (*clusters)[c].members) poses.push_back(problem.observations[o].pose);
+    std::sort(poses.begin(), poses.end());
+    return poses;
+  };
+  // One scan never sees one landmark twice: clusters sharing a pose stay apart.
+  auto allowed = [&](int32_t l, int32_t a) {
+    const std::vector<int32_t> x = poses_of(local_ids[l]), y = poses_of(map_ids[a]);
+    for (size_t i = 0, j = 0; i < x.size() && j < y.size();) {
+      if (x[i] == y[j]) return false;
+      (x[i] < y[j] ? i : j) += 1;
+    }
+    return true;
+  };
+  const SubmapMatch match = MatchSubmap(local, map, options.loop, allowed);
+  if (!match.accepted) {
+    if (match.best_inliers >= 3)
+      GS_VLOG(2, "incremental association: no loop closure at pose %d: best %d inliers, "
+              "runner-up %d, %zu local, %zu older", begin, match.best_inliers,
+              match.runner_up_inliers, local.size(), map.size());
+    return 0;
+  }
+  core::Point2 centre = core::Point2::Zero();
+  for (const auto& [l, a] : match.pairs) centre += local[l];
+  centre /= static_cast<double>(match.pairs.size());
+  const double c = std::cos(match.transform.z()), s = std::sin(match.transform.z());
+  const core::Point2 moved(c * centre.x() - s * centre.y() + match.transform.x(),
+                           s * centre.x() + c * centre.y() + match.transform.y());
+  GS_VLOG(1, "incremental association: loop closure at pose %d, %d pairs (runner-up %d), "
+          "%zu local, %zu older; the pairs' centre moves %.2f m, %.3f rad", begin,
+          match.best_inliers, match.runner_up_inliers, local.size(), map.size(),
+          (moved - centre).norm(), match.transform.z());
+  for (const auto& [l, a] : match.pairs) {
+    if (LogVerbosity() >= 2) {
+      std::string text;
+      for (int32_t o : (*clusters)[local_ids[l]].members) text.append(" ").append(std::to_string(o));
+      text.append(" |");
+      for (int32_t o : (*clusters)[map_ids[a]].members) text.append(" ").append(std::to_string(o));
+      GS_VLOG(2, "incremental association: loop pair: observations%s", text.c_str());
+    }
+    Cluster& from = (*clusters)[local_ids[l]];
+    Cluster& to = (*clusters)[map_ids[a]];
+    for (int32_t o : from.members) {
+      to.members.push_back(o);
+      (*cluster_of)[o] = map_ids[a];
+    }
+    std::sort(to.members.begin(), to.members.end());
+    to.last_pose = std::max(to.last_pose, from.last_pose);
+    from.members.clear();
+    from.absorbed = true;
+  }
+  return static_cast<int64_t>(match.pairs.size());
+}
+
 }  // namespace
 
 Status IncrementalAssociationOptions::Validate() const {
@@ -189,7 +269,10 @@ Status IncrementalAssociationOptions::Validate() const {
         "incremental association: chunk_observations must be >= 1");
   if (min_redundancy < 0)
     return Status::InvalidArgument("incremental association: min_redundancy must be >= 0");
-  return Status::Ok();
+  if (local_window < 0)
+    return Status::InvalidArgument("incremental association: local_window must be >= 0, got " +
+                                   std::to_string(local_window));
+  return loop.Validate();
 }
 
 Status AssociateIncrementally(const IncrementalAssociationOptions& options,
@@ -271,6 +354,7 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
         cluster.representative_position = cluster.position;
         grid[CellKey(cluster.position, options.search_radius)].push_back(static_cast<int32_t>(c));
       }
+      const std::vector<uint8_t> solved_before(clusters.size(), 1);  // clusters made before the stage
       std::vector<int32_t> touched;  // clusters seen (or made) in this stage
       std::vector<uint8_t> is_touched(clusters.size(), 0);
       for (int32_t p = begin; p < end; ++p) {
@@ -367,6 +451,14 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
           }
         }
       }
+      if (options.close_loops) {
+        const int64_t joined =
+            CloseLoop(options, *problem, begin, solved_before, &clusters, &cluster_of);
+        if (joined > 0) {
+          ++summary->loop_closures;
+          summary->loop_pairs += joined;
+        }
+      }
       summary->assignment_seconds += SecondsSince(t0);
     }
 
@@ -394,7 +486,7 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
 
     // Provisional features not seen for a while are clutter.
     for (Cluster& cluster : clusters) {
-      if (cluster.dropped ||
+      if (cluster.dropped || cluster.absorbed ||
           static_cast<int64_t>(cluster.members.size()) >= options.confirm_observations)
         continue;
       if (static_cast<int64_t>(end) - cluster.last_pose > options.provisional_poses)
@@ -411,6 +503,7 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
   std::vector<core::Point2> features;
   for (size_t c = 0; c < clusters.size(); ++c) {
     Cluster& cluster = clusters[c];
+    if (cluster.absorbed) continue;
     if (static_cast<int64_t>(cluster.members.size()) < options.confirm_observations)
       cluster.dropped = true;
     if (cluster.dropped) {

@@ -28,6 +28,11 @@
 //         covariance of the difference, exclusive (no two observations of one
 //         scan on one feature), most pairings, then smallest joint distance
 //       an unpaired observation starts a new, provisional feature
+//     loop closure: the local map (features seen in the last local_window
+//       poses before the stage, or in it) matched as a rigid whole against
+//       the older features (partition/submap_matching.h); each inlier pair
+//       becomes one feature. This finds revisits after drift larger than
+//       any single feature's gate
 //     solve the sub-problem with those correspondences (at most
 //       max_iterations_per_stage Levenberg-Marquardt iterations, singletons
 //       left out: partition/singleton_solve.h)
@@ -54,6 +59,7 @@
 #include "core/problem.h"
 #include "core/status.h"
 #include "partition/joint_compatibility.h"
+#include "partition/submap_matching.h"
 
 namespace graphslam::partition {
 
@@ -73,6 +79,10 @@ struct IncrementalAssociationOptions {
   // data show, not the inputs' nominal models.
   bool scale_by_variance_factor = true;
   int64_t min_redundancy = 50;
+  // Loop closure by matching the local map against the older map.
+  bool close_loops = true;
+  int64_t local_window = 100;  // poses before the stage whose features are local
+  SubmapMatchOptions loop;
   int64_t chunk_observations = 4096;
 
   [[nodiscard]] Status Validate() const;
@@ -87,6 +97,8 @@ struct IncrementalAssociationSummary {
   int64_t provisional_dropped = 0;   // features never confirmed (clutter)
   int64_t clutter_observations = 0;  // their observations, removed
   int64_t exhausted_scans = 0;       // JCBB stopped at max_nodes
+  int64_t loop_closures = 0;         // stages whose local map matched the older map
+  int64_t loop_pairs = 0;            // local features joined to older ones by them
   double chi2 = 0.0;                 // after the last stage solve
   double variance_factor = 1.0;      // s^2 after the last stage solve
   double solve_seconds = 0.0;

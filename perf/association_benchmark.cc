@@ -22,7 +22,12 @@
 // GS_INC_RADIUS, GS_INC_Z, GS_INC_CONFIRM, GS_INC_WINDOW, GS_INC_ITERATIONS set
 // the incremental pass's stage_poses, search_radius, joint.z,
 // confirm_observations, provisional_poses and max_iterations_per_stage (partition/incremental_association.h), GS_INCREMENTAL=1 runs
-// it (off by default); GS_SCALE=0/1 sets the variance-factor scaling of both
+// it (off by default); GS_LOOP=0/1, GS_LOOP_MIN, GS_LOOP_MARGIN, GS_LOOP_TOL,
+// GS_LOOP_ROT, GS_LOOP_RADIUS, GS_LOOP_WINDOW set its loop closure
+// (close_loops, loop.min_inliers, .ambiguity_margin, .tolerance,
+// .max_rotation, .search_radius, local_window); GS_KEY_OUT=FILE writes the key,
+// one landmark per observation line (with GS_VERBOSE=2 the loop pairs'
+// observations are logged); GS_SCALE=0/1 sets the variance-factor scaling of both
 // passes (default: incremental pass on, batch rounds off); GS_SPLITS=1 prints
 // every key landmark split over several features with the pose spans.
 // Prints one line per round and a summary; the commands and figures are in
@@ -149,6 +154,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "unknown dataset '%s'\n", which.c_str());
     return 2;
   }
+  if (const char* path = std::getenv("GS_KEY_OUT")) {  // diagnosis: the key, one line per observation
+    if (std::FILE* f = std::fopen(path, "w")) {
+      for (int64_t k : key) std::fprintf(f, "%lld\n", static_cast<long long>(k));
+      std::fclose(f);
+    }
+  }
   if (argc > next_arg) options.chi = std::atof(argv[next_arg]);
   if (argc > next_arg + 1) options.search_radius = std::atof(argv[next_arg + 1]);
   if (argc > next_arg + 2) options.mutual_best_rounds = std::atoi(argv[next_arg + 2]);
@@ -192,6 +203,13 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("GS_INC_WINDOW")) options.incremental.provisional_poses = std::atoll(v);
   if (const char* v = std::getenv("GS_INC_ITERATIONS"))
     options.incremental.max_iterations_per_stage = std::atoi(v);
+  if (const char* v = std::getenv("GS_LOOP")) options.incremental.close_loops = std::atoi(v) != 0;
+  if (const char* v = std::getenv("GS_LOOP_MIN")) options.incremental.loop.min_inliers = std::atoi(v);
+  if (const char* v = std::getenv("GS_LOOP_MARGIN")) options.incremental.loop.ambiguity_margin = std::atoi(v);
+  if (const char* v = std::getenv("GS_LOOP_TOL")) options.incremental.loop.tolerance = std::atof(v);
+  if (const char* v = std::getenv("GS_LOOP_ROT")) options.incremental.loop.max_rotation = std::atof(v);
+  if (const char* v = std::getenv("GS_LOOP_RADIUS")) options.incremental.loop.search_radius = std::atof(v);
+  if (const char* v = std::getenv("GS_LOOP_WINDOW")) options.incremental.local_window = std::atoll(v);
   if (const char* v = std::getenv("GS_INCREMENTAL")) options.incremental.enabled = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_SCALE")) {
     options.scale_by_variance_factor = std::atoi(v) != 0;
@@ -205,6 +223,13 @@ int main(int argc, char** argv) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const gs::partition::PairwiseScore score = gs::partition::ScorePairwise(
       gs::partition::InputObservationLabels(problem, summary, key.size()), key);
+  if (const char* path = std::getenv("GS_LABELS_OUT")) {  // diagnosis: the labels found
+    if (std::FILE* f = std::fopen(path, "w")) {
+      for (int64_t label : gs::partition::InputObservationLabels(problem, summary, key.size()))
+        std::fprintf(f, "%lld\n", static_cast<long long>(label));
+      std::fclose(f);
+    }
+  }
   double round_seconds = 0.0;
   for (const auto& r : summary.rounds) {
     const double s = r.solve_seconds + r.marginal_seconds + r.association_seconds;
@@ -267,13 +292,15 @@ int main(int argc, char** argv) {
   const auto& inc = summary.incremental;
   if (inc.ran)
     std::printf("incremental: %lld stages, %lld scans, %lld paired, %lld features, %lld provisional "
-                "dropped (%lld observations), %lld JCBB capped, chi2 %.6f, s^2 %.4g; solve %.2f s, "
+                "dropped (%lld observations), %lld JCBB capped, %lld loop closures (%lld pairs), chi2 %.6f, s^2 %.4g; solve %.2f s, "
                 "covariances %.2f s, assignment %.2f s, total %.2f s\n",
                 static_cast<long long>(inc.stages), static_cast<long long>(inc.scans),
                 static_cast<long long>(inc.paired), static_cast<long long>(inc.features),
                 static_cast<long long>(inc.provisional_dropped),
                 static_cast<long long>(inc.clutter_observations),
-                static_cast<long long>(inc.exhausted_scans), inc.chi2, inc.variance_factor,
+                static_cast<long long>(inc.exhausted_scans),
+                static_cast<long long>(inc.loop_closures), static_cast<long long>(inc.loop_pairs),
+                inc.chi2, inc.variance_factor,
                 inc.solve_seconds,
                 inc.covariance_seconds, inc.assignment_seconds, inc.seconds);
   // Were the undone merges wrong (sides' representatives from different
