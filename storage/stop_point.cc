@@ -3,6 +3,9 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
+
+#include <unistd.h>
 
 namespace graphslam::storage {
 
@@ -10,6 +13,15 @@ void StopPointForTests(std::string_view point) {
   const char* wanted = std::getenv(kStopPointVariable);
   if (wanted == nullptr || point != wanted) return;
   std::fflush(nullptr);  // what was printed so far reaches the test
+  if (const char* pid_file = std::getenv(kStopPidFileVariable); pid_file != nullptr) {
+    // Complete or absent for the test that waits for it: written, then renamed.
+    const std::string temporary = std::string(pid_file) + ".tmp";
+    if (std::FILE* out = std::fopen(temporary.c_str(), "w"); out != nullptr) {
+      std::fprintf(out, "%ld\n", static_cast<long>(getpid()));
+      std::fclose(out);
+      std::rename(temporary.c_str(), pid_file);
+    }
+  }
   std::raise(SIGSTOP);
 }
 

@@ -371,9 +371,9 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   // reports and writes the outputs.
   if (const int launched = LaunchedProcesses();
       launched > 0 && storage::IsChunkStore(options.input)) {
-    if (options.resume || !options.checkpoint.empty() || options.associate) {
-      std::fprintf(stderr, "graphslam solve: under mpirun, --resume, --checkpoint and "
-                   "--associate are not supported yet (docs/distributed.md)\n");
+    if (options.associate) {
+      std::fprintf(stderr, "graphslam solve: under mpirun, --associate is not supported yet "
+                   "(docs/distributed.md)\n");
       return kExitUsage;
     }
     StatusOr<std::unique_ptr<DistributedSolveRun>> started =
@@ -432,17 +432,20 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     if (!locked.ok()) return fail(locked.status());
     lock = std::move(locked).value();
   } else if (storage::IsChunkStore(options.input)) {
-    // Under mpirun no rank writes into the store (no checkpoint, no
-    // --associate): every rank holds it shared.
-    const bool writes = (options.checkpoint.empty() && !distributed) || options.associate;
-    StatusOr<storage::DirectoryLock> locked = storage::DirectoryLock::Acquire(
-        options.input,
-        writes ? storage::DirectoryLock::Mode::kExclusive : storage::DirectoryLock::Mode::kShared);
-    if (!locked.ok()) return fail(locked.status());
-    lock = std::move(locked).value();
+    // Under mpirun rank 0 alone writes (STORE/checkpoint.json) and holds
+    // the lock for the job; the other ranks only read and take none (a
+    // shared lock of theirs would block rank 0's exclusive one).
+    const bool writes = options.checkpoint.empty() || options.associate;
+    if (root) {
+      StatusOr<storage::DirectoryLock> locked = storage::DirectoryLock::Acquire(
+          options.input, writes ? storage::DirectoryLock::Mode::kExclusive
+                                : storage::DirectoryLock::Mode::kShared);
+      if (!locked.ok()) return fail(locked.status());
+      lock = std::move(locked).value();
+    }
     // Under the exclusive lock a temporary file in a store of ours is one a
     // killed writer left (a checkpoint's): nobody will rename it.
-    if (writes && storage::CheckStoreDirectory(options.input).ok()) {
+    if (root && writes && storage::CheckStoreDirectory(options.input).ok()) {
       if (Status status = storage::RemoveStaleTemporaries(storage::Env::Default(), options.input,
                                                           /*recursive=*/true);
           !status.ok())
@@ -582,14 +585,15 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   // Checkpoints: one durable file, replaced atomically after every iteration;
   // --resume continues from it (bit-identical to an uninterrupted solve).
   std::string checkpoint_path = options.checkpoint;
-  if (checkpoint_path.empty() && store && !options.associate && !distributed)
+  if (checkpoint_path.empty() && store && !options.associate)
     checkpoint_path = store_path + "/checkpoint.json";
   if (options.resume && checkpoint_path.empty()) {
     std::fprintf(stderr, "graphslam solve: --resume needs --checkpoint FILE (or a chunk store)\n");
     return kExitUsage;
   }
   core::SolverCheckpoint resume_state;
-  const bool resuming = options.resume && std::filesystem::exists(checkpoint_path);
+  // Under mpirun rank 0 reads it and broadcasts it (docs/distributed.md).
+  const bool resuming = root && options.resume && std::filesystem::exists(checkpoint_path);
   if (resuming) {
     StatusOr<core::SolverCheckpoint> read_checkpoint =
         storage::ReadSolverCheckpoint(checkpoint_path, options.input);
@@ -597,7 +601,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
     resume_state = std::move(read_checkpoint).value();
     GS_LOG(INFO, "resuming from %s after iteration %d (chi2 %.9g)", checkpoint_path.c_str(),
            resume_state.iterations, resume_state.chi2);
-  } else if (options.resume) {
+  } else if (options.resume && root) {
     GS_LOG(WARNING, "no checkpoint at %s yet: starting from the beginning",
            checkpoint_path.c_str());
   }
@@ -710,8 +714,9 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   // Streaming mode keeps no per-feature array of candidates (they go to a
   // scratch file beside the checkpoint, storage/candidate_file.h) and writes
   // the checkpoint's feature estimates as a binary file, not JSON arrays.
+  // (Not under mpirun: every rank would use the same scratch files.)
   std::unique_ptr<storage::CandidateFile> candidate_file;
-  if (streaming && !checkpoint_path.empty()) {
+  if (streaming && !checkpoint_path.empty() && !distributed) {
     candidate_file = std::make_unique<storage::CandidateFile>(
         storage::Env::Default(), checkpoint_path + ".candidates.bin");
     solver_options.candidate_store = candidate_file.get();
@@ -720,7 +725,7 @@ int RunSolveCommand(const SolveCommandOptions& options) {
   // checkpoint while it solves (8 B per feature, the passes' peak included):
   // only the outputs read them (storage/feature_id_file.h).
   std::unique_ptr<storage::FeatureIdFile> id_file;
-  if (streaming && !checkpoint_path.empty()) {
+  if (streaming && !checkpoint_path.empty() && !distributed) {
     id_file = std::make_unique<storage::FeatureIdFile>(storage::Env::Default(),
                                                        checkpoint_path + ".ids.bin");
     if (Status status = id_file->Park(&problem.feature_ids); !status.ok()) return fail(status);
