@@ -20,11 +20,11 @@ void Broadcast(MPI_Comm comm, std::vector<Vector>* values) {
   BroadcastBytes(comm, values->data(), values->size() * sizeof(Vector));
 }
 
-// Every rank's costs to rank 0 (one MPI_Gather of 17 doubles per rank;
+// Every rank's costs to rank 0 (one MPI_Gather of 19 doubles per rank;
 // the counts are far below 2^53, so exact).
 void GatherRankCosts(MPI_Comm comm, const DistributedSolveInfo::RankCosts& mine,
                      std::vector<DistributedSolveInfo::RankCosts>* all) {
-  constexpr int kValues = 17;
+  constexpr int kValues = 19;
   const ExchangeStats& e = mine.exchange;
   const double values[kValues] = {
       static_cast<double>(e.bytes_sent_per_solve), static_cast<double>(e.owned_blocks),
@@ -35,7 +35,8 @@ void GatherRankCosts(MPI_Comm comm, const DistributedSolveInfo::RankCosts& mine,
       static_cast<double>(e.reductions),           static_cast<double>(e.reduction_bytes),
       e.reduction_seconds,                         mine.solve_seconds,
       mine.checkpoint_seconds,                     static_cast<double>(mine.checkpoint_bytes_sent),
-      static_cast<double>(mine.peak_rss_bytes)};
+      static_cast<double>(mine.peak_rss_bytes),    mine.cpu_seconds,
+      e.ksp_cpu_seconds};
   int rank = 0, size = 1;
   MPI_Comm_rank(comm, &rank);
   MPI_Comm_size(comm, &size);
@@ -63,6 +64,8 @@ void GatherRankCosts(MPI_Comm comm, const DistributedSolveInfo::RankCosts& mine,
     c.checkpoint_seconds = v[14];
     c.checkpoint_bytes_sent = static_cast<int64_t>(v[15]);
     c.peak_rss_bytes = static_cast<int64_t>(v[16]);
+    c.cpu_seconds = v[17];
+    c.exchange.ksp_cpu_seconds = v[18];
     all->push_back(c);
   }
 }
@@ -173,6 +176,8 @@ Status SolveGraphSlamDistributed(MPI_Comm comm, const core::SolverOptions& optio
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   costs.peak_rss_bytes = int64_t{usage.ru_maxrss} * 1024;  // Linux: KiB
+  costs.cpu_seconds = static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+                      1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
   GatherRankCosts(comm, costs, &info->per_rank);
 
   // 4. Every feature's estimate from the rank that owns its chunk.

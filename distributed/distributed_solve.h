@@ -59,6 +59,7 @@ struct DistributedSolveInfo {
     double checkpoint_seconds = 0;
     int64_t checkpoint_bytes_sent = 0;
     int64_t peak_rss_bytes = 0;
+    double cpu_seconds = 0;  // the process's, at the end of the solve
   };
   std::vector<RankCosts> per_rank;
 };

@@ -59,6 +59,7 @@ struct ExchangeStats {
   int64_t solves = 0;
   double exchange_seconds = 0;       // packing, MPI_Alltoallv, sums, PETSc assembly
   double ksp_seconds = 0;            // KSPSolve (setup of the preconditioner included)
+  double ksp_cpu_seconds = 0;        // the same in this process's CPU time
   double gather_seconds = 0;         // MPI_Allgatherv of the step
   int64_t gather_bytes_sent = 0;     // by this rank, all solves
   int64_t ksp_iterations = 0;        // all solves

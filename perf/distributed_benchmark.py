@@ -56,7 +56,10 @@ def figures(report):
             "communication_s": communication / iterations,
             "bytes_sent": sent / iterations,
             "halo_bytes_received": r["halo_bytes_received"] / iterations,
-            "peak_rss_mib": r.get("peak_rss_bytes", 0) / 2**20})
+            "peak_rss_mib": r.get("peak_rss_bytes", 0) / 2**20,
+            # CPU seconds of the whole process (its start included) and of the KSP.
+            "cpu_s": r.get("cpu_seconds", 0) / iterations,
+            "ksp_cpu_s": r.get("ksp_cpu_seconds", 0) / iterations})
     return out
 
 
@@ -81,18 +84,19 @@ def main():
         return statistics.median(values)
 
     print("| ranks | s / iteration | per rank: chunk passes s | KSP s | communication s | "
-          "MB sent | KSP halo MB received | CG its / iteration | peak RSS MiB |")
-    print("|---|---|---|---|---|---|---|---|---|")
+          "MB sent | KSP halo MB received | CG its / iteration | peak RSS MiB | CPU s (KSP CPU s) |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for n in counts:
         rows = results[n]
         per = lambda key: ", ".join(
             "%.3g" % median([row["ranks"][r][key] for row in rows]) for r in range(n))
         mb = lambda key: ", ".join(
             "%.3g" % (median([row["ranks"][r][key] for row in rows]) / 1e6) for r in range(n))
-        print("| %d | %.3f | %s | %s | %s | %s | %s | %.0f | %s |" % (
+        print("| %d | %.3f | %s | %s | %s | %s | %s | %.0f | %s | %s (%s) |" % (
             n, median([row["s_per_iteration"] for row in rows]), per("passes_s"), per("ksp_s"),
             per("communication_s"), mb("bytes_sent"), mb("halo_bytes_received"),
-            median([row["cg_iterations"] for row in rows]), per("peak_rss_mib")))
+            median([row["cg_iterations"] for row in rows]), per("peak_rss_mib"), per("cpu_s"),
+            per("ksp_cpu_s")))
 
 
 if __name__ == "__main__":

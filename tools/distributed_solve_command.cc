@@ -125,6 +125,8 @@ class MpiSolveRun : public DistributedSolveRun {
            {"halo_bytes_received", 8 * e.halo_values * e.ksp_iterations},
            {"solves", e.solves},
            {"peak_rss_bytes", c.peak_rss_bytes},
+           {"cpu_seconds", c.cpu_seconds},
+           {"ksp_cpu_seconds", e.ksp_cpu_seconds},
            {"assembled_blocks", e.owned_blocks}});
     }
     (*report)["distributed"]["per_rank"] = std::move(per_rank);
