@@ -38,6 +38,22 @@ void Write(const fs::path& path, const std::string& text) {
   std::ofstream(path, std::ios::binary) << text;
 }
 
+// The stores' problem (60 poses, 40 features, initialized) and chunking.
+core::Problem2d StoreProblem() {
+  testing::RandomProblemOptions options;
+  options.num_poses = 60;
+  options.num_features = 40;
+  options.seed = 5;
+  core::Problem2d problem = testing::MakeRandomProblem(options).problem;
+  EXPECT_TRUE(core::InitializeProblem(&problem).ok());
+  return problem;
+}
+partition::ChunkingOptions StoreChunking() {
+  partition::ChunkingOptions chunking;
+  chunking.max_observations_per_chunk = 20;
+  return chunking;
+}
+
 class ChunkStoreIntegrity : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -50,15 +66,8 @@ class ChunkStoreIntegrity : public ::testing::Test {
     // leaves them), in a folder claimed as ours first (as the ingest does).
     ASSERT_TRUE(ClaimStoreDirectory(Env::Default(), dir_.string()).ok());
     Write(dir_ / "scans" / "SCANS.json", "{\"format\": \"graphslam-scan-store\"}\n");
-    testing::RandomProblemOptions options;
-    options.num_poses = 60;
-    options.num_features = 40;
-    options.seed = 5;
-    core::Problem2d problem = testing::MakeRandomProblem(options).problem;
-    ASSERT_TRUE(core::InitializeProblem(&problem).ok());
-    partition::ChunkingOptions chunking;
-    chunking.max_observations_per_chunk = 20;
-    partition::InMemoryChunkSource chunks(problem, chunking);
+    const core::Problem2d problem = StoreProblem();
+    partition::InMemoryChunkSource chunks(problem, StoreChunking());
     ChunkStoreWriteOptions write;
     write.source = "input.graphslam";
     write.input = FileChecksum{1234, 0xdeadbeef};
@@ -224,15 +233,8 @@ TEST_F(ChunkStoreIntegrity, NewerVersionIsNotSupported) {
 // one folder write the one-call writer's chunk files; the manifest lists the
 // shards and the reader returns them.
 TEST_F(ChunkStoreIntegrity, ShardsOfTwoWritersMakeTheSameStore) {
-  testing::RandomProblemOptions options;
-  options.num_poses = 60;
-  options.num_features = 40;
-  options.seed = 5;
-  core::Problem2d problem = testing::MakeRandomProblem(options).problem;
-  ASSERT_TRUE(core::InitializeProblem(&problem).ok());
-  partition::ChunkingOptions chunking;
-  chunking.max_observations_per_chunk = 20;
-  partition::InMemoryChunkSource chunks(problem, chunking);
+  const core::Problem2d problem = StoreProblem();
+  partition::InMemoryChunkSource chunks(problem, StoreChunking());
   ASSERT_GE(chunks.NumChunks(), 2);
   const int64_t half = chunks.NumChunks() / 2;
   const fs::path sharded = dir_.string() + "_sharded";
