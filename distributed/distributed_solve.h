@@ -16,8 +16,13 @@
 //      (MPI_Allreduce of values that are 0 on every other rank: exact), so
 //      every rank ends with the whole solution.
 //
-// Not here: checkpoints and --resume (options.checkpoint_callback and
-// resume_from must be empty), the candidate store, 3-D stores.
+// Checkpoints and --resume (distributed/checkpoint_exchange.h): after every
+// iteration the features are gathered to rank 0, whose
+// options.checkpoint_callback (called on rank 0 only) gets the whole state,
+// as a one-process solve would; its status is every rank's, and then
+// `checkpoint_durable(iteration)` runs on every rank (a test's stop point).
+// options.resume_from is read on rank 0 only (the other ranks pass null):
+// rank 0 broadcasts it. Not here: the candidate store, 3-D stores.
 //
 // THREAD SAFETY: collective. ALLOCATION: as the one-process solve, plus the
 // exchange (PetscReducedSolver) and O(features) for steps 1 and 4.
@@ -26,6 +31,7 @@
 #include <mpi.h>
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -43,6 +49,19 @@ struct DistributedSolveInfo {
   std::vector<int64_t> chunks_per_rank;        // all ranks
   std::vector<int64_t> observations_per_rank;  // all ranks
   ExchangeStats exchange;                      // this rank's
+  // Every rank's figures, on rank 0 only (docs/distributed.md, "Measured"):
+  // its ExchangeStats, the wall seconds of its solve (SolveChunkedWith) and
+  // of its checkpoint gathers, the bytes those gathers sent, and its peak
+  // resident set size (getrusage) at the end of the solve.
+  struct RankCosts {
+    ExchangeStats exchange;
+    double solve_seconds = 0;
+    double checkpoint_seconds = 0;
+    int64_t checkpoint_bytes_sent = 0;
+    int64_t peak_rss_bytes = 0;
+    double cpu_seconds = 0;  // the process's, at the end of the solve
+  };
+  std::vector<RankCosts> per_rank;
 };
 
 // `chunk_observations[k]`: chunk k's observation count (the manifest's).
@@ -51,6 +70,7 @@ Status SolveGraphSlamDistributed(MPI_Comm comm, const core::SolverOptions& optio
                                  const core::ChunkSource& chunks,
                                  const std::vector<int64_t>& chunk_observations,
                                  core::Problem2d* problem, core::SolverSummary* summary,
-                                 DistributedSolveInfo* info);
+                                 DistributedSolveInfo* info,
+                                 const std::function<void(int)>& checkpoint_durable = {});
 
 }  // namespace graphslam::distributed

@@ -1,11 +1,34 @@
 #include "distributed/mpi_ranks.h"
 
 #include <algorithm>
+#include <chrono>
 #include <string>
 
 #include "distributed/chunk_assignment.h"
 
 namespace graphslam::distributed {
+namespace {
+
+// Counts one reduction of `bytes` payload bytes in *stats and adds the
+// seconds to its end (the waits for slower ranks included).
+class ReductionTimer {
+ public:
+  ReductionTimer(ExchangeStats* stats, int64_t bytes)
+      : stats_(stats), start_(std::chrono::steady_clock::now()) {
+    stats_->reductions += 1;
+    stats_->reduction_bytes += bytes;
+  }
+  ~ReductionTimer() {
+    stats_->reduction_seconds +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+
+ private:
+  ExchangeStats* stats_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+}  // namespace
 
 MpiRanks::MpiRanks(MPI_Comm comm) : comm_(comm) {
   MPI_Comm_rank(comm, &rank_);
@@ -17,6 +40,7 @@ Status MpiRanks::Agree(Status status) {
   // own; the others name it.
   int failed = status.ok() ? size_ : rank_;
   int first_failed = size_;
+  const ReductionTimer timer(&stats_, sizeof(int));
   MPI_Allreduce(&failed, &first_failed, 1, MPI_INT, MPI_MIN, comm_);
   if (!status.ok()) return status;
   if (first_failed == size_) return Status::Ok();
@@ -25,17 +49,20 @@ Status MpiRanks::Agree(Status status) {
 }
 
 void MpiRanks::SumSystem(core::ReducedSystem* system) {
+  const ReductionTimer timer(
+      &stats_, 8 * (system->gradient.size() + system->hessian_diagonal.size() + 1));
   MPI_Allreduce(MPI_IN_PLACE, system->gradient.data(), static_cast<int>(system->gradient.size()),
                 MPI_DOUBLE, MPI_SUM, comm_);
   MPI_Allreduce(MPI_IN_PLACE, system->hessian_diagonal.data(),
                 static_cast<int>(system->hessian_diagonal.size()), MPI_DOUBLE, MPI_SUM, comm_);
-  SumChi2(&system->chi2);
+  MPI_Allreduce(MPI_IN_PLACE, &system->chi2, 1, MPI_DOUBLE, MPI_SUM, comm_);
 }
 
 void MpiRanks::SumRecovery(core::RecoveryResult* recovery) {
   double sums[5] = {recovery->candidate_chi2, recovery->gradient_dot_step,
                     recovery->damped_step_norm, recovery->step_squared_norm,
                     recovery->state_squared_norm};
+  const ReductionTimer timer(&stats_, sizeof(sums));
   MPI_Allreduce(MPI_IN_PLACE, sums, 5, MPI_DOUBLE, MPI_SUM, comm_);
   recovery->candidate_chi2 = sums[0];
   recovery->gradient_dot_step = sums[1];
@@ -46,6 +73,7 @@ void MpiRanks::SumRecovery(core::RecoveryResult* recovery) {
 
 void MpiRanks::SumScreening(core::ScreeningResult* screening) {
   const int n = static_cast<int>(screening->excluded.size());
+  const ReductionTimer timer(&stats_, 2 * int64_t{n} + 16);
   MPI_Allreduce(MPI_IN_PLACE, screening->excluded.data(), n, MPI_UINT8_T, MPI_MIN, comm_);
   MPI_Allreduce(MPI_IN_PLACE, screening->kept.data(), n, MPI_UINT8_T, MPI_MAX, comm_);
   int64_t counts[2] = {screening->excluded_not_positive_definite, screening->observations};
@@ -58,6 +86,7 @@ void MpiRanks::SumScreening(core::ScreeningResult* screening) {
 }
 
 void MpiRanks::SumChi2(double* chi2) {
+  const ReductionTimer timer(&stats_, sizeof(double));
   MPI_Allreduce(MPI_IN_PLACE, chi2, 1, MPI_DOUBLE, MPI_SUM, comm_);
 }
 

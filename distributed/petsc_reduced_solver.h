@@ -59,7 +59,19 @@ struct ExchangeStats {
   int64_t solves = 0;
   double exchange_seconds = 0;       // packing, MPI_Alltoallv, sums, PETSc assembly
   double ksp_seconds = 0;            // KSPSolve (setup of the preconditioner included)
+  double ksp_cpu_seconds = 0;        // the same in this process's CPU time
   double gather_seconds = 0;         // MPI_Allgatherv of the step
+  int64_t gather_bytes_sent = 0;     // by this rank, all solves
+  int64_t ksp_iterations = 0;        // all solves
+  // Off-rank vector entries a product with S needs in this rank's rows: the
+  // bytes one CG iteration's halo exchange brings in (x 8), PETSc's VecScatter.
+  int64_t halo_values = 0;
+  // The Ranks policy's MPI_Allreduce calls (distributed/mpi_ranks.h): their
+  // count, payload bytes sent by this rank and seconds, waits for slower
+  // ranks included.
+  int64_t reductions = 0;
+  int64_t reduction_bytes = 0;
+  double reduction_seconds = 0;
   std::string ksp_type, pc_type;     // after the options, e.g. "cg", "bjacobi"
 };
 

@@ -117,9 +117,18 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
   GS_RETURN_IF_ERROR(options.store.Validate());
   GS_RETURN_IF_ERROR(options.replay.Validate());
   const std::filesystem::path dir(store_dir);
-  const std::string work = (dir / kIngestWorkDirectory).string();
-  const std::string progress_path = (dir / kIngestWorkDirectory / kIngestProgressName).string();
-  const std::string pass1_path = (dir / kIngestWorkDirectory / kPass1RecordName).string();
+  // Several ranks (IngestRanks): rank 0 does what one process does, except
+  // the chunks of other shards; the others plan and write their shard only.
+  const IngestRanks& ranks = options.ranks;
+  const bool root = ranks.rank == 0;
+  if (ranks.size > 1 && options.resume)
+    return Status::NotSupported("ingest --resume with several MPI ranks");
+  const std::string work =
+      (dir / (root ? std::string(kIngestWorkDirectory)
+                   : std::string(kIngestWorkDirectory) + ".rank-" + std::to_string(ranks.rank)))
+          .string();
+  const std::string progress_path = (std::filesystem::path(work) / kIngestProgressName).string();
+  const std::string pass1_path = (std::filesystem::path(work) / kPass1RecordName).string();
   ExternalBucketingOptions bucketing;
   bucketing.max_observations_per_chunk = options.max_observations_per_chunk;
   bucketing.buffer_observations = options.buffer_observations;
@@ -127,7 +136,7 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
   GS_RETURN_IF_ERROR(bucketing.Validate());
   const bool native = options.format == storage::InputFormat::kNative;
   // Never into a folder that is not ours (the commands hold its lock).
-  GS_RETURN_IF_ERROR(storage::ClaimStoreDirectory(env, store_dir));
+  if (root) GS_RETURN_IF_ERROR(storage::ClaimStoreDirectory(env, store_dir));
   // The input's identity (size, CRC32C) goes into the manifest, and a resume
   // checks it: a replaced input is ingested afresh even if its mtime is kept.
   storage::ChunkStoreWriteOptions store_options = options.store;
@@ -136,10 +145,15 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
   // 1. Un-commit before reading anything: a kill from here on leaves a
   // directory without MANIFEST.json, i.e. an incomplete store.
   std::error_code error;
-  std::filesystem::create_directories(dir, error);
-  if (error) return Status::IOError(store_dir + ": mkdir: " + error.message());
   storage::ChunkStoreWriter writer(env, store_dir, store_options);
-  GS_RETURN_IF_ERROR(writer.Uncommit());
+  if (root) {
+    std::filesystem::create_directories(dir, error);
+    if (error) return Status::IOError(store_dir + ": mkdir: " + error.message());
+    GS_RETURN_IF_ERROR(writer.Uncommit());
+  }
+  // The other ranks write into the un-committed store only (STORE/chunks/
+  // exists, no stale temporaries left to remove under them).
+  if (ranks.size > 1) ranks.barrier();
 
   // A resumable record of this very ingest, or a fresh start.
   IngestProgress progress;
@@ -167,7 +181,7 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
     if (error) return Status::IOError(work + ": remove: " + error.message());
     std::filesystem::create_directories(work, error);
     if (error) return Status::IOError(work + ": mkdir: " + error.message());
-    GS_RETURN_IF_ERROR(RemoveIngestedScans(store_dir));
+    if (root) GS_RETURN_IF_ERROR(RemoveIngestedScans(store_dir));
   }
 
   // 2.-3. Pass 1, the initialization and the problem file.
@@ -178,9 +192,9 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
     summary->resumed_stage = progress.stage;
   } else {
     GS_ASSIGN_OR_RETURN(FirstPass first, RunFirstPass(input, work, options, &summary->replay_bytes_written));
-    if (native && options.copy_scans)
+    if (native && options.copy_scans && root)
       GS_RETURN_IF_ERROR(SaveScanRecords(env, input, work, first.scans, first.scan_poses));
-    GS_RETURN_IF_ERROR(writer.WriteProblem(first.problem));
+    if (root) GS_RETURN_IF_ERROR(writer.WriteProblem(first.problem));
     index = std::move(first.index);
     replay = std::move(first.replay);
     progress.poses = first.problem.num_poses();
@@ -234,6 +248,31 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
   pass1 = Pass1Record();
 
   // 5. Chunks, then the manifest.
+  if (ranks.size > 1) {
+    const int64_t num_chunks = chunks->NumChunks();
+    const int64_t begin = num_chunks * ranks.rank / ranks.size;
+    const int64_t end = num_chunks * (ranks.rank + 1) / ranks.size;
+    GS_RETURN_IF_ERROR(writer.WriteChunkShard(*chunks, begin, end));
+    if (!root) {
+      std::filesystem::remove_all(work, error);  // before rank 0 commits
+      if (error) return Status::IOError(work + ": remove: " + error.message());
+    }
+    std::vector<storage::ChunkStoreEntry> entries = writer.entries();
+    std::vector<storage::ChunkStoreShard> shards;
+    GS_RETURN_IF_ERROR(ranks.gather(&entries, &shards));
+    summary->chunks = num_chunks;
+    summary->observations = observations;
+    summary->bucketing = chunks->stats();
+    if (!root) return Status::Ok();
+    writer.SetEntries(std::move(entries), std::move(shards));
+    GS_RETURN_IF_ERROR(
+        IngestScans(env, input, store_dir, options.scan_chunk_bytes, false, &summary->scans));
+    GS_RETURN_IF_ERROR(writer.Commit());
+    std::filesystem::remove_all(work, error);
+    summary->poses = progress.poses;
+    summary->features = progress.features;
+    return Status::Ok();
+  }
   int64_t first_chunk = 0;
   if (resuming && progress.stage == "chunks") {
     first_chunk = progress.chunks_durable;

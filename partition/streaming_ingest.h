@@ -58,7 +58,9 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
+#include <vector>
 
 #include "core/status.h"
 #include "partition/external_bucketing.h"
@@ -71,6 +73,27 @@
 namespace graphslam::partition {
 
 inline constexpr const char* kIngestWorkDirectory = "work";
+
+// The processes of a distributed ingest (`mpirun -np N graphslam ingest`,
+// docs/distributed.md): every rank reads the input and plans the same chunks
+// (pass 1 and the spill in its own STORE/work.rank-R/; rank 0 in
+// STORE/work/), writes its shard of them -- chunks [floor(r K / N),
+// floor((r + 1) K / N)) of the K chunks -- into STORE/chunks/, and rank 0,
+// which alone claims and un-commits the store and writes the problem file
+// and the scans, commits the manifest listing every chunk and the shards.
+// The chunk files are those one process writes (the plan and the encoding
+// are pure functions of the input and the options).
+struct IngestRanks {
+  int rank = 0;
+  int size = 1;
+  // Collective: returns once every rank called it.
+  std::function<void()> barrier;
+  // Collective: every rank's shard entries to rank 0, which gets all chunks'
+  // entries in chunk order and the shards (others: left as they are).
+  std::function<Status(std::vector<storage::ChunkStoreEntry>* entries,
+                       std::vector<storage::ChunkStoreShard>* shards)>
+      gather;
+};
 
 struct StreamingIngestOptions {
   storage::InputFormat format = storage::InputFormat::kNative;
@@ -94,6 +117,9 @@ struct StreamingIngestOptions {
   // the solver needs no scans.
   bool copy_scans = true;
   int64_t scan_chunk_bytes = int64_t{16} << 20;
+  // Several processes writing one store (above); default: this one alone.
+  // No resume then.
+  IngestRanks ranks;
 };
 
 struct IngestSummary {

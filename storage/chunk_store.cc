@@ -266,6 +266,32 @@ Status DiskChunkSource::ReadVersion2Fields(const nlohmann::json& manifest, const
   if (!problem_listed)
     return Status::Corruption(path + ": \"files\" does not list " +
                               std::string(kChunkStoreProblemName));
+  // Optional: the shards of a distributed ingest, ranks 0..N-1 covering the
+  // chunks in order.
+  if (auto shards = manifest.find("shards"); shards != manifest.end()) {
+    if (!shards->is_array()) return Status::Corruption(path + ": \"shards\" is not an array");
+    int64_t next = 0;
+    for (size_t r = 0; r < shards->size(); ++r) {
+      const nlohmann::json& item = (*shards)[r];
+      const std::string where = path + ": shards[" + std::to_string(r) + "]";
+      if (!item.is_object()) return Status::Corruption(where + ": not an object");
+      int64_t rank = 0;
+      ChunkStoreShard shard;
+      GS_RETURN_IF_ERROR(ReadCount(item, "rank", where, &rank));
+      GS_RETURN_IF_ERROR(ReadCount(item, "first_chunk", where, &shard.first_chunk));
+      GS_RETURN_IF_ERROR(ReadCount(item, "chunks", where, &shard.chunks));
+      if (rank != static_cast<int64_t>(r) || shard.first_chunk != next)
+        return Status::Corruption(where + ": rank " + std::to_string(rank) + ", first_chunk " +
+                                  std::to_string(shard.first_chunk) + "; expected rank " +
+                                  std::to_string(r) + ", first_chunk " + std::to_string(next));
+      shard.rank = static_cast<int>(rank);
+      next += shard.chunks;
+      shards_.push_back(shard);
+    }
+    if (next != static_cast<int64_t>(entries_.size()))
+      return Status::Corruption(path + ": \"shards\" cover " + std::to_string(next) +
+                                " chunks; the store has " + std::to_string(entries_.size()));
+  }
   // Chunk files present and of their size now (a missing one fails here,
   // not in the middle of a solve).
   for (const ChunkStoreEntry& entry : entries_) {

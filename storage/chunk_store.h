@@ -93,6 +93,17 @@ struct ChunkStoreEntry {
   uint32_t crc32c = 0;  // of the whole file (version >= 2)
 };
 
+// A MANIFEST.json "shards" entry: the chunks one MPI rank of a distributed
+// ingest wrote (`mpirun -np N graphslam ingest`, docs/distributed.md):
+// chunks [first_chunk, first_chunk + chunks). Shards are listed by rank
+// 0..N-1 and cover the chunks in order; a one-process ingest lists none.
+// They say who wrote what: any number of ranks reads any store.
+struct ChunkStoreShard {
+  int rank = 0;
+  int64_t first_chunk = 0;
+  int64_t chunks = 0;
+};
+
 // A MANIFEST.json "files" entry: problem.graphslam, scans/... (version >= 2).
 struct ChunkStoreFile {
   std::string path;  // relative to STORE, '/'-separated, no ".."
@@ -145,6 +156,7 @@ class DiskChunkSource : public core::ChunkSource {
   const FileChecksum& input() const { return input_; }
   const std::vector<ChunkStoreFile>& files() const { return files_; }
   const std::vector<ChunkStoreEntry>& entries() const { return entries_; }
+  const std::vector<ChunkStoreShard>& shards() const { return shards_; }
   int64_t total_features() const { return total_features_; }
   int64_t total_observations() const { return total_observations_; }
   int64_t total_bytes() const { return total_bytes_; }
@@ -159,6 +171,7 @@ class DiskChunkSource : public core::ChunkSource {
   int version_ = 0;
   FileChecksum input_{-1, 0};
   std::vector<ChunkStoreEntry> entries_;
+  std::vector<ChunkStoreShard> shards_;
   std::vector<ChunkStoreFile> files_;
   // Per chunk: 1 once its CRC32C matched (checked on the first Load only:
   // the chunk format's own record CRCs check every later read).

@@ -151,10 +151,28 @@ Status ChunkStoreWriter::WriteProblem(const core::Problem2d& problem) {
 
 Status ChunkStoreWriter::WriteChunks(const core::ChunkSource& chunks, int64_t first,
                                      const std::function<Status(int64_t)>& on_durable) {
-  GS_RETURN_IF_ERROR(options_.Validate());
   GS_CHECK(first >= 0 && static_cast<int64_t>(entries_.size()) == first);
+  return WriteRange(chunks, first, chunks.NumChunks(), on_durable);
+}
+
+Status ChunkStoreWriter::WriteChunkShard(const core::ChunkSource& chunks, int64_t first,
+                                         int64_t end) {
+  GS_CHECK(first >= 0 && first <= end && end <= chunks.NumChunks());
+  entries_.clear();
+  return WriteRange(chunks, first, end, {});
+}
+
+void ChunkStoreWriter::SetEntries(std::vector<ChunkStoreEntry> entries,
+                                  std::vector<ChunkStoreShard> shards) {
+  entries_ = std::move(entries);
+  shards_ = std::move(shards);
+}
+
+Status ChunkStoreWriter::WriteRange(const core::ChunkSource& chunks, int64_t first, int64_t end,
+                                    const std::function<Status(int64_t)>& on_durable) {
+  GS_RETURN_IF_ERROR(options_.Validate());
   const std::string chunk_dir = Join(dir_, kChunkStoreChunkDirectory);
-  const int64_t num_chunks = chunks.NumChunks();
+  const int64_t num_chunks = end;
 
   struct Item {
     int64_t index = 0;
@@ -326,6 +344,13 @@ Status ChunkStoreWriter::Commit() {
   manifest["total_observations"] = total_observations;
   manifest["total_bytes"] = total_bytes;
   manifest["chunks"] = std::move(entries);
+  if (!shards_.empty()) {
+    nlohmann::json shards = nlohmann::json::array();
+    for (const ChunkStoreShard& shard : shards_)
+      shards.push_back(
+          {{"rank", shard.rank}, {"first_chunk", shard.first_chunk}, {"chunks", shard.chunks}});
+    manifest["shards"] = std::move(shards);
+  }
   SealJson(&manifest);
   GS_RETURN_IF_ERROR(
       WriteStringAtomically(env_, Join(dir_, kChunkStoreManifestName), manifest.dump(2) + "\n"));

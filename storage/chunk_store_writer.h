@@ -21,6 +21,11 @@
 //                 durable under their final names.
 //   RecoverEntries  for a resumed writer: the manifest entries of chunks
 //                 [0, k) already on disk, from their 48-byte headers and sizes.
+//   WriteChunkShard  chunks [first, end) only, as WriteChunks writes them:
+//                 one MPI rank's shard of a distributed ingest
+//                 (docs/distributed.md); entries() then holds its entries.
+//   SetEntries    the entries of every shard and the shards, gathered on the
+//                 rank that commits.
 //   Commit        MANIFEST.json, atomically: from here the store opens; then
 //                 chunk files of an older, longer store (numbers >= the new
 //                 count) are removed.
@@ -64,6 +69,13 @@ class ChunkStoreWriter {
   // Corruption naming the file if a chunk's header is damaged, its index is
   // not its position, or the file is missing.
   [[nodiscard]] Status RecoverEntries(int64_t count);
+  // Writes chunks [first, end) of `chunks` (whose other chunks another writer
+  // writes into the same STORE/chunks/); entries() becomes theirs.
+  [[nodiscard]] Status WriteChunkShard(const core::ChunkSource& chunks, int64_t first,
+                                       int64_t end);
+  // All chunks' entries (in chunk order) and the shards that wrote them, for
+  // Commit (which lists the shards in the manifest).
+  void SetEntries(std::vector<ChunkStoreEntry> entries, std::vector<ChunkStoreShard> shards);
   [[nodiscard]] Status Commit();
 
   const std::vector<ChunkStoreEntry>& entries() const { return entries_; }
@@ -72,7 +84,12 @@ class ChunkStoreWriter {
   Env* const env_;
   const std::string dir_;
   const ChunkStoreWriteOptions options_;
+  // Chunks [first, end) of `chunks`, appended to entries_.
+  [[nodiscard]] Status WriteRange(const core::ChunkSource& chunks, int64_t first, int64_t end,
+                                  const std::function<Status(int64_t)>& on_durable);
+
   std::vector<ChunkStoreEntry> entries_;
+  std::vector<ChunkStoreShard> shards_;
 };
 
 }  // namespace graphslam::storage

@@ -5,12 +5,23 @@
 #include <cstdlib>
 #include <string>
 
+#include <unistd.h>
+
 namespace graphslam::storage {
 
 namespace {
 
 void StopHere() {
   std::fflush(nullptr);  // what was printed so far reaches the test
+  if (const char* pid_file = std::getenv(kStopPidFileVariable); pid_file != nullptr) {
+    // Complete or absent for the test that waits for it: written, then renamed.
+    const std::string temporary = std::string(pid_file) + ".tmp";
+    if (std::FILE* out = std::fopen(temporary.c_str(), "w"); out != nullptr) {
+      std::fprintf(out, "%ld\n", static_cast<long>(getpid()));
+      std::fclose(out);
+      std::rename(temporary.c_str(), pid_file);
+    }
+  }
   std::raise(SIGSTOP);
 }
 

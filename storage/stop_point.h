@@ -22,8 +22,15 @@
 // The counted points (StopPointAtCountForTests) stop at the first count that
 // reaches N: chunks become durable in parallel groups, so an exact count may
 // never be reported.
+//   "rank R solver_checkpoint N"  under mpirun, rank R, after every rank
+//                           knows the checkpoint of iteration N is durable
 //
-// THREAD SAFETY: safe from any thread (getenv, raise). ALLOCATION: none.
+// A test that did not start the stopping process itself (mpirun starts the
+// ranks) sets GRAPHSLAM_STOP_PID_FILE too: the process writes its pid there
+// (atomically: a temporary file renamed) before it stops.
+//
+// THREAD SAFETY: safe from any thread (getenv, raise). ALLOCATION: none
+// (the pid file: one short string).
 #pragma once
 
 #include <string_view>
@@ -31,6 +38,7 @@
 namespace graphslam::storage {
 
 inline constexpr const char* kStopPointVariable = "GRAPHSLAM_STOP_AT";
+inline constexpr const char* kStopPidFileVariable = "GRAPHSLAM_STOP_PID_FILE";
 
 void StopPointForTests(std::string_view point);
 

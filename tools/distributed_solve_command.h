@@ -1,6 +1,6 @@
-// The part of `graphslam solve STORE/` that runs under mpirun
-// (docs/distributed.md): started when an MPI launcher started this process
-// and the input is a chunk store. Built with MPI and PETSc
+// The part of `graphslam solve STORE/` and `graphslam ingest` that runs
+// under mpirun (docs/distributed.md): started when an MPI launcher started
+// this process (for solve: and the input is a chunk store). Built with MPI and PETSc
 // (GRAPHSLAM_WITH_MPI, tools/distributed_solve_command.cc); without them
 // (tools/distributed_solve_none.cc) Start says so and a single launched
 // process solves as usual.
@@ -11,6 +11,7 @@
 #include <memory>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
+#include <vector>
 
 #include "core/graphslam_solver.h"
 #include "core/problem.h"
@@ -40,6 +41,14 @@ class DistributedSolveRun {
   virtual Status Solve(const core::SolverOptions& options, const storage::DiskChunkSource& store,
                        core::Problem2d* problem, core::SolverSummary* summary,
                        nlohmann::json* report) = 0;
+  // Collective: returns once every process called it (waiting without
+  // spinning on a core).
+  virtual void Barrier() = 0;
+  // Collective, for the ingest on ranks (partition::IngestRanks::gather):
+  // every rank's shard entries to rank 0, which gets all of them in chunk
+  // order (rank order) and the shards.
+  virtual Status GatherChunkEntries(std::vector<storage::ChunkStoreEntry>* entries,
+                                    std::vector<storage::ChunkStoreShard>* shards) = 0;
 };
 
 }  // namespace graphslam::tools

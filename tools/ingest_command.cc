@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <memory>
 #include <utility>
 
 #include "core/logging.h"
@@ -10,6 +11,7 @@
 #include "storage/env.h"
 #include "storage/store_directory.h"
 #include "storage/format_detection.h"
+#include "tools/distributed_solve_command.h"
 #include "tools/exit_codes.h"
 #include "tools/option_checks.h"
 #include "tools/output_paths.h"
@@ -58,8 +60,12 @@ void AddIngestCommand(CLI::App* app, IngestCommandOptions* options, int* exit_co
 int RunIngestCommand(const IngestCommandOptions& options) {
   SetLogVerbosity(options.verbosity);
   SetQuietLogging(options.quiet);
-  auto fail = [](const Status& status) {
+  // Under mpirun (docs/distributed.md) a failure of one rank ends them all:
+  // the others may be waiting for it in a collective call.
+  std::unique_ptr<DistributedSolveRun> distributed;
+  auto fail = [&distributed](const Status& status) {
     std::fprintf(stderr, "graphslam ingest: %s\n", status.ToString().c_str());
+    if (distributed != nullptr) distributed->Abort(ExitCodeFor(status));
     return ExitCodeFor(status);
   };
   auto usage = [](const std::string& message) {
@@ -108,18 +114,40 @@ int RunIngestCommand(const IngestCommandOptions& options) {
   ingest.scan_chunk_bytes = *scan_chunk;
   ingest.resume = options.resume;
   ingest.checkpoint_seconds = options.checkpoint_seconds;
+  // Under mpirun with N > 1: N ranks write one store, a shard of its chunks
+  // each (partition::IngestRanks); rank 0 is the writer the lock knows.
+  if (LaunchedProcesses() > 1) {
+    if (options.resume) return usage("--resume is not supported under mpirun");
+    StatusOr<std::unique_ptr<DistributedSolveRun>> started = DistributedSolveRun::Start("");
+    if (!started.ok()) return fail(started.status());
+    distributed = std::move(started).value();
+    DistributedSolveRun* run = distributed.get();
+    ingest.ranks.rank = run->rank();
+    ingest.ranks.size = run->size();
+    ingest.ranks.barrier = [run] { run->Barrier(); };
+    ingest.ranks.gather = [run](std::vector<storage::ChunkStoreEntry>* entries,
+                                std::vector<storage::ChunkStoreShard>* shards) {
+      return run->GatherChunkEntries(entries, shards);
+    };
+  }
+  const bool root = ingest.ranks.rank == 0;
   // One writer per store: the exclusive lock, held to the end; a folder that
-  // is not ours is refused before anything is written.
-  StatusOr<storage::DirectoryLock> lock =
-      storage::OpenStoreForWriting(storage::Env::Default(), options.output_dir);
-  if (!lock.ok()) return fail(lock.status());
+  // is not ours is refused before anything is written. Under mpirun rank 0
+  // holds it for the job (the other ranks take none: theirs would fight it).
+  storage::DirectoryLock lock;
+  if (root) {
+    StatusOr<storage::DirectoryLock> locked =
+        storage::OpenStoreForWriting(storage::Env::Default(), options.output_dir);
+    if (!locked.ok()) return fail(locked.status());
+    lock = std::move(locked).value();
+  }
   partition::IngestSummary summary;
   if (Status status = partition::IngestToStore(storage::Env::Default(), options.input,
                                                options.output_dir, ingest, &summary);
       !status.ok())
     return fail(status);
 
-  if (!options.quiet) {
+  if (!options.quiet && root) {
     std::printf("graphslam ingest summary\n");
     std::printf("  input              %s (%s%s)\n", options.input.c_str(),
                 storage::InputFormatName(format), summary.streamed ? ", streamed" : ", read whole");
@@ -134,6 +162,8 @@ int RunIngestCommand(const IngestCommandOptions& options) {
     std::printf("  observations       %lld in %lld chunks\n",
                 static_cast<long long>(summary.observations),
                 static_cast<long long>(summary.chunks));
+    if (ingest.ranks.size > 1)
+      std::printf("  ranks              %d, one shard of chunks each\n", ingest.ranks.size);
     if (summary.scans.scans > 0)
       std::printf("  scans              %lld (%lld points) in %lld chunks in %s/scans%s\n",
                   static_cast<long long>(summary.scans.scans),

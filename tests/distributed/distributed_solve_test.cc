@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "tests/testing/datasets.h"
+#include "tests/distributed/mpi_launch.h"
 #include "tests/testing/subprocess.h"
 
 namespace {
@@ -24,24 +25,7 @@ namespace {
 namespace fs = std::filesystem;
 using graphslam::testing::GraphslamBinary;
 using graphslam::testing::RunGraphslam;
-
-// mpirun -np N graphslam args...; its exit code.
-int RunMpi(int ranks, const std::vector<std::string>& args) {
-  std::vector<std::string> all = {GRAPHSLAM_MPIEXEC, "--allow-run-as-root", "--oversubscribe",
-                                  "-np", std::to_string(ranks), GraphslamBinary()};
-  all.insert(all.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (std::string& a : all) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  const pid_t pid = fork();
-  if (pid == 0) {
-    execv(argv[0], argv.data());
-    _exit(127);
-  }
-  int status = 0;
-  waitpid(pid, &status, 0);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+using graphslam::testing::RunMpi;
 
 nlohmann::json ReadJson(const fs::path& path) {
   std::ifstream in(path);

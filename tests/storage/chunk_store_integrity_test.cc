@@ -15,7 +15,9 @@
 
 #include "core/initialization.h"
 #include "partition/in_memory_chunk_source.h"
+#include "storage/checksummed_json.h"
 #include "storage/chunk_store.h"
+#include "storage/chunk_store_writer.h"
 #include "storage/crc32c.h"
 #include "storage/file_checksum.h"
 #include "storage/store_directory.h"
@@ -36,6 +38,22 @@ void Write(const fs::path& path, const std::string& text) {
   std::ofstream(path, std::ios::binary) << text;
 }
 
+// The stores' problem (60 poses, 40 features, initialized) and chunking.
+core::Problem2d StoreProblem() {
+  testing::RandomProblemOptions options;
+  options.num_poses = 60;
+  options.num_features = 40;
+  options.seed = 5;
+  core::Problem2d problem = testing::MakeRandomProblem(options).problem;
+  EXPECT_TRUE(core::InitializeProblem(&problem).ok());
+  return problem;
+}
+partition::ChunkingOptions StoreChunking() {
+  partition::ChunkingOptions chunking;
+  chunking.max_observations_per_chunk = 20;
+  return chunking;
+}
+
 class ChunkStoreIntegrity : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -48,15 +66,8 @@ class ChunkStoreIntegrity : public ::testing::Test {
     // leaves them), in a folder claimed as ours first (as the ingest does).
     ASSERT_TRUE(ClaimStoreDirectory(Env::Default(), dir_.string()).ok());
     Write(dir_ / "scans" / "SCANS.json", "{\"format\": \"graphslam-scan-store\"}\n");
-    testing::RandomProblemOptions options;
-    options.num_poses = 60;
-    options.num_features = 40;
-    options.seed = 5;
-    core::Problem2d problem = testing::MakeRandomProblem(options).problem;
-    ASSERT_TRUE(core::InitializeProblem(&problem).ok());
-    partition::ChunkingOptions chunking;
-    chunking.max_observations_per_chunk = 20;
-    partition::InMemoryChunkSource chunks(problem, chunking);
+    const core::Problem2d problem = StoreProblem();
+    partition::InMemoryChunkSource chunks(problem, StoreChunking());
     ChunkStoreWriteOptions write;
     write.source = "input.graphslam";
     write.input = FileChecksum{1234, 0xdeadbeef};
@@ -216,6 +227,69 @@ TEST_F(ChunkStoreIntegrity, NewerVersionIsNotSupported) {
   manifest["version"] = kChunkStoreVersion + 1;
   Write(Manifest(), manifest.dump(2));
   EXPECT_TRUE(DiskChunkSource::Open(dir_.string()).status().IsNotSupported());
+}
+
+// Two shard writers (as two MPI ranks of `mpirun graphslam ingest`) into
+// one folder write the one-call writer's chunk files; the manifest lists the
+// shards and the reader returns them.
+TEST_F(ChunkStoreIntegrity, ShardsOfTwoWritersMakeTheSameStore) {
+  const core::Problem2d problem = StoreProblem();
+  partition::InMemoryChunkSource chunks(problem, StoreChunking());
+  ASSERT_GE(chunks.NumChunks(), 2);
+  const int64_t half = chunks.NumChunks() / 2;
+  const fs::path sharded = dir_.string() + "_sharded";
+  fs::remove_all(sharded);
+  ASSERT_TRUE(ClaimStoreDirectory(Env::Default(), sharded.string()).ok());
+  Write(sharded / "scans" / "SCANS.json", "{\"format\": \"graphslam-scan-store\"}\n");
+  ChunkStoreWriteOptions write;
+  write.source = "input.graphslam";
+  write.input = FileChecksum{1234, 0xdeadbeef};
+  ChunkStoreWriter rank0(Env::Default(), sharded.string(), write);
+  ChunkStoreWriter rank1(Env::Default(), sharded.string(), write);
+  ASSERT_TRUE(rank0.Uncommit().ok());
+  ASSERT_TRUE(rank0.WriteProblem(problem).ok());
+  ASSERT_TRUE(rank1.WriteChunkShard(chunks, half, chunks.NumChunks()).ok());
+  ASSERT_TRUE(rank0.WriteChunkShard(chunks, 0, half).ok());
+  std::vector<ChunkStoreEntry> entries = rank0.entries();
+  entries.insert(entries.end(), rank1.entries().begin(), rank1.entries().end());
+  rank0.SetEntries(entries, {{0, 0, half}, {1, half, chunks.NumChunks() - half}});
+  ASSERT_TRUE(rank0.Commit().ok());
+
+  const nlohmann::json one = nlohmann::json::parse(Read(Manifest()));
+  const nlohmann::json two = nlohmann::json::parse(Read(sharded / kChunkStoreManifestName));
+  EXPECT_EQ(two["chunks"], one["chunks"]);
+  EXPECT_EQ(two["files"], one["files"]);
+  StatusOr<std::unique_ptr<DiskChunkSource>> store = DiskChunkSource::Open(sharded.string());
+  ASSERT_TRUE(store.ok()) << store.status().ToString();
+  ASSERT_EQ((*store)->shards().size(), 2u);
+  EXPECT_EQ((*store)->shards()[1].rank, 1);
+  EXPECT_EQ((*store)->shards()[1].first_chunk, half);
+  EXPECT_EQ((*store)->shards()[1].chunks, chunks.NumChunks() - half);
+  fs::remove_all(sharded);
+}
+
+// Shards that do not cover the chunks in rank order are Corruption naming
+// the field, even with the manifest's checksum made right.
+TEST_F(ChunkStoreIntegrity, ShardsNotCoveringTheChunksAreCorruption) {
+  nlohmann::json manifest = nlohmann::json::parse(Read(Manifest()));
+  const int64_t chunks = manifest["num_chunks"].get<int64_t>();
+  ASSERT_GE(chunks, 2);
+  manifest.erase(kJsonChecksumKey);
+  manifest["shards"] = {{{"rank", 0}, {"first_chunk", 0}, {"chunks", 1}},
+                        {{"rank", 1}, {"first_chunk", 2}, {"chunks", chunks - 2}}};
+  SealJson(&manifest);
+  Write(Manifest(), manifest.dump(2));
+  StatusOr<std::unique_ptr<DiskChunkSource>> store = DiskChunkSource::Open(dir_.string());
+  ASSERT_TRUE(store.status().IsCorruption()) << store.status().ToString();
+  EXPECT_THAT(store.status().message(), HasSubstr("shards[1]"));
+
+  manifest.erase(kJsonChecksumKey);
+  manifest["shards"] = {{{"rank", 0}, {"first_chunk", 0}, {"chunks", chunks - 1}}};
+  SealJson(&manifest);
+  Write(Manifest(), manifest.dump(2));
+  store = DiskChunkSource::Open(dir_.string());
+  ASSERT_TRUE(store.status().IsCorruption()) << store.status().ToString();
+  EXPECT_THAT(store.status().message(), HasSubstr("\"shards\" cover"));
 }
 
 TEST(FileChecksum, InputIdentityOfAFolderCoversNamesAndContents) {

@@ -148,9 +148,11 @@ Status LockStore(const SolveRun& run, Solve2d& s) {
   const SolveCommandOptions& options = run.options;
   s.store_path = options.input;
   if (storage::IsChunkStore(options.input)) {
-    // Under mpirun no rank writes into the store (no checkpoint, no
-    // --associate): every rank holds it shared.
-    const bool writes = (options.checkpoint.empty() && !run.distributed) || options.associate;
+    // Under mpirun rank 0 alone writes (STORE/checkpoint.json) and holds
+    // the lock for the job; the other ranks only read and take none (a
+    // shared lock of theirs would block rank 0's exclusive one).
+    if (!run.root) return Status::Ok();
+    const bool writes = options.checkpoint.empty() || options.associate;
     GS_ASSIGN_OR_RETURN(s.lock, storage::DirectoryLock::Acquire(
                                     options.input, writes ? storage::DirectoryLock::Mode::kExclusive
                                                           : storage::DirectoryLock::Mode::kShared));
@@ -270,15 +272,16 @@ Status ConfigureSolver(const SolveRun& run, Solve2d& s) {
                                                    options.chunk_observations,
                                                    s.solver.max_chunks_in_flight, s.streaming));
   s.checkpoint_path = options.checkpoint;
-  if (s.checkpoint_path.empty() && s.store && !options.associate && !run.distributed)
+  if (s.checkpoint_path.empty() && s.store && !options.associate)
     s.checkpoint_path = s.store_path + "/checkpoint.json";
-  s.resuming = options.resume && std::filesystem::exists(s.checkpoint_path);
+  // Under mpirun rank 0 reads it and broadcasts it (docs/distributed.md).
+  s.resuming = run.root && options.resume && std::filesystem::exists(s.checkpoint_path);
   if (s.resuming) {
     GS_ASSIGN_OR_RETURN(s.resume_state,
                         storage::ReadSolverCheckpoint(s.checkpoint_path, options.input));
     GS_LOG(INFO, "resuming from %s after iteration %d (chi2 %.9g)", s.checkpoint_path.c_str(),
            s.resume_state.iterations, s.resume_state.chi2);
-  } else if (options.resume) {
+  } else if (options.resume && run.root) {
     GS_LOG(WARNING, "no checkpoint at %s yet: starting from the beginning",
            s.checkpoint_path.c_str());
   }
@@ -395,7 +398,8 @@ Status AttachCheckpoints(const SolveRun& run, Solve2d& s) {
     s.solver.resume_from = &s.resume_state;
   }
   if (s.checkpoint_path.empty()) return Status::Ok();
-  if (s.streaming) {
+  // (Not under mpirun: every rank would use the same scratch files.)
+  if (s.streaming && !run.distributed) {
     // Streaming mode keeps no per-feature array of candidates (a scratch file
     // beside the checkpoint, storage/candidate_file.h) and parks the feature
     // ids there while it solves (8 B per feature, the passes' peak included;

@@ -63,11 +63,9 @@ Status CheckCommandOptions(const SolveCommandOptions& options) {
     return Usage("--associate cannot be combined with --workdir (merges rewrite the in-memory "
                  "chunks only)");
   // Under mpirun a chunk store is solved over the launched processes
-  // (docs/distributed.md), which keep no checkpoint and do not associate.
-  if (LaunchedProcesses() > 0 && store_input &&
-      (options.resume || !options.checkpoint.empty() || options.associate))
-    return Usage("under mpirun, --resume, --checkpoint and --associate are not supported yet "
-                 "(docs/distributed.md)");
+  // (docs/distributed.md), which do not associate.
+  if (LaunchedProcesses() > 0 && store_input && options.associate)
+    return Usage("under mpirun, --associate is not supported yet (docs/distributed.md)");
   partition::ProgressiveInitializationOptions progressive;
   progressive.max_observations_per_chunk = options.chunk_observations;
   progressive.max_new_poses = options.progressive_max_new_poses;
