@@ -128,6 +128,7 @@ TEST_F(OutOfCoreTest, StreamingResumeFromAFeatureFileEqualsTheUninterruptedSolve
   ASSERT_TRUE(solve("full", "5", false));
   ASSERT_TRUE(solve("part", "2", false));
   const nlohmann::json checkpoint = ReadJson(dir_ / "part.json");
+  const std::string checkpoint_bytes = bytes(dir_ / "part.json");  // sealed: restored as is
   EXPECT_EQ(checkpoint["version"], 4);
   EXPECT_FALSE(checkpoint.contains("features"));
   EXPECT_EQ(checkpoint["state_file"], "part.json.state.2.bin");
@@ -147,7 +148,7 @@ TEST_F(OutOfCoreTest, StreamingResumeFromAFeatureFileEqualsTheUninterruptedSolve
   // Back to the generation-2 checkpoint, with a flipped byte in its feature file.
   fs::remove(dir_ / "part.json.features.5.bin");
   fs::remove(dir_ / "part.json.state.5.bin");
-  std::ofstream(dir_ / "part.json", std::ios::trunc) << checkpoint.dump();
+  std::ofstream(dir_ / "part.json", std::ios::binary | std::ios::trunc) << checkpoint_bytes;
   std::string damaged = saved;
   damaged[24 + 9 + 12 + 5] ^= 0x40;
   std::ofstream(dir_ / "part.json.features.2.bin", std::ios::binary | std::ios::trunc) << damaged;
@@ -191,6 +192,7 @@ TEST_F(OutOfCoreTest, StreamingPcgResumeFromAStateFileEqualsTheUninterruptedSolv
   ASSERT_TRUE(solve("full", "5", false));
   ASSERT_TRUE(solve("part", "2", false));
   const nlohmann::json checkpoint = ReadJson(dir_ / "part.json");
+  const std::string checkpoint_bytes = bytes(dir_ / "part.json");  // sealed: restored as is
   EXPECT_EQ(checkpoint["version"], 4);
   EXPECT_FALSE(checkpoint.contains("pcg")) << "PCG state written as JSON";
   EXPECT_FALSE(checkpoint.contains("poses")) << "poses written as JSON";
@@ -212,7 +214,7 @@ TEST_F(OutOfCoreTest, StreamingPcgResumeFromAStateFileEqualsTheUninterruptedSolv
   // Back to generation 2, with a flipped byte in the state file's summary.
   for (const char* name : {"part.json.features.5.bin", "part.json.state.5.bin"})
     fs::remove(dir_ / name);
-  std::ofstream(dir_ / "part.json", std::ios::trunc) << checkpoint.dump();
+  std::ofstream(dir_ / "part.json", std::ios::binary | std::ios::trunc) << checkpoint_bytes;
   std::string damaged = saved;
   damaged[24 + 9 + 20] ^= 0x40;
   std::ofstream(dir_ / "part.json.state.2.bin", std::ios::binary | std::ios::trunc) << damaged;
