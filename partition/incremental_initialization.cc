@@ -13,6 +13,7 @@
 #include "partition/in_memory_chunk_source.h"
 #include "partition/internal/odometry_chain.h"
 #include "partition/internal/stage_growth.h"
+#include "partition/internal/stage_setup.h"
 #include "partition/singleton_solve.h"
 
 namespace graphslam::partition {
@@ -330,15 +331,7 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
   GS_RETURN_IF_ERROR(options.Validate());
   GS_RETURN_IF_ERROR(base.Validate());
   if (!options.enabled) return Status::Ok();
-  if (problem->pose_fixed.size() != problem->poses.size() ||
-      problem->pose_ids.size() != problem->poses.size() ||
-      problem->pose_lines.size() != problem->poses.size() ||
-      problem->pose_stamps.size() != problem->poses.size() ||
-      problem->feature_ids.size() != problem->features.size() ||
-      problem->feature_initialized.size() != problem->features.size())
-    return Status::InvalidArgument(
-        (problem->source.empty() ? std::string("<input>") : problem->source) +
-        ": per-pose or per-feature arrays differ in length from poses / features");
+  GS_RETURN_IF_ERROR(internal::CheckPerElementArrays(*problem));
   GS_RETURN_IF_ERROR(core::ValidateProblem(*problem));  // indices in range
   const Clock::time_point start = Clock::now();
   summary->ran = true;
@@ -359,13 +352,8 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
 
   ChunkingOptions chunking;
   chunking.max_observations_per_chunk = options.max_observations_per_chunk;
-  core::SolverOptions stage_options = base;
-  stage_options.max_iterations = options.max_iterations_per_stage;
-  stage_options.progress = nullptr;
-  stage_options.iteration_callback = nullptr;
-  stage_options.checkpoint_callback = nullptr;
-  stage_options.resume_from = nullptr;
-  stage_options.candidate_store = nullptr;
+  const core::SolverOptions stage_options =
+      internal::StageSolverOptions(base, options.max_iterations_per_stage);
 
   int64_t allowed = options.max_new_poses;
   // The next prefix length solved whole (header: full stages).

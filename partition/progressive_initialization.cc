@@ -13,6 +13,7 @@
 #include "partition/in_memory_chunk_source.h"
 #include "partition/internal/odometry_chain.h"
 #include "partition/internal/stage_growth.h"
+#include "partition/internal/stage_setup.h"
 #include "partition/singleton_solve.h"
 
 namespace graphslam::partition {
@@ -42,17 +43,7 @@ Status CheckIndex(const core::Problem2d& problem, int32_t index, int32_t size, i
 
 Status CheckIndices(const core::Problem2d& problem) {
   const int32_t n = problem.num_poses(), m = problem.num_features();
-  if (problem.pose_ids.size() != problem.poses.size() ||
-      problem.pose_fixed.size() != problem.poses.size() ||
-      problem.pose_initialized.size() != problem.poses.size() ||
-      problem.pose_lines.size() != problem.poses.size() ||
-      problem.pose_stamps.size() != problem.poses.size() ||
-      problem.feature_ids.size() != problem.features.size() ||
-      problem.feature_initialized.size() != problem.features.size()) {
-    return Status::InvalidArgument(Prefix(problem) +
-                                   "per-pose or per-feature arrays differ in length from "
-                                   "poses / features");
-  }
+  GS_RETURN_IF_ERROR(internal::CheckPerElementArrays(problem));
   for (const core::RelativePoseConstraint& c : problem.relative_poses) {
     GS_RETURN_IF_ERROR(CheckIndex(problem, c.from, n, c.line, "relative pose 'from' pose"));
     GS_RETURN_IF_ERROR(CheckIndex(problem, c.to, n, c.line, "relative pose 'to' pose"));
@@ -172,10 +163,8 @@ Status InitializeProgressively(const ProgressiveInitializationOptions& options,
 
   ChunkingOptions chunking;
   chunking.max_observations_per_chunk = options.max_observations_per_chunk;
-  core::SolverOptions stage_options = base;
-  stage_options.max_iterations = options.max_iterations_per_stage;
-  stage_options.progress = nullptr;
-  stage_options.iteration_callback = nullptr;
+  const core::SolverOptions stage_options =
+      internal::StageSolverOptions(base, options.max_iterations_per_stage);
 
   // New poses a stage may add: max_new_poses, halved after a stage that did
   // not converge in its iterations (its chained segment was too far from the
