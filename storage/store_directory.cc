@@ -46,8 +46,10 @@ Status CheckStoreDirectory(const std::string& dir) {
   for (const auto& entry : fs::directory_iterator(path, error)) {
     const std::string name = entry.path().filename().string();
     // The lock file, and the marker's temporary while another writer
-    // claims the folder (it then holds the lock; ours to wait for).
-    if (name == kDirectoryLockName ||
+    // claims the folder (it then holds the lock; ours to wait for). The
+    // marker itself may appear between the check above and this listing
+    // (that writer's rename): then the folder is ours too.
+    if (name == kDirectoryLockName || name == kStoreMarkerName ||
         (IsTemporaryFileName(name) && name.rfind(std::string(kStoreMarkerName) + ".tmp-", 0) == 0))
       continue;
     return Status::InvalidArgument(
