@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <string>
 #include <thread>
 
@@ -51,8 +52,6 @@ bool BroadcastCheckpoint(MPI_Comm comm, const core::SolverCheckpoint* root,
     local->converged = root->converged;
     local->termination = root->termination;
     local->poses = root->poses;
-    local->excluded = root->excluded;
-    local->kept = root->kept;
   }
   int32_t iterations = local->iterations;
   uint8_t converged = local->converged ? 1 : 0;
@@ -72,32 +71,112 @@ bool BroadcastCheckpoint(MPI_Comm comm, const core::SolverCheckpoint* root,
   local->termination.assign(termination.begin(), termination.end());
   static_assert(sizeof(core::Pose2) == 3 * sizeof(double));
   BroadcastVector(comm, &local->poses);
-  BroadcastVector(comm, &local->excluded);
-  BroadcastVector(comm, &local->kept);
+  local->excluded.clear();
+  local->kept.clear();
   local->features.clear();
   local->pcg = core::PcgSolverState();
   return true;
 }
 
-void GatherFeaturesToRoot(MPI_Comm comm, const std::vector<uint8_t>& owned,
-                          const std::vector<core::Point2>& features,
-                          std::vector<core::Point2>* gathered) {
-  int rank = 0;
-  MPI_Comm_rank(comm, &rank);
-  static_assert(sizeof(core::Point2) == 2 * sizeof(double));
-  std::vector<core::Point2> mine(features.size(), core::Point2::Zero());
-  for (size_t g = 0; g < features.size(); ++g)
-    if (owned[g]) mine[g] = features[g];
-  double* const values = mine.empty() ? nullptr : mine.front().data();
-  const size_t count = 2 * mine.size();
-  constexpr size_t kPiece = kMaxPieceBytes / sizeof(double);
-  for (size_t offset = 0; offset < count; offset += kPiece) {
-    const int piece = static_cast<int>(std::min(kPiece, count - offset));
-    MPI_Reduce(rank == 0 ? MPI_IN_PLACE : values + offset, values + offset, piece, MPI_DOUBLE,
-               MPI_SUM, 0, comm);
+namespace {
+
+// `count` elements of `element` bytes as one MPI datatype: counts stay those
+// of one rank's entries, whatever the element size.
+class ElementType {
+ public:
+  explicit ElementType(size_t element) {
+    MPI_Type_contiguous(static_cast<int>(element), MPI_BYTE, &type_);
+    MPI_Type_commit(&type_);
   }
-  gathered->clear();
-  if (rank == 0) *gathered = std::move(mine);
+  ~ElementType() { MPI_Type_free(&type_); }
+  MPI_Datatype get() const { return type_; }
+
+ private:
+  MPI_Datatype type_;
+};
+
+constexpr int kIndicesTag = 21;
+constexpr int kValuesTag = 22;
+
+}  // namespace
+
+FeatureExchange::FeatureExchange(MPI_Comm comm, const FeatureOwnership* ownership)
+    : comm_(comm), ownership_(ownership) {
+  MPI_Comm_rank(comm, &rank_);
+  MPI_Comm_size(comm, &size_);
+  const std::vector<int32_t>& mine = ownership->owned_global;
+  if (rank_ != 0) {
+    const int count = static_cast<int>(mine.size());
+    MPI_Send(&count, 1, MPI_INT, 0, kIndicesTag, comm);
+    MPI_Send(mine.data(), count, MPI_INT32_T, 0, kIndicesTag, comm);
+    return;
+  }
+  global_of_rank_.resize(size_);
+  for (int r = 1; r < size_; ++r) {
+    int count = 0;
+    MPI_Recv(&count, 1, MPI_INT, r, kIndicesTag, comm, MPI_STATUS_IGNORE);
+    global_of_rank_[r].resize(count);
+    MPI_Recv(global_of_rank_[r].data(), count, MPI_INT32_T, r, kIndicesTag, comm,
+             MPI_STATUS_IGNORE);
+  }
+}
+
+void FeatureExchange::ScatterBytes(const void* root, void* mine, size_t element) const {
+  const ElementType type(element);
+  const std::vector<int32_t>& local = ownership_->owned_local;
+  char* const out = static_cast<char*>(mine);
+  if (rank_ != 0) {
+    std::vector<char> buffer(local.size() * element);
+    MPI_Recv(buffer.data(), static_cast<int>(local.size()), type.get(), 0, kValuesTag, comm_,
+             MPI_STATUS_IGNORE);
+    for (size_t i = 0; i < local.size(); ++i)
+      std::memcpy(out + static_cast<size_t>(local[i]) * element, buffer.data() + i * element,
+                  element);
+    return;
+  }
+  const char* const in = static_cast<const char*>(root);
+  const std::vector<int32_t>& global = ownership_->owned_global;
+  for (size_t i = 0; i < local.size(); ++i)
+    std::memcpy(out + static_cast<size_t>(local[i]) * element,
+                in + static_cast<size_t>(global[i]) * element, element);
+  std::vector<char> buffer;
+  for (int r = 1; r < size_; ++r) {
+    const std::vector<int32_t>& theirs = global_of_rank_[r];
+    buffer.resize(theirs.size() * element);
+    for (size_t i = 0; i < theirs.size(); ++i)
+      std::memcpy(buffer.data() + i * element, in + static_cast<size_t>(theirs[i]) * element,
+                  element);
+    MPI_Send(buffer.data(), static_cast<int>(theirs.size()), type.get(), r, kValuesTag, comm_);
+  }
+}
+
+void FeatureExchange::GatherBytes(const void* mine, void* root, size_t element) const {
+  const ElementType type(element);
+  const std::vector<int32_t>& local = ownership_->owned_local;
+  const char* const in = static_cast<const char*>(mine);
+  if (rank_ != 0) {
+    std::vector<char> buffer(local.size() * element);
+    for (size_t i = 0; i < local.size(); ++i)
+      std::memcpy(buffer.data() + i * element, in + static_cast<size_t>(local[i]) * element,
+                  element);
+    MPI_Send(buffer.data(), static_cast<int>(local.size()), type.get(), 0, kValuesTag, comm_);
+    return;
+  }
+  char* const out = static_cast<char*>(root);
+  const std::vector<int32_t>& global = ownership_->owned_global;
+  for (size_t i = 0; i < local.size(); ++i)
+    std::memcpy(out + static_cast<size_t>(global[i]) * element,
+                in + static_cast<size_t>(local[i]) * element, element);
+  std::vector<char> buffer;
+  for (int r = 1; r < size_; ++r) {
+    const std::vector<int32_t>& theirs = global_of_rank_[r];
+    buffer.resize(theirs.size() * element);
+    MPI_Recv(buffer.data(), static_cast<int>(theirs.size()), type.get(), r, kValuesTag, comm_,
+             MPI_STATUS_IGNORE);
+    for (size_t i = 0; i < theirs.size(); ++i)
+      std::memcpy(out + static_cast<size_t>(theirs[i]) * element, buffer.data() + i * element,
+                  element);
+  }
 }
 
 }  // namespace graphslam::distributed

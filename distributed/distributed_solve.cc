@@ -2,12 +2,14 @@
 
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <chrono>
 #include <utility>
 
 #include "core/internal/chunked_solve_impl.h"
 #include "distributed/checkpoint_exchange.h"
 #include "distributed/chunk_assignment.h"
+#include "distributed/feature_ownership.h"
 #include "distributed/mpi_ranks.h"
 
 namespace graphslam::distributed {
@@ -79,6 +81,7 @@ Status SolveGraphSlamDistributed(MPI_Comm comm, const core::SolverOptions& optio
                                  DistributedSolveInfo* info,
                                  const std::function<void(int)>& checkpoint_durable) {
   MpiRanks ranks(comm);
+  const bool root = ranks.rank() == 0;
   if (options.candidate_store != nullptr)
     return Status::NotSupported("the distributed solve has no candidate store");
   if (static_cast<int64_t>(chunk_observations.size()) != chunks.NumChunks()) {
@@ -86,19 +89,17 @@ Status SolveGraphSlamDistributed(MPI_Comm comm, const core::SolverOptions& optio
                                    std::to_string(chunk_observations.size()) + " for " +
                                    std::to_string(chunks.NumChunks()) + " chunks");
   }
-  // 1. One start for all ranks; a resume's replicated state from rank 0
-  // (distributed/checkpoint_exchange.h). The checkpoint's features travel as
-  // the start's: on rank 0 they are in the problem or in the checkpoint.
-  const core::SolverCheckpoint* const root_resume =
-      ranks.rank() == 0 ? options.resume_from : nullptr;
-  if (root_resume != nullptr && !root_resume->features.empty())
-    problem->features = root_resume->features;
+  // 1. One start for all ranks: rank 0's poses and feature count; a
+  // resume's scalars and poses (distributed/checkpoint_exchange.h).
   Broadcast(comm, &problem->poses);
-  Broadcast(comm, &problem->features);
+  int64_t num_features = static_cast<int64_t>(problem->features.size());
+  BroadcastBytes(comm, &num_features, sizeof(num_features));
+  const core::SolverCheckpoint* const root_resume = root ? options.resume_from : nullptr;
   core::SolverCheckpoint resume;
   const bool resuming = BroadcastCheckpoint(comm, root_resume, &resume);
 
-  // 2. My chunks, and the features in them: the part of the state only I hold.
+  // 2. My chunks, and the features in them, numbered locally
+  // (distributed/feature_ownership.h).
   const std::vector<int> owner = AssignChunks(chunk_observations, ranks.size());
   std::vector<int64_t> mine;
   info->ranks = ranks.size();
@@ -110,39 +111,89 @@ Status SolveGraphSlamDistributed(MPI_Comm comm, const core::SolverOptions& optio
     if (owner[k] == ranks.rank()) mine.push_back(static_cast<int64_t>(k));
   }
   const SubsetChunkSource my_chunks(&chunks, mine);
-  std::vector<uint8_t> owned(problem->features.size(), 0);
+  FeatureOwnership ownership;
+  GS_RETURN_IF_ERROR(ranks.Agree(BuildFeatureOwnership(
+      comm, my_chunks, options.max_eliminated_observations, &ownership)));
+  const OwnedFeatureChunkSource local_chunks(&my_chunks, &ownership);
+  const int64_t shared = static_cast<int64_t>(ownership.shared.size());
+  const int64_t outside = num_features - ownership.observed_features;
+  ranks.SetFeatureLayout(shared, outside);
+  const FeatureExchange exchange(comm, &ownership);
+
+  // 3. My features' start (the checkpoint's on a resume) from rank 0: the
+  // shared ones broadcast, my own sent. Rank 0 keeps the store-sized arrays
+  // (the start of the features in no chunk, the checkpoints, the result);
+  // the other ranks release theirs.
+  std::vector<core::Point2> global;
+  if (root) {
+    global = std::move(problem->features);
+    if (resuming && !root_resume->features.empty()) global = root_resume->features;
+  } else {
+    problem->features = {};
+    problem->feature_ids = {};
+    problem->feature_initialized = {};
+  }
+  std::vector<core::Point2> local(static_cast<size_t>(ownership.num_local()),
+                                  core::Point2::Zero());
   {
-    core::ObservationChunk chunk;
-    Status loaded = Status::Ok();
-    for (int64_t k = 0; k < my_chunks.NumChunks() && loaded.ok(); ++k) {
-      loaded = my_chunks.Load(k, &chunk);
-      if (loaded.ok())
-        for (int32_t g : chunk.features) owned[g] = 1;
+    std::vector<core::Point2> shared_values(static_cast<size_t>(shared));
+    if (root)
+      for (int64_t i = 0; i < shared; ++i) shared_values[i] = global[ownership.shared[i]];
+    Broadcast(comm, &shared_values);
+    std::copy(shared_values.begin(), shared_values.end(), local.begin());
+  }
+  exchange.Scatter(global, &local);
+  problem->features = std::move(local);
+  if (resuming) {
+    // The partition of the interrupted solve: the shared flags (every rank
+    // needs them: kept features are numbered in the reduced system) and my own.
+    resume.excluded.assign(static_cast<size_t>(ownership.num_local()), 1);
+    resume.kept.assign(static_cast<size_t>(ownership.num_local()), 0);
+    std::vector<uint8_t> flags(static_cast<size_t>(2 * shared));
+    if (root) {
+      for (int64_t i = 0; i < shared; ++i) {
+        flags[2 * i] = root_resume->excluded[ownership.shared[i]];
+        flags[2 * i + 1] = root_resume->kept[ownership.shared[i]];
+      }
     }
-    GS_RETURN_IF_ERROR(ranks.Agree(std::move(loaded)));
+    BroadcastBytes(comm, flags.data(), flags.size());
+    for (int64_t i = 0; i < shared; ++i) {
+      resume.excluded[i] = flags[2 * i];
+      resume.kept[i] = flags[2 * i + 1];
+    }
+    const std::vector<uint8_t> none;
+    exchange.Scatter(root ? root_resume->excluded : none, &resume.excluded);
+    exchange.Scatter(root ? root_resume->kept : none, &resume.kept);
   }
 
-  // Checkpoints: rank 0 writes the replicated state with every rank's
-  // features gathered (the caller's callback runs on rank 0 only); the
+  // Checkpoints: every rank's own features and flags go to rank 0, which
+  // writes the whole state (the caller's callback runs on rank 0 only); the
   // others learn its status. Then `checkpoint_durable` runs on every rank.
   core::SolverOptions rank_options = options;
-  rank_options.resume_from =
-      !resuming ? nullptr : ranks.rank() == 0 ? options.resume_from : &resume;
+  rank_options.resume_from = resuming ? &resume : nullptr;
   rank_options.checkpoint_callback = {};
   std::function<Status(const core::SolverCheckpoint&)> write_checkpoint;
   DistributedSolveInfo::RankCosts costs;
+  core::SolverCheckpoint whole;  // rank 0: the store-sized arrays, kept between checkpoints
   if (options.checkpoint_callback) {
     write_checkpoint = [&](const core::SolverCheckpoint& checkpoint) {
       const auto gather_start = std::chrono::steady_clock::now();
-      core::SolverCheckpoint whole;
-      GatherFeaturesToRoot(comm, owned, checkpoint.features, &whole.features);
+      if (root && whole.excluded.empty()) {
+        // A feature in no chunk: unobserved, at its start, as in one process.
+        whole.excluded.assign(static_cast<size_t>(num_features), 1);
+        whole.kept.assign(static_cast<size_t>(num_features), 0);
+      }
+      whole.features = std::move(global);
+      exchange.Gather(checkpoint.features, &whole.features);
+      exchange.Gather(checkpoint.excluded, &whole.excluded);
+      exchange.Gather(checkpoint.kept, &whole.kept);
       costs.checkpoint_seconds +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - gather_start).count();
-      if (ranks.rank() != 0)
-        costs.checkpoint_bytes_sent += static_cast<int64_t>(sizeof(core::Point2)) *
-                                       static_cast<int64_t>(checkpoint.features.size());
+      if (!root)
+        costs.checkpoint_bytes_sent +=
+            exchange.owned() * static_cast<int64_t>(sizeof(core::Point2) + 2);
       Status written = Status::Ok();
-      if (ranks.rank() == 0) {
+      if (root) {
         whole.iterations = checkpoint.iterations;
         whole.trust_region_radius = checkpoint.trust_region_radius;
         whole.decrease_factor = checkpoint.decrease_factor;
@@ -151,21 +202,20 @@ Status SolveGraphSlamDistributed(MPI_Comm comm, const core::SolverOptions& optio
         whole.converged = checkpoint.converged;
         whole.termination = checkpoint.termination;
         whole.poses = checkpoint.poses;
-        whole.excluded = checkpoint.excluded;
-        whole.kept = checkpoint.kept;
         whole.pcg = checkpoint.pcg;
         written = options.checkpoint_callback(whole);
       }
+      global = std::move(whole.features);
       written = ranks.Agree(std::move(written));
       if (written.ok() && checkpoint_durable) checkpoint_durable(checkpoint.iterations);
       return written;
     };
   }
 
-  // 3. The solve.
+  // 4. The solve, over my chunks and my features.
   const auto solve_start = std::chrono::steady_clock::now();
   Status status = core::internal::SolveChunkedWith<core::Space2d>(
-      rank_options, my_chunks, problem, summary, rank_options.resume_from, write_checkpoint,
+      rank_options, local_chunks, problem, summary, rank_options.resume_from, write_checkpoint,
       &ranks);
   costs.solve_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - solve_start).count();
@@ -180,12 +230,26 @@ Status SolveGraphSlamDistributed(MPI_Comm comm, const core::SolverOptions& optio
                       1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
   GatherRankCosts(comm, costs, &info->per_rank);
 
-  // 4. Every feature's estimate from the rank that owns its chunk.
-  static_assert(sizeof(core::Point2) == 2 * sizeof(double));
-  for (size_t g = 0; g < owned.size(); ++g)
-    if (!owned[g]) problem->features[g] = core::Point2::Zero();
-  MPI_Allreduce(MPI_IN_PLACE, problem->features.data(),
-                static_cast<int>(2 * problem->features.size()), MPI_DOUBLE, MPI_SUM, comm);
+  // 5. The store-wide counts (the solve's are of my local arrays): a shared
+  // feature's flags are on every rank, my own are mine, a feature in no
+  // chunk is unobserved.
+  const std::vector<uint8_t>& excluded = summary->excluded;
+  int64_t own_excluded = std::count(excluded.begin() + shared, excluded.end(), 1);
+  MPI_Allreduce(MPI_IN_PLACE, &own_excluded, 1, MPI_INT64_T, MPI_SUM, comm);
+  const int64_t all_excluded =
+      std::count(excluded.begin(), excluded.begin() + shared, 1) + own_excluded + outside;
+  summary->unobserved_features = outside;
+  summary->excluded_features = all_excluded - outside;
+  summary->eliminated_features = num_features - all_excluded - summary->kept_features;
+
+  // 6. Every feature's estimate and flag from the rank that owns it, on
+  // rank 0 (which writes the outputs); the others end with none.
+  std::vector<uint8_t> all_flags;
+  if (root) all_flags.assign(static_cast<size_t>(num_features), 1);
+  exchange.Gather(excluded, &all_flags);
+  exchange.Gather(problem->features, &global);
+  summary->excluded = std::move(all_flags);
+  problem->features = std::move(global);
   return Status::Ok();
 }
 

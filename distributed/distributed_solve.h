@@ -2,30 +2,37 @@
 // GraphSLAM solve of a planar chunk store over the N ranks of an MPI
 // communicator (docs/distributed.md):
 //
-//   1. the start (poses, features) of rank 0 is broadcast, so every rank
-//      starts from the same bits (the caller may initialize on rank 0 only);
+//   1. the start of rank 0 (poses; the caller may initialize on rank 0
+//      only) is broadcast, so every rank starts from the same bits;
 //   2. each rank owns the chunks AssignChunks gives it (contiguous, balanced
-//      observation counts; distributed/chunk_assignment.h);
+//      observation counts; distributed/chunk_assignment.h) and holds only
+//      the features in them, numbered locally
+//      (distributed/feature_ownership.h): their start values come from rank
+//      0, and every per-feature array of the solve is of the rank's size;
 //   3. SolveChunkedWith (core/internal/chunked_solve_impl.h), the one-process
 //      solve's code, runs with the MpiRanks policy (distributed/mpi_ranks.h):
 //      screening, reduce and recover over the rank's own chunks (TBB inside
 //      the rank), sums over ranks, the reduced system in PETSc
 //      (distributed/petsc_reduced_solver.h), the same Levenberg-Marquardt
 //      control;
-//   4. each feature's final estimate comes from the rank owning its chunk
-//      (MPI_Allreduce of values that are 0 on every other rank: exact), so
-//      every rank ends with the whole solution.
+//   4. each feature's final estimate and excluded flag go from the rank
+//      owning its chunk to rank 0, which ends with the whole solution and
+//      the store-wide summary->excluded; the other ranks end with no
+//      per-feature arrays (problem->features, feature_ids,
+//      feature_initialized and summary->excluded empty). The summary's
+//      feature counts are the store's on every rank.
 //
 // Checkpoints and --resume (distributed/checkpoint_exchange.h): after every
-// iteration the features are gathered to rank 0, whose
+// iteration every rank's features and flags are gathered to rank 0, whose
 // options.checkpoint_callback (called on rank 0 only) gets the whole state,
 // as a one-process solve would; its status is every rank's, and then
 // `checkpoint_durable(iteration)` runs on every rank (a test's stop point).
 // options.resume_from is read on rank 0 only (the other ranks pass null):
-// rank 0 broadcasts it. Not here: the candidate store, 3-D stores.
+// rank 0 sends each rank its part. Not here: the candidate store, 3-D stores.
 //
-// THREAD SAFETY: collective. ALLOCATION: as the one-process solve, plus the
-// exchange (PetscReducedSolver) and O(features) for steps 1 and 4.
+// THREAD SAFETY: collective. ALLOCATION: as the one-process solve over the
+// rank's own chunks and features, plus the exchange (PetscReducedSolver);
+// rank 0 also holds the store-sized arrays (start, checkpoint, result).
 #pragma once
 
 #include <mpi.h>

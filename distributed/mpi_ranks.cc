@@ -72,17 +72,22 @@ void MpiRanks::SumRecovery(core::RecoveryResult* recovery) {
 }
 
 void MpiRanks::SumScreening(core::ScreeningResult* screening) {
-  const int n = static_cast<int>(screening->excluded.size());
-  const ReductionTimer timer(&stats_, 2 * int64_t{n} + 16);
-  MPI_Allreduce(MPI_IN_PLACE, screening->excluded.data(), n, MPI_UINT8_T, MPI_MIN, comm_);
-  MPI_Allreduce(MPI_IN_PLACE, screening->kept.data(), n, MPI_UINT8_T, MPI_MAX, comm_);
-  int64_t counts[2] = {screening->excluded_not_positive_definite, screening->observations};
-  MPI_Allreduce(MPI_IN_PLACE, counts, 2, MPI_INT64_T, MPI_SUM, comm_);
+  const int k = static_cast<int>(shared_);
+  const ReductionTimer timer(&stats_, 2 * int64_t{k} + 24);
+  MPI_Allreduce(MPI_IN_PLACE, screening->excluded.data(), k, MPI_UINT8_T, MPI_MIN, comm_);
+  MPI_Allreduce(MPI_IN_PLACE, screening->kept.data(), k, MPI_UINT8_T, MPI_MAX, comm_);
+  const auto own_begin = screening->excluded.begin() + k;
+  int64_t counts[3] = {screening->excluded_not_positive_definite, screening->observations,
+                       std::count(own_begin, screening->excluded.end(), 1)};
+  MPI_Allreduce(MPI_IN_PLACE, counts, 3, MPI_INT64_T, MPI_SUM, comm_);
   screening->excluded_not_positive_definite = counts[0];
   screening->observations = counts[1];
+  // Kept features are shared ones (more observations than any eliminated
+  // feature has), so this count is the same on every rank.
   screening->kept_count = std::count(screening->kept.begin(), screening->kept.end(), 1);
-  screening->unobserved =
-      std::count(screening->excluded.begin(), screening->excluded.end(), 1) - counts[0];
+  const int64_t excluded =
+      std::count(screening->excluded.begin(), own_begin, 1) + counts[2] + outside_;
+  screening->unobserved = excluded - counts[0];
 }
 
 void MpiRanks::SumChi2(double* chi2) {

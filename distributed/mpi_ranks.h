@@ -6,18 +6,21 @@
 //
 //   system    g_x, diag(H_xx), chi2         (n + n + 1 doubles per reduction)
 //   recovery  chi2 at the candidate, sum g_m^T dm, dm^T D_m dm, |dm|^2, |m|^2
-//   screening per feature: excluded = AND over ranks (a feature is in one
-//             chunk, every other rank sees it unobserved), kept = OR; counts
+//   screening per shared feature (distributed/feature_ownership.h, the
+//             first `shared` entries of every rank's local arrays):
+//             excluded = AND over ranks (a feature is in one chunk, every
+//             other rank sees it unobserved), kept = OR; the rank's other
+//             features are its own; counts
 //   status    a pass that fails on one rank fails on all (MPI_MAX of a flag)
 //
 // so every rank holds the same numbers and takes the same decisions. Rank 0
 // linearizes the pose-only factors (odometry, motion, GPS) into its part of
 // S. The poses and every sum are replicated (O(n) per rank); the features are
-// each rank's own. The reduced system is solved by PetscReducedSolver
+// each rank's own, in its local numbering. The reduced system is solved by PetscReducedSolver
 // (distributed/petsc_reduced_solver.h).
 //
 // THREAD SAFETY: collective; every rank calls the same methods in the same
-// order. ALLOCATION: O(features) bytes in SumScreening, O(n) in SumSystem.
+// order. ALLOCATION: none in SumScreening, O(n) in SumSystem.
 #pragma once
 
 #include <mpi.h>
@@ -39,6 +42,13 @@ class MpiRanks {
 
   explicit MpiRanks(MPI_Comm comm);
 
+  // The local feature arrays' first `shared` entries are the shared
+  // features; `outside` features are in no chunk (no rank holds them; they
+  // count as unobserved).
+  void SetFeatureLayout(int64_t shared, int64_t outside) {
+    shared_ = shared;
+    outside_ = outside;
+  }
   bool AddsPoseFactors() const { return rank_ == 0; }
   Status Agree(Status status);
   void SumSystem(core::ReducedSystem* system);
@@ -59,6 +69,8 @@ class MpiRanks {
   MPI_Comm comm_;
   int rank_ = 0;
   int size_ = 1;
+  int64_t shared_ = 0;
+  int64_t outside_ = 0;
   ExchangeStats stats_;
 };
 

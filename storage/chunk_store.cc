@@ -112,7 +112,7 @@ bool IsChunkStore(const std::string& path) {
          std::filesystem::is_regular_file(Join(path, kChunkStoreManifestName), error);
 }
 
-StatusOr<core::Problem2d> ReadChunkStoreProblem(const std::string& dir) {
+StatusOr<core::Problem2d> ReadChunkStoreProblem(const std::string& dir, bool with_features) {
   GS_ASSIGN_OR_RETURN(std::unique_ptr<DiskChunkSource> store, DiskChunkSource::Open(dir));
   const std::string path = Join(dir, kChunkStoreProblemName);
   std::error_code error;
@@ -121,7 +121,8 @@ StatusOr<core::Problem2d> ReadChunkStoreProblem(const std::string& dir) {
   for (const ChunkStoreFile& file : store->files())
     if (file.path == kChunkStoreProblemName)
       GS_RETURN_IF_ERROR(CheckFileChecksum(path, file.bytes, file.crc32c));
-  GS_ASSIGN_OR_RETURN(core::Problem2d problem, ReadNativeLog(path));
+  GS_ASSIGN_OR_RETURN(core::Problem2d problem,
+                      with_features ? ReadNativeLog(path) : ReadNativeLogWithoutFeatures(path));
   if (!problem.observations.empty())
     return Status::Corruption(path + ": a chunk store problem holds no observations; found " +
                               std::to_string(problem.observations.size()));

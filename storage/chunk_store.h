@@ -130,9 +130,11 @@ std::string ChunkStoreFileName(int64_t index);
 bool IsChunkStore(const std::string& path);
 
 // Reads STORE/problem.graphslam (after opening the manifest and checking the
-// file's size and CRC32C against it). The result has no observations.
+// file's size and CRC32C against it). The result has no observations;
+// without `with_features`, no features either (ReadNativeLogWithoutFeatures).
 // NotFound / Corruption naming the file.
-StatusOr<core::Problem2d> ReadChunkStoreProblem(const std::string& dir);
+StatusOr<core::Problem2d> ReadChunkStoreProblem(const std::string& dir,
+                                                bool with_features = true);
 
 // Checks the CRC32C of every manifest "files" entry whose path starts with
 // `prefix` (e.g. "scans/"). Corruption naming the file. Version 1: nothing.

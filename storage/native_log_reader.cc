@@ -45,8 +45,9 @@ class NativeLogParser {
   static constexpr size_t kBlocksInFlight = 4;
 
   explicit NativeLogParser(const std::string& path, const ObservationSink* sink = nullptr,
-                           std::vector<NativeLogScan>* scans = nullptr)
-      : path_(path), sink_(sink), scans_(scans) {}
+                           std::vector<NativeLogScan>* scans = nullptr,
+                           bool skip_features = false)
+      : path_(path), sink_(sink), scans_(scans), skip_features_(skip_features) {}
 
   // Lines are cut into blocks and tokenized (fields split, numbers
   // converted) in parallel; the records are then interpreted in file order,
@@ -169,6 +170,7 @@ class NativeLogParser {
   Status ParseFeature(const LineReader& reader) {
     GS_RETURN_IF_ERROR(reader.ExpectFieldCount(2, 4));
     GS_ASSIGN_OR_RETURN(const int64_t id, reader.Id(1, "id"));
+    if (skip_features_) return Status::Ok();
     const bool initialized = reader.fields().size() == 4;
     double guess[2] = {0.0, 0.0};
     if (initialized) GS_RETURN_IF_ERROR(reader.Doubles(2, 2, "initial guess", guess));
@@ -418,6 +420,7 @@ class NativeLogParser {
   const std::string path_;
   const ObservationSink* sink_ = nullptr;
   std::vector<NativeLogScan>* scans_ = nullptr;
+  const bool skip_features_ = false;
   core::Problem2d problem_;
   internal::GrowingIdMap poses_;     // dense ids: a direct table (one look-up per record)
   internal::GrowingIdMap features_;  // dense ids: a direct table
@@ -448,6 +451,10 @@ StatusOr<core::Problem2d> ReleasingFreedMemory(StatusOr<core::Problem2d> read) {
 
 StatusOr<core::Problem2d> ReadNativeLog(const std::string& path) {
   return ReleasingFreedMemory(NativeLogParser(path).Parse());
+}
+
+StatusOr<core::Problem2d> ReadNativeLogWithoutFeatures(const std::string& path) {
+  return ReleasingFreedMemory(NativeLogParser(path, nullptr, nullptr, true).Parse());
 }
 
 StatusOr<core::Problem2d> ReadNativeLog(const std::string& path,

@@ -46,6 +46,12 @@ inline constexpr int kNativeLogVersion = 1;
 
 StatusOr<core::Problem2d> ReadNativeLog(const std::string& path);
 
+// As ReadNativeLog, but a FEATURE record is checked up to its id and not
+// kept: the problem's poses and pose-only factors, with memory O(poses),
+// for a log without observations whose features the reader does not need
+// (a chunk store's problem on an MPI rank other than 0, docs/distributed.md).
+StatusOr<core::Problem2d> ReadNativeLogWithoutFeatures(const std::string& path);
+
 // A SCAN record: the point cloud of pose `pose` (dense index) is in `file`,
 // a .pcd path as written in the log (relative to the log's folder unless
 // absolute); storage/native_log_scans.h reads them.

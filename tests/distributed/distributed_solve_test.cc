@@ -1,7 +1,9 @@
 // `mpirun -np N graphslam solve STORE/` (docs/distributed.md) against the
 // one-process solve of the same store: the final chi2 within 1e-9 relative
 // and the same iteration count for N = 1, 2, 4, and the same bits from run to
-// run for a fixed N (report and TUM trajectory). On a Victoria Park store
+// run for a fixed N (report and TUM trajectory). Every rank holds only its
+// own features, so the feature counts of the report and the features rank 0
+// gathers for --features-csv are checked against one process too. On a Victoria Park store
 // (real data, 8 chunks; PETSc options select MUMPS) and a simulated 2-run
 // campus store with GPS (10 chunks; the default CG).
 #include <gtest/gtest.h>
@@ -39,6 +41,35 @@ std::string ReadFile(const fs::path& path) {
   return s.str();
 }
 
+// Two --features-csv files (id,x,y,observations,excluded): the same rows, ids,
+// observation counts and flags, coordinates within `tolerance`.
+void ExpectSameFeatures(const fs::path& expected_path, const fs::path& actual_path,
+                        double tolerance) {
+  std::ifstream expected(expected_path), actual(actual_path);
+  std::string e, a;
+  int64_t rows = 0;
+  while (std::getline(expected, e)) {
+    ASSERT_TRUE(std::getline(actual, a)) << "missing row " << rows;
+    if (rows++ == 0) {
+      EXPECT_EQ(a, e);  // the header
+      continue;
+    }
+    std::vector<std::string> ef, af;
+    std::stringstream es(e), as(a);
+    for (std::string f; std::getline(es, f, ',');) ef.push_back(f);
+    for (std::string f; std::getline(as, f, ',');) af.push_back(f);
+    ASSERT_EQ(ef.size(), 5u) << e;
+    ASSERT_EQ(af.size(), 5u) << a;
+    EXPECT_EQ(af[0], ef[0]);
+    EXPECT_EQ(af[3], ef[3]) << "feature " << ef[0];
+    EXPECT_EQ(af[4], ef[4]) << "feature " << ef[0];
+    for (int c : {1, 2})
+      EXPECT_NEAR(std::stod(af[c]), std::stod(ef[c]), tolerance) << "feature " << ef[0];
+  }
+  EXPECT_FALSE(std::getline(actual, a)) << "extra rows";
+  EXPECT_GT(rows, 1);
+}
+
 class DistributedSolveTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -58,6 +89,7 @@ class DistributedSolveTest : public ::testing::Test {
     std::vector<std::string> args = {"solve",  store.string(),
                                      "--report", (dir_ / (name + ".json")).string(),
                                      "--tum",    (dir_ / (name + ".tum")).string(),
+                                     "--features-csv", (dir_ / (name + ".csv")).string(),
                                      "--threads", "1", "-q",
                                      // One start for both: the default radius
                                      // follows the solver (CHOLMOD / KSP).
@@ -84,6 +116,11 @@ class DistributedSolveTest : public ::testing::Test {
       EXPECT_EQ(run["iterations"].get<int>(), one["iterations"].get<int>());
       EXPECT_EQ(run["observations_used"], one["observations_used"]);
       EXPECT_EQ(run["kept_features"], one["kept_features"]);
+      for (const char* key : {"features", "eliminated_features", "excluded_features",
+                              "unobserved_features"})
+        EXPECT_EQ(run[key], one[key]) << key;
+      ExpectSameFeatures(dir_ / "one_process.csv", dir_ / ("np" + std::to_string(ranks) + ".csv"),
+                         1e-6);
       // The assembled PETSc matrix has the one-process S's pattern.
       EXPECT_EQ(run["reduced_nonzero_blocks"], one["reduced_nonzero_blocks"]);
     }

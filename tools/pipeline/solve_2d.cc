@@ -185,7 +185,9 @@ Status LockStore(const SolveRun& run, Solve2d& s) {
 Status ReadStore(const SolveRun& run, Solve2d& s) {
   const SolveCommandOptions& options = run.options;
   GS_ASSIGN_OR_RETURN(s.store, storage::DiskChunkSource::Open(s.store_path));
-  GS_ASSIGN_OR_RETURN(s.problem, storage::ReadChunkStoreProblem(s.store_path));
+  // Under mpirun only rank 0 holds every feature; the others get their own
+  // from it (docs/distributed.md, "Features on ranks").
+  GS_ASSIGN_OR_RETURN(s.problem, storage::ReadChunkStoreProblem(s.store_path, run.root));
   s.num_observations = s.store->total_observations();
   // --associate merges in memory (then rewrites the store): never streams.
   s.streaming = !options.associate && (s.problem.num_poses() > options.streaming_poses ||
