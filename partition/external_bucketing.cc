@@ -209,6 +209,9 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
   const auto bucket_of = [&](const core::Observation& o) {
     return chunk_bucket_[feature_chunk_[o.feature]];
   };
+  const int64_t first_bucket = spill_first_bucket_;
+  const int64_t end_bucket = spill_end_bucket_ < 0 ? num_buckets : spill_end_bucket_;
+  const auto spilled_here = [&](int64_t b) { return b >= first_bucket && b < end_bucket; };
   auto spill = [&]() -> Status {
     if (buffer.empty()) return Status::Ok();
     // Counting sort by bucket: stable, so each run keeps input order.
@@ -298,6 +301,7 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
       // that fills up exactly at a block's end is spilled at the next block,
       // at a resumable point (blocks that divide the buffer would otherwise
       // never give one).
+      if (!spilled_here(bucket_of(block.observations[i]))) continue;
       if (static_cast<int64_t>(buffer.size()) >= capacity) GS_RETURN_IF_ERROR(spill());
       buffer.push_back(block.observations[i]);
       stats.peak_observations_in_memory =
@@ -311,7 +315,7 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
   buffer = std::vector<core::Observation>();
   scratch = std::vector<core::Observation>();
   encoders.clear();
-  for (int64_t b = 0; b < num_buckets; ++b)
+  for (int64_t b = first_bucket; b < end_bucket; ++b)
     if (progress->bucket_observations[b] != bucket_observations_[b])
       return Status::Corruption(BucketPath(b) + ": " +
                                 std::to_string(progress->bucket_observations[b]) +
@@ -323,6 +327,16 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
   for (int64_t b = 0; b < num_buckets; ++b)
     if (touched[b]) paths.push_back(BucketPath(b));
   return SyncPaths(paths);
+}
+
+void BucketChunkSource::RestrictSpillToChunks(int64_t first, int64_t end) {
+  GS_CHECK(first >= 0 && first <= end && end <= NumChunks());
+  if (first == end) {
+    spill_first_bucket_ = spill_end_bucket_ = 0;
+    return;
+  }
+  spill_first_bucket_ = chunk_bucket_[static_cast<size_t>(first)];
+  spill_end_bucket_ = chunk_bucket_[static_cast<size_t>(end - 1)] + 1;
 }
 
 ObservationBlockReplay InBlocks(const ObservationReplay& replay) {

@@ -166,6 +166,13 @@ class BucketChunkSource : public core::ChunkSource {
   [[nodiscard]] Status Spill(const ObservationBlockReplay& replay, SpillProgress* progress,
                              const SpillCheckpoint& checkpoint, double checkpoint_seconds);
 
+  // Makes Spill keep only the buckets holding chunks [first, end) (each
+  // bucket is read back whole, so a bucket that holds chunks on both sides is
+  // spilled by both callers): an ingest on MPI ranks spills only what its
+  // shard's chunks need (partition/streaming_ingest.h). Only those chunks
+  // may be loaded then. Default: every bucket.
+  void RestrictSpillToChunks(int64_t first, int64_t end);
+
   int64_t NumChunks() const override { return static_cast<int64_t>(chunk_features_.size()); }
   int64_t NumBuckets() const { return static_cast<int64_t>(bucket_observations_.size()); }
   // Ascending indices (any start: a resumed writer starts mid-way); reads a
@@ -193,6 +200,8 @@ class BucketChunkSource : public core::ChunkSource {
   std::vector<int64_t> bucket_observations_;          // per bucket
   std::vector<int64_t> bucket_first_chunk_;           // per bucket
   int64_t released_buckets_ = 0;                      // bucket files [0, this) deleted
+  int64_t spill_first_bucket_ = 0;                    // Spill keeps buckets [first, end)
+  int64_t spill_end_bucket_ = -1;                     // -1: every bucket
 
   // The bucket loaded last, sorted by (chunk, feature); mutable: Load is a
   // sequential cursor over the buckets behind the const ChunkSource interface.

@@ -220,6 +220,10 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
                       BucketChunkSource::Plan(index, bucketing));
   const int64_t observations = index.observations();
   index = FeatureIndex();  // the plan has what pass 2 needs: 8 B per feature freed
+  // On ranks, each spills only the buckets its shard's chunks are cut from.
+  const int64_t shard_begin = chunks->NumChunks() * ranks.rank / ranks.size;
+  const int64_t shard_end = chunks->NumChunks() * (ranks.rank + 1) / ranks.size;
+  if (ranks.size > 1) chunks->RestrictSpillToChunks(shard_begin, shard_end);
   if (!native) {
     SpillProgress spill;
     GS_RETURN_IF_ERROR(chunks->Spill(InBlocks(replay), &spill, nullptr, 0.0));
@@ -250,9 +254,7 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
   // 5. Chunks, then the manifest.
   if (ranks.size > 1) {
     const int64_t num_chunks = chunks->NumChunks();
-    const int64_t begin = num_chunks * ranks.rank / ranks.size;
-    const int64_t end = num_chunks * (ranks.rank + 1) / ranks.size;
-    GS_RETURN_IF_ERROR(writer.WriteChunkShard(*chunks, begin, end));
+    GS_RETURN_IF_ERROR(writer.WriteChunkShard(*chunks, shard_begin, shard_end));
     if (!root) {
       std::filesystem::remove_all(work, error);  // before rank 0 commits
       if (error) return Status::IOError(work + ": remove: " + error.message());

@@ -76,9 +76,10 @@ inline constexpr const char* kIngestWorkDirectory = "work";
 
 // The processes of a distributed ingest (`mpirun -np N graphslam ingest`,
 // docs/distributed.md): every rank reads the input and plans the same chunks
-// (pass 1 and the spill in its own STORE/work.rank-R/; rank 0 in
-// STORE/work/), writes its shard of them -- chunks [floor(r K / N),
-// floor((r + 1) K / N)) of the K chunks -- into STORE/chunks/, and rank 0,
+// (pass 1 in its own STORE/work.rank-R/; rank 0 in STORE/work/), spills the
+// observations of the buckets its shard -- chunks [floor(r K / N),
+// floor((r + 1) K / N)) of the K chunks -- is cut from (the others' it
+// skips), writes its shard into STORE/chunks/, and rank 0,
 // which alone claims and un-commits the store and writes the problem file
 // and the scans, commits the manifest listing every chunk and the shards.
 // The chunk files are those one process writes (the plan and the encoding

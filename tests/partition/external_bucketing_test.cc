@@ -610,6 +610,75 @@ TEST_F(ExternalBucketingTest, RunsLongerThanOneFrameReadBackInInputOrder) {
   EXPECT_EQ(seen, total);
 }
 
+// RestrictSpillToChunks (an ingest on MPI ranks, partition/streaming_ingest.h):
+// each of three shards spills only the buckets its chunks are cut from, far
+// fewer observations than the input, and loads its chunks exactly as the
+// unrestricted source does.
+TEST_F(ExternalBucketingTest, ShardSpillsOnlyItsBucketsAndCutsTheSameChunks) {
+  std::vector<core::Observation> input;
+  std::mt19937 rng(5);
+  FeatureIndex index;
+  for (int32_t i = 0; i < 6000; ++i) {
+    core::Observation o;
+    o.pose = i / 20;
+    o.feature = static_cast<int32_t>((i / 20 + rng() % 8) % 700);
+    o.z = {static_cast<double>(rng() % 1000), static_cast<double>(i)};
+    o.line = i + 1;
+    input.push_back(o);
+    index.Add(o);
+  }
+  const ObservationReplay replay = [&](const storage::ObservationSink& sink) -> Status {
+    for (const core::Observation& o : input) GS_RETURN_IF_ERROR(sink(o));
+    return Status::Ok();
+  };
+  ExternalBucketingOptions options;
+  options.max_observations_per_chunk = 100;
+  options.buffer_observations = 300;
+  options.work_dir = Path("all");
+  std::filesystem::create_directories(options.work_dir);
+  StatusOr<std::unique_ptr<BucketChunkSource>> all = BucketChunkSource::Build(index, replay, options);
+  ASSERT_TRUE(all.ok()) << all.status().ToString();
+  const int64_t chunks = (*all)->NumChunks();
+  ASSERT_GE((*all)->NumBuckets(), 9);
+  const auto bucket_files = [](const std::string& dir) {
+    int64_t n = 0;
+    for (const auto& entry : std::filesystem::directory_iterator(dir))
+      n += entry.path().filename().string().rfind("bucket_", 0) == 0 ? 1 : 0;
+    return n;
+  };
+  EXPECT_EQ(bucket_files(options.work_dir), (*all)->NumBuckets());
+  int64_t spilled = 0;
+  for (int rank = 0; rank < 3; ++rank) {
+    SCOPED_TRACE("shard " + std::to_string(rank));
+    options.work_dir = Path("shard" + std::to_string(rank));
+    std::filesystem::create_directories(options.work_dir);
+    StatusOr<std::unique_ptr<BucketChunkSource>> shard = BucketChunkSource::Plan(index, options);
+    ASSERT_TRUE(shard.ok());
+    const int64_t begin = chunks * rank / 3, end = chunks * (rank + 1) / 3;
+    (*shard)->RestrictSpillToChunks(begin, end);
+    SpillProgress progress;
+    ASSERT_TRUE((*shard)->Spill(InBlocks(replay), &progress, {}, 0.0).ok());
+    const int64_t mine = (*shard)->stats().spilled_raw_bytes /
+                         static_cast<int64_t>(sizeof(core::Observation));
+    EXPECT_LT(mine, static_cast<int64_t>(input.size()) / 2);
+    EXPECT_LT(bucket_files(options.work_dir), (*all)->NumBuckets() / 2);
+    spilled += mine;
+    core::ObservationChunk a, b;
+    for (int64_t k = begin; k < end; ++k) {
+      ASSERT_TRUE((*all)->Load(k, &a).ok());
+      ASSERT_TRUE((*shard)->Load(k, &b).ok());
+      EXPECT_EQ(b.features, a.features) << "chunk " << k;
+      EXPECT_EQ(b.feature_begin, a.feature_begin) << "chunk " << k;
+      ASSERT_EQ(b.observations.size(), a.observations.size()) << "chunk " << k;
+      for (size_t i = 0; i < a.observations.size(); ++i)
+        ExpectSameObservation(b.observations[i], a.observations[i]);
+    }
+  }
+  // Every observation at least once; a bucket on a shard boundary twice.
+  EXPECT_GE(spilled, static_cast<int64_t>(input.size()));
+  EXPECT_LE(spilled, static_cast<int64_t>(input.size()) + 2 * 300);
+}
+
 // A resume whose input changed since the interrupted ingest starts afresh
 // (and still gives the right store).
 TEST_F(ExternalBucketingTest, ResumeWithAChangedInputStartsAfresh) {
