@@ -88,6 +88,35 @@ TEST(NativeLogReader, ReadsEveryRecordOfTheSpecExample) {
   EXPECT_EQ(problem->pose_range_bearings[0].line, 14);
 }
 
+// ReadNativeLogWithoutFeatures (an MPI rank's read of a chunk store's
+// problem): the poses and pose-only factors of ReadNativeLog, no feature; a
+// FEATURE record is still checked.
+TEST(NativeLogReader, WithoutFeaturesKeepsThePosesAndPoseFactorsOnly) {
+  const std::string log =
+      "GRAPHSLAM_LOG 1\n"
+      "POSE 0 0.0 0 0 0\n"
+      "FEATURE 3 5 1\n"
+      "POSE 1 0.5 1 0 0\n"
+      "FEATURE 4\n"
+      "ODOM 0 1 1 0 0.1 100 0 0 100 0 100\n"
+      "GPS 1 1.0 0.1 4 0 4\n";
+  const auto whole = ReadNativeLog(WriteTemp("poses_whole.log", log));
+  const auto poses = ReadNativeLogWithoutFeatures(WriteTemp("poses_only.log", log));
+  ASSERT_TRUE(whole.ok()) << whole.status().ToString();
+  ASSERT_TRUE(poses.ok()) << poses.status().ToString();
+  EXPECT_EQ(whole->num_features(), 2);
+  EXPECT_EQ(poses->num_features(), 0);
+  EXPECT_TRUE(poses->feature_ids.empty());
+  ASSERT_EQ(poses->num_poses(), 2);
+  EXPECT_EQ(poses->pose_ids, whole->pose_ids);
+  EXPECT_EQ(poses->poses[1].x(), whole->poses[1].x());
+  EXPECT_EQ(poses->relative_poses.size(), whole->relative_poses.size());
+  EXPECT_EQ(poses->gps.size(), 1u);
+  const auto bad = ReadNativeLogWithoutFeatures(
+      WriteTemp("poses_bad.log", "GRAPHSLAM_LOG 1\nPOSE 0 0.0 0 0 0\nFEATURE x 1 2\n"));
+  EXPECT_FALSE(bad.ok());
+}
+
 TEST(NativeLogReader, RoundTripIsExact) {
   const auto original = ReadNativeLog(WriteTemp("original.log", kExample));
   ASSERT_TRUE(original.ok()) << original.status().ToString();
