@@ -173,21 +173,40 @@ bool BlockSparseMatrix::HasBlock(int i, int k) const {
   return FindBlock(std::min(i, k), std::max(i, k)) >= 0;
 }
 
+namespace {
+
+// dst (row-major b x b) += block, or += block^T; B the block size when it is
+// known at compile time (the pose blocks: 3 in the plane, 6 in 3-D), else 0.
+template <int B>
+void AddInto(int b, const Eigen::Ref<const Eigen::MatrixXd>& block, bool transpose,
+             double* dst) {
+  const int n = B > 0 ? B : b;
+  if (transpose) {
+    for (int r = 0; r < n; ++r)
+      for (int c = 0; c < n; ++c) dst[r * n + c] += block(c, r);
+  } else {
+    for (int r = 0; r < n; ++r)
+      for (int c = 0; c < n; ++c) dst[r * n + c] += block(r, c);
+  }
+}
+
+}  // namespace
+
 bool BlockSparseMatrix::AddBlock(int i, int k, const Eigen::Ref<const Eigen::MatrixXd>& block) {
   const int b = block_size_;
   GS_CHECK(block.rows() == b && block.cols() == b);
-  if (i <= k) {
-    double* ik = MutableBlock(i, k);
-    if (ik == nullptr) return false;
-    for (int r = 0; r < b; ++r) {
-      for (int c = 0; c < b; ++c) ik[r * b + c] += block(r, c);
-    }
-  } else {
-    double* ki = MutableBlock(k, i);
-    if (ki == nullptr) return false;
-    for (int r = 0; r < b; ++r) {
-      for (int c = 0; c < b; ++c) ki[r * b + c] += block(c, r);
-    }
+  const bool transpose = i > k;
+  double* dst = transpose ? MutableBlock(k, i) : MutableBlock(i, k);
+  if (dst == nullptr) return false;
+  switch (b) {
+    case 3:
+      AddInto<3>(b, block, transpose, dst);
+      break;
+    case 6:
+      AddInto<6>(b, block, transpose, dst);
+      break;
+    default:
+      AddInto<0>(b, block, transpose, dst);
   }
   return true;
 }

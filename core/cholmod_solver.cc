@@ -1,6 +1,6 @@
 #include "core/cholmod_solver.h"
 
-#include <Eigen/CholmodSupport>
+#include <cholmod.h>
 #include <fmt/format.h>
 #include <omp.h>
 
@@ -13,15 +13,6 @@
 
 namespace graphslam::core {
 namespace {
-
-using SparseUpper = Eigen::SparseMatrix<double>;
-
-// Exposes CHOLMOD's factor, which Eigen keeps protected, to report where a
-// factorization failed (cholmod_factor::minor) and to detect a failed analysis.
-class SupernodalLlt : public Eigen::CholmodSupernodalLLT<SparseUpper, Eigen::Upper> {
- public:
-  const cholmod_factor* factor() const { return m_cholmodFactor; }
-};
 
 // Makes CHOLMOD's OpenMP regions run on the calling thread alone while it
 // lives. Debian's CHOLMOD opens them in the supernodal factorization with a
@@ -42,81 +33,294 @@ class SerialOpenMpRegions {
   int saved_;
 };
 
+// cholmod_start / cholmod_finish around a common object; printing off.
+class Common {
+ public:
+  Common() {
+    cholmod_start(&common_);
+    common_.print = 0;  // libraries never print; errors come back as Status
+  }
+  ~Common() { cholmod_finish(&common_); }
+  Common(const Common&) = delete;
+  Common& operator=(const Common&) = delete;
+  cholmod_common* get() { return &common_; }
+
+ private:
+  cholmod_common common_;
+};
+
+// The scalar upper triangle of a block pattern, compressed by columns with
+// sorted rows, and for every entry its index in the stored values
+// (BlockSparseMatrix::StoredBlock(0)[source]). Column k*b + c holds the
+// strictly-upper blocks (i < k, k) of block column k (transpose index, rows
+// ascending), then rows k*b .. k*b + c of the diagonal block.
+struct UpperPattern {
+  std::vector<int> col_start;
+  std::vector<int> rows;
+  std::vector<int64_t> source;
+};
+
+UpperPattern MakeUpperPattern(const BlockSparseMatrix& a) {
+  const int b = a.block_size();
+  const int64_t bb = static_cast<int64_t>(b) * b;
+  const int n = a.num_rows();
+  const int64_t strict = static_cast<int64_t>(a.col_rows().size());
+  const int64_t nnz = strict * bb + static_cast<int64_t>(a.num_block_rows()) * b * (b + 1) / 2;
+  GS_CHECK(nnz < int64_t{1} << 31);
+  UpperPattern u;
+  u.col_start.reserve(static_cast<size_t>(n) + 1);
+  u.rows.reserve(static_cast<size_t>(nnz));
+  u.source.reserve(static_cast<size_t>(nnz));
+  u.col_start.push_back(0);
+  for (int k = 0; k < a.num_block_rows(); ++k) {
+    for (int c = 0; c < b; ++c) {
+      for (int64_t t = a.col_start()[k]; t < a.col_start()[k + 1]; ++t) {
+        const int i = a.col_rows()[t];
+        const int64_t j = a.col_blocks()[t];
+        for (int r = 0; r < b; ++r) {
+          u.rows.push_back(i * b + r);
+          u.source.push_back(j * bb + r * b + c);
+        }
+      }
+      const int64_t j = a.row_start()[k];
+      for (int r = 0; r <= c; ++r) {
+        u.rows.push_back(k * b + r);
+        u.source.push_back(j * bb + r * b + c);
+      }
+      u.col_start.push_back(static_cast<int>(u.rows.size()));
+    }
+  }
+  return u;
+}
+
+// A CHOLMOD view of a pattern-only symmetric matrix (upper triangle stored).
+cholmod_sparse PatternView(int n, UpperPattern* u) {
+  cholmod_sparse view{};
+  view.nrow = view.ncol = static_cast<size_t>(n);
+  view.nzmax = u->rows.size();
+  view.p = u->col_start.data();
+  view.i = u->rows.data();
+  view.stype = 1;
+  view.itype = CHOLMOD_INT;
+  view.xtype = CHOLMOD_PATTERN;
+  view.dtype = CHOLMOD_DOUBLE;
+  view.sorted = 1;
+  view.packed = 1;
+  return view;
+}
+
 }  // namespace
 
+bool CholmodOrdering::Orders(const BlockSparseMatrix& a) const {
+  return a.block_size() == block_size && a.row_start() == row_start &&
+         a.block_cols() == block_cols;
+}
+
+StatusOr<std::shared_ptr<const CholmodOrdering>> AnalyzeCholmodOrdering(
+    const BlockSparseMatrix& a) {
+  GS_CHECK(a.num_rows() > 0);
+  UpperPattern upper = MakeUpperPattern(a);
+  cholmod_sparse view = PatternView(a.num_rows(), &upper);
+  Common common;
+  // Only the ordering and its counts are wanted here; the supernodes are
+  // found when the solver analyses the permuted matrix.
+  common.get()->supernodal = CHOLMOD_SIMPLICIAL;
+  cholmod_factor* factor = cholmod_analyze(&view, common.get());
+  if (factor == nullptr || common.get()->status < CHOLMOD_OK || !(common.get()->lnz > 0)) {
+    if (factor != nullptr) cholmod_free_factor(&factor, common.get());
+    return Status::Numerical(fmt::format(
+        "CHOLMOD symbolic analysis of the reduced information matrix ({} rows, {} nonzeros "
+        "in the upper triangle) failed: CHOLMOD status {}",
+        a.num_rows(), upper.rows.size(), common.get()->status));
+  }
+  auto ordering = std::make_shared<CholmodOrdering>();
+  const int* perm = static_cast<const int*>(factor->Perm);
+  ordering->permutation.assign(perm, perm + a.num_rows());
+  ordering->factor_nonzeros = common.get()->lnz;
+  ordering->factor_flops = common.get()->fl;
+  ordering->block_size = a.block_size();
+  ordering->row_start = a.row_start();
+  ordering->block_cols = a.block_cols();
+  cholmod_free_factor(&factor, common.get());
+  return std::shared_ptr<const CholmodOrdering>(std::move(ordering));
+}
+
 struct CholmodSolver::Impl {
-  SupernodalLlt llt;
-  bool analyzed = false;
+  Common common;
+  std::shared_ptr<const CholmodOrdering> offered;  // from UseOrdering
+  std::shared_ptr<const CholmodOrdering> ordering;  // of the analyzed pattern
+  cholmod_sparse* permuted = nullptr;  // B = P S P^T, one triangle
+  std::vector<int64_t> gather;         // B's value m is S's stored value gather[m]
+  cholmod_factor* factor = nullptr;
+  // Solve's dense vectors, kept across calls.
+  cholmod_dense* rhs = nullptr;
+  cholmod_dense* solution = nullptr;
+  cholmod_dense* work_y = nullptr;
+  cholmod_dense* work_e = nullptr;
+  bool supernodal = false;
   bool factorized = false;
   int num_analyses = 0;
   int block_size = 0;
   int num_rows = 0;
-  // The analyzed pattern, compared exactly on every Factorize.
-  std::vector<int> outer;
-  std::vector<int> inner;
 
-  bool SamePattern(const SparseUpper& m) const {
-    if (!analyzed || m.rows() != num_rows) return false;
-    if (static_cast<size_t>(m.nonZeros()) != inner.size()) return false;
-    return std::equal(outer.begin(), outer.end(), m.outerIndexPtr()) &&
-           std::equal(inner.begin(), inner.end(), m.innerIndexPtr());
+  ~Impl() { Release(); }
+
+  void Release() {
+    cholmod_common* c = common.get();
+    if (permuted != nullptr) cholmod_free_sparse(&permuted, c);
+    if (factor != nullptr) cholmod_free_factor(&factor, c);
+    if (rhs != nullptr) cholmod_free_dense(&rhs, c);
+    if (solution != nullptr) cholmod_free_dense(&solution, c);
+    if (work_y != nullptr) cholmod_free_dense(&work_y, c);
+    if (work_e != nullptr) cholmod_free_dense(&work_e, c);
+    ordering.reset();
+    gather.clear();
   }
+
+  Status Analyze(const BlockSparseMatrix& a);
 };
 
-CholmodSolver::CholmodSolver() : impl_(std::make_unique<Impl>()) {
-  cholmod_common& common = impl_->llt.cholmod();
-  common.print = 0;  // libraries never print; errors come back as Status
+// Steps 2 and 3 of the header for a's pattern.
+Status CholmodSolver::Impl::Analyze(const BlockSparseMatrix& a) {
+  Release();
+  std::shared_ptr<const CholmodOrdering> order;
+  if (offered != nullptr && offered->Orders(a)) {
+    order = offered;
+  } else {
+    StatusOr<std::shared_ptr<const CholmodOrdering>> computed = AnalyzeCholmodOrdering(a);
+    GS_RETURN_IF_ERROR(computed.status());
+    order = std::move(computed).value();
+  }
+  const int n = a.num_rows();
+  cholmod_common* c = common.get();
+  supernodal = order->factor_flops >= c->supernodal_switch * order->factor_nonzeros;
+
+  // B's pattern: entry (p, q) of S's upper triangle goes to (inverse[p],
+  // inverse[q]), stored in the lower triangle (supernodal) or the upper one
+  // (simplicial), rows sorted within each column.
+  UpperPattern upper = MakeUpperPattern(a);
+  std::vector<int> inverse(static_cast<size_t>(n));
+  for (int k = 0; k < n; ++k) inverse[order->permutation[k]] = k;
+  const size_t nnz = upper.rows.size();
+  std::vector<int> col_start(static_cast<size_t>(n) + 1, 0);
+  auto place = [&](int p, int q) {
+    const int pp = inverse[p], qq = inverse[q];
+    return supernodal ? std::make_pair(std::max(pp, qq), std::min(pp, qq))
+                      : std::make_pair(std::min(pp, qq), std::max(pp, qq));
+  };  // (row, column)
+  for (int q = 0; q < n; ++q) {
+    for (int e = upper.col_start[q]; e < upper.col_start[q + 1]; ++e)
+      ++col_start[place(upper.rows[e], q).second + 1];
+  }
+  for (int q = 0; q < n; ++q) col_start[q + 1] += col_start[q];
+  std::vector<std::pair<int, int64_t>> entries(nnz);  // (row, source)
+  {
+    std::vector<int> next(col_start.begin(), col_start.end() - 1);
+    for (int q = 0; q < n; ++q) {
+      for (int e = upper.col_start[q]; e < upper.col_start[q + 1]; ++e) {
+        const auto [row, col] = place(upper.rows[e], q);
+        entries[next[col]++] = {row, upper.source[e]};
+      }
+    }
+  }
+  permuted = cholmod_allocate_sparse(n, n, nnz, /*sorted=*/1, /*packed=*/1,
+                                     supernodal ? -1 : 1, CHOLMOD_REAL, c);
+  if (permuted == nullptr) {
+    return Status::Numerical(fmt::format(
+        "CHOLMOD could not allocate the permuted reduced information matrix ({} rows, {} "
+        "nonzeros): CHOLMOD status {}",
+        n, nnz, c->status));
+  }
+  int* bp = static_cast<int*>(permuted->p);
+  int* bi = static_cast<int*>(permuted->i);
+  gather.resize(nnz);
+  for (int q = 0; q < n; ++q) {
+    bp[q] = col_start[q];
+    std::sort(entries.begin() + col_start[q], entries.begin() + col_start[q + 1]);
+    for (int m = col_start[q]; m < col_start[q + 1]; ++m) {
+      bi[m] = entries[m].first;
+      gather[m] = entries[m].second;
+    }
+  }
+  bp[n] = col_start[n];
+
+  // B is ordered already (P includes the postorder): CHOLMOD analyses it in
+  // its natural order and factorizes it without permuting or transposing.
+  const int saved_nmethods = c->nmethods;
+  const int saved_ordering = c->method[0].ordering;
+  const int saved_postorder = c->postorder;
+  c->nmethods = 1;
+  c->method[0].ordering = CHOLMOD_NATURAL;
+  c->postorder = 0;
+  c->supernodal = supernodal ? CHOLMOD_SUPERNODAL : CHOLMOD_SIMPLICIAL;
+  factor = cholmod_analyze(permuted, c);
+  c->nmethods = saved_nmethods;
+  c->method[0].ordering = saved_ordering;
+  c->postorder = saved_postorder;
+  if (factor == nullptr || c->status < CHOLMOD_OK) {
+    return Status::Numerical(fmt::format(
+        "CHOLMOD symbolic analysis of the reduced information matrix ({} rows, {} nonzeros "
+        "in the upper triangle) failed: CHOLMOD status {}",
+        n, nnz, c->status));
+  }
+  GS_CHECK(factor->ordering == CHOLMOD_NATURAL);
+  // Keep the factor as computed (no conversion afterwards); the simplicial
+  // one as LL^T, so that a non-positive pivot stops it like the supernodal.
+  c->final_asis = 1;
+  c->final_ll = 1;
+  ordering = std::move(order);
+  block_size = a.block_size();
+  num_rows = n;
+  ++num_analyses;
+  // The factor's size and cost (what --solver auto compares; it does not
+  // analyse above its unknowns budget, so -v gives them here too).
+  GS_VLOG(1, "CHOLMOD analysis: %d rows, %zu nonzeros in the upper triangle, factor %.3g "
+          "nonzeros (lnz), %.3g flops (fl), %s", n, nnz, ordering->factor_nonzeros,
+          ordering->factor_flops, supernodal ? "supernodal" : "simplicial");
+  return Status::Ok();
 }
+
+CholmodSolver::CholmodSolver() : impl_(std::make_unique<Impl>()) {}
 
 CholmodSolver::~CholmodSolver() = default;
 
+void CholmodSolver::UseOrdering(std::shared_ptr<const CholmodOrdering> ordering) {
+  impl_->offered = std::move(ordering);
+}
+
 int CholmodSolver::num_analyses() const { return impl_->num_analyses; }
+bool CholmodSolver::supernodal() const { return impl_->supernodal; }
 bool CholmodSolver::factorized() const { return impl_->factorized; }
 int CholmodSolver::num_rows() const { return impl_->num_rows; }
 
 Status CholmodSolver::Factorize(const BlockSparseMatrix& a) {
   Impl& impl = *impl_;
   impl.factorized = false;
-  impl.block_size = a.block_size();
   if (a.num_rows() == 0) {  // nothing to factorize; CHOLMOD is not called
+    impl.Release();
     impl.num_rows = 0;
-    impl.analyzed = false;
+    impl.block_size = a.block_size();
     impl.factorized = true;
     return Status::Ok();
   }
-  const SparseUpper upper = a.ToSparseUpper();
-  const SerialOpenMpRegions serial_openmp;
-  if (!impl.SamePattern(upper)) {
-    impl.analyzed = false;
-    impl.llt.analyzePattern(upper);
-    ++impl.num_analyses;
-    if (impl.llt.factor() == nullptr) {
-      return Status::Numerical(fmt::format(
-          "CHOLMOD symbolic analysis of the reduced information matrix ({} rows, {} nonzeros "
-          "in the upper triangle) failed: CHOLMOD status {}",
-          upper.rows(), upper.nonZeros(), impl.llt.cholmod().status));
-    }
-    impl.outer.assign(upper.outerIndexPtr(), upper.outerIndexPtr() + upper.outerSize() + 1);
-    impl.inner.assign(upper.innerIndexPtr(), upper.innerIndexPtr() + upper.nonZeros());
-    impl.num_rows = static_cast<int>(upper.rows());
-    impl.analyzed = true;
-    // The factor's size and cost (what --solver auto compares; it does not
-    // analyse above its unknowns budget, so -v gives them here too).
-    GS_VLOG(1, "CHOLMOD analysis: %lld rows, %lld nonzeros in the upper triangle, factor %.3g "
-            "nonzeros (lnz), %.3g flops (fl)", static_cast<long long>(upper.rows()),
-            static_cast<long long>(upper.nonZeros()), impl.llt.cholmod().lnz,
-            impl.llt.cholmod().fl);
+  if (impl.ordering == nullptr || !impl.ordering->Orders(a)) {
+    GS_RETURN_IF_ERROR(impl.Analyze(a));
   }
-  impl.llt.factorize(upper);
-  const cholmod_factor* factor = impl.llt.factor();
-  const int status = impl.llt.cholmod().status;
-  if (impl.llt.info() != Eigen::Success || status == CHOLMOD_NOT_POSDEF) {
-    // minor is the first column (in the permuted order) where the
-    // factorization failed; Perm maps it back to a row of S.
+  const double* values = a.StoredBlock(0);
+  double* bx = static_cast<double*>(impl.permuted->x);
+  const size_t nnz = impl.gather.size();
+  for (size_t m = 0; m < nnz; ++m) bx[m] = values[impl.gather[m]];
+
+  cholmod_common* c = impl.common.get();
+  const SerialOpenMpRegions serial_openmp;
+  cholmod_factorize(impl.permuted, impl.factor, c);
+  const int status = c->status;
+  const cholmod_factor* factor = impl.factor;
+  if (status == CHOLMOD_NOT_POSDEF || (status >= CHOLMOD_OK && factor->minor < factor->n)) {
+    // minor is the first column of B where the factorization failed; the
+    // permutation maps it back to a row of S.
     long column = static_cast<long>(factor->minor);
-    if (factor->Perm != nullptr && column < static_cast<long>(factor->n)) {
-      column = static_cast<const int*>(factor->Perm)[column];
-    }
+    if (column < impl.num_rows) column = impl.ordering->permutation[column];
     return Status::Numerical(fmt::format(
         "reduced information matrix is not positive definite (CHOLMOD): factorization failed "
         "at row {} (block row {}) of {}",
@@ -132,27 +336,44 @@ Status CholmodSolver::Factorize(const BlockSparseMatrix& a) {
 }
 
 Status CholmodSolver::Solve(const Eigen::VectorXd& b, Eigen::VectorXd* x) const {
-  GS_CHECK(impl_->factorized);
-  if (b.size() != impl_->num_rows) {
+  Impl& impl = *impl_;
+  GS_CHECK(impl.factorized);
+  if (b.size() != impl.num_rows) {
     return Status::InvalidArgument(fmt::format(
         "CholmodSolver::Solve: right-hand side has {} rows, the factorized matrix {}", b.size(),
-        impl_->num_rows));
+        impl.num_rows));
   }
-  if (impl_->num_rows == 0) {
+  const int n = impl.num_rows;
+  if (n == 0) {
     x->resize(0);
     return Status::Ok();
   }
-  Eigen::VectorXd solution = impl_->llt.solve(b);
-  if (impl_->llt.info() != Eigen::Success) {
+  cholmod_common* c = impl.common.get();
+  if (impl.rhs == nullptr) {
+    impl.rhs = cholmod_allocate_dense(n, 1, n, CHOLMOD_REAL, c);
+    if (impl.rhs == nullptr) {
+      return Status::Numerical(fmt::format(
+          "CHOLMOD could not allocate a right-hand side of {} rows: CHOLMOD status {}", n,
+          c->status));
+    }
+  }
+  const std::vector<int>& perm = impl.ordering->permutation;
+  double* pb = static_cast<double*>(impl.rhs->x);
+  for (int k = 0; k < n; ++k) pb[k] = b[perm[k]];
+  const int ok = cholmod_solve2(CHOLMOD_A, impl.factor, impl.rhs, nullptr, &impl.solution,
+                                nullptr, &impl.work_y, &impl.work_e, c);
+  if (!ok || impl.solution == nullptr) {
     return Status::Numerical(fmt::format(
         "CHOLMOD solve with the reduced information matrix failed: CHOLMOD status {}",
-        impl_->llt.cholmod().status));
+        c->status));
   }
-  if (!solution.allFinite()) {
+  const double* px = static_cast<const double*>(impl.solution->x);
+  x->resize(n);
+  for (int k = 0; k < n; ++k) (*x)[perm[k]] = px[k];
+  if (!x->allFinite()) {
     return Status::Numerical("CHOLMOD solve with the reduced information matrix produced "
                              "non-finite values");
   }
-  *x = std::move(solution);
   return Status::Ok();
 }
 

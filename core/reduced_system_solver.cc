@@ -1,9 +1,11 @@
 #include "core/reduced_system_solver.h"
 
-#include <Eigen/CholmodSupport>
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
+
+#include <memory>
+#include <utility>
 
 #include "core/check.h"
 #include "core/preconditioned_conjugate_gradient.h"
@@ -75,20 +77,15 @@ StatusOr<SolverChoice> ChooseLinearSolver(const BlockSparseMatrix& s,
     choice.type = LinearSolverType::kPcg;
     return choice;
   }
-  // CHOLMOD's symbolic analysis on the pattern: the ordering CholmodSolver
-  // will use, and its exact fill and flop count (Common->lnz, Common->fl).
-  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Upper> analysis;
-  analysis.cholmod().print = 0;
-  analysis.analyzePattern(s.ToSparseUpper());
-  const cholmod_common& common = analysis.cholmod();
-  if (common.status < CHOLMOD_OK || !(common.lnz > 0)) {
-    return Status::Numerical(fmt::format(
-        "CHOLMOD symbolic analysis of the reduced system ({} rows) failed: status {}",
-        s.num_rows(), common.status));
-  }
+  // CHOLMOD's ordering and symbolic analysis of the pattern: the ordering
+  // CholmodSolver will use (handed over, not repeated), and its exact fill
+  // and flop count.
+  StatusOr<std::shared_ptr<const CholmodOrdering>> ordering = AnalyzeCholmodOrdering(s);
+  GS_RETURN_IF_ERROR(ordering.status());
+  choice.ordering = std::move(ordering).value();
+  choice.factor_nonzeros = choice.ordering->factor_nonzeros;
+  choice.factor_flops = choice.ordering->factor_flops;
   choice.analyzed = true;
-  choice.factor_nonzeros = common.lnz;
-  choice.factor_flops = common.fl;
   ChooseFromAnalysis(nnz, n, b, options, &choice);
   return choice;
 }
@@ -99,6 +96,10 @@ ReducedSystemSolver::ReducedSystemSolver(LinearSolverType type,
   GS_CHECK(type != LinearSolverType::kAuto);
   GS_CHECK(options.Validate().ok());
   if (!options_.forcing_sequence) eta_ = options_.pcg_relative_tolerance;
+}
+
+void ReducedSystemSolver::UseOrdering(std::shared_ptr<const CholmodOrdering> ordering) {
+  cholmod_.UseOrdering(std::move(ordering));
 }
 
 void ReducedSystemSolver::StepResult(bool accepted) {

@@ -145,6 +145,8 @@ struct SolverChoice {
   double factor_nonzeros = 0;  // CHOLMOD's lnz
   double factor_flops = 0;     // CHOLMOD's fl
   double pcg_cost = 0;         // the estimate above, flops per solve
+  // The analysis itself, for the CHOLMOD solver (ReducedSystemSolver::UseOrdering).
+  std::shared_ptr<const CholmodOrdering> ordering;
 };
 
 // The analysis of item 1, on S's pattern (values are not read).
@@ -173,6 +175,10 @@ class ReducedSystemSolver {
   // chi2: the objective at the linearization, for item 2b (0: no truncation).
   [[nodiscard]] Status Solve(const BlockSparseMatrix& s, const Eigen::VectorXd& rhs,
                              Eigen::VectorXd* x, int* iterations, double chi2 = 0.0);
+
+  // The ordering ChooseLinearSolver computed for the pattern of the
+  // matrices to come (CHOLMOD does not order them again).
+  void UseOrdering(std::shared_ptr<const CholmodOrdering> ordering);
 
   // The LM driver tells whether the last solve's step was accepted.
   void StepResult(bool accepted);

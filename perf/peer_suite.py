@@ -22,12 +22,16 @@ other peers on the same files:
 Each configuration runs RUNS times (default 5), interleaved: round r runs
 every configuration on every file before round r+1 starts, so a burst of load
 from other work on the machine spreads over all of them. Wall time is the
-whole process (start to exit), measured here; chi2 is the configuration's
-final chi2 (ours and Ceres: the report; g2o: the last `chi2=` line of -v).
+whole process (start to exit), measured here; CPU time is the process's user
++ system time (getrusage of the waited-for children, so the threads of every
+configuration count), which depends far less on the load of a shared machine
+than wall time; chi2 is the configuration's final chi2 (ours and Ceres: the
+report; g2o: the last `chi2=` line of -v).
 
 Writes OUT/peer_suite.csv (one row per run) and OUT/peer_suite.md: per file,
-the median wall time of each configuration, its chi2 and iterations, and
-ours / best peer (median wall time ratio, and chi2 difference in %).
+the median wall and CPU times of each configuration, its chi2 and
+iterations, and ours / best peer (median wall and CPU time ratios, each
+against the peer fastest by that measure, and chi2 difference in %).
 
   perf/peer_suite.py --graphslam build/bin/graphslam --out /tmp/peers \
       [--datasets ../shared/datasets] [--runs 5] [--problems intel,M3500,...]
@@ -38,6 +42,7 @@ import csv
 import json
 import os
 import re
+import resource
 import shlex
 import statistics
 import subprocess
@@ -69,7 +74,14 @@ def report_parser(report):
     return parse
 
 
+def children_cpu_seconds():
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
 def run_timed(cmd, timeout):
+    """(wall s, CPU s, exit code, stdout, stderr) of one run."""
+    cpu_start = children_cpu_seconds()
     start = time.perf_counter()
     try:
         proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -79,7 +91,8 @@ def run_timed(cmd, timeout):
         code = "timeout"
         out = e.stdout.decode() if isinstance(e.stdout, bytes) else (e.stdout or "")
         err = e.stderr.decode() if isinstance(e.stderr, bytes) else (e.stderr or "")
-    return time.perf_counter() - start, code, out, err
+    wall = time.perf_counter() - start
+    return wall, children_cpu_seconds() - cpu_start, code, out, err
 
 
 def configurations(args, dim):
@@ -173,44 +186,52 @@ def main():
     rows = []
     with open(os.path.join(args.out, "peer_suite.csv"), "w", newline="") as f:
         writer = csv.writer(f)
-        writer.writerow(["problem", "config", "run", "wall_seconds", "exit", "chi2", "iterations"])
+        writer.writerow(["problem", "config", "run", "wall_seconds", "exit", "chi2", "iterations",
+                         "cpu_seconds"])
         for run in range(1, args.runs + 1):
             for name, path, dim in suite:
                 for config, make in configurations(args, dim):
                     cmd, parse = make(path, args.out)
-                    wall, code, out, err = run_timed(cmd, args.timeout)
+                    wall, cpu, code, out, err = run_timed(cmd, args.timeout)
                     try:
                         chi2, iterations = parse(out, err)
                     except (OSError, ValueError, KeyError):
                         chi2, iterations = float("nan"), 0
-                    row = [name, config, run, f"{wall:.4f}", code, f"{chi2:.10g}", iterations]
+                    row = [name, config, run, f"{wall:.4f}", code, f"{chi2:.10g}", iterations,
+                           f"{cpu:.4f}"]
                     writer.writerow(row)
                     f.flush()
                     rows.append(row)
                     print(" ".join(str(x) for x in row), flush=True)
 
-    lines = ["| problem | configuration | median wall s | chi2 | iterations | "
-             "wall / best peer | chi2 vs best peer |", "|---|---|---|---|---|---|---|"]
+    lines = ["| problem | configuration | median wall s | median CPU s | chi2 | iterations | "
+             "wall / best peer | CPU / best peer | chi2 vs best peer |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for name, _, _ in suite:
         by_config = {}
         for r in rows:
             if r[0] == name:
                 by_config.setdefault(r[1], []).append(r)
-        medians = {c: statistics.median(float(r[3]) for r in rs) for c, rs in by_config.items()}
+        wall = {c: statistics.median(float(r[3]) for r in rs) for c, rs in by_config.items()}
+        cpu = {c: statistics.median(float(r[7]) for r in rs) for c, rs in by_config.items()}
         last = {c: rs[-1] for c, rs in by_config.items()}
         peers = [c for c in by_config if c != "graphslam"]
-        best_time = min((medians[c] for c in peers), default=None)
+        best_wall = min((wall[c] for c in peers), default=None)
+        best_cpu = min((cpu[c] for c in peers), default=None)
         best_chi2 = min((float(last[c][5]) for c in peers), default=None)
         for c in by_config:
-            ratio = chi2_delta = ""
-            if c == "graphslam" and best_time:
-                ratio = f"{medians[c] / best_time:.2f}x"
+            wall_ratio = cpu_ratio = chi2_delta = ""
+            if c == "graphslam" and best_wall:
+                wall_ratio = f"{wall[c] / best_wall:.2f}x"
+                cpu_ratio = f"{cpu[c] / best_cpu:.2f}x" if best_cpu else ""
                 chi2_delta = f"{100 * (float(last[c][5]) - best_chi2) / best_chi2:+.3f} %"
-            lines.append(f"| {name} | {c} | {medians[c]:.3f} | {float(last[c][5]):.6g} | "
-                         f"{last[c][6]} | {ratio} | {chi2_delta} |")
+            lines.append(f"| {name} | {c} | {wall[c]:.3f} | {cpu[c]:.3f} | "
+                         f"{float(last[c][5]):.6g} | {last[c][6]} | {wall_ratio} | {cpu_ratio} | "
+                         f"{chi2_delta} |")
     table = "\n".join(lines) + "\n"
     with open(os.path.join(args.out, "peer_suite.md"), "w") as f:
-        f.write(f"Medians of {args.runs} interleaved runs; wall time of the whole process.\n\n")
+        f.write(f"Medians of {args.runs} interleaved runs; wall and CPU (user + system) time of "
+                f"the whole process; load average {os.getloadavg()[0]:.1f} at the end.\n\n")
         f.write(table)
     print(table)
 

@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 #include <memory>
+#include <utility>
 
 #include "core/chunk_passes.h"
 #include "core/graphslam_solver.h"
@@ -30,6 +31,9 @@ class SingleProcess {
                  Eigen::VectorXd* x, int* iterations, double chi2) {
       system->matrix.AddToDiagonal(lambda * damping);
       return solver_.Solve(system->matrix, system->rhs, x, iterations, chi2);
+    }
+    void UseOrdering(std::shared_ptr<const CholmodOrdering> ordering) {
+      solver_.UseOrdering(std::move(ordering));
     }
     void StepResult(bool accepted) { solver_.StepResult(accepted); }
     void SaveState(PcgSolverState* state) const { solver_.SaveState(state); }
@@ -63,7 +67,9 @@ class SingleProcess {
               LinearSolverName(type));
     }
     summary->linear_solver_used = type;
-    return std::make_unique<LinearSolver>(type, options);
+    auto solver = std::make_unique<LinearSolver>(type, options);
+    if (type == LinearSolverType::kCholmod) solver->UseOrdering(std::move(choice->ordering));
+    return solver;
   }
 };
 

@@ -6,6 +6,8 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <memory>
+#include <string>
 #include <random>
 #include <utility>
 #include <vector>
@@ -130,6 +132,99 @@ TEST(CholmodSolver, NonPositiveDefiniteMatrixIsReported) {
   Eigen::VectorXd x;
   ASSERT_TRUE(solver.Solve(rhs, &x).ok());
   EXPECT_LE(RelativeError(x, a.ToDense().ldlt().solve(rhs)), 1e-10);
+}
+
+// A block chain (pose odometry): a factor with few flops per nonzero, which
+// CHOLMOD's rule factorizes simplicially.
+std::vector<std::pair<int, int>> ChainPairs(int n) {
+  std::vector<std::pair<int, int>> pairs;
+  for (int i = 0; i + 1 < n; ++i) pairs.emplace_back(i, i + 1);
+  return pairs;
+}
+
+// Every block coupled to every other: dense supernodes.
+std::vector<std::pair<int, int>> CompletePairs(int n) {
+  std::vector<std::pair<int, int>> pairs;
+  for (int i = 0; i < n; ++i)
+    for (int k = i + 1; k < n; ++k) pairs.emplace_back(i, k);
+  return pairs;
+}
+
+TEST(CholmodSolver, SimplicialAndSupernodalBothSolveAndReportIndefiniteRows) {
+  struct Case {
+    const char* name;
+    std::vector<std::pair<int, int>> pairs;
+    int n;
+    bool supernodal;
+  };
+  const std::vector<Case> cases = {{"chain", ChainPairs(80), 80, false},
+                                   {"complete", CompletePairs(40), 40, true}};
+  for (const Case& c : cases) {
+    for (int b : {3, 6}) {
+      SCOPED_TRACE(::testing::Message() << c.name << ", block size " << b);
+      BlockSparseMatrix a = BlockSparseMatrix::FromPattern(b, c.n, c.pairs);
+      FillSpd(21, c.pairs, &a);
+      CholmodSolver solver;
+      ASSERT_TRUE(solver.Factorize(a).ok());
+      EXPECT_EQ(solver.supernodal(), c.supernodal);
+      const Eigen::VectorXd rhs = RandomVector(22, a.num_rows());
+      Eigen::VectorXd x;
+      ASSERT_TRUE(solver.Solve(rhs, &x).ok());
+      EXPECT_LE(RelativeError(x, a.ToDense().ldlt().solve(rhs)), 1e-10);
+
+      // One indefinite scalar row: the failure names it in S's numbering
+      // (the factorization runs on the permuted matrix).
+      const int row = 7 * b + 1;
+      Eigen::VectorXd shift = Eigen::VectorXd::Zero(a.num_rows());
+      shift[row] = -1e4;
+      a.AddToDiagonal(shift);
+      const Status status = solver.Factorize(a);
+      EXPECT_TRUE(status.IsNumerical()) << status.ToString();
+      const std::string expected_row = "row " + std::to_string(row) + " (block row 7)";
+      EXPECT_NE(status.message().find(expected_row), std::string::npos)
+          << status.ToString();
+      a.AddToDiagonal(-shift);
+      ASSERT_TRUE(solver.Factorize(a).ok());
+      ASSERT_TRUE(solver.Solve(rhs, &x).ok());
+      EXPECT_LE(RelativeError(x, a.ToDense().ldlt().solve(rhs)), 1e-10);
+      EXPECT_EQ(solver.num_analyses(), 1);
+    }
+  }
+}
+
+TEST(CholmodSolver, UsesAHandedOverOrderingOnlyForItsPattern) {
+  const int n = 50;
+  const auto pairs = RandomPairs(12, n);
+  BlockSparseMatrix a = BlockSparseMatrix::FromPattern(3, n, pairs);
+  FillSpd(12, pairs, &a);
+  StatusOr<std::shared_ptr<const CholmodOrdering>> ordering = AnalyzeCholmodOrdering(a);
+  ASSERT_TRUE(ordering.ok()) << ordering.status().ToString();
+  // A permutation of the scalar rows, with the factor's size and cost.
+  std::vector<int> sorted = (*ordering)->permutation;
+  std::sort(sorted.begin(), sorted.end());
+  for (int k = 0; k < a.num_rows(); ++k) ASSERT_EQ(sorted[k], k);
+  EXPECT_GT((*ordering)->factor_nonzeros, 0.0);
+  EXPECT_GT((*ordering)->factor_flops, 0.0);
+  EXPECT_TRUE((*ordering)->Orders(a));
+
+  const Eigen::VectorXd rhs = RandomVector(13, a.num_rows());
+  const Eigen::VectorXd expected = a.ToDense().ldlt().solve(rhs);
+  CholmodSolver solver;
+  solver.UseOrdering(*ordering);
+  ASSERT_TRUE(solver.Factorize(a).ok());
+  Eigen::VectorXd x;
+  ASSERT_TRUE(solver.Solve(rhs, &x).ok());
+  EXPECT_LE(RelativeError(x, expected), 1e-10);
+
+  // Another pattern: the ordering does not order it and is not used.
+  const auto other_pairs = RandomPairs(14, n);
+  BlockSparseMatrix other = BlockSparseMatrix::FromPattern(3, n, other_pairs);
+  FillSpd(14, other_pairs, &other);
+  EXPECT_FALSE((*ordering)->Orders(other));
+  ASSERT_TRUE(solver.Factorize(other).ok());
+  ASSERT_TRUE(solver.Solve(rhs, &x).ok());
+  EXPECT_LE(RelativeError(x, other.ToDense().ldlt().solve(rhs)), 1e-10);
+  EXPECT_EQ(solver.num_analyses(), 2);
 }
 
 TEST(CholmodSolver, WrongRightHandSideSizeIsInvalidArgument) {
