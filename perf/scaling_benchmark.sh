@@ -10,8 +10,9 @@
 #   default sizes: 10000 100000 1000000
 # environment: POSES_PER_FEATURE (default 1), RUNS (2), ITERATIONS (1),
 #   THREADS (2), CHUNK (4096), MEMORY_LIMIT (8G; the estimate needs 4 KiB per pose), SEED (1), SPEED (8 m/s),
-#   SOLVER (cholmod), INGEST_MEMORY_LIMIT (256M: the ingest's spill buffer is a
-#   third of it, ~1.2M observations, so the larger sizes spill to several buckets),
+#   SOLVER (cholmod), INGEST_MEMORY_LIMIT (unset: a buffer of 1 165 084
+#   observations, what 256M gave when the limit sized only the buffer, so the
+#   larger sizes spill to several buckets; set: the ingest's peak budget),
 #   LANDMARK_SPACING ("MIN MAX", default: the simulator's) and SENSOR_RANGE (m)
 #   for the proportions (10^8 features / 10^6 poses / ~4-5*10^8
 #   observations: POSES_PER_FEATURE=0.01 LANDMARK_SPACING="0.015 0.025"
@@ -39,7 +40,12 @@ ITERATIONS=${ITERATIONS:-1}
 THREADS=${THREADS:-2}
 CHUNK=${CHUNK:-4096}
 MEMORY_LIMIT=${MEMORY_LIMIT:-8G}
-INGEST_MEMORY_LIMIT=${INGEST_MEMORY_LIMIT:-256M}
+INGEST_MEMORY_LIMIT=${INGEST_MEMORY_LIMIT:-}
+if [ -n "$INGEST_MEMORY_LIMIT" ]; then
+  INGEST_BUDGET=(--memory-limit "$INGEST_MEMORY_LIMIT")
+else
+  INGEST_BUDGET=(--buffer-observations 1165084)
+fi
 SEED=${SEED:-1}
 SPEED=${SPEED:-8}
 SOLVER=${SOLVER:-cholmod}
@@ -78,7 +84,7 @@ for N in "${SIZES[@]}"; do
   SIM_S=$(wall_seconds "$W/simulate.time")
   LOG_BYTES=$(stat -c %s "$W/sim/$LOG_NAME")
   timed "$W/ingest" "$GS" ingest "$W/sim/$LOG_NAME" -o "$W/store" \
-    --chunk-observations "$CHUNK" --memory-limit "$INGEST_MEMORY_LIMIT"
+    --chunk-observations "$CHUNK" "${INGEST_BUDGET[@]}"
   INGEST_S=$(wall_seconds "$W/ingest.time")
   INGEST_RSS=$(rss_bytes "$W/ingest.time")
   INGEST_CPU=$(cpu_seconds "$W/ingest.time")

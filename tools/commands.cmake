@@ -7,7 +7,7 @@ target_sources(graphslam_tools PRIVATE
   trajectory_statistics.cc)
 target_sources(graphslam_tools PRIVATE ground_truth.cc)
 target_sources(graphslam_tools PRIVATE ingest_command.cc)
-target_sources(graphslam_tools PRIVATE out_of_core_solve.cc)
+target_sources(graphslam_tools PRIVATE out_of_core_solve.cc memory_budget.cc)
 target_sources(graphslam_tools PRIVATE streaming_campus_simulator.cc)
 target_sources(graphslam_tools PRIVATE association_report.cc)
 target_sources(graphslam_tools PRIVATE association_store.cc)

@@ -15,6 +15,7 @@
 #include "tools/exit_codes.h"
 #include "tools/option_checks.h"
 #include "tools/output_paths.h"
+#include "tools/memory_budget.h"
 #include "tools/memory_size.h"
 #include "tools/out_of_core_solve.h"
 #include "tools/resource_usage.h"
@@ -36,8 +37,8 @@ void AddIngestCommand(CLI::App* app, IngestCommandOptions* options, int* exit_co
       ->check(Integer(1))
       ->capture_default_str();
   ingest->add_option("--memory-limit", options->memory_limit,
-                     "memory budget of the observation buffer (e.g. 512M, 2G)")
-      ->capture_default_str();
+                     "peak memory of the ingest (e.g. 512M, 2G): refused at the start if "
+                     "below the estimated need; the observation buffer gets the rest");
   ingest->add_option("--buffer-observations", options->buffer_observations,
                      "observations held in memory at once (overrides --memory-limit)")
       ->check(Integer(0));
@@ -95,12 +96,20 @@ int RunIngestCommand(const IngestCommandOptions& options) {
   ingest.format = format;
   ingest.mrclam.robot = options.robot;
   ingest.max_observations_per_chunk = options.chunk_observations;
-  ingest.buffer_observations = options.buffer_observations;
-  if (ingest.buffer_observations <= 0) {
-    StatusOr<int64_t> limit = ParseMemorySize(options.memory_limit);
-    if (!limit.ok()) return usage("--memory-limit: " + limit.status().ToString());
-    ingest.buffer_observations = IngestBufferObservations(*limit, options.chunk_observations);
+  // The budget (tools/memory_budget.h) is checked before anything is read;
+  // --buffer-observations overrides the buffer it leaves, not the check.
+  int64_t limit = 0;
+  if (!options.memory_limit.empty()) {
+    StatusOr<int64_t> parsed = ParseMemorySize(options.memory_limit);
+    if (!parsed.ok()) return usage("--memory-limit: " + parsed.status().ToString());
+    limit = *parsed;
   }
+  StatusOr<IngestInput> estimate = EstimateIngestInput(options.input, format);
+  if (!estimate.ok()) return fail(estimate.status());
+  StatusOr<IngestBudget> budget = BudgetIngest(limit, *estimate, options.chunk_observations);
+  if (!budget.ok()) return fail(budget.status());
+  ingest.buffer_observations = options.buffer_observations > 0 ? options.buffer_observations
+                                                               : budget->buffer_observations;
   ingest.buffer_observations = std::max(ingest.buffer_observations, options.chunk_observations);
   ingest.store.source = options.input;
   if (options.compress) ingest.store.chunk.compression = storage::ChunkCompression::kZstd;

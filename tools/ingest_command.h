@@ -13,8 +13,10 @@
 // store an uninterrupted ingest gives, byte for byte.
 //
 // Memory: for native logs O(poses + features) plus a bounded buffer of
-// observations (--memory-limit, or --buffer-observations); other formats are
-// read whole by their readers first (docs/out_of_core.md).
+// observations; other formats are read whole by their readers first
+// (docs/out_of_core.md). --memory-limit bounds the whole peak
+// (tools/memory_budget.h): refused at the start if below the estimated need,
+// else the buffer gets what is left (--buffer-observations overrides it).
 #pragma once
 
 #include <cstdint>
@@ -31,7 +33,7 @@ struct IngestCommandOptions {
   int robot = 1;                 // MRCLAM robot number
   int64_t chunk_observations = 4096;
   int64_t buffer_observations = 0;  // 0: from memory_limit
-  std::string memory_limit = "1G";  // budget of the observation buffer (half of it)
+  std::string memory_limit;      // peak budget (tools/memory_budget.h); "": buffer from 1 GiB
   bool compress = false;         // zstd per block
   bool resume = false;           // continue a killed ingest (native logs)
   double checkpoint_seconds = 30.0;  // least time between pass-2 checkpoints

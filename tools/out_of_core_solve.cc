@@ -1,42 +1,17 @@
 #include "tools/out_of_core_solve.h"
 
-#include <algorithm>
 #include <filesystem>
 #include <system_error>
 
-#include "core/problem.h"
 #include "core/logging.h"
 #include "partition/streaming_ingest.h"
 #include "storage/chunk_store.h"
 #include "storage/env.h"
 #include "storage/file_checksum.h"
 #include "storage/format_detection.h"
+#include "tools/memory_budget.h"
 
 namespace graphslam::tools {
-
-StatusOr<int> ChunksInFlightForMemoryLimit(int64_t limit_bytes, int64_t poses, int64_t features,
-                                           int64_t chunk_observations, int default_in_flight,
-                                           bool streaming) {
-  if (limit_bytes <= 0) return default_in_flight;
-  const int64_t pose_system =
-      poses * kPoseSystemBytesPerPose +
-      features * (streaming ? kBytesPerFeatureStreaming : kBytesPerFeature);
-  const int64_t chunk = chunk_observations * kBytesPerObservationInFlight;
-  const int64_t left = limit_bytes - pose_system;
-  if (left < chunk)
-    return Status::InvalidArgument(
-        "--memory-limit " + std::to_string(limit_bytes) + " bytes is below the estimated need of " +
-        std::to_string(pose_system + chunk) + " bytes (pose system " + std::to_string(pose_system) +
-        " + one chunk of " + std::to_string(chunk_observations) + " observations " +
-        std::to_string(chunk) + "); raise it or lower --chunk-observations");
-  return static_cast<int>(std::clamp<int64_t>(left / chunk, 1, default_in_flight));
-}
-
-int64_t IngestBufferObservations(int64_t limit_bytes, int64_t chunk_observations) {
-  if (limit_bytes <= 0) limit_bytes = int64_t{1} << 30;
-  return std::max(chunk_observations,
-                  limit_bytes / (3 * static_cast<int64_t>(sizeof(core::Observation))));
-}
 
 bool WorkdirStoreIsCurrent(const std::string& input, const std::string& workdir) {
   if (!storage::IsChunkStore(workdir)) return false;
@@ -57,7 +32,10 @@ Status IngestIntoWorkdir(const std::string& input, const std::string& format, in
   }
   options.mrclam.robot = robot;
   options.max_observations_per_chunk = chunk_observations;
-  options.buffer_observations = IngestBufferObservations(memory_limit_bytes, chunk_observations);
+  GS_ASSIGN_OR_RETURN(const IngestInput estimate, EstimateIngestInput(input, options.format));
+  GS_ASSIGN_OR_RETURN(const IngestBudget budget,
+                      BudgetIngest(memory_limit_bytes, estimate, chunk_observations));
+  options.buffer_observations = budget.buffer_observations;
   options.store.source = input;
   options.resume = resume;
   options.copy_scans = false;  // the solve needs no scans (graphslam ingest copies them)

@@ -103,7 +103,8 @@ void AddInitializationAndOutOfCoreOptions(CLI::App* solve, SolveCommandOptions* 
                     "ingest a FILE input into this chunk store directory and solve from it "
                     "(kept afterwards; without it a FILE is solved in memory)");
   solve->add_option("--memory-limit", options->memory_limit,
-                    "memory budget (e.g. 2G): bounds the chunks in flight and the ingest buffer");
+                    "peak memory (e.g. 2G): refused at the start if below the estimated need; "
+                    "bounds the chunks in flight, the CHOLMOD factor and the ingest buffer");
   solve->add_flag("--two-pass", options->two_pass,
                   "two passes over the observation chunks every iteration instead of one "
                   "fused pass (for measurements; same results)");

@@ -113,13 +113,33 @@ class GrowingIdMap {
       if (id >= static_cast<int64_t>(direct_.size()))
         direct_.resize(static_cast<size_t>(id) + 1, -1);
       direct_[id] = index;
-      return;
+    } else {
+      sparse_.emplace(id, index);
     }
-    sparse_.emplace(id, index);
+    // The dense limit grows with the size: at every doubling the hashed ids
+    // now below it move to the table. A log whose first ids are high (a
+    // store's features, in first-sight order, are spread over the id range)
+    // would otherwise keep them hashed for good (~70 bytes per id).
+    if (!sparse_.empty() && (size_ & (size_ - 1)) == 0) MoveDenseIdsToTheTable(dense_limit);
   }
   int64_t size() const { return size_; }
 
  private:
+  void MoveDenseIdsToTheTable(int64_t dense_limit) {
+    for (auto it = sparse_.begin(); it != sparse_.end();) {
+      if (it->first >= 0 && it->first < dense_limit) {
+        if (it->first >= static_cast<int64_t>(direct_.size()))
+          direct_.resize(static_cast<size_t>(it->first) + 1, -1);
+        direct_[it->first] = it->second;
+        it = sparse_.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    // Rehash to the entries left: an emptied table's buckets stay allocated.
+    sparse_.rehash(0);
+  }
+
   int64_t size_ = 0;
   std::vector<int32_t> direct_;  // id -> index, -1: not there
   std::unordered_map<int64_t, int32_t> sparse_;

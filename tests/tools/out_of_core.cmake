@@ -5,6 +5,8 @@ graphslam_test(tools/streaming_campus_simulator)
 graphslam_test(tools/ingest_kill)
 add_dependencies(ingest_kill_test graphslam)
 graphslam_test(tools/out_of_core_solve)
+graphslam_test(tools/memory_budget)
+add_dependencies(memory_budget_test graphslam)
 graphslam_test(tools/streaming_initialization)
 add_dependencies(streaming_initialization_test graphslam)
 # kill -9 during an ingest that copies .pcd scans into STORE/scans/, then --resume.

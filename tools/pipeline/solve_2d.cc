@@ -11,6 +11,7 @@
 //   AttachCheckpoints  resume state, streaming scratch files, the callback
 //   Optimize         association, the MPI solve, or SolveGraphSlam
 //   WriteOutputs     -o, --tum, --features-csv, --report, the summary
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -43,6 +44,7 @@
 #include "tools/association_report.h"
 #include "tools/association_store.h"
 #include "tools/exit_codes.h"
+#include "tools/memory_budget.h"
 #include "tools/out_of_core_solve.h"
 #include "tools/pipeline/solve_run.h"
 #include "tools/progress_display.h"
@@ -144,6 +146,21 @@ Status CheckEveryGuessGiven(const core::Problem2d& problem) {
 // exclusively; a store it only reads, shared. A second writer fails here,
 // naming the holder's pid. --workdir: a FILE goes through a chunk store in
 // DIR (bounded-memory ingest).
+// The bytes of the store's problem file (manifest; 0 for version 1 stores).
+int64_t ProblemFileBytes(const storage::DiskChunkSource& store) {
+  for (const storage::ChunkStoreFile& file : store.files())
+    if (file.path == storage::kChunkStoreProblemName) return file.bytes;
+  return 0;
+}
+
+// The most observations one chunk of the store holds (a chunk in flight).
+int64_t LargestChunk(const storage::DiskChunkSource& store) {
+  int64_t largest = 0;
+  for (const storage::ChunkStoreEntry& entry : store.entries())
+    largest = std::max(largest, entry.observations);
+  return largest;
+}
+
 Status LockStore(const SolveRun& run, Solve2d& s) {
   const SolveCommandOptions& options = run.options;
   s.store_path = options.input;
@@ -185,13 +202,30 @@ Status LockStore(const SolveRun& run, Solve2d& s) {
 Status ReadStore(const SolveRun& run, Solve2d& s) {
   const SolveCommandOptions& options = run.options;
   GS_ASSIGN_OR_RETURN(s.store, storage::DiskChunkSource::Open(s.store_path));
+  s.num_observations = s.store->total_observations();
+  // --associate merges in memory (then rewrites the store): never streams.
+  const auto streams = [&](int64_t poses) {
+    return !options.associate && (poses > options.streaming_poses ||
+                                  s.num_observations > options.streaming_observations);
+  };
+  // A limit is checked before the problem file is read: its poses and
+  // features counted without parsing, the observations and chunks from the manifest
+  // (ConfigureSolver checks the same figures again).
+  if (run.request.memory_limit_bytes > 0) {
+    GS_ASSIGN_OR_RETURN(
+        const RecordCounts counts,
+        CountPoseAndFeatureRecords(s.store_path + "/" + storage::kChunkStoreProblemName));
+    GS_RETURN_IF_ERROR(BudgetSolve(run.request.memory_limit_bytes,
+                                   SolveSize{counts.poses, counts.features, s.num_observations,
+                                             LargestChunk(*s.store), streams(counts.poses),
+                                             ProblemFileBytes(*s.store)},
+                                   1)
+                           .status());
+  }
   // Under mpirun only rank 0 holds every feature; the others get their own
   // from it (docs/distributed.md, "Features on ranks").
   GS_ASSIGN_OR_RETURN(s.problem, storage::ReadChunkStoreProblem(s.store_path, run.root));
-  s.num_observations = s.store->total_observations();
-  // --associate merges in memory (then rewrites the store): never streams.
-  s.streaming = !options.associate && (s.problem.num_poses() > options.streaming_poses ||
-                                       s.num_observations > options.streaming_observations);
+  s.streaming = streams(s.problem.num_poses());
   if (s.streaming) {
     GS_LOG(INFO, "streaming mode: %d poses, %lld observations stay on disk; initial guess "
            "from the ingest (Table 1), no progressive initialization",
@@ -268,11 +302,19 @@ Status ConfigureSolver(const SolveRun& run, Solve2d& s) {
   s.solver = run.request.solver;
   s.solver.progress = s.display->AsCallback();
   s.solver.iteration_callback = s.display->AsIterationCallback();
-  GS_ASSIGN_OR_RETURN(s.solver.max_chunks_in_flight,
-                      ChunksInFlightForMemoryLimit(run.request.memory_limit_bytes,
-                                                   s.problem.num_poses(), s.problem.num_features(),
-                                                   options.chunk_observations,
-                                                   s.solver.max_chunks_in_flight, s.streaming));
+  GS_ASSIGN_OR_RETURN(
+      const SolveBudget budget,
+      BudgetSolve(run.request.memory_limit_bytes,
+                  SolveSize{s.problem.num_poses(), s.problem.num_features(), s.num_observations,
+                            s.store ? LargestChunk(*s.store) : options.chunk_observations,
+                            s.streaming, s.store ? ProblemFileBytes(*s.store) : 0},
+                  s.solver.max_chunks_in_flight));
+  s.solver.max_chunks_in_flight = budget.chunks_in_flight;
+  // The factor's values (8 lnz, what the choice counts) come with its
+  // indices, the CSC copy of S it is made from and CHOLMOD's workspace.
+  if (run.request.memory_limit_bytes > 0)
+    s.solver.auto_cholmod_max_factor_bytes =
+        std::min(s.solver.auto_cholmod_max_factor_bytes, budget.factor_bytes / 4);
   s.checkpoint_path = options.checkpoint;
   if (s.checkpoint_path.empty() && s.store && !options.associate)
     s.checkpoint_path = s.store_path + "/checkpoint.json";

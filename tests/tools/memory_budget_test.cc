@@ -1,0 +1,194 @@
+// The memory budget of --memory-limit (tools/memory_budget.h): the budget
+// arithmetic against its component sizes, and the commands (ingest, solve
+// of a store, solve --workdir) refusing a limit below the need at the start,
+// naming the need, and running within a feasible limit.
+#include "tools/memory_budget.h"
+
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "tests/testing/subprocess.h"
+#include "tests/tools/out_of_core_fixture.h"
+
+namespace graphslam::tools {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(BudgetSolve, ChunksInFlightAndTheFactorGetWhatThePoseSystemLeaves) {
+  const SolveSize size{1000, 100, 5000, 1024, /*streaming=*/true};
+  const int64_t rest = kSolveBaseBytes + 1000 * kPoseSystemBytesPerPose +
+                       100 * kBytesPerFeatureStreaming;
+  const int64_t chunk = 1024 * kBytesPerObservationInFlight;
+  // No limit: the default, nothing refused.
+  EXPECT_EQ(BudgetSolve(0, size, 8)->chunks_in_flight, 8);
+  EXPECT_EQ(BudgetSolve(0, size, 8)->need_bytes, rest + chunk);
+  EXPECT_EQ(BudgetSolve(rest + chunk, size, 8)->chunks_in_flight, 1);
+  EXPECT_EQ(BudgetSolve(rest + 3 * chunk + chunk - 1, size, 8)->chunks_in_flight, 3);
+  EXPECT_EQ(BudgetSolve(rest + 3 * chunk + chunk - 1, size, 8)->factor_bytes, chunk - 1);
+  const StatusOr<SolveBudget> large = BudgetSolve(rest + 100 * chunk, size, 8);
+  EXPECT_EQ(large->chunks_in_flight, 8);
+  EXPECT_EQ(large->factor_bytes, 92 * chunk);
+  const StatusOr<SolveBudget> small = BudgetSolve(rest + chunk - 1, size, 8);
+  ASSERT_FALSE(small.ok());
+  EXPECT_EQ(small.status().code(), Status::Code::kInvalidArgument);
+  EXPECT_NE(small.status().ToString().find(std::to_string(rest + chunk) + " bytes"),
+            std::string::npos)
+      << small.status().ToString();
+}
+
+// In memory the observations are loaded; a limit that only streaming fits is
+// refused with the streaming need in the message.
+TEST(BudgetSolve, InMemoryCountsTheObservationsAndNamesTheStreamingNeed) {
+  SolveSize size{1000, 100000, 1000000, 4096, /*streaming=*/false};
+  const int64_t chunk = 4096 * kBytesPerObservationInFlight;
+  const int64_t in_memory = kSolveBaseBytes + 1000 * kPoseSystemBytesPerPose +
+                            100000 * kBytesPerFeature + 1000000 * kBytesPerObservationInMemory +
+                            chunk;
+  const int64_t streaming = kSolveBaseBytes + 1000 * kPoseSystemBytesPerPose +
+                            100000 * kBytesPerFeatureStreaming + chunk;
+  EXPECT_EQ(BudgetSolve(0, size, 8)->need_bytes, in_memory);
+  const StatusOr<SolveBudget> refused = BudgetSolve(streaming, size, 8);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().ToString().find("streaming mode (--streaming-poses 0) needs " +
+                                             FormatBytes(streaming) + " and fits"),
+            std::string::npos)
+      << refused.status().ToString();
+  size.streaming = true;
+  EXPECT_EQ(BudgetSolve(streaming, size, 8)->chunks_in_flight, 1);
+}
+
+// The 10^8-feature store (10^6 poses, 4.375*10^7 observed features, chunks
+// of 4096) fits 3 GiB streaming with all 8 chunks in flight.
+TEST(BudgetSolve, TheHundredMillionFeatureStoreFitsThreeGib) {
+  const StatusOr<SolveBudget> budget =
+      BudgetSolve(int64_t{3} << 30, SolveSize{1000000, 43750683, 399899840, 4096, true}, 8);
+  ASSERT_TRUE(budget.ok()) << budget.status().ToString();
+  EXPECT_EQ(budget->chunks_in_flight, 8);
+}
+
+TEST(BudgetIngest, PassOneOrPassTwoWithOneChunkIsTheNeedAndTheBufferGetsTheRest) {
+  IngestInput log;
+  log.poses = 10000;
+  log.features = 1000000;
+  log.observations = 10000000;
+  log.input_bytes = 1000;
+  const int64_t fixed = kIngestBaseBytes + 250;
+  EXPECT_EQ(log.FixedBytes(), fixed);
+  const int64_t pass1 =
+      fixed + 10000 * kIngestBytesPerPose + 1000000 * kIngestPass1BytesPerFeature;
+  const int64_t pass2 =
+      fixed + 10000 * kIngestBytesPerPose + 1000000 * kIngestPass2BytesPerFeature;
+  ASSERT_GT(pass1, pass2 + 4096 * kIngestBytesPerBufferedObservation);
+  EXPECT_EQ(BudgetIngest(0, log, 4096)->need_bytes, pass1);
+  // At the need, the buffer is what pass 2 leaves; a larger limit gives a
+  // larger buffer, up to the observations.
+  const StatusOr<IngestBudget> at_need = BudgetIngest(pass1, log, 4096);
+  ASSERT_TRUE(at_need.ok()) << at_need.status().ToString();
+  EXPECT_EQ(at_need->buffer_observations, (pass1 - pass2) / kIngestBytesPerBufferedObservation);
+  EXPECT_EQ(BudgetIngest(pass2 + 1000 * kIngestBytesPerBufferedObservation * 1000, log, 4096)
+                ->buffer_observations,
+            1000000);
+  EXPECT_EQ(BudgetIngest(int64_t{1} << 40, log, 4096)->buffer_observations, 10000000);
+  const StatusOr<IngestBudget> refused = BudgetIngest(pass1 - 1, log, 4096);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().ToString().find(std::to_string(pass1) + " bytes"), std::string::npos)
+      << refused.status().ToString();
+  // A log with few features: pass 2 with one chunk of buffer is the need.
+  log.features = 10;
+  EXPECT_EQ(BudgetIngest(0, log, 4096)->need_bytes,
+            fixed + 10000 * kIngestBytesPerPose + 10 * kIngestPass2BytesPerFeature +
+                4096 * kIngestBytesPerBufferedObservation);
+}
+
+TEST(EstimateIngestInput, ALogIsMeasuredByItsSizeAndOtherFormatsAreReadWhole) {
+  const fs::path dir = fs::temp_directory_path() / ("graphslam_budget_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const fs::path log = dir / "log.graphslam";
+  { std::ofstream(log) << std::string(6500000, '#'); }
+  const StatusOr<IngestInput> native = EstimateIngestInput(log.string(), storage::InputFormat::kNative);
+  ASSERT_TRUE(native.ok());
+  EXPECT_TRUE(native->streamed);
+  EXPECT_EQ(native->features, 6500000 / kLogBytesPerFeature);
+  EXPECT_EQ(native->observations, 6500000 / kLogBytesPerObservation);
+  const StatusOr<IngestInput> g2o = EstimateIngestInput(log.string(), storage::InputFormat::kG2o);
+  EXPECT_FALSE(g2o->streamed);
+  EXPECT_EQ(BudgetIngest(0, *g2o, 16)->need_bytes,
+            kIngestBaseBytes + 6500000 / 4 + 6500000 * kReadWholeBytesPerInputByte +
+                16 * kIngestBytesPerBufferedObservation);
+  EXPECT_FALSE(EstimateIngestInput((dir / "missing").string(), storage::InputFormat::kNative).ok());
+  fs::remove_all(dir);
+}
+
+class MemoryLimitCommandTest : public graphslam::testing::OutOfCoreFixture {
+ protected:
+  // Runs the binary with stderr in a file; returns the exit code and the text.
+  int Run(const std::vector<std::string>& args, std::string* err) {
+    const std::string path = (dir_ / "stderr.txt").string();
+    const int code = graphslam::testing::WaitForExit(
+        graphslam::testing::SpawnGraphslamRedirected(args, path));
+    std::ifstream in(path);
+    std::stringstream text;
+    text << in.rdbuf();
+    *err = text.str();
+    return code;
+  }
+};
+
+// Each command refuses a limit below its need at the start, naming the need
+// (the smallest limit that works): nothing is written.
+TEST_F(MemoryLimitCommandTest, TooSmallLimitsAreRefusedNamingTheNeed) {
+  const std::string input = Simulate(600, 7);
+  const std::string store = (dir_ / "store").string();
+  std::string err;
+  EXPECT_NE(Run({"ingest", input, "-o", store, "--memory-limit", "8M", "-q"}, &err), 0);
+  EXPECT_NE(err.find("--memory-limit 8.0 MiB is below the estimated need of"), std::string::npos)
+      << err;
+  EXPECT_NE(err.find("the smallest limit that works"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(fs::path(store) / "MANIFEST.json"));
+  ASSERT_EQ(Run({"ingest", input, "-o", store, "--memory-limit", "512M", "-q"}, &err), 0) << err;
+  EXPECT_NE(Run({"solve", store, "--memory-limit", "8M", "-q"}, &err), 0);
+  EXPECT_NE(err.find("--memory-limit 8.0 MiB is below the estimated need of"), std::string::npos)
+      << err;
+  EXPECT_NE(Run({"solve", input, "--workdir", (dir_ / "w").string(), "--memory-limit", "8M",
+                 "-q"},
+                &err),
+            0);
+  EXPECT_NE(err.find("is below the estimated need of"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(dir_ / "w" / "MANIFEST.json"));
+}
+
+// The need the refusal names is a limit the solve then runs in: a store
+// solved at exactly that limit succeeds, and its peak RSS (the report's
+// getrusage figure) stays below the limit.
+TEST_F(MemoryLimitCommandTest, TheNamedNeedIsALimitTheSolveRunsWithin) {
+  const std::string input = Simulate(600, 7);
+  const std::string store = (dir_ / "store").string();
+  std::string err;
+  ASSERT_EQ(Run({"ingest", input, "-o", store, "--chunk-observations", "1024", "-q"}, &err), 0)
+      << err;
+  ASSERT_NE(Run({"solve", store, "--memory-limit", "1M", "-q"}, &err), 0);
+  // "... the estimated need of X MiB (N bytes) ...": N after the first '('.
+  const size_t open = err.find("need of ");
+  ASSERT_NE(open, std::string::npos) << err;
+  const int64_t need = std::stoll(err.substr(err.find('(', open) + 1));
+  ASSERT_GT(need, kSolveBaseBytes) << err;
+  const std::string report = (dir_ / "r.json").string();
+  // 0, or 4 (kExitNotConverged) when the 5 iterations do not converge.
+  const int code = Run({"solve", store, "--memory-limit", std::to_string(need), "--report",
+                        report, "--max-iterations", "5", "-q"},
+                       &err);
+  ASSERT_TRUE(code == 0 || code == 4) << code << ": " << err;
+  const nlohmann::json r = graphslam::testing::ReadJson(report);
+  EXPECT_GE(r["chunks_in_flight"].get<int>(), 1);
+  EXPECT_LT(r["peak_rss_bytes"].get<int64_t>(), need);
+}
+
+}  // namespace
+}  // namespace graphslam::tools

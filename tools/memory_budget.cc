@@ -1,0 +1,196 @@
+#include "tools/memory_budget.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <string_view>
+#include <system_error>
+
+#include "core/problem.h"
+#include "storage/compressed_file.h"
+
+namespace graphslam::tools {
+
+namespace {
+
+// Bytes of the directory tree or file at `path` (an MRCLAM input is a folder).
+StatusOr<int64_t> InputBytes(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::error_code error;
+  if (fs::is_directory(path, error)) {
+    int64_t total = 0;
+    for (fs::recursive_directory_iterator it(path, error), end; !error && it != end;
+         it.increment(error)) {
+      if (it->is_regular_file(error)) total += static_cast<int64_t>(it->file_size(error));
+    }
+    if (error) return Status::IOError(path + ": " + error.message());
+    return total;
+  }
+  const std::uintmax_t bytes = fs::file_size(path, error);
+  if (error) return Status::IOError(path + ": size: " + error.message());
+  return static_cast<int64_t>(bytes);
+}
+
+}  // namespace
+
+StatusOr<RecordCounts> CountPoseAndFeatureRecords(const std::string& path) {
+  std::FILE* file = std::fopen(path.c_str(), "rb");
+  if (file == nullptr) return Status::IOError(path + ": cannot open: " + std::strerror(errno));
+  constexpr std::string_view kPose = "\nPOSE ";
+  constexpr std::string_view kFeature = "\nFEATURE ";
+  constexpr size_t kBlock = size_t{1} << 20;
+  // The file's start is a line start; the last bytes of a block are kept so
+  // that a record split between two reads is still found (once).
+  std::string buffer = "\n";
+  buffer.reserve(kBlock + kFeature.size());
+  RecordCounts counts;
+  const auto count = [](std::string_view text, std::string_view record) {
+    int64_t n = 0;
+    for (size_t at = text.find(record); at != std::string_view::npos;
+         at = text.find(record, at + 1))
+      ++n;
+    return n;
+  };
+  for (;;) {
+    const size_t kept = buffer.size();
+    buffer.resize(kept + kBlock);
+    const size_t got = std::fread(buffer.data() + kept, 1, kBlock, file);
+    buffer.resize(kept + got);
+    counts.poses += count(buffer, kPose);
+    counts.features += count(buffer, kFeature);
+    if (got < kBlock) break;
+    // Shorter than either record: no match lies wholly inside the kept tail.
+    buffer.erase(0, buffer.size() - (kPose.size() - 1));
+  }
+  const bool failed = std::ferror(file) != 0;
+  std::fclose(file);
+  if (failed) return Status::IOError(path + ": read error");
+  return counts;
+}
+
+std::string FormatBytes(int64_t bytes) {
+  char text[32];
+  if (bytes >= (int64_t{1} << 30))
+    std::snprintf(text, sizeof(text), "%.2f GiB", static_cast<double>(bytes) / (1 << 30));
+  else
+    std::snprintf(text, sizeof(text), "%.1f MiB", static_cast<double>(bytes) / (1 << 20));
+  return text;
+}
+
+int64_t IngestInput::FixedBytes() const {
+  return kIngestBaseBytes + std::min(kIngestBlockBytes, input_bytes / 4);
+}
+
+StatusOr<IngestInput> EstimateIngestInput(const std::string& path, storage::InputFormat format) {
+  IngestInput input;
+  GS_ASSIGN_OR_RETURN(input.input_bytes, InputBytes(path));
+  input.streamed = format == storage::InputFormat::kNative;
+  if (!input.streamed) return input;
+  if (storage::IsZstdFile(path)) input.input_bytes = input.input_bytes / 100 * kZstdLogRatioPercent;
+  input.observations = input.input_bytes / kLogBytesPerObservation;
+  input.features = input.input_bytes / kLogBytesPerFeature;
+  input.poses = input.input_bytes / kLogBytesPerPose;
+  return input;
+}
+
+StatusOr<IngestBudget> BudgetIngest(int64_t limit_bytes, const IngestInput& input,
+                                    int64_t chunk_observations) {
+  IngestBudget budget;
+  const int64_t poses = input.poses * kIngestBytesPerPose;
+  const int64_t fixed = input.FixedBytes();
+  // Before the buffer: pass 1 of a streamed log, the whole problem otherwise.
+  const int64_t read = input.streamed
+                           ? fixed + poses + input.features * kIngestPass1BytesPerFeature
+                           : fixed + input.input_bytes * kReadWholeBytesPerInputByte;
+  const int64_t pass2 = input.streamed
+                            ? fixed + poses + input.features * kIngestPass2BytesPerFeature
+                            : read;
+  budget.need_bytes =
+      std::max(read, pass2 + chunk_observations * kIngestBytesPerBufferedObservation);
+  if (limit_bytes <= 0) {
+    // No limit: a third of 1 GiB in 72-byte records, as the ingest always had.
+    budget.buffer_observations = std::max(
+        chunk_observations, (int64_t{1} << 30) / (3 * static_cast<int64_t>(sizeof(core::Observation))));
+    return budget;
+  }
+  if (limit_bytes < budget.need_bytes) {
+    return Status::InvalidArgument(
+        "--memory-limit " + FormatBytes(limit_bytes) + " is below the estimated need of " +
+        FormatBytes(budget.need_bytes) + " (" + std::to_string(budget.need_bytes) +
+        " bytes): the smallest limit that works. Estimated from the input's " +
+        std::to_string(input.input_bytes) + " bytes" +
+        (input.streamed ? " (~" + std::to_string(input.poses) + " poses, ~" +
+                              std::to_string(input.features) + " features): " +
+                              FormatBytes(fixed) + " fixed + " + FormatBytes(poses) +
+                              " poses + " +
+                              FormatBytes(input.features * kIngestPass1BytesPerFeature) +
+                              " features in pass 1"
+                        : ", read whole: " + FormatBytes(read)) +
+        ", and a buffer of one chunk (" + std::to_string(chunk_observations) +
+        " observations, " + FormatBytes(chunk_observations * kIngestBytesPerBufferedObservation) +
+        ") in pass 2");
+  }
+  int64_t buffer = (limit_bytes - pass2) / kIngestBytesPerBufferedObservation;
+  if (input.observations > 0) buffer = std::min(buffer, input.observations);
+  budget.buffer_observations = std::max(buffer, chunk_observations);
+  return budget;
+}
+
+StatusOr<SolveBudget> BudgetSolve(int64_t limit_bytes, const SolveSize& size,
+                                  int default_in_flight) {
+  SolveBudget budget;
+  const auto rest_for = [&size](bool streaming) {
+    return kSolveBaseBytes + size.poses * kPoseSystemBytesPerPose +
+           (streaming ? size.features * kBytesPerFeatureStreaming
+                      : size.features * kBytesPerFeature +
+                            size.observations * kBytesPerObservationInMemory);
+  };
+  const int64_t rest = rest_for(size.streaming);
+  const int64_t chunk = std::max<int64_t>(size.chunk_observations, 1) * kBytesPerObservationInFlight;
+  const int64_t read =
+      size.problem_bytes <= 0
+          ? 0
+          : kSolveBaseBytes + std::min(kReaderBlockBytes, size.problem_bytes * 3 / 2) +
+                size.features * kReadBytesPerFeature + size.poses * kReadBytesPerPose;
+  budget.need_bytes = std::max(read, rest + chunk);
+  if (limit_bytes <= 0) {
+    budget.chunks_in_flight = default_in_flight;
+    return budget;
+  }
+  if (limit_bytes < budget.need_bytes) {
+    std::string message =
+        "--memory-limit " + FormatBytes(limit_bytes) + " is below the estimated need of " +
+        FormatBytes(budget.need_bytes) + " (" + std::to_string(budget.need_bytes) +
+        " bytes): the smallest limit that works. Parts: " + FormatBytes(kSolveBaseBytes) +
+        " fixed + " + FormatBytes(size.poses * kPoseSystemBytesPerPose) + " for " +
+        std::to_string(size.poses) + " poses + " +
+        FormatBytes(rest - kSolveBaseBytes - size.poses * kPoseSystemBytesPerPose) + " for " +
+        std::to_string(size.features) + " features" +
+        (size.streaming ? std::string()
+                        : " and " + std::to_string(size.observations) + " observations in memory") +
+        " + one chunk of " + std::to_string(size.chunk_observations) + " observations (" +
+        FormatBytes(chunk) + ")";
+    if (read > rest + chunk)
+      message += "; reading the problem file (" + std::to_string(size.problem_bytes) +
+                 " bytes) needs " + FormatBytes(read);
+    if (!size.streaming) {
+      const int64_t streaming_need = std::max(read, rest_for(true) + chunk);
+      if (streaming_need <= limit_bytes)
+        message += "; streaming mode (--streaming-poses 0) needs " + FormatBytes(streaming_need) +
+                   " and fits";
+      else
+        message += "; streaming mode (--streaming-poses 0) would need " +
+                   FormatBytes(streaming_need);
+    }
+    return Status::InvalidArgument(message);
+  }
+  // The read is over before the passes: they share the limit with nothing.
+  budget.chunks_in_flight =
+      static_cast<int>(std::clamp<int64_t>((limit_bytes - rest) / chunk, 1, default_in_flight));
+  budget.factor_bytes = limit_bytes - rest - budget.chunks_in_flight * chunk;
+  return budget;
+}
+
+}  // namespace graphslam::tools

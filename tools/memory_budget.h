@@ -1,0 +1,154 @@
+// Memory budgets of the commands that take --memory-limit (graphslam ingest,
+// graphslam solve on a store or with --workdir): what a run holds at its
+// peak, component by component, and the smallest limit that holds it. A
+// limit below that is refused before anything is read, with the needed size
+// and its parts in the message; above it the bounded buffers (the ingest's
+// observation buffer, the solve's chunks in flight, the CHOLMOD factor of
+// `--solver auto`) get what is left.
+//
+// Ingest of a native log (streamed, partition/streaming_ingest.h), P poses,
+// F observed features, B observations per chunk, K buffered observations:
+//   pass 1 = base + blocks + P ingest_pose + F pass1_feature  (problem, id
+//            map, feature index; blocks: tokenizer and replay frames)
+//   pass 2 = base + blocks + P ingest_pose + F pass2_feature + K buffered_observation
+//            (the buffer and the counting sort's scratch of each record)
+//   need   = max(pass 1, pass 2 at K = B)
+//   K      = (limit - pass 2 at K = 0) / buffered_observation, >= B and at
+//            most the observations (a larger buffer would hold nothing more)
+// Other formats are read whole by their readers first:
+//   read   = base + blocks + input bytes * read_whole_per_input_byte.
+// P, F and the observations O of a log are not known before it is read: they
+// are estimated from its (decompressed) size at the simulator's proportions
+// (~80 bytes per observation line, ~650 bytes of log per observed feature,
+// ~30 KB per pose); a log with more features per byte needs more.
+//
+// Solve of a store (manifest: F, O, the largest chunk; problem file: P and
+// its bytes), the peak of reading the problem file and of solving:
+//   read      = base + min(reader_blocks, 1.5 problem bytes)
+//               + F read_feature + P read_pose    (id map, parsed vectors)
+//   streaming = base + P pose_system + F streaming_feature
+//               + in_flight * B_max * observation_in_flight + CHOLMOD factor
+//   in memory = base + P pose_system + F feature + O observation_in_memory
+//               + in_flight * B_max * observation_in_flight + CHOLMOD factor
+//   need      = max(read, solve at one chunk in flight)
+//   in_flight = clamp((limit - the rest at 0 in flight) / (B_max
+//               observation_in_flight), 1, default)
+// and `--solver auto` takes CHOLMOD only if its factor (8 lnz, from the
+// symbolic analysis) fits in what the chunks leave; otherwise PCG, whose
+// vectors are in pose_system. (`--solver cholmod` is not bounded: its factor
+// is known only after the analysis.) In-memory mode is refused with the
+// streaming mode's need in the message when only that fits.
+//
+// The constants were measured with /usr/bin/time -v (peak RSS) on the
+// simulator's 10^6, 10^7 and 10^8-feature stores (docs/out_of_core.md,
+// "What --memory-limit bounds").
+//
+// THREAD SAFETY: pure functions, except EstimateIngestInput and
+// CountPoseAndFeatureRecords (read files).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "core/status.h"
+#include "storage/format_detection.h"
+
+namespace graphslam::tools {
+
+// Process, libraries and TBB's threads, plus the reader's tokenizer blocks
+// and replay frames in flight, which fill up to kIngestBlockBytes on inputs
+// above ~200 MB (a quarter of the input below that).
+inline constexpr int64_t kIngestBaseBytes = int64_t{16} << 20;
+inline constexpr int64_t kIngestBlockBytes = int64_t{56} << 20;
+inline constexpr int64_t kIngestBytesPerPose = 512;
+// Pass 1's per-feature vectors (docs/out_of_core.md "First sights on disk":
+// 47 B) at up to 2x capacity slack.
+inline constexpr int64_t kIngestPass1BytesPerFeature = 80;
+inline constexpr int64_t kIngestPass2BytesPerFeature = 48;
+inline constexpr int64_t kIngestBytesPerBufferedObservation = 160;
+inline constexpr int64_t kReadWholeBytesPerInputByte = 4;
+// Native log proportions (uncompressed bytes) and zstd's ratio on it.
+inline constexpr int64_t kLogBytesPerObservation = 80;
+inline constexpr int64_t kLogBytesPerFeature = 650;
+inline constexpr int64_t kLogBytesPerPose = 30000;
+inline constexpr int64_t kZstdLogRatioPercent = 350;  // 3.4x measured at level 3
+
+// Process, libraries, TBB's threads (a small solve peaks at ~22 MiB).
+inline constexpr int64_t kSolveBaseBytes = int64_t{24} << 20;
+// The reduced system (upper triangle of S, ~15 3x3 blocks of 72 B per pose
+// plus indices), the PCG vectors and the pose arrays.
+inline constexpr int64_t kPoseSystemBytesPerPose = 1450;
+inline constexpr int64_t kBytesPerFeature = 64;
+inline constexpr int64_t kBytesPerFeatureStreaming = 32;
+inline constexpr int64_t kBytesPerObservationInMemory = 300;
+inline constexpr int64_t kBytesPerObservationInFlight = 512;
+// Reading problem.graphslam: the tokenizer's blocks in flight (~1.5x a
+// small file, at most this), and per feature / pose the parsed estimates,
+// ids and flags at up to 2x capacity slack plus the id map.
+inline constexpr int64_t kReaderBlockBytes = int64_t{40} << 20;
+inline constexpr int64_t kReadBytesPerFeature = 64;
+inline constexpr int64_t kReadBytesPerPose = 256;
+
+// What an ingest will read: counts known or estimated from the input.
+struct IngestInput {
+  // The fixed part for this input: kIngestBaseBytes + min(kIngestBlockBytes,
+  // input_bytes / 4).
+  int64_t FixedBytes() const;
+
+  bool streamed = true;       // native log; else read whole
+  int64_t input_bytes = 0;    // decompressed, estimated for zstd
+  int64_t poses = 0;
+  int64_t features = 0;
+  int64_t observations = 0;
+};
+
+// The sizes above for `path` in `format` (kNative: streamed). IOError if the
+// size cannot be read.
+StatusOr<IngestInput> EstimateIngestInput(const std::string& path, storage::InputFormat format);
+
+struct IngestBudget {
+  int64_t need_bytes = 0;           // the smallest limit that works
+  int64_t buffer_observations = 0;  // K
+};
+
+// The budget of an ingest under `limit_bytes` (<= 0: no limit, K from 1 GiB
+// as a third in 72-byte records, as before). InvalidArgument naming the
+// limit, the need and its parts when the limit is below the need.
+StatusOr<IngestBudget> BudgetIngest(int64_t limit_bytes, const IngestInput& input,
+                                    int64_t chunk_observations);
+
+struct SolveSize {
+  int64_t poses = 0;
+  int64_t features = 0;
+  int64_t observations = 0;
+  int64_t chunk_observations = 0;  // the largest chunk
+  bool streaming = true;
+  int64_t problem_bytes = 0;       // the store's problem file (0: a FILE, read already)
+};
+
+struct SolveBudget {
+  int64_t need_bytes = 0;       // the smallest limit that works (one chunk in flight)
+  int chunks_in_flight = 0;
+  int64_t factor_bytes = 0;     // left for a CHOLMOD factor (auto), 0 without a limit
+};
+
+// The budget of a solve under `limit_bytes` (<= 0: no limit, default_in_flight).
+// InvalidArgument naming the limit, the need and its parts (and, in memory,
+// the streaming mode's need) when the limit is below the need.
+StatusOr<SolveBudget> BudgetSolve(int64_t limit_bytes, const SolveSize& size,
+                                  int default_in_flight);
+
+// The POSE and FEATURE records of a native log (a store's problem.graphslam,
+// which we write: one record per line, the keyword at its start), counted in
+// 1 MiB reads without parsing: the poses and features of a store before its
+// problem is read. IOError naming the file.
+struct RecordCounts {
+  int64_t poses = 0;
+  int64_t features = 0;
+};
+StatusOr<RecordCounts> CountPoseAndFeatureRecords(const std::string& path);
+
+// "1.5 GiB", "300 MiB": for the messages.
+std::string FormatBytes(int64_t bytes);
+
+}  // namespace graphslam::tools
