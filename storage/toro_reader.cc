@@ -87,11 +87,8 @@ StatusOr<core::Problem2d> ReadToro(const std::string& path, core::InformationRep
       c.information << t[0], t[1], t[4],  //
           t[1], t[2], t[5],               //
           t[4], t[5], t[3];
-      if (!internal::IsPositiveDefinite(c.information) && repairs != nullptr) {
-        core::RepairInformation(&c.information);
-        repairs->Record(reader->line_number());
-      }
-      if (!internal::IsPositiveDefinite(c.information))
+      if (!internal::IsPositiveDefinite(c.information) &&
+          !core::RepairAndCount(repairs, reader->line_number(), &c.information))
         return reader->Error("EDGE2 information " + internal::UpperTriangleString(t, 6) +
                              " is not positive definite; expected a symmetric positive definite "
                              "matrix (TORO order I11 I12 I22 I33 I13 I23)");
