@@ -26,6 +26,13 @@ bool Repair(Eigen::Matrix<double, N, N>* information) {
 
 }  // namespace
 
+bool RepairInformation(double* information) {
+  Eigen::Matrix<double, 1, 1> matrix;
+  matrix(0, 0) = *information;
+  if (!Repair<1>(&matrix)) return false;
+  *information = matrix(0, 0);
+  return true;
+}
 bool RepairInformation(Eigen::Matrix2d* information) { return Repair<2>(information); }
 bool RepairInformation(Eigen::Matrix3d* information) { return Repair<3>(information); }
 bool RepairInformation(Eigen::Matrix<double, 6, 6>* information) {

@@ -30,6 +30,8 @@ namespace graphslam::core {
 inline constexpr double kInformationEigenvalueFloor = 1e-6;  // relative, see above
 
 // Returns true (and replaces *information) if it was not positive definite.
+// The 1x1 case (a scalar weight w <= 0) becomes the floor 1e-6 * |w|.
+bool RepairInformation(double* information);
 bool RepairInformation(Eigen::Matrix2d* information);
 bool RepairInformation(Eigen::Matrix3d* information);
 bool RepairInformation(Eigen::Matrix<double, 6, 6>* information);
@@ -44,5 +46,16 @@ struct InformationRepairs {
     if (first_lines.size() < kMaxLines) first_lines.push_back(line);
   }
 };
+
+// The readers' opt-in, for a matrix they found not positive definite at
+// `line`: false when repair is off (`repairs` null; the reader rejects the
+// file naming the line), else repairs *information, counts it and returns true.
+template <typename Information>
+bool RepairAndCount(InformationRepairs* repairs, int32_t line, Information* information) {
+  if (repairs == nullptr) return false;
+  RepairInformation(information);
+  repairs->Record(line);
+  return true;
+}
 
 }  // namespace graphslam::core

@@ -99,20 +99,21 @@ StatusOr<core::Problem2d> ReadProblem(const std::string& path, InputFormat forma
                                       core::InformationRepairs* repairs) {
   switch (format) {
     case InputFormat::kG2o: return ReadG2o(path, repairs);
-    case InputFormat::kIsam: return ReadIsam(path);
+    case InputFormat::kIsam: return ReadIsam(path, repairs);
     case InputFormat::kMrclam: return ReadMrclam(path, mrclam, mrclam_stats);
-    case InputFormat::kNative: return ReadNativeLog(path);
+    case InputFormat::kNative: return ReadNativeLog(path, repairs);
     case InputFormat::kToro: return ReadToro(path, repairs);
   }
   return Status::InvalidArgument(
       "unknown InputFormat value; expected g2o, isam, mrclam, native or toro");
 }
 
-StatusOr<core::Problem3d> ReadProblem3d(const std::string& path, InputFormat format) {
+StatusOr<core::Problem3d> ReadProblem3d(const std::string& path, InputFormat format,
+                                        core::InformationRepairs* repairs) {
   switch (format) {
-    case InputFormat::kG2o: return ReadG2o3d(path);
-    case InputFormat::kIsam: return ReadIsam3d(path);
-    case InputFormat::kToro: return ReadToro3d(path);
+    case InputFormat::kG2o: return ReadG2o3d(path, repairs);
+    case InputFormat::kIsam: return ReadIsam3d(path, repairs);
+    case InputFormat::kToro: return ReadToro3d(path, repairs);
     default: break;
   }
   return Status::NotSupported(path + ": format " + InputFormatName(format) +

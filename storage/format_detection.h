@@ -42,16 +42,19 @@ StatusOr<InputFormat> ParseInputFormat(std::string_view name);
 const char* InputFormatName(InputFormat format);
 
 // Reads `path` with the reader of `format`; `mrclam` and `mrclam_stats` (if
-// given) are used for kMrclam only. `repairs` (opt-in; kG2o and kToro, whose
-// files carry information matrices as written): repair non-positive-definite
-// information and count it there instead of rejecting the file.
+// given) are used for kMrclam only. `repairs` (opt-in; g2o, iSAM, native and
+// TORO, whose files carry information matrices): repair non-positive-definite
+// information and count it there instead of rejecting the file. (MRCLAM files
+// carry none: its information comes from MrclamOptions' noise model.)
 StatusOr<core::Problem2d> ReadProblem(const std::string& path, InputFormat format,
                                       const MrclamOptions& mrclam,
                                       MrclamReadStats* mrclam_stats = nullptr,
                                       core::InformationRepairs* repairs = nullptr);
 
 // Reads a 3-D `path` with the 3-D reader of `format` (g2o, iSAM, TORO);
-// NotSupported for the formats that have none (MRCLAM, native).
-StatusOr<core::Problem3d> ReadProblem3d(const std::string& path, InputFormat format);
+// NotSupported for the formats that have none (MRCLAM, native). `repairs` as
+// for ReadProblem.
+StatusOr<core::Problem3d> ReadProblem3d(const std::string& path, InputFormat format,
+                                        core::InformationRepairs* repairs = nullptr);
 
 }  // namespace graphslam::storage

@@ -40,6 +40,8 @@ StatusOr<core::Pose3> ReadPose(const LineReader& reader, size_t first, std::stri
 
 class G2o3dParser {
  public:
+  explicit G2o3dParser(core::InformationRepairs* repairs) : repairs_(repairs) {}
+
   StatusOr<core::Problem3d> Parse(const std::string& path) {
     return graph_.Read(path, [this](const LineReader& reader) { return ParseLine(reader); });
   }
@@ -94,7 +96,8 @@ class G2o3dParser {
     double upper[21];
     GS_RETURN_IF_ERROR(reader.Doubles(10, 21, "information", upper, internal::Magnitude::kInformation));
     item.pose_information = internal::SymmetricFromUpper<6>(upper);
-    if (!internal::IsPositiveDefiniteMatrix(item.pose_information))
+    if (!internal::IsPositiveDefiniteMatrix(item.pose_information) &&
+        !core::RepairAndCount(repairs_, item.line, &item.pose_information))
       return reader.Error(
           "EDGE_SE3:QUAT information " + internal::UpperTriangleString(upper, 21) +
           " is not positive definite; expected a symmetric positive definite 6x6 matrix");
@@ -128,7 +131,8 @@ class G2o3dParser {
                                        internal::Magnitude::kInformation));
     item.point = Eigen::Vector3d(z[0], z[1], z[2]);
     item.point_information = internal::SymmetricFromUpper<3>(upper);
-    if (!internal::IsPositiveDefiniteMatrix(item.point_information))
+    if (!internal::IsPositiveDefiniteMatrix(item.point_information) &&
+        !core::RepairAndCount(repairs_, item.line, &item.point_information))
       return reader.Error(std::string(Graph::Tag(kind)) + " information " +
                           internal::UpperTriangleString(upper, 6) +
                           " is not positive definite; expected a symmetric positive definite "
@@ -148,12 +152,13 @@ class G2o3dParser {
 
   Graph graph_;
   std::unordered_map<int64_t, bool> offsets_;  // id -> is identity
+  core::InformationRepairs* const repairs_;     // null: reject non-PD information
 };
 
 }  // namespace
 
-StatusOr<core::Problem3d> ReadG2o3d(const std::string& path) {
-  return G2o3dParser().Parse(path);
+StatusOr<core::Problem3d> ReadG2o3d(const std::string& path, core::InformationRepairs* repairs) {
+  return G2o3dParser(repairs).Parse(path);
 }
 
 }  // namespace graphslam::storage

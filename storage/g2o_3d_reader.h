@@ -26,11 +26,16 @@
 
 #include <string>
 
+#include "core/information_repair.h"
 #include "core/problem_3d.h"
 #include "core/status.h"
 
 namespace graphslam::storage {
 
-StatusOr<core::Problem3d> ReadG2o3d(const std::string& path);
+// With `repairs` (opt-in), an information matrix that is not positive
+// definite is repaired (core/information_repair.h) and counted there instead
+// of rejected.
+StatusOr<core::Problem3d> ReadG2o3d(const std::string& path,
+                                    core::InformationRepairs* repairs = nullptr);
 
 }  // namespace graphslam::storage

@@ -38,10 +38,7 @@ class G2oParser {
   // that is not positive definite; false when repair is off (reject it).
   template <typename Matrix>
   bool Repaired(const LineReader& reader, Matrix* information) {
-    if (repairs_ == nullptr) return false;
-    core::RepairInformation(information);
-    repairs_->Record(reader.line_number());
-    return true;
+    return core::RepairAndCount(repairs_, reader.line_number(), information);
   }
 
   Status ParseLine(const LineReader& reader) {

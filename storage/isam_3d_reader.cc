@@ -14,7 +14,7 @@ Eigen::Quaterniond QuaternionFromRollPitchYaw(double roll, double pitch, double 
       .normalized();
 }
 
-StatusOr<core::Problem3d> ReadIsam3d(const std::string& path) {
+StatusOr<core::Problem3d> ReadIsam3d(const std::string& path, core::InformationRepairs* repairs) {
   GS_ASSIGN_OR_RETURN(std::unique_ptr<internal::LineReader> reader,
                       internal::LineReader::Open(path));
   core::Problem3d problem;
@@ -48,7 +48,8 @@ StatusOr<core::Problem3d> ReadIsam3d(const std::string& path) {
         // Angles -> vec(q) = angles / 2 (isam_3d_reader.h).
         c.information.rightCols<3>() *= 2.0;
         c.information.bottomRows<3>() *= 2.0;
-        if (!internal::IsPositiveDefiniteMatrix(c.information))
+        if (!internal::IsPositiveDefiniteMatrix(c.information) &&
+            !core::RepairAndCount(repairs, reader->line_number(), &c.information))
           return reader->Error("EDGE3 square-root information " +
                                internal::UpperTriangleString(s, 21) +
                                " is singular; expected an upper-triangular S with a non-zero "
@@ -76,7 +77,8 @@ StatusOr<core::Problem3d> ReadIsam3d(const std::string& path) {
                                              internal::Magnitude::kSqrtInformation));
         const Eigen::Matrix3d sqrt_information = internal::UpperFromRowFirst<3>(s);
         o.information = sqrt_information.transpose() * sqrt_information;
-        if (!internal::IsPositiveDefiniteMatrix(o.information))
+        if (!internal::IsPositiveDefiniteMatrix(o.information) &&
+            !core::RepairAndCount(repairs, reader->line_number(), &o.information))
           return reader->Error("POINT3 square-root information " +
                                internal::UpperTriangleString(s, 6) +
                                " is singular; expected an upper-triangular S with a non-zero "

@@ -16,19 +16,23 @@
 // mention, uninitialized (core::InitializeProblem3d chains the odometry).
 // iSAM ties the first pose to the origin with a prior; here the first pose is
 // the gauge anchor instead (pose 0 of the problem). 2-D records (EDGE2,
-// ODOMETRY, LANDMARK) are NotSupported; errors name file:line.
+// ODOMETRY, LANDMARK) are NotSupported; errors name file:line. A singular S
+// is rejected, or with `repairs` (opt-in) Omega is repaired
+// (core/information_repair.h) and counted there.
 //
 // THREAD SAFETY: reentrant. ALLOCATION: O(records).
 #pragma once
 
 #include <string>
 
+#include "core/information_repair.h"
 #include "core/problem_3d.h"
 #include "core/status.h"
 
 namespace graphslam::storage {
 
-StatusOr<core::Problem3d> ReadIsam3d(const std::string& path);
+StatusOr<core::Problem3d> ReadIsam3d(const std::string& path,
+                                     core::InformationRepairs* repairs = nullptr);
 
 // The rotation of iSAM's Pose3d from (roll, pitch, yaw).
 Eigen::Quaterniond QuaternionFromRollPitchYaw(double roll, double pitch, double yaw);

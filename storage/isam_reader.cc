@@ -17,7 +17,8 @@ bool IsThreeDimensionalTag(std::string_view tag) {
 
 class IsamParser {
  public:
-  explicit IsamParser(const std::string& path) : path_(path) {}
+  IsamParser(const std::string& path, core::InformationRepairs* repairs)
+      : path_(path), repairs_(repairs) {}
 
   StatusOr<core::Problem2d> Parse() {
     GS_ASSIGN_OR_RETURN(std::unique_ptr<LineReader> reader, LineReader::Open(path_));
@@ -58,8 +59,9 @@ class IsamParser {
     root << r[0], r[1], r[2],  //
         0.0, r[3], r[4],       //
         0.0, 0.0, r[5];
-    const Eigen::Matrix3d information = root.transpose() * root;
-    if (r[0] == 0.0 || r[3] == 0.0 || r[5] == 0.0 || !internal::IsPositiveDefinite(information)) {
+    Eigen::Matrix3d information = root.transpose() * root;
+    if ((r[0] == 0.0 || r[3] == 0.0 || r[5] == 0.0 || !internal::IsPositiveDefinite(information)) &&
+        !core::RepairAndCount(repairs_, reader.line_number(), &information)) {
       return reader.Error(std::string(reader.fields()[0]) + " square-root information " +
                           internal::UpperTriangleString(r, 6) +
                           " is singular; expected an upper-triangular R with a non-zero "
@@ -90,8 +92,9 @@ class IsamParser {
                                        internal::Magnitude::kSqrtInformation));
     Eigen::Matrix2d root;
     root << r[0], r[1], 0.0, r[2];
-    const Eigen::Matrix2d information = root.transpose() * root;
-    if (r[0] == 0.0 || r[2] == 0.0 || !internal::IsPositiveDefinite(information)) {
+    Eigen::Matrix2d information = root.transpose() * root;
+    if ((r[0] == 0.0 || r[2] == 0.0 || !internal::IsPositiveDefinite(information)) &&
+        !core::RepairAndCount(repairs_, reader.line_number(), &information)) {
       return reader.Error("LANDMARK square-root information " +
                           internal::UpperTriangleString(r, 3) +
                           " is singular; expected an upper-triangular R with a non-zero "
@@ -121,6 +124,7 @@ class IsamParser {
   }
 
   const std::string path_;
+  core::InformationRepairs* const repairs_;  // null: reject singular R
   core::Problem2d problem_;
   std::unordered_map<int64_t, int32_t> poses_;
   std::unordered_map<int64_t, int32_t> landmarks_;
@@ -128,6 +132,8 @@ class IsamParser {
 
 }  // namespace
 
-StatusOr<core::Problem2d> ReadIsam(const std::string& path) { return IsamParser(path).Parse(); }
+StatusOr<core::Problem2d> ReadIsam(const std::string& path, core::InformationRepairs* repairs) {
+  return IsamParser(path, repairs).Parse();
+}
 
 }  // namespace graphslam::storage

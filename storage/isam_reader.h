@@ -25,17 +25,21 @@
 // Rejected (Corruption, "<file>:<line>: ...; expected ..."): malformed or
 // non-finite numbers, wrong field counts, singular square-root information,
 // self-loops. NotSupported: 3-D tags (EDGE3, POINT3, ...) and unknown tags.
+// With `repairs` (opt-in), a singular R is not rejected: Omega = R^T R is
+// repaired (core/information_repair.h) and counted there.
 //
 // THREAD SAFETY: reentrant. ALLOCATION: O(records); streamed line by line.
 #pragma once
 
 #include <string>
 
+#include "core/information_repair.h"
 #include "core/problem.h"
 #include "core/status.h"
 
 namespace graphslam::storage {
 
-StatusOr<core::Problem2d> ReadIsam(const std::string& path);
+StatusOr<core::Problem2d> ReadIsam(const std::string& path,
+                                   core::InformationRepairs* repairs = nullptr);
 
 }  // namespace graphslam::storage

@@ -46,8 +46,10 @@ class NativeLogParser {
 
   explicit NativeLogParser(const std::string& path, const ObservationSink* sink = nullptr,
                            std::vector<NativeLogScan>* scans = nullptr,
+                           core::InformationRepairs* repairs = nullptr,
                            bool skip_features = false)
-      : path_(path), sink_(sink), scans_(scans), skip_features_(skip_features) {}
+      : path_(path), sink_(sink), scans_(scans), repairs_(repairs),
+        skip_features_(skip_features) {}
 
   // Lines are cut into blocks and tokenized (fields split, numbers
   // converted) in parallel; the records are then interpreted in file order,
@@ -234,8 +236,9 @@ class NativeLogParser {
     double upper[6];
     GS_RETURN_IF_ERROR(reader.Doubles(first, 6, "information", upper,
                                        internal::Magnitude::kInformation));
-    const Eigen::Matrix3d information = internal::SymmetricFromUpper3(upper);
-    if (!internal::IsPositiveDefinite(information)) {
+    Eigen::Matrix3d information = internal::SymmetricFromUpper3(upper);
+    if (!internal::IsPositiveDefinite(information) &&
+        !core::RepairAndCount(repairs_, reader.line_number(), &information)) {
       return reader.Error(std::string(reader.fields()[0]) + " information " +
                           internal::UpperTriangleString(upper, 6) +
                           " is not positive definite; expected a symmetric positive definite "
@@ -248,8 +251,9 @@ class NativeLogParser {
     double upper[3];
     GS_RETURN_IF_ERROR(reader.Doubles(first, 3, "information", upper,
                                        internal::Magnitude::kInformation));
-    const Eigen::Matrix2d information = internal::SymmetricFromUpper2(upper);
-    if (!internal::IsPositiveDefinite(information)) {
+    Eigen::Matrix2d information = internal::SymmetricFromUpper2(upper);
+    if (!internal::IsPositiveDefinite(information) &&
+        !core::RepairAndCount(repairs_, reader.line_number(), &information)) {
       return reader.Error(std::string(reader.fields()[0]) + " information " +
                           internal::UpperTriangleString(upper, 3) +
                           " is not positive definite; expected a symmetric positive definite "
@@ -263,7 +267,7 @@ class NativeLogParser {
     double w = 0.0;
     GS_RETURN_IF_ERROR(
         reader.Doubles(first, 1, "information", &w, internal::Magnitude::kInformation));
-    if (!(w > 0.0)) {
+    if (!(w > 0.0) && !core::RepairAndCount(repairs_, reader.line_number(), &w)) {
       return reader.Error(std::string(reader.fields()[0]) + " information " + FormatDouble(w) +
                           " is not positive; expected a positive number (i11)");
     }
@@ -420,6 +424,7 @@ class NativeLogParser {
   const std::string path_;
   const ObservationSink* sink_ = nullptr;
   std::vector<NativeLogScan>* scans_ = nullptr;
+  core::InformationRepairs* repairs_ = nullptr;  // null: reject non-PD information
   const bool skip_features_ = false;
   core::Problem2d problem_;
   internal::GrowingIdMap poses_;     // dense ids: a direct table (one look-up per record)
@@ -449,18 +454,20 @@ StatusOr<core::Problem2d> ReleasingFreedMemory(StatusOr<core::Problem2d> read) {
 
 }  // namespace
 
-StatusOr<core::Problem2d> ReadNativeLog(const std::string& path) {
-  return ReleasingFreedMemory(NativeLogParser(path).Parse());
+StatusOr<core::Problem2d> ReadNativeLog(const std::string& path,
+                                        core::InformationRepairs* repairs) {
+  return ReleasingFreedMemory(NativeLogParser(path, nullptr, nullptr, repairs).Parse());
 }
 
 StatusOr<core::Problem2d> ReadNativeLogWithoutFeatures(const std::string& path) {
-  return ReleasingFreedMemory(NativeLogParser(path, nullptr, nullptr, true).Parse());
+  return ReleasingFreedMemory(NativeLogParser(path, nullptr, nullptr, nullptr, true).Parse());
 }
 
 StatusOr<core::Problem2d> ReadNativeLog(const std::string& path,
-                                        std::vector<NativeLogScan>* scans) {
+                                        std::vector<NativeLogScan>* scans,
+                                        core::InformationRepairs* repairs) {
   scans->clear();
-  return ReleasingFreedMemory(NativeLogParser(path, nullptr, scans).Parse());
+  return ReleasingFreedMemory(NativeLogParser(path, nullptr, scans, repairs).Parse());
 }
 
 StatusOr<core::Problem2d> ReadNativeLogStreaming(const std::string& path,

@@ -21,7 +21,11 @@
 // information not positive definite, undeclared or duplicate poses, duplicate
 // or late FEATURE records, dt < 0, range <= 0, self-loops. NotSupported: other
 // versions, unknown tags. An RB/XY with feature '-' gets a feature of its own
-// (id core::kNoFeatureId, core/unidentified_features.h).
+// (id core::kNoFeatureId, core/unidentified_features.h). With `repairs`
+// (opt-in), an information given in the file (CONTROL_INFO, ODOM, RB, XY, GPS,
+// RB_POSE, the 1-D kinds) that is not positive definite is repaired
+// (core/information_repair.h) and counted there instead of rejected; a
+// CONTROL's information, computed from the noise model, is not repaired.
 //
 // WriteNativeLog writes through WriteFileAtomically (atomic_file.h): poses,
 // features, FIX, then CONTROL_INFO / ODOM / RB / XY / GPS / RB_POSE records, numbers as
@@ -35,6 +39,7 @@
 #include <string>
 #include <vector>
 
+#include "core/information_repair.h"
 #include "core/problem.h"
 #include "core/status.h"
 #include "storage/env.h"
@@ -44,7 +49,8 @@ namespace graphslam::storage {
 inline constexpr const char* kNativeLogMagic = "GRAPHSLAM_LOG";
 inline constexpr int kNativeLogVersion = 1;
 
-StatusOr<core::Problem2d> ReadNativeLog(const std::string& path);
+StatusOr<core::Problem2d> ReadNativeLog(const std::string& path,
+                                        core::InformationRepairs* repairs = nullptr);
 
 // As ReadNativeLog, but a FEATURE record is checked up to its id and not
 // kept: the problem's poses and pose-only factors, with memory O(poses),
@@ -63,7 +69,8 @@ struct NativeLogScan {
 
 // As ReadNativeLog, and every SCAN record, in file order, into *scans.
 StatusOr<core::Problem2d> ReadNativeLog(const std::string& path,
-                                        std::vector<NativeLogScan>* scans);
+                                        std::vector<NativeLogScan>* scans,
+                                        core::InformationRepairs* repairs = nullptr);
 
 // Receives the observations of a streamed read, in file order; an error stops
 // the read and is returned by it.

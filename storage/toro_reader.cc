@@ -87,11 +87,8 @@ StatusOr<core::Problem2d> ReadToro(const std::string& path, core::InformationRep
       c.information << t[0], t[1], t[4],  //
           t[1], t[2], t[5],               //
           t[4], t[5], t[3];
-      if (!internal::IsPositiveDefinite(c.information) && repairs != nullptr) {
-        core::RepairInformation(&c.information);
-        repairs->Record(reader->line_number());
-      }
-      if (!internal::IsPositiveDefinite(c.information))
+      if (!internal::IsPositiveDefinite(c.information) &&
+          !core::RepairAndCount(repairs, reader->line_number(), &c.information))
         return reader->Error("EDGE2 information " + internal::UpperTriangleString(t, 6) +
                              " is not positive definite; expected a symmetric positive definite "
                              "matrix (TORO order I11 I12 I22 I33 I13 I23)");
@@ -143,7 +140,7 @@ StatusOr<core::Problem2d> ReadToro(const std::string& path, core::InformationRep
   return problem;
 }
 
-StatusOr<core::Problem3d> ReadToro3d(const std::string& path) {
+StatusOr<core::Problem3d> ReadToro3d(const std::string& path, core::InformationRepairs* repairs) {
   GS_ASSIGN_OR_RETURN(std::unique_ptr<internal::LineReader> reader,
                       internal::LineReader::Open(path));
   core::Problem3d problem;
@@ -171,7 +168,8 @@ StatusOr<core::Problem3d> ReadToro3d(const std::string& path) {
       c.z.t = Eigen::Vector3d(v[0], v[1], v[2]);
       c.z.q = QuaternionFromRollPitchYaw(v[3], v[4], v[5]);
       c.information = internal::SymmetricFromUpper<6>(upper);
-      if (!internal::IsPositiveDefiniteMatrix(c.information))
+      if (!internal::IsPositiveDefiniteMatrix(c.information) &&
+          !core::RepairAndCount(repairs, reader->line_number(), &c.information))
         return reader->Error("EDGE3 information " + internal::UpperTriangleString(upper, 21) +
                              " is not positive definite; expected a symmetric positive definite "
                              "matrix over (x, y, z, roll, pitch, yaw), upper triangle row first");

@@ -48,11 +48,12 @@
 
 namespace graphslam::storage {
 
-// With `repairs` (opt-in), an EDGE2 information matrix that is not positive
-// definite is repaired (core/information_repair.h) and counted instead of
-// rejected.
+// With `repairs` (opt-in), an EDGE2 / EDGE3 information matrix that is not
+// positive definite is repaired (core/information_repair.h) and counted
+// instead of rejected.
 StatusOr<core::Problem2d> ReadToro(const std::string& path,
                                    core::InformationRepairs* repairs = nullptr);
-StatusOr<core::Problem3d> ReadToro3d(const std::string& path);
+StatusOr<core::Problem3d> ReadToro3d(const std::string& path,
+                                     core::InformationRepairs* repairs = nullptr);
 
 }  // namespace graphslam::storage

@@ -24,7 +24,8 @@ namespace graphslam::tools {
 
 void AddIngestCommand(CLI::App* app, IngestCommandOptions* options, int* exit_code) {
   CLI::App* ingest = app->add_subcommand(
-      "ingest", "Write an input (g2o, iSAM, MRCLAM folder, native log) as a chunk store");
+      "ingest",
+      "Write an input (g2o, iSAM, TORO .graph, MRCLAM folder, native log) as a chunk store");
   ingest->add_option("input", options->input, "input file or MRCLAM dataset folder")->required();
   ingest->add_option("-o,--output", options->output_dir, "store directory")->required();
   ingest->add_option("--format", options->format, "input format: auto, g2o, isam, mrclam, native, toro")

@@ -21,9 +21,18 @@ namespace {
 
 constexpr int64_t kProcessReserve = int64_t{64} << 20;
 
+// The .bt header that OcTree::readBinary (octovis, binvox2bt) expects, then the node bits.
+// Written here rather than by writeBinaryConst, which Debian's liboctomap (built with its
+// debug output on) follows with a " done." line on stderr that `-q` cannot silence.
 Status WriteTree(const octomap::OcTree& tree, const std::string& path) {
   std::ostringstream stream;
-  if (!tree.writeBinaryConst(stream)) return Status::IOError("writing " + path + ": OctoMap failed");
+  stream << "# Octomap OcTree binary file\n#\n"
+         << "id " << tree.getTreeType() << "\n"
+         << "size " << tree.size() << "\n"
+         << "res " << tree.getResolution() << "\n"
+         << "data\n";
+  tree.writeBinaryData(stream);
+  if (!stream.good()) return Status::IOError("writing " + path + ": OctoMap failed");
   return storage::WriteStringAtomically(storage::Env::Default(), path, stream.str());
 }
 

@@ -154,8 +154,8 @@ void AddSolveCommand(CLI::App* app, SolveCommandOptions* options, int* exit_code
                     "under mpirun: PETSc options for the reduced system's solve, e.g. "
                     "\"-ksp_type cg -pc_type gamg\" (PETSC_OPTIONS works too; docs/distributed.md)");
   solve->add_flag("--repair-information", options->repair_information,
-                  "repair non-positive-definite information matrices (g2o, TORO) instead of "
-                  "rejecting the file");
+                  "repair non-positive-definite information matrices (g2o, iSAM, native, "
+                  "TORO; 2-D and 3-D) instead of rejecting the file");
   solve->add_flag("-q,--quiet", options->quiet, "no progress or summary on the terminal");
   solve->add_flag("-v,--verbose", options->verbosity, "more log detail (repeatable)");
   solve->callback([options, exit_code]() { *exit_code = RunSolveCommand(*options); });

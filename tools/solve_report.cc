@@ -68,4 +68,15 @@ void PrintSolverSummaryLines(std::FILE* out, const core::SolverSummary& summary,
   std::fprintf(out, "  peak RSS           %.1f MiB\n", PeakRssBytes() / (1024.0 * 1024.0));
 }
 
+nlohmann::json InformationRepairsReport(const core::InformationRepairs& repairs) {
+  return {{"repaired", repairs.count},
+          {"first_lines", repairs.first_lines},
+          {"eigenvalue_floor_relative", core::kInformationEigenvalueFloor}};
+}
+
+void PrintInformationRepairs(std::FILE* out, const core::InformationRepairs& repairs) {
+  std::fprintf(out, "  information        %lld matrices were not positive definite: repaired\n",
+               static_cast<long long>(repairs.count));
+}
+
 }  // namespace graphslam::tools

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/graphslam_solver.h"
+#include "core/information_repair.h"
 #include "tools/solve_command.h"
 
 namespace graphslam::tools {
@@ -28,5 +29,11 @@ nlohmann::json SolverReport(const SolveCommandOptions& options, const core::Solv
 // seconds, peak RSS.
 void PrintSolverSummaryLines(std::FILE* out, const core::SolverSummary& summary,
                              double total_seconds);
+
+// --repair-information (core/information_repair.h): the report's
+// "information_repairs" object (repaired, first_lines,
+// eigenvalue_floor_relative) and the summary's "information" line.
+nlohmann::json InformationRepairsReport(const core::InformationRepairs& repairs);
+void PrintInformationRepairs(std::FILE* out, const core::InformationRepairs& repairs);
 
 }  // namespace graphslam::tools

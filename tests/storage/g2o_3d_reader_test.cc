@@ -1,6 +1,8 @@
 // The 3-D g2o reader and writer: records, conventions, errors with file:line,
 // edges-only files, and write -> read round trips that are bit-identical.
 #include <gtest/gtest.h>
+#include "core/information_repair.h"
+#include <Eigen/Cholesky>
 #include <unistd.h>
 
 #include <filesystem>
@@ -155,6 +157,43 @@ TEST_F(G2o3dReaderTest, ReadsSphere2500) {
   ASSERT_TRUE(read.ok()) << read.status().ToString();
   EXPECT_EQ(read->num_poses(), 2500);
   EXPECT_EQ(read->relative_poses.size(), 4949u);
+}
+
+
+// Not positive definite: rejected naming the file and line by default; with
+// repair on (core/information_repair.h) replaced by the nearest matrix with
+// eigenvalues >= 1e-6 * max |l| and counted. The pose information is the
+// identity but for the (roll, pitch) block [1.5 2.5; 2.5 1.5], eigenvalues 4
+// and -1 along (1, 1) and (1, -1): the repair keeps 4, raises -1 to the floor
+// 4e-6, so the block becomes [2 + 2e-6, 2 - 2e-6; 2 - 2e-6, 2 + 2e-6], at
+// Frobenius distance 1 + 4e-6. The point information is zero: 1e-6 I.
+TEST_F(G2o3dReaderTest, RepairsNonPositiveDefiniteInformationOnlyWhenAsked) {
+  const std::string path = Write(
+      "indefinite.g2o",
+      "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\nVERTEX_SE3:QUAT 1 1 0 0 0 0 0 1\n"
+      "VERTEX_TRACKXYZ 7 1 2 3\n"
+      "EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 1 0 0 0 0 0  1 0 0 0 0  1 0 0 0  1.5 2.5 0  1.5 0  1\n"
+      "EDGE_SE3_TRACKXYZ 1 7 0 0.5 0.5 0.5 0 0 0 0 0 0\n");
+  const Status rejected = ReadG2o3d(path).status();
+  EXPECT_TRUE(rejected.IsCorruption());
+  EXPECT_NE(rejected.message().find("indefinite.g2o:4: EDGE_SE3:QUAT information"),
+            std::string::npos)
+      << rejected.message();
+  core::InformationRepairs repairs;
+  StatusOr<core::Problem3d> read = ReadG2o3d(path, &repairs);
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  EXPECT_EQ(repairs.count, 2);
+  EXPECT_EQ(repairs.first_lines, (std::vector<int32_t>{4, 5}));
+  const core::Matrix6d& pose = read->relative_poses[0].information;
+  EXPECT_EQ(Eigen::LLT<core::Matrix6d>(pose).info(), Eigen::Success);
+  core::Matrix6d expected = core::Matrix6d::Identity();
+  expected.block<2, 2>(3, 3) << 2 + 2e-6, 2 - 2e-6, 2 - 2e-6, 2 + 2e-6;
+  EXPECT_LT((pose - expected).cwiseAbs().maxCoeff(), 1e-12) << pose;
+  core::Matrix6d original = core::Matrix6d::Identity();
+  original.block<2, 2>(3, 3) << 1.5, 2.5, 2.5, 1.5;
+  EXPECT_NEAR((pose - original).norm(), 1.0 + 4e-6, 1e-12);
+  const Eigen::Matrix3d& point = read->observations[0].information;
+  EXPECT_LT((point - 1e-6 * Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 1e-18) << point;
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
 // The 3-D iSAM reader: EDGE3 angle order and square-root information, POINT3,
 // errors, and agreement with the g2o version of the same dataset.
 #include <gtest/gtest.h>
+#include "core/information_repair.h"
+#include <Eigen/Cholesky>
 #include <unistd.h>
 
 #include <filesystem>
@@ -100,6 +102,35 @@ TEST(Isam3dReader, Sphere2500MatchesTheG2oVersionOfTheSameData) {
   }
   EXPECT_LT(worst_t, 1e-5);
   EXPECT_LT(worst_r, 1e-5);
+}
+
+
+// A singular square-root information: rejected naming the file and line, or
+// Omega = S^T S (here diag(1, 1, 1, 1, 1, 0), rotation scaled to
+// diag(1, 1, 1, 4, 4, 0)) repaired with the floor 1e-6 * 4 and counted. A zero
+// POINT3 S gives Omega = 0, repaired to 1e-6 I.
+TEST(Isam3dReader, RepairsSingularInformationOnlyWhenAsked) {
+  const std::string path = WriteTemp(
+      "singular3.txt",
+      "EDGE3 0 1 1 0 0 0 0 0 1 0 0 0 0 0  1 0 0 0 0  1 0 0 0  1 0 0  1 0  0\n"
+      "POINT3 1 5 1 0 0 0 0 0 0 0 0\n");
+  const Status rejected = ReadIsam3d(path).status();
+  EXPECT_TRUE(rejected.IsCorruption());
+  EXPECT_NE(rejected.message().find("singular3.txt:1: EDGE3 square-root information"),
+            std::string::npos)
+      << rejected.message();
+  core::InformationRepairs repairs;
+  StatusOr<core::Problem3d> problem = ReadIsam3d(path, &repairs);
+  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+  EXPECT_EQ(repairs.count, 2);
+  EXPECT_EQ(repairs.first_lines, (std::vector<int32_t>{1, 2}));
+  const core::Matrix6d& pose = problem->relative_poses[0].information;
+  EXPECT_EQ(Eigen::LLT<core::Matrix6d>(pose).info(), Eigen::Success);
+  core::Matrix6d expected = core::Matrix6d::Zero();
+  expected.diagonal() << 1, 1, 1, 4, 4, 4e-6;
+  EXPECT_LT((pose - expected).cwiseAbs().maxCoeff(), 1e-15) << pose;
+  const Eigen::Matrix3d& point = problem->observations[0].information;
+  EXPECT_LT((point - 1e-6 * Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 1e-18) << point;
 }
 
 }  // namespace

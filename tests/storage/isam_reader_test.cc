@@ -1,6 +1,7 @@
 #include "storage/isam_reader.h"
 
 #include <gtest/gtest.h>
+#include <Eigen/Cholesky>
 #include <unistd.h>
 
 #include <filesystem>
@@ -101,6 +102,38 @@ TEST(IsamReader, RejectsMalformedInput) {
             "bad.txt:2: unknown tag 'VERTEX_SE2'; expected ODOMETRY, EDGE2 or LANDMARK");
   EXPECT_EQ(ReadError("EDGE2 3 3 1 0 0 1 0 0 1 0 1\n").message(),
             "bad.txt:1: EDGE2 connects pose 3 to itself; expected two distinct poses");
+}
+
+
+// A singular R (a zero on the diagonal): rejected naming the file and line,
+// or Omega = R^T R repaired with the eigenvalue floor and counted.
+// R = diag(10, 10, 0): Omega = diag(100, 100, 0) -> diag(100, 100, 1e-4);
+// LANDMARK R = diag(2, 0): Omega = diag(4, 0) -> diag(4, 4e-6).
+TEST(IsamReader, RepairsSingularInformationOnlyWhenAsked) {
+  const std::string path = WriteTemp("singular.txt",
+                                     "ODOMETRY 0 1 1 0 0 10 0 0 10 0 0\n"
+                                     "LANDMARK 1 5 1 1 2 0 0\n");
+  const Status rejected = ReadIsam(path).status();
+  EXPECT_TRUE(rejected.IsCorruption());
+  EXPECT_NE(rejected.message().find("singular.txt:1: ODOMETRY square-root information"),
+            std::string::npos)
+      << rejected.message();
+  core::InformationRepairs repairs;
+  StatusOr<core::Problem2d> problem = ReadIsam(path, &repairs);
+  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+  EXPECT_EQ(repairs.count, 2);
+  EXPECT_EQ(repairs.first_lines, (std::vector<int32_t>{1, 2}));
+  const Eigen::Matrix3d& odometry = problem->relative_poses[0].information;
+  EXPECT_EQ(Eigen::LLT<Eigen::Matrix3d>(odometry).info(), Eigen::Success);
+  EXPECT_LT((odometry - Eigen::Vector3d(100, 100, 1e-4).asDiagonal().toDenseMatrix())
+                .cwiseAbs()
+                .maxCoeff(),
+            1e-15)
+      << odometry;
+  const Eigen::Matrix2d& landmark = problem->observations[0].information;
+  EXPECT_LT((landmark - Eigen::Vector2d(4, 4e-6).asDiagonal().toDenseMatrix()).cwiseAbs().maxCoeff(),
+            1e-18)
+      << landmark;
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <Eigen/Cholesky>
 #include <unistd.h>
 
 #include <Eigen/LU>
@@ -218,6 +219,46 @@ TEST(NativeLogReader, UnknownCorrespondenceGivesAFeaturePerObservation) {
   EXPECT_NE(problem->observations[0].feature, problem->observations[1].feature);
   EXPECT_EQ(problem->feature_ids[problem->observations[2].feature], 7);
   EXPECT_EQ(problem->observations[1].kind, core::ObservationKind::kPointXY);
+}
+
+
+// Information given in the log that is not positive definite: rejected naming
+// the file and line, or repaired with the eigenvalue floor and counted.
+// ODOM diag(1, 1, -1) -> diag(1, 1, 1e-6); XY [1 2; 2 1] (eigenvalues 3 and
+// -1 along (1, 1) and (1, -1)) -> [1.5 + 1.5e-6, 1.5 - 1.5e-6; ...], at
+// Frobenius distance 1 + 3e-6; the 1-D B weight -2 -> 2e-6.
+TEST(NativeLogReader, RepairsNonPositiveDefiniteInformationOnlyWhenAsked) {
+  const std::string path = WriteTemp("indefinite.log",
+                                     "GRAPHSLAM_LOG 1\n"
+                                     "POSE 0 0 0 0 0\nFIX 0\nPOSE 1 1 1 0 0\nFEATURE 3 5 1\n"
+                                     "ODOM 0 1 1 0 0 1 0 0 1 0 -1\n"
+                                     "XY 1 3 4 1 1 2 1\n"
+                                     "B 0 3 0.3 -2\n");
+  const Status rejected = ReadNativeLog(path).status();
+  EXPECT_TRUE(rejected.IsCorruption());
+  EXPECT_NE(rejected.message().find("indefinite.log:6: ODOM information"), std::string::npos)
+      << rejected.message();
+  core::InformationRepairs repairs;
+  StatusOr<core::Problem2d> problem = ReadNativeLog(path, &repairs);
+  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+  EXPECT_EQ(repairs.count, 3);
+  EXPECT_EQ(repairs.first_lines, (std::vector<int32_t>{6, 7, 8}));
+  const Eigen::Matrix3d& odometry = problem->relative_poses[0].information;
+  EXPECT_EQ(Eigen::LLT<Eigen::Matrix3d>(odometry).info(), Eigen::Success);
+  EXPECT_LT((odometry - Eigen::Vector3d(1, 1, 1e-6).asDiagonal().toDenseMatrix())
+                .cwiseAbs()
+                .maxCoeff(),
+            1e-15)
+      << odometry;
+  ASSERT_EQ(problem->observations.size(), 2u);
+  const Eigen::Matrix2d& xy = problem->observations[0].information;
+  EXPECT_EQ(Eigen::LLT<Eigen::Matrix2d>(xy).info(), Eigen::Success);
+  Eigen::Matrix2d expected, original;
+  expected << 1.5 + 1.5e-6, 1.5 - 1.5e-6, 1.5 - 1.5e-6, 1.5 + 1.5e-6;
+  original << 1, 2, 2, 1;
+  EXPECT_LT((xy - expected).cwiseAbs().maxCoeff(), 1e-12) << xy;
+  EXPECT_NEAR((xy - original).norm(), 1.0 + 3e-6, 1e-12);
+  EXPECT_NEAR(problem->observations[1].information(0, 0), 2e-6, 1e-18);
 }
 
 }  // namespace

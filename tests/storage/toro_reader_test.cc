@@ -2,6 +2,7 @@
 // of GTSAM, the information conventions on hand-made records, detection, and
 // the errors.
 #include <gtest/gtest.h>
+#include <Eigen/Cholesky>
 #include <unistd.h>
 
 #include <filesystem>
@@ -169,6 +170,32 @@ TEST(ToroReader, RepairsIndefiniteInformationOnlyWhenAsked) {
   EXPECT_EQ(repairs.first_lines, (std::vector<int32_t>{4}));
   EXPECT_EQ(problem->relative_poses[0].information, Eigen::Matrix3d::Identity());
   EXPECT_GT(problem->relative_poses[1].information.determinant(), 0.0);
+}
+
+
+// An EDGE3 information that is not positive definite: rejected naming the
+// file and line, or repaired and counted. diag(1, 1, 1, 1, 1, -2): the floor
+// is 1e-6 * 2, so yaw gets 2e-6 and, after the x2 scaling of the rotation
+// rows and columns (the header), 8e-6; the rest is unchanged (roll: 1 * 4).
+TEST(ToroReader, RepairsIndefinite3dInformationOnlyWhenAsked) {
+  const std::string path = WriteTemp("indefinite3.graph",
+                                     "VERTEX3 0 0 0 0 0 0 0\nVERTEX3 1 1 0 0 0 0 0\n"
+                                     "EDGE3 0 1 1 0 0 0 0 0 "
+                                     "1 0 0 0 0 0  1 0 0 0 0  1 0 0 0  1 0 0  1 0  -2\n");
+  const Status rejected = ReadToro3d(path).status();
+  EXPECT_TRUE(rejected.IsCorruption());
+  EXPECT_NE(rejected.message().find("indefinite3.graph:3: EDGE3 information"), std::string::npos)
+      << rejected.message();
+  core::InformationRepairs repairs;
+  StatusOr<core::Problem3d> problem = ReadToro3d(path, &repairs);
+  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+  EXPECT_EQ(repairs.count, 1);
+  EXPECT_EQ(repairs.first_lines, (std::vector<int32_t>{3}));
+  const core::Matrix6d& information = problem->relative_poses[0].information;
+  EXPECT_EQ(Eigen::LLT<core::Matrix6d>(information).info(), Eigen::Success);
+  core::Matrix6d expected = core::Matrix6d::Zero();
+  expected.diagonal() << 1, 1, 1, 4, 4, 8e-6;
+  EXPECT_LT((information - expected).cwiseAbs().maxCoeff(), 1e-15) << information;
 }
 
 }  // namespace

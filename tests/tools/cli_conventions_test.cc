@@ -2,12 +2,15 @@
 // "did you mean" for mistyped subcommands and options, one error format
 // `graphslam <subcommand>: <message>` on one line with exit 1 for every usage
 // error, -v / -q on every subcommand, --format naming `auto`, and `run -o`
-// standing in for a job file's missing `output:`.
+// standing in for a job file's missing `output:`, and silence under -q on the
+// README's main job (tools/setup/default_job.yaml, maps included).
 #include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -188,6 +191,31 @@ TEST_F(CliConventions, RunOutputComesFromMinusOWhenTheFileHasNone) {
   EXPECT_EQ(overridden.exit_code, kExitOk) << overridden.err;
   EXPECT_TRUE(fs::exists(other / "graph.g2o"));
   EXPECT_FALSE(fs::exists(dir_ / "from_file"));
+}
+
+// -q means nothing on stdout or stderr, whatever the libraries underneath do:
+// Debian's OctoMap wrote " done." after every .bt. The README's main job file
+// as shipped, with fewer poses so that it takes seconds (every stage and the
+// GPS / no-GPS pair still run, and the map is fused from the scans).
+TEST_F(CliConventions, MainJobPrintsNothingUnderQuiet) {
+  std::ifstream shipped(std::string(GRAPHSLAM_SOURCE_DIR) + "/tools/setup/default_job.yaml");
+  ASSERT_TRUE(shipped.good());
+  std::stringstream text;
+  text << shipped.rdbuf();
+  std::string job = text.str();
+  for (const auto& [from, to] : {std::pair<std::string, std::string>{"poses: 3000", "poses: 300"},
+                                 {"output: ../../out\n", ""}}) {
+    const size_t at = job.find(from);
+    ASSERT_NE(at, std::string::npos) << from << " in default_job.yaml";
+    job.replace(at, from.size(), to);
+  }
+  const fs::path out = dir_ / "out";
+  const GraphslamRun run = Run({"run", Write("default_job.yaml", job), "-o", out.string(), "-q"});
+  EXPECT_EQ(run.exit_code, kExitOk) << run.err;
+  EXPECT_EQ(run.out, "");
+  EXPECT_EQ(run.err, "");
+  EXPECT_GT(fs::file_size(out / "map.bt"), 0u);
+  EXPECT_TRUE(fs::exists(out / "report.html"));
 }
 
 }  // namespace

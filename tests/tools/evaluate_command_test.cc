@@ -12,6 +12,7 @@
 #include "storage/mrclam_reader.h"
 #include "storage/tum_writer.h"
 #include "tests/testing/datasets.h"
+#include "tests/testing/kitti_pose_line.h"
 #include "tools/campus_simulator.h"
 #include "tools/exit_codes.h"
 #include "tools/simulate_command.h"
@@ -166,22 +167,12 @@ TEST_F(EvaluateCommandTest, KittiGroundTruthMatchesByIndexOrByTimesFile) {
   simulator.poses = 300;
   StatusOr<SimulatedCampus> campus = SimulateCampus(simulator);
   ASSERT_TRUE(campus.ok());
-  Eigen::Matrix3d c;  // body -> camera is C^T (storage/kitti_pose_reader.h)
-  c << 0, 0, 1, -1, 0, 0, 0, -1, 0;
   std::ofstream kitti(Path("00.txt")), times(Path("times.txt"));
   core::Problem2d by_index, by_time;
   const core::Pose2 moved(5.0, -3.0, 0.7);
   for (size_t i = 0; i < campus->true_poses.size(); ++i) {
     const core::Pose2& p = campus->true_poses[i];
-    const Eigen::Matrix3d r =
-        c.transpose() * Eigen::AngleAxisd(p.z(), Eigen::Vector3d::UnitZ()).toRotationMatrix() * c;
-    const Eigen::Vector3d t = c.transpose() * Eigen::Vector3d(p.x(), p.y(), 0.0);
-    char line[600];
-    std::snprintf(line, sizeof(line),
-                  "%.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n",
-                  r(0, 0), r(0, 1), r(0, 2), t.x(), r(1, 0), r(1, 1), r(1, 2), t.y(), r(2, 0),
-                  r(2, 1), r(2, 2), t.z());
-    kitti << line;
+    kitti << testing::KittiPoseLine(p);
     times << campus->problem.pose_stamps[i] << "\n";
     by_index.AddPose(static_cast<int64_t>(i), core::Compose(moved, p), true, 0);
     by_time.AddPose(static_cast<int64_t>(i), core::Compose(moved, p), true, 0,

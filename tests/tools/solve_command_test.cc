@@ -448,5 +448,34 @@ TEST_F(SolveCommandTest, RepairInformationIsOptInAndCounted) {
               HasSubstr("information        1 matrices were not positive definite: repaired"));
 }
 
+// The same for a 3-D g2o file: a three-pose chain whose loop edge (line 7)
+// has information diag(1, 1, 1, 1, 1, -1).
+TEST_F(SolveCommandTest, RepairInformationCoversThreeDimensionalFiles) {
+  const std::string identity = "1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1";
+  const std::string input = WriteLines(
+      "in3.g2o", {"VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1", "VERTEX_SE3:QUAT 1 1.1 0 0 0 0 0 1",
+                  "VERTEX_SE3:QUAT 2 1.9 0.1 0 0 0 0 1", "FIX 0",
+                  "EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 " + identity,
+                  "EDGE_SE3:QUAT 1 2 1 0 0 0 0 0 1 " + identity,
+                  "EDGE_SE3:QUAT 0 2 2 0 0 0 0 0 1 1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 -1"});
+  SolveCommandOptions options = AllOutputs(input);
+  options.features_csv.clear();  // 2-D only
+  const auto [code, message] = RunCapturingStderr(options);
+  EXPECT_EQ(code, kExitBadInput) << message;
+  EXPECT_THAT(message, HasSubstr("in3.g2o:7: EDGE_SE3:QUAT information"));
+  options.repair_information = true;
+  ASSERT_EQ(RunSolveCommand(options), kExitOk);
+  const nlohmann::json report = ReadJson(options.report);
+  EXPECT_EQ(report["dimension"].get<int>(), 3);
+  EXPECT_EQ(report["information_repairs"]["repaired"].get<int64_t>(), 1);
+  EXPECT_EQ(report["information_repairs"]["first_lines"], nlohmann::json({7}));
+  EXPECT_LT(report["final_chi2"].get<double>(), 1e-9);  // the three edges agree
+  options.quiet = false;
+  ::testing::internal::CaptureStdout();
+  ASSERT_EQ(RunSolveCommand(options), kExitOk);
+  EXPECT_THAT(::testing::internal::GetCapturedStdout(),
+              HasSubstr("information        1 matrices were not positive definite: repaired"));
+}
+
 }  // namespace
 }  // namespace graphslam::tools

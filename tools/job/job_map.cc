@@ -117,7 +117,11 @@ bool TakesLogScans(const RunSpec& run) { return run.format == "native" && run.sc
 // store when the log names none).
 StatusOr<int64_t> CopyLogScans(const std::string& log, const std::string& dir, int64_t chunk_bytes) {
   std::vector<storage::NativeLogScan> records;
-  StatusOr<core::Problem2d> problem = storage::ReadNativeLog(log, &records);
+  // Only the poses and SCAN records are used here: information that is not
+  // positive definite is judged where the run is read (LoadJobData,
+  // solver.repair_information), not by this copy.
+  core::InformationRepairs ignored;
+  StatusOr<core::Problem2d> problem = storage::ReadNativeLog(log, &records, &ignored);
   if (!problem.ok()) return problem.status();
   if (records.empty()) return int64_t{0};
   std::vector<core::Pose3> poses;

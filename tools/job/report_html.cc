@@ -195,6 +195,17 @@ void RunsTable(const json& report, std::ostringstream& out) {
         << NumberCell(Get(r, "indoor_position_rmse_m"), "m") << "</tr>\n";
   }
   out << kTableEnd;
+  // solver.repair_information: how many matrices each run had repaired.
+  for (const json& r : report.value("runs", json::array())) {
+    if (!r.contains("information_repairs")) continue;
+    std::string lines;
+    for (const json& line : r.value("information_repair_lines", json::array()))
+      lines += (lines.empty() ? "" : ", ") + std::to_string(line.get<int64_t>());
+    out << "<p class=\"note\">Run " << Escape(r.value("name", "")) << ": "
+        << r["information_repairs"].get<int64_t>()
+        << " information matrices were not positive definite and were repaired (first lines: "
+        << lines << ").</p>\n";
+  }
 }
 
 void AccuracySection(const json& report, const ReportInputs& inputs,

@@ -579,10 +579,7 @@ nlohmann::json Report2d(const SolveRun& run, const Solve2d& s, double total_seco
         {"unknown_barcodes_skipped", s.mrclam_stats.unknown_barcodes_skipped},
         {"unknown_barcode_lines", s.mrclam_stats.unknown_barcode_lines}};
   if (options.repair_information)
-    report["information_repairs"] = {{"repaired", s.repairs.count},
-                                     {"first_lines", s.repairs.first_lines},
-                                     {"eigenvalue_floor_relative",
-                                      core::kInformationEigenvalueFloor}};
+    report["information_repairs"] = InformationRepairsReport(s.repairs);
   if (options.associate)
     report["association"] = BuildAssociationReport(s.association, s.association_summary, 200);
   return report;
@@ -618,8 +615,7 @@ void PrintSummary2d(const SolveRun& run, const Solve2d& s, double total_seconds)
                s.streaming ? " (streamed from disk)" : "");
   if (options.associate) PrintAssociation(out, s.association_summary);
   if (options.repair_information)
-    std::fprintf(out, "  information        %lld matrices were not positive definite: repaired\n",
-                 static_cast<long long>(s.repairs.count));
+    PrintInformationRepairs(out, s.repairs);
   if (std::isfinite(s.input_chi2))
     std::fprintf(out, "  input chi2         %.9g (the input's own estimate)\n", s.input_chi2);
   PrintSolverSummaryLines(out, s.summary, total_seconds);

@@ -30,6 +30,7 @@ struct Solve3d {
   core::Checkpointing3d checkpointing;
   core::SolverCheckpoint3d resume_state;
   core::SolverSummary summary;
+  core::InformationRepairs repairs;  // --repair-information
 };
 
 // Checkpoints: one durable file replaced after every iteration; --resume
@@ -57,7 +58,9 @@ Status AttachCheckpoints(const SolveCommandOptions& options, Solve3d& s) {
 // Steps 4-6.
 Status ReadInitializeSolve(SolveRun& run, const DetectedInput& file, Solve3d& s) {
   const SolveCommandOptions& options = run.options;
-  GS_ASSIGN_OR_RETURN(s.problem, storage::ReadProblem3d(options.input, file.format));
+  GS_ASSIGN_OR_RETURN(s.problem, storage::ReadProblem3d(options.input, file.format,
+                                                       options.repair_information ? &s.repairs
+                                                                                  : nullptr));
   s.read_seconds = SecondsSince(run.start);
   const SolveClock::time_point initialize_start = SolveClock::now();
   GS_RETURN_IF_ERROR(core::InitializeProblem3d(&s.problem));
@@ -100,6 +103,8 @@ nlohmann::json Report3d(const SolveRun& run, const Solve3d& s, const char* forma
                              {"initialize", s.initialize_seconds},
                              {"progressive_initialization", 0.0},
                              {"optimize", s.summary.seconds}};
+  if (run.options.repair_information)
+    report["information_repairs"] = InformationRepairsReport(s.repairs);
   return report;
 }
 
@@ -119,6 +124,7 @@ Status WriteOutputs3d(const SolveRun& run, const Solve3d& s, const char* format_
                  s.problem.num_features());
     std::fprintf(out, "  relative poses     %zu\n", s.problem.relative_poses.size());
     std::fprintf(out, "  observations       %zu\n", s.problem.observations.size());
+    if (run.options.repair_information) PrintInformationRepairs(out, s.repairs);
     PrintSolverSummaryLines(out, s.summary, total_seconds);
   }
   return Status::Ok();

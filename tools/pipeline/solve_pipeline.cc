@@ -96,9 +96,6 @@ int RunSolve(const SolveRequest& request) {
     return RunSolve2d(run, nullptr);
   StatusOr<DetectedInput> detected = DetectFile(request);
   if (!detected.ok()) return run.Fail(detected.status());
-  if (detected->three_d && request.options.repair_information)
-    return run.Fail(
-        Status::NotSupported("--repair-information covers 2-D g2o and TORO files"));
   return detected->three_d ? RunSolve3d(run, *detected) : RunSolve2d(run, &*detected);
 }
 

@@ -11,6 +11,9 @@ packages=(
   clang libclang-rt-14-dev
   libopenmpi-dev openmpi-bin libpetsc-real-dev
   libopenblas0-serial
+  # tools/report_screenshots.sh and its test: headless Chromium (about 110 MB
+  # of packages, under a minute of apt time) and libpng to read the PNGs.
+  chromium fonts-dejavu-core libpng-dev
 )
 missing=()
 for p in "${packages[@]}"; do
