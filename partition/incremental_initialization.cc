@@ -98,6 +98,12 @@ Indices BuildIndices(const core::Problem2d& problem) {
   return index;
 }
 
+// A stage that did not converge and whose chi2 fell by more than this
+// factor is redone (header); slow convergence near the start (a robust
+// kernel's reweighting: MRCLAM's stages end 1.1-2.3 times below their start)
+// is not.
+constexpr double kFarStartChi2Ratio = 10.0;
+
 // One stage's sub-problem W_k (header) and where its unknowns came from.
 class StageBuilder {
  public:
@@ -364,6 +370,7 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
   int32_t previous = 0;
   int32_t t = static_cast<int32_t>(std::min<int64_t>(options.first_poses, n));
   bool t_chosen = true;  // t set by the first stage or by a redo
+  bool redone = false;   // the stage kept last was a redo
   std::vector<int32_t> new_features;
   for (int32_t attempt = 0;; ++attempt) {
     if (!t_chosen) t = internal::NextStageSize(options.growth, allowed, previous, n);
@@ -417,10 +424,11 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
     stage_summary.iterations = solver_summary.iterations;
     stage_summary.termination = solver_summary.termination;
     stage_summary.seconds = SecondsSince(stage_start);
-    // A redo (header): the stage did not converge within its iterations, so
-    // its new poses started outside the basin; it is discarded and done again
-    // with half of them.
+    // A redo (header): the stage did not converge within its iterations and
+    // lowered chi2 more than tenfold on the way, so its new poses started far
+    // outside the basin; it is discarded and done again with half of them.
     if (options.max_iterations_per_stage > 0 && !solver_summary.converged &&
+        solver_summary.initial_chi2 > kFarStartChi2Ratio * solver_summary.final_chi2 &&
         t - new_begin > floor_new_poses) {
       GS_VLOG(1, "incremental initialization: %d poses not converged in %d iterations "
                  "(chi2 %.6g -> %.6g): redone with %lld new poses",
@@ -434,6 +442,7 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
       allowed = std::max<int64_t>(floor_new_poses, (t - new_begin) / 2);
       t = static_cast<int32_t>(new_begin + allowed);
       t_chosen = true;
+      redone = true;
       ++summary->redone_stages;
       continue;
     }
@@ -452,11 +461,14 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
     summary->stages.push_back(std::move(stage_summary));
     if (base.progress) base.progress("incremental initialization", t, n);
     if (t == n) break;
-    if (options.max_iterations_per_stage > 0) {
+    if (options.max_iterations_per_stage > 0 && !redone) {
       // Unsettled (at the floor, so not redone): fewer new poses next time.
+      // After a redo the next stage adds as many as the redo did: twice that
+      // many just failed.
       allowed = internal::NextAllowedNewPoses(solver_summary, allowed, options.min_new_poses,
                                               options.max_new_poses);
     }
+    redone = false;
   }
 
   problem->poses = std::move(poses);

@@ -8,17 +8,20 @@
 // Stages. Prefix lengths T_k grow as in progressive initialization
 // (geometric from first_poses, at most A_k new poses, A_k halved after an
 // unsettled stage and doubled back after a settled one). A stage whose solve
-// does not converge within max_iterations_per_stage is redone: its results
+// does not converge within max_iterations_per_stage after lowering chi2 more
+// than tenfold (it started far from its optimum) is redone: its results
 // are discarded, its new poses and features unplaced, and the stage is done
 // again with half as many new poses (at least min_new_poses; a stage at that
-// floor is kept as it is). Odometry chained over many poses can start them
+// floor is kept as it is; the stage after a redo adds as many new poses as
+// the redo did). Odometry chained over many poses can start them
 // outside the optimum's basin, and a window solved from there settles in a
 // local minimum the later windows, which hold it fixed, never leave (a
 // simulated GPS campus of 500 poses, chi2/dof at the optimum 0.99: 6.2 with
 // the 100-pose first stage from dead reckoning, 0.99 with redone stages);
 // from a start inside the basin a stage converges within a few iterations
-// (Victoria Park, intel, M3500, city10000: 3-7), so redoing costs nothing
-// where chaining is good. Before stage k the
+// (Victoria Park, intel, M3500, city10000: 3-7) or starts near its end
+// (MRCLAM with a Cauchy kernel), so redoing costs nothing where chaining is
+// good. Before stage k the
 // poses [T_{k-1}, T_k) are placed by chaining odometry off their optimized
 // predecessor and the features first seen from them from that sighting
 // (partition/internal/odometry_chain.h, Table 1 inverted), after each
