@@ -98,6 +98,12 @@ Indices BuildIndices(const core::Problem2d& problem) {
   return index;
 }
 
+// A stage that did not converge and whose chi2 fell by more than this
+// factor is redone (header); slow convergence near the start (a robust
+// kernel's reweighting: MRCLAM's stages end 1.1-2.3 times below their start)
+// is not.
+constexpr double kFarStartChi2Ratio = 10.0;
+
 // One stage's sub-problem W_k (header) and where its unknowns came from.
 class StageBuilder {
  public:
@@ -360,42 +366,46 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
   double next_full = options.full_stage_growth > 0.0
                          ? options.full_stage_growth * static_cast<double>(options.first_poses)
                          : static_cast<double>(n) + 1.0;
+  const int64_t floor_new_poses = std::min(options.min_new_poses, options.max_new_poses);
   int32_t previous = 0;
   int32_t t = static_cast<int32_t>(std::min<int64_t>(options.first_poses, n));
-  for (int32_t stage = 0;; ++stage) {
-    if (stage > 0) t = internal::NextStageSize(options.growth, allowed, previous, n);
+  bool t_chosen = true;  // t set by the first stage or by a redo
+  bool redone = false;   // the stage kept last was a redo
+  std::vector<int32_t> new_features;
+  for (int32_t attempt = 0;; ++attempt) {
+    if (!t_chosen) t = internal::NextStageSize(options.growth, allowed, previous, n);
+    t_chosen = false;
     const Clock::time_point stage_start = Clock::now();
-    if (stage == 0) {
+    if (previous == 0) {
       for (int32_t p = 0; p < t; ++p) placed[p] = 1;  // the input guess
     } else {
       internal::PlacePoses(*problem, adjacency, previous, t, &poses, &placed);
     }
     AlignNewPosesToGps(*problem, index, previous, t, &poses);
     // New features from their first sighting (lowest pose, then input order).
+    new_features.clear();
     for (int32_t p = previous; p < t; ++p) {
       for (int64_t i = index.observations_of_pose.begin(p); i < index.observations_of_pose.end(p);
            ++i) {
         const core::Observation& o = problem->observations[index.observations_of_pose.items[i]];
         if (feature_placed[o.feature]) continue;
         feature_placed[o.feature] = 1;
+        new_features.push_back(o.feature);
         features[o.feature] = o.kind == core::ObservationKind::kRangeBearing
                                   ? core::InvertRangeBearing(poses[o.pose], o.z)
                                   : core::InvertPointObservation(poses[o.pose], o.z);
       }
     }
     const int32_t new_begin = previous;
-    previous = t;
-    if (t == n) break;
 
     const bool full = static_cast<double>(t) >= next_full;
-    while (static_cast<double>(t) >= next_full) next_full *= options.full_stage_growth;
     const int32_t window_begin =
         full ? 0 : static_cast<int32_t>(std::max<int64_t>(0, t - options.window_poses));
     const std::vector<int32_t> unknown =
         UnknownPoses(options, index, new_begin, window_begin, t, &mark);
     IncrementalStageSummary stage_summary;
     core::Problem2d sub =
-        builder.Build(stage, unknown, window_begin, t, options.max_prior_observations_per_feature,
+        builder.Build(attempt, unknown, window_begin, t, options.max_prior_observations_per_feature,
                       poses, features, &stage_summary.constraints);
     stage_summary.poses = t;
     stage_summary.full = full;
@@ -406,32 +416,59 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
     core::SolverSummary solver_summary;
     Status status = SolveWithoutSingletons(stage_options, chunking, &sub, &solver_summary);
     if (!status.ok())
-      return status.WithContext("incremental initialization stage " + std::to_string(stage) +
-                                " (" + std::to_string(t) + " poses)");
+      return status.WithContext("incremental initialization stage " +
+                                std::to_string(summary->stages.size()) + " (" + std::to_string(t) +
+                                " poses)");
     stage_summary.initial_chi2 = solver_summary.initial_chi2;
     stage_summary.final_chi2 = solver_summary.final_chi2;
     stage_summary.iterations = solver_summary.iterations;
     stage_summary.termination = solver_summary.termination;
+    stage_summary.seconds = SecondsSince(stage_start);
+    // A redo (header): the stage did not converge within its iterations and
+    // lowered chi2 more than tenfold on the way, so its new poses started far
+    // outside the basin; it is discarded and done again with half of them.
+    if (options.max_iterations_per_stage > 0 && !solver_summary.converged &&
+        solver_summary.initial_chi2 > kFarStartChi2Ratio * solver_summary.final_chi2 &&
+        t - new_begin > floor_new_poses) {
+      GS_VLOG(1, "incremental initialization: %d poses not converged in %d iterations "
+                 "(chi2 %.6g -> %.6g): redone with %lld new poses",
+              t, stage_summary.iterations, stage_summary.initial_chi2, stage_summary.final_chi2,
+              static_cast<long long>(std::max<int64_t>(floor_new_poses, (t - new_begin) / 2)));
+      for (int32_t p = new_begin; p < t; ++p) {
+        poses[p] = problem->poses[p];
+        placed[p] = problem->pose_fixed[p] != 0;
+      }
+      for (int32_t f : new_features) feature_placed[f] = 0;
+      allowed = std::max<int64_t>(floor_new_poses, (t - new_begin) / 2);
+      t = static_cast<int32_t>(new_begin + allowed);
+      t_chosen = true;
+      redone = true;
+      ++summary->redone_stages;
+      continue;
+    }
+    previous = t;
+    while (static_cast<double>(t) >= next_full) next_full *= options.full_stage_growth;
     for (int32_t p : unknown) poses[p] = sub.poses[builder.local_pose(p)];
     const std::vector<int32_t>& sub_features = builder.sub_features();
     for (size_t j = 0; j < sub_features.size(); ++j) features[sub_features[j]] = sub.features[j];
-    stage_summary.seconds = SecondsSince(stage_start);
-    GS_VLOG(1, "incremental initialization: stage %d, %d poses (%lld solved, %lld fixed), "
+    GS_VLOG(1, "incremental initialization: stage %zu, %d poses (%lld solved, %lld fixed), "
                "%lld features, chi2 %.6g -> %.6g in %d iterations (%s), %.3f s",
-            stage, t, static_cast<long long>(stage_summary.solved_poses),
+            summary->stages.size(), t, static_cast<long long>(stage_summary.solved_poses),
             static_cast<long long>(stage_summary.fixed_poses),
             static_cast<long long>(stage_summary.features), stage_summary.initial_chi2,
             stage_summary.final_chi2, stage_summary.iterations, stage_summary.termination.c_str(),
             stage_summary.seconds);
     summary->stages.push_back(std::move(stage_summary));
     if (base.progress) base.progress("incremental initialization", t, n);
-    if (options.max_iterations_per_stage > 0) {
-      // Unsettled: stopped by the iteration cap while its last iteration still
-      // lowered chi2 by more than 1 % (its chained segment started far from
-      // the optimum): fewer new poses next time.
+    if (t == n) break;
+    if (options.max_iterations_per_stage > 0 && !redone) {
+      // Unsettled (at the floor, so not redone): fewer new poses next time.
+      // After a redo the next stage adds as many as the redo did: twice that
+      // many just failed.
       allowed = internal::NextAllowedNewPoses(solver_summary, allowed, options.min_new_poses,
                                               options.max_new_poses);
     }
+    redone = false;
   }
 
   problem->poses = std::move(poses);

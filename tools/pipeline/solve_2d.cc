@@ -554,6 +554,7 @@ nlohmann::json Report2d(const SolveRun& run, const Solve2d& s, double total_seco
     report["incremental_initialization"] = {
         {"stages", static_cast<int64_t>(s.incremental_summary.stages.size())},
         {"most_poses_solved_in_a_stage", most_solved},
+        {"redone_stages", s.incremental_summary.redone_stages},
         {"seconds", s.incremental_summary.seconds}};
   }
   if (s.probe) {
