@@ -19,7 +19,7 @@
 #include "core/chunk_passes.h"
 #include "core/gps3_model.h"
 #include "core/point3_observation_model.h"
-#include "core/pose_factors_3d.h"
+#include "core/pose_factors.h"
 #include "core/relative_pose3_model.h"
 #include "partition/in_memory_chunk_source.h"
 #include "tests/testing/reduced_system_at.h"

@@ -1,5 +1,5 @@
-// Pose-only constraints (relative pose, velocity motion, GPS) with robust
-// kernels per constraint type: gradient and Gauss-Newton blocks against
+// Pose-only constraints (relative pose, velocity motion, GPS; 3-D relative
+// pose and GPS) with robust kernels per constraint type: gradient and Gauss-Newton blocks against
 // numeric differentiation of the robust cost, and whole solves where wrong
 // loop closures or a GPS outlier pull the plain least-squares map away.
 #include "core/pose_factors.h"
@@ -18,6 +18,7 @@
 #include "partition/in_memory_chunk_source.h"
 #include "tests/testing/numeric_diff.h"
 #include "tests/testing/random_problem.h"
+#include "tests/testing/random_problem_3d.h"
 
 namespace graphslam::core {
 namespace {
@@ -105,6 +106,42 @@ TEST(PoseFactors, RobustGradientIsHalfTheNumericDerivativeOfTheRobustCost) {
           << "velocity " << velocity << " kernels "
           << RobustKernelsName(RobustKernel(), kernels);
     }
+  }
+}
+
+
+// The 3-D factors go through the same template: chi2, gradient and the
+// Hessian diagonal agree with the robust cost, differentiated numerically
+// w.r.t. the body-frame increments (x Exp(d)).
+TEST(PoseFactors, ThreeDimensionalGradientIsHalfTheNumericDerivativeOfTheRobustCost) {
+  const Problem3d problem = testing::MakeRandomProblem3d(8, 0, /*gps=*/true, 11);
+  ASSERT_FALSE(problem.gps.empty());
+  const UnknownLayout layout = UnknownLayout::FromProblem(problem);
+  for (const PoseFactorKernels& kernels : KernelCases()) {
+    std::vector<std::pair<int, int>> pairs;
+    AppendPoseFactorPattern(problem, layout, &pairs);
+    BlockSparseMatrix hessian =
+        BlockSparseMatrix::FromPattern(6, layout.num_unknown_poses, std::move(pairs));
+    Eigen::VectorXd gradient = Eigen::VectorXd::Zero(hessian.num_rows());
+    Eigen::VectorXd diagonal = Eigen::VectorXd::Zero(hessian.num_rows());
+    const double chi2 = LinearizePoseFactors(problem, problem.poses, layout, &hessian, &gradient,
+                                             &diagonal, kernels);
+    EXPECT_GT(chi2, 0.0);
+    EXPECT_DOUBLE_EQ(chi2, PoseFactorsChi2(problem, problem.poses, kernels));
+    EXPECT_TRUE(diagonal.isApprox(hessian.ToDense().diagonal()));
+    const auto cost = [&](const Eigen::VectorXd& delta) {
+      std::vector<Pose3> poses = problem.poses;
+      for (int32_t p = 0; p < problem.num_poses(); ++p) {
+        const int32_t u = layout.unknown_index[p];
+        if (u >= 0) poses[p] = RetractPose3(poses[p], delta.segment<6>(6 * u));
+      }
+      return Eigen::VectorXd::Constant(1, PoseFactorsChi2(problem, poses, kernels));
+    };
+    const Eigen::VectorXd expected =
+        0.5 * testing::NumericJacobian(cost, Eigen::VectorXd::Zero(gradient.size()), 1e-6)
+                  .transpose();
+    EXPECT_LT((gradient - expected).norm(), 1e-5 * std::max(1.0, expected.norm()))
+        << RobustKernelsName(RobustKernel(), kernels);
   }
 }
 
