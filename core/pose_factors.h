@@ -5,7 +5,7 @@
 //     range-bearing measurements of one pose from another (robot to robot,
 //     core/pose_range_bearing_model.h);
 //   - 3-D (Problem3d, core/pose_factors_3d.cc): relative poses
-//     (core/relative_pose3_model.h) and GPS positions (core/gps3_model.h).
+//     (core/relative_pose_3d_model.h) and GPS positions (core/gps_3d_model.h).
 //
 // For each constraint with residual e(x) (Jacobians A_k w.r.t. the body-frame
 // increments d of the poses it touches: x (+) d) and information W, in

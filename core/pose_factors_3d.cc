@@ -1,9 +1,9 @@
 // The 3-D pose-only factors (core/pose_factors.h). The SE(3) models give
 // their Jacobians w.r.t. the body-frame increments already (x Exp(d)).
-#include "core/gps3_model.h"
+#include "core/gps_3d_model.h"
 #include "core/internal/pose_factor_sums.h"
 #include "core/pose_factors.h"
-#include "core/relative_pose3_model.h"
+#include "core/relative_pose_3d_model.h"
 
 namespace graphslam::core {
 namespace {

@@ -4,9 +4,9 @@
 // Unknowns: poses x_0..x_{T-1} in SE(3) (core/se3.h) and point features
 // m_0..m_{N-1} in R^3. Constraints (Gaussian, information Omega, each adding
 // e^T Omega e to chi2, the g2o convention):
-//   - relative pose between two poses      (relative_pose3_model.h)
+//   - relative pose between two poses      (relative_pose_3d_model.h)
 //   - a point in the frame of a pose       (point3_observation_model.h)
-//   - GPS position of a pose               (gps3_model.h)
+//   - GPS position of a pose               (gps_3d_model.h)
 // The unknowns and their ids, and the relative-pose and GPS constraints, are
 // the dimension-free templates of core/problem_unknowns.h (as in Problem2d).
 //
@@ -22,7 +22,7 @@
 
 namespace graphslam::core {
 
-// Information on e = [t; vec(q)] (g2o), core/relative_pose3_model.h.
+// Information on e = [t; vec(q)] (g2o), core/relative_pose_3d_model.h.
 using RelativePose3Constraint = RelativePoseConstraintOf<Pose3, 6>;
 
 struct Point3Observation {
@@ -33,7 +33,7 @@ struct Point3Observation {
   int32_t line = 0;
 };
 
-using Gps3Constraint = GpsConstraintOf<3>;  // core/gps3_model.h
+using Gps3Constraint = GpsConstraintOf<3>;  // core/gps_3d_model.h
 
 struct Problem3d : ProblemUnknowns<Pose3, Point3> {
   std::vector<RelativePose3Constraint> relative_poses;
