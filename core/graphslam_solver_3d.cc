@@ -2,7 +2,7 @@
 
 #include "core/internal/chunked_solve.h"
 #include "core/point3_observation_model.h"
-#include "core/pose_factors_3d.h"
+#include "core/pose_factors.h"
 
 namespace graphslam::core {
 

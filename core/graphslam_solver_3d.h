@@ -22,7 +22,7 @@
 // results do not depend on the number of threads. Observations come only
 // through the ChunkSource3d (problem->observations is not read): an in-memory
 // one cut from the problem (partition/in_memory_chunk_source.h) or a store.
-// The relative-pose and GPS constraints (core/pose_factors_3d.h) take
+// The relative-pose and GPS constraints (core/pose_factors.h) take
 // pose_kernels.relative_pose / .gps (pose_kernels.motion has no 3-D
 // constraint), observations the observation_kernel (IRLS). The gauge is fixed
 // by removing anchor poses from the unknowns: fixed poses, else pose 0 unless

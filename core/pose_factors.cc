@@ -1,138 +1,85 @@
+// The planar pose-only factors (core/pose_factors.h). The planar models are
+// differentiated w.r.t. (x, y, theta); RetractionJacobian carries each
+// Jacobian to the increment after evaluation.
 #include "core/pose_factors.h"
 
-#include "core/check.h"
 #include "core/gps_model.h"
-#include "core/internal/robust_term.h"
+#include "core/internal/pose_factor_sums.h"
 #include "core/pose_range_bearing_model.h"
 #include "core/relative_pose_model.h"
 #include "core/velocity_motion_model.h"
 
 namespace graphslam::core {
-
-using internal::RobustTerm;
-
 namespace {
 
-constexpr int kDim = UnknownLayout::kPoseDimension;
+using internal::PoseFactor;
 
-// Adds A_a^T W A_b for every pair of touched unknown poses, and the gradients.
-template <int kResidual>
-void AddBinary(const UnknownLayout& layout, int32_t pose_a, int32_t pose_b,
-               const Eigen::Matrix<double, kResidual, 3>& jacobian_a,
-               const Eigen::Matrix<double, kResidual, 3>& jacobian_b,
-               const Eigen::Matrix<double, kResidual, kResidual>& information,
-               const Eigen::Matrix<double, kResidual, 1>& residual, BlockSparseMatrix* hessian,
-               Eigen::VectorXd* gradient, Eigen::VectorXd* hessian_diagonal) {
-  const int32_t ua = layout.unknown_index[pose_a];
-  const int32_t ub = layout.unknown_index[pose_b];
-  const Eigen::Matrix<double, 3, kResidual> wa = jacobian_a.transpose() * information;
-  const Eigen::Matrix<double, 3, kResidual> wb = jacobian_b.transpose() * information;
-  if (ua >= 0) {
-    const Eigen::Matrix3d haa = wa * jacobian_a;
-    GS_CHECK(hessian->AddBlock(ua, ua, haa));
-    gradient->segment<kDim>(kDim * ua) += wa * residual;
-    hessian_diagonal->segment<kDim>(kDim * ua) += haa.diagonal();
-  }
-  if (ub >= 0) {
-    const Eigen::Matrix3d hbb = wb * jacobian_b;
-    GS_CHECK(hessian->AddBlock(ub, ub, hbb));
-    gradient->segment<kDim>(kDim * ub) += wb * residual;
-    hessian_diagonal->segment<kDim>(kDim * ub) += hbb.diagonal();
-  }
-  if (ua >= 0 && ub >= 0 && ua != ub) {
-    // Store the upper block (row < column); AddBlock mirrors it.
-    if (ua < ub) {
-      GS_CHECK(hessian->AddBlock(ua, ub, Eigen::Matrix3d(wa * jacobian_b)));
-    } else {
-      GS_CHECK(hessian->AddBlock(ub, ua, Eigen::Matrix3d(wb * jacobian_a)));
-    }
-  }
+using Jacobian23 = Eigen::Matrix<double, 2, 3>;
+
+// j <- j * dx/dd at `pose`, when the Jacobian is wanted.
+template <class Jacobian>
+void ToIncrement(const Pose2& pose, Jacobian* jacobian) {
+  if (jacobian != nullptr) *jacobian = *jacobian * RetractionJacobian(pose);
 }
+
+// A planar model between two poses: Model(c, from, to, e, j_from, j_to),
+// carried to the increments.
+template <class C, int kResidual, auto Model>
+bool PlanarBinary(const C& c, const std::vector<Pose2>& poses,
+                  Eigen::Matrix<double, kResidual, 1>* e, Eigen::Matrix<double, kResidual, 3>* ja,
+                  Eigen::Matrix<double, kResidual, 3>* jb) {
+  if (!Model(c, poses[c.from], poses[c.to], e, ja, jb)) return false;
+  ToIncrement(poses[c.from], ja);
+  ToIncrement(poses[c.to], jb);
+  return true;
+}
+
+bool RelativePose(const RelativePoseConstraint& c, const Pose2& from, const Pose2& to,
+                  Eigen::Vector3d* e, Eigen::Matrix3d* ja, Eigen::Matrix3d* jb) {
+  EvaluateRelativePose(from, to, c.z, e, ja, jb);
+  return true;
+}
+
+bool VelocityMotion(const VelocityMotionConstraint& c, const Pose2& from, const Pose2& to,
+                    Eigen::Vector3d* e, Eigen::Matrix3d* ja, Eigen::Matrix3d* jb) {
+  EvaluateVelocityMotion(from, to, c.control, e, ja, jb);
+  return true;
+}
+
+// Coincident positions (undefined bearing) contribute nothing, as an
+// observation at its feature's position does in the feature linearizer.
+bool PoseRangeBearing(const PoseRangeBearingConstraint& c, const Pose2& from, const Pose2& to,
+                      Eigen::Vector2d* e, Jacobian23* ja, Jacobian23* jb) {
+  return EvaluatePoseRangeBearing(from, to, c.z, e, ja, jb);
+}
+
+bool Gps(const GpsConstraint& c, const std::vector<Pose2>& poses, Eigen::Vector2d* e,
+         Jacobian23* j, Jacobian23* /*unused*/) {
+  EvaluateGps(poses[c.pose], c.z, e, j);
+  ToIncrement(poses[c.pose], j);
+  return true;
+}
+
+template <class C, int kResidual, auto Model>
+using PlanarBinaryFactor = PoseFactor<C, kResidual, 3, PlanarBinary<C, kResidual, Model>>;
+using RelativePoseFactor = PlanarBinaryFactor<RelativePoseConstraint, 3, RelativePose>;
+using VelocityMotionFactor = PlanarBinaryFactor<VelocityMotionConstraint, 3, VelocityMotion>;
+using PoseRangeBearingFactor = PlanarBinaryFactor<PoseRangeBearingConstraint, 2, PoseRangeBearing>;
+using GpsFactor = PoseFactor<GpsConstraint, 2, 3, Gps>;
 
 }  // namespace
 
-double PoseFactorsChi2(const Problem2d& problem, const std::vector<Pose2>& poses,
-                       const PoseFactorKernels& kernels) {
-  double chi2 = 0.0;
-  Eigen::Vector3d e3;
-  for (const RelativePoseConstraint& c : problem.relative_poses) {
-    EvaluateRelativePose(poses[c.from], poses[c.to], c.z, &e3, nullptr, nullptr);
-    chi2 += RobustTerm<3>(kernels.relative_pose, e3, c.information, nullptr);
+template <>
+struct internal::PoseFactorList<Problem2d> {
+  template <class Visit>
+  static void ForEach(const Problem2d& problem, const PoseFactorKernels& kernels, Visit&& visit) {
+    visit(RelativePoseFactor{}, problem.relative_poses, kernels.relative_pose);
+    visit(VelocityMotionFactor{}, problem.motions, kernels.motion);
+    visit(GpsFactor{}, problem.gps, kernels.gps);
+    visit(PoseRangeBearingFactor{}, problem.pose_range_bearings, kernels.robot);
   }
-  for (const VelocityMotionConstraint& c : problem.motions) {
-    EvaluateVelocityMotion(poses[c.from], poses[c.to], c.control, &e3, nullptr, nullptr);
-    chi2 += RobustTerm<3>(kernels.motion, e3, c.information, nullptr);
-  }
-  Eigen::Vector2d e2;
-  for (const GpsConstraint& c : problem.gps) {
-    EvaluateGps(poses[c.pose], c.z, &e2, nullptr);
-    chi2 += RobustTerm<2>(kernels.gps, e2, c.information, nullptr);
-  }
-  for (const PoseRangeBearingConstraint& c : problem.pose_range_bearings) {
-    // Coincident positions (undefined bearing) contribute nothing, as an
-    // observation at its feature's position does in the feature linearizer.
-    if (!EvaluatePoseRangeBearing(poses[c.from], poses[c.to], c.z, &e2, nullptr, nullptr)) continue;
-    chi2 += RobustTerm<2>(kernels.robot, e2, c.information, nullptr);
-  }
-  return chi2;
-}
+};
 
-double LinearizePoseFactors(const Problem2d& problem, const std::vector<Pose2>& poses,
-                            const UnknownLayout& layout, BlockSparseMatrix* hessian,
-                            Eigen::VectorXd* gradient, Eigen::VectorXd* hessian_diagonal,
-                            const PoseFactorKernels& kernels) {
-  double chi2 = 0.0;
-  Eigen::Vector3d e3;
-  Eigen::Matrix3d ja, jb, w3;
-  for (const RelativePoseConstraint& c : problem.relative_poses) {
-    EvaluateRelativePose(poses[c.from], poses[c.to], c.z, &e3, &ja, &jb);
-    chi2 += RobustTerm<3>(kernels.relative_pose, e3, c.information, &w3);
-    ja = ja * RetractionJacobian(poses[c.from]);
-    jb = jb * RetractionJacobian(poses[c.to]);
-    AddBinary<3>(layout, c.from, c.to, ja, jb, w3, e3, hessian, gradient, hessian_diagonal);
-  }
-  for (const VelocityMotionConstraint& c : problem.motions) {
-    EvaluateVelocityMotion(poses[c.from], poses[c.to], c.control, &e3, &ja, &jb);
-    chi2 += RobustTerm<3>(kernels.motion, e3, c.information, &w3);
-    ja = ja * RetractionJacobian(poses[c.from]);
-    jb = jb * RetractionJacobian(poses[c.to]);
-    AddBinary<3>(layout, c.from, c.to, ja, jb, w3, e3, hessian, gradient, hessian_diagonal);
-  }
-  Eigen::Vector2d e2;
-  Eigen::Matrix<double, 2, 3> j2;
-  Eigen::Matrix2d w2;
-  for (const GpsConstraint& c : problem.gps) {
-    EvaluateGps(poses[c.pose], c.z, &e2, &j2);
-    chi2 += RobustTerm<2>(kernels.gps, e2, c.information, &w2);
-    j2 = j2 * RetractionJacobian(poses[c.pose]);
-    const int32_t u = layout.unknown_index[c.pose];
-    if (u < 0) continue;
-    const Eigen::Matrix<double, 3, 2> w = j2.transpose() * w2;
-    const Eigen::Matrix3d h = w * j2;
-    GS_CHECK(hessian->AddBlock(u, u, h));
-    gradient->segment<kDim>(kDim * u) += w * e2;
-    hessian_diagonal->segment<kDim>(kDim * u) += h.diagonal();
-  }
-  Eigen::Matrix<double, 2, 3> j2b;
-  for (const PoseRangeBearingConstraint& c : problem.pose_range_bearings) {
-    if (!EvaluatePoseRangeBearing(poses[c.from], poses[c.to], c.z, &e2, &j2, &j2b)) continue;
-    chi2 += RobustTerm<2>(kernels.robot, e2, c.information, &w2);
-    j2 = j2 * RetractionJacobian(poses[c.from]);
-    j2b = j2b * RetractionJacobian(poses[c.to]);
-    AddBinary<2>(layout, c.from, c.to, j2, j2b, w2, e2, hessian, gradient, hessian_diagonal);
-  }
-  return chi2;
-}
-
-void AppendPoseFactorPattern(const Problem2d& problem, const UnknownLayout& layout,
-                             std::vector<std::pair<int, int>>* pairs) {
-  auto add = [&](int32_t a, int32_t b) {
-    const int32_t ua = layout.unknown_index[a], ub = layout.unknown_index[b];
-    if (ua >= 0 && ub >= 0) pairs->emplace_back(std::min(ua, ub), std::max(ua, ub));
-  };
-  for (const RelativePoseConstraint& c : problem.relative_poses) add(c.from, c.to);
-  for (const VelocityMotionConstraint& c : problem.motions) add(c.from, c.to);
-  for (const PoseRangeBearingConstraint& c : problem.pose_range_bearings) add(c.from, c.to);
-}
+GS_INSTANTIATE_POSE_FACTORS(Problem2d);
 
 }  // namespace graphslam::core

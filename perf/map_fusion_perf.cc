@@ -18,7 +18,7 @@
 #include <tuple>
 #include <vector>
 
-#include "tools/campus3d.h"
+#include "tools/campus_3d.h"
 #include "storage/scan_store.h"
 #include "storage/threedtk_reader.h"
 #include "partition/tiled_fusion.h"

@@ -6,14 +6,13 @@
 #include "core/information_repair.h"
 #include "core/unidentified_features.h"
 #include "storage/internal/g2o_graph.h"
+#include "storage/internal/g2o_records.h"
 #include "storage/internal/text_reader.h"
 
 namespace graphslam::storage {
 namespace {
 
 using internal::LineReader;
-using VertexKind = internal::G2oVertexKind;
-
 using Graph = internal::G2oGraph<internal::G2o2d>;
 using internal::G2oEdgeKind;
 
@@ -27,25 +26,18 @@ constexpr const char* kKnownTags =
 
 class G2oParser {
  public:
-  explicit G2oParser(core::InformationRepairs* repairs) : repairs_(repairs) {}
+  explicit G2oParser(core::InformationRepairs* repairs) : graph_(repairs) {}
 
   StatusOr<core::Problem2d> Parse(const std::string& path) {
     return graph_.Read(path, [this](const LineReader& reader) { return ParseLine(reader); });
   }
 
  private:
-  // With repair on (core/information_repair.h): repairs and counts a matrix
-  // that is not positive definite; false when repair is off (reject it).
-  template <typename Matrix>
-  bool Repaired(const LineReader& reader, Matrix* information) {
-    return core::RepairAndCount(repairs_, reader.line_number(), information);
-  }
-
   Status ParseLine(const LineReader& reader) {
     const std::string_view tag = reader.fields()[0];
-    if (tag == "VERTEX_SE2") return ParseVertex(reader, VertexKind::kPose);
-    if (tag == "VERTEX_XY") return ParseVertex(reader, VertexKind::kFeature);
-    if (tag == "EDGE_SE2") return ParseRelativePose(reader);
+    if (tag == "VERTEX_SE2") return ParsePoseVertex(reader);
+    if (tag == "VERTEX_XY") return internal::ParseG2oPointVertex(reader, &graph_);
+    if (tag == "EDGE_SE2") return internal::ParseG2oRelativePose(reader, &graph_);
     if (tag == "EDGE_SE2_XY") return ParsePointEdge(reader, G2oEdgeKind::kPointObservation);
     if (tag == "EDGE_PRIOR_SE2_XY") return ParsePointEdge(reader, G2oEdgeKind::kPositionPrior);
     if (tag == "FIX") return graph_.AddFix(reader);
@@ -57,81 +49,15 @@ class G2oParser {
     return reader.Unsupported("unknown tag '" + std::string(tag) + "'; expected " + kKnownTags);
   }
 
-  Status ParseVertex(const LineReader& reader, VertexKind kind) {
-    const bool pose = kind == VertexKind::kPose;
-    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(pose ? 5 : 4));
-    GS_ASSIGN_OR_RETURN(const int64_t id, reader.Id(1, "id"));
-    double values[3] = {0.0, 0.0, 0.0};
-    GS_RETURN_IF_ERROR(reader.Doubles(2, pose ? 3 : 2, "estimate", values));
-    GS_RETURN_IF_ERROR(graph_.vertices().CheckUnique(reader, id, kind));
-    core::Problem2d& problem = graph_.problem();
-    int32_t index = 0;
-    if (pose) {
-      index = problem.AddPose(id, core::Pose2(values[0], values[1], values[2]),
-                              /*initialized=*/true, reader.line_number());
-      last_pose_ = index;
-    } else {
-      index = problem.AddFeature(id, core::Point2(values[0], values[1]), /*initialized=*/true);
-    }
-    graph_.vertices().Define(id, kind, index, reader.line_number());
-    return Status::Ok();
-  }
-
-  Status ParseRelativePose(const LineReader& reader) {
-    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(12));
-    Graph::Pending item;
-    item.kind = G2oEdgeKind::kRelativePose;
-    item.line = reader.line_number();
-    GS_ASSIGN_OR_RETURN(item.ids[0], reader.Id(1, "from id"));
-    GS_ASSIGN_OR_RETURN(item.ids[1], reader.Id(2, "to id"));
-    double z[3];
-    double upper[6];
-    GS_RETURN_IF_ERROR(reader.Doubles(3, 3, "measurement", z));
-    GS_RETURN_IF_ERROR(reader.Doubles(6, 6, "information", upper, internal::Magnitude::kInformation));
-    item.pose = core::Pose2(z[0], z[1], z[2]);
-    item.pose_information = internal::SymmetricFromUpper3(upper);
-    if (!internal::IsPositiveDefinite(item.pose_information) &&
-        !Repaired(reader, &item.pose_information)) {
-      return reader.Error("EDGE_SE2 information " + internal::UpperTriangleString(upper, 6) +
-                          " is not positive definite; expected a symmetric positive definite "
-                          "matrix (upper triangle xx xy xt yy yt tt)");
-    }
-    if (item.ids[0] == item.ids[1]) {
-      return reader.Error("EDGE_SE2 connects vertex " + std::to_string(item.ids[0]) +
-                          " to itself; expected two distinct vertices");
-    }
-    graph_.Add(item);
+  Status ParsePoseVertex(const LineReader& reader) {
+    GS_ASSIGN_OR_RETURN(last_pose_, internal::ParseG2oPoseVertex(reader, &graph_));
     return Status::Ok();
   }
 
   // EDGE_SE2_XY pose landmark x y xx xy yy, EDGE_PRIOR_SE2_XY pose x y xx xy yy.
   Status ParsePointEdge(const LineReader& reader, G2oEdgeKind kind) {
-    const bool observation = kind == G2oEdgeKind::kPointObservation;
-    const size_t ids = observation ? 2 : 1;
-    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(1 + ids + 2 + 3));
-    Graph::Pending item;
-    item.kind = kind;
-    item.line = reader.line_number();
-    GS_ASSIGN_OR_RETURN(item.ids[0], reader.Id(1, "pose id"));
-    if (observation) {
-      GS_ASSIGN_OR_RETURN(item.ids[1], reader.Id(2, "landmark id"));
-    }
-    double z[2];
-    double upper[3];
-    GS_RETURN_IF_ERROR(reader.Doubles(1 + ids, 2, "measurement", z));
-    GS_RETURN_IF_ERROR(reader.Doubles(3 + ids, 3, "information", upper,
-                                       internal::Magnitude::kInformation));
-    item.point = Eigen::Vector2d(z[0], z[1]);
-    item.point_information = internal::SymmetricFromUpper2(upper);
-    if (!internal::IsPositiveDefinite(item.point_information) &&
-        !Repaired(reader, &item.point_information)) {
-      return reader.Error(std::string(Graph::Tag(kind)) + " information " +
-                          internal::UpperTriangleString(upper, 3) +
-                          " is not positive definite; expected a symmetric positive definite "
-                          "matrix (upper triangle xx xy yy)");
-    }
-    graph_.Add(item);
-    return Status::Ok();
+    return internal::ParseG2oPointEdge(reader, kind, /*extra_fields=*/0, &graph_,
+                                       [](const LineReader&) { return Status::Ok(); });
   }
 
   // DATA_FEATURE_POINTXY a b x y xx xy yy: a point observation without
@@ -147,18 +73,11 @@ class G2oParser {
           "observed from");
     }
     double z[2];
-    double upper[3];
     GS_RETURN_IF_ERROR(reader.Doubles(3, 2, "measurement", z));
-    GS_RETURN_IF_ERROR(reader.Doubles(5, 3, "information", upper, internal::Magnitude::kInformation));
     core::Observation observation;
-    observation.information = internal::SymmetricFromUpper2(upper);
-    if (!internal::IsPositiveDefinite(observation.information) &&
-        !Repaired(reader, &observation.information)) {
-      return reader.Error("DATA_FEATURE_POINTXY information " +
-                          internal::UpperTriangleString(upper, 3) +
-                          " is not positive definite; expected a symmetric positive definite "
-                          "matrix (upper triangle xx xy yy)");
-    }
+    GS_RETURN_IF_ERROR(internal::ReadG2oInformation<2>(
+        reader, 5, "DATA_FEATURE_POINTXY", internal::G2o2d::kPointInformationForm,
+        graph_.repairs(), &observation.information));
     observation.pose = last_pose_;
     observation.feature = graph_.problem().AddFeature(core::kNoFeatureId, core::Point2::Zero(),
                                                       /*initialized=*/false);
@@ -169,7 +88,6 @@ class G2oParser {
     return Status::Ok();
   }
 
-  core::InformationRepairs* const repairs_;  // null: reject non-PD information
   Graph graph_;
   int32_t last_pose_ = -1;  // the VERTEX_SE2 defined last (DATA_FEATURE_POINTXY's pose)
 };

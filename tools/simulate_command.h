@@ -20,7 +20,7 @@
 #include <CLI/CLI.hpp>
 
 #include "tools/campus_simulator.h"
-#include "tools/simulate3d_command.h"
+#include "tools/simulate_3d_command.h"
 
 namespace graphslam::tools {
 
@@ -32,7 +32,7 @@ struct SimulateCommandOptions {
   std::vector<double> landmark_spacing;  // --landmark-spacing MIN MAX (m)
   bool quiet = false;
   int verbosity = 0;  // -v, repeatable (GS_VLOG level)
-  Simulate3dOptions sim3d;  // --3d --scans (tools/simulate3d_command.h)
+  Simulate3dOptions sim3d;  // --3d --scans (tools/simulate_3d_command.h)
   bool streaming = false;  // --streaming: tools/streaming_campus_simulator.h (native only)
   bool compress = false;   // --compress: with --streaming, log.graphslam.zst
 };

@@ -14,9 +14,9 @@
 //              (core/chunk_passes.h; the schedule is described in
 //              core/graphslam_solver.h)
 //
-// The pose-only factors come from the overloads LinearizePoseFactors /
-// PoseFactorsChi2 / AppendPoseFactorPattern of core/pose_factors.h (planar)
-// and core/pose_factors_3d.h (3-D). The body is SolveChunkedWith
+// The pose-only factors come from the templates LinearizePoseFactors /
+// PoseFactorsChi2 / AppendPoseFactorPattern of core/pose_factors.h, on
+// Space::Problem. The body is SolveChunkedWith
 // (chunked_solve_impl.h) with the one-process policy (single_process.h);
 // instantiated for the two spaces in chunked_solve.cc. The solve over MPI
 // ranks (distributed/distributed_solve.h) runs the same body.

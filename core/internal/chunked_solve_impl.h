@@ -43,7 +43,6 @@
 #include "core/levenberg_marquardt.h"
 #include "core/logging.h"
 #include "core/pose_factors.h"
-#include "core/pose_factors_3d.h"
 #include "core/reduced_system_solver.h"
 #include "core/unknown_layout.h"
 

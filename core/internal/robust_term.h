@@ -1,5 +1,5 @@
 // RobustTerm: one constraint's contribution under a robust kernel rho, shared
-// by the 2-D and 3-D pose factors (core/pose_factors.cc, pose_factors_3d.cc).
+// by the 2-D and 3-D pose factors (core/internal/pose_factor_sums.h).
 //
 //   s = e^T W e;   cost = rho(s);   linearization information = rho'(s) W
 //

@@ -8,8 +8,10 @@
 //     and FIX, kept with their file ids until every vertex is known (g2o lets
 //     edges come before their vertices; internal/g2o_vertices.h), then
 //     resolved into the problem in file order.
-// Each reader keeps what differs: its tags, the vertex and edge lines' fields
-// (SE(2) x y theta vs SE(3) x y z quaternion) and their messages.
+// The vertex and edge records both dimensions share are parsed in
+// internal/g2o_records.h from the sizes, pose reader and message forms of the
+// traits. Each reader keeps what only it has: its tag dispatch, 2-D
+// DATA_FEATURE_POINTXY, 3-D PARAMS_SE3OFFSET.
 //
 // THREAD SAFETY: one graph per reader. ALLOCATION: one entry per edge until
 // Finish.
@@ -19,9 +21,11 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
+#include "core/information_repair.h"
 #include "core/problem.h"
 #include "core/problem_3d.h"
 #include "core/status.h"
@@ -32,42 +36,67 @@ namespace graphslam::storage::internal {
 
 enum class G2oEdgeKind { kRelativePose, kPointObservation, kPositionPrior, kFix };
 
+// The types of a graph's traits, from its problem (core/problem_unknowns.h).
+template <class ProblemT>
+struct G2oTypes {
+  using Problem = ProblemT;
+  using Pose = typename Problem::Pose;
+  using Point = typename Problem::Point;
+  using RelativePose = typename decltype(Problem::relative_poses)::value_type;
+  using PointObservation = typename decltype(Problem::observations)::value_type;
+  using PositionPrior = typename decltype(Problem::gps)::value_type;
+  using PoseInformation = decltype(RelativePose::information);
+  using PointInformation = decltype(PointObservation::information);
+  static Pose UnknownPose() { return core::IdentityPose<Pose>(); }
+};
+
 // EDGE_SE2, EDGE_SE2_XY, EDGE_PRIOR_SE2_XY, VERTEX_SE2 / VERTEX_XY.
-struct G2o2d {
-  using Problem = core::Problem2d;
-  using Pose = core::Pose2;
-  using Point = core::Point2;
-  using PoseInformation = Eigen::Matrix3d;
-  using PointInformation = Eigen::Matrix2d;
-  using RelativePose = core::RelativePoseConstraint;
-  using PointObservation = core::Observation;
-  using PositionPrior = core::GpsConstraint;
+struct G2o2d : G2oTypes<core::Problem2d> {
   static constexpr const char* kEdgeTags[4] = {"EDGE_SE2", "EDGE_SE2_XY", "EDGE_PRIOR_SE2_XY",
                                                "FIX"};
   static constexpr const char* kPoseVertexTag = "VERTEX_SE2";
   static constexpr const char* kPointVertexTag = "VERTEX_XY";
   static constexpr const char* kWhat = "a g2o graph";
-  static Pose UnknownPose() { return Pose::Zero(); }
+  static constexpr const char* kFeatureIdName = "landmark id";
+  static constexpr const char* kPoseInformationForm = "matrix (upper triangle xx xy xt yy yt tt)";
+  static constexpr const char* kPointInformationForm = "matrix (upper triangle xx xy yy)";
+  static constexpr int kPoseFields = 3;  // x y theta
+  static StatusOr<Pose> ReadPose(const LineReader& reader, size_t first, std::string_view what) {
+    double v[kPoseFields];
+    GS_RETURN_IF_ERROR(reader.Doubles(first, kPoseFields, what, v));
+    return Pose(v[0], v[1], v[2]);
+  }
   static void SetKind(PointObservation* o) { o->kind = core::ObservationKind::kPointXY; }
 };
 
 // EDGE_SE3:QUAT, EDGE_SE3_TRACKXYZ, EDGE_SE3_XYZPRIOR, VERTEX_SE3:QUAT /
 // VERTEX_TRACKXYZ.
-struct G2o3d {
-  using Problem = core::Problem3d;
-  using Pose = core::Pose3;
-  using Point = core::Point3;
-  using PoseInformation = core::Matrix6d;
-  using PointInformation = Eigen::Matrix3d;
-  using RelativePose = core::RelativePose3Constraint;
-  using PointObservation = core::Point3Observation;
-  using PositionPrior = core::Gps3Constraint;
+struct G2o3d : G2oTypes<core::Problem3d> {
   static constexpr const char* kEdgeTags[4] = {"EDGE_SE3:QUAT", "EDGE_SE3_TRACKXYZ",
                                                "EDGE_SE3_XYZPRIOR", "FIX"};
   static constexpr const char* kPoseVertexTag = "VERTEX_SE3:QUAT";
   static constexpr const char* kPointVertexTag = "VERTEX_TRACKXYZ";
   static constexpr const char* kWhat = "a 3-D g2o graph";
-  static Pose UnknownPose() { return Pose::Identity(); }
+  static constexpr const char* kFeatureIdName = "point id";
+  static constexpr const char* kPoseInformationForm = "6x6 matrix";
+  static constexpr const char* kPointInformationForm = "3x3 matrix";
+  static constexpr int kPoseFields = 7;  // x y z qx qy qz qw
+  // The quaternion is normalized (files carry ~7 digits); a norm outside
+  // [0.9, 1.1] is an error.
+  static StatusOr<Pose> ReadPose(const LineReader& reader, size_t first, std::string_view what) {
+    double v[kPoseFields];
+    GS_RETURN_IF_ERROR(reader.Doubles(first, kPoseFields, what, v));
+    Pose pose;
+    pose.t = Eigen::Vector3d(v[0], v[1], v[2]);
+    pose.q = Eigen::Quaterniond(v[6], v[3], v[4], v[5]);
+    const double norm = pose.q.norm();
+    if (!(norm >= 0.9 && norm <= 1.1)) {
+      return reader.Error(std::string(what) + " quaternion has norm " + FormatDouble(norm) +
+                          "; expected a unit quaternion (qx qy qz qw)");
+    }
+    pose.q.normalize();
+    return pose;
+  }
   static void SetKind(PointObservation*) {}  // one 3-D observation model
 };
 
@@ -75,6 +104,10 @@ template <class Graph>
 class G2oGraph {
  public:
   using Problem = typename Graph::Problem;
+
+  // With `repairs` (opt-in), information that is not positive definite is
+  // repaired and counted there instead of rejected (internal/g2o_records.h).
+  explicit G2oGraph(core::InformationRepairs* repairs = nullptr) : repairs_(repairs) {}
 
   // An edge or FIX with its file ids.
   struct Pending {
@@ -106,6 +139,7 @@ class G2oGraph {
   }
 
   Problem& problem() { return problem_; }
+  core::InformationRepairs* repairs() const { return repairs_; }
   G2oVertices& vertices() { return vertices_; }
   void Add(const Pending& item) { pending_.push_back(item); }
 
@@ -180,6 +214,7 @@ class G2oGraph {
     return Status::Ok();
   }
 
+  core::InformationRepairs* const repairs_;  // null: reject non-PD information
   std::string name_;
   Problem problem_;
   G2oVertices vertices_{Graph::kPoseVertexTag, Graph::kPointVertexTag};

@@ -17,10 +17,10 @@
 #include <vector>
 
 #include "core/chunk_passes.h"
-#include "core/gps3_model.h"
+#include "core/gps_3d_model.h"
 #include "core/point3_observation_model.h"
-#include "core/pose_factors_3d.h"
-#include "core/relative_pose3_model.h"
+#include "core/pose_factors.h"
+#include "core/relative_pose_3d_model.h"
 #include "partition/in_memory_chunk_source.h"
 #include "tests/testing/reduced_system_at.h"
 #include "tests/testing/random_problem_3d.h"

@@ -1,5 +1,5 @@
-// Pose-only constraints (relative pose, velocity motion, GPS) with robust
-// kernels per constraint type: gradient and Gauss-Newton blocks against
+// Pose-only constraints (relative pose, velocity motion, GPS; 3-D relative
+// pose and GPS) with robust kernels per constraint type: gradient and Gauss-Newton blocks against
 // numeric differentiation of the robust cost, and whole solves where wrong
 // loop closures or a GPS outlier pull the plain least-squares map away.
 #include "core/pose_factors.h"
@@ -9,6 +9,7 @@
 #include <cmath>
 #include <numbers>
 #include <random>
+#include <type_traits>
 
 #include "core/gps_model.h"
 #include "core/graphslam_solver.h"
@@ -18,6 +19,7 @@
 #include "partition/in_memory_chunk_source.h"
 #include "tests/testing/numeric_diff.h"
 #include "tests/testing/random_problem.h"
+#include "tests/testing/random_problem_3d.h"
 
 namespace graphslam::core {
 namespace {
@@ -35,12 +37,15 @@ struct Linearization {
   double chi2 = 0.0;
 };
 
-Linearization Linearize(const Problem2d& problem, const UnknownLayout& layout,
+// Problem2d or Problem3d (pose blocks of 3 or 6).
+template <class Problem>
+Linearization Linearize(const Problem& problem, const UnknownLayout& layout,
                         const PoseFactorKernels& kernels) {
+  constexpr int kPoseDim = std::is_same_v<typename Problem::Pose, Pose2> ? 3 : 6;
   std::vector<std::pair<int, int>> pairs;
   AppendPoseFactorPattern(problem, layout, &pairs);
   BlockSparseMatrix hessian =
-      BlockSparseMatrix::FromPattern(3, layout.num_unknown_poses, std::move(pairs));
+      BlockSparseMatrix::FromPattern(kPoseDim, layout.num_unknown_poses, std::move(pairs));
   Eigen::VectorXd gradient = Eigen::VectorXd::Zero(hessian.num_rows());
   Eigen::VectorXd diagonal = Eigen::VectorXd::Zero(hessian.num_rows());
   Linearization out;
@@ -105,6 +110,32 @@ TEST(PoseFactors, RobustGradientIsHalfTheNumericDerivativeOfTheRobustCost) {
           << "velocity " << velocity << " kernels "
           << RobustKernelsName(RobustKernel(), kernels);
     }
+  }
+}
+
+// The 3-D factors go through the same template: chi2 and the gradient agree with the robust cost, differentiated numerically
+// w.r.t. the body-frame increments (x Exp(d)).
+TEST(PoseFactors, ThreeDimensionalGradientIsHalfTheNumericDerivativeOfTheRobustCost) {
+  const Problem3d problem = testing::MakeRandomProblem3d(8, 0, /*gps=*/true, 11);
+  ASSERT_FALSE(problem.gps.empty());
+  const UnknownLayout layout = UnknownLayout::FromProblem(problem);
+  for (const PoseFactorKernels& kernels : KernelCases()) {
+    const Linearization lin = Linearize(problem, layout, kernels);
+    EXPECT_GT(lin.chi2, 0.0);
+    EXPECT_DOUBLE_EQ(lin.chi2, PoseFactorsChi2(problem, problem.poses, kernels));
+    const auto cost = [&](const Eigen::VectorXd& delta) {
+      std::vector<Pose3> poses = problem.poses;
+      for (int32_t p = 0; p < problem.num_poses(); ++p) {
+        const int32_t u = layout.unknown_index[p];
+        if (u >= 0) poses[p] = RetractPose3(poses[p], delta.segment<6>(6 * u));
+      }
+      return Eigen::VectorXd::Constant(1, PoseFactorsChi2(problem, poses, kernels));
+    };
+    const Eigen::VectorXd expected =
+        0.5 * testing::NumericJacobian(cost, Eigen::VectorXd::Zero(lin.gradient.size()), 1e-6)
+                  .transpose();
+    EXPECT_LT((lin.gradient - expected).norm(), 1e-5 * std::max(1.0, expected.norm()))
+        << RobustKernelsName(RobustKernel(), kernels);
   }
 }
 

@@ -14,7 +14,6 @@
 
 #include "core/chunk_passes.h"
 #include "core/pose_factors.h"
-#include "core/pose_factors_3d.h"
 
 namespace graphslam::testing {
 

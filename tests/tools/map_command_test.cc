@@ -17,7 +17,7 @@
 #include <set>
 #include <tuple>
 
-#include "tools/campus3d.h"
+#include "tools/campus_3d.h"
 #include "storage/pcd_io.h"
 #include "tests/testing/datasets.h"
 #include "tools/exit_codes.h"

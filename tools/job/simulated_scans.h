@@ -5,7 +5,7 @@
 // World (metres, z up), consistent with the 2-D campus: streets are the grid
 // lines x = i B, y = j B between the intersections; the landmarks stand at
 // +-W/2 from the centrelines (W = street_width). The 3-D world is the
-// campus of tools/campus3d.h with
+// campus of tools/campus_3d.h with
 //   - level ground z = 0 (slopes 0),
 //   - one building per block between streets, its facades kBuildingSetback
 //     (1 m) behind the landmark line, i.e. a 3-D street width W + 2 m,
@@ -31,7 +31,7 @@
 #include "core/se2.h"
 #include "core/se3.h"
 #include "core/status.h"
-#include "tools/campus3d.h"
+#include "tools/campus_3d.h"
 #include "tools/campus_simulator.h"
 #include "tools/job/job_spec.h"
 

@@ -1,4 +1,4 @@
-// `graphslam simulate --3d --scans -o DIR`: the 3-D campus of tools/campus3d.h
+// `graphslam simulate --3d --scans -o DIR`: the 3-D campus of tools/campus_3d.h
 // seen by a vertically scanning laser, written as
 //
 //   DIR/scans/                the scans in chunks (docs/formats/scan_chunk.md;
@@ -15,7 +15,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "tools/campus3d.h"
+#include "tools/campus_3d.h"
 
 namespace graphslam::tools {
 

@@ -1,4 +1,4 @@
-#include "tools/campus3d.h"
+#include "tools/campus_3d.h"
 
 #include <algorithm>
 #include <cmath>

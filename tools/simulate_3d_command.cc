@@ -1,4 +1,4 @@
-#include "tools/simulate3d_command.h"
+#include "tools/simulate_3d_command.h"
 
 #include <nlohmann/json.hpp>
 
@@ -18,7 +18,7 @@ namespace graphslam::tools {
 
 void AddSimulate3dOptions(CLI::App* simulate, Simulate3dOptions* options) {
   map::Campus3dOptions& c = options->campus;
-  simulate->add_flag("--3d", options->enabled, "simulate the 3-D campus (tools/campus3d.h) instead");
+  simulate->add_flag("--3d", options->enabled, "simulate the 3-D campus (tools/campus_3d.h) instead");
   simulate->add_flag("--scans", options->scans, "with --3d: write the laser scans (DIR/scans/)");
   simulate->add_option("--columns", c.columns, "--3d: blocks along x")
       ->check(Integer(1, std::numeric_limits<int>::max()))

@@ -1,0 +1,185 @@
+// The definitions of the templates PoseFactorsChi2, LinearizePoseFactors and
+// AppendPoseFactorPattern (core/pose_factors.h), written once for both spaces.
+// A space's .cc file lists its pose-only factors in a specialization of
+// internal::PoseFactorList<Problem> and instantiates the three functions for
+// its Problem: core/pose_factors.cc (planar), core/pose_factors_3d.cc (3-D).
+//
+// A factor is a PoseFactor<Constraint, k, pose dimension, Model> with
+//   bool Model(const Constraint&, const std::vector<Pose>& poses,
+//              Residual* e, Jacobian* j_a, Jacobian* j_b)
+// giving e (k x 1) and de/dd (k x pose dimension) w.r.t. the body-frame
+// increments d of the pose retraction (the Jacobians may be nullptr). A
+// constraint with a member `pose` is unary (j_b unused), else it couples
+// `from` and `to`. Model returns false when the constraint is degenerate at
+// `poses` and contributes nothing.
+//
+// For each constraint, with IRLS weight W' = rho'(s) W, s = e^T W e
+// (core/internal/robust_term.h):
+//   H_kl += A_k^T W' A_l,   g_k += A_k^T W' e,   chi2 += rho(s)
+// for the unknown (not anchored) poses k, l it touches. The lists are visited
+// in the order the specialization gives and chi2 is summed in that order, so
+// the sums do not depend on how the code is arranged.
+//
+// THREAD SAFETY: pure functions of their inputs; outputs are caller-owned.
+// ALLOCATION: none beyond the caller's outputs.
+#pragma once
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <utility>
+#include <vector>
+
+#include "core/block_sparse_matrix.h"
+#include "core/check.h"
+#include "core/internal/robust_term.h"
+#include "core/pose_factors.h"
+#include "core/robust_kernel.h"
+#include "core/unknown_layout.h"
+
+namespace graphslam::core {
+namespace internal {
+
+// Specialized per problem type: a static
+//   template <class Visit> void ForEach(const Problem&, const PoseFactorKernels&, Visit&& visit)
+// calling visit(F{}, constraints, kernel) for each factor type F in turn.
+template <class Problem>
+struct PoseFactorList;
+
+template <class C, int kResidual, int kPoseDim, auto Model>
+struct PoseFactor {
+  using Constraint = C;
+  using Residual = Eigen::Matrix<double, kResidual, 1>;
+  using Jacobian = Eigen::Matrix<double, kResidual, kPoseDim>;
+  static constexpr bool kUnary = requires(const C& c) { c.pose; };
+  static constexpr auto Evaluate = Model;
+};
+
+// The normal-equation blocks of one constraint (kPose = pose dimension).
+template <int kPose>
+struct PoseFactorSink {
+  const UnknownLayout& layout;
+  BlockSparseMatrix* hessian;
+  Eigen::VectorXd* gradient;
+  Eigen::VectorXd* hessian_diagonal;
+
+  template <int kResidual>
+  void AddUnary(int32_t pose, const Eigen::Matrix<double, kResidual, kPose>& jacobian,
+                const Eigen::Matrix<double, kResidual, kResidual>& information,
+                const Eigen::Matrix<double, kResidual, 1>& residual) {
+    const int32_t u = layout.unknown_index[pose];
+    if (u < 0) return;
+    const Eigen::Matrix<double, kPose, kResidual> w = jacobian.transpose() * information;
+    const Eigen::Matrix<double, kPose, kPose> h = w * jacobian;
+    GS_CHECK(hessian->AddBlock(u, u, h));
+    gradient->template segment<kPose>(kPose * u) += w * residual;
+    hessian_diagonal->template segment<kPose>(kPose * u) += h.diagonal();
+  }
+
+  template <int kResidual>
+  void AddBinary(int32_t pose_a, int32_t pose_b,
+                 const Eigen::Matrix<double, kResidual, kPose>& jacobian_a,
+                 const Eigen::Matrix<double, kResidual, kPose>& jacobian_b,
+                 const Eigen::Matrix<double, kResidual, kResidual>& information,
+                 const Eigen::Matrix<double, kResidual, 1>& residual) {
+    using Block = Eigen::Matrix<double, kPose, kPose>;
+    const int32_t ua = layout.unknown_index[pose_a];
+    const int32_t ub = layout.unknown_index[pose_b];
+    const Eigen::Matrix<double, kPose, kResidual> wa = jacobian_a.transpose() * information;
+    const Eigen::Matrix<double, kPose, kResidual> wb = jacobian_b.transpose() * information;
+    if (ua >= 0) {
+      const Block haa = wa * jacobian_a;
+      GS_CHECK(hessian->AddBlock(ua, ua, haa));
+      gradient->template segment<kPose>(kPose * ua) += wa * residual;
+      hessian_diagonal->template segment<kPose>(kPose * ua) += haa.diagonal();
+    }
+    if (ub >= 0) {
+      const Block hbb = wb * jacobian_b;
+      GS_CHECK(hessian->AddBlock(ub, ub, hbb));
+      gradient->template segment<kPose>(kPose * ub) += wb * residual;
+      hessian_diagonal->template segment<kPose>(kPose * ub) += hbb.diagonal();
+    }
+    if (ua >= 0 && ub >= 0 && ua != ub) {
+      // Store the upper block (row < column); AddBlock mirrors it.
+      if (ua < ub) {
+        GS_CHECK(hessian->AddBlock(ua, ub, Block(wa * jacobian_b)));
+      } else {
+        GS_CHECK(hessian->AddBlock(ub, ua, Block(wb * jacobian_a)));
+      }
+    }
+  }
+};
+
+}  // namespace internal
+
+template <class Problem>
+double PoseFactorsChi2(const Problem& problem, const std::vector<typename Problem::Pose>& poses,
+                       const PoseFactorKernels& kernels) {
+  double chi2 = 0.0;
+  internal::PoseFactorList<Problem>::ForEach(
+      problem, kernels, [&](auto factor, const auto& constraints, const RobustKernel& kernel) {
+        using F = decltype(factor);
+        typename F::Residual e;
+        for (const typename F::Constraint& c : constraints) {
+          if (!F::Evaluate(c, poses, &e, nullptr, nullptr)) continue;
+          chi2 += internal::RobustTerm<F::Residual::RowsAtCompileTime>(kernel, e, c.information, nullptr);
+        }
+      });
+  return chi2;
+}
+
+template <class Problem>
+double LinearizePoseFactors(const Problem& problem,
+                            const std::vector<typename Problem::Pose>& poses,
+                            const UnknownLayout& layout, BlockSparseMatrix* hessian,
+                            Eigen::VectorXd* gradient, Eigen::VectorXd* hessian_diagonal,
+                            const PoseFactorKernels& kernels) {
+  double chi2 = 0.0;
+  internal::PoseFactorList<Problem>::ForEach(
+      problem, kernels, [&](auto factor, const auto& constraints, const RobustKernel& kernel) {
+        using F = decltype(factor);
+        constexpr int kResidual = F::Residual::RowsAtCompileTime;
+        internal::PoseFactorSink<F::Jacobian::ColsAtCompileTime> sink{layout, hessian, gradient,
+                                                             hessian_diagonal};
+        typename F::Residual e;
+        typename F::Jacobian ja, jb;
+        Eigen::Matrix<double, kResidual, kResidual> w;
+        for (const typename F::Constraint& c : constraints) {
+          if (!F::Evaluate(c, poses, &e, &ja, &jb)) continue;
+          chi2 += internal::RobustTerm<kResidual>(kernel, e, c.information, &w);
+          if constexpr (F::kUnary) {
+            sink.AddUnary(c.pose, ja, w, e);
+          } else {
+            sink.AddBinary(c.from, c.to, ja, jb, w, e);
+          }
+        }
+      });
+  return chi2;
+}
+
+template <class Problem>
+void AppendPoseFactorPattern(const Problem& problem, const UnknownLayout& layout,
+                             std::vector<std::pair<int, int>>* pairs) {
+  internal::PoseFactorList<Problem>::ForEach(
+      problem, PoseFactorKernels(), [&](auto factor, const auto& constraints, const RobustKernel&) {
+        using F = decltype(factor);
+        if constexpr (!F::kUnary) {
+          for (const typename F::Constraint& c : constraints) {
+            const int32_t ua = layout.unknown_index[c.from], ub = layout.unknown_index[c.to];
+            if (ua >= 0 && ub >= 0) pairs->emplace_back(std::min(ua, ub), std::max(ua, ub));
+          }
+        }
+      });
+}
+
+}  // namespace graphslam::core
+
+// The explicit instantiations of the three templates for one problem type.
+#define GS_INSTANTIATE_POSE_FACTORS(Problem)                                                     \
+  template double PoseFactorsChi2(const Problem&, const std::vector<Problem::Pose>&,             \
+                                  const PoseFactorKernels&);                                     \
+  template double LinearizePoseFactors(const Problem&, const std::vector<Problem::Pose>&,        \
+                                       const UnknownLayout&, BlockSparseMatrix*,                 \
+                                       Eigen::VectorXd*, Eigen::VectorXd*,                       \
+                                       const PoseFactorKernels&);                                \
+  template void AppendPoseFactorPattern(const Problem&, const UnknownLayout&,                    \
+                                        std::vector<std::pair<int, int>>*)
