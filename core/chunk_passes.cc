@@ -217,19 +217,14 @@ CandidateSink<Space> ScatterInto(const BasicPassContext<Space>& context,
 }  // namespace
 
 template <class Space>
-Status RecoverPass(const BasicPassContext<Space>& context,
-                   const std::vector<typename Space::Pose>& poses,
-                   const std::vector<typename Space::Point>& features, double lambda,
-                   const Eigen::VectorXd& step,
-                   const std::vector<typename Space::Pose>& candidate_poses,
+Status RecoverPass(const BasicPassContext<Space>& context, const BasicRecoveryInput<Space>& input,
                    const CandidateSink<Space>& sink, RecoveryResult* result) {
   *result = RecoveryResult();
   Status sink_status;
   Status status = internal::RunOrderedChunkPipeline<internal::RecoverOutput<Space>>(
       *context.chunks, context.max_in_flight,
       [&](const ChunkOf<Space>& chunk, internal::RecoverOutput<Space>* out) {
-        internal::RecoverChunk<Space>(context, chunk, poses, features, lambda, step,
-                                      candidate_poses, out);
+        internal::RecoverChunk<Space>(context, chunk, input, out);
         return Status::Ok();
       },
       [&](const ChunkOf<Space>& chunk, internal::RecoverOutput<Space>& out) {
@@ -242,26 +237,19 @@ Status RecoverPass(const BasicPassContext<Space>& context,
 }
 
 template <class Space>
-Status RecoverPass(const BasicPassContext<Space>& context,
-                   const std::vector<typename Space::Pose>& poses,
-                   const std::vector<typename Space::Point>& features, double lambda,
-                   const Eigen::VectorXd& step,
-                   const std::vector<typename Space::Pose>& candidate_poses,
+Status RecoverPass(const BasicPassContext<Space>& context, const BasicRecoveryInput<Space>& input,
                    std::vector<typename Space::Point>* candidate_features,
                    RecoveryResult* result) {
-  candidate_features->resize(features.size());
-  return RecoverPass<Space>(context, poses, features, lambda, step, candidate_poses,
-                            ScatterInto(context, candidate_features), result);
+  candidate_features->resize(input.features.size());
+  return RecoverPass<Space>(context, input, ScatterInto(context, candidate_features), result);
 }
 
 template <class Space>
 Status RecoverAndReducePass(const BasicPassContext<Space>& context,
-                            const std::vector<typename Space::Pose>& poses,
-                            const std::vector<typename Space::Point>& features, double lambda,
-                            const Eigen::VectorXd& step,
-                            const std::vector<typename Space::Pose>& candidate_poses,
+                            const BasicRecoveryInput<Space>& input,
                             const CandidateSink<Space>& sink, RecoveryResult* result,
-                            double next_lambda, ReducedSystem* next, Status* next_status) {
+                            const NextReduction& next) {
+  Status* const next_status = next.status;
   struct Output {
     internal::RecoverOutput<Space> recover;
     internal::ReduceOutput<Space> reduce;
@@ -279,15 +267,14 @@ Status RecoverAndReducePass(const BasicPassContext<Space>& context,
       [&](const ChunkOf<Space>& chunk, Output* out) {
         // Recovery first: it gives the candidates of this chunk's features,
         // which are exactly the features the reduce half reads.
-        internal::RecoverChunk<Space>(context, chunk, poses, features, lambda, step,
-                                      candidate_poses, &out->recover);
+        internal::RecoverChunk<Space>(context, chunk, input, &out->recover);
         out->reduce_status = Status::Ok();
         out->reduced = !next_failed.load();
         if (out->reduced) {
           internal::FeatureLookup<typename Space::Point> candidates;
           candidates.by_slot = out->recover.candidates.data();
           out->reduce_status = internal::ReduceChunk<Space>(
-              context, chunk, candidate_poses, candidates, next_lambda, &out->reduce);
+              context, chunk, input.candidate_poses, candidates, next.lambda, &out->reduce);
           if (!out->reduce_status.ok()) next_failed = true;
         }
         return Status::Ok();
@@ -303,7 +290,7 @@ Status RecoverAndReducePass(const BasicPassContext<Space>& context,
             *next_status = Status::Numerical("chunk " + std::to_string(chunk.index) +
                                              ": speculative reduce abandoned after a failure");
           } else {
-            internal::MergeReduced<Space>(out.reduce, next);
+            internal::MergeReduced<Space>(out.reduce, next.system);
           }
         }
         Report(context, "recover+reduce", chunk.index + 1);
@@ -314,17 +301,12 @@ Status RecoverAndReducePass(const BasicPassContext<Space>& context,
 
 template <class Space>
 Status RecoverAndReducePass(const BasicPassContext<Space>& context,
-                            const std::vector<typename Space::Pose>& poses,
-                            const std::vector<typename Space::Point>& features, double lambda,
-                            const Eigen::VectorXd& step,
-                            const std::vector<typename Space::Pose>& candidate_poses,
+                            const BasicRecoveryInput<Space>& input,
                             std::vector<typename Space::Point>* candidate_features,
-                            RecoveryResult* result, double next_lambda, ReducedSystem* next,
-                            Status* next_status) {
-  candidate_features->resize(features.size());
-  return RecoverAndReducePass<Space>(context, poses, features, lambda, step, candidate_poses,
-                                     ScatterInto(context, candidate_features), result,
-                                     next_lambda, next, next_status);
+                            RecoveryResult* result, const NextReduction& next) {
+  candidate_features->resize(input.features.size());
+  return RecoverAndReducePass<Space>(context, input, ScatterInto(context, candidate_features),
+                                     result, next);
 }
 
 template <class Space>
@@ -360,24 +342,18 @@ Status ObservationsChi2(const BasicPassContext<Space>& context,
   template Status ReducePass<Space>(const BasicPassContext<Space>&,                               \
                                     const std::vector<Space::Pose>&,                              \
                                     const std::vector<Space::Point>&, double, ReducedSystem*);    \
-  template Status RecoverPass<Space>(                                                             \
-      const BasicPassContext<Space>&, const std::vector<Space::Pose>&,                            \
-      const std::vector<Space::Point>&, double, const Eigen::VectorXd&,                           \
-      const std::vector<Space::Pose>&, std::vector<Space::Point>*, RecoveryResult*);              \
-  template Status RecoverPass<Space>(                                                             \
-      const BasicPassContext<Space>&, const std::vector<Space::Pose>&,                            \
-      const std::vector<Space::Point>&, double, const Eigen::VectorXd&,                           \
-      const std::vector<Space::Pose>&, const CandidateSink<Space>&, RecoveryResult*);             \
+  template Status RecoverPass<Space>(const BasicPassContext<Space>&,                              \
+                                     const BasicRecoveryInput<Space>&,                            \
+                                     std::vector<Space::Point>*, RecoveryResult*);                \
+  template Status RecoverPass<Space>(const BasicPassContext<Space>&,                              \
+                                     const BasicRecoveryInput<Space>&,                            \
+                                     const CandidateSink<Space>&, RecoveryResult*);               \
   template Status RecoverAndReducePass<Space>(                                                    \
-      const BasicPassContext<Space>&, const std::vector<Space::Pose>&,                            \
-      const std::vector<Space::Point>&, double, const Eigen::VectorXd&,                           \
-      const std::vector<Space::Pose>&, std::vector<Space::Point>*, RecoveryResult*, double,       \
-      ReducedSystem*, Status*);                                                                   \
+      const BasicPassContext<Space>&, const BasicRecoveryInput<Space>&,                           \
+      std::vector<Space::Point>*, RecoveryResult*, const NextReduction&);                         \
   template Status RecoverAndReducePass<Space>(                                                    \
-      const BasicPassContext<Space>&, const std::vector<Space::Pose>&,                            \
-      const std::vector<Space::Point>&, double, const Eigen::VectorXd&,                           \
-      const std::vector<Space::Pose>&, const CandidateSink<Space>&, RecoveryResult*, double,      \
-      ReducedSystem*, Status*);                                                                   \
+      const BasicPassContext<Space>&, const BasicRecoveryInput<Space>&,                           \
+      const CandidateSink<Space>&, RecoveryResult*, const NextReduction&);                        \
   template Status ObservationsChi2<Space>(const BasicPassContext<Space>&,                         \
                                           const std::vector<Space::Pose>&,                        \
                                           const std::vector<Space::Point>&, double*);

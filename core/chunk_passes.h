@@ -146,50 +146,56 @@ using CandidateSink =
     std::function<Status(const BasicObservationChunk<typename Space::Observation>& chunk,
                          const std::vector<typename Space::Point>& candidates)>;
 
+// What a recovery starts from: the linearization point (poses, features),
+// the damping `lambda` of the solved system, its solution `step` and the
+// candidate poses x + dx. The references must outlive the pass.
 template <class Space>
-Status RecoverPass(const BasicPassContext<Space>& context,
-                   const std::vector<typename Space::Pose>& poses,
-                   const std::vector<typename Space::Point>& features, double lambda,
-                   const Eigen::VectorXd& step,
-                   const std::vector<typename Space::Pose>& candidate_poses,
+struct BasicRecoveryInput {
+  const std::vector<typename Space::Pose>& poses;
+  const std::vector<typename Space::Point>& features;
+  double lambda;
+  const Eigen::VectorXd& step;
+  const std::vector<typename Space::Pose>& candidate_poses;
+};
+
+template <class Space>
+Status RecoverPass(const BasicPassContext<Space>& context, const BasicRecoveryInput<Space>& input,
                    const CandidateSink<Space>& sink, RecoveryResult* result);
 
 // RecoverPass into one slot per feature: (*candidate_features)[g] for every
 // feature of a chunk that is not excluded (others keep their value).
 template <class Space>
-Status RecoverPass(const BasicPassContext<Space>& context,
-                   const std::vector<typename Space::Pose>& poses,
-                   const std::vector<typename Space::Point>& features, double lambda,
-                   const Eigen::VectorXd& step,
-                   const std::vector<typename Space::Pose>& candidate_poses,
+Status RecoverPass(const BasicPassContext<Space>& context, const BasicRecoveryInput<Space>& input,
                    std::vector<typename Space::Point>* candidate_features,
                    RecoveryResult* result);
 
-// RecoverPass plus ReducePass(candidate_poses, candidates, next_lambda) into
-// *next, which the caller has zeroed and into which it may already have added
-// the pose-only factors at the candidate poses. A failed elimination at the
-// candidate is not an error of the pass (the step may be rejected anyway): it
-// is returned in *next_status and *next is then partial. The returned Status
-// is the recovery's (chunk loading, the sink).
+// The second half of the fused pass: the next system, reduced at the
+// candidates with damping `lambda`, into *system; *status receives a failed
+// elimination there.
+struct NextReduction {
+  double lambda = 0.0;
+  ReducedSystem* system = nullptr;
+  Status* status = nullptr;
+};
+
+// RecoverPass plus ReducePass(candidate_poses, candidates, next.lambda) into
+// *next.system, which the caller has zeroed and into which it may already
+// have added the pose-only factors at the candidate poses. A failed
+// elimination at the candidate is not an error of the pass (the step may be
+// rejected anyway): it is returned in *next.status and *next.system is then
+// partial. The returned Status is the recovery's (chunk loading, the sink).
 template <class Space>
 Status RecoverAndReducePass(const BasicPassContext<Space>& context,
-                            const std::vector<typename Space::Pose>& poses,
-                            const std::vector<typename Space::Point>& features, double lambda,
-                            const Eigen::VectorXd& step,
-                            const std::vector<typename Space::Pose>& candidate_poses,
+                            const BasicRecoveryInput<Space>& input,
                             const CandidateSink<Space>& sink, RecoveryResult* result,
-                            double next_lambda, ReducedSystem* next, Status* next_status);
+                            const NextReduction& next);
 
 // The same with one candidate slot per feature (as RecoverPass above).
 template <class Space>
 Status RecoverAndReducePass(const BasicPassContext<Space>& context,
-                            const std::vector<typename Space::Pose>& poses,
-                            const std::vector<typename Space::Point>& features, double lambda,
-                            const Eigen::VectorXd& step,
-                            const std::vector<typename Space::Pose>& candidate_poses,
+                            const BasicRecoveryInput<Space>& input,
                             std::vector<typename Space::Point>* candidate_features,
-                            RecoveryResult* result, double next_lambda, ReducedSystem* next,
-                            Status* next_status);
+                            RecoveryResult* result, const NextReduction& next);
 
 // chi2 of all observations of eliminable features at (poses, features).
 template <class Space>

@@ -135,13 +135,13 @@ struct SolverOptions {
   // quadratic model failed) restarts from a better guess then
   // (tools/solve_command.cc, --initialization auto). 0: off.
   double abandon_below_rho = 0.0;
-  PreconditionerType preconditioner = PreconditionerType::kSubgraph;  // for PCG (measured, issue 4)
+  PreconditionerType preconditioner = PreconditionerType::kSubgraph;  // for PCG (docs/tuning.md)
   int pcg_max_iterations = 2000;
   double pcg_relative_tolerance = 1e-10;
   // PCG: Eisenstat-Walker forcing sequence and warm starts
   // (core/reduced_system_solver.h).
   bool pcg_forcing_sequence = true;
-  double pcg_eta_max = 0.01;  // the loosest forcing term (measured, issue 4)
+  double pcg_eta_max = 0.01;  // the loosest forcing term (docs/tuning.md)
   // PCG: stop a solve once the chi2 decrease it still misses is estimated
   // below pcg_truncation * function_tolerance * chi2 (0: off;
   // core/reduced_system_solver.h item 2b). Landmark problems only (features

@@ -22,11 +22,9 @@
 // along the trajectory and block-Jacobi needs O(graph diameter) iterations to
 // propagate it. The incomplete factor couples neighbouring poses through L,
 // which removes much of that long-range error per iteration.
-// Measured on the 500-pose serpentine pose graph of the test (three seeds,
-// PCG to 1e-8, block-Jacobi 387..419 iterations): fill_levels 0 / 1 / 2 need
-// 183..202 / 82..95 / 61..66 iterations with nnz(L) = 1.0 / 2.0 / 3.5 x
-// nnz(tril A). Level 0 halves the count, level 1 quarters it at twice the
-// memory; hence the default 1.
+// Against block-Jacobi, level 0 halves the iteration count and level 1
+// quarters it at twice the memory of A's triangle; hence the default 1
+// (figures: docs/tuning.md).
 //
 // The factorization is Eigen's Eigen::IncompleteCholesky<double, Eigen::Lower,
 // Eigen::AMDOrdering<int>> (Eigen 3.4), which follows

@@ -22,18 +22,15 @@
 // faster than 1/i per iteration and grows with the count when it stalls.
 // It is not conservative when the first gains are small because the error
 // lies in modes the first Krylov vectors hardly see (a warm start that has
-// already taken the easy part: measured on sim1e5obs, a stop after one
-// iteration left 1e-5 of chi2 on the table), hence the second condition,
-// Nash & Sofer's own relative test with c = 1/2: the gains must have started
-// to fall faster than 1/i, which a plateau of small gains does not. Nor is
-// it enough on pose graphs with loop closures (intel: LM stopped at 1.7e-4
-// above the optimum), hence the third: r^T M^{-1} r, the M^{-1}-norm of the
-// residual, equals |x - x*|_A^2 = r^T A^{-1} r where M matches A and bounds
+// already taken the easy part), hence the second condition, Nash & Sofer's
+// own relative test with c = 1/2: the gains must have started to fall faster
+// than 1/i, which a plateau of small gains does not. Nor is it enough on pose
+// graphs with loop closures, hence the third: r^T M^{-1} r, the M^{-1}-norm
+// of the residual, equals |x - x*|_A^2 = r^T A^{-1} r where M matches A and bounds
 // it from above where M <= A; it sees the slow modes the gains miss. And
-// none of the three is reliable in the first iterations after a warm start
-// (intel: a stop after 2 iterations, 8x more left than estimated), so the
-// test waits for 10 iterations: the late, expensive solves it is for take
-// hundreds.
+// none of the three is reliable in the first iterations after a warm start,
+// so the test waits for 10 iterations: the late, expensive solves it is for
+// take hundreds (the cases behind each condition: docs/tuning.md).
 // A Newton-type caller sets energy_tolerance to the objective decrease below
 // which a better step makes no difference to it (core/reduced_system_solver.h).
 //

@@ -12,30 +12,15 @@
 //    CHOLMOD if factor bytes <= max_factor_bytes and cholmod cost <=
 //    pcg cost, else PCG (ChooseFromAnalysis). Above max_analysis_unknowns
 //    the analysis itself is skipped (it costs O(nnz) memory and an AMD pass)
-//    and PCG is used. K is the measured crossover, not a CG count: it folds
-//    in CG iterations per solve, the preconditioner, the flop rates of a
+//    and PCG is used. K is a crossover, not a CG count: it folds in CG
+//    iterations per solve, the preconditioner, the flop rates of a
 //    supernodal factorization against a sparse product, and the extra LM
-//    iterations of inexact steps. It differs by problem class
-//    (docs/benchmarks.md, issue 4, "crossover"): pose graphs (no eliminated
-//    features) need hundreds of CG iterations per solve on loop closures and
-//    CHOLMOD won on every one measured, so K = kPoseGraphCrossover = 1000:
-//    the 3-D pose graphs sphere2500 and torus3D (cost ratios 318 and 567
-//    against K = 100) took PCG with K = 100, at 2.5x CHOLMOD's CPU time on
-//    sphere2500 with OpenBLAS (docs/benchmarks.md, issue 25); on landmark problems (features eliminated into
-//    S, here with GPS) the subgraph-preconditioned CG converges in ~50
-//    iterations per solve and PCG won from a ratio of 50 (sim1e5) on, so
-//    K = kLandmarkCrossover. On the densely observed fields sim1e5obs (ratio
-//    ~40) and sim1e6obs (74), whose late solves need hundreds of CG
-//    iterations, CHOLMOD won until the truncation of item 2b; with it PCG
-//    ties at 10^5 (0.97x CHOLMOD's CPU) and wins at 10^6 (0.87x), so the
-//    same K picks the faster (or an even) solver there too. Those figures
-//    predate S's upper-triangle storage, whose first product (a row loop
-//    through a transpose index) was ~1.7x slower and put PCG at 1.23x
-//    CHOLMOD on sim1e6obs. The product now reads each stored block once
-//    (core/block_sparse_matrix.h, ~2x faster than that row loop) and PCG
-//    is ahead again: 0.85x CHOLMOD's CPU at sim1e6obs, 0.97x at sim1e5obs
-//    (0.93x as `auto`), medians of 3 (docs/benchmarks.md, "One-sweep
-//    product"), so K = 40 picks the measured winner on both.
+//    iterations of inexact steps. It differs by problem class: pose graphs
+//    (no eliminated features) need hundreds of CG iterations per solve on
+//    loop closures, so K = kPoseGraphCrossover; on landmark problems
+//    (features eliminated into S) the subgraph-preconditioned CG converges
+//    in tens of iterations, so K = kLandmarkCrossover (figures:
+//    docs/tuning.md).
 //    `--solver pcg|cholmod` overrides.
 //
 // 2. For PCG, an inexact-Newton forcing sequence (Eisenstat & Walker,
@@ -50,11 +35,9 @@
 //    step (eta 0.1) is as good as an exact one, near it the tolerance tightens
 //    quadratically and the iteration keeps Newton's local convergence. After a
 //    rejected step the linearization is the same and eta is kept.
-//    eta_max = 0.01, eta_min = the exact-solve tolerance. eta_max was
-//    measured (docs/benchmarks.md, issue 4): Ceres' 0.1 saves CG iterations
-//    per step but costs LM iterations, each a pass over the observations, and
-//    0.01 took 8-32 % less CPU time on M3500, city10000 and the simulated
-//    landmark problems (10^4, 10^5), and 9 % more on intel (0.02 s).
+//    eta_max = 0.01, eta_min = the exact-solve tolerance. Ceres' 0.1 saves
+//    CG iterations per step but costs LM iterations, each a pass over the
+//    observations (figures: docs/tuning.md).
 //
 // 2b. Truncation that follows the LM objective (truncation > 0): PCG also
 //    stops when the chi2 decrease the step still leaves on the table is
@@ -66,8 +49,8 @@
 //    + lambda d^T D d). The forcing term of item 2 measures the residual
 //    relative to |rhs|, which near the optimum keeps asking for the same 1 %
 //    although the whole step is worth a 1e-6 relative decrease of chi2, and
-//    the system is hardest there (lambda ~1e-8): the late LM iterations took
-//    70 % of the CG iterations on the observed landmark problems (issue 4).
+//    the system is hardest there (lambda ~1e-8): the late LM iterations take
+//    most of the CG iterations on observed landmark problems (docs/tuning.md).
 //    The energy test ends those solves as soon as what is left is below what
 //    LM can see: the solver passes truncation = 0.1 * function tolerance, so
 //    a truncated step decreases chi2 within 0.1 x the convergence test's
@@ -154,14 +137,14 @@ StatusOr<SolverChoice> ChooseLinearSolver(const BlockSparseMatrix& s,
                                           const ReducedSystemSolverOptions& options);
 
 // The kAuto rule of item 1 on the analysis figures, apart so that it can be
-// checked on the figures of the measured problems. Fills choice->type and
+// checked on the figures of known problems. Fills choice->type and
 // choice->pcg_cost from choice->factor_nonzeros and factor_flops; `nonzeros`
 // are S's scalar nonzeros (both triangles), n its rows, b its block size.
 void ChooseFromAnalysis(double nonzeros, double n, double b,
                         const ReducedSystemSolverOptions& options, SolverChoice* choice);
 
-// Products with S per solve at which PCG and CHOLMOD cost the same (item 1),
-// measured in docs/benchmarks.md (issue 4).
+// Products with S per solve at which PCG and CHOLMOD cost the same (item 1;
+// docs/tuning.md).
 inline constexpr double kPoseGraphCrossover = 1000.0;
 inline constexpr double kLandmarkCrossover = 40.0;
 

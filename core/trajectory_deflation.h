@@ -21,13 +21,10 @@
 // mode: a constant mode per increment component (the segment translated, its
 // heading turned) and linear ones (with the increments in the body frame, a
 // segment along a straight street turned about its centre moves its poses
-// laterally in proportion to t_i). Measured on the hardest sim1e5obs system
-// (docs/benchmarks.md, "PCG below CHOLMOD on observed problems"), PCG to
-// 1e-2 from zero, m = 10: tree alone 775 CG iterations; constant modes 466;
-// constant + linear in all three 170; constant + linear in y only 213, in x
-// or theta only 445-451. So DefaultLinearComponents is {y} for SE(2) (b = 3;
-// 4 columns per aggregate: E's factor and solve cost ~(4/6)^2 of six), and
-// every component for other block sizes (not measured).
+// laterally in proportion to t_i). DefaultLinearComponents is {y} for SE(2)
+// (b = 3; 4 columns per aggregate: E's factor and solve cost ~(4/6)^2 of
+// six): the linear mode across the street did most of the work of all three
+// (docs/tuning.md); every component for other block sizes.
 //
 // Deflated CG (Y. Saad, M. Yeung, J. Erhel, F. Guyomarc'h, "A deflated version
 // of the conjugate gradient algorithm", SIAM J. Sci. Comput. 21(5), 2000),
@@ -50,11 +47,11 @@
 // r = b - S x keeps W^T r = 0 up to rounding, since x_j - x_0 lies in the
 // range of the projected operator.)
 //
-// When it pays (measured): 3-4x fewer CG iterations on the densely observed
-// landmark problems, ~2x the cost per iteration, PCG 1.2x cheaper there; on
-// pose graphs with many loop closures (M3500) the error is not smooth along
-// the trajectory and it costs 1.6-2.7x more. Hence off by default
-// (SolverOptions::pcg_deflation_poses = 0, `--pcg-deflation`).
+// When it pays: on densely observed landmark problems, where the error left
+// by PCG is smooth along the trajectory; on pose graphs with many loop
+// closures it is not, and deflation costs more than it saves (figures:
+// docs/tuning.md). Hence off by default (SolverOptions::pcg_deflation_poses =
+// 0, `--pcg-deflation`).
 //
 // THREAD SAFETY: RightMultiplyAndAccumulate is const and serialized by a
 // mutex (scratch vectors, CHOLMOD's workspace). Update must not run

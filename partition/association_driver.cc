@@ -226,6 +226,358 @@ void AssignFeatureIds(const Labels& labels, core::Problem2d* problem) {
   problem->feature_ids = ids;
 }
 
+// The state the rounds of AssociateAndSolve share.
+struct Association {
+  const AssociationOptions& options;
+  const core::SolverOptions& solver_options;
+  core::Problem2d* problem;
+  AssociationSummary* summary;
+  Labels labels;
+  ChunkingOptions chunking;
+  internal::RejectedPairs rejected;  // origin pairs never to merge again
+};
+
+// Observations of each current feature, for exclusivity and undo.
+std::vector<std::vector<int32_t>> ObservationsByFeature(const core::Problem2d& problem) {
+  std::vector<std::vector<int32_t>> out(problem.num_features());
+  for (size_t o = 0; o < problem.observations.size(); ++o)
+    out[problem.observations[o].feature].push_back(static_cast<int32_t>(o));
+  return out;
+}
+
+std::vector<std::vector<int32_t>> PosesByFeature(const core::Problem2d& problem) {
+  std::vector<std::vector<int32_t>> out(problem.num_features());
+  for (const core::Observation& o : problem.observations) out[o.feature].push_back(o.pose);
+  for (auto& poses : out) {
+    std::sort(poses.begin(), poses.end());
+    poses.erase(std::unique(poses.begin(), poses.end()), poses.end());
+  }
+  return out;
+}
+
+// Merges features by union-find roots; the merged position is the
+// information-weighted mean (C-weighted; equal weights if C is unknown).
+void ApplyUnions(UnionFind* sets, const std::vector<FeatureState>* states, Labels* labels,
+                 core::Problem2d* problem) {
+  const int32_t n = problem->num_features();
+  std::vector<int32_t> new_label(n, -1);
+  int32_t next = 0;
+  for (int32_t f = 0; f < n; ++f) {
+    const int32_t root = sets->Find(f);
+    if (new_label[root] < 0) new_label[root] = next++;
+    new_label[f] = new_label[root];
+  }
+  std::vector<Eigen::Matrix2d> weight(next, Eigen::Matrix2d::Zero());
+  std::vector<Eigen::Vector2d> weighted(next, Eigen::Vector2d::Zero());
+  for (int32_t f = 0; f < n; ++f) {
+    Eigen::Matrix2d w = Eigen::Matrix2d::Identity();
+    if (states != nullptr && (*states)[f].usable) w = (*states)[f].information;
+    weight[new_label[f]] += w;
+    weighted[new_label[f]] += w * problem->features[f];
+  }
+  std::vector<core::Point2> positions(next);
+  for (int32_t l = 0; l < next; ++l) positions[l] = weight[l].ldlt().solve(weighted[l]);
+  labels->Relabel(new_label, positions, problem);
+}
+
+// Forced merges (tests): the same path as accepted merges.
+Status ApplyForcedMerges(Association* run) {
+  core::Problem2d* problem = run->problem;
+  UnionFind sets(problem->num_features());
+  for (const auto& [a, b] : run->options.forced_merges) {
+    if (a < 0 || b < 0 || a >= problem->num_features() || b >= problem->num_features())
+      return Status::InvalidArgument("association: forced merge (" + std::to_string(a) + ", " +
+                                     std::to_string(b) + ") names a feature outside 0.." +
+                                     std::to_string(problem->num_features() - 1));
+    MergeRecord record;
+    record.forced = true;
+    record.probability = std::numeric_limits<double>::quiet_NaN();
+    record.feature_a = a;
+    record.feature_b = b;
+    record.origins_a = {a};
+    record.origins_b = {b};
+    run->summary->merge_log.push_back(record);
+    sets.parent[sets.Find(b)] = sets.Find(a);
+  }
+  ApplyUnions(&sets, nullptr, &run->labels, problem);
+  return Status::Ok();
+}
+
+// One undo pass over the merge log, newest merges first; at most one undo per
+// feature per re-solve (its other merges may fit again once the worst side is
+// gone). `members`: the observations of each feature before the pass;
+// *touched marks the features that lost a side. Returns the merges undone.
+int64_t UndoPass(int round, bool undone_since_solve, double variance_factor,
+                 const std::vector<std::vector<int32_t>>& members, std::vector<uint8_t>* touched,
+                 Association* run) {
+  core::Problem2d* problem = run->problem;
+  Labels& labels = run->labels;
+  int64_t undone = 0;
+  for (auto it = run->summary->merge_log.rbegin(); it != run->summary->merge_log.rend(); ++it) {
+    MergeRecord& record = *it;
+    if (record.undone) continue;
+    const int32_t feature = labels.label()[record.origins_b.front()];
+    if (labels.label()[record.origins_a.front()] != feature) continue;  // split already
+    // Features split off in this pass are not in `members`; they are
+    // checked after the re-solve.
+    if (feature >= static_cast<int32_t>(members.size()) || (*touched)[feature]) continue;
+    std::set<int32_t> side_b(record.origins_b.begin(), record.origins_b.end());
+    double chi2_a = 0.0, chi2_b = 0.0;
+    int64_t count_a = 0, count_b = 0;
+    for (int32_t o : members[feature]) {
+      const core::Observation& obs = problem->observations[o];
+      const double e = ObservationChi2(obs, problem->poses[obs.pose], problem->features[feature]);
+      if (side_b.count(labels.origin_of(o))) {
+        chi2_b += e;
+        ++count_b;
+      } else {
+        chi2_a += e;
+        ++count_a;
+      }
+    }
+    const double s2 = variance_factor;
+    const double undo_z = run->options.undo_z;
+    const bool bad_b = count_b > 0 && chi2_b > s2 * ChiSquareQuantile(2.0 * count_b, undo_z);
+    const bool bad_a = count_a > 0 && chi2_a > s2 * ChiSquareQuantile(2.0 * count_a, undo_z);
+    if (!bad_a && !bad_b) continue;
+    record.undone = true;
+    record.undone_round = round;
+    ++undone;
+    // A pair undone on re-fitted features (poses held) may come back once a
+    // full solve has moved the poses, but not forever; one undone after a
+    // full solve never (partition/internal/rejected_pairs.h).
+    run->rejected.RecordUndo(record.origins_a.front(), record.origins_b.front(),
+                             !undone_since_solve);
+    // Split side b off into a new feature at the mean of its first sights.
+    Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+    int64_t count = 0;
+    for (int32_t o : members[feature]) {
+      if (!side_b.count(labels.origin_of(o))) continue;
+      const core::Observation& obs = problem->observations[o];
+      sum += FirstSight(obs, problem->poses[obs.pose]);
+      ++count;
+    }
+    labels.SplitOff(record.origins_b, feature, sum / std::max<int64_t>(count, 1), problem);
+    (*touched)[feature] = 1;
+    GS_LOG(INFO, "association round %d: undid merge of input features %lld and %lld "
+           "(chi2 %.3g over %lld and %.3g over %lld observations)",
+           round, static_cast<long long>(record.feature_a),
+           static_cast<long long>(record.feature_b), chi2_a,
+           static_cast<long long>(count_a), chi2_b, static_cast<long long>(count_b));
+  }
+  return undone;
+}
+
+// Solve, then undo merges the solution contradicts, with a full re-solve
+// after every undo pass. With refit_between_undos only the features
+// concerned are re-fitted between passes (poses held, RefitFeature); the
+// full re-solve comes once a pass undoes nothing, and the passes repeat
+// until a full solve leaves nothing to undo.
+Status SolveAndUndo(int round, AssociationRound* stats, Association* run) {
+  const AssociationOptions& options = run->options;
+  core::Problem2d* problem = run->problem;
+  AssociationSummary* summary = run->summary;
+  for (;;) {
+    const Clock::time_point solve_start = Clock::now();
+    // Features still seen once are left out of the solve (exact, and their
+    // linear recovery would spoil the steps: partition/singleton_solve.h).
+    GS_RETURN_IF_ERROR(SolveWithoutSingletons(run->solver_options, run->chunking, problem,
+                                              &summary->final_solve));
+    stats->solve_seconds += SecondsSince(solve_start);
+    stats->chi2 = summary->final_solve.final_chi2;
+    ++stats->solves;
+    stats->solver_iterations += summary->final_solve.iterations;
+    bool undone_since_solve = false;
+    // Residuals are judged against the noise the data show (s^2).
+    stats->variance_factor =
+        options.scale_by_variance_factor
+            ? internal::VarianceFactor(*problem, stats->chi2, options.min_redundancy)
+            : 1.0;
+    for (;;) {
+      const std::vector<std::vector<int32_t>> members = ObservationsByFeature(*problem);
+      std::vector<uint8_t> touched(problem->num_features() + summary->merge_log.size(), 0);
+      const int64_t undone = UndoPass(round, undone_since_solve, stats->variance_factor,
+                                      members, &touched, run);
+      stats->undone += undone;
+      summary->undone += undone;
+      if (undone == 0) break;
+      undone_since_solve = true;
+      if (!options.refit_between_undos) break;  // a full re-solve after every pass
+      // Re-fit the features that lost a side and the sides split off.
+      const std::vector<std::vector<int32_t>> after = ObservationsByFeature(*problem);
+      for (int32_t f = 0; f < problem->num_features(); ++f) {
+        if (f < static_cast<int32_t>(members.size()) && !touched[f]) continue;
+        RefitFeature(*problem, after[f], &problem->features[f]);
+      }
+    }
+    if (!undone_since_solve) return Status::Ok();
+  }
+}
+
+// Candidate pairs from a uniform grid hash: usable features within the
+// search radius, pose-exclusive if asked, not forbidden by earlier undos.
+std::vector<Candidate> FindCandidates(const std::vector<FeatureState>& states,
+                                      const std::vector<std::vector<int32_t>>& poses_of,
+                                      const Association& run) {
+  const AssociationOptions& options = run.options;
+  const core::Problem2d& problem = *run.problem;
+  std::set<std::pair<int32_t, int32_t>> forbidden_features;
+  for (const auto& [a, b] : run.rejected.forbidden())
+    forbidden_features.insert(std::minmax(run.labels.label()[a], run.labels.label()[b]));
+  const double cell = options.search_radius;
+  auto key = [](int64_t x, int64_t y) { return (x << 32) ^ (y & 0xffffffffLL); };
+  std::unordered_map<int64_t, std::vector<int32_t>> grid;
+  for (int32_t f = 0; f < problem.num_features(); ++f) {
+    if (!states[f].usable) continue;
+    const auto& p = problem.features[f];
+    grid[key(static_cast<int64_t>(std::floor(p.x() / cell)),
+             static_cast<int64_t>(std::floor(p.y() / cell)))]
+        .push_back(f);
+  }
+  std::vector<Candidate> candidates;
+  const double radius_squared = options.search_radius * options.search_radius;
+  for (int32_t f = 0; f < problem.num_features(); ++f) {
+    if (!states[f].usable) continue;
+    const auto& p = problem.features[f];
+    const int64_t cx = static_cast<int64_t>(std::floor(p.x() / cell));
+    const int64_t cy = static_cast<int64_t>(std::floor(p.y() / cell));
+    for (int64_t dx = -1; dx <= 1; ++dx) {
+      for (int64_t dy = -1; dy <= 1; ++dy) {
+        const auto it = grid.find(key(cx + dx, cy + dy));
+        if (it == grid.end()) continue;
+        for (int32_t g : it->second) {
+          if (g <= f) continue;
+          if ((problem.features[g] - p).squaredNorm() > radius_squared) continue;
+          if (options.exclusive_per_pose && SortedIntersect(poses_of[f], poses_of[g])) continue;
+          if (forbidden_features.count({f, g})) continue;
+          Candidate candidate;
+          candidate.j = f;
+          candidate.k = g;
+          candidates.push_back(candidate);
+        }
+      }
+    }
+  }
+  return candidates;
+}
+
+// The candidates that pass the correspondence test, most probable first; in
+// the mutual-best rounds only pairs that are both features' best.
+std::vector<int32_t> AcceptCandidates(int round, const AssociationOptions& options,
+                                      const core::Problem2d& problem,
+                                      std::vector<Candidate>* candidates) {
+  std::vector<int32_t> accepted;
+  for (size_t c = 0; c < candidates->size(); ++c) {
+    Candidate& candidate = (*candidates)[c];
+    candidate.result = core::CorrespondenceTest(problem.features[candidate.j],
+                                                problem.features[candidate.k], candidate.joint);
+    if (candidate.result.valid && candidate.result.probability > options.chi &&
+        candidate.result.mahalanobis_squared <= options.max_mahalanobis_squared)
+      accepted.push_back(static_cast<int32_t>(c));
+  }
+  const std::vector<Candidate>& all = *candidates;
+  std::stable_sort(accepted.begin(), accepted.end(), [&](int32_t a, int32_t b) {
+    return all[a].result.probability > all[b].result.probability;
+  });
+  if (round <= options.mutual_best_rounds) {
+    // Keep a pair only if it is both features' most probable accepted pair.
+    std::vector<int32_t> best(problem.num_features(), -1);
+    for (int32_t c : accepted) {
+      if (best[all[c].j] < 0) best[all[c].j] = c;
+      if (best[all[c].k] < 0) best[all[c].k] = c;
+    }
+    std::erase_if(accepted, [&](int32_t c) { return best[all[c].j] != c || best[all[c].k] != c; });
+  }
+  return accepted;
+}
+
+// Batch merge of the accepted pairs with union-find, clusters kept
+// pose-exclusive; each merge logged. Returns the merges.
+int64_t MergeAccepted(int round, const std::vector<Candidate>& candidates,
+                      const std::vector<int32_t>& accepted,
+                      const std::vector<std::vector<int32_t>>& poses_of, UnionFind* sets,
+                      Association* run) {
+  const std::vector<int32_t>& label = run->labels.label();
+  std::vector<std::vector<int32_t>> cluster_poses = poses_of;
+  std::vector<std::vector<int32_t>> cluster_origins(run->problem->num_features());
+  for (size_t origin = 0; origin < label.size(); ++origin)
+    cluster_origins[label[origin]].push_back(static_cast<int32_t>(origin));
+  int64_t merges = 0;
+  for (int32_t c : accepted) {
+    const Candidate& candidate = candidates[c];
+    int32_t a = sets->Find(candidate.j);
+    int32_t b = sets->Find(candidate.k);
+    if (a == b) continue;
+    if (run->options.exclusive_per_pose && SortedIntersect(cluster_poses[a], cluster_poses[b]))
+      continue;
+    if (cluster_origins[a].size() < cluster_origins[b].size()) std::swap(a, b);
+    MergeRecord record;
+    record.round = round;
+    record.feature_a = cluster_origins[a].front();
+    record.feature_b = cluster_origins[b].front();
+    record.probability = candidate.result.probability;
+    record.mahalanobis_squared = candidate.result.mahalanobis_squared;
+    record.origins_a = cluster_origins[a];
+    record.origins_b = cluster_origins[b];
+    run->summary->merge_log.push_back(std::move(record));
+    sets->parent[b] = a;
+    cluster_poses[a] = SortedUnion(cluster_poses[a], cluster_poses[b]);
+    cluster_poses[b].clear();
+    cluster_origins[a].insert(cluster_origins[a].end(), cluster_origins[b].begin(),
+                              cluster_origins[b].end());
+    cluster_origins[b].clear();
+    ++merges;
+  }
+  return merges;
+}
+
+// One round: solve and undo, marginals at the solution, candidates, tests,
+// merges.
+Status RunRound(int round, AssociationRound* stats, Association* run) {
+  core::Problem2d* problem = run->problem;
+  GS_RETURN_IF_ERROR(SolveAndUndo(round, stats, run));
+  stats->features = problem->num_features();
+
+  // Marginals and gains at the solution.
+  const Clock::time_point marginal_start = Clock::now();
+  InMemoryChunkSource chunks(*problem, run->chunking);
+  core::PoseMarginals marginals;
+  std::vector<FeatureState> states;
+  GS_RETURN_IF_ERROR(
+      LinearizeAtSolution(run->solver_options, chunks, *problem, &marginals, &states));
+  stats->marginal_seconds += SecondsSince(marginal_start);
+
+  const Clock::time_point association_start = Clock::now();
+  const std::vector<std::vector<int32_t>> poses_of = PosesByFeature(*problem);
+  std::vector<Candidate> candidates = FindCandidates(states, poses_of, *run);
+  stats->candidates = static_cast<int64_t>(candidates.size());
+  stats->association_seconds += SecondsSince(association_start);
+
+  const Clock::time_point covariance_start = Clock::now();
+  GS_RETURN_IF_ERROR(JointCovariances(marginals, states, &candidates));
+  if (stats->variance_factor != 1.0)
+    for (Candidate& candidate : candidates) candidate.joint *= stats->variance_factor;
+  stats->marginal_seconds += SecondsSince(covariance_start);
+
+  const Clock::time_point test_start = Clock::now();
+  const std::vector<int32_t> accepted =
+      AcceptCandidates(round, run->options, *problem, &candidates);
+  stats->accepted = static_cast<int64_t>(accepted.size());
+  UnionFind sets(problem->num_features());
+  stats->merges += MergeAccepted(round, candidates, accepted, poses_of, &sets, run);
+  if (stats->merges > 0) ApplyUnions(&sets, &states, &run->labels, problem);
+  stats->association_seconds += SecondsSince(test_start);
+  GS_LOG(INFO, "association round %d: %lld features, %lld candidates, %lld accepted, "
+         "%lld merges, %lld undone, chi2 %.9g (solve %.2f s in %lld solves / %lld iterations, "
+         "marginals %.2f s, tests %.2f s)",
+         round, static_cast<long long>(stats->features), static_cast<long long>(stats->candidates),
+         static_cast<long long>(stats->accepted), static_cast<long long>(stats->merges),
+         static_cast<long long>(stats->undone), stats->chi2, stats->solve_seconds,
+         static_cast<long long>(stats->solves), static_cast<long long>(stats->solver_iterations),
+         stats->marginal_seconds, stats->association_seconds);
+  return Status::Ok();
+}
+
 }  // namespace
 
 Status AssociationOptions::Validate() const {
@@ -331,295 +683,15 @@ Status AssociateAndSolve(const AssociationOptions& options,
   summary->origin_observation.assign(problem->num_features(), -1);
   for (size_t o = problem->observations.size(); o-- > 0;)
     summary->origin_observation[problem->observations[o].feature] = static_cast<int32_t>(o);
-  Labels labels(*problem);
-  ChunkingOptions chunking;
-  chunking.max_observations_per_chunk = options.chunk_observations;
-  internal::RejectedPairs rejected(options.full_solve_undos);  // origin pairs never to merge again
-
-  // Observations of each current feature, for exclusivity and undo.
-  auto observations_by_feature = [&]() {
-    std::vector<std::vector<int32_t>> out(problem->num_features());
-    for (size_t o = 0; o < problem->observations.size(); ++o)
-      out[problem->observations[o].feature].push_back(static_cast<int32_t>(o));
-    return out;
-  };
-  auto poses_by_feature = [&]() {
-    std::vector<std::vector<int32_t>> out(problem->num_features());
-    for (const core::Observation& o : problem->observations) out[o.feature].push_back(o.pose);
-    for (auto& poses : out) {
-      std::sort(poses.begin(), poses.end());
-      poses.erase(std::unique(poses.begin(), poses.end()), poses.end());
-    }
-    return out;
-  };
-  // Merges features by union-find roots; the merged position is the
-  // information-weighted mean (C-weighted; equal weights if C is unknown).
-  auto apply_unions = [&](UnionFind* sets, const std::vector<FeatureState>* states) {
-    const int32_t n = problem->num_features();
-    std::vector<int32_t> new_label(n, -1);
-    int32_t next = 0;
-    for (int32_t f = 0; f < n; ++f) {
-      const int32_t root = sets->Find(f);
-      if (new_label[root] < 0) new_label[root] = next++;
-      new_label[f] = new_label[root];
-    }
-    std::vector<Eigen::Matrix2d> weight(next, Eigen::Matrix2d::Zero());
-    std::vector<Eigen::Vector2d> weighted(next, Eigen::Vector2d::Zero());
-    for (int32_t f = 0; f < n; ++f) {
-      Eigen::Matrix2d w = Eigen::Matrix2d::Identity();
-      if (states != nullptr && (*states)[f].usable) w = (*states)[f].information;
-      weight[new_label[f]] += w;
-      weighted[new_label[f]] += w * problem->features[f];
-    }
-    std::vector<core::Point2> positions(next);
-    for (int32_t l = 0; l < next; ++l) positions[l] = weight[l].ldlt().solve(weighted[l]);
-    labels.Relabel(new_label, positions, problem);
-  };
-
-  // Forced merges (tests): the same path as accepted merges.
-  if (!options.forced_merges.empty()) {
-    UnionFind sets(problem->num_features());
-    for (const auto& [a, b] : options.forced_merges) {
-      if (a < 0 || b < 0 || a >= problem->num_features() || b >= problem->num_features())
-        return Status::InvalidArgument("association: forced merge (" + std::to_string(a) + ", " +
-                                       std::to_string(b) + ") names a feature outside 0.." +
-                                       std::to_string(problem->num_features() - 1));
-      MergeRecord record;
-      record.forced = true;
-      record.probability = std::numeric_limits<double>::quiet_NaN();
-      record.feature_a = a;
-      record.feature_b = b;
-      record.origins_a = {a};
-      record.origins_b = {b};
-      summary->merge_log.push_back(record);
-      sets.parent[sets.Find(b)] = sets.Find(a);
-    }
-    apply_unions(&sets, nullptr);
-  }
+  Association run{options, solver_options, problem, summary, Labels(*problem), ChunkingOptions(),
+                  internal::RejectedPairs(options.full_solve_undos)};
+  run.chunking.max_observations_per_chunk = options.chunk_observations;
+  if (!options.forced_merges.empty()) GS_RETURN_IF_ERROR(ApplyForcedMerges(&run));
 
   for (int round = 1; round <= options.max_rounds; ++round) {
     AssociationRound stats;
     stats.round = round;
-    // Solve, then undo merges the solution contradicts, with a full re-solve
-    // after every undo pass. With refit_between_undos only the features
-    // concerned are re-fitted between passes (poses held, RefitFeature); the
-    // full re-solve comes once a pass undoes nothing, and the passes repeat
-    // until a full solve leaves nothing to undo.
-    for (;;) {
-      const Clock::time_point solve_start = Clock::now();
-      // Features still seen once are left out of the solve (exact, and their
-      // linear recovery would spoil the steps: partition/singleton_solve.h).
-      GS_RETURN_IF_ERROR(
-          SolveWithoutSingletons(solver_options, chunking, problem, &summary->final_solve));
-      stats.solve_seconds += SecondsSince(solve_start);
-      stats.chi2 = summary->final_solve.final_chi2;
-      ++stats.solves;
-      stats.solver_iterations += summary->final_solve.iterations;
-      bool undone_since_solve = false;
-      // Residuals are judged against the noise the data show (s^2).
-      stats.variance_factor =
-          options.scale_by_variance_factor
-              ? internal::VarianceFactor(*problem, stats.chi2, options.min_redundancy)
-              : 1.0;
-     for (;;) {
-      const std::vector<std::vector<int32_t>> members = observations_by_feature();
-      int64_t undone = 0;
-      // Newest merges first; at most one undo per feature per re-solve (its
-      // other merges may fit again once the worst side is gone).
-      std::vector<uint8_t> touched(problem->num_features() + summary->merge_log.size(), 0);
-      for (auto it = summary->merge_log.rbegin(); it != summary->merge_log.rend(); ++it) {
-        MergeRecord& record = *it;
-        if (record.undone) continue;
-        const int32_t feature = labels.label()[record.origins_b.front()];
-        if (labels.label()[record.origins_a.front()] != feature) continue;  // split already
-        // Features split off in this pass are not in `members`; they are
-        // checked after the re-solve.
-        if (feature >= static_cast<int32_t>(members.size()) || touched[feature]) continue;
-        std::set<int32_t> side_b(record.origins_b.begin(), record.origins_b.end());
-        double chi2_a = 0.0, chi2_b = 0.0;
-        int64_t count_a = 0, count_b = 0;
-        for (int32_t o : members[feature]) {
-          const core::Observation& obs = problem->observations[o];
-          const double e = ObservationChi2(obs, problem->poses[obs.pose], problem->features[feature]);
-          if (side_b.count(labels.origin_of(o))) {
-            chi2_b += e;
-            ++count_b;
-          } else {
-            chi2_a += e;
-            ++count_a;
-          }
-        }
-        const double s2 = stats.variance_factor;
-        const bool bad_b =
-            count_b > 0 && chi2_b > s2 * ChiSquareQuantile(2.0 * count_b, options.undo_z);
-        const bool bad_a =
-            count_a > 0 && chi2_a > s2 * ChiSquareQuantile(2.0 * count_a, options.undo_z);
-        if (!bad_a && !bad_b) continue;
-        record.undone = true;
-        record.undone_round = round;
-        ++undone;
-        // A pair undone on re-fitted features (poses held) may come back once a
-        // full solve has moved the poses, but not forever; one undone after a
-        // full solve never (partition/internal/rejected_pairs.h).
-        rejected.RecordUndo(record.origins_a.front(), record.origins_b.front(),
-                            !undone_since_solve);
-        // Split side b off into a new feature at the mean of its first sights.
-        Eigen::Vector2d sum = Eigen::Vector2d::Zero();
-        int64_t count = 0;
-        for (int32_t o : members[feature]) {
-          if (!side_b.count(labels.origin_of(o))) continue;
-          const core::Observation& obs = problem->observations[o];
-          sum += FirstSight(obs, problem->poses[obs.pose]);
-          ++count;
-        }
-        labels.SplitOff(record.origins_b, feature, sum / std::max<int64_t>(count, 1), problem);
-        touched[feature] = 1;
-        GS_LOG(INFO, "association round %d: undid merge of input features %lld and %lld "
-               "(chi2 %.3g over %lld and %.3g over %lld observations)",
-               round, static_cast<long long>(record.feature_a),
-               static_cast<long long>(record.feature_b), chi2_a,
-               static_cast<long long>(count_a), chi2_b, static_cast<long long>(count_b));
-      }
-      stats.undone += undone;
-      summary->undone += undone;
-      if (undone == 0) break;
-      undone_since_solve = true;
-      if (!options.refit_between_undos) break;  // a full re-solve after every pass
-      // Re-fit the features that lost a side and the sides split off.
-      const std::vector<std::vector<int32_t>> after = observations_by_feature();
-      for (int32_t f = 0; f < problem->num_features(); ++f) {
-        if (f < static_cast<int32_t>(members.size()) && !touched[f]) continue;
-        RefitFeature(*problem, after[f], &problem->features[f]);
-      }
-     }
-      if (!undone_since_solve) break;
-    }
-    stats.features = problem->num_features();
-
-    // Marginals and gains at the solution.
-    const Clock::time_point marginal_start = Clock::now();
-    InMemoryChunkSource chunks(*problem, chunking);
-    core::PoseMarginals marginals;
-    std::vector<FeatureState> states;
-    GS_RETURN_IF_ERROR(LinearizeAtSolution(solver_options, chunks, *problem, &marginals, &states));
-    stats.marginal_seconds += SecondsSince(marginal_start);
-
-    // Candidates from a uniform grid hash.
-    const Clock::time_point association_start = Clock::now();
-    const std::vector<std::vector<int32_t>> poses_of = poses_by_feature();
-    std::set<std::pair<int32_t, int32_t>> forbidden_features;
-    for (const auto& [a, b] : rejected.forbidden())
-      forbidden_features.insert(std::minmax(labels.label()[a], labels.label()[b]));
-    const double cell = options.search_radius;
-    auto key = [](int64_t x, int64_t y) { return (x << 32) ^ (y & 0xffffffffLL); };
-    std::unordered_map<int64_t, std::vector<int32_t>> grid;
-    for (int32_t f = 0; f < problem->num_features(); ++f) {
-      if (!states[f].usable) continue;
-      const auto& p = problem->features[f];
-      grid[key(static_cast<int64_t>(std::floor(p.x() / cell)),
-               static_cast<int64_t>(std::floor(p.y() / cell)))]
-          .push_back(f);
-    }
-    std::vector<Candidate> candidates;
-    const double radius_squared = options.search_radius * options.search_radius;
-    for (int32_t f = 0; f < problem->num_features(); ++f) {
-      if (!states[f].usable) continue;
-      const auto& p = problem->features[f];
-      const int64_t cx = static_cast<int64_t>(std::floor(p.x() / cell));
-      const int64_t cy = static_cast<int64_t>(std::floor(p.y() / cell));
-      for (int64_t dx = -1; dx <= 1; ++dx) {
-        for (int64_t dy = -1; dy <= 1; ++dy) {
-          const auto it = grid.find(key(cx + dx, cy + dy));
-          if (it == grid.end()) continue;
-          for (int32_t g : it->second) {
-            if (g <= f) continue;
-            if ((problem->features[g] - p).squaredNorm() > radius_squared) continue;
-            if (options.exclusive_per_pose && SortedIntersect(poses_of[f], poses_of[g])) continue;
-            if (forbidden_features.count({f, g})) continue;
-            Candidate candidate;
-            candidate.j = f;
-            candidate.k = g;
-            candidates.push_back(candidate);
-          }
-        }
-      }
-    }
-    stats.candidates = static_cast<int64_t>(candidates.size());
-    stats.association_seconds += SecondsSince(association_start);
-
-    const Clock::time_point covariance_start = Clock::now();
-    GS_RETURN_IF_ERROR(JointCovariances(marginals, states, &candidates));
-    if (stats.variance_factor != 1.0)
-      for (Candidate& candidate : candidates) candidate.joint *= stats.variance_factor;
-    stats.marginal_seconds += SecondsSince(covariance_start);
-
-    const Clock::time_point test_start = Clock::now();
-    std::vector<int32_t> accepted;
-    for (size_t c = 0; c < candidates.size(); ++c) {
-      Candidate& candidate = candidates[c];
-      candidate.result = core::CorrespondenceTest(problem->features[candidate.j],
-                                                  problem->features[candidate.k], candidate.joint);
-      if (candidate.result.valid && candidate.result.probability > options.chi &&
-          candidate.result.mahalanobis_squared <= options.max_mahalanobis_squared)
-        accepted.push_back(static_cast<int32_t>(c));
-    }
-    stats.accepted = static_cast<int64_t>(accepted.size());
-    std::stable_sort(accepted.begin(), accepted.end(), [&](int32_t a, int32_t b) {
-      return candidates[a].result.probability > candidates[b].result.probability;
-    });
-    if (round <= options.mutual_best_rounds) {
-      // Keep a pair only if it is both features' most probable accepted pair.
-      std::vector<int32_t> best(problem->num_features(), -1);
-      for (int32_t c : accepted) {
-        if (best[candidates[c].j] < 0) best[candidates[c].j] = c;
-        if (best[candidates[c].k] < 0) best[candidates[c].k] = c;
-      }
-      std::erase_if(accepted, [&](int32_t c) {
-        return best[candidates[c].j] != c || best[candidates[c].k] != c;
-      });
-    }
-
-    // Batch merge with union-find, clusters kept pose-exclusive.
-    UnionFind sets(problem->num_features());
-    std::vector<std::vector<int32_t>> cluster_poses = poses_of;
-    std::vector<std::vector<int32_t>> cluster_origins(problem->num_features());
-    for (size_t origin = 0; origin < labels.label().size(); ++origin)
-      cluster_origins[labels.label()[origin]].push_back(static_cast<int32_t>(origin));
-    for (int32_t c : accepted) {
-      const Candidate& candidate = candidates[c];
-      int32_t a = sets.Find(candidate.j);
-      int32_t b = sets.Find(candidate.k);
-      if (a == b) continue;
-      if (options.exclusive_per_pose && SortedIntersect(cluster_poses[a], cluster_poses[b]))
-        continue;
-      if (cluster_origins[a].size() < cluster_origins[b].size()) std::swap(a, b);
-      MergeRecord record;
-      record.round = round;
-      record.feature_a = cluster_origins[a].front();
-      record.feature_b = cluster_origins[b].front();
-      record.probability = candidate.result.probability;
-      record.mahalanobis_squared = candidate.result.mahalanobis_squared;
-      record.origins_a = cluster_origins[a];
-      record.origins_b = cluster_origins[b];
-      summary->merge_log.push_back(std::move(record));
-      sets.parent[b] = a;
-      cluster_poses[a] = SortedUnion(cluster_poses[a], cluster_poses[b]);
-      cluster_poses[b].clear();
-      cluster_origins[a].insert(cluster_origins[a].end(), cluster_origins[b].begin(),
-                                cluster_origins[b].end());
-      cluster_origins[b].clear();
-      ++stats.merges;
-    }
-    if (stats.merges > 0) apply_unions(&sets, &states);
-    stats.association_seconds += SecondsSince(test_start);
-    GS_LOG(INFO, "association round %d: %lld features, %lld candidates, %lld accepted, "
-           "%lld merges, %lld undone, chi2 %.9g (solve %.2f s in %lld solves / %lld iterations, "
-           "marginals %.2f s, tests %.2f s)",
-           round, static_cast<long long>(stats.features), static_cast<long long>(stats.candidates),
-           static_cast<long long>(stats.accepted), static_cast<long long>(stats.merges),
-           static_cast<long long>(stats.undone), stats.chi2, stats.solve_seconds,
-           static_cast<long long>(stats.solves), static_cast<long long>(stats.solver_iterations),
-           stats.marginal_seconds, stats.association_seconds);
+    GS_RETURN_IF_ERROR(RunRound(round, &stats, &run));
     summary->rounds.push_back(stats);
     if (stats.merges == 0) {
       summary->converged = true;
@@ -629,9 +701,9 @@ Status AssociateAndSolve(const AssociationOptions& options,
   if (!summary->converged) {
     // The last round merged: solve once more so the returned state is solved.
     GS_RETURN_IF_ERROR(
-        SolveWithoutSingletons(solver_options, chunking, problem, &summary->final_solve));
+        SolveWithoutSingletons(solver_options, run.chunking, problem, &summary->final_solve));
   }
-  AssignFeatureIds(labels, problem);
+  AssignFeatureIds(run.labels, problem);
   summary->final_features = problem->num_features();
   for (const MergeRecord& record : summary->merge_log)
     if (!record.undone) ++summary->merges;

@@ -59,17 +59,15 @@ struct AssociationOptions {
   int mutual_best_rounds = 0;
   // Between undo passes re-fit only the affected features with the poses held
   // instead of a full re-solve per pass (fewer solves). Pairs undone on such
-  // re-fitted features are not forbidden for later rounds. Measured: better
-  // on the simulated campus (GPS holds the poses), worse on Victoria Park
-  // (no GPS: poses move between solves); docs/benchmarks.md.
+  // re-fitted features are not forbidden for later rounds. It suits runs
+  // whose poses GPS holds, not runs whose poses move between solves.
   bool refit_between_undos = false;
   // Undos right after a full solve that forbid a pair for the rest of the
   // run: 1 forbids it at once; 2 (default) lets it be proposed once more (a
   // right merge undone on a map still bent by wrong ones may come back).
   // Pairs undone on re-fitted features are forbidden at their second undo
-  // either way (partition/internal/rejected_pairs.h). Measured with 2 instead
-  // of 1: 30 000-pose campus recall 0.948 -> 0.991 at equal precision,
-  // Victoria Park 0.909 / 0.624 -> 0.917 / 0.642 (docs/benchmarks.md).
+  // either way (partition/internal/rejected_pairs.h). 2 finds more right
+  // merges at equal precision (docs/tuning.md).
   int full_solve_undos = 2;
   // Scale the covariances of the tests, and the undo test's chi2, by the
   // variance factor s^2 of the round's solve (partition/internal/

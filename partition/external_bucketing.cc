@@ -1,20 +1,17 @@
 #include "partition/external_bucketing.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <thread>
-#include <cerrno>
 #include <cinttypes>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <numeric>
+#include <string_view>
 #include <type_traits>
 #include <utility>
 
@@ -22,23 +19,10 @@
 #include <tbb/parallel_for.h>
 
 #include "partition/spill_frames.h"
+#include "storage/env.h"
 #include "storage/stop_point.h"
 
 namespace graphslam::partition {
-namespace {
-
-struct FileCloser {
-  void operator()(std::FILE* file) const {
-    if (file != nullptr) std::fclose(file);
-  }
-};
-using File = std::unique_ptr<std::FILE, FileCloser>;
-
-Status IoError(const std::string& path, const char* what) {
-  return Status::IOError(path + ": " + what + ": " + std::strerror(errno));
-}
-
-}  // namespace
 
 Status ExternalBucketingOptions::Validate() const {
   if (max_observations_per_chunk <= 0)
@@ -140,22 +124,13 @@ StatusOr<std::unique_ptr<BucketChunkSource>> BucketChunkSource::Plan(
 
 namespace {
 
-// fsync of a scratch file by path (bucket files are plain stdio appends).
-Status SyncPath(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
-  if (fd < 0) return IoError(path, "open for fsync");
-  Status status;
-  if (::fsync(fd) != 0) status = IoError(path, "fsync");
-  ::close(fd);
-  return status;
-}
-
 // fsyncs `paths` concurrently (the file system folds the journal commits).
 Status SyncPaths(const std::vector<std::string>& paths) {
   std::vector<Status> statuses(paths.size());
   std::atomic<size_t> next{0};
   auto work = [&]() {
-    for (size_t i = next++; i < paths.size(); i = next++) statuses[i] = SyncPath(paths[i]);
+    for (size_t i = next++; i < paths.size(); i = next++)
+      statuses[i] = storage::Env::Default()->SyncFile(paths[i]);
   };
   std::vector<std::thread> pool;
   for (size_t t = 1; t < std::min<size_t>(paths.size(), 16); ++t) pool.emplace_back(work);
@@ -165,13 +140,154 @@ Status SyncPaths(const std::vector<std::string>& paths) {
   return Status::Ok();
 }
 
+// Back to the last checkpoint: what a killed run appended after it goes.
+// The progress counts observations; the frame headers say where they end.
+Status TruncateToProgress(const std::vector<std::string>& bucket_paths,
+                          const SpillProgress& progress) {
+  for (size_t b = 0; b < bucket_paths.size(); ++b) {
+    const std::string& path = bucket_paths[b];
+    std::error_code error;
+    const bool exists = std::filesystem::exists(path, error);
+    if (!exists && progress.bucket_observations[b] == 0) continue;
+    if (!exists)
+      return Status::Corruption(path + ": missing; the spill progress records " +
+                                std::to_string(progress.bucket_observations[b]) +
+                                " observations in it");
+    GS_ASSIGN_OR_RETURN(const int64_t keep,
+                        SpillFrameBoundary(path, progress.bucket_observations[b]));
+    std::filesystem::resize_file(path, static_cast<std::uintmax_t>(keep), error);
+    if (error) return Status::IOError(path + ": truncate: " + error.message());
+  }
+  return Status::Ok();
+}
+
+// Appends buffered observations to the bucket files: sorted by bucket
+// (stable, so each run keeps input order), each bucket's run as frames of at
+// most kMaxSpillFrameObservations, compressed in parallel, appended in order.
+class BucketWriter {
+ public:
+  using BucketOf = std::function<int64_t(const core::Observation&)>;
+
+  BucketWriter(const std::vector<std::string>& paths, BucketOf bucket_of, int zstd_level,
+               BucketingStats* stats, SpillProgress* progress)
+      : paths_(paths), bucket_of_(std::move(bucket_of)),
+        encoders_([zstd_level] { return zstd_level; }), stats_(*stats), progress_(*progress),
+        run_(paths.size() + 1, 0), touched_(paths.size(), 0) {}
+
+  // Spills and empties *buffer.
+  Status Spill(std::vector<core::Observation>* buffer) {
+    if (buffer->empty()) return Status::Ok();
+    SortByBucket(*buffer);
+    const std::vector<Piece> pieces = Pieces();
+    std::vector<std::vector<char>> frames(pieces.size());
+    std::vector<Status> statuses(pieces.size());
+    tbb::parallel_for(size_t{0}, pieces.size(), [&](size_t p) {
+      statuses[p] = encoders_.local().Encode(scratch_.data() + pieces[p].begin,
+                                             static_cast<size_t>(pieces[p].end - pieces[p].begin),
+                                             &frames[p]);
+    });
+    for (const Status& status : statuses) GS_RETURN_IF_ERROR(status);
+    GS_RETURN_IF_ERROR(Append(pieces, &frames));
+    progress_.observations += static_cast<int64_t>(buffer->size());
+    ++stats_.spills;
+    buffer->clear();
+    storage::StopPointAtCountForTests("ingest_spill", stats_.spills);
+    return Status::Ok();
+  }
+
+  // The bucket files appended to since the last call.
+  std::vector<std::string> TakeTouched() {
+    std::vector<std::string> paths;
+    for (size_t b = 0; b < paths_.size(); ++b)
+      if (touched_[b]) paths.push_back(paths_[b]);
+    std::fill(touched_.begin(), touched_.end(), 0);
+    return paths;
+  }
+
+  // Frees the sort buffer and the compressors.
+  void Release() {
+    scratch_ = std::vector<core::Observation>();
+    encoders_.clear();
+  }
+
+ private:
+  struct Piece {
+    int64_t bucket;
+    int64_t begin, end;  // in scratch_
+  };
+
+  // Counting sort of `buffer` by bucket into scratch_; run_[b] .. run_[b + 1]
+  // is bucket b's run.
+  void SortByBucket(const std::vector<core::Observation>& buffer) {
+    std::fill(run_.begin(), run_.end(), 0);
+    for (const core::Observation& o : buffer) ++run_[static_cast<size_t>(bucket_of_(o)) + 1];
+    for (size_t b = 1; b < run_.size(); ++b) run_[b] += run_[b - 1];
+    scratch_.resize(buffer.size());
+    std::vector<int64_t> next(run_.begin(), run_.end() - 1);
+    for (const core::Observation& o : buffer) scratch_[next[bucket_of_(o)]++] = o;
+  }
+
+  std::vector<Piece> Pieces() const {
+    constexpr auto kMax = static_cast<int64_t>(kMaxSpillFrameObservations);
+    std::vector<Piece> pieces;
+    for (int64_t b = 0; b + 1 < static_cast<int64_t>(run_.size()); ++b)
+      for (int64_t i = run_[b]; i < run_[b + 1]; i += kMax)
+        pieces.push_back({b, i, std::min(run_[b + 1], i + kMax)});
+    return pieces;
+  }
+
+  // Appends each bucket's frames to its file (one open per bucket).
+  Status Append(const std::vector<Piece>& pieces, std::vector<std::vector<char>>* frames) {
+    for (size_t p = 0; p < pieces.size();) {
+      const int64_t b = pieces[p].bucket;
+      GS_ASSIGN_OR_RETURN(std::unique_ptr<storage::WritableFile> file,
+                          storage::Env::Default()->NewAppendableFile(paths_[b]));
+      for (; p < pieces.size() && pieces[p].bucket == b; ++p) {
+        std::vector<char>& frame = (*frames)[p];
+        GS_RETURN_IF_ERROR(file->Append(std::string_view(frame.data(), frame.size())));
+        stats_.spilled_bytes += static_cast<int64_t>(frame.size());
+        frame = std::vector<char>();
+      }
+      GS_RETURN_IF_ERROR(file->Close());
+      const int64_t n = run_[b + 1] - run_[b];
+      stats_.spilled_raw_bytes += n * static_cast<int64_t>(sizeof(core::Observation));
+      progress_.bucket_observations[b] += n;
+      touched_[b] = 1;
+    }
+    return Status::Ok();
+  }
+
+  const std::vector<std::string>& paths_;
+  const BucketOf bucket_of_;
+  tbb::enumerable_thread_specific<SpillFrameEncoder> encoders_;
+  BucketingStats& stats_;
+  SpillProgress& progress_;
+  std::vector<core::Observation> scratch_;
+  std::vector<int64_t> run_;
+  std::vector<char> touched_;
+};
+
+// Corruption unless every observation of `block` is of a feature pass 1 saw.
+Status CheckSeenInPassOne(const ObservationBlock& block,
+                          const std::vector<int32_t>& feature_chunk) {
+  const auto num_features = static_cast<int32_t>(feature_chunk.size());
+  for (size_t i = 0; i < block.size; ++i) {
+    const core::Observation& observation = block.observations[i];
+    if (observation.feature < 0 || observation.feature >= num_features ||
+        feature_chunk[observation.feature] < 0)
+      return Status::Corruption("observation of feature " + std::to_string(observation.feature) +
+                                " in the second pass was not seen in the first; expected the "
+                                "same input twice");
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgress* progress,
                                 const SpillCheckpoint& checkpoint, double checkpoint_seconds) {
   GS_CHECK(progress != nullptr);
   const int64_t num_buckets = NumBuckets();
-  const int32_t num_features = static_cast<int32_t>(feature_chunk_.size());
   BucketingStats& stats = stats_;
   if (progress->bucket_observations.empty())
     progress->bucket_observations.assign(static_cast<size_t>(num_buckets), 0);
@@ -179,116 +295,35 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
     return Status::Corruption("spill progress lists " +
                               std::to_string(progress->bucket_observations.size()) +
                               " buckets; the plan has " + std::to_string(num_buckets));
-  // Back to the last checkpoint: what a killed run appended after it goes.
-  // The progress counts observations; the frame headers say where they end.
-  for (int64_t b = 0; b < num_buckets; ++b) {
-    const std::string path = BucketPath(b);
-    std::error_code error;
-    const bool exists = std::filesystem::exists(path, error);
-    if (!exists && progress->bucket_observations[b] == 0) continue;
-    if (!exists)
-      return Status::Corruption(path + ": missing; the spill progress records " +
-                                std::to_string(progress->bucket_observations[b]) +
-                                " observations in it");
-    GS_ASSIGN_OR_RETURN(const int64_t keep,
-                        SpillFrameBoundary(path, progress->bucket_observations[b]));
-    std::filesystem::resize_file(path, static_cast<std::uintmax_t>(keep), error);
-    if (error) return Status::IOError(path + ": truncate: " + error.message());
-  }
+  std::vector<std::string> paths(static_cast<size_t>(num_buckets));
+  for (int64_t b = 0; b < num_buckets; ++b) paths[b] = BucketPath(b);
+  GS_RETURN_IF_ERROR(TruncateToProgress(paths, *progress));
   stats.observations = progress->observations;
 
   const int64_t capacity = options_.buffer_observations;
   std::vector<core::Observation> buffer;
   buffer.reserve(static_cast<size_t>(capacity));
-  std::vector<core::Observation> scratch;
-  std::vector<int64_t> run(static_cast<size_t>(num_buckets) + 1, 0);
-  std::vector<char> touched(static_cast<size_t>(num_buckets), 0);
-  const int level = options_.spill_zstd_level;
-  tbb::enumerable_thread_specific<SpillFrameEncoder> encoders([level] { return level; });
-  auto last_checkpoint = std::chrono::steady_clock::now();
-  const auto bucket_of = [&](const core::Observation& o) {
+  const auto bucket_of = [this](const core::Observation& o) {
     return chunk_bucket_[feature_chunk_[o.feature]];
   };
   const int64_t first_bucket = spill_first_bucket_;
   const int64_t end_bucket = spill_end_bucket_ < 0 ? num_buckets : spill_end_bucket_;
   const auto spilled_here = [&](int64_t b) { return b >= first_bucket && b < end_bucket; };
-  auto spill = [&]() -> Status {
-    if (buffer.empty()) return Status::Ok();
-    // Counting sort by bucket: stable, so each run keeps input order.
-    std::fill(run.begin(), run.end(), 0);
-    for (const core::Observation& o : buffer) ++run[static_cast<size_t>(bucket_of(o)) + 1];
-    for (size_t b = 1; b < run.size(); ++b) run[b] += run[b - 1];
-    scratch.resize(buffer.size());
-    {
-      std::vector<int64_t> next(run.begin(), run.end() - 1);
-      for (const core::Observation& o : buffer) scratch[next[bucket_of(o)]++] = o;
-    }
-    // Each bucket's run as frames of at most kMaxSpillFrameObservations,
-    // compressed in parallel, appended in order.
-    struct Piece {
-      int64_t bucket;
-      int64_t begin, end;  // in scratch
-    };
-    std::vector<Piece> pieces;
-    for (int64_t b = 0; b < num_buckets; ++b)
-      for (int64_t i = run[b]; i < run[b + 1]; i += static_cast<int64_t>(kMaxSpillFrameObservations))
-        pieces.push_back(
-            {b, i, std::min(run[b + 1], i + static_cast<int64_t>(kMaxSpillFrameObservations))});
-    std::vector<std::vector<char>> frames(pieces.size());
-    std::vector<Status> statuses(pieces.size());
-    tbb::parallel_for(size_t{0}, pieces.size(), [&](size_t p) {
-      statuses[p] = encoders.local().Encode(scratch.data() + pieces[p].begin,
-                                            static_cast<size_t>(pieces[p].end - pieces[p].begin),
-                                            &frames[p]);
-    });
-    for (const Status& status : statuses) GS_RETURN_IF_ERROR(status);
-    for (size_t p = 0; p < pieces.size();) {
-      const int64_t b = pieces[p].bucket;
-      const std::string path = BucketPath(b);
-      File file(std::fopen(path.c_str(), "ab"));
-      if (!file) return IoError(path, "open for append");
-      for (; p < pieces.size() && pieces[p].bucket == b; ++p) {
-        if (std::fwrite(frames[p].data(), 1, frames[p].size(), file.get()) != frames[p].size())
-          return IoError(path, "write");
-        stats.spilled_bytes += static_cast<int64_t>(frames[p].size());
-        frames[p] = std::vector<char>();
-      }
-      if (std::fclose(file.release()) != 0) return IoError(path, "close");
-      const int64_t n = run[b + 1] - run[b];
-      stats.spilled_raw_bytes += n * static_cast<int64_t>(sizeof(core::Observation));
-      progress->bucket_observations[b] += n;
-      touched[b] = 1;
-    }
-    progress->observations += static_cast<int64_t>(buffer.size());
-    ++stats.spills;
-    buffer.clear();
-    storage::StopPointAtCountForTests("ingest_spill", stats.spills);
-    return Status::Ok();
-  };
+  BucketWriter writer(paths, bucket_of, options_.spill_zstd_level, &stats, progress);
+  auto last_checkpoint = std::chrono::steady_clock::now();
   // Makes the touched bucket files durable, then reports *progress.
   auto take_checkpoint = [&]() -> Status {
-    std::vector<std::string> paths;
-    for (int64_t b = 0; b < num_buckets; ++b)
-      if (touched[b]) paths.push_back(BucketPath(b));
-    GS_RETURN_IF_ERROR(SyncPaths(paths));
-    std::fill(touched.begin(), touched.end(), 0);
+    GS_RETURN_IF_ERROR(SyncPaths(writer.TakeTouched()));
     last_checkpoint = std::chrono::steady_clock::now();
     return checkpoint ? checkpoint(*progress) : Status::Ok();
   };
   int64_t resumable_offset = progress->replay_position;
   GS_RETURN_IF_ERROR(replay([&](const ObservationBlock& block) -> Status {
-    for (size_t i = 0; i < block.size; ++i) {
-      const core::Observation& observation = block.observations[i];
-      if (observation.feature < 0 || observation.feature >= num_features ||
-          feature_chunk_[observation.feature] < 0)
-        return Status::Corruption("observation of feature " + std::to_string(observation.feature) +
-                                  " in the second pass was not seen in the first; expected the "
-                                  "same input twice");
-    }
+    GS_RETURN_IF_ERROR(CheckSeenInPassOne(block, feature_chunk_));
     // A block that does not fit is preceded by a spill at the block boundary:
     // the resumable point where the previous block ended.
     if (!buffer.empty() && static_cast<int64_t>(buffer.size() + block.size) > capacity) {
-      GS_RETURN_IF_ERROR(spill());
+      GS_RETURN_IF_ERROR(writer.Spill(&buffer));
       const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() -
                                                            last_checkpoint).count();
       if (checkpoint && resumable_offset >= 0 && elapsed >= checkpoint_seconds) {
@@ -302,7 +337,8 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
       // at a resumable point (blocks that divide the buffer would otherwise
       // never give one).
       if (!spilled_here(bucket_of(block.observations[i]))) continue;
-      if (static_cast<int64_t>(buffer.size()) >= capacity) GS_RETURN_IF_ERROR(spill());
+      if (static_cast<int64_t>(buffer.size()) >= capacity)
+        GS_RETURN_IF_ERROR(writer.Spill(&buffer));
       buffer.push_back(block.observations[i]);
       stats.peak_observations_in_memory =
           std::max(stats.peak_observations_in_memory, static_cast<int64_t>(buffer.size()));
@@ -311,22 +347,18 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
     resumable_offset = block.end_offset;
     return Status::Ok();
   }));
-  GS_RETURN_IF_ERROR(spill());
+  GS_RETURN_IF_ERROR(writer.Spill(&buffer));
   buffer = std::vector<core::Observation>();
-  scratch = std::vector<core::Observation>();
-  encoders.clear();
+  writer.Release();
   for (int64_t b = first_bucket; b < end_bucket; ++b)
     if (progress->bucket_observations[b] != bucket_observations_[b])
-      return Status::Corruption(BucketPath(b) + ": " +
+      return Status::Corruption(paths[b] + ": " +
                                 std::to_string(progress->bucket_observations[b]) +
                                 " observations spilled; the first pass counted " +
                                 std::to_string(bucket_observations_[b]));
   progress->replay_position = resumable_offset;
   // Durable before the caller records that pass 2 is over.
-  std::vector<std::string> paths;
-  for (int64_t b = 0; b < num_buckets; ++b)
-    if (touched[b]) paths.push_back(BucketPath(b));
-  return SyncPaths(paths);
+  return SyncPaths(writer.TakeTouched());
 }
 
 void BucketChunkSource::RestrictSpillToChunks(int64_t first, int64_t end) {
@@ -390,15 +422,14 @@ Status BucketChunkSource::LoadBucket(int64_t bucket) const {
     bucket_.shrink_to_fit();
   }
   {
-    File file(std::fopen(path.c_str(), "rb"));
-    if (!file) return IoError(path, "open for reading");
-    if (std::fseek(file.get(), 0, SEEK_END) != 0) return IoError(path, "seek");
-    const long size = std::ftell(file.get());
-    if (size < 0) return IoError(path, "tell");
-    std::rewind(file.get());
+    GS_ASSIGN_OR_RETURN(std::unique_ptr<storage::ReadableFile> file,
+                        storage::Env::Default()->NewReadableFile(path));
+    GS_ASSIGN_OR_RETURN(const uint64_t size, file->Size());
     raw.resize(static_cast<size_t>(size));
-    if (std::fread(raw.data(), 1, raw.size(), file.get()) != raw.size())
-      return IoError(path, "read");
+    GS_ASSIGN_OR_RETURN(const size_t got, file->Read(raw.size(), raw.data()));
+    if (got != raw.size())
+      return Status::IOError(path + ": read " + std::to_string(got) + " of " +
+                             std::to_string(raw.size()) + " bytes");
   }
   GS_ASSIGN_OR_RETURN(const SpillFrameIndex frames,
                       IndexSpillFrames(path, raw.data(), raw.size()));

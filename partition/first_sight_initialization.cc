@@ -1,31 +1,22 @@
 #include "partition/first_sight_initialization.h"
 
 #include <algorithm>
-#include <cerrno>
-#include <cstring>
-#include <filesystem>
 #include <numeric>
-#include <system_error>
+#include <string_view>
 #include <utility>
 
 #include "core/initialization.h"
 
 namespace graphslam::partition {
-namespace {
-
-Status IoError(const std::string& path, const char* what) {
-  return Status::IOError(path + ": " + what + ": " + std::strerror(errno));
-}
-
-}  // namespace
 
 FirstSightInitialization::FirstSightInitialization(std::string scratch_path)
     : path_(std::move(scratch_path)) {}
 
 FirstSightInitialization::~FirstSightInitialization() {
   file_.reset();
-  std::error_code error;  // scratch: a leftover is harmless (the ingest empties WORK)
-  std::filesystem::remove(path_, error);
+  // Scratch: a leftover is harmless (the ingest empties WORK).
+  if (storage::Env::Default()->FileExists(path_))
+    static_cast<void>(storage::Env::Default()->RemoveFile(path_));
 }
 
 int32_t FirstSightInitialization::Find(int32_t pose) {
@@ -39,12 +30,10 @@ int32_t FirstSightInitialization::Find(int32_t pose) {
 Status FirstSightInitialization::Flush() {
   if (buffer_.empty()) return Status::Ok();
   if (!file_) {
-    file_.reset(std::fopen(path_.c_str(), "wb"));
-    if (!file_) return IoError(path_, "open for writing");
+    GS_ASSIGN_OR_RETURN(file_, storage::Env::Default()->NewWritableFile(path_));
   }
   GS_RETURN_IF_ERROR(encoder_.Encode(buffer_.data(), buffer_.size(), &frame_));
-  if (std::fwrite(frame_.data(), 1, frame_.size(), file_.get()) != frame_.size())
-    return IoError(path_, "write");
+  GS_RETURN_IF_ERROR(file_->Append(std::string_view(frame_.data(), frame_.size())));
   buffer_.clear();
   return Status::Ok();
 }
@@ -76,8 +65,8 @@ Status FirstSightInitialization::Add(const core::Observation& observation,
 template <typename Visit>
 Status FirstSightInitialization::ReadBack(const Visit& visit) const {
   if (first_sights_ == 0) return Status::Ok();
-  File file(std::fopen(path_.c_str(), "rb"));
-  if (!file) return IoError(path_, "open for reading");
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<storage::ReadableFile> file,
+                      storage::Env::Default()->NewReadableFile(path_));
   SpillFrameDecoder decoder;
   std::vector<core::Observation> block;
   int64_t offset = 0, read = 0;
@@ -97,7 +86,10 @@ Status FirstSightInitialization::ReadBack(const Visit& visit) const {
 Status FirstSightInitialization::Initialize(core::Problem2d* problem) {
   GS_CHECK(problem != nullptr && problem->observations.empty());
   GS_RETURN_IF_ERROR(Flush());
-  if (file_ && std::fclose(file_.release()) != 0) return IoError(path_, "close");
+  if (file_) {
+    GS_RETURN_IF_ERROR(file_->Close());
+    file_.reset();
+  }
   parent_ = std::vector<int32_t>();
   buffer_ = std::vector<core::Observation>();
 
@@ -128,8 +120,7 @@ Status FirstSightInitialization::Initialize(core::Problem2d* problem) {
     core::PlaceFeature(problem, o);
     return Status::Ok();
   }));
-  std::error_code error;
-  std::filesystem::remove(path_, error);
+  static_cast<void>(storage::Env::Default()->RemoveFile(path_));  // scratch, read back
   return Status::Ok();
 }
 

@@ -52,7 +52,6 @@
 #pragma once
 
 #include <cstdint>
-#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
@@ -61,6 +60,7 @@
 #include "core/status.h"
 #include "partition/external_bucketing.h"
 #include "partition/spill_frames.h"
+#include "storage/env.h"
 
 namespace graphslam::partition {
 
@@ -88,13 +88,6 @@ class FirstSightInitialization {
   const std::vector<core::Observation>& joining() const { return joining_; }
 
  private:
-  struct FileCloser {
-    void operator()(std::FILE* file) const {
-      if (file != nullptr) std::fclose(file);
-    }
-  };
-  using File = std::unique_ptr<std::FILE, FileCloser>;
-
   int32_t Find(int32_t pose);
   Status Flush();
   // Calls `visit` for every first sight in the scratch file, in input order.
@@ -103,7 +96,7 @@ class FirstSightInitialization {
 
   static constexpr size_t kBlock = 4096;
   std::string path_;
-  File file_;
+  std::unique_ptr<storage::WritableFile> file_;
   SpillFrameEncoder encoder_{1};  // the file is spill frames (docs/formats/spill_bucket.md)
   std::vector<char> frame_;
   std::vector<core::Observation> buffer_;   // first sights not yet written

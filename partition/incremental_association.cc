@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <numeric>
 #include <string>
 #include <unordered_map>
@@ -241,6 +242,277 @@ int64_t CloseLoop(const IncrementalAssociationOptions& options, const core::Prob
   return static_cast<int64_t>(match.pairs.size());
 }
 
+// False (and OK) unless the input is id-less: one observation per feature.
+StatusOr<bool> IsIdLess(const core::Problem2d& problem) {
+  std::vector<int32_t> count(problem.num_features(), 0);
+  for (const core::Observation& o : problem.observations) {
+    if (o.feature < 0 || o.feature >= problem.num_features())
+      return Status::InvalidArgument(
+          (problem.source.empty() ? std::string("<input>") : problem.source) + ": line " +
+          std::to_string(o.line) + ": observation feature index " + std::to_string(o.feature) +
+          " out of range, expected 0.." + std::to_string(problem.num_features() - 1));
+    if (++count[o.feature] > 1) return false;
+  }
+  return true;
+}
+
+// The state the stages of AssociateIncrementally share.
+struct IncrementalRun {
+  IncrementalRun(const IncrementalAssociationOptions& options_in,
+                 const core::SolverOptions& solver_options_in, core::Problem2d* problem_in,
+                 IncrementalAssociationSummary* summary_in)
+      : options(options_in), solver_options(solver_options_in), problem(problem_in),
+        summary(summary_in) {}
+
+  const IncrementalAssociationOptions& options;
+  const core::SolverOptions& solver_options;
+  core::Problem2d* problem;
+  IncrementalAssociationSummary* summary;
+  std::vector<std::vector<int32_t>> observations_of_pose;
+  std::vector<core::Pose2> poses;
+  std::vector<Cluster> clusters;
+  std::vector<int32_t> cluster_of;  // per input observation
+  ChunkingOptions chunking;
+  core::SolverOptions stage_options;
+  double radius_squared = 0.0;
+  double scale = 1.0;  // variance factor of the last stage solve
+};
+
+// The stage's view of the clusters met so far: the linearization at its
+// start, the whitened gains, the grid of cluster positions, and the clusters
+// seen (or made) in the stage.
+struct StageView {
+  Stage stage;
+  std::vector<FeatureState> states;
+  std::unique_ptr<WhitenedCache> cache;
+  std::unordered_map<int64_t, std::vector<int32_t>> grid;
+  std::vector<int32_t> touched;
+  std::vector<uint8_t> is_touched;
+};
+
+// Clusters near any of the scan's singletons (`singles`) whose representative
+// has a proper covariance, sorted.
+std::vector<int32_t> ScanTargets(const IncrementalRun& run, const StageView& view,
+                                 const std::vector<int32_t>& singles) {
+  const double radius = run.options.search_radius;
+  std::vector<int32_t> targets;
+  std::vector<uint8_t> is_target(run.clusters.size(), 0);
+  auto consider = [&](int32_t c) {
+    const Cluster& cluster = run.clusters[c];
+    if (is_target[c] || cluster.dropped || cluster.representative < 0 ||
+        !view.states[cluster.representative].usable)
+      return;
+    for (int32_t s : singles) {
+      if ((cluster.representative_position - view.stage.sub.features[s]).squaredNorm() <=
+          run.radius_squared) {
+        is_target[c] = 1;
+        targets.push_back(c);
+        return;
+      }
+    }
+  };
+  for (int32_t s : singles) {
+    const core::Point2& q = view.stage.sub.features[s];
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        const core::Point2 probe = q + core::Point2(dx * radius, dy * radius);
+        const auto it = view.grid.find(CellKey(probe, radius));
+        if (it == view.grid.end()) continue;
+        for (int32_t c : it->second)
+          if (!view.is_touched[c]) consider(c);
+      }
+    }
+  }
+  for (int32_t c : view.touched) consider(c);
+  std::sort(targets.begin(), targets.end());
+  return targets;
+}
+
+// Joint compatibility of the scan's tested observations with the targets:
+// writes the paired cluster of each tested observation into *assignment.
+// *t0 times the assignment; the covariances are timed apart.
+Status AssignJointly(const std::vector<int32_t>& singles, const std::vector<size_t>& tested,
+                     const std::vector<int32_t>& targets, StageView* view, IncrementalRun* run,
+                     Clock::time_point* t0, std::vector<int32_t>* assignment) {
+  IncrementalAssociationSummary* summary = run->summary;
+  std::vector<int32_t> features;
+  for (size_t i : tested) features.push_back(singles[i]);
+  for (int32_t c : targets) features.push_back(run->clusters[c].representative);
+  summary->assignment_seconds += SecondsSince(*t0);
+  *t0 = Clock::now();
+  GS_RETURN_IF_ERROR(view->cache->Ensure(features));
+  summary->covariance_seconds += SecondsSince(*t0);
+  *t0 = Clock::now();
+  ScanAssociationInput input;
+  input.observations = static_cast<int>(tested.size());
+  input.targets = static_cast<int>(targets.size());
+  const int k = static_cast<int>(features.size());
+  input.covariance.resize(2 * k, 2 * k);
+  for (int a = 0; a < k; ++a) {
+    input.means.push_back(view->stage.sub.features[features[a]]);
+    for (int b = 0; b <= a; ++b) {
+      const Eigen::Matrix2d block = run->scale * view->cache->Covariance(features[a], features[b]);
+      input.covariance.block<2, 2>(2 * a, 2 * b) = block;
+      input.covariance.block<2, 2>(2 * b, 2 * a) = block.transpose();
+    }
+  }
+  const ScanAssignment result = AssignScanJointly(input, run->options.joint);
+  if (result.exhausted) ++summary->exhausted_scans;
+  for (size_t t = 0; t < tested.size(); ++t)
+    if (result.target[t] >= 0) (*assignment)[tested[t]] = targets[result.target[t]];
+  return Status::Ok();
+}
+
+// The scan of pose p: each observation joins its assigned cluster or starts
+// a new one.
+Status AssociateScan(int32_t p, StageView* view, IncrementalRun* run, Clock::time_point* t0) {
+  const std::vector<int32_t>& scan = run->observations_of_pose[p];
+  ++run->summary->scans;
+  std::vector<int32_t> singles;
+  for (int32_t o : scan) singles.push_back(view->stage.singleton_feature.at(o));
+  // Targets near any observation of the scan.
+  const std::vector<int32_t> targets = ScanTargets(*run, *view, singles);
+
+  // Observations whose estimate has no proper covariance (excluded by
+  // the screening) start features of their own.
+  std::vector<int32_t> assignment(scan.size(), -1);
+  std::vector<size_t> tested;
+  for (size_t i = 0; i < scan.size(); ++i)
+    if (view->states[singles[i]].usable) tested.push_back(i);
+  if (!targets.empty() && !tested.empty())
+    GS_RETURN_IF_ERROR(AssignJointly(singles, tested, targets, view, run, t0, &assignment));
+  std::vector<Cluster>& clusters = run->clusters;
+  for (size_t i = 0; i < scan.size(); ++i) {
+    int32_t c = assignment[i];
+    if (c >= 0) {
+      ++run->summary->paired;
+    } else {
+      c = static_cast<int32_t>(clusters.size());
+      clusters.emplace_back();
+      clusters.back().position = view->stage.sub.features[singles[i]];
+      view->is_touched.push_back(0);
+    }
+    Cluster& cluster = clusters[c];
+    cluster.members.push_back(scan[i]);
+    cluster.last_pose = p;
+    cluster.representative = singles[i];
+    cluster.representative_position = view->stage.sub.features[singles[i]];
+    run->cluster_of[scan[i]] = c;
+    if (!view->is_touched[c]) {
+      view->is_touched[c] = 1;
+      view->touched.push_back(c);
+    }
+  }
+  return Status::Ok();
+}
+
+// Pairs the observations of poses [begin, end) with the clusters, scan by
+// scan, then closes loops.
+Status PairStage(int32_t begin, int32_t end, IncrementalRun* run) {
+  IncrementalAssociationSummary* summary = run->summary;
+  // Covariances at the stage's start: the prefix solved, the new poses
+  // chained (they and their singletons fit their constraints exactly, so
+  // this is the optimum of the stage sub-problem before any pairing).
+  Clock::time_point t0 = Clock::now();
+  StageView view;
+  view.stage = BuildStage(*run->problem, run->poses, run->clusters, run->cluster_of, begin, end);
+  InMemoryChunkSource chunks(view.stage.sub, run->chunking);
+  core::PoseMarginals marginals;
+  GS_RETURN_IF_ERROR(
+      LinearizeAtSolution(run->solver_options, chunks, view.stage.sub, &marginals, &view.states)
+          .WithContext("incremental association, poses " + std::to_string(begin) + ".." +
+                       std::to_string(end - 1)));
+  view.cache = std::make_unique<WhitenedCache>(marginals, view.states);
+  summary->covariance_seconds += SecondsSince(t0);
+
+  t0 = Clock::now();
+  for (size_t c = 0; c < run->clusters.size(); ++c) {
+    Cluster& cluster = run->clusters[c];
+    cluster.representative = view.stage.cluster_feature[c];
+    if (cluster.dropped || cluster.representative < 0) continue;
+    cluster.representative_position = cluster.position;
+    view.grid[CellKey(cluster.position, run->options.search_radius)].push_back(
+        static_cast<int32_t>(c));
+  }
+  // The clusters made before the stage.
+  const std::vector<uint8_t> solved_before(run->clusters.size(), 1);
+  view.is_touched.assign(run->clusters.size(), 0);
+  for (int32_t p = begin; p < end; ++p) {
+    if (run->observations_of_pose[p].empty()) continue;
+    GS_RETURN_IF_ERROR(AssociateScan(p, &view, run, &t0));
+  }
+  if (run->options.close_loops) {
+    const int64_t joined = CloseLoop(run->options, *run->problem, begin, solved_before,
+                                     &run->clusters, &run->cluster_of);
+    if (joined > 0) {
+      ++summary->loop_closures;
+      summary->loop_pairs += joined;
+    }
+  }
+  summary->assignment_seconds += SecondsSince(t0);
+  return Status::Ok();
+}
+
+// Solves the prefix [0, end) with its correspondences: poses and cluster
+// positions from the solution, the variance factor for the next stage.
+Status SolveStage(int32_t end, IncrementalRun* run) {
+  IncrementalAssociationSummary* summary = run->summary;
+  const Clock::time_point solve_start = Clock::now();
+  Stage solved = BuildStage(*run->problem, run->poses, run->clusters, run->cluster_of, end, end);
+  core::SolverSummary solver_summary;
+  GS_RETURN_IF_ERROR(
+      SolveWithoutSingletons(run->stage_options, run->chunking, &solved.sub, &solver_summary)
+          .WithContext("incremental association, stage solve of poses 0.." +
+                       std::to_string(end - 1)));
+  std::copy(solved.sub.poses.begin(), solved.sub.poses.end(), run->poses.begin());
+  for (size_t c = 0; c < run->clusters.size(); ++c)
+    if (solved.cluster_feature[c] >= 0)
+      run->clusters[c].position = solved.sub.features[solved.cluster_feature[c]];
+  summary->chi2 = solver_summary.final_chi2;
+  if (run->options.scale_by_variance_factor)
+    run->scale = internal::VarianceFactor(solved.sub, solver_summary.final_chi2,
+                                          run->options.min_redundancy);
+  summary->variance_factor = run->scale;
+  summary->solve_seconds += SecondsSince(solve_start);
+  return Status::Ok();
+}
+
+// The map: confirmed features and their observations, input order kept.
+void WriteMap(IncrementalRun* run, std::vector<int32_t>* input_observation) {
+  core::Problem2d* problem = run->problem;
+  IncrementalAssociationSummary* summary = run->summary;
+  std::vector<int32_t> index(run->clusters.size(), -1);
+  std::vector<core::Point2> features;
+  for (size_t c = 0; c < run->clusters.size(); ++c) {
+    Cluster& cluster = run->clusters[c];
+    if (cluster.absorbed) continue;
+    if (static_cast<int64_t>(cluster.members.size()) < run->options.confirm_observations)
+      cluster.dropped = true;
+    if (cluster.dropped) {
+      ++summary->provisional_dropped;
+      summary->clutter_observations += static_cast<int64_t>(cluster.members.size());
+      continue;
+    }
+    index[c] = static_cast<int32_t>(features.size());
+    features.push_back(cluster.position);
+  }
+  std::vector<core::Observation> kept;
+  input_observation->clear();
+  const auto m = static_cast<int64_t>(problem->observations.size());
+  for (int64_t o = 0; o < m; ++o) {
+    const int32_t f = index[run->cluster_of[o]];
+    if (f < 0) continue;
+    kept.push_back(problem->observations[o]);
+    kept.back().feature = f;
+    input_observation->push_back(static_cast<int32_t>(o));
+  }
+  problem->observations = std::move(kept);
+  problem->features = std::move(features);
+  problem->feature_ids.assign(problem->features.size(), core::kNoFeatureId);
+  problem->feature_initialized.assign(problem->features.size(), 1);
+  problem->poses = std::move(run->poses);
+}
+
 }  // namespace
 
 Status IncrementalAssociationOptions::Validate() const {
@@ -286,206 +558,45 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
   input_observation->resize(m);
   std::iota(input_observation->begin(), input_observation->end(), 0);
   if (!options.enabled || problem->num_poses() == 0) return Status::Ok();
-  {
-    // Only id-less inputs: one observation per feature.
-    std::vector<int32_t> count(problem->num_features(), 0);
-    for (const core::Observation& o : problem->observations) {
-      if (o.feature < 0 || o.feature >= problem->num_features())
-        return Status::InvalidArgument(
-            (problem->source.empty() ? std::string("<input>") : problem->source) + ": line " +
-            std::to_string(o.line) + ": observation feature index " + std::to_string(o.feature) +
-            " out of range, expected 0.." + std::to_string(problem->num_features() - 1));
-      if (++count[o.feature] > 1) return Status::Ok();
-    }
-  }
+  GS_ASSIGN_OR_RETURN(const bool id_less, IsIdLess(*problem));
+  if (!id_less) return Status::Ok();
   GS_RETURN_IF_ERROR(CheckInput(*problem));
   summary->ran = true;
   const int32_t n = problem->num_poses();
 
-  std::vector<std::vector<int32_t>> observations_of_pose(n);
+  IncrementalRun run(options, solver_options, problem, summary);
+  run.observations_of_pose.resize(n);
   for (int64_t o = 0; o < m; ++o)
-    observations_of_pose[problem->observations[o].pose].push_back(static_cast<int32_t>(o));
+    run.observations_of_pose[problem->observations[o].pose].push_back(static_cast<int32_t>(o));
   const std::vector<std::vector<internal::PoseEdge>> adjacency =
       internal::OdometryAdjacency(*problem);
-  std::vector<core::Pose2> poses = problem->poses;
+  run.poses = problem->poses;
   std::vector<uint8_t> placed(n, 0);
   for (int32_t p = 0; p < n; ++p) placed[p] = problem->pose_fixed[p] != 0;
-
-  std::vector<Cluster> clusters;
-  std::vector<int32_t> cluster_of(m, -1);
-  ChunkingOptions chunking;
-  chunking.max_observations_per_chunk = options.chunk_observations;
-  core::SolverOptions stage_options = solver_options;
-  stage_options.max_iterations = options.max_iterations_per_stage;
-  stage_options.progress = nullptr;
-  stage_options.iteration_callback = nullptr;
-  const double radius_squared = options.search_radius * options.search_radius;
-  double scale = 1.0;  // variance factor of the last stage solve
+  run.cluster_of.assign(m, -1);
+  run.chunking.max_observations_per_chunk = options.chunk_observations;
+  run.stage_options = solver_options;
+  run.stage_options.max_iterations = options.max_iterations_per_stage;
+  run.stage_options.progress = nullptr;
+  run.stage_options.iteration_callback = nullptr;
+  run.radius_squared = options.search_radius * options.search_radius;
 
   for (int32_t begin = 0; begin < n;) {
     const int32_t end = static_cast<int32_t>(std::min<int64_t>(n, begin + options.stage_poses));
-    internal::PlacePoses(*problem, adjacency, begin, end, &poses, &placed);
+    internal::PlacePoses(*problem, adjacency, begin, end, &run.poses, &placed);
     ++summary->stages;
     bool any_new = false;
-    for (int32_t p = begin; p < end && !any_new; ++p) any_new = !observations_of_pose[p].empty();
-
+    for (int32_t p = begin; p < end && !any_new; ++p)
+      any_new = !run.observations_of_pose[p].empty();
+    // Pair, then solve the stage with its correspondences (nothing to do
+    // without new observations: the chained poses already fit their odometry).
     if (any_new) {
-      // Covariances at the stage's start: the prefix solved, the new poses
-      // chained (they and their singletons fit their constraints exactly, so
-      // this is the optimum of the stage sub-problem before any pairing).
-      Clock::time_point t0 = Clock::now();
-      Stage stage = BuildStage(*problem, poses, clusters, cluster_of, begin, end);
-      InMemoryChunkSource chunks(stage.sub, chunking);
-      core::PoseMarginals marginals;
-      std::vector<FeatureState> states;
-      GS_RETURN_IF_ERROR(
-          LinearizeAtSolution(solver_options, chunks, stage.sub, &marginals, &states)
-              .WithContext("incremental association, poses " + std::to_string(begin) + ".." +
-                           std::to_string(end - 1)));
-      WhitenedCache cache(marginals, states);
-      summary->covariance_seconds += SecondsSince(t0);
-
-      t0 = Clock::now();
-      std::unordered_map<int64_t, std::vector<int32_t>> grid;
-      for (size_t c = 0; c < clusters.size(); ++c) {
-        Cluster& cluster = clusters[c];
-        cluster.representative = stage.cluster_feature[c];
-        if (cluster.dropped || cluster.representative < 0) continue;
-        cluster.representative_position = cluster.position;
-        grid[CellKey(cluster.position, options.search_radius)].push_back(static_cast<int32_t>(c));
-      }
-      const std::vector<uint8_t> solved_before(clusters.size(), 1);  // clusters made before the stage
-      std::vector<int32_t> touched;  // clusters seen (or made) in this stage
-      std::vector<uint8_t> is_touched(clusters.size(), 0);
-      for (int32_t p = begin; p < end; ++p) {
-        const std::vector<int32_t>& scan = observations_of_pose[p];
-        if (scan.empty()) continue;
-        ++summary->scans;
-        std::vector<int32_t> singles;
-        for (int32_t o : scan) singles.push_back(stage.singleton_feature.at(o));
-        // Targets near any observation of the scan.
-        std::vector<int32_t> targets;
-        std::vector<uint8_t> is_target(clusters.size(), 0);
-        auto consider = [&](int32_t c) {
-          const Cluster& cluster = clusters[c];
-          if (is_target[c] || cluster.dropped || cluster.representative < 0 ||
-              !states[cluster.representative].usable)
-            return;
-          for (int32_t s : singles) {
-            if ((cluster.representative_position - stage.sub.features[s]).squaredNorm() <=
-                radius_squared) {
-              is_target[c] = 1;
-              targets.push_back(c);
-              return;
-            }
-          }
-        };
-        for (int32_t s : singles) {
-          const core::Point2& q = stage.sub.features[s];
-          for (int dx = -1; dx <= 1; ++dx) {
-            for (int dy = -1; dy <= 1; ++dy) {
-              const core::Point2 probe =
-                  q + core::Point2(dx * options.search_radius, dy * options.search_radius);
-              const auto it = grid.find(CellKey(probe, options.search_radius));
-              if (it == grid.end()) continue;
-              for (int32_t c : it->second)
-                if (!is_touched[c]) consider(c);
-            }
-          }
-        }
-        for (int32_t c : touched) consider(c);
-        std::sort(targets.begin(), targets.end());
-
-        // Observations whose estimate has no proper covariance (excluded by
-        // the screening) start features of their own.
-        std::vector<int32_t> assignment(scan.size(), -1);
-        std::vector<size_t> tested;
-        for (size_t i = 0; i < scan.size(); ++i)
-          if (states[singles[i]].usable) tested.push_back(i);
-        if (!targets.empty() && !tested.empty()) {
-          std::vector<int32_t> features;
-          for (size_t i : tested) features.push_back(singles[i]);
-          for (int32_t c : targets) features.push_back(clusters[c].representative);
-          summary->assignment_seconds += SecondsSince(t0);
-          t0 = Clock::now();
-          GS_RETURN_IF_ERROR(cache.Ensure(features));
-          summary->covariance_seconds += SecondsSince(t0);
-          t0 = Clock::now();
-          ScanAssociationInput input;
-          input.observations = static_cast<int>(tested.size());
-          input.targets = static_cast<int>(targets.size());
-          const int k = static_cast<int>(features.size());
-          input.covariance.resize(2 * k, 2 * k);
-          for (int a = 0; a < k; ++a) {
-            input.means.push_back(stage.sub.features[features[a]]);
-            for (int b = 0; b <= a; ++b) {
-              const Eigen::Matrix2d block = scale * cache.Covariance(features[a], features[b]);
-              input.covariance.block<2, 2>(2 * a, 2 * b) = block;
-              input.covariance.block<2, 2>(2 * b, 2 * a) = block.transpose();
-            }
-          }
-          const ScanAssignment result = AssignScanJointly(input, options.joint);
-          if (result.exhausted) ++summary->exhausted_scans;
-          for (size_t t = 0; t < tested.size(); ++t)
-            if (result.target[t] >= 0) assignment[tested[t]] = targets[result.target[t]];
-        }
-        for (size_t i = 0; i < scan.size(); ++i) {
-          int32_t c = assignment[i];
-          if (c >= 0) {
-            ++summary->paired;
-          } else {
-            c = static_cast<int32_t>(clusters.size());
-            clusters.emplace_back();
-            clusters.back().position = stage.sub.features[singles[i]];
-            is_touched.push_back(0);
-          }
-          Cluster& cluster = clusters[c];
-          cluster.members.push_back(scan[i]);
-          cluster.last_pose = p;
-          cluster.representative = singles[i];
-          cluster.representative_position = stage.sub.features[singles[i]];
-          cluster_of[scan[i]] = c;
-          if (!is_touched[c]) {
-            is_touched[c] = 1;
-            touched.push_back(c);
-          }
-        }
-      }
-      if (options.close_loops) {
-        const int64_t joined =
-            CloseLoop(options, *problem, begin, solved_before, &clusters, &cluster_of);
-        if (joined > 0) {
-          ++summary->loop_closures;
-          summary->loop_pairs += joined;
-        }
-      }
-      summary->assignment_seconds += SecondsSince(t0);
-    }
-
-    // Solve the stage with its correspondences (nothing to do without new
-    // observations: the chained poses already fit their odometry).
-    if (any_new) {
-      const Clock::time_point solve_start = Clock::now();
-      Stage solved = BuildStage(*problem, poses, clusters, cluster_of, end, end);
-      core::SolverSummary solver_summary;
-      GS_RETURN_IF_ERROR(
-          SolveWithoutSingletons(stage_options, chunking, &solved.sub, &solver_summary)
-              .WithContext("incremental association, stage solve of poses 0.." +
-                           std::to_string(end - 1)));
-      std::copy(solved.sub.poses.begin(), solved.sub.poses.end(), poses.begin());
-      for (size_t c = 0; c < clusters.size(); ++c)
-        if (solved.cluster_feature[c] >= 0)
-          clusters[c].position = solved.sub.features[solved.cluster_feature[c]];
-      summary->chi2 = solver_summary.final_chi2;
-      if (options.scale_by_variance_factor)
-        scale = internal::VarianceFactor(solved.sub, solver_summary.final_chi2,
-                                         options.min_redundancy);
-      summary->variance_factor = scale;
-      summary->solve_seconds += SecondsSince(solve_start);
+      GS_RETURN_IF_ERROR(PairStage(begin, end, &run));
+      GS_RETURN_IF_ERROR(SolveStage(end, &run));
     }
 
     // Provisional features not seen for a while are clutter.
-    for (Cluster& cluster : clusters) {
+    for (Cluster& cluster : run.clusters) {
       if (cluster.dropped || cluster.absorbed ||
           static_cast<int64_t>(cluster.members.size()) >= options.confirm_observations)
         continue;
@@ -493,41 +604,11 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
         cluster.dropped = true;
     }
     GS_VLOG(1, "incremental association: poses 0..%d, %zu features, %lld paired, chi2 %.6g, "
-            "variance factor %.4g", end - 1, clusters.size(),
-            static_cast<long long>(summary->paired), summary->chi2, scale);
+            "variance factor %.4g", end - 1, run.clusters.size(),
+            static_cast<long long>(summary->paired), summary->chi2, run.scale);
     begin = end;
   }
-
-  // The map: confirmed features and their observations, input order kept.
-  std::vector<int32_t> index(clusters.size(), -1);
-  std::vector<core::Point2> features;
-  for (size_t c = 0; c < clusters.size(); ++c) {
-    Cluster& cluster = clusters[c];
-    if (cluster.absorbed) continue;
-    if (static_cast<int64_t>(cluster.members.size()) < options.confirm_observations)
-      cluster.dropped = true;
-    if (cluster.dropped) {
-      ++summary->provisional_dropped;
-      summary->clutter_observations += static_cast<int64_t>(cluster.members.size());
-      continue;
-    }
-    index[c] = static_cast<int32_t>(features.size());
-    features.push_back(cluster.position);
-  }
-  std::vector<core::Observation> kept;
-  input_observation->clear();
-  for (int64_t o = 0; o < m; ++o) {
-    const int32_t f = index[cluster_of[o]];
-    if (f < 0) continue;
-    kept.push_back(problem->observations[o]);
-    kept.back().feature = f;
-    input_observation->push_back(static_cast<int32_t>(o));
-  }
-  problem->observations = std::move(kept);
-  problem->features = std::move(features);
-  problem->feature_ids.assign(problem->features.size(), core::kNoFeatureId);
-  problem->feature_initialized.assign(problem->features.size(), 1);
-  problem->poses = std::move(poses);
+  WriteMap(&run, input_observation);
   summary->features = problem->num_features();
   summary->seconds = SecondsSince(start);
   return Status::Ok();

@@ -1,12 +1,6 @@
 // Writer and reader of docs/formats/ingest_progress.md.
 #include "partition/ingest_progress.h"
 
-#include <sys/stat.h>
-
-#include <cerrno>
-#include <cstring>
-#include <fstream>
-#include <iterator>
 #include <nlohmann/json.hpp>
 #include <string_view>
 
@@ -14,6 +8,7 @@
 #include "storage/checksummed_json.h"
 #include "storage/chunk_format.h"
 #include "storage/crc32c.h"
+#include "storage/env.h"
 #include "storage/file_checksum.h"
 
 namespace graphslam::partition {
@@ -89,9 +84,11 @@ Status WritePass1Record(storage::Env* env, const std::string& path, const Pass1R
 }
 
 StatusOr<Pass1Record> ReadPass1Record(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Status::NotFound(path + ": no first-pass record");
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  StatusOr<std::string> read = storage::ReadFileToString(storage::Env::Default(), path);
+  if (!read.ok())
+    return read.status().IsNotFound() ? Status::NotFound(path + ": no first-pass record")
+                                      : read.status();
+  const std::string& bytes = read.value();
   if (bytes.size() < kPass1HeaderSize + 4)
     return Status::Corruption(path + ": " + std::to_string(bytes.size()) +
                               " bytes; expected at least a header and a crc");
@@ -162,9 +159,11 @@ Status WriteIngestProgress(storage::Env* env, const std::string& path,
 }
 
 StatusOr<IngestProgress> ReadIngestProgress(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Status::NotFound(path + ": no ingest progress");
-  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  StatusOr<std::string> read = storage::ReadFileToString(storage::Env::Default(), path);
+  if (!read.ok())
+    return read.status().IsNotFound() ? Status::NotFound(path + ": no ingest progress")
+                                      : read.status();
+  const std::string& text = read.value();
   nlohmann::json json = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (json.is_discarded() || !json.is_object())
     return Status::Corruption(path + ": not a JSON object");

@@ -1,8 +1,6 @@
 #include "partition/ingest_scans.h"
 
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <system_error>
@@ -13,6 +11,7 @@
 #include "storage/checksummed_json.h"
 #include "storage/chunk_format.h"
 #include "storage/crc32c.h"
+#include "storage/env.h"
 #include "storage/native_log_scans.h"
 #include "storage/scan_store.h"
 #include "storage/stop_point.h"
@@ -60,9 +59,10 @@ std::string EncodeRecords(const std::vector<storage::NativeLogScan>& records,
 }
 
 StatusOr<ScanRecords> ReadRecords(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Status::NotFound(path + ": cannot open");
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  StatusOr<std::string> read = storage::ReadFileToString(storage::Env::Default(), path);
+  if (!read.ok())
+    return read.status().IsNotFound() ? Status::NotFound(path + ": cannot open") : read.status();
+  const std::string& bytes = read.value();
   constexpr size_t kHeader = 8 + 4 + 4 + 8;
   if (bytes.size() < kHeader + 4)
     return Status::Corruption(path + ": " + std::to_string(bytes.size()) +
@@ -121,10 +121,12 @@ Status WriteProgress(storage::Env* env, const std::string& path, const ScanProgr
 }
 
 StatusOr<ScanProgress> ReadProgress(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return Status::NotFound(path + ": no scan progress");
+  StatusOr<std::string> read = storage::ReadFileToString(storage::Env::Default(), path);
+  if (!read.ok())
+    return read.status().IsNotFound() ? Status::NotFound(path + ": no scan progress")
+                                      : read.status();
   try {
-    nlohmann::json json = nlohmann::json::parse(in);
+    nlohmann::json json = nlohmann::json::parse(read.value());
     if (json.at("format").get<std::string>() != kProgressFormat)
       return Status::Corruption(path + ": format is not " + kProgressFormat);
     if (json.at("version").get<int>() != kProgressVersion)

@@ -18,10 +18,8 @@
 // max_new_poses), A_k / 2) when stage k was unsettled (stopped by max_iterations_per_stage
 // while its last iteration still lowered chi2 by more than 1 %: the chained
 // segment was too far from the optimum for a few iterations), else
-// min(max_new_poses, 2 A_k). Without that control a 20 000-pose
-// campus with GPS every 25 poses (500-pose segments, 10 iterations) ended
-// stage after stage unconverged, each chained off a worse end, and the
-// initial guess was 674 m from the truth (docs/benchmarks.md, issue 6).
+// min(max_new_poses, 2 A_k). Without that control a long run ends stage
+// after stage unconverged, each chained off a worse end (docs/tuning.md).
 // Stage k optimizes the sub-problem P_k of
 //   poses      x_0 .. x_{T_k - 1}
 //   features   every m_j observed from some pose p < T_k (keeping its id;

@@ -1,32 +1,22 @@
 #include "partition/replay_frames.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <atomic>
-#include <cerrno>
 #include <cinttypes>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
+#include <memory>
 #include <mutex>
-#include <system_error>
+#include <string_view>
 #include <utility>
 
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_pipeline.h>
 
 #include "partition/spill_frames.h"
+#include "storage/env.h"
 
 namespace graphslam::partition {
-namespace {
-
-Status IoError(const std::string& path, const char* what) {
-  return Status::IOError(path + ": " + what + ": " + std::strerror(errno));
-}
-
-}  // namespace
 
 Status ReplayFrameOptions::Validate() const {
   if (frame_observations <= 0 ||
@@ -60,7 +50,6 @@ ReplayFrameWriter::~ReplayFrameWriter() {
   }
   changed_.notify_all();
   if (thread_.joinable()) thread_.join();
-  if (segment_ != nullptr) std::fclose(segment_);
 }
 
 Status ReplayFrameWriter::Add(const core::Observation& observation) {
@@ -121,13 +110,11 @@ Status ReplayFrameWriter::WriteFrame(const std::vector<core::Observation>& frame
   GS_RETURN_IF_ERROR(encoder_->Encode(frame.data(), frame.size(), &bytes));
   if (segment_ == nullptr) {
     ++segment_index_;
-    const std::string path = ReplaySegmentPath(work_dir_, segment_index_);
-    segment_ = std::fopen(path.c_str(), "wb");
-    if (segment_ == nullptr) return IoError(path, "open for writing");
+    GS_ASSIGN_OR_RETURN(segment_, storage::Env::Default()->NewWritableFile(
+                                      ReplaySegmentPath(work_dir_, segment_index_)));
     frames_in_segment_ = 0;
   }
-  if (std::fwrite(bytes.data(), 1, bytes.size(), segment_) != bytes.size())
-    return IoError(ReplaySegmentPath(work_dir_, segment_index_), "write");
+  GS_RETURN_IF_ERROR(segment_->Append(std::string_view(bytes.data(), bytes.size())));
   bytes_written_ += static_cast<int64_t>(bytes.size());
   if (++frames_in_segment_ == options_.frames_per_segment) return CloseSegment();
   return Status::Ok();
@@ -137,14 +124,9 @@ Status ReplayFrameWriter::WriteFrame(const std::vector<core::Observation>& frame
 // record counts it; one segment at a time keeps the writeback steady).
 Status ReplayFrameWriter::CloseSegment() {
   if (segment_ == nullptr) return Status::Ok();
-  const std::string path = ReplaySegmentPath(work_dir_, segment_index_);
-  std::FILE* file = segment_;
-  segment_ = nullptr;
-  Status status;
-  if (std::fflush(file) != 0) status = IoError(path, "write");
-  if (status.ok() && ::fsync(::fileno(file)) != 0) status = IoError(path, "fsync");
-  if (std::fclose(file) != 0 && status.ok()) status = IoError(path, "close");
-  return status;
+  const std::unique_ptr<storage::WritableFile> file = std::move(segment_);
+  GS_RETURN_IF_ERROR(file->Sync());
+  return file->Close();
 }
 
 Status ReplayFrameWriter::Finish() {
@@ -178,34 +160,32 @@ class RawFrameReader {
                  int64_t total)
       : work_dir_(std::move(work_dir)), per_segment_(options.segment_observations()),
         position_(start), total_(total) {}
-  ~RawFrameReader() {
-    if (file_ != nullptr) std::fclose(file_);
-  }
 
   // The next frame into *block; false when `total` is reached.
   StatusOr<bool> Next(ReplayBlock* block) {
     if (position_ >= total_) return false;
     const int64_t segment = position_ / per_segment_;
     if (file_ == nullptr || segment != segment_) {
-      if (file_ != nullptr) std::fclose(file_);
-      file_ = nullptr;
+      file_.reset();
       segment_ = segment;
       path_ = ReplaySegmentPath(work_dir_, segment);
       // The frame boundary after the segment's observations already replayed.
       GS_ASSIGN_OR_RETURN(offset_, SpillFrameBoundary(path_, position_ % per_segment_));
-      file_ = std::fopen(path_.c_str(), "rb");
-      if (file_ == nullptr) {
-        if (errno == ENOENT)
+      StatusOr<std::unique_ptr<storage::ReadableFile>> file =
+          storage::Env::Default()->NewReadableFile(path_);
+      if (!file.ok()) {
+        if (file.status().IsNotFound())
           return Status::Corruption(path_ + ": missing; the replay needs observations " +
                                     std::to_string(position_) + ".." +
                                     std::to_string(total_ - 1) + " of pass 1");
-        return IoError(path_, "open for reading");
+        return file.status();
       }
-      if (std::fseek(file_, offset_, SEEK_SET) != 0) return IoError(path_, "seek");
+      file_ = std::move(file).value();
+      GS_RETURN_IF_ERROR(file_->Seek(static_cast<uint64_t>(offset_)));
     }
     const int64_t segment_end = std::min(total_, (segment_ + 1) * per_segment_);
     GS_ASSIGN_OR_RETURN(const bool more,
-                        SpillFrameDecoder::ReadRawFrame(path_, file_, offset_, &block->raw));
+                        SpillFrameDecoder::ReadRawFrame(path_, file_.get(), offset_, &block->raw));
     const int64_t n = more ? static_cast<int64_t>(FrameObservations(block->raw.data())) : 0;
     if (!more || position_ + n > segment_end)
       return Status::Corruption(path_ + ": spill frame at byte " + std::to_string(offset_) + ": " +
@@ -226,7 +206,7 @@ class RawFrameReader {
   const int64_t per_segment_;
   int64_t position_;
   const int64_t total_;
-  std::FILE* file_ = nullptr;
+  std::unique_ptr<storage::ReadableFile> file_;
   int64_t segment_ = -1;
   std::string path_;
   int64_t offset_ = 0;
@@ -312,9 +292,8 @@ void ReleaseReplaySegmentsBefore(const std::string& work_dir, const ReplayFrameO
                                  int64_t position) {
   const int64_t end = position / options.segment_observations();
   for (int64_t segment = end - 1; segment >= 0; --segment) {
-    std::error_code error;
     // Deleted downwards until one is gone already: the earlier ones went before it.
-    if (!std::filesystem::remove(ReplaySegmentPath(work_dir, segment), error)) break;
+    if (!storage::Env::Default()->RemoveFile(ReplaySegmentPath(work_dir, segment)).ok()) break;
   }
 }
 

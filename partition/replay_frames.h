@@ -43,6 +43,7 @@
 #include "core/status.h"
 #include "partition/external_bucketing.h"
 #include "partition/spill_frames.h"
+#include "storage/env.h"
 
 namespace graphslam::partition {
 
@@ -100,7 +101,7 @@ class ReplayFrameWriter {
   // Background thread only (read by Finish after the join).
   std::unique_ptr<SpillFrameEncoder> encoder_;
   std::vector<char> bytes_;
-  std::FILE* segment_ = nullptr;
+  std::unique_ptr<storage::WritableFile> segment_;
   int64_t segment_index_ = -1;
   int64_t frames_in_segment_ = 0;
   int64_t bytes_written_ = 0;

@@ -2,11 +2,9 @@
 
 #include <zstd.h>
 
-#include <cerrno>
 #include <cstring>
-#include <filesystem>
 #include <limits>
-#include <system_error>
+#include <memory>
 
 #include "storage/crc32c.h"
 
@@ -129,7 +127,7 @@ struct SpillFrameDecoder::Context {
 SpillFrameDecoder::SpillFrameDecoder() : context_(std::make_unique<Context>()) {}
 SpillFrameDecoder::~SpillFrameDecoder() = default;
 
-Status SpillFrameDecoder::ReadFile(const std::string& path, std::FILE* file,
+Status SpillFrameDecoder::ReadFile(const std::string& path, storage::ReadableFile* file,
                                    std::vector<core::Observation>* out) {
   int64_t offset = 0;
   while (true) {
@@ -141,19 +139,18 @@ Status SpillFrameDecoder::ReadFile(const std::string& path, std::FILE* file,
 size_t FrameObservations(const char* frame) { return GetU32(frame + 4); }
 size_t FrameBytes(const char* frame) { return kSpillFrameHeaderBytes + GetU32(frame + 8); }
 
-StatusOr<bool> SpillFrameDecoder::ReadRawFrame(const std::string& path, std::FILE* file,
-                                               int64_t offset, std::vector<char>* frame) {
+StatusOr<bool> SpillFrameDecoder::ReadRawFrame(const std::string& path,
+                                               storage::ReadableFile* file, int64_t offset,
+                                               std::vector<char>* frame) {
   GS_CHECK(file != nullptr && frame != nullptr);
   frame->resize(kSpillFrameHeaderBytes);
-  const size_t got = std::fread(frame->data(), 1, kSpillFrameHeaderBytes, file);
-  if (got == 0 && std::feof(file)) return false;
-  if (std::ferror(file)) return Status::IOError(path + ": read: " + std::strerror(errno));
+  GS_ASSIGN_OR_RETURN(const size_t got, file->Read(kSpillFrameHeaderBytes, frame->data()));
+  if (got == 0) return false;
   GS_RETURN_IF_ERROR(CheckHeader(path, offset, frame->data(), got));
   const size_t payload_bytes = GetU32(frame->data() + 8);
   frame->resize(kSpillFrameHeaderBytes + payload_bytes);
-  const size_t read =
-      std::fread(frame->data() + kSpillFrameHeaderBytes, 1, payload_bytes, file);
-  if (std::ferror(file)) return Status::IOError(path + ": read: " + std::strerror(errno));
+  GS_ASSIGN_OR_RETURN(const size_t read,
+                      file->Read(payload_bytes, frame->data() + kSpillFrameHeaderBytes));
   GS_RETURN_IF_ERROR(CheckPayload(path, offset, payload_bytes, read));
   return true;
 }
@@ -216,7 +213,8 @@ Status SpillFrameDecoder::DecodeFrame(const std::string& path, int64_t offset, c
   return Status::Ok();
 }
 
-StatusOr<bool> SpillFrameDecoder::ReadFrame(const std::string& path, std::FILE* file,
+StatusOr<bool> SpillFrameDecoder::ReadFrame(const std::string& path,
+                                            storage::ReadableFile* file,
                                             int64_t* offset_in_out,
                                             std::vector<core::Observation>* out) {
   GS_CHECK(file != nullptr && out != nullptr && offset_in_out != nullptr);
@@ -235,42 +233,33 @@ StatusOr<bool> SpillFrameDecoder::ReadFrame(const std::string& path, std::FILE* 
 }
 
 StatusOr<int64_t> SpillFrameBoundary(const std::string& path, int64_t observations) {
-  std::FILE* file = std::fopen(path.c_str(), "rb");
-  if (file == nullptr) {
-    if (observations == 0 && errno == ENOENT) return int64_t{0};
-    return Status::IOError(path + ": open for reading: " + std::strerror(errno));
+  StatusOr<std::unique_ptr<storage::ReadableFile>> opened =
+      storage::Env::Default()->NewReadableFile(path);
+  if (!opened.ok()) {
+    if (observations == 0 && opened.status().IsNotFound()) return int64_t{0};
+    return Status::IOError(opened.status().message());
   }
+  storage::ReadableFile* file = opened.value().get();
   int64_t offset = 0, seen = 0;
-  Status status;
   char header[kSpillFrameHeaderBytes];
   while (seen < observations) {
-    if (std::fread(header, 1, sizeof(header), file) != sizeof(header)) {
-      status = Status::Corruption(At(path, offset) + "the file ends after " + std::to_string(seen) +
-                                  " observations; the spill progress records " +
-                                  std::to_string(observations));
-      break;
-    }
-    if (GetU32(header) != kSpillFrameMagic) {
-      status = Status::Corruption(At(path, offset) + "bad magic");
-      break;
-    }
+    GS_ASSIGN_OR_RETURN(const size_t got, file->Read(sizeof(header), header));
+    if (got != sizeof(header))
+      return Status::Corruption(At(path, offset) + "the file ends after " + std::to_string(seen) +
+                                " observations; the spill progress records " +
+                                std::to_string(observations));
+    if (GetU32(header) != kSpillFrameMagic)
+      return Status::Corruption(At(path, offset) + "bad magic");
     seen += GetU32(header + 4);
     offset += static_cast<int64_t>(sizeof(header) + GetU32(header + 8));
-    if (std::fseek(file, offset, SEEK_SET) != 0) {
-      status = Status::IOError(path + ": seek: " + std::strerror(errno));
-      break;
-    }
+    GS_RETURN_IF_ERROR(file->Seek(static_cast<uint64_t>(offset)));
   }
-  std::fclose(file);
-  GS_RETURN_IF_ERROR(status);
   if (seen != observations)
     return Status::Corruption(At(path, offset) + "the recorded " + std::to_string(observations) +
                               " observations end inside a frame (frames end at " +
                               std::to_string(seen) + ")");
-  // The last counted frame must lie within the file (fseek past the end succeeds).
-  std::error_code error;
-  const auto size = std::filesystem::file_size(path, error);
-  if (error) return Status::IOError(path + ": size: " + error.message());
+  // The last counted frame must lie within the file (a seek past the end succeeds).
+  GS_ASSIGN_OR_RETURN(const uint64_t size, file->Size());
   if (static_cast<int64_t>(size) < offset)
     return Status::Corruption(path + ": " + std::to_string(size) + " bytes, shorter than the " +
                               std::to_string(offset) + " bytes of the " +

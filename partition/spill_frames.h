@@ -31,13 +31,13 @@
 #pragma once
 
 #include <cstdint>
-#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "core/problem.h"
 #include "core/status.h"
+#include "storage/env.h"
 
 namespace graphslam::partition {
 
@@ -77,19 +77,19 @@ class SpillFrameDecoder {
   // Reads `path` (opened by the caller as `file`, positioned at its start) to
   // the end, appending every frame's observations to *out. Corruption naming
   // `path` and the frame's byte offset on any damage; IOError on a read error.
-  [[nodiscard]] Status ReadFile(const std::string& path, std::FILE* file,
+  [[nodiscard]] Status ReadFile(const std::string& path, storage::ReadableFile* file,
                                 std::vector<core::Observation>* out);
   // One frame at *offset (the file positioned there): appends its
   // observations to *out, advances *offset; false at the end of the file.
-  StatusOr<bool> ReadFrame(const std::string& path, std::FILE* file, int64_t* offset,
-                           std::vector<core::Observation>* out);
+  StatusOr<bool> ReadFrame(const std::string& path, storage::ReadableFile* file,
+                           int64_t* offset, std::vector<core::Observation>* out);
 
   // The two halves of ReadFrame, so that frames read in order can be decoded
   // in parallel (a decoder per thread). ReadRawFrame: the frame's bytes
   // (header + payload) at `offset` (the file positioned there) into *frame,
   // checking magic and lengths; false at the end of the file.
-  static StatusOr<bool> ReadRawFrame(const std::string& path, std::FILE* file, int64_t offset,
-                                     std::vector<char>* frame);
+  static StatusOr<bool> ReadRawFrame(const std::string& path, storage::ReadableFile* file,
+                                     int64_t offset, std::vector<char>* frame);
   // Decodes the whole frame `frame[0, size)` (read from `path` at `offset`:
   // for messages) into out[0, n), n = FrameObservations(frame): CRC,
   // decompression, kinds checked.

@@ -8,11 +8,13 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
+#include <sstream>
 #include <system_error>
 #include <iterator>
 #include <string>
 #include <utility>
+
+#include "storage/env.h"
 
 namespace graphslam::map {
 namespace {
@@ -286,8 +288,8 @@ namespace {
 // Heap bytes of a tree as glibc allocates them: every node is a 16-byte
 // OcTreeNode in a 32-byte chunk, and every inner node also owns a 64-byte
 // array of child pointers in an 80-byte chunk. OcTree::memoryUsage counts the
-// payload only (about half of this), so a budget kept on it let the process
-// grow to twice the budget (measured on the 600 m x 800 m campus).
+// payload only (about half of this), so a budget kept on it lets the process
+// grow to twice the budget (docs/tuning.md).
 size_t HeapBytes(const octomap::OcTree& tree) {
   const size_t nodes = tree.size();
   const size_t leaves = tree.getNumLeafNodes();
@@ -331,8 +333,9 @@ std::string TiledFusion::SpillPath(uint64_t tile_id) const {
 
 Status TiledFusion::Load(uint64_t tile_id, Tile* tile) const {
   const std::string path = SpillPath(tile_id);
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Status::IOError(path + ": cannot open spilled tile");
+  StatusOr<std::string> bytes = storage::ReadFileToString(storage::Env::Default(), path);
+  if (!bytes.ok()) return Status::IOError(path + ": cannot open spilled tile");
+  std::istringstream in(std::move(bytes).value());
   std::unique_ptr<octomap::OcTree> tree = MakeTileTree(options_);
   tree->readData(in);
   if (!in) return Status::IOError(path + ": cannot read spilled tile");
@@ -342,10 +345,14 @@ Status TiledFusion::Load(uint64_t tile_id, Tile* tile) const {
 
 Status TiledFusion::Spill(uint64_t tile_id, Tile* tile) {
   const std::string path = SpillPath(tile_id);
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  std::ostringstream out(std::ios::binary);
   tile->tree->writeData(out);
-  out.flush();
   if (!out) return Status::IOError(path + ": cannot write spilled tile");
+  // One tile's bytes are held twice for a moment (the tree and its image).
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<storage::WritableFile> file,
+                      storage::Env::Default()->NewWritableFile(path));
+  GS_RETURN_IF_ERROR(file->Append(out.view()));
+  GS_RETURN_IF_ERROR(file->Close());
   tile->tree.reset();
   ++spills_;
   return Status::Ok();

@@ -87,149 +87,121 @@ double SolveKnown(gs::core::Problem2d problem, const gs::core::SolverOptions& op
   return summary.final_chi2;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  if (argc < 2) {
-    std::fprintf(stderr, "usage: association_benchmark victoria|mrclam|campus ...\n");
-    return 2;
-  }
-  const std::string which = argv[1];
-  if (const char* verbose = std::getenv("GS_VERBOSE")) gs::SetLogVerbosity(std::atoi(verbose));
-  const std::string datasets = GRAPHSLAM_DATASETS_DIR;
+// The dataset under test: the id-less problem, the key (the true landmark of
+// each input observation), the options, and what scores the result.
+struct Benchmark {
+  std::string which;
   gs::core::Problem2d problem;
   std::vector<int64_t> key;
   gs::core::SolverOptions solver;
   gs::partition::AssociationOptions options;
   double known_chi2 = -1.0;
   std::vector<gs::core::Pose2> true_poses;  // campus only: to score the initial guess
-  int next_arg = 2;
-  if (which == "victoria") {
-    auto unknown = gs::storage::ReadG2o(datasets + "/victoria_park/victoriaPark-noassoc.g2o");
-    if (!unknown.ok()) return Fail(unknown.status());
-    auto full = gs::storage::ReadG2o(datasets + "/victoria_park/victoriaPark-full.g2o");
-    if (!full.ok()) return Fail(full.status());
-    problem = std::move(unknown).value();
-    // The key: the full file's landmark of the observation with the same pose
-    // and measurement (the two files list observations in different orders).
-    std::multimap<std::tuple<int64_t, double, double>, int64_t> landmark;
-    for (const auto& o : full->observations)
-      landmark.insert({{full->pose_ids[o.pose], o.z.x(), o.z.y()}, o.feature});
-    for (const auto& o : problem.observations) {
-      const auto it = landmark.find({problem.pose_ids[o.pose], o.z.x(), o.z.y()});
-      key.push_back(it == landmark.end() ? -1 : it->second);
-      if (it != landmark.end()) landmark.erase(it);
-    }
-    known_chi2 = SolveKnown(*full, solver);
-  } else if (which == "mrclam") {
-    gs::storage::MrclamOptions mrclam;
-    auto known = gs::storage::ReadMrclam(datasets + "/mrclam_dataset1_sampled50hz", mrclam);
-    if (!known.ok()) return Fail(known.status());
-    mrclam.ignore_barcodes = true;
-    auto unknown = gs::storage::ReadMrclam(datasets + "/mrclam_dataset1_sampled50hz", mrclam);
-    if (!unknown.ok()) return Fail(unknown.status());
-    problem = std::move(unknown).value();
-    for (const auto& o : known->observations) key.push_back(known->feature_ids[o.feature]);
-    solver.observation_kernel.type = gs::core::RobustKernel::Type::kCauchy;
-  } else if (which == "campus") {
-    if (argc < 5) {
-      std::fprintf(stderr, "usage: association_benchmark campus POSES RUNS SEED [chi] [radius]\n");
-      return 2;
-    }
-    gs::tools::CampusSimulatorOptions campus;
-    campus.poses = std::atoll(argv[2]);
-    campus.runs = std::atoi(argv[3]);
-    campus.seed = static_cast<uint32_t>(std::atoi(argv[4]));
-    campus.gps_every = 25;
-    if (const char* v = std::getenv("GS_FEATURES")) campus.features = std::atoll(v);
-    next_arg = 5;
-    auto simulated = gs::tools::SimulateCampus(campus);
-    if (!simulated.ok()) return Fail(simulated.status());
-    gs::core::Problem2d known = simulated->problem;
-    true_poses = simulated->true_poses;
-    problem = std::move(simulated->problem);
-    key = ForgetIds(&problem);
-    known_chi2 = SolveKnown(known, solver);
-  } else {
-    std::fprintf(stderr, "unknown dataset '%s'\n", which.c_str());
-    return 2;
-  }
-  if (const char* path = std::getenv("GS_KEY_OUT")) {  // diagnosis: the key, one line per observation
-    if (std::FILE* f = std::fopen(path, "w")) {
-      for (int64_t k : key) std::fprintf(f, "%lld\n", static_cast<long long>(k));
-      std::fclose(f);
-    }
-  }
-  if (argc > next_arg) options.chi = std::atof(argv[next_arg]);
-  if (argc > next_arg + 1) options.search_radius = std::atof(argv[next_arg + 1]);
-  if (argc > next_arg + 2) options.mutual_best_rounds = std::atoi(argv[next_arg + 2]);
-  if (argc > next_arg + 3) options.refit_between_undos = std::atoi(argv[next_arg + 3]) != 0;
+  int next_arg = 2;                         // the first optional argument
+};
 
-  std::vector<int> input_pose_of;
-  for (const auto& o : problem.observations) input_pose_of.push_back(o.pose);
-  const auto start = std::chrono::steady_clock::now();
-  if (gs::Status status = gs::core::InitializeProblem(&problem); !status.ok()) return Fail(status);
-  gs::partition::ProgressiveInitializationOptions progressive;
-  progressive.enabled = which != "mrclam";
-  if (const char* v = std::getenv("GS_STAGE_ITERATIONS")) progressive.max_iterations_per_stage = std::atoi(v);
-  if (const char* v = std::getenv("GS_STAGE_POSES")) progressive.max_new_poses = std::atoll(v);
-  if (const char* v = std::getenv("GS_INITIAL_RADIUS")) solver.initial_trust_region_radius = std::atof(v);
-  gs::partition::ProgressiveSummary progressive_summary;
-  if (gs::Status status = gs::partition::InitializeProgressively(progressive, solver, &problem,
-                                                                 &progressive_summary);
-      !status.ok())
-    return Fail(status);
-  if (!true_poses.empty()) {
-    // How far the initial guess (progressive initialization) is from the
-    // truth: a guess far off makes the round-1 solve slow or stuck.
-    double worst_position = 0.0, worst_heading = 0.0;
-    for (size_t p = 0; p < true_poses.size(); ++p) {
-      worst_position = std::max(
-          worst_position, (problem.poses[p].head<2>() - true_poses[p].head<2>()).norm());
-      worst_heading = std::max(worst_heading, std::abs(std::remainder(
-                                                  problem.poses[p].z() - true_poses[p].z(),
-                                                  2.0 * 3.141592653589793)));
-    }
-    std::printf("initial guess: worst position error %.3f m, worst heading error %.4f rad\n",
-                worst_position, worst_heading);
+gs::Status LoadVictoria(const std::string& datasets, Benchmark* b) {
+  auto unknown = gs::storage::ReadG2o(datasets + "/victoria_park/victoriaPark-noassoc.g2o");
+  GS_RETURN_IF_ERROR(unknown.status());
+  auto full = gs::storage::ReadG2o(datasets + "/victoria_park/victoriaPark-full.g2o");
+  GS_RETURN_IF_ERROR(full.status());
+  b->problem = std::move(unknown).value();
+  // The key: the full file's landmark of the observation with the same pose
+  // and measurement (the two files list observations in different orders).
+  std::multimap<std::tuple<int64_t, double, double>, int64_t> landmark;
+  for (const auto& o : full->observations)
+    landmark.insert({{full->pose_ids[o.pose], o.z.x(), o.z.y()}, o.feature});
+  for (const auto& o : b->problem.observations) {
+    const auto it = landmark.find({b->problem.pose_ids[o.pose], o.z.x(), o.z.y()});
+    b->key.push_back(it == landmark.end() ? -1 : it->second);
+    if (it != landmark.end()) landmark.erase(it);
   }
-  if (std::getenv("GS_INIT_ONLY") != nullptr) return 0;
-  if (const char* rounds = std::getenv("GS_MAX_ROUNDS")) options.max_rounds = std::atoi(rounds);
-  if (const char* v = std::getenv("GS_FULL_SOLVE_UNDOS")) options.full_solve_undos = std::atoi(v);
-  if (const char* v = std::getenv("GS_INC_STAGE")) options.incremental.stage_poses = std::atoll(v);
-  if (const char* v = std::getenv("GS_INC_RADIUS")) options.incremental.search_radius = std::atof(v);
-  if (const char* v = std::getenv("GS_INC_Z")) options.incremental.joint.z = std::atof(v);
-  if (const char* v = std::getenv("GS_INC_CONFIRM")) options.incremental.confirm_observations = std::atoi(v);
-  if (const char* v = std::getenv("GS_INC_WINDOW")) options.incremental.provisional_poses = std::atoll(v);
-  if (const char* v = std::getenv("GS_INC_ITERATIONS"))
-    options.incremental.max_iterations_per_stage = std::atoi(v);
-  if (const char* v = std::getenv("GS_LOOP")) options.incremental.close_loops = std::atoi(v) != 0;
-  if (const char* v = std::getenv("GS_LOOP_MIN")) options.incremental.loop.min_inliers = std::atoi(v);
-  if (const char* v = std::getenv("GS_LOOP_MARGIN")) options.incremental.loop.ambiguity_margin = std::atoi(v);
-  if (const char* v = std::getenv("GS_LOOP_TOL")) options.incremental.loop.tolerance = std::atof(v);
-  if (const char* v = std::getenv("GS_LOOP_ROT")) options.incremental.loop.max_rotation = std::atof(v);
-  if (const char* v = std::getenv("GS_LOOP_RADIUS")) options.incremental.loop.search_radius = std::atof(v);
-  if (const char* v = std::getenv("GS_LOOP_WINDOW")) options.incremental.local_window = std::atoll(v);
-  if (const char* v = std::getenv("GS_INCREMENTAL")) options.incremental.enabled = std::atoi(v) != 0;
+  b->known_chi2 = SolveKnown(*full, b->solver);
+  return gs::Status::Ok();
+}
+
+gs::Status LoadMrclam(const std::string& datasets, Benchmark* b) {
+  gs::storage::MrclamOptions mrclam;
+  auto known = gs::storage::ReadMrclam(datasets + "/mrclam_dataset1_sampled50hz", mrclam);
+  GS_RETURN_IF_ERROR(known.status());
+  mrclam.ignore_barcodes = true;
+  auto unknown = gs::storage::ReadMrclam(datasets + "/mrclam_dataset1_sampled50hz", mrclam);
+  GS_RETURN_IF_ERROR(unknown.status());
+  b->problem = std::move(unknown).value();
+  for (const auto& o : known->observations) b->key.push_back(known->feature_ids[o.feature]);
+  b->solver.observation_kernel.type = gs::core::RobustKernel::Type::kCauchy;
+  return gs::Status::Ok();
+}
+
+gs::Status LoadCampus(char** argv, Benchmark* b) {
+  gs::tools::CampusSimulatorOptions campus;
+  campus.poses = std::atoll(argv[2]);
+  campus.runs = std::atoi(argv[3]);
+  campus.seed = static_cast<uint32_t>(std::atoi(argv[4]));
+  campus.gps_every = 25;
+  if (const char* v = std::getenv("GS_FEATURES")) campus.features = std::atoll(v);
+  b->next_arg = 5;
+  auto simulated = gs::tools::SimulateCampus(campus);
+  GS_RETURN_IF_ERROR(simulated.status());
+  gs::core::Problem2d known = simulated->problem;
+  b->true_poses = simulated->true_poses;
+  b->problem = std::move(simulated->problem);
+  b->key = ForgetIds(&b->problem);
+  b->known_chi2 = SolveKnown(known, b->solver);
+  return gs::Status::Ok();
+}
+
+// Diagnosis: `values`, one line each, into `path` (best effort).
+void WriteLines(const char* path, const std::vector<int64_t>& values) {
+  if (std::FILE* f = std::fopen(path, "w")) {
+    for (int64_t v : values) std::fprintf(f, "%lld\n", static_cast<long long>(v));
+    std::fclose(f);
+  }
+}
+
+// How far the initial guess (progressive initialization) is from the truth:
+// a guess far off makes the round-1 solve slow or stuck.
+void PrintInitialGuessError(const gs::core::Problem2d& problem,
+                            const std::vector<gs::core::Pose2>& true_poses) {
+  double worst_position = 0.0, worst_heading = 0.0;
+  for (size_t p = 0; p < true_poses.size(); ++p) {
+    worst_position = std::max(
+        worst_position, (problem.poses[p].head<2>() - true_poses[p].head<2>()).norm());
+    worst_heading = std::max(worst_heading, std::abs(std::remainder(
+                                                problem.poses[p].z() - true_poses[p].z(),
+                                                2.0 * 3.141592653589793)));
+  }
+  std::printf("initial guess: worst position error %.3f m, worst heading error %.4f rad\n",
+              worst_position, worst_heading);
+}
+
+// The association options the GS_* environment variables override.
+void AssociationOptionsFromEnvironment(gs::partition::AssociationOptions* options) {
+  if (const char* rounds = std::getenv("GS_MAX_ROUNDS")) options->max_rounds = std::atoi(rounds);
+  if (const char* v = std::getenv("GS_FULL_SOLVE_UNDOS")) options->full_solve_undos = std::atoi(v);
+  auto& inc = options->incremental;
+  if (const char* v = std::getenv("GS_INC_STAGE")) inc.stage_poses = std::atoll(v);
+  if (const char* v = std::getenv("GS_INC_RADIUS")) inc.search_radius = std::atof(v);
+  if (const char* v = std::getenv("GS_INC_Z")) inc.joint.z = std::atof(v);
+  if (const char* v = std::getenv("GS_INC_CONFIRM")) inc.confirm_observations = std::atoi(v);
+  if (const char* v = std::getenv("GS_INC_WINDOW")) inc.provisional_poses = std::atoll(v);
+  if (const char* v = std::getenv("GS_INC_ITERATIONS")) inc.max_iterations_per_stage = std::atoi(v);
+  if (const char* v = std::getenv("GS_LOOP")) inc.close_loops = std::atoi(v) != 0;
+  if (const char* v = std::getenv("GS_LOOP_MIN")) inc.loop.min_inliers = std::atoi(v);
+  if (const char* v = std::getenv("GS_LOOP_MARGIN")) inc.loop.ambiguity_margin = std::atoi(v);
+  if (const char* v = std::getenv("GS_LOOP_TOL")) inc.loop.tolerance = std::atof(v);
+  if (const char* v = std::getenv("GS_LOOP_ROT")) inc.loop.max_rotation = std::atof(v);
+  if (const char* v = std::getenv("GS_LOOP_RADIUS")) inc.loop.search_radius = std::atof(v);
+  if (const char* v = std::getenv("GS_LOOP_WINDOW")) inc.local_window = std::atoll(v);
+  if (const char* v = std::getenv("GS_INCREMENTAL")) inc.enabled = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_SCALE")) {
-    options.scale_by_variance_factor = std::atoi(v) != 0;
-    options.incremental.scale_by_variance_factor = std::atoi(v) != 0;
+    options->scale_by_variance_factor = std::atoi(v) != 0;
+    inc.scale_by_variance_factor = std::atoi(v) != 0;
   }
-  gs::partition::AssociationSummary summary;
-  if (gs::Status status = gs::partition::AssociateAndSolve(options, solver, &problem, &summary);
-      !status.ok())
-    return Fail(status);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const gs::partition::PairwiseScore score = gs::partition::ScorePairwise(
-      gs::partition::InputObservationLabels(problem, summary, key.size()), key);
-  if (const char* path = std::getenv("GS_LABELS_OUT")) {  // diagnosis: the labels found
-    if (std::FILE* f = std::fopen(path, "w")) {
-      for (int64_t label : gs::partition::InputObservationLabels(problem, summary, key.size()))
-        std::fprintf(f, "%lld\n", static_cast<long long>(label));
-      std::fclose(f);
-    }
-  }
+}
+
+// One line per round; returns the seconds of all rounds.
+double PrintRounds(const gs::partition::AssociationSummary& summary) {
   double round_seconds = 0.0;
   for (const auto& r : summary.rounds) {
     const double s = r.solve_seconds + r.marginal_seconds + r.association_seconds;
@@ -241,47 +213,52 @@ int main(int argc, char** argv) {
                 static_cast<long long>(r.undone), r.chi2, r.solve_seconds, r.marginal_seconds,
                 r.association_seconds);
   }
-  std::printf("%s: %lld observations, %d poses, %lld -> %lld features (%zu in the key), "
-              "chi %.3g radius %.2f\n",
-              which.c_str(), static_cast<long long>(problem.observations.size()),
-              problem.num_poses(), static_cast<long long>(summary.initial_features),
-              static_cast<long long>(summary.final_features),
-              [&] {
-                std::vector<int64_t> k = key;
-                std::sort(k.begin(), k.end());
-                return static_cast<size_t>(std::unique(k.begin(), k.end()) - k.begin());
-              }(),
-              options.chi, options.search_radius);
-  std::printf("pairwise precision %.5f (%lld / %lld), recall %.5f (%lld / %lld)\n",
-              score.precision(), static_cast<long long>(score.true_positive),
-              static_cast<long long>(score.predicted), score.recall(),
-              static_cast<long long>(score.true_positive), static_cast<long long>(score.actual));
-  std::printf("merges %lld, undone %lld, rounds %zu, %.2f s per round, total %.2f s\n",
-              static_cast<long long>(summary.merges), static_cast<long long>(summary.undone),
-              summary.rounds.size(), round_seconds / std::max<size_t>(1, summary.rounds.size()),
-              seconds);
-  if (std::getenv("GS_SPLITS") != nullptr) {
-    // Diagnosis: each key landmark's fragments (features) with their pose spans.
-    const std::vector<int64_t> labels =
-        gs::partition::InputObservationLabels(problem, summary, key.size());
-    std::map<int64_t, std::map<int64_t, std::tuple<int, int, int>>> fragments;
-    for (size_t i = 0; i < labels.size(); ++i) {
-      if (key[i] < 0) continue;
-      auto& [count, first, last] = fragments[key[i]][labels[i]];
-      const int pose = input_pose_of[i];
-      if (count == 0) first = last = pose;
-      first = std::min(first, pose);
-      last = std::max(last, pose);
-      ++count;
-    }
-    for (const auto& [landmark, parts] : fragments) {
-      if (parts.size() < 2) continue;
-      std::printf("landmark %lld:", static_cast<long long>(landmark));
-      for (const auto& [label, span] : parts)
-        std::printf(" [%d obs, poses %d..%d]", std::get<0>(span), std::get<1>(span), std::get<2>(span));
-      std::printf("\n");
-    }
+  return round_seconds;
+}
+
+// Diagnosis: each key landmark's fragments (features) with their pose spans.
+void PrintSplits(const std::vector<int64_t>& labels, const std::vector<int64_t>& key,
+                 const std::vector<int>& input_pose_of) {
+  std::map<int64_t, std::map<int64_t, std::tuple<int, int, int>>> fragments;
+  for (size_t i = 0; i < labels.size(); ++i) {
+    if (key[i] < 0) continue;
+    auto& [count, first, last] = fragments[key[i]][labels[i]];
+    const int pose = input_pose_of[i];
+    if (count == 0) first = last = pose;
+    first = std::min(first, pose);
+    last = std::max(last, pose);
+    ++count;
   }
+  for (const auto& [landmark, parts] : fragments) {
+    if (parts.size() < 2) continue;
+    std::printf("landmark %lld:", static_cast<long long>(landmark));
+    for (const auto& [label, span] : parts)
+      std::printf(" [%d obs, poses %d..%d]", std::get<0>(span), std::get<1>(span), std::get<2>(span));
+    std::printf("\n");
+  }
+}
+
+void PrintIncremental(const gs::partition::AssociationSummary& summary) {
+  const auto& inc = summary.incremental;
+  if (!inc.ran) return;
+  std::printf("incremental: %lld stages, %lld scans, %lld paired, %lld features, %lld provisional "
+              "dropped (%lld observations), %lld JCBB capped, %lld loop closures (%lld pairs), chi2 %.6f, s^2 %.4g; solve %.2f s, "
+              "covariances %.2f s, assignment %.2f s, total %.2f s\n",
+              static_cast<long long>(inc.stages), static_cast<long long>(inc.scans),
+              static_cast<long long>(inc.paired), static_cast<long long>(inc.features),
+              static_cast<long long>(inc.provisional_dropped),
+              static_cast<long long>(inc.clutter_observations),
+              static_cast<long long>(inc.exhausted_scans),
+              static_cast<long long>(inc.loop_closures), static_cast<long long>(inc.loop_pairs),
+              inc.chi2, inc.variance_factor,
+              inc.solve_seconds,
+              inc.covariance_seconds, inc.assignment_seconds, inc.seconds);
+}
+
+// Were the undone merges wrong (sides' representatives from different
+// landmarks) or right?
+void PrintMergeReview(const gs::partition::AssociationSummary& summary,
+                      const std::vector<int64_t>& key) {
   // Key of each feature the rounds started from: that of one of its observations.
   std::vector<int64_t> origin_key(summary.origin_observation.size(), -1);
   for (size_t f = 0; f < origin_key.size(); ++f) {
@@ -289,22 +266,6 @@ int main(int argc, char** argv) {
     if (o >= 0 && static_cast<size_t>(o) < summary.input_observation.size())
       origin_key[f] = key[summary.input_observation[o]];
   }
-  const auto& inc = summary.incremental;
-  if (inc.ran)
-    std::printf("incremental: %lld stages, %lld scans, %lld paired, %lld features, %lld provisional "
-                "dropped (%lld observations), %lld JCBB capped, %lld loop closures (%lld pairs), chi2 %.6f, s^2 %.4g; solve %.2f s, "
-                "covariances %.2f s, assignment %.2f s, total %.2f s\n",
-                static_cast<long long>(inc.stages), static_cast<long long>(inc.scans),
-                static_cast<long long>(inc.paired), static_cast<long long>(inc.features),
-                static_cast<long long>(inc.provisional_dropped),
-                static_cast<long long>(inc.clutter_observations),
-                static_cast<long long>(inc.exhausted_scans),
-                static_cast<long long>(inc.loop_closures), static_cast<long long>(inc.loop_pairs),
-                inc.chi2, inc.variance_factor,
-                inc.solve_seconds,
-                inc.covariance_seconds, inc.assignment_seconds, inc.seconds);
-  // Were the undone merges wrong (sides' representatives from different
-  // landmarks) or right?
   int64_t undone_right = 0, undone_wrong = 0, kept_wrong = 0;
   for (const auto& record : summary.merge_log) {
     if (record.origins_a.empty() || record.origins_b.empty()) continue;
@@ -322,7 +283,101 @@ int main(int argc, char** argv) {
               static_cast<long long>(kept_wrong),
               [&] { long long n = 0; for (const auto& r : summary.rounds) n += r.solves; return n; }(),
               [&] { long long n = 0; for (const auto& r : summary.rounds) n += r.solver_iterations; return n; }());
+}
+
+void PrintScore(const Benchmark& b, const gs::partition::AssociationSummary& summary,
+                double round_seconds, double seconds) {
+  const gs::partition::PairwiseScore score = gs::partition::ScorePairwise(
+      gs::partition::InputObservationLabels(b.problem, summary, b.key.size()), b.key);
+  std::vector<int64_t> k = b.key;
+  std::sort(k.begin(), k.end());
+  const auto key_landmarks = static_cast<size_t>(std::unique(k.begin(), k.end()) - k.begin());
+  std::printf("%s: %lld observations, %d poses, %lld -> %lld features (%zu in the key), "
+              "chi %.3g radius %.2f\n",
+              b.which.c_str(), static_cast<long long>(b.problem.observations.size()),
+              b.problem.num_poses(), static_cast<long long>(summary.initial_features),
+              static_cast<long long>(summary.final_features), key_landmarks, b.options.chi,
+              b.options.search_radius);
+  std::printf("pairwise precision %.5f (%lld / %lld), recall %.5f (%lld / %lld)\n",
+              score.precision(), static_cast<long long>(score.true_positive),
+              static_cast<long long>(score.predicted), score.recall(),
+              static_cast<long long>(score.true_positive), static_cast<long long>(score.actual));
+  std::printf("merges %lld, undone %lld, rounds %zu, %.2f s per round, total %.2f s\n",
+              static_cast<long long>(summary.merges), static_cast<long long>(summary.undone),
+              summary.rounds.size(), round_seconds / std::max<size_t>(1, summary.rounds.size()),
+              seconds);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: association_benchmark victoria|mrclam|campus ...\n");
+    return 2;
+  }
+  Benchmark b;
+  b.which = argv[1];
+  if (const char* verbose = std::getenv("GS_VERBOSE")) gs::SetLogVerbosity(std::atoi(verbose));
+  const std::string datasets = GRAPHSLAM_DATASETS_DIR;
+  gs::Status loaded;
+  if (b.which == "victoria") {
+    loaded = LoadVictoria(datasets, &b);
+  } else if (b.which == "mrclam") {
+    loaded = LoadMrclam(datasets, &b);
+  } else if (b.which == "campus") {
+    if (argc < 5) {
+      std::fprintf(stderr, "usage: association_benchmark campus POSES RUNS SEED [chi] [radius]\n");
+      return 2;
+    }
+    loaded = LoadCampus(argv, &b);
+  } else {
+    std::fprintf(stderr, "unknown dataset '%s'\n", b.which.c_str());
+    return 2;
+  }
+  if (!loaded.ok()) return Fail(loaded);
+  // Diagnosis: the key, one line per observation.
+  if (const char* path = std::getenv("GS_KEY_OUT")) WriteLines(path, b.key);
+  const int next_arg = b.next_arg;
+  gs::partition::AssociationOptions& options = b.options;
+  if (argc > next_arg) options.chi = std::atof(argv[next_arg]);
+  if (argc > next_arg + 1) options.search_radius = std::atof(argv[next_arg + 1]);
+  if (argc > next_arg + 2) options.mutual_best_rounds = std::atoi(argv[next_arg + 2]);
+  if (argc > next_arg + 3) options.refit_between_undos = std::atoi(argv[next_arg + 3]) != 0;
+
+  gs::core::Problem2d& problem = b.problem;
+  std::vector<int> input_pose_of;
+  for (const auto& o : problem.observations) input_pose_of.push_back(o.pose);
+  const auto start = std::chrono::steady_clock::now();
+  if (gs::Status status = gs::core::InitializeProblem(&problem); !status.ok()) return Fail(status);
+  gs::partition::ProgressiveInitializationOptions progressive;
+  progressive.enabled = b.which != "mrclam";
+  if (const char* v = std::getenv("GS_STAGE_ITERATIONS")) progressive.max_iterations_per_stage = std::atoi(v);
+  if (const char* v = std::getenv("GS_STAGE_POSES")) progressive.max_new_poses = std::atoll(v);
+  if (const char* v = std::getenv("GS_INITIAL_RADIUS")) b.solver.initial_trust_region_radius = std::atof(v);
+  gs::partition::ProgressiveSummary progressive_summary;
+  if (gs::Status status = gs::partition::InitializeProgressively(progressive, b.solver, &problem,
+                                                                 &progressive_summary);
+      !status.ok())
+    return Fail(status);
+  if (!b.true_poses.empty()) PrintInitialGuessError(problem, b.true_poses);
+  if (std::getenv("GS_INIT_ONLY") != nullptr) return 0;
+  AssociationOptionsFromEnvironment(&options);
+  gs::partition::AssociationSummary summary;
+  if (gs::Status status = gs::partition::AssociateAndSolve(options, b.solver, &problem, &summary);
+      !status.ok())
+    return Fail(status);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const std::vector<int64_t> labels =
+      gs::partition::InputObservationLabels(problem, summary, b.key.size());
+  // Diagnosis: the labels found.
+  if (const char* path = std::getenv("GS_LABELS_OUT")) WriteLines(path, labels);
+  const double round_seconds = PrintRounds(summary);
+  PrintScore(b, summary, round_seconds, seconds);
+  if (std::getenv("GS_SPLITS") != nullptr) PrintSplits(labels, b.key, input_pose_of);
+  PrintIncremental(summary);
+  PrintMergeReview(summary, b.key);
   std::printf("final chi2 %.6f, known-correspondence chi2 %.6f\n",
-              summary.final_solve.final_chi2, known_chi2);
+              summary.final_solve.final_chi2, b.known_chi2);
   return 0;
 }

@@ -85,6 +85,44 @@ class PosixWritableFile final : public WritableFile {
   std::string buffer_;
 };
 
+// Unbuffered reader over a POSIX file descriptor; callers read whole frames
+// or records, so each Read is one or a few read(2) calls.
+class PosixReadableFile final : public ReadableFile {
+ public:
+  PosixReadableFile(std::string path, int fd) : path_(std::move(path)), fd_(fd) {}
+  ~PosixReadableFile() override { ::close(fd_); }
+
+  StatusOr<size_t> Read(size_t n, char* scratch) override {
+    size_t done = 0;
+    while (done < n) {
+      const ssize_t got = ::read(fd_, scratch + done, n - done);
+      if (got < 0) {
+        if (errno == EINTR) continue;
+        return PosixError(path_, "read", errno);
+      }
+      if (got == 0) break;
+      done += static_cast<size_t>(got);
+    }
+    return done;
+  }
+
+  Status Seek(uint64_t offset) override {
+    if (::lseek(fd_, static_cast<off_t>(offset), SEEK_SET) < 0)
+      return PosixError(path_, "seek", errno);
+    return Status::Ok();
+  }
+
+  StatusOr<uint64_t> Size() override {
+    struct stat info;
+    if (::fstat(fd_, &info) != 0) return PosixError(path_, "size", errno);
+    return static_cast<uint64_t>(info.st_size);
+  }
+
+ private:
+  const std::string path_;
+  const int fd_;
+};
+
 class PosixEnv final : public Env {
  public:
   StatusOr<std::unique_ptr<WritableFile>> NewWritableFile(const std::string& path) override {
@@ -134,6 +172,31 @@ class PosixEnv final : public Env {
     if (fd < 0) return PosixError(path, "open for writing", errno);
     return std::unique_ptr<WritableFile>(
         std::make_unique<PosixWritableFile>(path, fd, /*stream=*/true));
+  }
+
+  StatusOr<std::unique_ptr<ReadableFile>> NewReadableFile(const std::string& path) override {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) {
+      if (errno == ENOENT)
+        return Status::NotFound(path + ": open for reading: " + std::strerror(errno));
+      return PosixError(path, "open for reading", errno);
+    }
+    return std::unique_ptr<ReadableFile>(std::make_unique<PosixReadableFile>(path, fd));
+  }
+
+  StatusOr<std::unique_ptr<WritableFile>> NewAppendableFile(const std::string& path) override {
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+    if (fd < 0) return PosixError(path, "open for append", errno);
+    return std::unique_ptr<WritableFile>(std::make_unique<PosixWritableFile>(path, fd));
+  }
+
+  Status SyncFile(const std::string& path) override {
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+    if (fd < 0) return PosixError(path, "open for fsync", errno);
+    Status status;
+    if (::fsync(fd) != 0) status = PosixError(path, "fsync", errno);
+    ::close(fd);
+    return status;
   }
 
   Status SyncDirectory(const std::string& path) override {
@@ -194,6 +257,25 @@ Env* Env::Default() {
   // destroyed, so usable from other statics' destructors.
   static PosixEnv* const env = new PosixEnv();
   return env;
+}
+
+StatusOr<std::unique_ptr<ReadableFile>> Env::NewReadableFile(const std::string& path) {
+  return Default()->NewReadableFile(path);
+}
+
+StatusOr<std::unique_ptr<WritableFile>> Env::NewAppendableFile(const std::string& path) {
+  return Default()->NewAppendableFile(path);
+}
+
+Status Env::SyncFile(const std::string& path) { return Default()->SyncFile(path); }
+
+StatusOr<std::string> ReadFileToString(Env* env, const std::string& path) {
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<ReadableFile> file, env->NewReadableFile(path));
+  GS_ASSIGN_OR_RETURN(const uint64_t size, file->Size());
+  std::string bytes(static_cast<size_t>(size), '\0');
+  GS_ASSIGN_OR_RETURN(const size_t got, file->Read(bytes.size(), bytes.data()));
+  bytes.resize(got);  // a file that shrank meanwhile
+  return bytes;
 }
 
 FaultInjectionEnv::FaultInjectionEnv(Env* base) : base_(base) { GS_CHECK(base != nullptr); }
@@ -265,6 +347,24 @@ StatusOr<std::unique_ptr<WritableFile>> FaultInjectionEnv::OpenStream(const std:
   GS_ASSIGN_OR_RETURN(std::unique_ptr<WritableFile> base, base_->OpenStream(path));
   return std::unique_ptr<WritableFile>(
       std::make_unique<FaultInjectionWritableFile>(path, std::move(base), this));
+}
+
+StatusOr<std::unique_ptr<ReadableFile>> FaultInjectionEnv::NewReadableFile(
+    const std::string& path) {
+  return base_->NewReadableFile(path);
+}
+
+StatusOr<std::unique_ptr<WritableFile>> FaultInjectionEnv::NewAppendableFile(
+    const std::string& path) {
+  GS_RETURN_IF_ERROR(MaybeFail(Operation::kNewWritableFile, path));
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<WritableFile> base, base_->NewAppendableFile(path));
+  return std::unique_ptr<WritableFile>(
+      std::make_unique<FaultInjectionWritableFile>(path, std::move(base), this));
+}
+
+Status FaultInjectionEnv::SyncFile(const std::string& path) {
+  GS_RETURN_IF_ERROR(MaybeFail(Operation::kSync, path));
+  return base_->SyncFile(path);
 }
 
 Status FaultInjectionEnv::SyncDirectory(const std::string& path) {

@@ -13,6 +13,8 @@
 //                 a directory: makes a rename durable), KindOf / ResolvePath /
 //                 OpenStream (outputs that are devices, FIFOs or symlinks are
 //                 written in place or through the link, never replaced)
+//   Scratch data: NewReadableFile (sequential reads, seeks), NewAppendableFile,
+//                 SyncFile (fsync by path), ReadFileToString
 //
 // Every operation that touches the disk returns a Status; IOError messages name
 // the path and the errno text, e.g. "out.g2o: fsync: No space left on device".
@@ -22,6 +24,8 @@
 // ALLOCATION: a PosixWritableFile holds a 64 KiB write buffer.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -45,6 +49,21 @@ class WritableFile {
   [[nodiscard]] virtual Status Sync() = 0;
   // Flushes and closes. Further calls except the destructor are errors.
   [[nodiscard]] virtual Status Close() = 0;
+};
+
+// A file opened for reading: sequential reads from a position that Seek
+// moves. Read fills `scratch` with up to `n` bytes and returns how many it
+// read; fewer than `n` only at the end of the file.
+class ReadableFile {
+ public:
+  ReadableFile() = default;
+  ReadableFile(const ReadableFile&) = delete;
+  ReadableFile& operator=(const ReadableFile&) = delete;
+  virtual ~ReadableFile() = default;
+
+  virtual StatusOr<size_t> Read(size_t n, char* scratch) = 0;
+  [[nodiscard]] virtual Status Seek(uint64_t offset) = 0;
+  virtual StatusOr<uint64_t> Size() = 0;
 };
 
 // What a path names, after following symbolic links.
@@ -80,6 +99,15 @@ class Env {
   // is standard output. Its Sync() flushes without fsync, which such files
   // do not support.
   virtual StatusOr<std::unique_ptr<WritableFile>> OpenStream(const std::string& path) = 0;
+
+  // Scratch and record files. The defaults go to Env::Default(), so an Env
+  // that only changes how outputs are written reads through POSIX.
+  // Opens `path` for reading; NotFound when it does not exist.
+  virtual StatusOr<std::unique_ptr<ReadableFile>> NewReadableFile(const std::string& path);
+  // Opens `path` for writing at its end, creating it if it does not exist.
+  virtual StatusOr<std::unique_ptr<WritableFile>> NewAppendableFile(const std::string& path);
+  // fsyncs the existing file `path` (written earlier through another handle).
+  [[nodiscard]] virtual Status SyncFile(const std::string& path);
 
   // The process-wide POSIX Env. It is a function-local static, the one
   // singleton the project permits: it holds no state (every call goes straight
@@ -129,6 +157,9 @@ class FaultInjectionEnv : public Env {
   FileKind KindOf(const std::string& path) override;
   StatusOr<std::string> ResolvePath(const std::string& path) override;
   StatusOr<std::unique_ptr<WritableFile>> OpenStream(const std::string& path) override;
+  StatusOr<std::unique_ptr<ReadableFile>> NewReadableFile(const std::string& path) override;
+  StatusOr<std::unique_ptr<WritableFile>> NewAppendableFile(const std::string& path) override;
+  [[nodiscard]] Status SyncFile(const std::string& path) override;
 
   // Counts a call of `operation`; returns IOError if this call is to fail.
   // Public for the wrapped files; not part of the test-facing API.
@@ -141,5 +172,8 @@ class FaultInjectionEnv : public Env {
   int fail_at_[kNumOperations] = {};   // 0: no pending failure
   bool fail_always_[kNumOperations] = {};
 };
+
+// The whole of `path` (NotFound when it does not exist).
+StatusOr<std::string> ReadFileToString(Env* env, const std::string& path);
 
 }  // namespace graphslam::storage

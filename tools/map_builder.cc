@@ -69,12 +69,9 @@ StatusOr<MapSummary> BuildMap(const MapOptions& options, const ScanSource& scans
       options.pcd_memory_bytes > 0 ? options.pcd_memory_bytes : options.memory_budget_bytes / 4;
   if (fuse) {
     // The fusion gets what the cloud and the rest of the process leave of
-    // the budget (fusion and cloud used to add up to 1.25 budgets), at least
-    // a sixteenth of it. The rest is kProcessReserve: code and libraries
-    // (~20 MiB resident), one chunk of scans, one batch of world points, the
-    // per-thread buffers of ray casting; measured on the 600 m x 800 m campus
-    // at a 512 MiB budget, the process stood 29 MiB above its fusion + cloud
-    // shares without it.
+    // the budget, at least a sixteenth of it. The rest is kProcessReserve:
+    // code and libraries, one chunk of scans, one batch of world points, the
+    // per-thread buffers of ray casting (docs/tuning.md).
     const int64_t reserve = std::min(kProcessReserve, options.memory_budget_bytes / 8);
     int64_t fusion_bytes = options.memory_budget_bytes - reserve;
     if (!options.pcd_path.empty()) fusion_bytes -= cloud_options.budget_bytes;

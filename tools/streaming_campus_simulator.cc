@@ -175,6 +175,233 @@ class StreamedFile {
   std::unique_ptr<storage::WritableFile> file_;
 };
 
+// The native log's lines, gathered into ~1 MiB appends to the file (through
+// zstd, on one worker thread, when a level is given).
+class LogLines {
+ public:
+  LogLines(storage::WritableFile* file, int zstd_level) : file_(file) {
+    if (zstd_level > 0) zstd_.emplace(file, zstd_level, 1);
+  }
+  // The line being built; EndLine() ends it.
+  std::string* line() { return &line_; }
+  Status EndLine() {
+    line_.push_back('\n');
+    pending_ += line_;
+    line_.clear();
+    return pending_.size() >= (size_t{1} << 20) ? WritePending() : Status::Ok();
+  }
+  Status Finish() {
+    GS_RETURN_IF_ERROR(WritePending());
+    return zstd_ ? zstd_->Finish() : Status::Ok();
+  }
+
+ private:
+  Status WritePending() {
+    Status status = zstd_ ? zstd_->Append(pending_) : file_->Append(pending_);
+    pending_.clear();
+    return status;
+  }
+
+  storage::WritableFile* file_;
+  std::optional<storage::ZstdWriter> zstd_;
+  std::string line_;
+  std::string pending_;
+};
+
+// The streamed simulation: runs of the robot through the procedural world,
+// each pose's records written to the log as they are drawn, the ground truth
+// to the TUM file, the observation counts kept per landmark slot.
+class StreamingSimulation {
+ public:
+  StreamingSimulation(const CampusSimulatorOptions& options, const Grid& grid,
+                      ProceduralWorld* world, std::vector<uint16_t>* counts, StreamedFile* tum,
+                      StreamingCampusSummary* summary)
+      : options_(options), grid_(grid), world_(*world), counts_(*counts), tum_(*tum),
+        summary_(*summary), half_fov_(0.5 * options.field_of_view),
+        observation_information_(
+            Eigen::Vector2d(1.0 / (options.range_sigma * options.range_sigma),
+                            1.0 / (options.bearing_sigma * options.bearing_sigma))
+                .asDiagonal()),
+        gps_information_(Eigen::Matrix2d::Identity() / (options.gps_sigma * options.gps_sigma)),
+        min_range_(5.0 * options.range_sigma) {}
+
+  Status Write(LogLines* log) {
+    *log->line() = "GRAPHSLAM_LOG 1";
+    GS_RETURN_IF_ERROR(log->EndLine());
+    *log->line() = "# graphslam simulate --streaming, seed " + std::to_string(options_.seed) +
+                   " (spec: docs/formats/native_log.md)";
+    GS_RETURN_IF_ERROR(log->EndLine());
+    int64_t index = 0;
+    for (int run = 0; run < options_.runs; ++run) GS_RETURN_IF_ERROR(Run(run, log, &index));
+    summary_.poses = index;
+    return log->Finish();
+  }
+
+ private:
+  // One run from a random street corner; *index counts the poses of all runs.
+  Status Run(int run, LogLines* log, int64_t* index) {
+    Random random(SplitMix64(SplitMix64(options_.seed) ^ (0x5851f42d4c957f2dULL * (run + 1))));
+    const int64_t run_poses =
+        options_.poses / options_.runs + (run < options_.poses % options_.runs ? 1 : 0);
+    const int start_x = static_cast<int>(random.UniformInt(grid_.columns));
+    const int start_y = static_cast<int>(random.UniformInt(grid_.rows));
+    int directions[4];
+    int count = 0;
+    for (int d = 0; d < 4; ++d)
+      if (grid_.Contains(start_x + kStepX[d], start_y + kStepY[d])) directions[count++] = d;
+    const int direction = directions[random.UniformInt(count)];
+    StreetPath path(grid_, options_, start_x, start_y, direction, &random);
+    core::Pose2 truth(start_x * grid_.block_size, start_y * grid_.block_size,
+                      core::WrapAngle(DirectionAngle(direction)));
+    core::Pose2 guess = truth;
+    if (run > 0) {
+      guess.x() += random.Normal(options_.initial_position_sigma);
+      guess.y() += random.Normal(options_.initial_position_sigma);
+      guess.z() = core::WrapAngle(guess.z() + random.Normal(options_.initial_heading_sigma));
+    }
+    double s = 0.0;
+    core::VelocityControl control;
+    Eigen::Matrix3d motion_information;
+    for (int64_t k = 0; k < run_poses; ++k, ++*index) {
+      const double stamp = static_cast<double>(k) * options_.dt;
+      GS_RETURN_IF_ERROR(
+          PoseRecords(k, *index, stamp, guess, control, motion_information, log));
+      // Sensing from the true pose.
+      GS_RETURN_IF_ERROR(Sense(*index, truth, &random, log));
+      if (options_.gps_every > 0 && k % options_.gps_every == 0) {
+        std::string* line = log->line();
+        AppendField(line, "GPS");
+        AppendField(line, *index);
+        AppendField(line, truth.x() + random.Normal(options_.gps_sigma));
+        AppendField(line, truth.y() + random.Normal(options_.gps_sigma));
+        AppendUpperTriangle(line, gps_information_);
+        GS_RETURN_IF_ERROR(log->EndLine());
+        ++summary_.gps;
+      }
+      GS_RETURN_IF_ERROR(TruthLine(stamp, truth));
+      if (k + 1 == run_poses) continue;  // (ends the loop, counting the pose)
+
+      // Pure pursuit on the true pose and the noisy execution, as SimulateCampus.
+      control = internal::PursuitControl(options_, truth, &path, &s);
+      const core::Pose2 next = internal::ExecuteWithNoise(options_, truth, control, &random);
+      const Eigen::Matrix3d inverse =
+          core::VelocityMotionCovariance(truth, control, options_.noise).inverse();
+      motion_information = 0.5 * (inverse + inverse.transpose());
+      summary_.distance_travelled += (next.head<2>() - truth.head<2>()).norm();
+      truth = next;
+    }
+    return Status::Ok();
+  }
+
+  // POSE (with the run's initial guess at its first pose), the anchoring FIX
+  // of the first pose when there is no GPS, and the motion from the previous
+  // pose.
+  Status PoseRecords(int64_t k, int64_t index, double stamp, const core::Pose2& guess,
+                     const core::VelocityControl& control,
+                     const Eigen::Matrix3d& motion_information, LogLines* log) {
+    std::string* line = log->line();
+    AppendField(line, "POSE");
+    AppendField(line, index);
+    AppendField(line, stamp);
+    if (k == 0)
+      for (int c = 0; c < 3; ++c) AppendField(line, guess[c]);
+    GS_RETURN_IF_ERROR(log->EndLine());
+    if (index == 0 && options_.gps_every == 0) {
+      AppendField(line, "FIX");
+      AppendField(line, index);
+      GS_RETURN_IF_ERROR(log->EndLine());
+    }
+    if (k == 0) return Status::Ok();
+    AppendField(line, "CONTROL_INFO");
+    AppendField(line, index - 1);
+    AppendField(line, index);
+    AppendField(line, control.v);
+    AppendField(line, control.omega);
+    AppendField(line, control.dt);
+    AppendUpperTriangle(line, motion_information);
+    GS_RETURN_IF_ERROR(log->EndLine());
+    ++summary_.motions;
+    return Status::Ok();
+  }
+
+  // RB records of the landmarks in range and field of view of `truth`.
+  Status Sense(int64_t index, const core::Pose2& truth, Random* random, LogLines* log) {
+    world_.Near(truth.head<2>(), options_.sensor_range, &nearby_);
+    std::string* line = log->line();
+    for (const Landmark& landmark : nearby_) {
+      const core::Point2 delta = landmark.position - truth.head<2>();
+      const double range = delta.norm();
+      if (range < min_range_ || range > options_.sensor_range) continue;
+      const double bearing = core::WrapAngle(std::atan2(delta.y(), delta.x()) - truth.z());
+      if (std::abs(bearing) > half_fov_) continue;
+      AppendField(line, "RB");
+      AppendField(line, index);
+      AppendField(line, options_.feature_id_base + landmark.slot);
+      AppendField(line, range + random->Normal(options_.range_sigma));
+      AppendField(line, core::WrapAngle(bearing + random->Normal(options_.bearing_sigma)));
+      AppendUpperTriangle(line, observation_information_);
+      GS_RETURN_IF_ERROR(log->EndLine());
+      uint16_t& seen = counts_[static_cast<size_t>(landmark.slot)];
+      if (seen == 0) ++summary_.observed_features;
+      if (seen < std::numeric_limits<uint16_t>::max()) ++seen;
+      ++summary_.observations;
+    }
+    return Status::Ok();
+  }
+
+  Status TruthLine(double stamp, const core::Pose2& truth) {
+    std::string tum_line;
+    AppendField(&tum_line, stamp);
+    AppendField(&tum_line, truth.x());
+    AppendField(&tum_line, truth.y());
+    AppendField(&tum_line, "0 0 0");
+    AppendField(&tum_line, std::sin(0.5 * truth.z()));
+    AppendField(&tum_line, std::cos(0.5 * truth.z()));
+    tum_line.push_back('\n');
+    return tum_.Append(tum_line);
+  }
+
+  const CampusSimulatorOptions& options_;
+  const Grid& grid_;
+  ProceduralWorld& world_;  // Near() caches segments
+  std::vector<uint16_t>& counts_;
+  StreamedFile& tum_;
+  StreamingCampusSummary& summary_;
+  const double half_fov_;
+  const Eigen::Matrix2d observation_information_;
+  const Eigen::Matrix2d gps_information_;
+  const double min_range_;
+  std::vector<Landmark> nearby_;
+};
+
+// Every landmark of the world, segment by segment, with its observation count.
+Status WriteFeaturesCsv(storage::Env* env, const std::string& path,
+                        const CampusSimulatorOptions& options, const ProceduralWorld& world,
+                        const std::vector<uint16_t>& counts, StreamingCampusSummary* summary) {
+  return storage::WriteFileAtomically(env, path, [&](storage::WritableFile* file) -> Status {
+    GS_RETURN_IF_ERROR(file->Append("id,x,y,observations,excluded\n"));
+    std::vector<Landmark> landmarks;
+    std::string line;
+    for (int64_t s = 0; s < world.NumSegmentSlots(); ++s) {
+      world.Generate(s, &landmarks);
+      for (const Landmark& landmark : landmarks) {
+        line.clear();
+        AppendField(&line, options.feature_id_base + landmark.slot);
+        line.push_back(',');
+        line.append(storage::internal::FormatDouble(landmark.position.x()));
+        line.push_back(',');
+        line.append(storage::internal::FormatDouble(landmark.position.y()));
+        line.push_back(',');
+        line.append(std::to_string(counts[static_cast<size_t>(landmark.slot)]));
+        line.append(",0\n");
+        GS_RETURN_IF_ERROR(file->Append(line));
+        ++summary->landmarks;
+      }
+    }
+    return Status::Ok();
+  });
+}
+
 }  // namespace
 
 Status SimulateCampusStreaming(const CampusSimulatorOptions& options, const std::string& dir,
@@ -198,168 +425,14 @@ Status SimulateCampusStreaming(const CampusSimulatorOptions& options, const std:
   StreamedFile tum(env, tum_path);
   GS_RETURN_IF_ERROR(tum.Open());
   GS_RETURN_IF_ERROR(tum.Append("# timestamp x y z qx qy qz qw\n"));
-
-  const double half_fov = 0.5 * options.field_of_view;
-  const Eigen::Matrix2d observation_information =
-      Eigen::Vector2d(1.0 / (options.range_sigma * options.range_sigma),
-                      1.0 / (options.bearing_sigma * options.bearing_sigma))
-          .asDiagonal();
-  const Eigen::Matrix2d gps_information =
-      Eigen::Matrix2d::Identity() / (options.gps_sigma * options.gps_sigma);
-  const double min_range = 5.0 * options.range_sigma;
-
-  GS_RETURN_IF_ERROR(storage::WriteFileAtomically(env, log_path, [&](storage::WritableFile* file)
-                                                                     -> Status {
-    // Compression runs on one zstd worker thread while this one simulates.
-    std::optional<storage::ZstdWriter> zstd;
-    if (zstd_level > 0) zstd.emplace(file, zstd_level, 1);
-    std::string line;
-    std::string pending;  // lines gathered into ~1 MiB appends
-    const auto write_pending = [&]() {
-      Status status = zstd ? zstd->Append(pending) : file->Append(pending);
-      pending.clear();
-      return status;
-    };
-    const auto flush = [&]() {
-      line.push_back('\n');
-      pending += line;
-      line.clear();
-      return pending.size() >= (size_t{1} << 20) ? write_pending() : Status::Ok();
-    };
-    line = "GRAPHSLAM_LOG 1";
-    GS_RETURN_IF_ERROR(flush());
-    line = "# graphslam simulate --streaming, seed " + std::to_string(options.seed) +
-           " (spec: docs/formats/native_log.md)";
-    GS_RETURN_IF_ERROR(flush());
-    std::vector<Landmark> nearby;
-    int64_t index = 0;
-    for (int run = 0; run < options.runs; ++run) {
-      Random random(SplitMix64(SplitMix64(options.seed) ^ (0x5851f42d4c957f2dULL * (run + 1))));
-      const int64_t run_poses =
-          options.poses / options.runs + (run < options.poses % options.runs ? 1 : 0);
-      const int start_x = static_cast<int>(random.UniformInt(grid.columns));
-      const int start_y = static_cast<int>(random.UniformInt(grid.rows));
-      int directions[4];
-      int count = 0;
-      for (int d = 0; d < 4; ++d)
-        if (grid.Contains(start_x + kStepX[d], start_y + kStepY[d])) directions[count++] = d;
-      const int direction = directions[random.UniformInt(count)];
-      StreetPath path(grid, options, start_x, start_y, direction, &random);
-      core::Pose2 truth(start_x * grid.block_size, start_y * grid.block_size,
-                        core::WrapAngle(DirectionAngle(direction)));
-      core::Pose2 guess = truth;
-      if (run > 0) {
-        guess.x() += random.Normal(options.initial_position_sigma);
-        guess.y() += random.Normal(options.initial_position_sigma);
-        guess.z() = core::WrapAngle(guess.z() + random.Normal(options.initial_heading_sigma));
-      }
-      double s = 0.0;
-      core::VelocityControl control;
-      Eigen::Matrix3d motion_information;
-      for (int64_t k = 0; k < run_poses; ++k, ++index) {
-        const double stamp = static_cast<double>(k) * options.dt;
-        AppendField(&line, "POSE");
-        AppendField(&line, index);
-        AppendField(&line, stamp);
-        if (k == 0)
-          for (int c = 0; c < 3; ++c) AppendField(&line, guess[c]);
-        GS_RETURN_IF_ERROR(flush());
-        if (index == 0 && options.gps_every == 0) {
-          AppendField(&line, "FIX");
-          AppendField(&line, index);
-          GS_RETURN_IF_ERROR(flush());
-        }
-        if (k > 0) {
-          AppendField(&line, "CONTROL_INFO");
-          AppendField(&line, index - 1);
-          AppendField(&line, index);
-          AppendField(&line, control.v);
-          AppendField(&line, control.omega);
-          AppendField(&line, control.dt);
-          AppendUpperTriangle(&line, motion_information);
-          GS_RETURN_IF_ERROR(flush());
-          ++summary->motions;
-        }
-        // Sensing from the true pose.
-        world.Near(truth.head<2>(), options.sensor_range, &nearby);
-        for (const Landmark& landmark : nearby) {
-          const core::Point2 delta = landmark.position - truth.head<2>();
-          const double range = delta.norm();
-          if (range < min_range || range > options.sensor_range) continue;
-          const double bearing = core::WrapAngle(std::atan2(delta.y(), delta.x()) - truth.z());
-          if (std::abs(bearing) > half_fov) continue;
-          AppendField(&line, "RB");
-          AppendField(&line, index);
-          AppendField(&line, options.feature_id_base + landmark.slot);
-          AppendField(&line, range + random.Normal(options.range_sigma));
-          AppendField(&line, core::WrapAngle(bearing + random.Normal(options.bearing_sigma)));
-          AppendUpperTriangle(&line, observation_information);
-          GS_RETURN_IF_ERROR(flush());
-          uint16_t& seen = counts[static_cast<size_t>(landmark.slot)];
-          if (seen == 0) ++summary->observed_features;
-          if (seen < std::numeric_limits<uint16_t>::max()) ++seen;
-          ++summary->observations;
-        }
-        if (options.gps_every > 0 && k % options.gps_every == 0) {
-          AppendField(&line, "GPS");
-          AppendField(&line, index);
-          AppendField(&line, truth.x() + random.Normal(options.gps_sigma));
-          AppendField(&line, truth.y() + random.Normal(options.gps_sigma));
-          AppendUpperTriangle(&line, gps_information);
-          GS_RETURN_IF_ERROR(flush());
-          ++summary->gps;
-        }
-        std::string tum_line;
-        AppendField(&tum_line, stamp);
-        AppendField(&tum_line, truth.x());
-        AppendField(&tum_line, truth.y());
-        AppendField(&tum_line, "0 0 0");
-        AppendField(&tum_line, std::sin(0.5 * truth.z()));
-        AppendField(&tum_line, std::cos(0.5 * truth.z()));
-        tum_line.push_back('\n');
-        GS_RETURN_IF_ERROR(tum.Append(tum_line));
-        if (k + 1 == run_poses) continue;  // (ends the loop, counting the pose)
-
-        // Pure pursuit on the true pose and the noisy execution, as SimulateCampus.
-        control = internal::PursuitControl(options, truth, &path, &s);
-        const core::Pose2 next = internal::ExecuteWithNoise(options, truth, control, &random);
-        const Eigen::Matrix3d inverse =
-            core::VelocityMotionCovariance(truth, control, options.noise).inverse();
-        motion_information = 0.5 * (inverse + inverse.transpose());
-        summary->distance_travelled += (next.head<2>() - truth.head<2>()).norm();
-        truth = next;
-      }
-    }
-    summary->poses = index;
-    GS_RETURN_IF_ERROR(write_pending());
-    return zstd ? zstd->Finish() : Status::Ok();
-  }));
+  StreamingSimulation simulation(options, grid, &world, &counts, &tum, summary);
+  GS_RETURN_IF_ERROR(storage::WriteFileAtomically(
+      env, log_path, [&](storage::WritableFile* file) -> Status {
+        LogLines log(file, zstd_level);
+        return simulation.Write(&log);
+      }));
   GS_RETURN_IF_ERROR(tum.Commit());
-
-  // Every landmark of the world, segment by segment, with its observation count.
-  return storage::WriteFileAtomically(env, features_path, [&](storage::WritableFile* file)
-                                                              -> Status {
-    GS_RETURN_IF_ERROR(file->Append("id,x,y,observations,excluded\n"));
-    std::vector<Landmark> landmarks;
-    std::string line;
-    for (int64_t s = 0; s < world.NumSegmentSlots(); ++s) {
-      world.Generate(s, &landmarks);
-      for (const Landmark& landmark : landmarks) {
-        line.clear();
-        AppendField(&line, options.feature_id_base + landmark.slot);
-        line.push_back(',');
-        line.append(storage::internal::FormatDouble(landmark.position.x()));
-        line.push_back(',');
-        line.append(storage::internal::FormatDouble(landmark.position.y()));
-        line.push_back(',');
-        line.append(std::to_string(counts[static_cast<size_t>(landmark.slot)]));
-        line.append(",0\n");
-        GS_RETURN_IF_ERROR(file->Append(line));
-        ++summary->landmarks;
-      }
-    }
-    return Status::Ok();
-  });
+  return WriteFeaturesCsv(env, features_path, options, world, counts, summary);
 }
 
 }  // namespace graphslam::tools

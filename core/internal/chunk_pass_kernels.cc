@@ -123,11 +123,12 @@ void MergeReduced(const ReduceOutput<Space>& out, ReducedSystem* system) {
 template <class Space>
 void RecoverChunk(const BasicPassContext<Space>& context,
                   const BasicObservationChunk<typename Space::Observation>& chunk,
-                  const std::vector<typename Space::Pose>& poses,
-                  const std::vector<typename Space::Point>& features, double lambda,
-                  const Eigen::VectorXd& step,
-                  const std::vector<typename Space::Pose>& candidate_poses,
-                  RecoverOutput<Space>* out) {
+                  const BasicRecoveryInput<Space>& input, RecoverOutput<Space>* out) {
+  const std::vector<typename Space::Pose>& poses = input.poses;
+  const std::vector<typename Space::Point>& features = input.features;
+  const double lambda = input.lambda;
+  const Eigen::VectorXd& step = input.step;
+  const std::vector<typename Space::Pose>& candidate_poses = input.candidate_poses;
   constexpr int P = Space::kPoseDim;
   constexpr int D = Space::kFeatureDim;
   out->sums = RecoveryResult();
@@ -178,8 +179,7 @@ void MergeRecovered(const RecoveryResult& sums, RecoveryResult* result) {
   template void MergeReduced<Space>(const ReduceOutput<Space>&, ReducedSystem*);                  \
   template void RecoverChunk<Space>(                                                              \
       const BasicPassContext<Space>&, const BasicObservationChunk<Space::Observation>&,           \
-      const std::vector<Space::Pose>&, const std::vector<Space::Point>&, double,                  \
-      const Eigen::VectorXd&, const std::vector<Space::Pose>&, RecoverOutput<Space>*);
+      const BasicRecoveryInput<Space>&, RecoverOutput<Space>*);
 
 GS_INSTANTIATE_CHUNK_PASS_KERNELS(Space2d)
 GS_INSTANTIATE_CHUNK_PASS_KERNELS(Space3d)

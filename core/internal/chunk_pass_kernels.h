@@ -85,11 +85,7 @@ struct RecoverOutput {
 template <class Space>
 void RecoverChunk(const BasicPassContext<Space>& context,
                   const BasicObservationChunk<typename Space::Observation>& chunk,
-                  const std::vector<typename Space::Pose>& poses,
-                  const std::vector<typename Space::Point>& features, double lambda,
-                  const Eigen::VectorXd& step,
-                  const std::vector<typename Space::Pose>& candidate_poses,
-                  RecoverOutput<Space>* out);
+                  const BasicRecoveryInput<Space>& input, RecoverOutput<Space>* out);
 void MergeRecovered(const RecoveryResult& sums, RecoveryResult* result);
 
 }  // namespace graphslam::core::internal

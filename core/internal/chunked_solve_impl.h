@@ -149,6 +149,8 @@ class ChunkedSpace {
       RecoveryResult recovery;
       candidate_poses_ = ApplyPoseStep<Space>(poses, layout_, pose_step_);
       CandidateSink<Space> sink = CandidateSinkForThisStep();
+      const BasicRecoveryInput<Space> input{poses, problem_.features, lambda, pose_step_,
+                                            candidate_poses_};
       if (candidate_store_ != nullptr) GS_RETURN_IF_ERROR(candidate_store_->Begin());
       if (fused_ && speculative_lambda > 0.0) {
         // Once solved, this linearization's matrix and rhs are dead (a
@@ -159,8 +161,7 @@ class ChunkedSpace {
         ResetSystem(candidate_poses_, &system_);
         Status next_status;
         GS_RETURN_IF_ERROR(ranks_.Agree(RecoverAndReducePass<Space>(
-            context_, poses, problem_.features, lambda, pose_step_, candidate_poses_, sink,
-            &recovery, speculative_lambda, &system_, &next_status)));
+            context_, input, sink, &recovery, {speculative_lambda, &system_, &next_status})));
         // Built only if every rank built its part.
         next_status = ranks_.Agree(std::move(next_status));
         if (next_status.ok()) ranks_.SumSystem(&system_);
@@ -169,9 +170,7 @@ class ChunkedSpace {
         if (!next_status.ok())
           GS_VLOG(1, "speculative reduce failed (%s)", next_status.ToString().c_str());
       } else {
-        GS_RETURN_IF_ERROR(ranks_.Agree(RecoverPass<Space>(context_, poses, problem_.features,
-                                                           lambda, pose_step_, candidate_poses_,
-                                                           sink, &recovery)));
+        GS_RETURN_IF_ERROR(ranks_.Agree(RecoverPass<Space>(context_, input, sink, &recovery)));
         step_gradient_ = system_.gradient;
       }
       if (candidate_store_ != nullptr) GS_RETURN_IF_ERROR(candidate_store_->Finish());
@@ -290,103 +289,101 @@ class ChunkedSpace {
   double speculative_lambda_ = 0.0;
 };
 
-}  // namespace chunked_solve_detail
+// The steps of SolveChunkedWith, in order.
 
-template <class Space, class Ranks>
-Status SolveChunkedWith(
-    const SolverOptions& options, const BasicChunkSource<typename Space::Observation>& chunks,
-    typename Space::Problem* problem, SolverSummary* summary, const CheckpointOf<Space>* resume,
-    const std::function<Status(const CheckpointOf<Space>&)>& checkpoint_callback,
-    Ranks* ranks) {
-  constexpr int kDim = Space::kPoseDim;
-  GS_RETURN_IF_ERROR(options.Validate());
-  const SolverClock::time_point start = SolverClock::now();
-  *summary = SolverSummary();
-
-  UnknownLayout layout = UnknownLayout::FromProblem(*problem);
-  summary->unknown_poses = layout.num_unknown_poses;
+template <class Space>
+BasicPassContext<Space> MakePassContext(const SolverOptions& options,
+                                        const BasicChunkSource<typename Space::Observation>& chunks,
+                                        const UnknownLayout& layout) {
   BasicPassContext<Space> context;
   context.chunks = &chunks;
   context.layout = &layout;
   context.max_in_flight = options.max_chunks_in_flight;
   context.progress = options.progress;
   context.kernel = options.observation_kernel;
+  return context;
+}
 
-  // Which features can be eliminated (positive definite information), and in
-  // the same pass the pattern of S under that partition. A resume keeps the
-  // checkpoint's partition instead, whose pattern takes a pass of its own.
-  ScreeningResult screening;
-  ScreenedPattern screened_pattern;
-  GS_RETURN_IF_ERROR(ranks->Agree(ScreenFeatures(context, problem->poses, problem->features,
-                                                 options.max_eliminated_observations, &screening,
-                                                 resume == nullptr ? &screened_pattern : nullptr)));
-  ranks->SumScreening(&screening);
+// A resume keeps the checkpoint's partition of the features, not one
+// recomputed at the resumed state: the continued solve must be the
+// interrupted one. Also moves the checkpoint's estimates into *problem.
+template <class Space>
+Status AdoptCheckpoint(const CheckpointOf<Space>& resume, typename Space::Problem* problem,
+                       ScreeningResult* screening, SolverSummary* summary) {
   // A resume whose feature array is empty while the problem has features:
   // the caller moved the checkpoint's estimates into problem->features
   // already (SolverOptions::resume_from), so no second copy is held.
-  const bool resume_features_in_problem =
-      resume != nullptr && resume->features.empty() && !problem->features.empty();
-  if (resume != nullptr) {
-    if (resume->poses.size() != problem->poses.size() ||
-        (!resume_features_in_problem && resume->features.size() != problem->features.size()) ||
-        resume->excluded.size() != problem->features.size() ||
-        resume->kept.size() != problem->features.size()) {
-      return Status::InvalidArgument(
-          "checkpoint does not match the problem: " + std::to_string(resume->poses.size()) +
-          " poses and " + std::to_string(resume->features.size()) + " features, expected " +
-          std::to_string(problem->poses.size()) + " and " +
-          std::to_string(problem->features.size()));
-    }
-    // The checkpoint's partition of the features, not one recomputed at the
-    // resumed state: the continued solve must be the interrupted one.
-    const int64_t unobserved = screening.unobserved;
-    screening.excluded = resume->excluded;
-    screening.kept = resume->kept;
-    screening.kept_count = std::count(screening.kept.begin(), screening.kept.end(), 1);
-    screening.excluded_not_positive_definite =
-        std::count(screening.excluded.begin(), screening.excluded.end(), 1) - unobserved;
-    problem->poses = resume->poses;
-    if (!resume_features_in_problem) problem->features = resume->features;
-    summary->resumed_from_iteration = resume->iterations;
+  const bool features_in_problem = resume.features.empty() && !problem->features.empty();
+  if (resume.poses.size() != problem->poses.size() ||
+      (!features_in_problem && resume.features.size() != problem->features.size()) ||
+      resume.excluded.size() != problem->features.size() ||
+      resume.kept.size() != problem->features.size()) {
+    return Status::InvalidArgument(
+        "checkpoint does not match the problem: " + std::to_string(resume.poses.size()) +
+        " poses and " + std::to_string(resume.features.size()) + " features, expected " +
+        std::to_string(problem->poses.size()) + " and " +
+        std::to_string(problem->features.size()));
   }
-  layout.KeepFeatures(screening.kept);
-  summary->kept_features = screening.kept_count;
-  summary->excluded_features = screening.excluded_not_positive_definite;
-  summary->unobserved_features = screening.unobserved;
-  summary->observations_used = screening.observations;
-  summary->eliminated_features =
-      problem->num_features() - screening.excluded_not_positive_definite - screening.unobserved -
-      screening.kept_count;
-  if (screening.excluded_not_positive_definite > 0) {
+  const int64_t unobserved = screening->unobserved;
+  screening->excluded = resume.excluded;
+  screening->kept = resume.kept;
+  screening->kept_count = std::count(screening->kept.begin(), screening->kept.end(), 1);
+  screening->excluded_not_positive_definite =
+      std::count(screening->excluded.begin(), screening->excluded.end(), 1) - unobserved;
+  problem->poses = resume.poses;
+  if (!features_in_problem) problem->features = resume.features;
+  summary->resumed_from_iteration = resume.iterations;
+  return Status::Ok();
+}
+
+// The screening's counts into *summary; its excluded flags are moved there
+// (one byte per feature; the screening's copy is dead).
+inline void RecordScreening(int64_t num_features, ScreeningResult* screening,
+                            SolverSummary* summary) {
+  summary->kept_features = screening->kept_count;
+  summary->excluded_features = screening->excluded_not_positive_definite;
+  summary->unobserved_features = screening->unobserved;
+  summary->observations_used = screening->observations;
+  summary->eliminated_features = num_features - screening->excluded_not_positive_definite -
+                                 screening->unobserved - screening->kept_count;
+  if (screening->excluded_not_positive_definite > 0) {
     GS_LOG(WARNING,
            "%lld features have information that is not positive definite (too few or "
            "degenerate observations); they are kept out of the solve",
-           static_cast<long long>(screening.excluded_not_positive_definite));
+           static_cast<long long>(screening->excluded_not_positive_definite));
   }
-  // Moved, not copied: one byte per feature (the screening's copy is dead).
-  summary->excluded = std::move(screening.excluded);
-  context.excluded = &summary->excluded;
+  summary->excluded = std::move(screening->excluded);
+}
 
-  // The reduced matrix's pattern: pose-only factors plus co-observing poses.
+// The reduced matrix's pattern: pose-only factors plus co-observing poses
+// (collected by the screening, or in a pass of its own on a resume).
+template <class Space, class Ranks>
+Status BuildReducedMatrix(const BasicPassContext<Space>& context,
+                          const typename Space::Problem& problem, const UnknownLayout& layout,
+                          ScreenedPattern* screened_pattern, bool resumed, Ranks* ranks,
+                          ReducedSystem* system, SolverSummary* summary) {
   std::vector<std::pair<int, int>> pairs;
-  if (ranks->AddsPoseFactors()) AppendPoseFactorPattern(*problem, layout, &pairs);
-  if (resume == nullptr) {
-    AppendScreenedPattern(layout, &screened_pattern, &pairs);
+  if (ranks->AddsPoseFactors()) AppendPoseFactorPattern(problem, layout, &pairs);
+  if (!resumed) {
+    AppendScreenedPattern(layout, screened_pattern, &pairs);
   } else {
     GS_RETURN_IF_ERROR(ranks->Agree(CollectReducedPattern(context, &pairs)));
   }
-  ReducedSystem system;
-  system.matrix = BlockSparseMatrix::FromPattern(kDim, layout.num_blocks(), std::move(pairs));
-  pairs = {};
-  summary->reduced_nonzero_blocks = system.matrix.num_nonzero_blocks();
+  system->matrix =
+      BlockSparseMatrix::FromPattern(Space::kPoseDim, layout.num_blocks(), std::move(pairs));
+  summary->reduced_nonzero_blocks = system->matrix.num_nonzero_blocks();
   GS_VLOG(1, "reduced system: %d poses, %lld stored blocks; product: %d ranges, %lld accumulator rows, "
-          "%lld far blocks", system.matrix.num_block_rows(),
-          static_cast<long long>(system.matrix.num_stored_blocks()),
-          system.matrix.num_product_ranges(), static_cast<long long>(system.matrix.num_accumulator_rows()),
-          static_cast<long long>(system.matrix.num_far_blocks()));
+          "%lld far blocks", system->matrix.num_block_rows(),
+          static_cast<long long>(system->matrix.num_stored_blocks()),
+          system->matrix.num_product_ranges(), static_cast<long long>(system->matrix.num_accumulator_rows()),
+          static_cast<long long>(system->matrix.num_far_blocks()));
+  return Status::Ok();
+}
 
-  // The reduced system's solver (core/reduced_system_solver.h): kAuto picks
-  // CHOLMOD or PCG from CHOLMOD's symbolic analysis of this pattern.
+// The reduced system's solver options (core/reduced_system_solver.h): kAuto
+// picks CHOLMOD or PCG from CHOLMOD's symbolic analysis of the pattern.
+inline ReducedSystemSolverOptions LinearSolverOptions(const SolverOptions& options,
+                                                      bool eliminated_features) {
   ReducedSystemSolverOptions linear_options;
   linear_options.type = options.linear_solver;
   linear_options.preconditioner = options.preconditioner;
@@ -395,14 +392,86 @@ Status SolveChunkedWith(
   linear_options.forcing_sequence = options.pcg_forcing_sequence;
   linear_options.eta_max = options.pcg_eta_max;
   // Landmark problems only (core/graphslam_solver.h, pcg_truncation).
-  linear_options.truncation = summary->eliminated_features > 0
-                                  ? options.pcg_truncation * options.function_tolerance
-                                  : 0.0;
+  linear_options.truncation =
+      eliminated_features ? options.pcg_truncation * options.function_tolerance : 0.0;
   linear_options.warm_start = options.pcg_warm_start;
   linear_options.deflation_poses = options.pcg_deflation_poses;
   linear_options.max_analysis_unknowns = options.auto_cholmod_max_unknowns;
   linear_options.max_factor_bytes = options.auto_cholmod_max_factor_bytes;
-  linear_options.eliminated_features = summary->eliminated_features > 0;
+  linear_options.eliminated_features = eliminated_features;
+  return linear_options;
+}
+
+// The options RunLevenbergMarquardt runs with: a trust-region radius of 0 is
+// the linear solver's default (core/graphslam_solver.h).
+inline SolverOptions ResolvedOptions(const SolverOptions& options,
+                                     LinearSolverType linear_solver_used) {
+  SolverOptions resolved = options;
+  if (resolved.initial_trust_region_radius == 0)
+    resolved.initial_trust_region_radius = linear_solver_used == LinearSolverType::kCholmod
+                                               ? kDirectInitialTrustRegion
+                                               : kIterativeInitialTrustRegion;
+  return resolved;
+}
+
+// chi2 of the observations at the start. The first iteration's reduction (at
+// the lambda RunLevenbergMarquardt starts with) gives it too: one pass
+// instead of two before the first solve (fused schedule; --two-pass keeps its
+// two passes in every iteration).
+template <class Space, class Ranks>
+Status InitialObservationsChi2(const SolverOptions& options, const CheckpointOf<Space>* resume,
+                               double first_radius, const BasicPassContext<Space>& context,
+                               const typename Space::Problem& problem,
+                               ChunkedSpace<Space, Ranks>* space, Ranks* ranks, double* chi2) {
+  *chi2 = 0.0;
+  const bool iterates = resume == nullptr ? options.max_iterations >= 1
+                                          : !resume->converged &&
+                                                resume->iterations + 1 <= options.max_iterations;
+  if (iterates && options.fused_chunk_pass && space->ReduceAhead(1.0 / first_radius, chi2).ok())
+    return Status::Ok();
+  GS_RETURN_IF_ERROR(
+      ranks->Agree(ObservationsChi2(context, problem.poses, problem.features, chi2)));
+  ranks->SumChi2(chi2);
+  return Status::Ok();
+}
+
+}  // namespace chunked_solve_detail
+
+template <class Space, class Ranks>
+Status SolveChunkedWith(
+    const SolverOptions& options, const BasicChunkSource<typename Space::Observation>& chunks,
+    typename Space::Problem* problem, SolverSummary* summary, const CheckpointOf<Space>* resume,
+    const std::function<Status(const CheckpointOf<Space>&)>& checkpoint_callback,
+    Ranks* ranks) {
+  namespace detail = chunked_solve_detail;
+  GS_RETURN_IF_ERROR(options.Validate());
+  const SolverClock::time_point start = SolverClock::now();
+  *summary = SolverSummary();
+
+  UnknownLayout layout = UnknownLayout::FromProblem(*problem);
+  summary->unknown_poses = layout.num_unknown_poses;
+  BasicPassContext<Space> context = detail::MakePassContext<Space>(options, chunks, layout);
+
+  // 1. Which features can be eliminated (positive definite information), and
+  //    in the same pass the pattern of S under that partition.
+  ScreeningResult screening;
+  ScreenedPattern screened_pattern;
+  GS_RETURN_IF_ERROR(ranks->Agree(ScreenFeatures(context, problem->poses, problem->features,
+                                                 options.max_eliminated_observations, &screening,
+                                                 resume == nullptr ? &screened_pattern : nullptr)));
+  ranks->SumScreening(&screening);
+  if (resume != nullptr)
+    GS_RETURN_IF_ERROR(detail::AdoptCheckpoint<Space>(*resume, problem, &screening, summary));
+  layout.KeepFeatures(screening.kept);
+  detail::RecordScreening(problem->num_features(), &screening, summary);
+  context.excluded = &summary->excluded;
+
+  // 2. The reduced system and its solver.
+  ReducedSystem system;
+  GS_RETURN_IF_ERROR(detail::BuildReducedMatrix(context, *problem, layout, &screened_pattern,
+                                                resume != nullptr, ranks, &system, summary));
+  const ReducedSystemSolverOptions linear_options =
+      detail::LinearSolverOptions(options, summary->eliminated_features > 0);
   GS_RETURN_IF_ERROR(linear_options.Validate());
   StatusOr<std::unique_ptr<typename Ranks::LinearSolver>> solver =
       ranks->MakeLinearSolver(system.matrix, linear_options, summary);
@@ -411,35 +480,21 @@ Status SolveChunkedWith(
   if (resume != nullptr)
     GS_RETURN_IF_ERROR((*solver)->RestoreState(resume->pcg, system.matrix));
 
-  // The candidate store holds planar points (SolverOptions is shared with the
-  // 3-D solver, which keeps its candidates in memory).
+  // 3. Levenberg-Marquardt over the chunk passes. The candidate store holds
+  //    planar points (SolverOptions is shared with the 3-D solver, which
+  //    keeps its candidates in memory).
   BasicCandidateStore<typename Space::Point>* candidate_store = nullptr;
   if constexpr (std::is_same_v<Space, Space2d>) candidate_store = options.candidate_store;
-  chunked_solve_detail::ChunkedSpace<Space, Ranks> space(context, layout, &screening.kept, options.pose_kernels,
-                                   problem, &system, solver->get(), &summary->excluded,
-                                   options.fused_chunk_pass, candidate_store, ranks);
-  // The first iteration's reduction (at the lambda RunLevenbergMarquardt
-  // starts with) gives the initial chi2 of the observations too: one pass
-  // instead of two before the first solve (fused schedule; --two-pass keeps
-  // its two passes in every iteration).
-  double observations_chi2 = 0.0;
-  const bool iterates = resume == nullptr ? options.max_iterations >= 1
-                                          : !resume->converged &&
-                                                resume->iterations + 1 <= options.max_iterations;
-  // A radius of 0 is the linear solver's default (core/graphslam_solver.h).
-  SolverOptions resolved = options;
-  if (resolved.initial_trust_region_radius == 0)
-    resolved.initial_trust_region_radius =
-        summary->linear_solver_used == LinearSolverType::kCholmod ? kDirectInitialTrustRegion
-                                                                  : kIterativeInitialTrustRegion;
+  detail::ChunkedSpace<Space, Ranks> space(context, layout, &screening.kept, options.pose_kernels,
+                                           problem, &system, solver->get(), &summary->excluded,
+                                           options.fused_chunk_pass, candidate_store, ranks);
+  const SolverOptions resolved = detail::ResolvedOptions(options, summary->linear_solver_used);
   const double first_radius = resume != nullptr ? resume->trust_region_radius
                                                 : resolved.initial_trust_region_radius;
-  if (!iterates || !options.fused_chunk_pass ||
-      !space.ReduceAhead(1.0 / first_radius, &observations_chi2).ok()) {
-    GS_RETURN_IF_ERROR(ranks->Agree(
-        ObservationsChi2(context, problem->poses, problem->features, &observations_chi2)));
-    ranks->SumChi2(&observations_chi2);
-  }
+  double observations_chi2 = 0.0;
+  GS_RETURN_IF_ERROR(detail::InitialObservationsChi2(options, resume, first_radius, context,
+                                                     *problem, &space, ranks,
+                                                     &observations_chi2));
   const double chi2 =
       PoseFactorsChi2(*problem, problem->poses, options.pose_kernels) + observations_chi2;
   return RunLevenbergMarquardt(resolved, chi2, resume, checkpoint_callback, start, &space,

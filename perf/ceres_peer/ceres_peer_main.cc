@@ -276,28 +276,7 @@ void ConfigureLinearSolver(const PeerOptions& options, bool fallback,
   }
 }
 
-int Run(const PeerOptions& options) {
-  const Clock::time_point start = Clock::now();
-  auto fail = [](const Status& status) {
-    std::fprintf(stderr, "graphslam_ceres_peer: %s\n", status.ToString().c_str());
-    return tools::ExitCodeFor(status);
-  };
-  if (Status status = options.Validate(); !status.ok()) {
-    std::fprintf(stderr, "graphslam_ceres_peer: %s\n", status.ToString().c_str());
-    return tools::kExitUsage;
-  }
-
-  StatusOr<core::Problem2d> read = storage::ReadG2o(options.input);
-  if (!read.ok()) return fail(read.status());
-  core::Problem2d problem = std::move(read).value();
-  const double read_seconds = Seconds(start);
-  const Clock::time_point initialize_start = Clock::now();
-  if (Status status = core::InitializeProblem(&problem); !status.ok()) return fail(status);
-  if (Status status = CheckSupported(problem); !status.ok()) return fail(status);
-  const double initialize_seconds = Seconds(initialize_start);
-  const double initial_chi2_graphslam = GraphSlamChi2(problem);
-
-  const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
+ceres::Solver::Options BaseSolverOptions(const PeerOptions& options, int threads) {
   ceres::Solver::Options solver_options;
   solver_options.minimizer_type = ceres::TRUST_REGION;
   solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
@@ -309,6 +288,156 @@ int Run(const PeerOptions& options) {
   solver_options.logging_type = ceres::SILENT;
   solver_options.minimizer_progress_to_stdout = false;
   solver_options.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+  return solver_options;
+}
+
+// What one run measured, for the report and the summary.
+struct RunFigures {
+  ceres::Solver::Summary summary;
+  int32_t landmarks_used = 0;
+  bool fallback = false;
+  int threads = 0;
+  double read_seconds = 0.0, initialize_seconds = 0.0, build_seconds = 0.0;
+  double optimize_cpu_seconds = 0.0, total_seconds = 0.0;
+  double initial_chi2_graphslam = 0.0, final_chi2_graphslam = 0.0;
+  int iterations = 0, successful_iterations = 0;
+};
+
+// At most two attempts: the Schur solver, then (pose-only graphs whose
+// Schur attempt failed) the fallback. The solution stays in *state.
+Status SolveWithFallback(const PeerOptions& options, const core::Problem2d& problem,
+                         ceres::Solver::Options* solver_options, RecordingCallback* recorder,
+                         CeresState* state, RunFigures* figures) {
+  ceres::Solver::Summary& summary = figures->summary;
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    const Clock::time_point build_start = Clock::now();
+    ceres::Problem ceres_problem;  // owns the cost functions
+    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+    figures->landmarks_used = BuildCeresProblem(problem, state, &ceres_problem, ordering.get());
+    figures->build_seconds = Seconds(build_start);
+    ConfigureLinearSolver(options, figures->fallback, solver_options);
+    // Landmarks first; a pose-only graph lets Ceres choose (see header).
+    const bool schur = options.linear_solver != "sparse_normal_cholesky";
+    solver_options->linear_solver_ordering =
+        schur && figures->landmarks_used > 0 ? ordering : nullptr;
+    std::string error;
+    if (!solver_options->IsValid(&error))
+      return Status::InvalidArgument("Ceres options: " + error);
+    recorder->Clear();
+    const double optimize_cpu_start = tools::ProcessCpuSeconds();
+    ceres::Solve(*solver_options, &ceres_problem, &summary);
+    figures->optimize_cpu_seconds = tools::ProcessCpuSeconds() - optimize_cpu_start;
+    const bool failed_before_start =
+        summary.termination_type == ceres::FAILURE && summary.iterations.size() <= 1;
+    if (!failed_before_start || figures->landmarks_used > 0 || figures->fallback) break;
+    std::fprintf(stderr, "graphslam_ceres_peer: %s failed (%s); falling back\n",
+                 options.linear_solver.c_str(), summary.message.c_str());
+    figures->fallback = true;
+  }
+  if (summary.termination_type == ceres::FAILURE)
+    return Status::Numerical(options.input + ": Ceres failed: " + summary.message);
+  return Status::Ok();
+}
+
+nlohmann::json Report(const PeerOptions& options, const core::Problem2d& problem,
+                      const RunFigures& figures, const nlohmann::json& per_iteration) {
+  const ceres::Solver::Summary& summary = figures.summary;
+  nlohmann::json report;
+  report["peer"] = std::string("ceres ") + CERES_VERSION_STRING;
+  report["input"] = options.input;
+  report["format"] = "g2o";
+  report["solver"] = ceres::LinearSolverTypeToString(summary.linear_solver_type_used);
+  const bool iterative_solver = summary.linear_solver_type_used == ceres::ITERATIVE_SCHUR ||
+                                summary.linear_solver_type_used == ceres::CGNR;
+  report["preconditioner"] =
+      iterative_solver ? ceres::PreconditionerTypeToString(summary.preconditioner_type_used)
+                       : "none";
+  report["fallback"] = figures.fallback;
+  report["initial_chi2"] = 2.0 * summary.initial_cost;
+  report["final_chi2"] = 2.0 * summary.final_cost;
+  report["initial_chi2_graphslam_models"] = figures.initial_chi2_graphslam;
+  report["final_chi2_graphslam_models"] = figures.final_chi2_graphslam;
+  report["iterations"] = figures.iterations;
+  report["successful_iterations"] = figures.successful_iterations;
+  report["converged"] = summary.termination_type == ceres::CONVERGENCE;
+  report["termination"] = TerminationName(summary);
+  report["termination_message"] = summary.message;
+  report["poses"] = problem.num_poses();
+  report["features"] = problem.num_features();
+  report["observations"] = static_cast<int64_t>(problem.observations.size());
+  report["observations_used"] = static_cast<int64_t>(problem.observations.size());
+  report["relative_pose_constraints"] = static_cast<int64_t>(problem.relative_poses.size());
+  report["gps_constraints"] = static_cast<int64_t>(problem.gps.size());
+  report["initialization"] = "odometry";
+  report["residual_dimension"] = summary.num_residuals;
+  report["unknowns"] = summary.num_effective_parameters_reduced;
+  report["landmarks_eliminated"] = figures.landmarks_used;
+  report["eta"] = options.eta;
+  report["max_linear_solver_iterations"] = options.max_linear_solver_iterations;
+  report["schur_structure"] = summary.schur_structure_used;
+  // Sizes of the elimination groups Ceres used (first: eliminated blocks).
+  report["elimination_group_sizes"] = summary.linear_solver_ordering_used;
+  report["threads"] = figures.threads;
+  report["seconds"] = figures.total_seconds;
+  report["stage_seconds"] = {{"read", figures.read_seconds},
+                             {"initialize", figures.initialize_seconds},
+                             {"build", figures.build_seconds},
+                             {"optimize", summary.total_time_in_seconds},
+                             {"linear_solver", summary.linear_solver_time_in_seconds},
+                             {"jacobian_evaluation", summary.jacobian_evaluation_time_in_seconds},
+                             {"residual_evaluation", summary.residual_evaluation_time_in_seconds}};
+  report["peak_rss_bytes"] = tools::PeakRssBytes();
+  report["optimize_cpu_seconds"] = figures.optimize_cpu_seconds;
+  report["cpu_seconds"] = tools::ProcessCpuSeconds();
+  report["per_iteration"] = per_iteration;
+  return report;
+}
+
+void PrintSummary(const PeerOptions& options, const core::Problem2d& problem,
+                  const RunFigures& figures) {
+  const ceres::Solver::Summary& summary = figures.summary;
+  std::printf("graphslam_ceres_peer summary (%s)\n",
+              (std::string("ceres ") + CERES_VERSION_STRING).c_str());
+  std::printf("  input              %s\n", options.input.c_str());
+  std::printf("  poses / features   %d / %d\n", problem.num_poses(), problem.num_features());
+  std::printf("  linear solver      %s%s\n",
+              ceres::LinearSolverTypeToString(summary.linear_solver_type_used),
+              figures.fallback ? " (fallback)" : "");
+  std::printf("  initial chi2       %.9g (graphslam models %.9g)\n", 2.0 * summary.initial_cost,
+              figures.initial_chi2_graphslam);
+  std::printf("  final chi2         %.9g (graphslam models %.9g)\n", 2.0 * summary.final_cost,
+              figures.final_chi2_graphslam);
+  std::printf("  iterations         %d (%s)\n", figures.iterations,
+              TerminationName(summary).c_str());
+  std::printf("  seconds            %.3f (optimize %.3f)\n", figures.total_seconds,
+              summary.total_time_in_seconds);
+  std::printf("  peak RSS           %.1f MiB\n", tools::PeakRssBytes() / (1024.0 * 1024.0));
+}
+
+int Run(const PeerOptions& options) {
+  const Clock::time_point start = Clock::now();
+  auto fail = [](const Status& status) {
+    std::fprintf(stderr, "graphslam_ceres_peer: %s\n", status.ToString().c_str());
+    return tools::ExitCodeFor(status);
+  };
+  if (Status status = options.Validate(); !status.ok()) {
+    std::fprintf(stderr, "graphslam_ceres_peer: %s\n", status.ToString().c_str());
+    return tools::kExitUsage;
+  }
+
+  RunFigures figures;
+  StatusOr<core::Problem2d> read = storage::ReadG2o(options.input);
+  if (!read.ok()) return fail(read.status());
+  core::Problem2d problem = std::move(read).value();
+  figures.read_seconds = Seconds(start);
+  const Clock::time_point initialize_start = Clock::now();
+  if (Status status = core::InitializeProblem(&problem); !status.ok()) return fail(status);
+  if (Status status = CheckSupported(problem); !status.ok()) return fail(status);
+  figures.initialize_seconds = Seconds(initialize_start);
+  figures.initial_chi2_graphslam = GraphSlamChi2(problem);
+
+  figures.threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
+  ceres::Solver::Options solver_options = BaseSolverOptions(options, figures.threads);
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> iteration_log(nullptr, &std::fclose);
   if (!options.iteration_log.empty()) {
     iteration_log.reset(std::fopen(options.iteration_log.c_str(), "w"));
@@ -318,131 +447,34 @@ int Run(const PeerOptions& options) {
   }
   RecordingCallback recorder(iteration_log.get());
   solver_options.callbacks.push_back(&recorder);
-
-  ceres::Solver::Summary summary;
   CeresState state;
-  int32_t landmarks_used = 0;
-  bool fallback = false;
-  double build_seconds = 0.0;
-  double optimize_cpu_start = 0.0;
-  double optimize_cpu_seconds = 0.0;
-  // At most two attempts: the Schur solver, then (pose-only graphs whose
-  // Schur attempt failed) the fallback.
-  for (int attempt = 0; attempt < 2; ++attempt) {
-    const Clock::time_point build_start = Clock::now();
-    ceres::Problem ceres_problem;  // owns the cost functions
-    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-    landmarks_used = BuildCeresProblem(problem, &state, &ceres_problem, ordering.get());
-    build_seconds = Seconds(build_start);
-    ConfigureLinearSolver(options, fallback, &solver_options);
-    // Landmarks first; a pose-only graph lets Ceres choose (see header).
-    const bool schur = options.linear_solver != "sparse_normal_cholesky";
-    solver_options.linear_solver_ordering = schur && landmarks_used > 0 ? ordering : nullptr;
-    std::string error;
-    if (!solver_options.IsValid(&error))
-      return fail(Status::InvalidArgument("Ceres options: " + error));
-    recorder.Clear();
-    optimize_cpu_start = tools::ProcessCpuSeconds();
-    ceres::Solve(solver_options, &ceres_problem, &summary);
-    optimize_cpu_seconds = tools::ProcessCpuSeconds() - optimize_cpu_start;
-    const bool failed_before_start =
-        summary.termination_type == ceres::FAILURE && summary.iterations.size() <= 1;
-    if (!failed_before_start || landmarks_used > 0 || fallback) break;
-    std::fprintf(stderr, "graphslam_ceres_peer: %s failed (%s); falling back\n",
-                 options.linear_solver.c_str(), summary.message.c_str());
-    fallback = true;
-  }
-  if (summary.termination_type == ceres::FAILURE)
-    return fail(Status::Numerical(options.input + ": Ceres failed: " + summary.message));
+  if (Status status =
+          SolveWithFallback(options, problem, &solver_options, &recorder, &state, &figures);
+      !status.ok())
+    return fail(status);
 
   // Copy the solution back and cross-check the cost with graphslam's models.
   for (int32_t i = 0; i < problem.num_poses(); ++i)
     for (int k = 0; k < 3; ++k) problem.poses[i](k) = state.pose(i)[k];
   for (int32_t j = 0; j < problem.num_features(); ++j)
     for (int k = 0; k < 2; ++k) problem.features[j](k) = state.landmark(j)[k];
-  const double final_chi2_graphslam = GraphSlamChi2(problem);
-  const double total_seconds = Seconds(start);
-
-  const bool converged = summary.termination_type == ceres::CONVERGENCE;
+  figures.final_chi2_graphslam = GraphSlamChi2(problem);
+  figures.total_seconds = Seconds(start);
   // Ceres' summary.iterations and num_successful_steps include iteration 0
   // (the initial evaluation); graphslam counts Levenberg-Marquardt steps only.
-  const int iterations = static_cast<int>(recorder.per_iteration().size());
-  int successful_iterations = 0;
+  figures.iterations = static_cast<int>(recorder.per_iteration().size());
   for (const nlohmann::json& it : recorder.per_iteration())
-    if (it["accepted"].get<bool>()) ++successful_iterations;
-  const std::string version = std::string("ceres ") + CERES_VERSION_STRING;
+    if (it["accepted"].get<bool>()) ++figures.successful_iterations;
   if (!options.report.empty()) {
-    nlohmann::json report;
-    report["peer"] = version;
-    report["input"] = options.input;
-    report["format"] = "g2o";
-    report["solver"] = ceres::LinearSolverTypeToString(summary.linear_solver_type_used);
-    const bool iterative_solver = summary.linear_solver_type_used == ceres::ITERATIVE_SCHUR ||
-                                  summary.linear_solver_type_used == ceres::CGNR;
-    report["preconditioner"] =
-        iterative_solver ? ceres::PreconditionerTypeToString(summary.preconditioner_type_used)
-                         : "none";
-    report["fallback"] = fallback;
-    report["initial_chi2"] = 2.0 * summary.initial_cost;
-    report["final_chi2"] = 2.0 * summary.final_cost;
-    report["initial_chi2_graphslam_models"] = initial_chi2_graphslam;
-    report["final_chi2_graphslam_models"] = final_chi2_graphslam;
-    report["iterations"] = iterations;
-    report["successful_iterations"] = successful_iterations;
-    report["converged"] = converged;
-    report["termination"] = TerminationName(summary);
-    report["termination_message"] = summary.message;
-    report["poses"] = problem.num_poses();
-    report["features"] = problem.num_features();
-    report["observations"] = static_cast<int64_t>(problem.observations.size());
-    report["observations_used"] = static_cast<int64_t>(problem.observations.size());
-    report["relative_pose_constraints"] = static_cast<int64_t>(problem.relative_poses.size());
-    report["gps_constraints"] = static_cast<int64_t>(problem.gps.size());
-    report["initialization"] = "odometry";
-    report["residual_dimension"] = summary.num_residuals;
-    report["unknowns"] = summary.num_effective_parameters_reduced;
-    report["landmarks_eliminated"] = landmarks_used;
-    report["eta"] = options.eta;
-    report["max_linear_solver_iterations"] = options.max_linear_solver_iterations;
-    report["schur_structure"] = summary.schur_structure_used;
-    // Sizes of the elimination groups Ceres used (first: eliminated blocks).
-    report["elimination_group_sizes"] = summary.linear_solver_ordering_used;
-    report["threads"] = threads;
-    report["seconds"] = total_seconds;
-    report["stage_seconds"] = {{"read", read_seconds},
-                               {"initialize", initialize_seconds},
-                               {"build", build_seconds},
-                               {"optimize", summary.total_time_in_seconds},
-                               {"linear_solver", summary.linear_solver_time_in_seconds},
-                               {"jacobian_evaluation", summary.jacobian_evaluation_time_in_seconds},
-                               {"residual_evaluation", summary.residual_evaluation_time_in_seconds}};
-    report["peak_rss_bytes"] = tools::PeakRssBytes();
-    report["optimize_cpu_seconds"] = optimize_cpu_seconds;
-    report["cpu_seconds"] = tools::ProcessCpuSeconds();
-    report["per_iteration"] = recorder.per_iteration();
-    if (Status status = storage::WriteStringAtomically(storage::Env::Default(), options.report,
-                                                       report.dump(2) + "\n");
+    if (Status status = storage::WriteStringAtomically(
+            storage::Env::Default(), options.report,
+            Report(options, problem, figures, recorder.per_iteration()).dump(2) + "\n");
         !status.ok())
       return fail(status);
   }
-
-  if (!options.quiet) {
-    std::printf("graphslam_ceres_peer summary (%s)\n", version.c_str());
-    std::printf("  input              %s\n", options.input.c_str());
-    std::printf("  poses / features   %d / %d\n", problem.num_poses(), problem.num_features());
-    std::printf("  linear solver      %s%s\n",
-                ceres::LinearSolverTypeToString(summary.linear_solver_type_used),
-                fallback ? " (fallback)" : "");
-    std::printf("  initial chi2       %.9g (graphslam models %.9g)\n", 2.0 * summary.initial_cost,
-                initial_chi2_graphslam);
-    std::printf("  final chi2         %.9g (graphslam models %.9g)\n", 2.0 * summary.final_cost,
-                final_chi2_graphslam);
-    std::printf("  iterations         %d (%s)\n", iterations, TerminationName(summary).c_str());
-    std::printf("  seconds            %.3f (optimize %.3f)\n", total_seconds,
-                summary.total_time_in_seconds);
-    std::printf("  peak RSS           %.1f MiB\n", tools::PeakRssBytes() / (1024.0 * 1024.0));
-  }
-  return converged ? tools::kExitOk : tools::kExitNotConverged;
+  if (!options.quiet) PrintSummary(options, problem, figures);
+  return figures.summary.termination_type == ceres::CONVERGENCE ? tools::kExitOk
+                                                                 : tools::kExitNotConverged;
 }
 
 }  // namespace

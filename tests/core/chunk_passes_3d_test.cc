@@ -190,8 +190,9 @@ TEST_P(ChunkPasses3dTest, ReduceAndRecoverEqualTheDenseSchurComplement) {
       const Eigen::VectorXd step = reference.s.ldlt().solve(reference.rhs);
       std::vector<Point3> candidate;
       RecoveryResult recovery;
-      ASSERT_TRUE(RecoverPass(context, problem.poses, problem.features, lambda, step,
-                              problem.poses, &candidate, &recovery)
+      ASSERT_TRUE(RecoverPass(context,
+                              {problem.poses, problem.features, lambda, step, problem.poses},
+                              &candidate, &recovery)
                       .ok());
       Eigen::VectorXd dm(3 * problem.num_features());
       for (int f = 0; f < problem.num_features(); ++f)
@@ -238,14 +239,15 @@ TEST(ChunkPasses3d, FusedPassEqualsReduceAtTheCandidateBitForBit) {
     }
     std::vector<Point3> separate_features, fused_features;
     RecoveryResult separate, fused;
-    ASSERT_TRUE(RecoverPass(context, problem.poses, problem.features, 0.1, step,
-                            candidate_poses, &separate_features, &separate)
+    ASSERT_TRUE(RecoverPass(context,
+                            {problem.poses, problem.features, 0.1, step, candidate_poses},
+                            &separate_features, &separate)
                     .ok());
     ReducedSystem next = testing::ReducedSystemAt(problem, context, candidate_poses);
     Status next_status;
-    ASSERT_TRUE(RecoverAndReducePass(context, problem.poses, problem.features, 0.1, step,
-                                     candidate_poses, &fused_features, &fused, 0.05, &next,
-                                     &next_status)
+    ASSERT_TRUE(RecoverAndReducePass(
+                    context, {problem.poses, problem.features, 0.1, step, candidate_poses},
+                    &fused_features, &fused, {0.05, &next, &next_status})
                     .ok());
     ASSERT_TRUE(next_status.ok()) << next_status.ToString();
     ReducedSystem expected = testing::ReducedSystemAt(problem, context, candidate_poses);

@@ -90,7 +90,7 @@ TEST_P(ChunkPassesTest, ReduceEqualsDenseSchurComplementAndRecoveryEqualsDenseSo
     context.layout = &layout;
     std::vector<Point2> candidate;
     RecoveryResult recovery;
-    ASSERT_TRUE(RecoverPass(context, problem.poses, problem.features, 0.0, dx, problem.poses,
+    ASSERT_TRUE(RecoverPass(context, {problem.poses, problem.features, 0.0, dx, problem.poses},
                             &candidate, &recovery)
                     .ok());
     Eigen::VectorXd dm(nm);
@@ -148,16 +148,17 @@ TEST_P(FusedPassTest, NextSystemEqualsReducePassAtTheCandidateAndRecoveryIsUncha
 
     std::vector<Point2> recovered;
     RecoveryResult recovery;
-    ASSERT_TRUE(RecoverPass(context, problem.poses, problem.features, lambda, step,
-                            candidate_poses, &recovered, &recovery)
+    ASSERT_TRUE(RecoverPass(context,
+                            {problem.poses, problem.features, lambda, step, candidate_poses},
+                            &recovered, &recovery)
                     .ok());
     ReducedSystem next = testing::ReducedSystemAt(problem, context, candidate_poses);
     std::vector<Point2> fused_recovered;
     RecoveryResult fused_recovery;
     Status next_status = Status::Numerical("not set");
-    ASSERT_TRUE(RecoverAndReducePass(context, problem.poses, problem.features, lambda, step,
-                                     candidate_poses, &fused_recovered, &fused_recovery,
-                                     next_lambda, &next, &next_status)
+    ASSERT_TRUE(RecoverAndReducePass(
+                    context, {problem.poses, problem.features, lambda, step, candidate_poses},
+                    &fused_recovered, &fused_recovery, {next_lambda, &next, &next_status})
                     .ok());
     ASSERT_TRUE(next_status.ok()) << next_status.ToString();
 

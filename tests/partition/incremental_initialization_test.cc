@@ -7,25 +7,17 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <random>
 
 #include "core/initialization.h"
-#include "partition/in_memory_chunk_source.h"
 #include "storage/g2o_reader.h"
 #include "tests/testing/datasets.h"
-#include "tests/testing/dense_reference.h"
+#include "tests/testing/initialization_setup.h"
 #include "tests/testing/random_problem.h"
 
 namespace graphslam::partition {
 namespace {
 
-core::SolverSummary FullSolve(core::Problem2d* problem, const core::SolverOptions& options) {
-  InMemoryChunkSource chunks(*problem, ChunkingOptions());
-  core::SolverSummary summary;
-  Status status = core::SolveGraphSlam(options, chunks, problem, &summary);
-  EXPECT_TRUE(status.ok()) << status.ToString();
-  return summary;
-}
+using testing::FullSolve;
 
 // Small windows, so that most stages leave most of the trajectory fixed.
 IncrementalInitializationOptions SmallWindows() {
@@ -43,27 +35,9 @@ TEST(IncrementalInitialization, ThenSolveReachesTheDenseOptimum) {
   for (const auto& [range_bearing, velocity] :
        {std::pair{true, false}, std::pair{false, false}, std::pair{true, true}}) {
     for (uint32_t seed = 1; seed <= 3; ++seed) {
-      testing::RandomProblemOptions random_options;
-      random_options.seed = seed;
-      random_options.num_poses = 48;
-      random_options.num_features = 14;
-      random_options.range_bearing = range_bearing;
-      random_options.velocity_motion = velocity;
-      testing::RandomProblem random = testing::MakeRandomProblem(random_options);
-      // A much worse guess than the default perturbation.
-      std::mt19937 rng(seed + 100);
-      std::normal_distribution<double> normal(0.0, 1.0);
-      core::Problem2d& p = random.problem;
-      for (int i = 1; i < p.num_poses(); ++i)
-        p.poses[i] += Eigen::Vector3d(1.0 * normal(rng), 1.0 * normal(rng), 0.6 * normal(rng));
-      for (int j = 0; j < p.num_features(); ++j)
-        p.features[j] += Eigen::Vector2d(2.0 * normal(rng), 2.0 * normal(rng));
-
-      core::Problem2d truth = random.problem;
-      truth.poses = random.true_poses;
-      truth.features = random.true_features;
-      testing::DenseReference dense(truth);
-      const double optimum = dense.Chi2(dense.SolveGaussNewton(30));
+      const testing::RandomProblem random =
+          testing::BadlyInitializedProblem(seed, 48, range_bearing, velocity);
+      const double optimum = testing::DenseOptimum(random);
 
       core::Problem2d problem = random.problem;
       core::SolverOptions solver;

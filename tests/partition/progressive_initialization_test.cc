@@ -9,42 +9,20 @@
 #include <cmath>
 
 #include "core/initialization.h"
-#include "partition/in_memory_chunk_source.h"
 #include "storage/g2o_reader.h"
 #include "tests/testing/datasets.h"
-#include "tests/testing/dense_reference.h"
+#include "tests/testing/initialization_setup.h"
 #include "tests/testing/random_problem.h"
 
 namespace graphslam::partition {
 namespace {
 
-core::SolverSummary FullSolve(core::Problem2d* problem, const core::SolverOptions& options) {
-  InMemoryChunkSource chunks(*problem, ChunkingOptions());
-  core::SolverSummary summary;
-  Status status = core::SolveGraphSlam(options, chunks, problem, &summary);
-  EXPECT_TRUE(status.ok()) << status.ToString();
-  return summary;
-}
+using testing::FullSolve;
 
-// The random loop of tests/testing with a much worse initial guess: every
-// pose and feature moved by several times the default perturbation.
+// The random loop of tests/testing with a much worse initial guess.
 testing::RandomProblem BadlyInitializedProblem(uint32_t seed, bool range_bearing,
                                                bool velocity_motion) {
-  testing::RandomProblemOptions options;
-  options.seed = seed;
-  options.num_poses = 40;
-  options.num_features = 14;
-  options.range_bearing = range_bearing;
-  options.velocity_motion = velocity_motion;
-  testing::RandomProblem random = testing::MakeRandomProblem(options);
-  std::mt19937 rng(seed + 100);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  core::Problem2d& p = random.problem;
-  for (int i = 1; i < p.num_poses(); ++i)
-    p.poses[i] += Eigen::Vector3d(1.0 * normal(rng), 1.0 * normal(rng), 0.6 * normal(rng));
-  for (int j = 0; j < p.num_features(); ++j)
-    p.features[j] += Eigen::Vector2d(2.0 * normal(rng), 2.0 * normal(rng));
-  return random;
+  return testing::BadlyInitializedProblem(seed, 40, range_bearing, velocity_motion);
 }
 
 TEST(ProgressiveInitialization, ThenSolveReachesTheDenseOptimum) {
@@ -52,12 +30,7 @@ TEST(ProgressiveInitialization, ThenSolveReachesTheDenseOptimum) {
        {std::pair{true, false}, std::pair{false, false}, std::pair{true, true}}) {
     for (uint32_t seed = 1; seed <= 3; ++seed) {
       testing::RandomProblem random = BadlyInitializedProblem(seed, range_bearing, velocity);
-      // Dense Gauss-Newton from the ground truth gives the optimum to compare with.
-      core::Problem2d truth = random.problem;
-      truth.poses = random.true_poses;
-      truth.features = random.true_features;
-      testing::DenseReference dense(truth);
-      const double optimum = dense.Chi2(dense.SolveGaussNewton(30));
+      const double optimum = testing::DenseOptimum(random);
 
       core::Problem2d problem = random.problem;
       ProgressiveInitializationOptions options;

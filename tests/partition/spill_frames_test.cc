@@ -59,12 +59,12 @@ class SpillFramesTest : public ::testing::Test {
   }
 
   Status Read(std::vector<core::Observation>* out) const {
-    std::FILE* file = std::fopen(path_.c_str(), "rb");
-    EXPECT_NE(file, nullptr);
+    StatusOr<std::unique_ptr<storage::ReadableFile>> file =
+        storage::Env::Default()->NewReadableFile(path_);
+    EXPECT_TRUE(file.ok()) << file.status().ToString();
+    if (!file.ok()) return file.status();
     SpillFrameDecoder decoder;
-    const Status status = decoder.ReadFile(path_, file, out);
-    std::fclose(file);
-    return status;
+    return decoder.ReadFile(path_, file.value().get(), out);
   }
 
   std::string Bytes() const {

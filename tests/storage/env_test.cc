@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
 
 namespace graphslam::storage {
 namespace {
@@ -62,6 +63,62 @@ TEST(PosixEnv, RenameRemoveAndExists) {
       << missing.ToString();
   EXPECT_TRUE(env->NewWritableFile(dir + "/no/such/dir/file").status().IsIOError());
   std::filesystem::remove_all(dir);
+}
+
+TEST(PosixEnv, AppendsReadsSeeksAndSyncsScratchFiles) {
+  const std::string dir = TempDir("scratch");
+  const std::string path = dir + "/bucket.bin";
+  Env* env = Env::Default();
+  for (const std::string piece : {"first ", "second"}) {
+    auto file = env->NewAppendableFile(path);  // created, then appended to
+    ASSERT_TRUE(file.ok()) << file.status().ToString();
+    ASSERT_TRUE((*file)->Append(piece).ok());
+    ASSERT_TRUE((*file)->Close().ok());
+  }
+  ASSERT_TRUE(env->SyncFile(path).ok());
+  auto whole = ReadFileToString(env, path);
+  ASSERT_TRUE(whole.ok()) << whole.status().ToString();
+  EXPECT_EQ(*whole, "first second");
+
+  auto file = env->NewReadableFile(path);
+  ASSERT_TRUE(file.ok()) << file.status().ToString();
+  auto size = (*file)->Size();
+  ASSERT_TRUE(size.ok());
+  EXPECT_EQ(*size, 12u);
+  char buffer[16];
+  ASSERT_TRUE((*file)->Seek(6).ok());
+  auto got = (*file)->Read(sizeof(buffer), buffer);  // asks past the end: a short read
+  ASSERT_TRUE(got.ok());
+  EXPECT_EQ(std::string(buffer, *got), "second");
+  got = (*file)->Read(sizeof(buffer), buffer);
+  ASSERT_TRUE(got.ok());
+  EXPECT_EQ(*got, 0u);
+
+  const auto missing = env->NewReadableFile(dir + "/missing.bin");
+  EXPECT_TRUE(missing.status().IsNotFound()) << missing.status().ToString();
+  EXPECT_NE(missing.status().message().find("missing.bin"), std::string::npos);
+  EXPECT_TRUE(ReadFileToString(env, dir + "/missing.bin").status().IsNotFound());
+  EXPECT_TRUE(env->SyncFile(dir + "/missing.bin").IsIOError());
+}
+
+TEST(FaultInjectionEnv, CountsAppendableOpensAndFileSyncs) {
+  const std::string dir = TempDir("scratch_faults");
+  FaultInjectionEnv env(Env::Default());
+  env.FailAt(Operation::kNewWritableFile, 1);
+  EXPECT_TRUE(env.NewAppendableFile(dir + "/a.bin").status().IsIOError());
+  auto file = env.NewAppendableFile(dir + "/a.bin");
+  ASSERT_TRUE(file.ok()) << file.status().ToString();
+  env.FailAt(Operation::kAppend, 1);
+  EXPECT_TRUE((*file)->Append("lost").IsIOError());
+  ASSERT_TRUE((*file)->Append("kept").ok());
+  ASSERT_TRUE((*file)->Close().ok());
+  env.FailAt(Operation::kSync, 1);
+  EXPECT_TRUE(env.SyncFile(dir + "/a.bin").IsIOError());
+  EXPECT_TRUE(env.SyncFile(dir + "/a.bin").ok());
+  EXPECT_EQ(env.Count(Operation::kSync), 2);
+  auto read = ReadFileToString(&env, dir + "/a.bin");
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  EXPECT_EQ(*read, "kept");
 }
 
 TEST(PosixEnv, DefaultIsOneObject) { EXPECT_EQ(Env::Default(), Env::Default()); }
