@@ -15,6 +15,8 @@
 #include "core/unidentified_features.h"
 #include "partition/feature_covariances.h"
 #include "partition/in_memory_chunk_source.h"
+#include "partition/internal/chi_square.h"
+#include "partition/internal/observation_chi2.h"
 #include "partition/internal/odometry_chain.h"
 #include "partition/internal/variance_factor.h"
 #include "partition/singleton_solve.h"
@@ -241,6 +243,63 @@ int64_t CloseLoop(const IncrementalAssociationOptions& options, const core::Prob
   return static_cast<int64_t>(match.pairs.size());
 }
 
+// Undo of the stage's pairings (property 3 of the search, inside the pass):
+// for every cluster that gained observations in the stage while holding
+// older ones, the chi2 of each side at the solved estimate is compared with
+// the chi-square quantile for 2n degrees of freedom at z = undo_z, scaled by
+// the variance factor. If either side does not fit, the stage's side is
+// split off into a cluster of its own (at the mean of its first sights): a
+// wrong pairing then costs one stage instead of bending every later one.
+// Returns the clusters split.
+int64_t UndoStagePairings(const IncrementalAssociationOptions& options,
+                          const core::Problem2d& problem, const std::vector<core::Pose2>& poses,
+                          const std::vector<int32_t>& cluster_before, double scale,
+                          std::vector<Cluster>* clusters, std::vector<int32_t>* cluster_of) {
+  int64_t undone = 0;
+  const size_t existing = clusters->size();
+  for (size_t c = 0; c < existing; ++c) {
+    Cluster& cluster = (*clusters)[c];
+    if (cluster.dropped || cluster.absorbed || cluster.members.size() < 2) continue;
+    std::vector<int32_t> old_side, new_side;
+    for (int32_t o : cluster.members)
+      (cluster_before[o] == static_cast<int32_t>(c) ? old_side : new_side).push_back(o);
+    if (old_side.empty() || new_side.empty()) continue;
+    auto side_chi2 = [&](const std::vector<int32_t>& side) {
+      double sum = 0.0;
+      for (int32_t o : side) {
+        const core::Observation& obs = problem.observations[o];
+        sum += internal::ObservationChi2(obs, poses[obs.pose], cluster.position);
+      }
+      return sum;
+    };
+    const auto fits = [&](const std::vector<int32_t>& side) {
+      return side_chi2(side) <=
+             scale * internal::ChiSquareQuantile(2.0 * static_cast<double>(side.size()),
+                                                 options.undo_z);
+    };
+    if (fits(old_side) && fits(new_side)) continue;
+    ++undone;
+    Cluster split;
+    core::Point2 sum = core::Point2::Zero();
+    for (int32_t o : new_side) {
+      const core::Observation& obs = problem.observations[o];
+      sum += FirstSight(obs, poses[obs.pose]);
+      split.last_pose = std::max(split.last_pose, obs.pose);
+      (*cluster_of)[o] = static_cast<int32_t>(clusters->size());
+    }
+    split.position = sum / static_cast<double>(new_side.size());
+    split.members = new_side;
+    cluster.members = old_side;
+    cluster.last_pose = -1;
+    for (int32_t o : old_side)
+      cluster.last_pose = std::max(cluster.last_pose, problem.observations[o].pose);
+    GS_VLOG(2, "incremental association: stage undo splits %zu observations off a feature of %zu",
+            new_side.size(), old_side.size());
+    clusters->push_back(std::move(split));  // invalidates `cluster`
+  }
+  return undone;
+}
+
 }  // namespace
 
 Status IncrementalAssociationOptions::Validate() const {
@@ -269,6 +328,10 @@ Status IncrementalAssociationOptions::Validate() const {
         "incremental association: chunk_observations must be >= 1");
   if (min_redundancy < 0)
     return Status::InvalidArgument("incremental association: min_redundancy must be >= 0");
+  if (!std::isfinite(undo_z) || max_stage_undo_passes < 0)
+    return Status::InvalidArgument("incremental association: undo_z must be finite and "
+                                   "max_stage_undo_passes >= 0, got " + std::to_string(undo_z) +
+                                   " and " + std::to_string(max_stage_undo_passes));
   if (local_window < 0)
     return Status::InvalidArgument("incremental association: local_window must be >= 0, got " +
                                    std::to_string(local_window));
@@ -311,6 +374,9 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
   std::vector<uint8_t> placed(n, 0);
   for (int32_t p = 0; p < n; ++p) placed[p] = problem->pose_fixed[p] != 0;
 
+  std::vector<uint8_t> has_fix(n, 0);
+  for (const core::GpsConstraint& c : problem->gps) has_fix[c.pose] = 1;
+
   std::vector<Cluster> clusters;
   std::vector<int32_t> cluster_of(m, -1);
   ChunkingOptions chunking;
@@ -328,11 +394,37 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
     ++summary->stages;
     bool any_new = false;
     for (int32_t p = begin; p < end && !any_new; ++p) any_new = !observations_of_pose[p].empty();
+    bool new_fixes = false;
+    for (int32_t p = begin; p < end && !new_fixes; ++p) new_fixes = has_fix[p] != 0;
 
+    // Cluster of every observation before this stage's pairings (the undo
+    // below tells the pairings made in the stage from the older members).
+    const std::vector<int32_t> cluster_before = cluster_of;
+    if (any_new && new_fixes && options.solve_fixes_first) {
+      // GPS fixes on the new poses: the chained poses do not fit them, and
+      // the covariances below include their information. Testing the chained
+      // means with those covariances is over-confident by the dead-reckoning
+      // error the fixes would remove (metres on the simulated campus), so
+      // first solve the prefix with the fixes (the new observations are
+      // singletons and left out): the means then match the covariances.
+      const Clock::time_point solve_start = Clock::now();
+      Stage fixed = BuildStage(*problem, poses, clusters, cluster_of, end, end);
+      core::SolverSummary fixed_summary;
+      GS_RETURN_IF_ERROR(
+          SolveWithoutSingletons(stage_options, chunking, &fixed.sub, &fixed_summary)
+              .WithContext("incremental association, GPS solve of poses 0.." +
+                           std::to_string(end - 1)));
+      std::copy(fixed.sub.poses.begin(), fixed.sub.poses.end(), poses.begin());
+      for (size_t c = 0; c < clusters.size(); ++c)
+        if (fixed.cluster_feature[c] >= 0)
+          clusters[c].position = fixed.sub.features[fixed.cluster_feature[c]];
+      summary->solve_seconds += SecondsSince(solve_start);
+    }
     if (any_new) {
       // Covariances at the stage's start: the prefix solved, the new poses
-      // chained (they and their singletons fit their constraints exactly, so
-      // this is the optimum of the stage sub-problem before any pairing).
+      // chained (without GPS fixes on them they and their singletons fit
+      // their constraints exactly, so this is the optimum of the stage
+      // sub-problem before any pairing; with fixes, solved above).
       Clock::time_point t0 = Clock::now();
       Stage stage = BuildStage(*problem, poses, clusters, cluster_of, begin, end);
       InMemoryChunkSource chunks(stage.sub, chunking);
@@ -463,8 +555,9 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
     }
 
     // Solve the stage with its correspondences (nothing to do without new
-    // observations: the chained poses already fit their odometry).
-    if (any_new) {
+    // observations: the chained poses already fit their odometry), then undo
+    // the stage's pairings the solution rejects and solve again.
+    for (int attempt = 0; any_new; ++attempt) {
       const Clock::time_point solve_start = Clock::now();
       Stage solved = BuildStage(*problem, poses, clusters, cluster_of, end, end);
       core::SolverSummary solver_summary;
@@ -482,6 +575,11 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
                                          options.min_redundancy);
       summary->variance_factor = scale;
       summary->solve_seconds += SecondsSince(solve_start);
+      if (!options.undo_stage_pairings || attempt >= options.max_stage_undo_passes) break;
+      const int64_t undone = UndoStagePairings(options, *problem, poses, cluster_before, scale,
+                                               &clusters, &cluster_of);
+      summary->stage_undone += undone;
+      if (undone == 0) break;
     }
 
     // Provisional features not seen for a while are clutter.

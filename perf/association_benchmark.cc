@@ -6,7 +6,8 @@
 //       victoriaPark-noassoc.g2o, key: victoriaPark-full.g2o (same observation
 //       order); also the known-correspondence chi2 of victoriaPark-full.g2o.
 //   association_benchmark mrclam [chi] [radius] [mutual] [refit]
-//       MRCLAM dataset 1 robot 1 with barcodes ignored, key: the barcodes.
+//       MRCLAM dataset 1 robot 1 (GS_ROBOT=N: robot N) with barcodes ignored,
+//       key: the barcodes.
 //   association_benchmark campus POSES RUNS SEED [chi] [radius] [mutual] [refit]
 //       simulated campus (GPS every 25 poses), key: the simulator's ids.
 // [mutual]: rounds with mutual-best-match merging (AssociationOptions::
@@ -23,13 +24,17 @@
 // the incremental pass's stage_poses, search_radius, joint.z,
 // confirm_observations, provisional_poses and max_iterations_per_stage (partition/incremental_association.h), GS_INCREMENTAL=1 runs
 // it (off by default); GS_LOOP=0/1, GS_LOOP_MIN, GS_LOOP_MARGIN, GS_LOOP_TOL,
+// GS_FIXES_FIRST=0/1 its solve_fixes_first, GS_STAGE_UNDO=0/1 its undo_stage_pairings;
 // GS_LOOP_ROT, GS_LOOP_RADIUS, GS_LOOP_WINDOW set its loop closure
 // (close_loops, loop.min_inliers, .ambiguity_margin, .tolerance,
 // .max_rotation, .search_radius, local_window); GS_KEY_OUT=FILE writes the key,
 // one landmark per observation line (with GS_VERBOSE=2 the loop pairs'
 // observations are logged); GS_SCALE=0/1 sets the variance-factor scaling of both
 // passes (default: incremental pass on, batch rounds off); GS_SPLITS=1 prints
-// every key landmark split over several features with the pose spans.
+// every key landmark split over several features with the pose spans;
+// GS_TRUTH_OUT=FILE writes the campus's true landmarks, GS_POSES_OUT=FILE the
+// pose index of every observation, GS_FEATURES_OUT=FILE the features found
+// (one line per label of GS_LABELS_OUT; diagnosis).
 // Prints one line per round and a summary; the commands and figures are in
 // docs/benchmarks.md.
 #include <algorithm>
@@ -99,6 +104,11 @@ int main(int argc, char** argv) {
   const std::string datasets = GRAPHSLAM_DATASETS_DIR;
   gs::core::Problem2d problem;
   std::vector<int64_t> key;
+  // Victoria Park's key with its doubled landmarks merged (empty elsewhere):
+  // victoriaPark-full.g2o has landmarks 34/189, 41/179 and 108/756 twice:
+  // 0.076, 0.071 and 0.225 m apart at the known-correspondence optimum and
+  // never seen from one pose, so no geometric test can keep them apart.
+  std::vector<int64_t> merged_key;
   gs::core::SolverOptions solver;
   gs::partition::AssociationOptions options;
   double known_chi2 = -1.0;
@@ -120,9 +130,19 @@ int main(int argc, char** argv) {
       key.push_back(it == landmark.end() ? -1 : it->second);
       if (it != landmark.end()) landmark.erase(it);
     }
+    const std::map<int64_t, int64_t> same = {{189, 34}, {179, 41}, {756, 108}};
+    for (int64_t k : key) {
+      if (k < 0) {
+        merged_key.push_back(k);
+        continue;
+      }
+      const auto twin = same.find(full->feature_ids[k]);
+      merged_key.push_back(twin == same.end() ? full->feature_ids[k] : twin->second);
+    }
     known_chi2 = SolveKnown(*full, solver);
   } else if (which == "mrclam") {
     gs::storage::MrclamOptions mrclam;
+    if (const char* v = std::getenv("GS_ROBOT")) mrclam.robot = std::atoi(v);
     auto known = gs::storage::ReadMrclam(datasets + "/mrclam_dataset1_sampled50hz", mrclam);
     if (!known.ok()) return Fail(known.status());
     mrclam.ignore_barcodes = true;
@@ -147,6 +167,12 @@ int main(int argc, char** argv) {
     if (!simulated.ok()) return Fail(simulated.status());
     gs::core::Problem2d known = simulated->problem;
     true_poses = simulated->true_poses;
+    if (const char* path = std::getenv("GS_TRUTH_OUT")) {  // diagnosis: true landmark positions
+      if (std::FILE* f = std::fopen(path, "w")) {
+        for (const auto& t : simulated->true_features) std::fprintf(f, "%.4f %.4f\n", t.x(), t.y());
+        std::fclose(f);
+      }
+    }
     problem = std::move(simulated->problem);
     key = ForgetIds(&problem);
     known_chi2 = SolveKnown(known, solver);
@@ -167,6 +193,12 @@ int main(int argc, char** argv) {
 
   std::vector<int> input_pose_of;
   for (const auto& o : problem.observations) input_pose_of.push_back(o.pose);
+  if (const char* path = std::getenv("GS_POSES_OUT")) {  // diagnosis: pose of each observation
+    if (std::FILE* f = std::fopen(path, "w")) {
+      for (int p : input_pose_of) std::fprintf(f, "%d\n", p);
+      std::fclose(f);
+    }
+  }
   const auto start = std::chrono::steady_clock::now();
   if (gs::Status status = gs::core::InitializeProblem(&problem); !status.ok()) return Fail(status);
   gs::partition::ProgressiveInitializationOptions progressive;
@@ -210,6 +242,10 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("GS_LOOP_ROT")) options.incremental.loop.max_rotation = std::atof(v);
   if (const char* v = std::getenv("GS_LOOP_RADIUS")) options.incremental.loop.search_radius = std::atof(v);
   if (const char* v = std::getenv("GS_LOOP_WINDOW")) options.incremental.local_window = std::atoll(v);
+  if (const char* v = std::getenv("GS_STAGE_UNDO"))
+    options.incremental.undo_stage_pairings = std::atoi(v) != 0;
+  if (const char* v = std::getenv("GS_FIXES_FIRST"))
+    options.incremental.solve_fixes_first = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_INCREMENTAL")) options.incremental.enabled = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_SCALE")) {
     options.scale_by_variance_factor = std::atoi(v) != 0;
@@ -227,6 +263,12 @@ int main(int argc, char** argv) {
     if (std::FILE* f = std::fopen(path, "w")) {
       for (int64_t label : gs::partition::InputObservationLabels(problem, summary, key.size()))
         std::fprintf(f, "%lld\n", static_cast<long long>(label));
+      std::fclose(f);
+    }
+  }
+  if (const char* path = std::getenv("GS_FEATURES_OUT")) {  // diagnosis: the features' estimates
+    if (std::FILE* f = std::fopen(path, "w")) {
+      for (const auto& x : problem.features) std::fprintf(f, "%.4f %.4f\n", x.x(), x.y());
       std::fclose(f);
     }
   }
@@ -256,6 +298,15 @@ int main(int argc, char** argv) {
               score.precision(), static_cast<long long>(score.true_positive),
               static_cast<long long>(score.predicted), score.recall(),
               static_cast<long long>(score.true_positive), static_cast<long long>(score.actual));
+  if (!merged_key.empty()) {
+    const gs::partition::PairwiseScore merged = gs::partition::ScorePairwise(
+        gs::partition::InputObservationLabels(problem, summary, key.size()), merged_key);
+    std::printf("doubled key landmarks merged: pairwise precision %.5f (%lld / %lld), recall "
+                "%.5f (%lld / %lld)\n",
+                merged.precision(), static_cast<long long>(merged.true_positive),
+                static_cast<long long>(merged.predicted), merged.recall(),
+                static_cast<long long>(merged.true_positive), static_cast<long long>(merged.actual));
+  }
   std::printf("merges %lld, undone %lld, rounds %zu, %.2f s per round, total %.2f s\n",
               static_cast<long long>(summary.merges), static_cast<long long>(summary.undone),
               summary.rounds.size(), round_seconds / std::max<size_t>(1, summary.rounds.size()),
@@ -292,7 +343,7 @@ int main(int argc, char** argv) {
   const auto& inc = summary.incremental;
   if (inc.ran)
     std::printf("incremental: %lld stages, %lld scans, %lld paired, %lld features, %lld provisional "
-                "dropped (%lld observations), %lld JCBB capped, %lld loop closures (%lld pairs), chi2 %.6f, s^2 %.4g; solve %.2f s, "
+                "dropped (%lld observations), %lld JCBB capped, %lld loop closures (%lld pairs), %lld stage pairings undone, chi2 %.6f, s^2 %.4g; solve %.2f s, "
                 "covariances %.2f s, assignment %.2f s, total %.2f s\n",
                 static_cast<long long>(inc.stages), static_cast<long long>(inc.scans),
                 static_cast<long long>(inc.paired), static_cast<long long>(inc.features),
@@ -300,6 +351,7 @@ int main(int argc, char** argv) {
                 static_cast<long long>(inc.clutter_observations),
                 static_cast<long long>(inc.exhausted_scans),
                 static_cast<long long>(inc.loop_closures), static_cast<long long>(inc.loop_pairs),
+                static_cast<long long>(inc.stage_undone),
                 inc.chi2, inc.variance_factor,
                 inc.solve_seconds,
                 inc.covariance_seconds, inc.assignment_seconds, inc.seconds);
