@@ -388,6 +388,24 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
   const double radius_squared = options.search_radius * options.search_radius;
   double scale = 1.0;  // variance factor of the last stage solve
 
+  // Solves poses [0, end) with the current clusters (observations not yet
+  // assigned left out) and takes over the solved poses and positions.
+  auto solve_prefix = [&](int32_t end, const char* what, Stage* stage,
+                          core::SolverSummary* solver_summary) -> Status {
+    const Clock::time_point solve_start = Clock::now();
+    *stage = BuildStage(*problem, poses, clusters, cluster_of, end, end);
+    GS_RETURN_IF_ERROR(
+        SolveWithoutSingletons(stage_options, chunking, &stage->sub, solver_summary)
+            .WithContext(std::string("incremental association, ") + what + " of poses 0.." +
+                         std::to_string(end - 1)));
+    std::copy(stage->sub.poses.begin(), stage->sub.poses.end(), poses.begin());
+    for (size_t c = 0; c < clusters.size(); ++c)
+      if (stage->cluster_feature[c] >= 0)
+        clusters[c].position = stage->sub.features[stage->cluster_feature[c]];
+    summary->solve_seconds += SecondsSince(solve_start);
+    return Status::Ok();
+  };
+
   for (int32_t begin = 0; begin < n;) {
     const int32_t end = static_cast<int32_t>(std::min<int64_t>(n, begin + options.stage_poses));
     internal::PlacePoses(*problem, adjacency, begin, end, &poses, &placed);
@@ -407,18 +425,9 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
       // error the fixes would remove (metres on the simulated campus), so
       // first solve the prefix with the fixes (the new observations are
       // singletons and left out): the means then match the covariances.
-      const Clock::time_point solve_start = Clock::now();
-      Stage fixed = BuildStage(*problem, poses, clusters, cluster_of, end, end);
       core::SolverSummary fixed_summary;
-      GS_RETURN_IF_ERROR(
-          SolveWithoutSingletons(stage_options, chunking, &fixed.sub, &fixed_summary)
-              .WithContext("incremental association, GPS solve of poses 0.." +
-                           std::to_string(end - 1)));
-      std::copy(fixed.sub.poses.begin(), fixed.sub.poses.end(), poses.begin());
-      for (size_t c = 0; c < clusters.size(); ++c)
-        if (fixed.cluster_feature[c] >= 0)
-          clusters[c].position = fixed.sub.features[fixed.cluster_feature[c]];
-      summary->solve_seconds += SecondsSince(solve_start);
+      Stage fixed;
+      GS_RETURN_IF_ERROR(solve_prefix(end, "GPS solve", &fixed, &fixed_summary));
     }
     if (any_new) {
       // Covariances at the stage's start: the prefix solved, the new poses
@@ -558,23 +567,14 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
     // observations: the chained poses already fit their odometry), then undo
     // the stage's pairings the solution rejects and solve again.
     for (int attempt = 0; any_new; ++attempt) {
-      const Clock::time_point solve_start = Clock::now();
-      Stage solved = BuildStage(*problem, poses, clusters, cluster_of, end, end);
       core::SolverSummary solver_summary;
-      GS_RETURN_IF_ERROR(
-          SolveWithoutSingletons(stage_options, chunking, &solved.sub, &solver_summary)
-              .WithContext("incremental association, stage solve of poses 0.." +
-                           std::to_string(end - 1)));
-      std::copy(solved.sub.poses.begin(), solved.sub.poses.end(), poses.begin());
-      for (size_t c = 0; c < clusters.size(); ++c)
-        if (solved.cluster_feature[c] >= 0)
-          clusters[c].position = solved.sub.features[solved.cluster_feature[c]];
+      Stage solved;
+      GS_RETURN_IF_ERROR(solve_prefix(end, "stage solve", &solved, &solver_summary));
       summary->chi2 = solver_summary.final_chi2;
       if (options.scale_by_variance_factor)
         scale = internal::VarianceFactor(solved.sub, solver_summary.final_chi2,
                                          options.min_redundancy);
       summary->variance_factor = scale;
-      summary->solve_seconds += SecondsSince(solve_start);
       if (!options.undo_stage_pairings || attempt >= options.max_stage_undo_passes) break;
       const int64_t undone = UndoStagePairings(options, *problem, poses, cluster_before, scale,
                                                &clusters, &cluster_of);

@@ -35,6 +35,16 @@ std::vector<int64_t> ForgetIds(core::Problem2d* problem) {
   return key;
 }
 
+// The pass's label of every input observation (dropped ones: labels of their own).
+std::vector<int64_t> PassLabels(const core::Problem2d& problem,
+                                const std::vector<int32_t>& input_observation, size_t inputs) {
+  std::vector<int64_t> labels(inputs);
+  for (size_t i = 0; i < labels.size(); ++i) labels[i] = -1 - static_cast<int64_t>(i);
+  for (size_t o = 0; o < problem.observations.size(); ++o)
+    labels[input_observation[o]] = problem.observations[o].feature;
+  return labels;
+}
+
 TEST(IncrementalAssociation, EasyDataEndsWithTheBatchCorrespondences) {
   for (uint32_t seed : {13u, 14u}) {
     SCOPED_TRACE("seed " + std::to_string(seed));
@@ -256,11 +266,8 @@ TEST(IncrementalAssociation, RevisitAfterDriftLargerThanTheLocalGateIsAssociated
     ASSERT_TRUE(AssociateIncrementally(options, testing::TightCholmodSolverOptions(), &problem,
                                        &summary, &input_observation)
                     .ok());
-    std::vector<int64_t> labels(key.size());
-    for (size_t i = 0; i < labels.size(); ++i) labels[i] = -1 - static_cast<int64_t>(i);
-    for (size_t o = 0; o < problem.observations.size(); ++o)
-      labels[input_observation[o]] = problem.observations[o].feature;
-    const PairwiseScore score = ScorePairwise(labels, key);
+    const PairwiseScore score =
+        ScorePairwise(PassLabels(problem, input_observation, key.size()), key);
     if (close_loops) {
       EXPECT_GE(summary.loop_closures, 1);
       EXPECT_GE(score.precision(), 0.99);
@@ -299,11 +306,8 @@ TEST(IncrementalAssociation, GpsCampusIsTrackedWithFixesFirstAndStageUndo) {
     ASSERT_TRUE(AssociateIncrementally(options, testing::TightCholmodSolverOptions(), &problem,
                                        &summary, &input_observation)
                     .ok());
-    std::vector<int64_t> labels(key.size());
-    for (size_t i = 0; i < labels.size(); ++i) labels[i] = -1 - static_cast<int64_t>(i);
-    for (size_t o = 0; o < problem.observations.size(); ++o)
-      labels[input_observation[o]] = problem.observations[o].feature;
-    const PairwiseScore score = ScorePairwise(labels, key);
+    const PairwiseScore score =
+        ScorePairwise(PassLabels(problem, input_observation, key.size()), key);
     EXPECT_GE(score.precision(), 0.99);
     EXPECT_GE(score.recall(), 0.93);
   }
