@@ -35,14 +35,20 @@ std::vector<int64_t> ForgetIds(core::Problem2d* problem) {
   return key;
 }
 
-// The pass's label of every input observation (dropped ones: labels of their own).
-std::vector<int64_t> PassLabels(const core::Problem2d& problem,
-                                const std::vector<int32_t>& input_observation, size_t inputs) {
-  std::vector<int64_t> labels(inputs);
+// Runs the pass alone and scores it against the key (dropped observations
+// get labels of their own).
+Status RunPass(const IncrementalAssociationOptions& options, const std::vector<int64_t>& key,
+               core::Problem2d* problem, IncrementalAssociationSummary* summary,
+               PairwiseScore* score) {
+  std::vector<int32_t> input_observation;
+  GS_RETURN_IF_ERROR(AssociateIncrementally(options, testing::TightCholmodSolverOptions(),
+                                            problem, summary, &input_observation));
+  std::vector<int64_t> labels(key.size());
   for (size_t i = 0; i < labels.size(); ++i) labels[i] = -1 - static_cast<int64_t>(i);
-  for (size_t o = 0; o < problem.observations.size(); ++o)
-    labels[input_observation[o]] = problem.observations[o].feature;
-  return labels;
+  for (size_t o = 0; o < problem->observations.size(); ++o)
+    labels[input_observation[o]] = problem->observations[o].feature;
+  *score = ScorePairwise(labels, key);
+  return Status::Ok();
 }
 
 TEST(IncrementalAssociation, EasyDataEndsWithTheBatchCorrespondences) {
@@ -262,12 +268,8 @@ TEST(IncrementalAssociation, RevisitAfterDriftLargerThanTheLocalGateIsAssociated
     options.enabled = true;
     options.close_loops = close_loops;
     IncrementalAssociationSummary summary;
-    std::vector<int32_t> input_observation;
-    ASSERT_TRUE(AssociateIncrementally(options, testing::TightCholmodSolverOptions(), &problem,
-                                       &summary, &input_observation)
-                    .ok());
-    const PairwiseScore score =
-        ScorePairwise(PassLabels(problem, input_observation, key.size()), key);
+    PairwiseScore score;
+    ASSERT_TRUE(RunPass(options, key, &problem, &summary, &score).ok());
     if (close_loops) {
       EXPECT_GE(summary.loop_closures, 1);
       EXPECT_GE(score.precision(), 0.99);
@@ -302,12 +304,8 @@ TEST(IncrementalAssociation, GpsCampusIsTrackedWithFixesFirstAndStageUndo) {
     options.enabled = true;
     options.close_loops = false;
     IncrementalAssociationSummary summary;
-    std::vector<int32_t> input_observation;
-    ASSERT_TRUE(AssociateIncrementally(options, testing::TightCholmodSolverOptions(), &problem,
-                                       &summary, &input_observation)
-                    .ok());
-    const PairwiseScore score =
-        ScorePairwise(PassLabels(problem, input_observation, key.size()), key);
+    PairwiseScore score;
+    ASSERT_TRUE(RunPass(options, key, &problem, &summary, &score).ok());
     EXPECT_GE(score.precision(), 0.99);
     EXPECT_GE(score.recall(), 0.93);
   }
