@@ -25,6 +25,7 @@
 #include "partition/feature_covariances.h"
 #include "partition/in_memory_chunk_source.h"
 #include "partition/internal/chi_square.h"
+#include "partition/internal/observation_chi2.h"
 #include "partition/internal/rejected_pairs.h"
 #include "partition/internal/variance_factor.h"
 #include "partition/singleton_solve.h"
@@ -39,13 +40,7 @@ double SecondsSince(Clock::time_point t) {
 }
 
 // Raw (kernel-free) chi2 of one observation.
-double ObservationChi2(const core::Observation& o, const core::Pose2& pose,
-                       const core::Point2& feature) {
-  Eigen::Vector2d e;
-  if (!core::EvaluateObservation(o.kind, pose, feature, o.z, &e, nullptr, nullptr))
-    return std::numeric_limits<double>::infinity();
-  return e.dot(o.information * e);
-}
+using internal::ObservationChi2;
 
 core::Point2 FirstSight(const core::Observation& o, const core::Pose2& pose) {
   return core::InvertObservation(o.kind, pose, o.z);

@@ -16,6 +16,8 @@
 #include "core/unidentified_features.h"
 #include "partition/feature_covariances.h"
 #include "partition/in_memory_chunk_source.h"
+#include "partition/internal/chi_square.h"
+#include "partition/internal/observation_chi2.h"
 #include "partition/internal/odometry_chain.h"
 #include "partition/internal/variance_factor.h"
 #include "partition/singleton_solve.h"
@@ -243,6 +245,63 @@ int64_t CloseLoop(const IncrementalAssociationOptions& options, const core::Prob
 }
 
 // False (and OK) unless the input is id-less: one observation per feature.
+// Undo of the stage's pairings (property 3 of the search, inside the pass):
+// for every cluster that gained observations in the stage while holding
+// older ones, the chi2 of each side at the solved estimate is compared with
+// the chi-square quantile for 2n degrees of freedom at z = undo_z, scaled by
+// the variance factor. If either side does not fit, the stage's side is
+// split off into a cluster of its own (at the mean of its first sights): a
+// wrong pairing then costs one stage instead of bending every later one.
+// Returns the clusters split.
+int64_t UndoStagePairings(const IncrementalAssociationOptions& options,
+                          const core::Problem2d& problem, const std::vector<core::Pose2>& poses,
+                          const std::vector<int32_t>& cluster_before, double scale,
+                          std::vector<Cluster>* clusters, std::vector<int32_t>* cluster_of) {
+  int64_t undone = 0;
+  const size_t existing = clusters->size();
+  for (size_t c = 0; c < existing; ++c) {
+    Cluster& cluster = (*clusters)[c];
+    if (cluster.dropped || cluster.absorbed || cluster.members.size() < 2) continue;
+    std::vector<int32_t> old_side, new_side;
+    for (int32_t o : cluster.members)
+      (cluster_before[o] == static_cast<int32_t>(c) ? old_side : new_side).push_back(o);
+    if (old_side.empty() || new_side.empty()) continue;
+    auto side_chi2 = [&](const std::vector<int32_t>& side) {
+      double sum = 0.0;
+      for (int32_t o : side) {
+        const core::Observation& obs = problem.observations[o];
+        sum += internal::ObservationChi2(obs, poses[obs.pose], cluster.position);
+      }
+      return sum;
+    };
+    const auto fits = [&](const std::vector<int32_t>& side) {
+      return side_chi2(side) <=
+             scale * internal::ChiSquareQuantile(2.0 * static_cast<double>(side.size()),
+                                                 options.undo_z);
+    };
+    if (fits(old_side) && fits(new_side)) continue;
+    ++undone;
+    Cluster split;
+    core::Point2 sum = core::Point2::Zero();
+    for (int32_t o : new_side) {
+      const core::Observation& obs = problem.observations[o];
+      sum += FirstSight(obs, poses[obs.pose]);
+      split.last_pose = std::max(split.last_pose, obs.pose);
+      (*cluster_of)[o] = static_cast<int32_t>(clusters->size());
+    }
+    split.position = sum / static_cast<double>(new_side.size());
+    split.members = new_side;
+    cluster.members = old_side;
+    cluster.last_pose = -1;
+    for (int32_t o : old_side)
+      cluster.last_pose = std::max(cluster.last_pose, problem.observations[o].pose);
+    GS_VLOG(2, "incremental association: stage undo splits %zu observations off a feature of %zu",
+            new_side.size(), old_side.size());
+    clusters->push_back(std::move(split));  // invalidates `cluster`
+  }
+  return undone;
+}
+
 StatusOr<bool> IsIdLess(const core::Problem2d& problem) {
   std::vector<int32_t> count(problem.num_features(), 0);
   for (const core::Observation& o : problem.observations) {
@@ -272,6 +331,7 @@ struct IncrementalRun {
   std::vector<core::Pose2> poses;
   std::vector<Cluster> clusters;
   std::vector<int32_t> cluster_of;  // per input observation
+  std::vector<uint8_t> has_fix;     // per pose: a GPS fix
   ChunkingOptions chunking;
   core::SolverOptions stage_options;
   double radius_squared = 0.0;
@@ -411,8 +471,9 @@ Status AssociateScan(int32_t p, StageView* view, IncrementalRun* run, Clock::tim
 Status PairStage(int32_t begin, int32_t end, IncrementalRun* run) {
   IncrementalAssociationSummary* summary = run->summary;
   // Covariances at the stage's start: the prefix solved, the new poses
-  // chained (they and their singletons fit their constraints exactly, so
-  // this is the optimum of the stage sub-problem before any pairing).
+  // chained (without GPS fixes on them they and their singletons fit their
+  // constraints exactly, so this is the optimum of the stage sub-problem
+  // before any pairing; with fixes, solved first by SolveFixesFirst).
   Clock::time_point t0 = Clock::now();
   StageView view;
   view.stage = BuildStage(*run->problem, run->poses, run->clusters, run->cluster_of, begin, end);
@@ -453,28 +514,61 @@ Status PairStage(int32_t begin, int32_t end, IncrementalRun* run) {
   return Status::Ok();
 }
 
-// Solves the prefix [0, end) with its correspondences: poses and cluster
-// positions from the solution, the variance factor for the next stage.
-Status SolveStage(int32_t end, IncrementalRun* run) {
-  IncrementalAssociationSummary* summary = run->summary;
+// Solves poses [0, end) with the current clusters (observations not yet
+// assigned left out) and takes over the solved poses and positions.
+Status SolvePrefix(int32_t end, const char* what, IncrementalRun* run, Stage* solved,
+                   core::SolverSummary* solver_summary) {
   const Clock::time_point solve_start = Clock::now();
-  Stage solved = BuildStage(*run->problem, run->poses, run->clusters, run->cluster_of, end, end);
-  core::SolverSummary solver_summary;
+  *solved = BuildStage(*run->problem, run->poses, run->clusters, run->cluster_of, end, end);
   GS_RETURN_IF_ERROR(
-      SolveWithoutSingletons(run->stage_options, run->chunking, &solved.sub, &solver_summary)
-          .WithContext("incremental association, stage solve of poses 0.." +
+      SolveWithoutSingletons(run->stage_options, run->chunking, &solved->sub, solver_summary)
+          .WithContext(std::string("incremental association, ") + what + " of poses 0.." +
                        std::to_string(end - 1)));
-  std::copy(solved.sub.poses.begin(), solved.sub.poses.end(), run->poses.begin());
+  std::copy(solved->sub.poses.begin(), solved->sub.poses.end(), run->poses.begin());
   for (size_t c = 0; c < run->clusters.size(); ++c)
-    if (solved.cluster_feature[c] >= 0)
-      run->clusters[c].position = solved.sub.features[solved.cluster_feature[c]];
-  summary->chi2 = solver_summary.final_chi2;
-  if (run->options.scale_by_variance_factor)
-    run->scale = internal::VarianceFactor(solved.sub, solver_summary.final_chi2,
-                                          run->options.min_redundancy);
-  summary->variance_factor = run->scale;
-  summary->solve_seconds += SecondsSince(solve_start);
+    if (solved->cluster_feature[c] >= 0)
+      run->clusters[c].position = solved->sub.features[solved->cluster_feature[c]];
+  run->summary->solve_seconds += SecondsSince(solve_start);
   return Status::Ok();
+}
+
+// GPS fixes on the new poses: the chained poses do not fit them, and the
+// stage's covariances include their information. Testing the chained means
+// with those covariances is over-confident by the dead-reckoning error the
+// fixes would remove (metres on the simulated campus), so the prefix is
+// first solved with the fixes (the new observations are singletons and left
+// out): the means then match the covariances.
+Status SolveFixesFirst(int32_t begin, int32_t end, IncrementalRun* run) {
+  bool new_fixes = false;
+  for (int32_t p = begin; p < end && !new_fixes; ++p) new_fixes = run->has_fix[p] != 0;
+  if (!new_fixes || !run->options.solve_fixes_first) return Status::Ok();
+  core::SolverSummary solver_summary;
+  Stage solved;
+  return SolvePrefix(end, "GPS solve", run, &solved, &solver_summary);
+}
+
+// Solves the prefix [0, end) with its correspondences (poses and cluster
+// positions from the solution, the variance factor for the next stage), then
+// undoes the stage's pairings the solution rejects and solves again.
+Status SolveStage(int32_t end, const std::vector<int32_t>& cluster_before, IncrementalRun* run) {
+  IncrementalAssociationSummary* summary = run->summary;
+  for (int attempt = 0;; ++attempt) {
+    core::SolverSummary solver_summary;
+    Stage solved;
+    GS_RETURN_IF_ERROR(SolvePrefix(end, "stage solve", run, &solved, &solver_summary));
+    summary->chi2 = solver_summary.final_chi2;
+    if (run->options.scale_by_variance_factor)
+      run->scale = internal::VarianceFactor(solved.sub, solver_summary.final_chi2,
+                                            run->options.min_redundancy);
+    summary->variance_factor = run->scale;
+    if (!run->options.undo_stage_pairings || attempt >= run->options.max_stage_undo_passes)
+      return Status::Ok();
+    const int64_t undone = UndoStagePairings(run->options, *run->problem, run->poses,
+                                             cluster_before, run->scale, &run->clusters,
+                                             &run->cluster_of);
+    summary->stage_undone += undone;
+    if (undone == 0) return Status::Ok();
+  }
 }
 
 // The map: confirmed features and their observations, input order kept.
@@ -541,6 +635,10 @@ Status IncrementalAssociationOptions::Validate() const {
         "incremental association: chunk_observations must be >= 1");
   if (min_redundancy < 0)
     return Status::InvalidArgument("incremental association: min_redundancy must be >= 0");
+  if (!std::isfinite(undo_z) || max_stage_undo_passes < 0)
+    return Status::InvalidArgument("incremental association: undo_z must be finite and "
+                                   "max_stage_undo_passes >= 0, got " + std::to_string(undo_z) +
+                                   " and " + std::to_string(max_stage_undo_passes));
   if (local_window < 0)
     return Status::InvalidArgument("incremental association: local_window must be >= 0, got " +
                                    std::to_string(local_window));
@@ -574,6 +672,8 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
   std::vector<uint8_t> placed(n, 0);
   for (int32_t p = 0; p < n; ++p) placed[p] = problem->pose_fixed[p] != 0;
   run.cluster_of.assign(m, -1);
+  run.has_fix.assign(n, 0);
+  for (const core::GpsConstraint& c : problem->gps) run.has_fix[c.pose] = 1;
   run.chunking.max_observations_per_chunk = options.chunk_observations;
   run.stage_options = solver_options;
   run.stage_options.max_iterations = options.max_iterations_per_stage;
@@ -591,8 +691,12 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
     // Pair, then solve the stage with its correspondences (nothing to do
     // without new observations: the chained poses already fit their odometry).
     if (any_new) {
+      // Cluster of every observation before this stage's pairings (the undo
+      // tells the pairings made in the stage from the older members).
+      const std::vector<int32_t> cluster_before = run.cluster_of;
+      GS_RETURN_IF_ERROR(SolveFixesFirst(begin, end, &run));
       GS_RETURN_IF_ERROR(PairStage(begin, end, &run));
-      GS_RETURN_IF_ERROR(SolveStage(end, &run));
+      GS_RETURN_IF_ERROR(SolveStage(end, cluster_before, &run));
     }
 
     // Provisional features not seen for a while are clutter.

@@ -11,6 +11,8 @@
 //       (partition/internal/odometry_chain.h)
 //     sub-problem of poses [0, e): the features found so far, one provisional
 //       singleton per new observation (first sight, Table 1)
+//     with GPS fixes on the new poses (solve_fixes_first): solve the prefix
+//       with them first, the new observations left out
 //     linearize at that state and factorize the reduced system: every
 //       feature's covariance with any other is a sparse dot product
 //       (partition/feature_covariances.h); the new poses carry the odometry
@@ -36,6 +38,9 @@
 //     solve the sub-problem with those correspondences (at most
 //       max_iterations_per_stage Levenberg-Marquardt iterations, singletons
 //       left out: partition/singleton_solve.h)
+//     undo (undo_stage_pairings): a feature whose older or newly paired
+//       observations do not fit the solution loses the stage's observations
+//       to a new feature; the stage is solved again
 //     a provisional feature (fewer than confirm_observations observations)
 //       not seen for provisional_poses poses is dropped as clutter: it is no
 //       longer a target, and its observations leave the problem
@@ -79,6 +84,19 @@ struct IncrementalAssociationOptions {
   // data show, not the inputs' nominal models.
   bool scale_by_variance_factor = true;
   int64_t min_redundancy = 50;
+  // A stage whose new poses have GPS fixes is solved with them (new
+  // observations left out) before its tests: the chained poses do not fit the
+  // fixes, yet the covariances include them, so testing the chained means
+  // would be over-confident by the dead-reckoning error the fixes remove.
+  bool solve_fixes_first = true;
+  // Undo inside the pass: after each stage solve, a feature whose older or
+  // newly paired observations do not fit the solved estimate (chi2 above the
+  // quantile for 2n dof at undo_z, times s^2) loses the stage's
+  // observations to a feature of their own; the stage is solved again (at
+  // most max_stage_undo_passes times).
+  bool undo_stage_pairings = true;
+  double undo_z = 3.09;
+  int max_stage_undo_passes = 2;
   // Loop closure by matching the local map against the older map.
   bool close_loops = true;
   int64_t local_window = 100;  // poses before the stage whose features are local
@@ -99,6 +117,7 @@ struct IncrementalAssociationSummary {
   int64_t exhausted_scans = 0;       // JCBB stopped at max_nodes
   int64_t loop_closures = 0;         // stages whose local map matched the older map
   int64_t loop_pairs = 0;            // local features joined to older ones by them
+  int64_t stage_undone = 0;          // stage pairings undone after a stage solve
   double chi2 = 0.0;                 // after the last stage solve
   double variance_factor = 1.0;      // s^2 after the last stage solve
   double solve_seconds = 0.0;

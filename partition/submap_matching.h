@@ -43,7 +43,7 @@
 namespace graphslam::partition {
 
 struct SubmapMatchOptions {
-  double search_radius = 10.0;   // largest displacement of the local map [m]
+  double search_radius = 20.0;   // largest displacement of the local map [m]
   double tolerance = 1.0;        // inlier distance after the transform [m]
   int min_inliers = 4;           // fewer: no loop closure
   int ambiguity_margin = 2;      // a distinct runner-up this close: no closure

@@ -17,6 +17,7 @@
 #include "partition/association_driver.h"
 #include "tests/testing/random_problem.h"
 #include "tests/testing/tight_solver_options.h"
+#include "tools/campus_simulator.h"
 
 namespace graphslam::partition {
 namespace {
@@ -32,6 +33,22 @@ std::vector<int64_t> ForgetIds(core::Problem2d* problem) {
     o.feature = problem->AddFeature(core::kNoFeatureId, core::Point2::Zero(), false);
   }
   return key;
+}
+
+// Runs the pass alone and scores it against the key (dropped observations
+// get labels of their own).
+Status RunPass(const IncrementalAssociationOptions& options, const std::vector<int64_t>& key,
+               core::Problem2d* problem, IncrementalAssociationSummary* summary,
+               PairwiseScore* score) {
+  std::vector<int32_t> input_observation;
+  GS_RETURN_IF_ERROR(AssociateIncrementally(options, testing::TightCholmodSolverOptions(),
+                                            problem, summary, &input_observation));
+  std::vector<int64_t> labels(key.size());
+  for (size_t i = 0; i < labels.size(); ++i) labels[i] = -1 - static_cast<int64_t>(i);
+  for (size_t o = 0; o < problem->observations.size(); ++o)
+    labels[input_observation[o]] = problem->observations[o].feature;
+  *score = ScorePairwise(labels, key);
+  return Status::Ok();
 }
 
 TEST(IncrementalAssociation, EasyDataEndsWithTheBatchCorrespondences) {
@@ -251,15 +268,8 @@ TEST(IncrementalAssociation, RevisitAfterDriftLargerThanTheLocalGateIsAssociated
     options.enabled = true;
     options.close_loops = close_loops;
     IncrementalAssociationSummary summary;
-    std::vector<int32_t> input_observation;
-    ASSERT_TRUE(AssociateIncrementally(options, testing::TightCholmodSolverOptions(), &problem,
-                                       &summary, &input_observation)
-                    .ok());
-    std::vector<int64_t> labels(key.size());
-    for (size_t i = 0; i < labels.size(); ++i) labels[i] = -1 - static_cast<int64_t>(i);
-    for (size_t o = 0; o < problem.observations.size(); ++o)
-      labels[input_observation[o]] = problem.observations[o].feature;
-    const PairwiseScore score = ScorePairwise(labels, key);
+    PairwiseScore score;
+    ASSERT_TRUE(RunPass(options, key, &problem, &summary, &score).ok());
     if (close_loops) {
       EXPECT_GE(summary.loop_closures, 1);
       EXPECT_GE(score.precision(), 0.99);
@@ -269,6 +279,35 @@ TEST(IncrementalAssociation, RevisitAfterDriftLargerThanTheLocalGateIsAssociated
       EXPECT_EQ(summary.loop_closures, 0);
       EXPECT_LT(score.recall(), 0.7);
     }
+  }
+}
+
+// The simulated campus with GPS every 25 poses, 600 poses, trees 0.7-3.5 m
+// apart at the block corners. Two things keep the pass on track here: the
+// fixes of each new stage are solved in before its tests (the chained poses
+// drift off them by metres while the covariances already include them), and
+// a pairing the stage solve rejects is undone (without the undo seed 2 ends
+// at precision 0.88, recall 0.60: one wrong pairing bends every later stage).
+TEST(IncrementalAssociation, GpsCampusIsTrackedWithFixesFirstAndStageUndo) {
+  for (uint32_t seed : {1u, 2u, 3u}) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    tools::CampusSimulatorOptions campus;
+    campus.poses = 600;
+    campus.gps_every = 25;
+    campus.seed = seed;
+    auto simulated = tools::SimulateCampus(campus);
+    ASSERT_TRUE(simulated.ok()) << simulated.status().ToString();
+    core::Problem2d problem = simulated->problem;
+    const std::vector<int64_t> key = ForgetIds(&problem);
+    ASSERT_TRUE(core::InitializeProblem(&problem).ok());
+    IncrementalAssociationOptions options;
+    options.enabled = true;
+    options.close_loops = false;
+    IncrementalAssociationSummary summary;
+    PairwiseScore score;
+    ASSERT_TRUE(RunPass(options, key, &problem, &summary, &score).ok());
+    EXPECT_GE(score.precision(), 0.99);
+    EXPECT_GE(score.recall(), 0.93);
   }
 }
 
