@@ -41,7 +41,9 @@ class DistributedResumeTest : public ::testing::Test {
   std::vector<std::string> SolveArgs(const fs::path& store, const std::string& name) const {
     return {"solve", store.string(), "--report", (dir_ / (name + ".json")).string(),
             "--tum", (dir_ / (name + ".tum")).string(), "--checkpoint",
-            (dir_ / (name + ".checkpoint.json")).string(), "--threads", "1", "-q"};
+            (dir_ / (name + ".checkpoint.json")).string(), "--threads", "1", "-q",
+            // From dead reckoning: enough iterations to kill one mid-way.
+            "--initialization", "odometry"};
   }
 
   // Kills `rank` of `mpirun -np 2` once the checkpoint of iteration 3 is

@@ -93,7 +93,10 @@ class DistributedSolveTest : public ::testing::Test {
                                      "--threads", "1", "-q",
                                      // One start for both: the default radius
                                      // follows the solver (CHOLMOD / KSP).
-                                     "--initial-trust-region", "1e4"};
+                                     "--initial-trust-region", "1e4",
+                                     // One start for both: an initialization's
+                                     // stage solves follow --solver.
+                                     "--initialization", "odometry"};
     if (ranks == 0) args.insert(args.end(), {"--solver", "cholmod"});
     if (ranks > 0 && !petsc_options.empty())
       args.insert(args.end(), {"--petsc-options", petsc_options});

@@ -107,6 +107,15 @@ Frame FitFrame(const SvgFigure& f) {
   if (!f.x_max) xr.hi += pad_x;
   if (!f.y_min) yr.lo -= pad_y;
   if (!f.y_max) yr.hi += pad_y;
+  // A log axis within one decade would show no 1eN tick: it is widened to
+  // the decades around the data unless the caller fixed its ends.
+  const auto whole_decades = [](Range* r, bool fixed_lo, bool fixed_hi) {
+    if (std::ceil(r->lo) <= std::floor(r->hi)) return;
+    if (!fixed_lo) r->lo = std::floor(r->lo);
+    if (!fixed_hi) r->hi = std::ceil(r->hi);
+  };
+  if (f.log_x) whole_decades(&xr, f.x_min.has_value(), f.x_max.has_value());
+  if (f.log_y) whole_decades(&yr, f.y_min.has_value(), f.y_max.has_value());
 
   size_t longest = 0;
   for (const auto& entry : f.legend_only) longest = std::max(longest, entry.first.size());

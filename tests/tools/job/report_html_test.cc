@@ -150,6 +150,19 @@ TEST(SvgFigure, LogAxesSpaceDecadesEqually) {
   EXPECT_GT(points[0].second - points[1].second, 10.0);
 }
 
+// A log axis whose data stays inside one decade (a solve that converged in
+// two iterations) still shows the decades around it.
+TEST(SvgFigure, LogAxisWithinOneDecadeShowsTheDecadesAroundIt) {
+  SvgFigure f;
+  f.log_y = true;
+  f.series.push_back({"", "#000000", SvgSeries::Style::kLine, 1, false, {0, 1}, {420, 390}});
+  const std::string svg = RenderSvg(f);
+  EXPECT_THAT(svg, HasSubstr(">1e2<"));
+  EXPECT_THAT(svg, HasSubstr(">1e3<"));
+  EXPECT_THAT(svg, Not(HasSubstr(">1e1<")));
+  EXPECT_THAT(svg, Not(HasSubstr(">1e4<")));
+}
+
 TEST(EncodePng, InflatesToTheFilteredRows) {
   const std::vector<uint8_t> rgb = {255, 0, 0, 0, 255, 0, 0, 0, 255, 10, 20, 30};  // 2 x 2
   const std::string png = EncodePng(2, 2, rgb);
