@@ -131,6 +131,9 @@ void AddAssociationOptions(CLI::App* solve, SolveCommandOptions* options) {
                     "with --associate: test feature pairs closer than this [m]")
       ->check(PositiveReal())
       ->capture_default_str();
+  solve->add_flag("--associate-incremental", options->associate_incremental,
+                  "with --associate: first pair each scan with the map so far (joint "
+                  "compatibility, stage undo, loop closure by submap matching), then the rounds");
   solve->add_flag("--ignore-barcodes", options->ignore_barcodes,
                   "MRCLAM: drop the landmark identities (use with --associate)");
 }

@@ -55,6 +55,7 @@ struct SolveCommandOptions {
   bool associate = false;           // --associate
   double chi = 1e-3;                // --chi: accept pi_{j=k} > chi
   double association_radius = 5.0;  // --association-radius [m]
+  bool associate_incremental = false;  // --associate-incremental: the scan-by-scan pass first
   bool ignore_barcodes = false;     // --ignore-barcodes (MRCLAM)
   bool repair_information = false;  // --repair-information (core/information_repair.h)
   bool quiet = false;

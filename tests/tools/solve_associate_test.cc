@@ -102,6 +102,34 @@ TEST_F(SolveAssociateTest, AssociatesIdLessObservations) {
   EXPECT_GT(report["association"]["merge_list"][0]["probability"].get<double>(), 1e-3);
 }
 
+// The incremental pass before the rounds (--associate-incremental) runs and
+// ends with the same correspondences on this easy input.
+TEST_F(SolveAssociateTest, IncrementalPassFindsTheSameCorrespondences) {
+  SolveCommandOptions options;
+  options.input = input_;
+  options.output_g2o = (dir_ / "out.g2o").string();
+  options.report = (dir_ / "report.json").string();
+  options.associate = true;
+  options.associate_incremental = true;
+  options.association_radius = 3.0;
+  options.quiet = true;
+  ASSERT_EQ(RunSolveCommand(options), kExitOk);
+  const auto out = storage::ReadG2o(options.output_g2o);
+  ASSERT_TRUE(out.ok()) << out.status().ToString();
+  EXPECT_EQ(out->num_features(), 3);
+  ASSERT_EQ(out->observations.size(), 9u);
+  const int group[9] = {0, 0, 2, 0, 2, 1, 2, 1, 1};
+  for (int i = 0; i < 9; ++i)
+    for (int k = 0; k < 9; ++k)
+      EXPECT_EQ(out->observations[i].feature == out->observations[k].feature,
+                group[i] == group[k])
+          << "observations " << i << " and " << k;
+  std::ifstream report_file(options.report);
+  const nlohmann::json report = nlohmann::json::parse(report_file);
+  EXPECT_TRUE(report["association"]["incremental"]["ran"].get<bool>());
+  EXPECT_GT(report["association"]["incremental"]["stages"].get<int>(), 0);
+}
+
 double FinalChi2(const std::string& report_path) {
   std::ifstream file(report_path);
   return nlohmann::json::parse(file)["final_chi2"].get<double>();
