@@ -94,9 +94,7 @@ class DistributedSolveTest : public ::testing::Test {
                                      // One start for both: the default radius
                                      // follows the solver (CHOLMOD / KSP).
                                      "--initial-trust-region", "1e4",
-                                     // One start for both: an initialization's
-                                     // stage solves follow --solver.
-                                     "--initialization", "odometry"};
+                                     "--initialization", initialization_};
     if (ranks == 0) args.insert(args.end(), {"--solver", "cholmod"});
     if (ranks > 0 && !petsc_options.empty())
       args.insert(args.end(), {"--petsc-options", petsc_options});
@@ -104,6 +102,12 @@ class DistributedSolveTest : public ::testing::Test {
     EXPECT_EQ(code, 0) << name;
     return ReadJson(dir_ / (name + ".json"));
   }
+
+  // The start: an initialization's stage solves follow --solver (CHOLMOD in
+  // the one-process reference, our PCG on the ranks), so a start they fully
+  // solve (a small campus) ends 2e-8 apart after one step; dead reckoning
+  // gives both the same start.
+  std::string initialization_ = "odometry";
 
   // The agreement check of the header; `repeat`: and the determinism check.
   void ExpectAgreement(const fs::path& store, const std::string& petsc_options, bool repeat) {
@@ -158,6 +162,9 @@ TEST_F(DistributedSolveTest, VictoriaParkStoreAgreesWithOneProcessOnOneTwoAndFou
   // MUMPS's parallel Cholesky through PETSc's options: the CG default takes
   // hundreds of iterations per step on this store (minutes on a loaded
   // 2-core machine); the campus below runs the default.
+  // The default start: its stages leave Victoria Park short of the optimum,
+  // and dead reckoning would take the solve into a slow local minimum.
+  initialization_ = "auto";
   ExpectAgreement(store,
                   "-ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps "
                   "-mat_type sbaij",
