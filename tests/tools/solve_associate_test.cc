@@ -57,6 +57,34 @@ class SolveAssociateTest : public ::testing::Test {
     std::ofstream(input_) << kIdLessProblem;
   }
   void TearDown() override { std::filesystem::remove_all(dir_); }
+
+  // --associate on the id-less input, writing out.g2o and report.json.
+  SolveCommandOptions AssociateOptions() const {
+    SolveCommandOptions options;
+    options.input = input_;
+    options.output_g2o = (dir_ / "out.g2o").string();
+    options.report = (dir_ / "report.json").string();
+    options.associate = true;
+    options.association_radius = 3.0;
+    options.quiet = true;
+    return options;
+  }
+
+  // The output's observations (file order a a c a c b c b b, see
+  // kIdLessProblem) share a feature exactly when they share a landmark.
+  static void ExpectTheThreeLandmarks(const std::string& output_g2o) {
+    const auto out = storage::ReadG2o(output_g2o);
+    ASSERT_TRUE(out.ok()) << out.status().ToString();
+    EXPECT_EQ(out->num_features(), 3);
+    ASSERT_EQ(out->observations.size(), 9u);
+    const int group[9] = {0, 0, 2, 0, 2, 1, 2, 1, 1};
+    for (int i = 0; i < 9; ++i)
+      for (int k = 0; k < 9; ++k)
+        EXPECT_EQ(out->observations[i].feature == out->observations[k].feature,
+                  group[i] == group[k])
+            << "observations " << i << " and " << k;
+  }
+
   std::filesystem::path dir_;
   std::string input_;
 };
@@ -71,27 +99,9 @@ TEST_F(SolveAssociateTest, IdLessInputNeedsAssociate) {
 }
 
 TEST_F(SolveAssociateTest, AssociatesIdLessObservations) {
-  SolveCommandOptions options;
-  options.input = input_;
-  options.output_g2o = (dir_ / "out.g2o").string();
-  options.report = (dir_ / "report.json").string();
-  options.associate = true;
-  options.association_radius = 3.0;
-  options.quiet = true;
+  const SolveCommandOptions options = AssociateOptions();
   ASSERT_EQ(RunSolveCommand(options), kExitOk);
-  const auto out = storage::ReadG2o(options.output_g2o);
-  ASSERT_TRUE(out.ok()) << out.status().ToString();
-  EXPECT_EQ(out->num_features(), 3);
-  ASSERT_EQ(out->observations.size(), 9u);
-  // Observations in file order: a a c a c b c b b (see kIdLessProblem).
-  const int group[9] = {0, 0, 2, 0, 2, 1, 2, 1, 1};
-  for (int i = 0; i < 9; ++i) {
-    for (int k = 0; k < 9; ++k) {
-      EXPECT_EQ(out->observations[i].feature == out->observations[k].feature,
-                group[i] == group[k])
-          << "observations " << i << " and " << k;
-    }
-  }
+  ExpectTheThreeLandmarks(options.output_g2o);
   std::ifstream report_file(options.report);
   const nlohmann::json report = nlohmann::json::parse(report_file);
   ASSERT_TRUE(report.contains("association"));
@@ -105,25 +115,10 @@ TEST_F(SolveAssociateTest, AssociatesIdLessObservations) {
 // The incremental pass before the rounds (--associate-incremental) runs and
 // ends with the same correspondences on this easy input.
 TEST_F(SolveAssociateTest, IncrementalPassFindsTheSameCorrespondences) {
-  SolveCommandOptions options;
-  options.input = input_;
-  options.output_g2o = (dir_ / "out.g2o").string();
-  options.report = (dir_ / "report.json").string();
-  options.associate = true;
+  SolveCommandOptions options = AssociateOptions();
   options.associate_incremental = true;
-  options.association_radius = 3.0;
-  options.quiet = true;
   ASSERT_EQ(RunSolveCommand(options), kExitOk);
-  const auto out = storage::ReadG2o(options.output_g2o);
-  ASSERT_TRUE(out.ok()) << out.status().ToString();
-  EXPECT_EQ(out->num_features(), 3);
-  ASSERT_EQ(out->observations.size(), 9u);
-  const int group[9] = {0, 0, 2, 0, 2, 1, 2, 1, 1};
-  for (int i = 0; i < 9; ++i)
-    for (int k = 0; k < 9; ++k)
-      EXPECT_EQ(out->observations[i].feature == out->observations[k].feature,
-                group[i] == group[k])
-          << "observations " << i << " and " << k;
+  ExpectTheThreeLandmarks(options.output_g2o);
   std::ifstream report_file(options.report);
   const nlohmann::json report = nlohmann::json::parse(report_file);
   EXPECT_TRUE(report["association"]["incremental"]["ran"].get<bool>());
