@@ -2,7 +2,7 @@
 //
 // The solver makes one (or a few) streaming passes over the chunks per
 // iteration, loading each through Load(); it never needs all of them at once.
-// An in-memory source (partition/in_memory_chunk_source.h) and a disk-backed
+// An in-memory source (partition/ingest/in_memory_chunk_source.h) and a disk-backed
 // one (storage/, out-of-core) implement it, so that going out of core swaps the
 // source, not the algorithm. ChunkSource serves planar chunks, ChunkSource3d
 // 3-D ones (core/observation_chunk.h).

@@ -21,7 +21,7 @@
 // Chunks are eliminated in parallel (TBB) and merged in chunk order, so
 // results do not depend on the number of threads. Observations come only
 // through the ChunkSource3d (problem->observations is not read): an in-memory
-// one cut from the problem (partition/in_memory_chunk_source.h) or a store.
+// one cut from the problem (partition/ingest/in_memory_chunk_source.h) or a store.
 // The relative-pose and GPS constraints (core/pose_factors.h) take
 // pose_kernels.relative_pose / .gps (pose_kernels.motion has no 3-D
 // constraint), observations the observation_kernel (IRLS). The gauge is fixed

@@ -47,7 +47,7 @@ Status InitializeProblem(Problem2d* problem);
 // The checks of InitializeProblem for one observation (indices in range,
 // information positive definite), with its messages. For callers that stream
 // observations past the problem instead of holding them
-// (partition/first_sight_initialization.h).
+// (partition/initialization/first_sight_initialization.h).
 Status CheckObservation(const Problem2d& problem, const Observation& observation);
 
 // Table 1's feature placement for one observation: when its feature has no

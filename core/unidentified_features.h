@@ -1,7 +1,7 @@
 // Observations that came without a feature id (g2o DATA_FEATURE_POINTXY, native
 // log '-', MRCLAM with barcodes ignored): the readers give each one a feature
 // of its own whose id is kNoFeatureId. Only data association (solve
-// --associate, partition/association_driver.h) can use such a problem;
+// --associate, partition/association/association_driver.h) can use such a problem;
 // everything else rejects it, naming the first such observation's line.
 //
 // THREAD SAFETY: pure functions. ALLOCATION: none.

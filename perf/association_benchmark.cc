@@ -1,6 +1,6 @@
 // Data association at scale (issue 6): runs AssociateAndSolve on an id-less
 // input and scores the result against an answer key by pairwise precision and
-// recall (partition/association_driver.h), with seconds per round.
+// recall (partition/association/association_driver.h), with seconds per round.
 //
 //   association_benchmark victoria [chi] [radius] [mutual] [refit]
 //       victoriaPark-noassoc.g2o, key: victoriaPark-full.g2o (same observation
@@ -22,7 +22,7 @@
 // GS_FULL_SOLVE_UNDOS=2 sets AssociationOptions::full_solve_undos; GS_INC_STAGE,
 // GS_INC_RADIUS, GS_INC_Z, GS_INC_CONFIRM, GS_INC_WINDOW, GS_INC_ITERATIONS set
 // the incremental pass's stage_poses, search_radius, joint.z,
-// confirm_observations, provisional_poses and max_iterations_per_stage (partition/incremental_association.h), GS_INCREMENTAL=1 runs
+// confirm_observations, provisional_poses and max_iterations_per_stage (partition/association/incremental_association.h), GS_INCREMENTAL=1 runs
 // it (off by default); GS_LOOP=0/1, GS_LOOP_MIN, GS_LOOP_MARGIN, GS_LOOP_TOL,
 // GS_FIXES_FIRST=0/1 its solve_fixes_first, GS_STAGE_UNDO=0/1 its undo_stage_pairings;
 // GS_LOOP_ROT, GS_LOOP_RADIUS, GS_LOOP_WINDOW set its loop closure
@@ -46,9 +46,9 @@
 #include "core/initialization.h"
 #include "core/logging.h"
 #include "core/unidentified_features.h"
-#include "partition/association_driver.h"
-#include "partition/in_memory_chunk_source.h"
-#include "partition/progressive_initialization.h"
+#include "partition/association/association_driver.h"
+#include "partition/ingest/in_memory_chunk_source.h"
+#include "partition/initialization/progressive_initialization.h"
 #include "storage/g2o_reader.h"
 #include "storage/mrclam_reader.h"
 #include "tools/campus_simulator.h"

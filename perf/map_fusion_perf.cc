@@ -1,5 +1,5 @@
 // Points fused per second: OctoMap's serial OcTree::insertPointCloud against
-// our tiled parallel fusion (partition/tiled_fusion.h, TBB) on the same scans in
+// our tiled parallel fusion (partition/fusion/tiled_fusion.h, TBB) on the same scans in
 // one run, checking that both maps have the same occupied cells.
 //
 //   map_fusion_perf [--3dtk DIR] [--campus COLUMNS ROWS SPACING] [--resolution R]
@@ -21,7 +21,7 @@
 #include "tools/campus_3d.h"
 #include "storage/scan_store.h"
 #include "storage/threedtk_reader.h"
-#include "partition/tiled_fusion.h"
+#include "partition/fusion/tiled_fusion.h"
 
 namespace {
 

@@ -26,7 +26,7 @@
 
 #include "core/graphslam_solver.h"
 #include "core/initialization.h"
-#include "partition/in_memory_chunk_source.h"
+#include "partition/ingest/in_memory_chunk_source.h"
 #include "storage/g2o_reader.h"
 
 namespace graphslam {

@@ -78,10 +78,10 @@ using ObservationSink = std::function<Status(const core::Observation&)>;
 
 // As ReadNativeLog, but every RB / XY record goes to `sink` instead of the
 // result (whose `observations` stay empty): memory O(poses + features), so
-// the out-of-core ingest (partition/external_bucketing.h) can read logs whose
+// the out-of-core ingest (partition/ingest/external_bucketing.h) can read logs whose
 // observations do not fit in memory. Same checks, same dense indices.
 // `scans`, if given, receives every SCAN record in file order (the ingest
-// copies their files into the store, partition/ingest_scans.h).
+// copies their files into the store, partition/ingest/ingest_scans.h).
 StatusOr<core::Problem2d> ReadNativeLogStreaming(const std::string& path,
                                                  const ObservationSink& sink,
                                                  std::vector<NativeLogScan>* scans = nullptr);

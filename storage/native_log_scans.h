@@ -41,7 +41,7 @@ class NativeLogScanSource : public ScanSource {
   // if the log names no scan.
   static StatusOr<std::unique_ptr<NativeLogScanSource>> Open(const std::string& log_path);
   // The SCAN records of `log_path` as already read (the ingest's first pass,
-  // partition/ingest_scans.h), each with its scan's logged sensor pose
+  // partition/ingest/ingest_scans.h), each with its scan's logged sensor pose
   // (record_poses[i] for records[i]); the log is not read again. Same checks
   // as Open (every file exists); an empty `records` is allowed.
   static StatusOr<std::unique_ptr<NativeLogScanSource>> FromRecords(

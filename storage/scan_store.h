@@ -53,7 +53,7 @@ class InMemoryScanSource : public ScanSource {
 
 // Writes scans into DIR/scans/ as they come; Finish() writes the manifest.
 // A chunk file is durable (atomic write) once it appears in entries(): a
-// resumable producer (partition/ingest_scans.h) records entries() after each
+// resumable producer (partition/ingest/ingest_scans.h) records entries() after each
 // chunk and continues with Resume().
 class ScanStoreWriter {
  public:

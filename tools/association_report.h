@@ -8,7 +8,7 @@
 #include <cstddef>
 #include <nlohmann/json.hpp>
 
-#include "partition/association_driver.h"
+#include "partition/association/association_driver.h"
 
 namespace graphslam::tools {
 

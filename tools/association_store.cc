@@ -8,7 +8,7 @@
 #include <filesystem>
 
 #include "core/logging.h"
-#include "partition/in_memory_chunk_source.h"
+#include "partition/ingest/in_memory_chunk_source.h"
 #include "storage/chunk_store.h"
 #include "storage/directory_lock.h"
 #include "storage/stop_point.h"

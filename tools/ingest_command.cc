@@ -6,7 +6,7 @@
 #include <utility>
 
 #include "core/logging.h"
-#include "partition/streaming_ingest.h"
+#include "partition/ingest/streaming_ingest.h"
 #include "storage/chunk_store.h"
 #include "storage/env.h"
 #include "storage/store_directory.h"

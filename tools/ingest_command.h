@@ -1,7 +1,7 @@
 // `graphslam ingest INPUT -o STORE/ ...`: reads any supported input (g2o,
 // iSAM, MRCLAM folder, native log; storage/format_detection.h), initializes it
 // (paper Table 1, core/initialization.h), cuts its observations into
-// feature-complete chunks by external bucketing (partition/streaming_ingest.h)
+// feature-complete chunks by external bucketing (partition/ingest/streaming_ingest.h)
 // and writes a chunk store (storage/chunk_store.h, docs/formats/chunk_store.md)
 // that `graphslam solve STORE/` reads.
 //

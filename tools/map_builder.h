@@ -1,5 +1,5 @@
 // BuildMap: every scan, moved by its (optimized) pose, fused into one OctoMap
-// (ray casting from the sensor origin; partition/tiled_fusion.h) and into a
+// (ray casting from the sensor origin; partition/fusion/tiled_fusion.h) and into a
 // voxel-downsampled registered cloud (storage/pcd_io.h).
 //
 //   sensor pose of a scan = poses[scan.pose]   when `poses` is given (the
@@ -34,7 +34,7 @@
 #include "core/se3.h"
 #include "core/status.h"
 #include "storage/scan_store.h"
-#include "partition/tiled_fusion.h"
+#include "partition/fusion/tiled_fusion.h"
 
 namespace graphslam::map {
 
@@ -63,7 +63,7 @@ struct MapSummary {
   std::string tiles_index;      // index.json when tiled_output
   int64_t pcd_points = 0;
   int64_t pcd_tile_spills = 0;  // voxel tiles written to disk (0: the cloud fit its budget)
-  // The fusion's accounted memory (partition/tiled_fusion.h, MemoryStats):
+  // The fusion's accounted memory (partition/fusion/tiled_fusion.h, MemoryStats):
   // its peak (resident tiles + codes), the codes' peak, the most tiles
   // resident at once, and tiles written to disk.
   int64_t fusion_peak_bytes = 0;

@@ -6,7 +6,7 @@
 // observation buffer, the solve's chunks in flight, the CHOLMOD factor of
 // `--solver auto`) get what is left.
 //
-// Ingest of a native log (streamed, partition/streaming_ingest.h), P poses,
+// Ingest of a native log (streamed, partition/ingest/streaming_ingest.h), P poses,
 // F observed features, B observations per chunk, K buffered observations:
 //   pass 1 = base + blocks + P ingest_pose + F pass1_feature  (problem, id
 //            map, feature index; blocks: tokenizer and replay frames)

@@ -4,7 +4,7 @@
 #include <system_error>
 
 #include "core/logging.h"
-#include "partition/streaming_ingest.h"
+#include "partition/ingest/streaming_ingest.h"
 #include "storage/chunk_store.h"
 #include "storage/env.h"
 #include "storage/file_checksum.h"

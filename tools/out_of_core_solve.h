@@ -1,7 +1,7 @@
 // The out-of-core parts of `graphslam solve` (docs/out_of_core.md):
 //
 //   --workdir DIR     a FILE input is first ingested into the chunk store DIR
-//                     (partition/streaming_ingest.h: bounded memory for native
+//                     (partition/ingest/streaming_ingest.h: bounded memory for native
 //                     logs) and solved from there; DIR is kept (checkpoints
 //                     land in DIR/checkpoint.json, so --resume works). Without
 //                     --workdir a FILE is solved in memory, as before.
@@ -37,7 +37,7 @@ bool WorkdirStoreIsCurrent(const std::string& input, const std::string& workdir)
 
 // Ingests `input` (format "auto" or a name) into the store `workdir` with
 // `chunk_observations` per chunk; `resume` continues an interrupted ingest
-// (partition/streaming_ingest.h). Errors from detection, readers, the ingest.
+// (partition/ingest/streaming_ingest.h). Errors from detection, readers, the ingest.
 [[nodiscard]] Status IngestIntoWorkdir(const std::string& input, const std::string& format,
                                        int robot, const std::string& workdir,
                                        int64_t chunk_observations, int64_t memory_limit_bytes,

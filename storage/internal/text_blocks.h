@@ -1,7 +1,7 @@
 // Text input cut into blocks of whole lines, for readers that tokenize and
 // convert numbers in parallel (TBB) and interpret the lines in order: the
 // native log's reader (native_log_reader.cc; the ingest's pass 2 no longer
-// reads text: it replays pass 1's observations, partition/replay_frames.h).
+// reads text: it replays pass 1's observations, partition/ingest/replay_frames.h).
 //
 //   TextBlockCutter::Next   serial: the next ~block_bytes of whole lines, with
 //                           the number of lines before them and the byte

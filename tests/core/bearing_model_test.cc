@@ -17,7 +17,7 @@
 #include "core/graphslam_solver.h"
 #include "core/initialization.h"
 #include "core/observation_models.h"
-#include "partition/in_memory_chunk_source.h"
+#include "partition/ingest/in_memory_chunk_source.h"
 #include "storage/chunk_format.h"
 #include "storage/native_log_reader.h"
 #include "tests/testing/dense_reference.h"

@@ -21,7 +21,7 @@
 #include "core/point3_observation_model.h"
 #include "core/pose_factors.h"
 #include "core/relative_pose_3d_model.h"
-#include "partition/in_memory_chunk_source.h"
+#include "partition/ingest/in_memory_chunk_source.h"
 #include "tests/testing/reduced_system_at.h"
 #include "tests/testing/random_problem_3d.h"
 

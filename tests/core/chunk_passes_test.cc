@@ -7,7 +7,7 @@
 
 #include "core/internal/pose_pair_set.h"
 #include "core/pose_factors.h"
-#include "partition/in_memory_chunk_source.h"
+#include "partition/ingest/in_memory_chunk_source.h"
 #include "tests/testing/dense_reference.h"
 #include "tests/testing/reduced_system_at.h"
 #include "tests/testing/random_problem.h"

@@ -18,7 +18,7 @@
 #include "core/relative_pose_3d_model.h"
 #include "core/gps_3d_model.h"
 #include "core/robust_kernel.h"
-#include "partition/in_memory_chunk_source.h"
+#include "partition/ingest/in_memory_chunk_source.h"
 #include "tests/testing/numeric_diff.h"
 #include "tests/testing/random_problem_3d.h"
 

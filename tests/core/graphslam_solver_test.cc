@@ -11,7 +11,7 @@
 
 #include "core/levenberg_marquardt.h"
 #include "core/initialization.h"
-#include "partition/in_memory_chunk_source.h"
+#include "partition/ingest/in_memory_chunk_source.h"
 #include "storage/g2o_reader.h"
 #include "tests/testing/datasets.h"
 #include "tests/testing/dense_reference.h"

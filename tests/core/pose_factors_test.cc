@@ -16,7 +16,7 @@
 #include "core/pose_range_bearing_model.h"
 #include "core/relative_pose_model.h"
 #include "core/velocity_motion_model.h"
-#include "partition/in_memory_chunk_source.h"
+#include "partition/ingest/in_memory_chunk_source.h"
 #include "tests/testing/numeric_diff.h"
 #include "tests/testing/random_problem.h"
 #include "tests/testing/random_problem_3d.h"

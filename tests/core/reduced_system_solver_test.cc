@@ -14,8 +14,8 @@
 
 #include "core/graphslam_solver.h"
 #include "core/initialization.h"
-#include "partition/in_memory_chunk_source.h"
-#include "partition/progressive_initialization.h"
+#include "partition/ingest/in_memory_chunk_source.h"
+#include "partition/initialization/progressive_initialization.h"
 #include "storage/g2o_reader.h"
 #include "tests/testing/datasets.h"
 #include "tests/testing/random_linear_system.h"

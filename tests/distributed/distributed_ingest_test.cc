@@ -63,7 +63,7 @@ TEST_F(DistributedIngestTest, StoreWrittenByThreeRanksSolvesOnTwoAndOne) {
                           "-q"}),
             0);
   // Buckets of at most 600 observations: each rank spills only its shard's
-  // (partition/streaming_ingest.h); the chunks do not depend on the buffer.
+  // (partition/ingest/streaming_ingest.h); the chunks do not depend on the buffer.
   ASSERT_EQ(RunMpi(3, {"ingest", log, "-o", three.string(), "--chunk-observations", "300",
                        "--buffer-observations", "600", "-q"}),
             0);

@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "core/graphslam_solver.h"
-#include "partition/in_memory_chunk_source.h"
+#include "partition/ingest/in_memory_chunk_source.h"
 #include "storage/solver_checkpoint.h"
 #include "tests/testing/random_problem.h"
 

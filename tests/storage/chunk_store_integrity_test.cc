@@ -14,7 +14,7 @@
 #include <string>
 
 #include "core/initialization.h"
-#include "partition/in_memory_chunk_source.h"
+#include "partition/ingest/in_memory_chunk_source.h"
 #include "storage/checksummed_json.h"
 #include "storage/chunk_store.h"
 #include "storage/chunk_store_writer.h"

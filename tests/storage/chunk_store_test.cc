@@ -15,7 +15,7 @@
 
 #include "core/graphslam_solver.h"
 #include "core/initialization.h"
-#include "partition/in_memory_chunk_source.h"
+#include "partition/ingest/in_memory_chunk_source.h"
 #include "storage/env.h"
 #include "storage/g2o_reader.h"
 #include "tests/testing/datasets.h"

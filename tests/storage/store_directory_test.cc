@@ -13,7 +13,7 @@
 #include <string>
 
 #include "core/initialization.h"
-#include "partition/in_memory_chunk_source.h"
+#include "partition/ingest/in_memory_chunk_source.h"
 #include "storage/chunk_store.h"
 #include "tests/testing/random_problem.h"
 

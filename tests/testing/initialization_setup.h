@@ -12,7 +12,7 @@
 
 #include "core/graphslam_solver.h"
 #include "core/problem.h"
-#include "partition/in_memory_chunk_source.h"
+#include "partition/ingest/in_memory_chunk_source.h"
 #include "tests/testing/dense_reference.h"
 #include "tests/testing/random_problem.h"
 

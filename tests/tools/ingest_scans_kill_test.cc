@@ -1,7 +1,7 @@
 // kill -9 during `graphslam ingest` of a native log with SCAN records (its
 // .pcd files written here by PCL), then `ingest --resume`: the store, its
 // scan chunks included, is byte for byte the uninterrupted ingest's -- no scan
-// lost or written twice (partition/ingest_scans.h). And `graphslam map STORE/`
+// lost or written twice (partition/ingest/ingest_scans.h). And `graphslam map STORE/`
 // writes the same .bt and .pcd as `graphslam map LOG`.
 #include <gtest/gtest.h>
 #include <pcl/io/pcd_io.h>

@@ -3,7 +3,7 @@
 // the same start:
 //   as-given    the input's guess unchanged (every vertex must have one);
 //   pose-graph  Table 1, then the pose-only problem solved and the features
-//               re-placed (partition/pose_graph_initialization.h), in memory;
+//               re-placed (partition/initialization/pose_graph_initialization.h), in memory;
 //   a start written with --max-iterations 0 -o reloads to the same chi2, and
 //   solving from it gives the same optimum as solving directly.
 #include <gtest/gtest.h>

@@ -1,5 +1,5 @@
-// Streaming mode's default initializer (partition/pose_graph_initialization.h,
-// after partition/gps_segment_alignment.h) end to end: on 2-run GPS campuses,
+// Streaming mode's default initializer (partition/initialization/pose_graph_initialization.h,
+// after partition/initialization/gps_segment_alignment.h) end to end: on 2-run GPS campuses,
 // Table 1 alone (--initialization odometry) left LM at chi2/dof 76 (6000
 // poses, seed 2, GPS every 50; docs/out_of_core.md); the pose-graph
 // initializer reaches the noise floor.

@@ -7,7 +7,7 @@
 //
 // Map (BuildJobMap): every run's scans, each moved by its OPTIMIZED pose
 // (a 2-D pose lifted to (x, y, sensor_height, yaw)), fused in scan order by
-// the tiled parallel OctoMap fusion (partition/tiled_fusion.h through
+// the tiled parallel OctoMap fusion (partition/fusion/tiled_fusion.h through
 // tools/map_builder.h) into OUTPUT/.job/map.bt and a voxel-downsampled
 // binary_compressed OUTPUT/.job/map.pcd with the run id of every point
 // (storage/pcd_io.h). The map is a deterministic function of the optimized

@@ -18,10 +18,10 @@
 #include "core/initialization.h"
 #include "core/logging.h"
 #include "core/robust_kernel.h"
-#include "partition/association_driver.h"
-#include "partition/in_memory_chunk_source.h"
-#include "partition/incremental_initialization.h"
-#include "partition/progressive_initialization.h"
+#include "partition/association/association_driver.h"
+#include "partition/ingest/in_memory_chunk_source.h"
+#include "partition/initialization/incremental_initialization.h"
+#include "partition/initialization/progressive_initialization.h"
 #include "storage/atomic_file.h"
 #include "storage/directory_lock.h"
 #include "storage/store_directory.h"
@@ -296,7 +296,7 @@ Status StageInitialize(Context& ctx) {
 }
 
 // Unknown correspondences (runs with ids: false or without feature ids):
-// GraphSLAM with data association (Table 10, partition/association_driver.h)
+// GraphSLAM with data association (Table 10, partition/association/association_driver.h)
 // over all runs at once, starting from the initialized guesses; merged
 // landmarks tie runs, so the components are found again.
 //   -> .job/associated.graphslam, .job/associated_runs.json, .job/associate.json

@@ -76,7 +76,7 @@ struct RunSpec {
   std::optional<GpsSource> gps;
   // false: the run's landmark ids are ignored (unknown correspondence): every
   // observation gets a landmark of its own and the associate stage finds
-  // which are the same (partition/association_driver.h), within the run and
+  // which are the same (partition/association/association_driver.h), within the run and
   // across runs.
   bool ids = true;
   // optional ground truth: a TUM or KITTI trajectory (tools/ground_truth.h)

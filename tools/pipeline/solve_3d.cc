@@ -12,7 +12,7 @@
 #include "core/graphslam_solver_3d.h"
 #include "core/initialization_3d.h"
 #include "core/logging.h"
-#include "partition/in_memory_chunk_source.h"
+#include "partition/ingest/in_memory_chunk_source.h"
 #include "storage/g2o_3d_writer.h"
 #include "storage/solver_checkpoint.h"
 #include "tools/exit_codes.h"

@@ -5,7 +5,7 @@
 
 #include "core/graphslam_solver_3d.h"
 #include "core/initialization_3d.h"
-#include "partition/in_memory_chunk_source.h"
+#include "partition/ingest/in_memory_chunk_source.h"
 #include "core/logging.h"
 #include "storage/atomic_file.h"
 #include "storage/chunk_store.h"

@@ -3,7 +3,7 @@
 #include <cstdio>
 #include <string>
 
-#include "partition/progressive_initialization.h"
+#include "partition/initialization/progressive_initialization.h"
 #include "storage/chunk_store.h"
 #include "tools/distributed_solve_command.h"
 #include "tools/memory_size.h"

@@ -1,6 +1,6 @@
 // The associate stage with unknown correspondences: a simulated campus
 // driven twice with its landmark ids dropped (ids: false) and no GPS. Each run
-// alone is its own component; data association (partition/association_driver.h)
+// alone is its own component; data association (partition/association/association_driver.h)
 // across the runs merges their landmarks and ties them into one component,
 // whose trajectories match the ground truth within the noise. Without the
 // associate stage the same job leaves the runs apart (reported, not merged).

@@ -18,7 +18,7 @@
 #include <set>
 #include <sstream>
 
-#include "partition/streaming_ingest.h"
+#include "partition/ingest/streaming_ingest.h"
 #include "storage/env.h"
 #include "storage/pcd_io.h"
 #include "storage/pcd_run_names.h"

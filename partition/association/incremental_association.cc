@@ -1,0 +1,721 @@
+#include "partition/association/incremental_association.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <numeric>
+#include <string>
+#include <unordered_map>
+#include <utility>
+
+#include "core/logging.h"
+#include "core/point_observation_model.h"
+#include "core/pose_marginals.h"
+#include "core/range_bearing_model.h"
+#include "core/unidentified_features.h"
+#include "partition/association/feature_covariances.h"
+#include "partition/ingest/in_memory_chunk_source.h"
+#include "partition/association/internal/chi_square.h"
+#include "partition/association/internal/observation_chi2.h"
+#include "partition/initialization/internal/odometry_chain.h"
+#include "partition/association/internal/variance_factor.h"
+#include "partition/initialization/singleton_solve.h"
+
+namespace graphslam::partition {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+core::Point2 FirstSight(const core::Observation& o, const core::Pose2& pose) {
+  return core::InvertObservation(o.kind, pose, o.z);
+}
+
+struct Cluster {
+  core::Point2 position = core::Point2::Zero();  // estimate after the last stage solve
+  std::vector<int32_t> members;                   // input observations
+  int32_t last_pose = -1;
+  bool dropped = false;
+  bool absorbed = false;  // joined to an older feature by a loop closure (no members left)
+  // In the current stage: the sub-problem feature that represents it in the
+  // tests (its latest singleton if seen in this stage) and where it is.
+  int32_t representative = -1;
+  core::Point2 representative_position = core::Point2::Zero();
+};
+
+// The prefix sub-problem of poses [0, end): every cluster not dropped with an
+// observation below `end`, and a singleton per unassigned observation of a pose
+// in [begin, end) at its first sight. cluster_feature / singleton_feature map
+// clusters / input observations to the sub-problem's features (-1: absent).
+struct Stage {
+  core::Problem2d sub;
+  std::vector<int32_t> cluster_feature;
+  std::unordered_map<int32_t, int32_t> singleton_feature;
+};
+
+Stage BuildStage(const core::Problem2d& problem, const std::vector<core::Pose2>& poses,
+                 const std::vector<Cluster>& clusters, const std::vector<int32_t>& cluster_of,
+                 int32_t begin, int32_t end) {
+  Stage stage;
+  core::Problem2d& sub = stage.sub;
+  sub.source = problem.source;
+  sub.poses.assign(poses.begin(), poses.begin() + end);
+  sub.pose_ids.assign(problem.pose_ids.begin(), problem.pose_ids.begin() + end);
+  sub.pose_fixed.assign(problem.pose_fixed.begin(), problem.pose_fixed.begin() + end);
+  sub.pose_initialized.assign(end, 1);
+  sub.pose_lines.assign(problem.pose_lines.begin(), problem.pose_lines.begin() + end);
+  sub.pose_stamps.assign(problem.pose_stamps.begin(), problem.pose_stamps.begin() + end);
+  for (const core::RelativePoseConstraint& c : problem.relative_poses)
+    if (c.from < end && c.to < end) sub.relative_poses.push_back(c);
+  for (const core::VelocityMotionConstraint& c : problem.motions)
+    if (c.from < end && c.to < end) sub.motions.push_back(c);
+  for (const core::GpsConstraint& c : problem.gps)
+    if (c.pose < end) sub.gps.push_back(c);
+  stage.cluster_feature.assign(clusters.size(), -1);
+  for (size_t o = 0; o < problem.observations.size(); ++o) {
+    const core::Observation& obs = problem.observations[o];
+    if (obs.pose >= end) continue;
+    int32_t feature = -1;
+    const int32_t c = cluster_of[o];
+    if (c >= 0) {
+      if (clusters[c].dropped) continue;
+      feature = stage.cluster_feature[c];
+      if (feature < 0) {
+        feature = sub.AddFeature(core::kNoFeatureId, clusters[c].position, true);
+        stage.cluster_feature[c] = feature;
+      }
+    } else {
+      if (obs.pose < begin) continue;  // cannot happen: every earlier observation is assigned
+      feature = sub.AddFeature(core::kNoFeatureId, FirstSight(obs, poses[obs.pose]), true);
+      stage.singleton_feature[static_cast<int32_t>(o)] = feature;
+    }
+    sub.observations.push_back(obs);
+    sub.observations.back().feature = feature;
+  }
+  return stage;
+}
+
+Status CheckInput(const core::Problem2d& problem) {
+  const std::string prefix =
+      (problem.source.empty() ? std::string("<input>") : problem.source) + ": ";
+  const int32_t n = problem.num_poses();
+  auto bad = [&](const char* what, int32_t index, int32_t line) {
+    const std::string where = line > 0 ? "line " + std::to_string(line) + ": " : "";
+    return Status::InvalidArgument(prefix + where + what + " index " + std::to_string(index) +
+                                   " out of range, expected 0.." + std::to_string(n - 1));
+  };
+  for (const core::RelativePoseConstraint& c : problem.relative_poses) {
+    if (c.from < 0 || c.from >= n) return bad("relative pose 'from' pose", c.from, c.line);
+    if (c.to < 0 || c.to >= n) return bad("relative pose 'to' pose", c.to, c.line);
+  }
+  for (const core::VelocityMotionConstraint& c : problem.motions) {
+    if (c.from < 0 || c.from >= n) return bad("motion 'from' pose", c.from, c.line);
+    if (c.to < 0 || c.to >= n) return bad("motion 'to' pose", c.to, c.line);
+  }
+  for (const core::GpsConstraint& c : problem.gps)
+    if (c.pose < 0 || c.pose >= n) return bad("GPS pose", c.pose, c.line);
+  for (const core::Observation& o : problem.observations)
+    if (o.pose < 0 || o.pose >= n) return bad("observation pose", o.pose, o.line);
+  return Status::Ok();
+}
+
+// Whitened gains of the stage's features, computed on first use.
+class WhitenedCache {
+ public:
+  WhitenedCache(const core::PoseMarginals& marginals, const std::vector<FeatureState>& states)
+      : marginals_(marginals), states_(states), slot_(states.size(), -1) {}
+
+  Status Ensure(const std::vector<int32_t>& features) {
+    std::vector<int32_t> missing;
+    for (int32_t f : features)
+      if (slot_[f] < 0) {
+        slot_[f] = -2;
+        missing.push_back(f);
+      }
+    if (missing.empty()) return Status::Ok();
+    WhitenedFeatures more;
+    GS_RETURN_IF_ERROR(WhitenFeatures(marginals_, states_, missing, &more));
+    for (size_t i = 0; i < missing.size(); ++i) {
+      slot_[missing[i]] = static_cast<int32_t>(whitened_.whitened.size());
+      whitened_.whitened.push_back(std::move(more.whitened[i]));
+      whitened_.covariance.push_back(more.covariance[i]);
+    }
+    return Status::Ok();
+  }
+  // Sigma_ab of two features (Ensure'd).
+  Eigen::Matrix2d Covariance(int32_t a, int32_t b) const {
+    if (a == b) return whitened_.covariance[slot_[a]];
+    return core::PoseMarginals::Dot(whitened_.whitened[slot_[a]], whitened_.whitened[slot_[b]]);
+  }
+
+ private:
+  const core::PoseMarginals& marginals_;
+  const std::vector<FeatureState>& states_;
+  std::vector<int32_t> slot_;
+  WhitenedFeatures whitened_;
+};
+
+int64_t CellKey(const core::Point2& p, double cell) {
+  const int64_t x = static_cast<int64_t>(std::floor(p.x() / cell));
+  const int64_t y = static_cast<int64_t>(std::floor(p.y() / cell));
+  return (x << 32) ^ (y & 0xffffffffLL);
+}
+
+
+// Loop closure of one stage: the local map (clusters seen from pose
+// begin - window on) against the older confirmed clusters, matched as a rigid
+// whole (partition/association/submap_matching.h). Each inlier pair is joined: the local
+// cluster's observations go to the older one. Returns the pairs joined.
+int64_t CloseLoop(const IncrementalAssociationOptions& options, const core::Problem2d& problem,
+                  int32_t begin, const std::vector<uint8_t>& solved_before,
+                  std::vector<Cluster>* clusters, std::vector<int32_t>* cluster_of) {
+  std::vector<int32_t> local_ids, map_ids;
+  std::vector<core::Point2> local, map;
+  const int64_t first_local = static_cast<int64_t>(begin) - options.local_window;
+  for (size_t c = 0; c < clusters->size(); ++c) {
+    const Cluster& cluster = (*clusters)[c];
+    if (cluster.dropped || cluster.absorbed || cluster.members.empty()) continue;
+    if (cluster.last_pose >= first_local) {
+      local_ids.push_back(static_cast<int32_t>(c));
+      // Seen before this stage: its solved estimate; new: where it was seen.
+      local.push_back(c < solved_before.size() && solved_before[c] ? cluster.position
+                                                                    : cluster.representative_position);
+    } else if (static_cast<int64_t>(cluster.members.size()) >= options.confirm_observations) {
+      map_ids.push_back(static_cast<int32_t>(c));
+      map.push_back(cluster.position);
+    }
+  }
+  auto poses_of = [&](int32_t c) {
+    std::vector<int32_t> poses;
+    for (int32_t o : (*clusters)[c].members) poses.push_back(problem.observations[o].pose);
+    std::sort(poses.begin(), poses.end());
+    return poses;
+  };
+  // One scan never sees one landmark twice: clusters sharing a pose stay apart.
+  auto allowed = [&](int32_t l, int32_t a) {
+    const std::vector<int32_t> x = poses_of(local_ids[l]), y = poses_of(map_ids[a]);
+    for (size_t i = 0, j = 0; i < x.size() && j < y.size();) {
+      if (x[i] == y[j]) return false;
+      (x[i] < y[j] ? i : j) += 1;
+    }
+    return true;
+  };
+  const SubmapMatch match = MatchSubmap(local, map, options.loop, allowed);
+  if (!match.accepted) {
+    if (match.best_inliers >= 3)
+      GS_VLOG(2, "incremental association: no loop closure at pose %d: best %d inliers, "
+              "runner-up %d, %zu local, %zu older", begin, match.best_inliers,
+              match.runner_up_inliers, local.size(), map.size());
+    return 0;
+  }
+  core::Point2 centre = core::Point2::Zero();
+  for (const auto& [l, a] : match.pairs) centre += local[l];
+  centre /= static_cast<double>(match.pairs.size());
+  const double c = std::cos(match.transform.z()), s = std::sin(match.transform.z());
+  const core::Point2 moved(c * centre.x() - s * centre.y() + match.transform.x(),
+                           s * centre.x() + c * centre.y() + match.transform.y());
+  GS_VLOG(1, "incremental association: loop closure at pose %d, %d pairs (runner-up %d), "
+          "%zu local, %zu older; the pairs' centre moves %.2f m, %.3f rad", begin,
+          match.best_inliers, match.runner_up_inliers, local.size(), map.size(),
+          (moved - centre).norm(), match.transform.z());
+  for (const auto& [l, a] : match.pairs) {
+    if (LogVerbosity() >= 2) {
+      std::string text;
+      for (int32_t o : (*clusters)[local_ids[l]].members) text.append(" ").append(std::to_string(o));
+      text.append(" |");
+      for (int32_t o : (*clusters)[map_ids[a]].members) text.append(" ").append(std::to_string(o));
+      GS_VLOG(2, "incremental association: loop pair: observations%s", text.c_str());
+    }
+    Cluster& from = (*clusters)[local_ids[l]];
+    Cluster& to = (*clusters)[map_ids[a]];
+    for (int32_t o : from.members) {
+      to.members.push_back(o);
+      (*cluster_of)[o] = map_ids[a];
+    }
+    std::sort(to.members.begin(), to.members.end());
+    to.last_pose = std::max(to.last_pose, from.last_pose);
+    from.members.clear();
+    from.absorbed = true;
+  }
+  return static_cast<int64_t>(match.pairs.size());
+}
+
+// False (and OK) unless the input is id-less: one observation per feature.
+// Undo of the stage's pairings (property 3 of the search, inside the pass):
+// for every cluster that gained observations in the stage while holding
+// older ones, the chi2 of each side at the solved estimate is compared with
+// the chi-square quantile for 2n degrees of freedom at z = undo_z, scaled by
+// the variance factor. If either side does not fit, the stage's side is
+// split off into a cluster of its own (at the mean of its first sights): a
+// wrong pairing then costs one stage instead of bending every later one.
+// Returns the clusters split.
+int64_t UndoStagePairings(const IncrementalAssociationOptions& options,
+                          const core::Problem2d& problem, const std::vector<core::Pose2>& poses,
+                          const std::vector<int32_t>& cluster_before, double scale,
+                          std::vector<Cluster>* clusters, std::vector<int32_t>* cluster_of) {
+  int64_t undone = 0;
+  const size_t existing = clusters->size();
+  for (size_t c = 0; c < existing; ++c) {
+    Cluster& cluster = (*clusters)[c];
+    if (cluster.dropped || cluster.absorbed || cluster.members.size() < 2) continue;
+    std::vector<int32_t> old_side, new_side;
+    for (int32_t o : cluster.members)
+      (cluster_before[o] == static_cast<int32_t>(c) ? old_side : new_side).push_back(o);
+    if (old_side.empty() || new_side.empty()) continue;
+    auto side_chi2 = [&](const std::vector<int32_t>& side) {
+      double sum = 0.0;
+      for (int32_t o : side) {
+        const core::Observation& obs = problem.observations[o];
+        sum += internal::ObservationChi2(obs, poses[obs.pose], cluster.position);
+      }
+      return sum;
+    };
+    const auto fits = [&](const std::vector<int32_t>& side) {
+      return side_chi2(side) <=
+             scale * internal::ChiSquareQuantile(2.0 * static_cast<double>(side.size()),
+                                                 options.undo_z);
+    };
+    if (fits(old_side) && fits(new_side)) continue;
+    ++undone;
+    Cluster split;
+    core::Point2 sum = core::Point2::Zero();
+    for (int32_t o : new_side) {
+      const core::Observation& obs = problem.observations[o];
+      sum += FirstSight(obs, poses[obs.pose]);
+      split.last_pose = std::max(split.last_pose, obs.pose);
+      (*cluster_of)[o] = static_cast<int32_t>(clusters->size());
+    }
+    split.position = sum / static_cast<double>(new_side.size());
+    split.members = new_side;
+    cluster.members = old_side;
+    cluster.last_pose = -1;
+    for (int32_t o : old_side)
+      cluster.last_pose = std::max(cluster.last_pose, problem.observations[o].pose);
+    GS_VLOG(2, "incremental association: stage undo splits %zu observations off a feature of %zu",
+            new_side.size(), old_side.size());
+    clusters->push_back(std::move(split));  // invalidates `cluster`
+  }
+  return undone;
+}
+
+StatusOr<bool> IsIdLess(const core::Problem2d& problem) {
+  std::vector<int32_t> count(problem.num_features(), 0);
+  for (const core::Observation& o : problem.observations) {
+    if (o.feature < 0 || o.feature >= problem.num_features())
+      return Status::InvalidArgument(
+          (problem.source.empty() ? std::string("<input>") : problem.source) + ": line " +
+          std::to_string(o.line) + ": observation feature index " + std::to_string(o.feature) +
+          " out of range, expected 0.." + std::to_string(problem.num_features() - 1));
+    if (++count[o.feature] > 1) return false;
+  }
+  return true;
+}
+
+// The state the stages of AssociateIncrementally share.
+struct IncrementalRun {
+  IncrementalRun(const IncrementalAssociationOptions& options_in,
+                 const core::SolverOptions& solver_options_in, core::Problem2d* problem_in,
+                 IncrementalAssociationSummary* summary_in)
+      : options(options_in), solver_options(solver_options_in), problem(problem_in),
+        summary(summary_in) {}
+
+  const IncrementalAssociationOptions& options;
+  const core::SolverOptions& solver_options;
+  core::Problem2d* problem;
+  IncrementalAssociationSummary* summary;
+  std::vector<std::vector<int32_t>> observations_of_pose;
+  std::vector<core::Pose2> poses;
+  std::vector<Cluster> clusters;
+  std::vector<int32_t> cluster_of;  // per input observation
+  std::vector<uint8_t> has_fix;     // per pose: a GPS fix
+  ChunkingOptions chunking;
+  core::SolverOptions stage_options;
+  double radius_squared = 0.0;
+  double scale = 1.0;  // variance factor of the last stage solve
+};
+
+// The stage's view of the clusters met so far: the linearization at its
+// start, the whitened gains, the grid of cluster positions, and the clusters
+// seen (or made) in the stage.
+struct StageView {
+  Stage stage;
+  std::vector<FeatureState> states;
+  std::unique_ptr<WhitenedCache> cache;
+  std::unordered_map<int64_t, std::vector<int32_t>> grid;
+  std::vector<int32_t> touched;
+  std::vector<uint8_t> is_touched;
+};
+
+// Clusters near any of the scan's singletons (`singles`) whose representative
+// has a proper covariance, sorted.
+std::vector<int32_t> ScanTargets(const IncrementalRun& run, const StageView& view,
+                                 const std::vector<int32_t>& singles) {
+  const double radius = run.options.search_radius;
+  std::vector<int32_t> targets;
+  std::vector<uint8_t> is_target(run.clusters.size(), 0);
+  auto consider = [&](int32_t c) {
+    const Cluster& cluster = run.clusters[c];
+    if (is_target[c] || cluster.dropped || cluster.representative < 0 ||
+        !view.states[cluster.representative].usable)
+      return;
+    for (int32_t s : singles) {
+      if ((cluster.representative_position - view.stage.sub.features[s]).squaredNorm() <=
+          run.radius_squared) {
+        is_target[c] = 1;
+        targets.push_back(c);
+        return;
+      }
+    }
+  };
+  for (int32_t s : singles) {
+    const core::Point2& q = view.stage.sub.features[s];
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        const core::Point2 probe = q + core::Point2(dx * radius, dy * radius);
+        const auto it = view.grid.find(CellKey(probe, radius));
+        if (it == view.grid.end()) continue;
+        for (int32_t c : it->second)
+          if (!view.is_touched[c]) consider(c);
+      }
+    }
+  }
+  for (int32_t c : view.touched) consider(c);
+  std::sort(targets.begin(), targets.end());
+  return targets;
+}
+
+// Joint compatibility of the scan's tested observations with the targets:
+// writes the paired cluster of each tested observation into *assignment.
+// *t0 times the assignment; the covariances are timed apart.
+Status AssignJointly(const std::vector<int32_t>& singles, const std::vector<size_t>& tested,
+                     const std::vector<int32_t>& targets, StageView* view, IncrementalRun* run,
+                     Clock::time_point* t0, std::vector<int32_t>* assignment) {
+  IncrementalAssociationSummary* summary = run->summary;
+  std::vector<int32_t> features;
+  for (size_t i : tested) features.push_back(singles[i]);
+  for (int32_t c : targets) features.push_back(run->clusters[c].representative);
+  summary->assignment_seconds += SecondsSince(*t0);
+  *t0 = Clock::now();
+  GS_RETURN_IF_ERROR(view->cache->Ensure(features));
+  summary->covariance_seconds += SecondsSince(*t0);
+  *t0 = Clock::now();
+  ScanAssociationInput input;
+  input.observations = static_cast<int>(tested.size());
+  input.targets = static_cast<int>(targets.size());
+  const int k = static_cast<int>(features.size());
+  input.covariance.resize(2 * k, 2 * k);
+  for (int a = 0; a < k; ++a) {
+    input.means.push_back(view->stage.sub.features[features[a]]);
+    for (int b = 0; b <= a; ++b) {
+      const Eigen::Matrix2d block = run->scale * view->cache->Covariance(features[a], features[b]);
+      input.covariance.block<2, 2>(2 * a, 2 * b) = block;
+      input.covariance.block<2, 2>(2 * b, 2 * a) = block.transpose();
+    }
+  }
+  const ScanAssignment result = AssignScanJointly(input, run->options.joint);
+  if (result.exhausted) ++summary->exhausted_scans;
+  for (size_t t = 0; t < tested.size(); ++t)
+    if (result.target[t] >= 0) (*assignment)[tested[t]] = targets[result.target[t]];
+  return Status::Ok();
+}
+
+// The scan of pose p: each observation joins its assigned cluster or starts
+// a new one.
+Status AssociateScan(int32_t p, StageView* view, IncrementalRun* run, Clock::time_point* t0) {
+  const std::vector<int32_t>& scan = run->observations_of_pose[p];
+  ++run->summary->scans;
+  std::vector<int32_t> singles;
+  for (int32_t o : scan) singles.push_back(view->stage.singleton_feature.at(o));
+  // Targets near any observation of the scan.
+  const std::vector<int32_t> targets = ScanTargets(*run, *view, singles);
+
+  // Observations whose estimate has no proper covariance (excluded by
+  // the screening) start features of their own.
+  std::vector<int32_t> assignment(scan.size(), -1);
+  std::vector<size_t> tested;
+  for (size_t i = 0; i < scan.size(); ++i)
+    if (view->states[singles[i]].usable) tested.push_back(i);
+  if (!targets.empty() && !tested.empty())
+    GS_RETURN_IF_ERROR(AssignJointly(singles, tested, targets, view, run, t0, &assignment));
+  std::vector<Cluster>& clusters = run->clusters;
+  for (size_t i = 0; i < scan.size(); ++i) {
+    int32_t c = assignment[i];
+    if (c >= 0) {
+      ++run->summary->paired;
+    } else {
+      c = static_cast<int32_t>(clusters.size());
+      clusters.emplace_back();
+      clusters.back().position = view->stage.sub.features[singles[i]];
+      view->is_touched.push_back(0);
+    }
+    Cluster& cluster = clusters[c];
+    cluster.members.push_back(scan[i]);
+    cluster.last_pose = p;
+    cluster.representative = singles[i];
+    cluster.representative_position = view->stage.sub.features[singles[i]];
+    run->cluster_of[scan[i]] = c;
+    if (!view->is_touched[c]) {
+      view->is_touched[c] = 1;
+      view->touched.push_back(c);
+    }
+  }
+  return Status::Ok();
+}
+
+// Pairs the observations of poses [begin, end) with the clusters, scan by
+// scan, then closes loops.
+Status PairStage(int32_t begin, int32_t end, IncrementalRun* run) {
+  IncrementalAssociationSummary* summary = run->summary;
+  // Covariances at the stage's start: the prefix solved, the new poses
+  // chained (without GPS fixes on them they and their singletons fit their
+  // constraints exactly, so this is the optimum of the stage sub-problem
+  // before any pairing; with fixes, solved first by SolveFixesFirst).
+  Clock::time_point t0 = Clock::now();
+  StageView view;
+  view.stage = BuildStage(*run->problem, run->poses, run->clusters, run->cluster_of, begin, end);
+  InMemoryChunkSource chunks(view.stage.sub, run->chunking);
+  core::PoseMarginals marginals;
+  GS_RETURN_IF_ERROR(
+      LinearizeAtSolution(run->solver_options, chunks, view.stage.sub, &marginals, &view.states)
+          .WithContext("incremental association, poses " + std::to_string(begin) + ".." +
+                       std::to_string(end - 1)));
+  view.cache = std::make_unique<WhitenedCache>(marginals, view.states);
+  summary->covariance_seconds += SecondsSince(t0);
+
+  t0 = Clock::now();
+  for (size_t c = 0; c < run->clusters.size(); ++c) {
+    Cluster& cluster = run->clusters[c];
+    cluster.representative = view.stage.cluster_feature[c];
+    if (cluster.dropped || cluster.representative < 0) continue;
+    cluster.representative_position = cluster.position;
+    view.grid[CellKey(cluster.position, run->options.search_radius)].push_back(
+        static_cast<int32_t>(c));
+  }
+  // The clusters made before the stage.
+  const std::vector<uint8_t> solved_before(run->clusters.size(), 1);
+  view.is_touched.assign(run->clusters.size(), 0);
+  for (int32_t p = begin; p < end; ++p) {
+    if (run->observations_of_pose[p].empty()) continue;
+    GS_RETURN_IF_ERROR(AssociateScan(p, &view, run, &t0));
+  }
+  if (run->options.close_loops) {
+    const int64_t joined = CloseLoop(run->options, *run->problem, begin, solved_before,
+                                     &run->clusters, &run->cluster_of);
+    if (joined > 0) {
+      ++summary->loop_closures;
+      summary->loop_pairs += joined;
+    }
+  }
+  summary->assignment_seconds += SecondsSince(t0);
+  return Status::Ok();
+}
+
+// Solves poses [0, end) with the current clusters (observations not yet
+// assigned left out) and takes over the solved poses and positions.
+Status SolvePrefix(int32_t end, const char* what, IncrementalRun* run, Stage* solved,
+                   core::SolverSummary* solver_summary) {
+  const Clock::time_point solve_start = Clock::now();
+  *solved = BuildStage(*run->problem, run->poses, run->clusters, run->cluster_of, end, end);
+  GS_RETURN_IF_ERROR(
+      SolveWithoutSingletons(run->stage_options, run->chunking, &solved->sub, solver_summary)
+          .WithContext(std::string("incremental association, ") + what + " of poses 0.." +
+                       std::to_string(end - 1)));
+  std::copy(solved->sub.poses.begin(), solved->sub.poses.end(), run->poses.begin());
+  for (size_t c = 0; c < run->clusters.size(); ++c)
+    if (solved->cluster_feature[c] >= 0)
+      run->clusters[c].position = solved->sub.features[solved->cluster_feature[c]];
+  run->summary->solve_seconds += SecondsSince(solve_start);
+  return Status::Ok();
+}
+
+// GPS fixes on the new poses: the chained poses do not fit them, and the
+// stage's covariances include their information. Testing the chained means
+// with those covariances is over-confident by the dead-reckoning error the
+// fixes would remove (metres on the simulated campus), so the prefix is
+// first solved with the fixes (the new observations are singletons and left
+// out): the means then match the covariances.
+Status SolveFixesFirst(int32_t begin, int32_t end, IncrementalRun* run) {
+  bool new_fixes = false;
+  for (int32_t p = begin; p < end && !new_fixes; ++p) new_fixes = run->has_fix[p] != 0;
+  if (!new_fixes || !run->options.solve_fixes_first) return Status::Ok();
+  core::SolverSummary solver_summary;
+  Stage solved;
+  return SolvePrefix(end, "GPS solve", run, &solved, &solver_summary);
+}
+
+// Solves the prefix [0, end) with its correspondences (poses and cluster
+// positions from the solution, the variance factor for the next stage), then
+// undoes the stage's pairings the solution rejects and solves again.
+Status SolveStage(int32_t end, const std::vector<int32_t>& cluster_before, IncrementalRun* run) {
+  IncrementalAssociationSummary* summary = run->summary;
+  for (int attempt = 0;; ++attempt) {
+    core::SolverSummary solver_summary;
+    Stage solved;
+    GS_RETURN_IF_ERROR(SolvePrefix(end, "stage solve", run, &solved, &solver_summary));
+    summary->chi2 = solver_summary.final_chi2;
+    if (run->options.scale_by_variance_factor)
+      run->scale = internal::VarianceFactor(solved.sub, solver_summary.final_chi2,
+                                            run->options.min_redundancy);
+    summary->variance_factor = run->scale;
+    if (!run->options.undo_stage_pairings || attempt >= run->options.max_stage_undo_passes)
+      return Status::Ok();
+    const int64_t undone = UndoStagePairings(run->options, *run->problem, run->poses,
+                                             cluster_before, run->scale, &run->clusters,
+                                             &run->cluster_of);
+    summary->stage_undone += undone;
+    if (undone == 0) return Status::Ok();
+  }
+}
+
+// The map: confirmed features and their observations, input order kept.
+void WriteMap(IncrementalRun* run, std::vector<int32_t>* input_observation) {
+  core::Problem2d* problem = run->problem;
+  IncrementalAssociationSummary* summary = run->summary;
+  std::vector<int32_t> index(run->clusters.size(), -1);
+  std::vector<core::Point2> features;
+  for (size_t c = 0; c < run->clusters.size(); ++c) {
+    Cluster& cluster = run->clusters[c];
+    if (cluster.absorbed) continue;
+    if (static_cast<int64_t>(cluster.members.size()) < run->options.confirm_observations)
+      cluster.dropped = true;
+    if (cluster.dropped) {
+      ++summary->provisional_dropped;
+      summary->clutter_observations += static_cast<int64_t>(cluster.members.size());
+      continue;
+    }
+    index[c] = static_cast<int32_t>(features.size());
+    features.push_back(cluster.position);
+  }
+  std::vector<core::Observation> kept;
+  input_observation->clear();
+  const auto m = static_cast<int64_t>(problem->observations.size());
+  for (int64_t o = 0; o < m; ++o) {
+    const int32_t f = index[run->cluster_of[o]];
+    if (f < 0) continue;
+    kept.push_back(problem->observations[o]);
+    kept.back().feature = f;
+    input_observation->push_back(static_cast<int32_t>(o));
+  }
+  problem->observations = std::move(kept);
+  problem->features = std::move(features);
+  problem->feature_ids.assign(problem->features.size(), core::kNoFeatureId);
+  problem->feature_initialized.assign(problem->features.size(), 1);
+  problem->poses = std::move(run->poses);
+}
+
+}  // namespace
+
+Status IncrementalAssociationOptions::Validate() const {
+  if (stage_poses < 1)
+    return Status::InvalidArgument("incremental association: stage_poses must be >= 1, got " +
+                                   std::to_string(stage_poses));
+  if (max_iterations_per_stage < 0)
+    return Status::InvalidArgument(
+        "incremental association: max_iterations_per_stage must be >= 0, got " +
+        std::to_string(max_iterations_per_stage));
+  if (!(search_radius > 0.0) || !std::isfinite(search_radius))
+    return Status::InvalidArgument("incremental association: search_radius must be finite and "
+                                   "> 0, got " + std::to_string(search_radius));
+  if (!std::isfinite(joint.z) || joint.max_nodes < 1)
+    return Status::InvalidArgument(
+        "incremental association: joint.z must be finite and joint.max_nodes >= 1");
+  if (confirm_observations < 1)
+    return Status::InvalidArgument(
+        "incremental association: confirm_observations must be >= 1, got " +
+        std::to_string(confirm_observations));
+  if (provisional_poses < 0)
+    return Status::InvalidArgument("incremental association: provisional_poses must be >= 0, got " +
+                                   std::to_string(provisional_poses));
+  if (chunk_observations < 1)
+    return Status::InvalidArgument(
+        "incremental association: chunk_observations must be >= 1");
+  if (min_redundancy < 0)
+    return Status::InvalidArgument("incremental association: min_redundancy must be >= 0");
+  if (!std::isfinite(undo_z) || max_stage_undo_passes < 0)
+    return Status::InvalidArgument("incremental association: undo_z must be finite and "
+                                   "max_stage_undo_passes >= 0, got " + std::to_string(undo_z) +
+                                   " and " + std::to_string(max_stage_undo_passes));
+  if (local_window < 0)
+    return Status::InvalidArgument("incremental association: local_window must be >= 0, got " +
+                                   std::to_string(local_window));
+  return loop.Validate();
+}
+
+Status AssociateIncrementally(const IncrementalAssociationOptions& options,
+                              const core::SolverOptions& solver_options, core::Problem2d* problem,
+                              IncrementalAssociationSummary* summary,
+                              std::vector<int32_t>* input_observation) {
+  *summary = IncrementalAssociationSummary();
+  GS_RETURN_IF_ERROR(options.Validate());
+  const Clock::time_point start = Clock::now();
+  const int64_t m = static_cast<int64_t>(problem->observations.size());
+  input_observation->resize(m);
+  std::iota(input_observation->begin(), input_observation->end(), 0);
+  if (!options.enabled || problem->num_poses() == 0) return Status::Ok();
+  GS_ASSIGN_OR_RETURN(const bool id_less, IsIdLess(*problem));
+  if (!id_less) return Status::Ok();
+  GS_RETURN_IF_ERROR(CheckInput(*problem));
+  summary->ran = true;
+  const int32_t n = problem->num_poses();
+
+  IncrementalRun run(options, solver_options, problem, summary);
+  run.observations_of_pose.resize(n);
+  for (int64_t o = 0; o < m; ++o)
+    run.observations_of_pose[problem->observations[o].pose].push_back(static_cast<int32_t>(o));
+  const std::vector<std::vector<internal::PoseEdge>> adjacency =
+      internal::OdometryAdjacency(*problem);
+  run.poses = problem->poses;
+  std::vector<uint8_t> placed(n, 0);
+  for (int32_t p = 0; p < n; ++p) placed[p] = problem->pose_fixed[p] != 0;
+  run.cluster_of.assign(m, -1);
+  run.has_fix.assign(n, 0);
+  for (const core::GpsConstraint& c : problem->gps) run.has_fix[c.pose] = 1;
+  run.chunking.max_observations_per_chunk = options.chunk_observations;
+  run.stage_options = solver_options;
+  run.stage_options.max_iterations = options.max_iterations_per_stage;
+  run.stage_options.progress = nullptr;
+  run.stage_options.iteration_callback = nullptr;
+  run.radius_squared = options.search_radius * options.search_radius;
+
+  for (int32_t begin = 0; begin < n;) {
+    const int32_t end = static_cast<int32_t>(std::min<int64_t>(n, begin + options.stage_poses));
+    internal::PlacePoses(*problem, adjacency, begin, end, &run.poses, &placed);
+    ++summary->stages;
+    bool any_new = false;
+    for (int32_t p = begin; p < end && !any_new; ++p)
+      any_new = !run.observations_of_pose[p].empty();
+    // Pair, then solve the stage with its correspondences (nothing to do
+    // without new observations: the chained poses already fit their odometry).
+    if (any_new) {
+      // Cluster of every observation before this stage's pairings (the undo
+      // tells the pairings made in the stage from the older members).
+      const std::vector<int32_t> cluster_before = run.cluster_of;
+      GS_RETURN_IF_ERROR(SolveFixesFirst(begin, end, &run));
+      GS_RETURN_IF_ERROR(PairStage(begin, end, &run));
+      GS_RETURN_IF_ERROR(SolveStage(end, cluster_before, &run));
+    }
+
+    // Provisional features not seen for a while are clutter.
+    for (Cluster& cluster : run.clusters) {
+      if (cluster.dropped || cluster.absorbed ||
+          static_cast<int64_t>(cluster.members.size()) >= options.confirm_observations)
+        continue;
+      if (static_cast<int64_t>(end) - cluster.last_pose > options.provisional_poses)
+        cluster.dropped = true;
+    }
+    GS_VLOG(1, "incremental association: poses 0..%d, %zu features, %lld paired, chi2 %.6g, "
+            "variance factor %.4g", end - 1, run.clusters.size(),
+            static_cast<long long>(summary->paired), summary->chi2, run.scale);
+    begin = end;
+  }
+  WriteMap(&run, input_observation);
+  summary->features = problem->num_features();
+  summary->seconds = SecondsSince(start);
+  return Status::Ok();
+}
+
+}  // namespace graphslam::partition

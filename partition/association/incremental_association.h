@@ -1,0 +1,134 @@
+// AssociateIncrementally: data association scan by scan while the trajectory
+// grows stage by stage (the incremental pass before the global Table 10 search
+// of partition/association/association_driver.h; docs/association.md).
+//
+// Input: an id-less problem (every feature has exactly one observation; the
+// readers create one per observation without id). Poses are taken in index
+// order (time order in every importer), `stage_poses` at a time:
+//
+//   stage [b, e):
+//     place the new poses by chaining odometry from the solved prefix
+//       (partition/initialization/internal/odometry_chain.h)
+//     sub-problem of poses [0, e): the features found so far, one provisional
+//       singleton per new observation (first sight, Table 1)
+//     with GPS fixes on the new poses (solve_fixes_first): solve the prefix
+//       with them first, the new observations left out
+//     linearize at that state and factorize the reduced system: every
+//       feature's covariance with any other is a sparse dot product
+//       (partition/association/feature_covariances.h); the new poses carry the odometry
+//       uncertainty of their chain, the old ones that of the map
+//     every covariance is scaled by the variance factor s^2 of the previous
+//       stage solve (scale_by_variance_factor)
+//     for each new pose p with observations (a scan), in order:
+//       targets: features (not dropped) whose representative lies within
+//         search_radius of one of the scan's observations; a feature already
+//         seen in this stage is represented by its latest observation's
+//         singleton (closest in time, smallest relative uncertainty), else by
+//         its estimate
+//       joint assignment of the scan to the targets (JCBB,
+//         partition/association/joint_compatibility.h): Mahalanobis gates with the
+//         covariance of the difference, exclusive (no two observations of one
+//         scan on one feature), most pairings, then smallest joint distance
+//       an unpaired observation starts a new, provisional feature
+//     loop closure: the local map (features seen in the last local_window
+//       poses before the stage, or in it) matched as a rigid whole against
+//       the older features (partition/association/submap_matching.h); each inlier pair
+//       becomes one feature. This finds revisits after drift larger than
+//       any single feature's gate
+//     solve the sub-problem with those correspondences (at most
+//       max_iterations_per_stage Levenberg-Marquardt iterations, singletons
+//       left out: partition/initialization/singleton_solve.h)
+//     undo (undo_stage_pairings): a feature whose older or newly paired
+//       observations do not fit the solution loses the stage's observations
+//       to a new feature; the stage is solved again
+//     a provisional feature (fewer than confirm_observations observations)
+//       not seen for provisional_poses poses is dropped as clutter: it is no
+//       longer a target, and its observations leave the problem
+//
+// Output: *problem holds the solved poses, the confirmed features (ids
+// kNoFeatureId; the caller numbers them) and only their observations (input
+// order kept); (*input_observation)[k] is the input index of observation k.
+// Features still provisional at the end are clutter too.
+// If some feature has more than one observation (an input with ids), nothing
+// runs (summary->ran = false) and input_observation is the identity.
+//
+// THREAD SAFETY: one call at a time per problem; the stage solves and the
+// whitening are internally parallel (TBB). ALLOCATION: one prefix
+// sub-problem, its chunks and its factor at a time, plus O(observations).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/graphslam_solver.h"
+#include "core/problem.h"
+#include "core/status.h"
+#include "partition/association/joint_compatibility.h"
+#include "partition/association/submap_matching.h"
+
+namespace graphslam::partition {
+
+struct IncrementalAssociationOptions {
+  // Off by default: on Victoria Park it does not yet beat the batch rounds
+  // alone (docs/association.md, "The incremental pass").
+  bool enabled = false;
+  int64_t stage_poses = 50;          // new poses per stage
+  int max_iterations_per_stage = 10;  // LM iterations of each stage solve
+  double search_radius = 10.0;       // targets closer than this to an observation [m]
+  JointCompatibilityOptions joint;   // gates (normal z) and node cap of JCBB
+  int confirm_observations = 2;      // fewer observations: provisional
+  int64_t provisional_poses = 100;   // unseen this many poses: dropped as clutter
+  // Scale every covariance of the tests by the variance factor s^2 of the
+  // last stage solve (partition/association/internal/variance_factor.h) once its
+  // redundancy reaches min_redundancy: the gates then follow the noise the
+  // data show, not the inputs' nominal models.
+  bool scale_by_variance_factor = true;
+  int64_t min_redundancy = 50;
+  // A stage whose new poses have GPS fixes is solved with them (new
+  // observations left out) before its tests: the chained poses do not fit the
+  // fixes, yet the covariances include them, so testing the chained means
+  // would be over-confident by the dead-reckoning error the fixes remove.
+  bool solve_fixes_first = true;
+  // Undo inside the pass: after each stage solve, a feature whose older or
+  // newly paired observations do not fit the solved estimate (chi2 above the
+  // quantile for 2n dof at undo_z, times s^2) loses the stage's
+  // observations to a feature of their own; the stage is solved again (at
+  // most max_stage_undo_passes times).
+  bool undo_stage_pairings = true;
+  double undo_z = 3.09;
+  int max_stage_undo_passes = 2;
+  // Loop closure by matching the local map against the older map.
+  bool close_loops = true;
+  int64_t local_window = 100;  // poses before the stage whose features are local
+  SubmapMatchOptions loop;
+  int64_t chunk_observations = 4096;
+
+  [[nodiscard]] Status Validate() const;
+};
+
+struct IncrementalAssociationSummary {
+  bool ran = false;
+  int64_t stages = 0;
+  int64_t scans = 0;                 // poses with observations
+  int64_t paired = 0;                // observations given to a feature seen before
+  int64_t features = 0;              // confirmed features kept
+  int64_t provisional_dropped = 0;   // features never confirmed (clutter)
+  int64_t clutter_observations = 0;  // their observations, removed
+  int64_t exhausted_scans = 0;       // JCBB stopped at max_nodes
+  int64_t loop_closures = 0;         // stages whose local map matched the older map
+  int64_t loop_pairs = 0;            // local features joined to older ones by them
+  int64_t stage_undone = 0;          // stage pairings undone after a stage solve
+  double chi2 = 0.0;                 // after the last stage solve
+  double variance_factor = 1.0;      // s^2 after the last stage solve
+  double solve_seconds = 0.0;
+  double covariance_seconds = 0.0;   // linearization, factorization, whitening
+  double assignment_seconds = 0.0;   // targets and JCBB
+  double seconds = 0.0;
+};
+
+Status AssociateIncrementally(const IncrementalAssociationOptions& options,
+                              const core::SolverOptions& solver_options, core::Problem2d* problem,
+                              IncrementalAssociationSummary* summary,
+                              std::vector<int32_t>* input_observation);
+
+}  // namespace graphslam::partition

@@ -1,0 +1,482 @@
+#include "partition/initialization/incremental_initialization.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <utility>
+
+#include "core/initialization.h"
+#include "core/logging.h"
+#include "core/point_observation_model.h"
+#include "core/range_bearing_model.h"
+#include "partition/initialization/gps_segment_alignment.h"
+#include "partition/ingest/in_memory_chunk_source.h"
+#include "partition/initialization/internal/odometry_chain.h"
+#include "partition/initialization/internal/stage_growth.h"
+#include "partition/initialization/internal/stage_setup.h"
+#include "partition/initialization/singleton_solve.h"
+
+namespace graphslam::partition {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using core::Point2;
+using core::Pose2;
+
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Compressed rows: the items of row r are items[offsets[r] .. offsets[r + 1]).
+struct Rows {
+  std::vector<int64_t> offsets;
+  std::vector<int32_t> items;
+  int64_t begin(int32_t r) const { return offsets[r]; }
+  int64_t end(int32_t r) const { return offsets[r + 1]; }
+};
+
+// Rows from (row, item) pairs given by `each(emit)`, items in emission order.
+template <class Each>
+Rows BuildRows(int32_t num_rows, const Each& each) {
+  Rows rows;
+  rows.offsets.assign(static_cast<size_t>(num_rows) + 1, 0);
+  each([&](int32_t row, int32_t) { ++rows.offsets[row + 1]; });
+  for (int32_t r = 0; r < num_rows; ++r) rows.offsets[r + 1] += rows.offsets[r];
+  rows.items.resize(static_cast<size_t>(rows.offsets[num_rows]));
+  std::vector<int64_t> next(rows.offsets.begin(), rows.offsets.end() - 1);
+  each([&](int32_t row, int32_t item) { rows.items[next[row]++] = item; });
+  return rows;
+}
+
+// A pose-to-pose constraint seen from one of its poses.
+enum class EdgeKind : uint8_t { kRelativePose, kMotion, kSighting };
+struct PoseLink {
+  EdgeKind kind;
+  int32_t constraint;
+  int32_t other;
+};
+
+// The per-pose and per-feature indices every stage reads, built once.
+struct Indices {
+  std::vector<std::vector<PoseLink>> links;  // per pose
+  Rows gps_of_pose;
+  Rows observations_of_pose;     // input order within a pose
+  Rows observations_of_feature;  // increasing pose, then input order
+};
+
+Indices BuildIndices(const core::Problem2d& problem) {
+  Indices index;
+  const int32_t n = problem.num_poses();
+  index.links.resize(n);
+  auto link = [&](EdgeKind kind, size_t k, int32_t from, int32_t to) {
+    if (from == to) return;
+    index.links[from].push_back({kind, static_cast<int32_t>(k), to});
+    index.links[to].push_back({kind, static_cast<int32_t>(k), from});
+  };
+  for (size_t k = 0; k < problem.relative_poses.size(); ++k)
+    link(EdgeKind::kRelativePose, k, problem.relative_poses[k].from, problem.relative_poses[k].to);
+  for (size_t k = 0; k < problem.motions.size(); ++k)
+    link(EdgeKind::kMotion, k, problem.motions[k].from, problem.motions[k].to);
+  for (size_t k = 0; k < problem.pose_range_bearings.size(); ++k)
+    link(EdgeKind::kSighting, k, problem.pose_range_bearings[k].from,
+         problem.pose_range_bearings[k].to);
+  index.gps_of_pose = BuildRows(n, [&](auto emit) {
+    for (size_t k = 0; k < problem.gps.size(); ++k)
+      emit(problem.gps[k].pose, static_cast<int32_t>(k));
+  });
+  index.observations_of_pose = BuildRows(n, [&](auto emit) {
+    for (size_t k = 0; k < problem.observations.size(); ++k)
+      emit(problem.observations[k].pose, static_cast<int32_t>(k));
+  });
+  const Rows& by_pose = index.observations_of_pose;
+  index.observations_of_feature = BuildRows(problem.num_features(), [&](auto emit) {
+    for (int32_t p = 0; p < n; ++p)
+      for (int64_t i = by_pose.begin(p); i < by_pose.end(p); ++i)
+        emit(problem.observations[by_pose.items[i]].feature, by_pose.items[i]);
+  });
+  return index;
+}
+
+// A stage that did not converge and whose chi2 fell by more than this
+// factor is redone (header); slow convergence near the start (a robust
+// kernel's reweighting: MRCLAM's stages end 1.1-2.3 times below their start)
+// is not.
+constexpr double kFarStartChi2Ratio = 10.0;
+
+// One stage's sub-problem W_k (header) and where its unknowns came from.
+class StageBuilder {
+ public:
+  StageBuilder(const core::Problem2d& problem, const Indices& index)
+      : problem_(problem),
+        index_(index),
+        local_pose_(problem.poses.size(), -1),
+        local_feature_(problem.features.size(), -1),
+        used_relative_(problem.relative_poses.size(), -1),
+        used_motion_(problem.motions.size(), -1),
+        used_sighting_(problem.pose_range_bearings.size(), -1),
+        used_observation_(problem.observations.size(), -1) {}
+
+  // Builds W_k for the unknown poses `unknown` (ascending, all < t) from the
+  // current estimates; `window_begin` is the first pose of the window.
+  core::Problem2d Build(int32_t stage, const std::vector<int32_t>& unknown, int32_t window_begin,
+                        int32_t t, int64_t max_prior, const std::vector<Pose2>& poses,
+                        const std::vector<Point2>& features, int64_t* constraints) {
+    Reset();
+    core::Problem2d sub;
+    sub.source = problem_.source;
+    for (int32_t p : unknown) AddPose(p, poses, problem_.pose_fixed[p] != 0, &sub);
+    *constraints = 0;
+    for (int32_t p : unknown) {
+      for (const PoseLink& l : index_.links[p]) {
+        if (l.other >= t) continue;  // not placed yet
+        int32_t& used = l.kind == EdgeKind::kRelativePose ? used_relative_[l.constraint]
+                        : l.kind == EdgeKind::kMotion     ? used_motion_[l.constraint]
+                                                          : used_sighting_[l.constraint];
+        if (used == stage) continue;
+        used = stage;
+        if (local_pose_[l.other] < 0) AddPose(l.other, poses, true, &sub);
+        ++*constraints;
+        if (l.kind == EdgeKind::kRelativePose) {
+          core::RelativePoseConstraint c = problem_.relative_poses[l.constraint];
+          c.from = local_pose_[c.from];
+          c.to = local_pose_[c.to];
+          sub.relative_poses.push_back(c);
+        } else if (l.kind == EdgeKind::kMotion) {
+          core::VelocityMotionConstraint c = problem_.motions[l.constraint];
+          c.from = local_pose_[c.from];
+          c.to = local_pose_[c.to];
+          sub.motions.push_back(c);
+        } else {
+          core::PoseRangeBearingConstraint c = problem_.pose_range_bearings[l.constraint];
+          c.from = local_pose_[c.from];
+          c.to = local_pose_[c.to];
+          sub.pose_range_bearings.push_back(c);
+        }
+      }
+      for (int64_t i = index_.gps_of_pose.begin(p); i < index_.gps_of_pose.end(p); ++i) {
+        core::GpsConstraint c = problem_.gps[index_.gps_of_pose.items[i]];
+        c.pose = local_pose_[p];
+        sub.gps.push_back(c);
+        ++*constraints;
+      }
+      for (int64_t i = index_.observations_of_pose.begin(p);
+           i < index_.observations_of_pose.end(p); ++i)
+        AddObservation(stage, index_.observations_of_pose.items[i], poses, features, &sub);
+    }
+    // Earlier sightings of each unknown feature, evenly spaced below the
+    // window, with their poses fixed: where the earlier trajectory put it.
+    const size_t unknown_features = features_.size();
+    for (size_t j = 0; j < unknown_features; ++j) {
+      const int32_t f = features_[j];
+      const Rows& rows = index_.observations_of_feature;
+      const auto first = rows.items.begin() + rows.begin(f);
+      const auto last = std::partition_point(
+          first, rows.items.begin() + rows.end(f),
+          [&](int32_t k) { return problem_.observations[k].pose < window_begin; });
+      const int64_t below = last - first;
+      const int64_t take = std::min(below, max_prior);
+      for (int64_t i = 0; i < take; ++i) {
+        // The last of them is the most recent sighting before the window.
+        const int64_t at = (i + 1) * below / take - 1;
+        AddObservation(stage, first[at], poses, features, &sub);
+      }
+    }
+    return sub;
+  }
+
+  int32_t local_pose(int32_t p) const { return local_pose_[p]; }
+  const std::vector<int32_t>& sub_features() const { return features_; }
+  int64_t fixed_poses() const { return fixed_; }
+
+ private:
+  void Reset() {
+    for (int32_t p : poses_) local_pose_[p] = -1;
+    for (int32_t f : features_) local_feature_[f] = -1;
+    poses_.clear();
+    features_.clear();
+    fixed_ = 0;
+  }
+
+  void AddPose(int32_t p, const std::vector<Pose2>& poses, bool fixed, core::Problem2d* sub) {
+    local_pose_[p] = sub->AddPose(problem_.pose_ids[p], poses[p], true, problem_.pose_lines[p],
+                                  problem_.pose_stamps[p]);
+    sub->pose_fixed.back() = fixed ? 1 : 0;
+    poses_.push_back(p);
+    fixed_ += fixed ? 1 : 0;
+  }
+
+  void AddObservation(int32_t stage, int32_t k, const std::vector<Pose2>& poses,
+                      const std::vector<Point2>& features, core::Problem2d* sub) {
+    if (used_observation_[k] == stage) return;
+    used_observation_[k] = stage;
+    core::Observation o = problem_.observations[k];
+    if (local_pose_[o.pose] < 0) AddPose(o.pose, poses, true, sub);
+    if (local_feature_[o.feature] < 0) {
+      local_feature_[o.feature] =
+          sub->AddFeature(problem_.feature_ids[o.feature], features[o.feature], true);
+      features_.push_back(o.feature);
+    }
+    o.pose = local_pose_[o.pose];
+    o.feature = local_feature_[o.feature];
+    sub->observations.push_back(o);
+  }
+
+  const core::Problem2d& problem_;
+  const Indices& index_;
+  std::vector<int32_t> local_pose_, local_feature_;
+  // Per constraint: the last stage that took it (each is taken once per stage).
+  std::vector<int32_t> used_relative_, used_motion_, used_sighting_, used_observation_;
+  std::vector<int32_t> poses_, features_;  // in W_k, global indices, W_k's order
+  int64_t fixed_ = 0;
+};
+
+// The unknown poses of a stage: the window [window_begin, t) and the
+// neighbourhoods of the old ends of the new poses' loop closures (header).
+std::vector<int32_t> UnknownPoses(const IncrementalInitializationOptions& options,
+                                  const Indices& index, int32_t previous, int32_t window_begin,
+                                  int32_t t, std::vector<uint8_t>* mark) {
+  std::vector<int32_t> loop;
+  const int64_t radius = options.loop_closure_poses;
+  for (int32_t p = std::max(previous, window_begin); p < t; ++p) {
+    for (const PoseLink& l : index.links[p]) {
+      if (l.kind == EdgeKind::kMotion || l.other >= window_begin) continue;
+      const int32_t lo = static_cast<int32_t>(std::max<int64_t>(0, l.other - radius));
+      const int32_t hi = static_cast<int32_t>(std::min<int64_t>(window_begin, l.other + radius + 1));
+      for (int32_t q = lo; q < hi; ++q) {
+        if (static_cast<int64_t>(loop.size()) >= options.max_loop_closure_poses) break;
+        if ((*mark)[q]) continue;
+        (*mark)[q] = 1;
+        loop.push_back(q);
+      }
+    }
+  }
+  for (int32_t q : loop) (*mark)[q] = 0;
+  std::sort(loop.begin(), loop.end());
+  std::vector<int32_t> unknown = std::move(loop);
+  for (int32_t p = window_begin; p < t; ++p) unknown.push_back(p);
+  return unknown;
+}
+
+// Puts the new poses [begin, end) onto their GPS fixes, odometry stretch by
+// odometry stretch (partition/initialization/gps_segment_alignment.h), before the stage
+// solves them: a stretch chained over hundreds of poses can be far from its
+// fixes, and a window started there can settle in a local minimum that later
+// windows, which hold it fixed, never leave (a 30 000-pose campus with GPS
+// every 50 poses ended at chi2/dof 12 without this). O(end - begin).
+void AlignNewPosesToGps(const core::Problem2d& problem, const Indices& index, int32_t begin,
+                        int32_t end, std::vector<Pose2>* poses) {
+  if (problem.gps.empty() || end - begin < 2) return;
+  core::Problem2d stretch;
+  for (int32_t p = begin; p < end; ++p) {
+    stretch.AddPose(problem.pose_ids[p], (*poses)[p], true, problem.pose_lines[p]);
+    stretch.pose_fixed.back() = problem.pose_fixed[p];
+  }
+  for (int32_t p = begin; p < end; ++p) {
+    for (const PoseLink& l : index.links[p]) {
+      if (l.other <= p || l.other >= end) continue;  // each edge once, inside the stretch
+      if (l.kind == EdgeKind::kRelativePose) {
+        core::RelativePoseConstraint c = problem.relative_poses[l.constraint];
+        c.from -= begin;
+        c.to -= begin;
+        stretch.relative_poses.push_back(c);
+      } else if (l.kind == EdgeKind::kMotion) {
+        core::VelocityMotionConstraint c = problem.motions[l.constraint];
+        c.from -= begin;
+        c.to -= begin;
+        stretch.motions.push_back(c);
+      }
+    }
+    for (int64_t i = index.gps_of_pose.begin(p); i < index.gps_of_pose.end(p); ++i) {
+      core::GpsConstraint c = problem.gps[index.gps_of_pose.items[i]];
+      c.pose -= begin;
+      stretch.gps.push_back(c);
+    }
+  }
+  if (stretch.gps.size() < 2) return;
+  AlignOdometryToGps(&stretch);
+  for (int32_t p = begin; p < end; ++p) (*poses)[p] = stretch.poses[p - begin];
+}
+
+}  // namespace
+
+Status IncrementalInitializationOptions::Validate() const {
+  auto fail = [](const std::string& what, const std::string& got) {
+    return Status::InvalidArgument("incremental initialization: " + what + ", got " + got);
+  };
+  if (first_poses < 1) return fail("first_poses must be >= 1", std::to_string(first_poses));
+  if (!(growth > 1.0) || !std::isfinite(growth))
+    return fail("growth must be finite and > 1", std::to_string(growth));
+  if (max_new_poses < 1) return fail("max_new_poses must be >= 1", std::to_string(max_new_poses));
+  if (min_new_poses < 1) return fail("min_new_poses must be >= 1", std::to_string(min_new_poses));
+  if (window_poses < max_new_poses)
+    return fail("window_poses must be >= max_new_poses (" + std::to_string(max_new_poses) + ")",
+                std::to_string(window_poses));
+  if (loop_closure_poses < 0)
+    return fail("loop_closure_poses must be >= 0", std::to_string(loop_closure_poses));
+  if (max_loop_closure_poses < 0)
+    return fail("max_loop_closure_poses must be >= 0", std::to_string(max_loop_closure_poses));
+  if (max_prior_observations_per_feature < 0)
+    return fail("max_prior_observations_per_feature must be >= 0",
+                std::to_string(max_prior_observations_per_feature));
+  if (full_stage_growth != 0.0 && (!(full_stage_growth > 1.0) || !std::isfinite(full_stage_growth)))
+    return fail("full_stage_growth must be 0 (off) or finite and > 1",
+                std::to_string(full_stage_growth));
+  if (max_iterations_per_stage < 0)
+    return fail("max_iterations_per_stage must be >= 0", std::to_string(max_iterations_per_stage));
+  if (max_observations_per_chunk < 1)
+    return fail("max_observations_per_chunk must be >= 1",
+                std::to_string(max_observations_per_chunk));
+  return Status::Ok();
+}
+
+Status InitializeIncrementally(const IncrementalInitializationOptions& options,
+                               const core::SolverOptions& base, core::Problem2d* problem,
+                               IncrementalSummary* summary) {
+  *summary = IncrementalSummary();
+  GS_RETURN_IF_ERROR(options.Validate());
+  GS_RETURN_IF_ERROR(base.Validate());
+  if (!options.enabled) return Status::Ok();
+  GS_RETURN_IF_ERROR(internal::CheckPerElementArrays(*problem));
+  GS_RETURN_IF_ERROR(core::ValidateProblem(*problem));  // indices in range
+  const Clock::time_point start = Clock::now();
+  summary->ran = true;
+  const int32_t n = problem->num_poses();
+  if (n == 0) return Status::Ok();
+
+  // Working copies: *problem changes only at the end, when every stage succeeded.
+  std::vector<Pose2> poses = problem->poses;
+  std::vector<Point2> features = problem->features;
+  std::vector<uint8_t> placed(n, 0);
+  for (int32_t p = 0; p < n; ++p) placed[p] = problem->pose_fixed[p] != 0;  // anchors stay put
+  std::vector<uint8_t> feature_placed(problem->features.size(), 0);
+  std::vector<uint8_t> mark(n, 0);
+
+  const Indices index = BuildIndices(*problem);
+  const std::vector<std::vector<internal::PoseEdge>> adjacency = internal::OdometryAdjacency(*problem);
+  StageBuilder builder(*problem, index);
+
+  ChunkingOptions chunking;
+  chunking.max_observations_per_chunk = options.max_observations_per_chunk;
+  const core::SolverOptions stage_options =
+      internal::StageSolverOptions(base, options.max_iterations_per_stage);
+
+  int64_t allowed = options.max_new_poses;
+  // The next prefix length solved whole (header: full stages).
+  double next_full = options.full_stage_growth > 0.0
+                         ? options.full_stage_growth * static_cast<double>(options.first_poses)
+                         : static_cast<double>(n) + 1.0;
+  const int64_t floor_new_poses = std::min(options.min_new_poses, options.max_new_poses);
+  int32_t previous = 0;
+  int32_t t = static_cast<int32_t>(std::min<int64_t>(options.first_poses, n));
+  bool t_chosen = true;  // t set by the first stage or by a redo
+  bool redone = false;   // the stage kept last was a redo
+  std::vector<int32_t> new_features;
+  for (int32_t attempt = 0;; ++attempt) {
+    if (!t_chosen) t = internal::NextStageSize(options.growth, allowed, previous, n);
+    t_chosen = false;
+    const Clock::time_point stage_start = Clock::now();
+    if (previous == 0) {
+      for (int32_t p = 0; p < t; ++p) placed[p] = 1;  // the input guess
+    } else {
+      internal::PlacePoses(*problem, adjacency, previous, t, &poses, &placed);
+    }
+    AlignNewPosesToGps(*problem, index, previous, t, &poses);
+    // New features from their first sighting (lowest pose, then input order).
+    new_features.clear();
+    for (int32_t p = previous; p < t; ++p) {
+      for (int64_t i = index.observations_of_pose.begin(p); i < index.observations_of_pose.end(p);
+           ++i) {
+        const core::Observation& o = problem->observations[index.observations_of_pose.items[i]];
+        if (feature_placed[o.feature]) continue;
+        feature_placed[o.feature] = 1;
+        new_features.push_back(o.feature);
+        features[o.feature] = o.kind == core::ObservationKind::kRangeBearing
+                                  ? core::InvertRangeBearing(poses[o.pose], o.z)
+                                  : core::InvertPointObservation(poses[o.pose], o.z);
+      }
+    }
+    const int32_t new_begin = previous;
+
+    const bool full = static_cast<double>(t) >= next_full;
+    const int32_t window_begin =
+        full ? 0 : static_cast<int32_t>(std::max<int64_t>(0, t - options.window_poses));
+    const std::vector<int32_t> unknown =
+        UnknownPoses(options, index, new_begin, window_begin, t, &mark);
+    IncrementalStageSummary stage_summary;
+    core::Problem2d sub =
+        builder.Build(attempt, unknown, window_begin, t, options.max_prior_observations_per_feature,
+                      poses, features, &stage_summary.constraints);
+    stage_summary.poses = t;
+    stage_summary.full = full;
+    stage_summary.solved_poses = static_cast<int64_t>(unknown.size());
+    stage_summary.fixed_poses = builder.fixed_poses();
+    stage_summary.features = sub.num_features();
+    stage_summary.observations = static_cast<int64_t>(sub.observations.size());
+    core::SolverSummary solver_summary;
+    Status status = SolveWithoutSingletons(stage_options, chunking, &sub, &solver_summary);
+    if (!status.ok())
+      return status.WithContext("incremental initialization stage " +
+                                std::to_string(summary->stages.size()) + " (" + std::to_string(t) +
+                                " poses)");
+    stage_summary.initial_chi2 = solver_summary.initial_chi2;
+    stage_summary.final_chi2 = solver_summary.final_chi2;
+    stage_summary.iterations = solver_summary.iterations;
+    stage_summary.termination = solver_summary.termination;
+    stage_summary.seconds = SecondsSince(stage_start);
+    // A redo (header): the stage did not converge within its iterations and
+    // lowered chi2 more than tenfold on the way, so its new poses started far
+    // outside the basin; it is discarded and done again with half of them.
+    if (options.max_iterations_per_stage > 0 && !solver_summary.converged &&
+        solver_summary.initial_chi2 > kFarStartChi2Ratio * solver_summary.final_chi2 &&
+        t - new_begin > floor_new_poses) {
+      GS_VLOG(1, "incremental initialization: %d poses not converged in %d iterations "
+                 "(chi2 %.6g -> %.6g): redone with %lld new poses",
+              t, stage_summary.iterations, stage_summary.initial_chi2, stage_summary.final_chi2,
+              static_cast<long long>(std::max<int64_t>(floor_new_poses, (t - new_begin) / 2)));
+      for (int32_t p = new_begin; p < t; ++p) {
+        poses[p] = problem->poses[p];
+        placed[p] = problem->pose_fixed[p] != 0;
+      }
+      for (int32_t f : new_features) feature_placed[f] = 0;
+      allowed = std::max<int64_t>(floor_new_poses, (t - new_begin) / 2);
+      t = static_cast<int32_t>(new_begin + allowed);
+      t_chosen = true;
+      redone = true;
+      ++summary->redone_stages;
+      continue;
+    }
+    previous = t;
+    while (static_cast<double>(t) >= next_full) next_full *= options.full_stage_growth;
+    for (int32_t p : unknown) poses[p] = sub.poses[builder.local_pose(p)];
+    const std::vector<int32_t>& sub_features = builder.sub_features();
+    for (size_t j = 0; j < sub_features.size(); ++j) features[sub_features[j]] = sub.features[j];
+    GS_VLOG(1, "incremental initialization: stage %zu, %d poses (%lld solved, %lld fixed), "
+               "%lld features, chi2 %.6g -> %.6g in %d iterations (%s), %.3f s",
+            summary->stages.size(), t, static_cast<long long>(stage_summary.solved_poses),
+            static_cast<long long>(stage_summary.fixed_poses),
+            static_cast<long long>(stage_summary.features), stage_summary.initial_chi2,
+            stage_summary.final_chi2, stage_summary.iterations, stage_summary.termination.c_str(),
+            stage_summary.seconds);
+    summary->stages.push_back(std::move(stage_summary));
+    if (base.progress) base.progress("incremental initialization", t, n);
+    if (t == n) break;
+    if (options.max_iterations_per_stage > 0 && !redone) {
+      // Unsettled (at the floor, so not redone): fewer new poses next time.
+      // After a redo the next stage adds as many as the redo did: twice that
+      // many just failed.
+      allowed = internal::NextAllowedNewPoses(solver_summary, allowed, options.min_new_poses,
+                                              options.max_new_poses);
+    }
+    redone = false;
+  }
+
+  problem->poses = std::move(poses);
+  problem->features = std::move(features);
+  for (size_t f = 0; f < feature_placed.size(); ++f)
+    if (feature_placed[f]) problem->feature_initialized[f] = 1;
+  summary->seconds = SecondsSince(start);
+  return Status::Ok();
+}
+
+}  // namespace graphslam::partition

@@ -1,0 +1,156 @@
+// InitializeIncrementally: an initial guess in the basin of the global optimum
+// at a cost linear in the trajectory: progressive initialization
+// (partition/initialization/progressive_initialization.h) with every stage re-solving a
+// bounded window of recent poses instead of the whole prefix, in the manner
+// of incremental smoothers (iSAM2, Kaess et al. 2012: a new measurement
+// relinearizes only the variables it affects).
+//
+// Stages. Prefix lengths T_k grow as in progressive initialization
+// (geometric from first_poses, at most A_k new poses, A_k halved after an
+// unsettled stage and doubled back after a settled one). A stage whose solve
+// does not converge within max_iterations_per_stage after lowering chi2 more
+// than tenfold (it started far from its optimum) is redone: its results
+// are discarded, its new poses and features unplaced, and the stage is done
+// again with half as many new poses (at least min_new_poses; a stage at that
+// floor is kept as it is; the stage after a redo adds as many new poses as
+// the redo did). Odometry chained over many poses can start them
+// outside the optimum's basin, and a window solved from there settles in a
+// local minimum the later windows, which hold it fixed, never leave (a
+// simulated GPS campus of 500 poses, chi2/dof at the optimum 0.99: 6.2 with
+// the 100-pose first stage from dead reckoning, 0.99 with redone stages);
+// from a start inside the basin a stage converges within a few iterations
+// (Victoria Park, intel, M3500, city10000: 3-7) or starts near its end
+// (MRCLAM with a Cauchy kernel), so redoing costs nothing where chaining is
+// good. Before stage k the
+// poses [T_{k-1}, T_k) are placed by chaining odometry off their optimized
+// predecessor and the features first seen from them from that sighting
+// (partition/initialization/internal/odometry_chain.h, Table 1 inverted), after each
+// odometry stretch of the new poses with two or more GPS fixes is moved onto
+// them by a rigid motion (partition/initialization/gps_segment_alignment.h: a window started
+// far from its fixes can settle in a local minimum that later windows, which
+// hold it fixed, never leave). Stage k then solves the sub-problem W_k:
+//   unknown poses  the window [max(0, T_k - window_poses), T_k), plus for
+//                  every relative pose or robot sighting from a new pose to a
+//                  pose q below the window (a loop closure) the
+//                  2 loop_closure_poses + 1 poses centred on q, at most
+//                  max_loop_closure_poses of them per stage;
+//   unknown features  every feature observed from an unknown pose;
+//   fixed poses    the other ends of the unknown poses' constraints, and the
+//                  poses of the prior observations below, held at their
+//                  current estimates (anchors of the sub-problem's gauge);
+//   constraints    every constraint of an unknown pose whose other end is
+//                  placed (< T_k); for each unknown feature, its observations
+//                  from unknown poses plus at most
+//                  max_prior_observations_per_feature of its observations
+//                  from poses below the window, evenly spaced in time: they
+//                  tie a re-observed feature (a loop closure through a
+//                  landmark) to where the earlier trajectory put it.
+// and copies the solved unknowns back. Poses outside W_k keep their estimates.
+// Full stages: the first stage whose prefix reaches first_poses * g^j
+// (g = full_stage_growth, j = 1, 2, ...) solves the whole prefix instead, as
+// iSAM's periodic batch steps do: it spreads the drift a loop closure found
+// over the whole loop, which a window cannot (Victoria Park with a 500-pose
+// window: 3 318.8 without them, 389.787 with them).
+//
+// Cost. Every stage's sub-problem has at most window_poses +
+// max_loop_closure_poses unknown poses, and at most that many poses' own
+// constraints plus max_prior_observations_per_feature observations per
+// unknown feature: bounded independently of the trajectory length. There are
+// O(N / min_new_poses) stages, and the indices (constraints per pose,
+// observations per feature) are built once in O(poses + constraints). The
+// full stages solve fewer than g / (g - 1) (N + max_new_poses) poses in all.
+// So the whole initialization is O(N) stage poses for a bounded number of
+// observations per pose (each full stage's linear solve costs what a solve of
+// that prefix costs).
+// The caller's full solve follows, which corrects what the windows left: the
+// drift a loop closure finds before the window stays until then. A redo
+// costs one more stage solve, and a stage is redone at most
+// log2(max_new_poses / min_new_poses) times (5 with the defaults), so the
+// bound stays O(N) stage poses.
+//
+// The last stage (T_K = N) is solved like the others (so a problem of at most
+// first_poses poses is one stage, redone with fewer poses if needed). The
+// result is written to problem->poses / problem->features (features marked
+// initialized).
+//
+// THREAD SAFETY: one call at a time per problem; each stage solve is
+// internally parallel (TBB) like SolveGraphSlam and results do not depend on
+// the thread count. ALLOCATION: O(poses + features + constraints) for the
+// working copies and indices, plus one bounded sub-problem per stage.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/graphslam_solver.h"
+#include "core/problem.h"
+#include "core/status.h"
+
+namespace graphslam::partition {
+
+struct IncrementalInitializationOptions {
+  bool enabled = true;
+  // Poses of the first stage (T_0), solved whole.
+  int64_t first_poses = 100;
+  // Prefix growth factor between stages (> 1), capped by max_new_poses.
+  double growth = 2.0;
+  // At most this many new poses per stage (> 0).
+  int64_t max_new_poses = 500;
+  // The fewest new poses a stage adds after stages that did not converge.
+  int64_t min_new_poses = 25;
+  // The most recent poses re-solved by each stage (new poses included);
+  // at least max_new_poses.
+  int64_t window_poses = 2000;
+  // Poses on each side of a loop closure's old end re-solved with the window.
+  int64_t loop_closure_poses = 10;
+  // At most this many loop-closure poses per stage.
+  int64_t max_loop_closure_poses = 500;
+  // Observations of an unknown feature from poses below the window kept in
+  // the stage (their poses fixed), evenly spaced in time.
+  int64_t max_prior_observations_per_feature = 32;
+  // Full stages: the first stage whose prefix reaches first_poses * g^j
+  // (j = 1, 2, ...) solves the whole prefix (0: never).
+  double full_stage_growth = 2.0;
+  // LM iterations per stage.
+  int max_iterations_per_stage = 10;
+  // Chunking of each stage's observations.
+  int64_t max_observations_per_chunk = 4096;
+
+  Status Validate() const;
+};
+
+struct IncrementalStageSummary {
+  int64_t poses = 0;          // T_k
+  bool full = false;          // a full stage (the whole prefix solved)
+  int64_t solved_poses = 0;   // unknown poses of W_k
+  int64_t fixed_poses = 0;    // poses of W_k held at their estimates
+  int64_t features = 0;       // features of W_k
+  int64_t observations = 0;   // observations of W_k
+  int64_t constraints = 0;    // relative poses, motions, GPS and sightings of W_k
+  double initial_chi2 = 0.0;  // of W_k, after placing the new unknowns
+  double final_chi2 = 0.0;
+  int iterations = 0;
+  std::string termination;
+  double seconds = 0.0;
+};
+
+struct IncrementalSummary {
+  bool ran = false;  // false when options.enabled is false
+  std::vector<IncrementalStageSummary> stages;  // the stages kept
+  int64_t redone_stages = 0;  // stages discarded and done again with fewer new poses
+  double seconds = 0.0;
+};
+
+// Replaces the initial guess of *problem (already through
+// core::InitializeProblem) by the incremental one described above. `base`
+// supplies the solver settings of every stage; its max_iterations is replaced
+// by max_iterations_per_stage and its callbacks are not forwarded except
+// `progress`, called once per stage with stage "incremental initialization"
+// and done/total in poses. On error *problem is unchanged and *summary holds
+// the stages done so far.
+Status InitializeIncrementally(const IncrementalInitializationOptions& options,
+                               const core::SolverOptions& base, core::Problem2d* problem,
+                               IncrementalSummary* summary);
+
+}  // namespace graphslam::partition

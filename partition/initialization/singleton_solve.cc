@@ -1,0 +1,60 @@
+#include "partition/initialization/singleton_solve.h"
+
+#include <vector>
+
+#include "core/observation_models.h"
+
+namespace graphslam::partition {
+
+Status SolveWithoutSingletons(const core::SolverOptions& options, const ChunkingOptions& chunking,
+                              core::Problem2d* problem, core::SolverSummary* summary,
+                              int64_t* singletons) {
+  // The only observation of each feature seen once (-1: none or several).
+  std::vector<int64_t> only(problem->features.size(), -1);
+  std::vector<int32_t> count(problem->features.size(), 0);
+  for (size_t o = 0; o < problem->observations.size(); ++o) {
+    const int32_t f = problem->observations[o].feature;
+    if (++count[f] == 1) only[f] = static_cast<int64_t>(o);
+  }
+  // A measurement its model rejects (a range-bearing observation at range 0)
+  // does not determine its feature (E is singular): such a feature stays in
+  // the solve.
+  auto invertible = [&](int64_t o) {
+    const core::Observation& obs = problem->observations[o];
+    return core::IsValidMeasurement(obs.kind, obs.z);
+  };
+  std::vector<uint8_t> left_out(problem->features.size(), 0);
+  int64_t left_out_count = 0;
+  for (size_t f = 0; f < only.size(); ++f) {
+    if (count[f] != 1 || !invertible(only[f])) continue;
+    left_out[f] = 1;
+    ++left_out_count;
+  }
+  if (singletons != nullptr) *singletons = left_out_count;
+  if (left_out_count == 0) {
+    InMemoryChunkSource chunks(*problem, chunking);
+    return core::SolveGraphSlam(options, chunks, problem, summary);
+  }
+
+  // SolveGraphSlam reads observations only through the chunk source: the
+  // singletons' features are then unobserved there, excluded and untouched.
+  {
+    core::Problem2d solved_part;
+    solved_part.features.resize(problem->features.size());
+    solved_part.observations.reserve(problem->observations.size() - left_out_count);
+    for (const core::Observation& o : problem->observations)
+      if (!left_out[o.feature]) solved_part.observations.push_back(o);
+    InMemoryChunkSource chunks(solved_part, chunking);
+    solved_part = core::Problem2d();
+    GS_RETURN_IF_ERROR(core::SolveGraphSlam(options, chunks, problem, summary));
+  }
+  for (size_t f = 0; f < only.size(); ++f) {
+    if (!left_out[f]) continue;
+    const core::Observation& o = problem->observations[only[f]];
+    const core::Pose2& pose = problem->poses[o.pose];
+    problem->features[f] = core::InvertObservation(o.kind, pose, o.z);
+  }
+  return Status::Ok();
+}
+
+}  // namespace graphslam::partition

@@ -1,0 +1,335 @@
+// Tests of the incremental association pass (partition/association/incremental_association.h)
+// and of AssociateAndSolve with it: on easy data it ends with the same
+// correspondences as the batch search alone (and the true ones), a
+// misdetection seen once ends as clutter, and two landmarks seen in one scan
+// never become one feature even when they lie closer than the sensor noise.
+#include "partition/association/incremental_association.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <random>
+#include <set>
+
+#include "core/initialization.h"
+#include "core/unidentified_features.h"
+#include "partition/association/association_driver.h"
+#include "tests/testing/random_problem.h"
+#include "tests/testing/tight_solver_options.h"
+#include "tools/campus_simulator.h"
+
+namespace graphslam::partition {
+namespace {
+
+// Gives every observation a feature of its own; returns the true landmark of each.
+std::vector<int64_t> ForgetIds(core::Problem2d* problem) {
+  std::vector<int64_t> key;
+  problem->features.clear();
+  problem->feature_ids.clear();
+  problem->feature_initialized.clear();
+  for (core::Observation& o : problem->observations) {
+    key.push_back(o.feature);
+    o.feature = problem->AddFeature(core::kNoFeatureId, core::Point2::Zero(), false);
+  }
+  return key;
+}
+
+// Runs the pass alone and scores it against the key (dropped observations
+// get labels of their own).
+Status RunPass(const IncrementalAssociationOptions& options, const std::vector<int64_t>& key,
+               core::Problem2d* problem, IncrementalAssociationSummary* summary,
+               PairwiseScore* score) {
+  std::vector<int32_t> input_observation;
+  GS_RETURN_IF_ERROR(AssociateIncrementally(options, testing::TightCholmodSolverOptions(),
+                                            problem, summary, &input_observation));
+  std::vector<int64_t> labels(key.size());
+  for (size_t i = 0; i < labels.size(); ++i) labels[i] = -1 - static_cast<int64_t>(i);
+  for (size_t o = 0; o < problem->observations.size(); ++o)
+    labels[input_observation[o]] = problem->observations[o].feature;
+  *score = ScorePairwise(labels, key);
+  return Status::Ok();
+}
+
+TEST(IncrementalAssociation, EasyDataEndsWithTheBatchCorrespondences) {
+  for (uint32_t seed : {13u, 14u}) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    testing::RandomProblem random = testing::MakeSmallPointWorld(seed);
+    core::Problem2d input = random.problem;
+    const std::vector<int64_t> key = ForgetIds(&input);
+    std::map<int64_t, int> seen;
+    for (int64_t k : key) ++seen[k];
+    for (const auto& [landmark, count] : seen) ASSERT_GE(count, 2) << "landmark " << landmark;
+    ASSERT_TRUE(core::InitializeProblem(&input).ok());
+
+    core::Problem2d batch = input;
+    AssociationOptions batch_options;
+    batch_options.search_radius = 2.0;
+    batch_options.incremental.enabled = false;
+    AssociationSummary batch_summary;
+    ASSERT_TRUE(AssociateAndSolve(batch_options, testing::TightCholmodSolverOptions(), &batch,
+                                  &batch_summary)
+                    .ok());
+    const std::vector<int64_t> batch_labels =
+        InputObservationLabels(batch, batch_summary, key.size());
+
+    for (int64_t stage_poses : {8, 50}) {
+      SCOPED_TRACE("stage_poses " + std::to_string(stage_poses));
+      core::Problem2d incremental = input;
+      AssociationOptions options;
+      options.search_radius = 2.0;
+      options.incremental.enabled = true;
+      options.incremental.stage_poses = stage_poses;
+      AssociationSummary summary;
+      ASSERT_TRUE(
+          AssociateAndSolve(options, testing::TightCholmodSolverOptions(), &incremental, &summary)
+              .ok());
+      EXPECT_TRUE(summary.incremental.ran);
+      EXPECT_EQ(summary.incremental.provisional_dropped, 0);
+      EXPECT_EQ(incremental.observations.size(), key.size());
+      const std::vector<int64_t> labels = InputObservationLabels(incremental, summary, key.size());
+      const PairwiseScore against_batch = ScorePairwise(labels, batch_labels);
+      EXPECT_EQ(against_batch.precision(), 1.0);
+      EXPECT_EQ(against_batch.recall(), 1.0);
+      const PairwiseScore against_truth = ScorePairwise(labels, key);
+      EXPECT_EQ(against_truth.precision(), 1.0);
+      EXPECT_EQ(against_truth.recall(), 1.0);
+      EXPECT_EQ(incremental.num_features(), 10);
+      EXPECT_NEAR(summary.final_solve.final_chi2, batch_summary.final_solve.final_chi2,
+                  1e-6 * batch_summary.final_solve.final_chi2);
+    }
+  }
+}
+
+TEST(IncrementalAssociation, MisdetectionSeenOnceEndsAsClutter) {
+  testing::RandomProblem random = testing::MakeSmallPointWorld(13);
+  core::Problem2d input = random.problem;
+  // One detection of nothing, from pose 20, where no landmark is within 1.5 m.
+  const core::Pose2& pose = random.true_poses[20];
+  core::Point2 ghost = core::Point2::Zero();
+  double clearance = 0.0;
+  for (double dx = -3.0; dx <= 3.0; dx += 0.25) {
+    for (double dy = -3.0; dy <= 3.0; dy += 0.25) {
+      const core::Point2 local(dx, dy);
+      if (local.norm() > 3.5) continue;
+      const core::Point2 world = pose.head<2>() + Eigen::Rotation2Dd(pose.z()) * local;
+      double nearest = 1e9;
+      for (const core::Point2& f : random.true_features)
+        nearest = std::min(nearest, (f - world).norm());
+      if (nearest > clearance) {
+        clearance = nearest;
+        ghost = local;
+      }
+    }
+  }
+  ASSERT_GE(clearance, 1.5);
+  core::Observation misdetection = input.observations.front();
+  misdetection.pose = 20;
+  misdetection.z = ghost;
+  const size_t ghost_index = input.observations.size();
+  input.observations.push_back(misdetection);
+  std::vector<int64_t> key = ForgetIds(&input);
+  key.back() = 1000;  // a landmark of its own
+  ASSERT_TRUE(core::InitializeProblem(&input).ok());
+
+  AssociationOptions options;
+  options.search_radius = 2.0;
+  options.incremental.enabled = true;
+  options.incremental.stage_poses = 10;
+  AssociationSummary summary;
+  core::Problem2d problem = input;
+  ASSERT_TRUE(
+      AssociateAndSolve(options, testing::TightCholmodSolverOptions(), &problem, &summary).ok());
+  EXPECT_EQ(summary.incremental.provisional_dropped, 1);
+  EXPECT_EQ(summary.incremental.clutter_observations, 1);
+  EXPECT_EQ(problem.observations.size(), input.observations.size() - 1);
+  for (int32_t kept : summary.input_observation) EXPECT_NE(kept, static_cast<int32_t>(ghost_index));
+  EXPECT_EQ(problem.num_features(), 10);
+  const PairwiseScore score =
+      ScorePairwise(InputObservationLabels(problem, summary, key.size()), key);
+  EXPECT_EQ(score.precision(), 1.0);
+  EXPECT_EQ(score.recall(), 1.0);
+}
+
+// Two landmarks 0.5 m apart seen together from every pose of a straight drive,
+// point observations with sigma 0.5 m: each observation alone fits either
+// landmark, but one scan never sees one landmark twice.
+TEST(IncrementalAssociation, TwoLandmarksOfOneScanNeverMerge) {
+  core::Problem2d problem;
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  const int poses = 30;
+  for (int p = 0; p < poses; ++p) problem.AddPose(p, core::Pose2(0.5 * p, 0.0, 0.0), true, 0, p);
+  problem.pose_fixed[0] = 1;
+  for (int p = 0; p + 1 < poses; ++p) {
+    core::RelativePoseConstraint c;
+    c.from = p;
+    c.to = p + 1;
+    c.z = core::Pose2(0.5 + 0.02 * noise(rng), 0.02 * noise(rng), 0.005 * noise(rng));
+    c.information = Eigen::Vector3d(2500.0, 2500.0, 4e4).asDiagonal();
+    problem.relative_poses.push_back(c);
+  }
+  const core::Point2 landmark[2] = {core::Point2(7.0, 3.0), core::Point2(7.5, 3.0)};
+  std::vector<int64_t> key;
+  for (int p = 0; p < poses; ++p) {
+    for (int l = 0; l < 2; ++l) {
+      core::Observation o;
+      o.pose = p;
+      o.kind = core::ObservationKind::kPointXY;
+      o.z = landmark[l] - core::Point2(0.5 * p, 0.0) + 0.5 * core::Point2(noise(rng), noise(rng));
+      o.information = 4.0 * Eigen::Matrix2d::Identity();
+      o.feature = problem.AddFeature(core::kNoFeatureId, core::Point2::Zero(), false);
+      problem.observations.push_back(o);
+      key.push_back(l);
+    }
+  }
+  ASSERT_TRUE(core::InitializeProblem(&problem).ok());
+  for (int64_t stage_poses : {5, 50}) {
+    SCOPED_TRACE("stage_poses " + std::to_string(stage_poses));
+    core::Problem2d associated = problem;
+    AssociationOptions options;
+    options.incremental.enabled = true;
+    options.incremental.stage_poses = stage_poses;
+    AssociationSummary summary;
+    ASSERT_TRUE(
+        AssociateAndSolve(options, testing::TightCholmodSolverOptions(), &associated, &summary)
+            .ok());
+    ASSERT_EQ(associated.observations.size(), problem.observations.size());
+    std::map<int32_t, std::set<int32_t>> features_of_pose;
+    for (const core::Observation& o : associated.observations) {
+      EXPECT_TRUE(features_of_pose[o.pose].insert(o.feature).second)
+          << "pose " << o.pose << " sees feature " << o.feature << " twice";
+    }
+    EXPECT_EQ(associated.num_features(), 2);
+  }
+}
+
+// A drive of 1.4 laps around a park whose odometry turns 1 mrad per step too
+// much (0.26 rad after a lap) while claiming 0.5 mrad of noise: without the
+// loop closure the revisited trees become new features (recall < 0.7 is
+// asserted), the local map as a whole matches them.
+core::Problem2d DriftingLoop(std::vector<int64_t>* key) {
+  core::Problem2d problem;
+  std::mt19937 rng(21);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::vector<core::Point2> trees;
+  while (trees.size() < 60) {
+    const double r = 12.0 + 16.0 * unit(rng), a = 2.0 * M_PI * unit(rng);
+    const core::Point2 p(r * std::cos(a), r * std::sin(a));
+    bool apart = true;
+    for (const core::Point2& q : trees) apart = apart && (p - q).norm() >= 3.0;
+    if (apart) trees.push_back(p);
+  }
+  const int per_lap = 260, poses = 364;
+  const double turn = 2.0 * M_PI / per_lap;
+  std::vector<core::Pose2> truth;
+  for (int p = 0; p < poses; ++p) {
+    const double a = p * turn;
+    truth.emplace_back(20.0 * std::cos(a), 20.0 * std::sin(a), a + M_PI / 2);
+    problem.AddPose(p, truth.back(), true, 0, p);
+  }
+  problem.pose_fixed[0] = 1;
+  for (int p = 0; p + 1 < poses; ++p) {
+    core::RelativePoseConstraint c;
+    c.from = p;
+    c.to = p + 1;
+    c.z = core::Between(truth[p], truth[p + 1]) +
+          core::Pose2(0.01 * noise(rng), 0.01 * noise(rng), 0.001 + 0.0005 * noise(rng));
+    c.information = Eigen::Vector3d(1e4, 1e4, 4e6).asDiagonal();
+    problem.relative_poses.push_back(c);
+  }
+  for (int p = 0; p < poses; ++p) {
+    for (size_t l = 0; l < trees.size(); ++l) {
+      const core::Point2 local =
+          core::Between(truth[p], core::Pose2(trees[l].x(), trees[l].y(), 0.0)).head<2>();
+      if (local.norm() > 8.0) continue;
+      core::Observation o;
+      o.pose = p;
+      o.kind = core::ObservationKind::kPointXY;
+      o.z = local + 0.1 * core::Point2(noise(rng), noise(rng));
+      o.information = 100.0 * Eigen::Matrix2d::Identity();
+      o.feature = problem.AddFeature(core::kNoFeatureId, core::Point2::Zero(), false);
+      problem.observations.push_back(o);
+      key->push_back(static_cast<int64_t>(l));
+    }
+  }
+  return problem;
+}
+
+TEST(IncrementalAssociation, RevisitAfterDriftLargerThanTheLocalGateIsAssociated) {
+  std::vector<int64_t> key;
+  core::Problem2d input = DriftingLoop(&key);
+  ASSERT_TRUE(core::InitializeProblem(&input).ok());
+  for (bool close_loops : {false, true}) {
+    SCOPED_TRACE(close_loops ? "with loop closure" : "without loop closure");
+    core::Problem2d problem = input;
+    IncrementalAssociationOptions options;
+    options.enabled = true;
+    options.close_loops = close_loops;
+    IncrementalAssociationSummary summary;
+    PairwiseScore score;
+    ASSERT_TRUE(RunPass(options, key, &problem, &summary, &score).ok());
+    if (close_loops) {
+      EXPECT_GE(summary.loop_closures, 1);
+      EXPECT_GE(score.precision(), 0.99);
+      EXPECT_GE(score.recall(), 0.9);
+    } else {
+      // The revisited trees start new features: the drift is beyond the gates.
+      EXPECT_EQ(summary.loop_closures, 0);
+      EXPECT_LT(score.recall(), 0.7);
+    }
+  }
+}
+
+// The simulated campus with GPS every 25 poses, 600 poses, trees 0.7-3.5 m
+// apart at the block corners. Two things keep the pass on track here: the
+// fixes of each new stage are solved in before its tests (the chained poses
+// drift off them by metres while the covariances already include them), and
+// a pairing the stage solve rejects is undone (without the undo seed 2 ends
+// at precision 0.88, recall 0.60: one wrong pairing bends every later stage).
+TEST(IncrementalAssociation, GpsCampusIsTrackedWithFixesFirstAndStageUndo) {
+  for (uint32_t seed : {1u, 2u, 3u}) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    tools::CampusSimulatorOptions campus;
+    campus.poses = 600;
+    campus.gps_every = 25;
+    campus.seed = seed;
+    auto simulated = tools::SimulateCampus(campus);
+    ASSERT_TRUE(simulated.ok()) << simulated.status().ToString();
+    core::Problem2d problem = simulated->problem;
+    const std::vector<int64_t> key = ForgetIds(&problem);
+    ASSERT_TRUE(core::InitializeProblem(&problem).ok());
+    IncrementalAssociationOptions options;
+    options.enabled = true;
+    options.close_loops = false;
+    IncrementalAssociationSummary summary;
+    PairwiseScore score;
+    ASSERT_TRUE(RunPass(options, key, &problem, &summary, &score).ok());
+    EXPECT_GE(score.precision(), 0.99);
+    EXPECT_GE(score.recall(), 0.93);
+  }
+}
+
+TEST(IncrementalAssociation, OptionsAreValidated) {
+  IncrementalAssociationOptions options;
+  options.enabled = true;
+  EXPECT_TRUE(options.Validate().ok());
+  options.stage_poses = 0;
+  EXPECT_TRUE(options.Validate().IsInvalidArgument());
+  options = IncrementalAssociationOptions();
+  options.confirm_observations = 0;
+  EXPECT_TRUE(options.Validate().IsInvalidArgument());
+  options = IncrementalAssociationOptions();
+  options.search_radius = -1.0;
+  EXPECT_TRUE(options.Validate().IsInvalidArgument());
+  options = IncrementalAssociationOptions();
+  options.local_window = -1;
+  EXPECT_TRUE(options.Validate().IsInvalidArgument());
+  options = IncrementalAssociationOptions();
+  options.loop.min_inliers = 1;
+  EXPECT_TRUE(options.Validate().IsInvalidArgument());
+}
+
+}  // namespace
+}  // namespace graphslam::partition

@@ -1,0 +1,82 @@
+#include "partition/ingest/in_memory_chunk_source.h"
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <set>
+
+#include "tests/testing/random_problem.h"
+
+namespace graphslam::partition {
+namespace {
+
+TEST(InMemoryChunkSource, ChunksAreFeatureCompleteSortedAndWithinBudget) {
+  testing::RandomProblemOptions options;
+  options.num_poses = 80;
+  options.num_features = 40;
+  testing::RandomProblem random = testing::MakeRandomProblem(options);
+  const core::Problem2d& problem = random.problem;
+  std::map<int32_t, int64_t> expected;
+  for (const core::Observation& o : problem.observations) ++expected[o.feature];
+
+  for (int64_t budget : {1, 10, 50, 100000}) {
+    ChunkingOptions chunking;
+    chunking.max_observations_per_chunk = budget;
+    InMemoryChunkSource source(problem, chunking);
+    std::set<int32_t> seen;
+    int64_t total = 0;
+    for (int64_t c = 0; c < source.NumChunks(); ++c) {
+      core::ObservationChunk chunk;
+      ASSERT_TRUE(source.Load(c, &chunk).ok());
+      EXPECT_EQ(chunk.index, c);
+      ASSERT_EQ(chunk.feature_begin.size(), chunk.features.size() + 1);
+      EXPECT_TRUE(std::is_sorted(chunk.features.begin(), chunk.features.end()));
+      const int64_t size = static_cast<int64_t>(chunk.observations.size());
+      // Over budget only when a single feature alone exceeds it.
+      if (chunk.features.size() > 1) {
+        EXPECT_LE(size, budget);
+      }
+      for (size_t k = 0; k < chunk.features.size(); ++k) {
+        const int32_t f = chunk.features[k];
+        EXPECT_TRUE(seen.insert(f).second) << "feature " << f << " in two chunks";
+        EXPECT_EQ(chunk.feature_begin[k + 1] - chunk.feature_begin[k], expected[f]);
+        for (int64_t o = chunk.feature_begin[k]; o < chunk.feature_begin[k + 1]; ++o)
+          EXPECT_EQ(chunk.observations[o].feature, f);
+      }
+      total += size;
+    }
+    EXPECT_EQ(total, static_cast<int64_t>(problem.observations.size()));
+    EXPECT_EQ(seen.size(), expected.size());
+  }
+}
+
+TEST(InMemoryChunkSource, ChunksFollowFirstSightForLocality) {
+  testing::RandomProblemOptions options;
+  options.num_poses = 120;
+  options.num_features = 60;
+  testing::RandomProblem random = testing::MakeRandomProblem(options);
+  ChunkingOptions chunking;
+  chunking.max_observations_per_chunk = 40;
+  InMemoryChunkSource source(random.problem, chunking);
+  ASSERT_GT(source.NumChunks(), 2);
+  // The first pose seen in each chunk does not decrease from chunk to chunk.
+  int32_t previous = -1;
+  for (int64_t c = 0; c < source.NumChunks(); ++c) {
+    core::ObservationChunk chunk;
+    ASSERT_TRUE(source.Load(c, &chunk).ok());
+    int32_t first = INT32_MAX;
+    for (const core::Observation& o : chunk.observations) first = std::min(first, o.pose);
+    EXPECT_GE(first, previous);
+    previous = first;
+  }
+}
+
+TEST(InMemoryChunkSource, LoadOutOfRangeIsAnError) {
+  core::Problem2d problem;
+  InMemoryChunkSource source(problem, ChunkingOptions());
+  core::ObservationChunk chunk;
+  EXPECT_TRUE(source.Load(0, &chunk).IsInvalidArgument());
+}
+
+}  // namespace
+}  // namespace graphslam::partition
