@@ -33,6 +33,18 @@ class SerialOpenMpRegions {
   int saved_;
 };
 
+// Relaxed supernode amalgamation for small factors: supernodes of up to 8
+// columns always merge, of up to 32 (64) when at most 20 % (10 %) of the
+// merged supernode is explicit zeros, any when at most 10 %; CHOLMOD's
+// defaults are 4 / 16 / 48 and 80 % / 10 % / 5 %. Pose graphs give one
+// supernode of 3 or 6 columns per pose; merged ones mean fewer, larger BLAS
+// calls and fewer per-supernode costs (CHOLMOD's OpenMP region entries, one
+// futex call each). The factor stores up to ~30 % more entries, so large
+// factors keep CHOLMOD's defaults.
+constexpr double kRelaxedAmalgamationMaxNonzeros = 2e7;
+constexpr size_t kRelaxedNrelax[3] = {8, 32, 64};
+constexpr double kRelaxedZrelax[3] = {0.8, 0.2, 0.1};
+
 // cholmod_start / cholmod_finish around a common object; printing off.
 class Common {
  public:
@@ -116,9 +128,39 @@ bool CholmodOrdering::Orders(const BlockSparseMatrix& a) const {
          a.block_cols() == block_cols;
 }
 
-StatusOr<std::shared_ptr<const CholmodOrdering>> AnalyzeCholmodOrdering(
+namespace {
+
+// The block pattern's upper triangle (diagonal included), compressed by
+// columns with sorted rows: one node per pose block.
+struct BlockUpperPattern {
+  std::vector<int> col_start;
+  std::vector<int> rows;
+};
+
+BlockUpperPattern MakeBlockUpperPattern(const BlockSparseMatrix& a) {
+  BlockUpperPattern u;
+  const int nb = a.num_block_rows();
+  GS_CHECK(static_cast<int64_t>(a.col_rows().size()) + nb < int64_t{1} << 31);
+  u.col_start.reserve(static_cast<size_t>(nb) + 1);
+  u.rows.reserve(a.col_rows().size() + static_cast<size_t>(nb));
+  u.col_start.push_back(0);
+  for (int k = 0; k < nb; ++k) {
+    for (int64_t t = a.col_start()[k]; t < a.col_start()[k + 1]; ++t)
+      u.rows.push_back(a.col_rows()[t]);
+    u.rows.push_back(k);
+    u.col_start.push_back(static_cast<int>(u.rows.size()));
+  }
+  return u;
+}
+
+// CHOLMOD's default strategy also tries METIS when AMD's factor is large and
+// dense (cholmod_analyze: fl >= 500 lnz and lnz >= 5 nnz(A)).
+bool DefaultStrategyTriesMetis(double flops, double factor_nonzeros, double matrix_nonzeros) {
+  return flops >= 500.0 * factor_nonzeros && factor_nonzeros >= 5.0 * matrix_nonzeros;
+}
+
+StatusOr<std::shared_ptr<const CholmodOrdering>> AnalyzeScalarOrdering(
     const BlockSparseMatrix& a) {
-  GS_CHECK(a.num_rows() > 0);
   UpperPattern upper = MakeUpperPattern(a);
   cholmod_sparse view = PatternView(a.num_rows(), &upper);
   Common common;
@@ -142,6 +184,71 @@ StatusOr<std::shared_ptr<const CholmodOrdering>> AnalyzeCholmodOrdering(
   ordering->row_start = a.row_start();
   ordering->block_cols = a.block_cols();
   cholmod_free_factor(&factor, common.get());
+  return std::shared_ptr<const CholmodOrdering>(std::move(ordering));
+}
+
+}  // namespace
+
+StatusOr<std::shared_ptr<const CholmodOrdering>> AnalyzeCholmodOrdering(
+    const BlockSparseMatrix& a) {
+  GS_CHECK(a.num_rows() > 0);
+  const int b = a.block_size();
+  const int nb = a.num_block_rows();
+  BlockUpperPattern blocks = MakeBlockUpperPattern(a);
+  cholmod_sparse view{};
+  view.nrow = view.ncol = static_cast<size_t>(nb);
+  view.nzmax = blocks.rows.size();
+  view.p = blocks.col_start.data();
+  view.i = blocks.rows.data();
+  view.stype = 1;
+  view.itype = CHOLMOD_INT;
+  view.xtype = CHOLMOD_PATTERN;
+  view.dtype = CHOLMOD_DOUBLE;
+  view.sorted = 1;
+  view.packed = 1;
+  Common common;
+  cholmod_common* c = common.get();
+  c->nmethods = 1;
+  c->method[0].ordering = CHOLMOD_AMD;
+  c->supernodal = CHOLMOD_SIMPLICIAL;
+  cholmod_factor* factor = cholmod_analyze(&view, c);
+  if (factor == nullptr || c->status < CHOLMOD_OK || !(c->lnz > 0)) {
+    if (factor != nullptr) cholmod_free_factor(&factor, c);
+    return Status::Numerical(fmt::format(
+        "CHOLMOD symbolic analysis of the reduced information matrix's block pattern ({} "
+        "block rows, {} blocks in the upper triangle) failed: CHOLMOD status {}",
+        nb, blocks.rows.size(), c->status));
+  }
+  // Every block of the pattern is stored dense, so the scalar factor of the
+  // expanded ordering is the block factor with dense blocks: block column k
+  // with m blocks (its diagonal one included) gives scalar columns of
+  // (m - 1) b + b - r nonzeros, r = 0 .. b-1. lnz and fl as CHOLMOD counts
+  // them (fl = sum of squared column counts).
+  auto ordering = std::make_shared<CholmodOrdering>();
+  const int* block_perm = static_cast<const int*>(factor->Perm);
+  const int* block_counts = static_cast<const int*>(factor->ColCount);
+  ordering->permutation.resize(static_cast<size_t>(a.num_rows()));
+  double lnz = 0.0, flops = 0.0;
+  for (int k = 0; k < nb; ++k) {
+    for (int r = 0; r < b; ++r) {
+      ordering->permutation[static_cast<size_t>(k) * b + r] = block_perm[k] * b + r;
+      const double count = static_cast<double>(block_counts[k] - 1) * b + (b - r);
+      lnz += count;
+      flops += count * count;
+    }
+  }
+  cholmod_free_factor(&factor, c);
+  const double matrix_nonzeros = static_cast<double>(blocks.rows.size() - nb) * b * b +
+                                 static_cast<double>(nb) * b * (b + 1) / 2;
+  // Where CHOLMOD's default would weigh METIS against AMD, it runs on the
+  // scalar pattern as before (large dense factors, where the ordering's cost
+  // is small beside the factorization's).
+  if (DefaultStrategyTriesMetis(flops, lnz, matrix_nonzeros)) return AnalyzeScalarOrdering(a);
+  ordering->factor_nonzeros = lnz;
+  ordering->factor_flops = flops;
+  ordering->block_size = b;
+  ordering->row_start = a.row_start();
+  ordering->block_cols = a.block_cols();
   return std::shared_ptr<const CholmodOrdering>(std::move(ordering));
 }
 
@@ -253,7 +360,22 @@ Status CholmodSolver::Impl::Analyze(const BlockSparseMatrix& a) {
   c->method[0].ordering = CHOLMOD_NATURAL;
   c->postorder = 0;
   c->supernodal = supernodal ? CHOLMOD_SUPERNODAL : CHOLMOD_SIMPLICIAL;
+  const bool relaxed = supernodal && order->factor_nonzeros <= kRelaxedAmalgamationMaxNonzeros;
+  size_t saved_nrelax[3];
+  double saved_zrelax[3];
+  std::copy(c->nrelax, c->nrelax + 3, saved_nrelax);
+  std::copy(c->zrelax, c->zrelax + 3, saved_zrelax);
+  if (relaxed) {
+    c->nrelax[0] = kRelaxedNrelax[0];
+    c->nrelax[1] = kRelaxedNrelax[1];
+    c->nrelax[2] = kRelaxedNrelax[2];
+    c->zrelax[0] = kRelaxedZrelax[0];
+    c->zrelax[1] = kRelaxedZrelax[1];
+    c->zrelax[2] = kRelaxedZrelax[2];
+  }
   factor = cholmod_analyze(permuted, c);
+  std::copy(saved_nrelax, saved_nrelax + 3, c->nrelax);
+  std::copy(saved_zrelax, saved_zrelax + 3, c->zrelax);
   c->nmethods = saved_nmethods;
   c->method[0].ordering = saved_ordering;
   c->postorder = saved_postorder;
