@@ -2,7 +2,6 @@
 
 #include <cholmod.h>
 #include <fmt/format.h>
-#include <omp.h>
 
 #include <algorithm>
 #include <utility>
@@ -10,40 +9,17 @@
 
 #include "core/check.h"
 #include "core/logging.h"
+#include "core/serial_openmp.h"
 
 namespace graphslam::core {
 namespace {
 
-// Makes CHOLMOD's OpenMP regions run on the calling thread alone while it
-// lives. Debian's CHOLMOD opens them in the supernodal factorization with a
-// fixed num_threads(4) clause, which OMP_NUM_THREADS cannot lower; they only
-// clear and scatter memory, and on 2 cores beside TBB's threads, waking four
-// OpenMP threads per supernode and spinning them afterwards costs more than
-// it saves (docs/benchmarks.md, "Where the time goes").
-// max-active-levels 0 makes every region inactive; the caller's value comes
-// back on exit. Our own parallelism is TBB's.
-class SerialOpenMpRegions {
- public:
-  SerialOpenMpRegions() : saved_(omp_get_max_active_levels()) { omp_set_max_active_levels(0); }
-  ~SerialOpenMpRegions() { omp_set_max_active_levels(saved_); }
-  SerialOpenMpRegions(const SerialOpenMpRegions&) = delete;
-  SerialOpenMpRegions& operator=(const SerialOpenMpRegions&) = delete;
-
- private:
-  int saved_;
-};
-
-// Relaxed supernode amalgamation for small factors: supernodes of up to 8
-// columns always merge, of up to 32 (64) when at most 20 % (10 %) of the
-// merged supernode is explicit zeros, any when at most 10 %; CHOLMOD's
-// defaults are 4 / 16 / 48 and 80 % / 10 % / 5 %. Pose graphs give one
-// supernode of 3 or 6 columns per pose; merged ones mean fewer, larger BLAS
-// calls and fewer per-supernode costs (CHOLMOD's OpenMP region entries, one
-// futex call each). The factor stores up to ~30 % more entries, so large
-// factors keep CHOLMOD's defaults.
-constexpr double kRelaxedAmalgamationMaxNonzeros = 2e7;
-constexpr size_t kRelaxedNrelax[3] = {8, 32, 64};
-constexpr double kRelaxedZrelax[3] = {0.8, 0.2, 0.1};
+// Supernodal when the factor has at least this many flops per nonzero
+// (CHOLMOD's automatic choice uses 40). Per factorization, CPU time,
+// simplicial / supernodal, with the OpenMP regions inline
+// (core/serial_openmp.h): a 10 000-pose chain with 300 short loops (8 flops
+// per nonzero) 5.4 / 6.7 ms, M3500 (35) 5.5 / 4.2 ms, intel (58) 5.2 / 2.9 ms.
+constexpr double kSupernodalSwitch = 20.0;
 
 // cholmod_start / cholmod_finish around a common object; printing off.
 class Common {
@@ -300,7 +276,7 @@ Status CholmodSolver::Impl::Analyze(const BlockSparseMatrix& a) {
   }
   const int n = a.num_rows();
   cholmod_common* c = common.get();
-  supernodal = order->factor_flops >= c->supernodal_switch * order->factor_nonzeros;
+  supernodal = order->factor_flops >= kSupernodalSwitch * order->factor_nonzeros;
 
   // B's pattern: entry (p, q) of S's upper triangle goes to (inverse[p],
   // inverse[q]), stored in the lower triangle (supernodal) or the upper one
@@ -360,22 +336,7 @@ Status CholmodSolver::Impl::Analyze(const BlockSparseMatrix& a) {
   c->method[0].ordering = CHOLMOD_NATURAL;
   c->postorder = 0;
   c->supernodal = supernodal ? CHOLMOD_SUPERNODAL : CHOLMOD_SIMPLICIAL;
-  const bool relaxed = supernodal && order->factor_nonzeros <= kRelaxedAmalgamationMaxNonzeros;
-  size_t saved_nrelax[3];
-  double saved_zrelax[3];
-  std::copy(c->nrelax, c->nrelax + 3, saved_nrelax);
-  std::copy(c->zrelax, c->zrelax + 3, saved_zrelax);
-  if (relaxed) {
-    c->nrelax[0] = kRelaxedNrelax[0];
-    c->nrelax[1] = kRelaxedNrelax[1];
-    c->nrelax[2] = kRelaxedNrelax[2];
-    c->zrelax[0] = kRelaxedZrelax[0];
-    c->zrelax[1] = kRelaxedZrelax[1];
-    c->zrelax[2] = kRelaxedZrelax[2];
-  }
   factor = cholmod_analyze(permuted, c);
-  std::copy(saved_nrelax, saved_nrelax + 3, c->nrelax);
-  std::copy(saved_zrelax, saved_zrelax + 3, c->zrelax);
   c->nmethods = saved_nmethods;
   c->method[0].ordering = saved_ordering;
   c->postorder = saved_postorder;
