@@ -82,12 +82,13 @@ UpperPattern MakeUpperPattern(const BlockSparseMatrix& a) {
 }
 
 // A CHOLMOD view of a pattern-only symmetric matrix (upper triangle stored).
-cholmod_sparse PatternView(int n, UpperPattern* u) {
+// (n columns of col_start / rows, which must outlive the view.)
+cholmod_sparse PatternView(int n, std::vector<int>* col_start, std::vector<int>* rows) {
   cholmod_sparse view{};
   view.nrow = view.ncol = static_cast<size_t>(n);
-  view.nzmax = u->rows.size();
-  view.p = u->col_start.data();
-  view.i = u->rows.data();
+  view.nzmax = rows->size();
+  view.p = col_start->data();
+  view.i = rows->data();
   view.stype = 1;
   view.itype = CHOLMOD_INT;
   view.xtype = CHOLMOD_PATTERN;
@@ -138,7 +139,7 @@ bool DefaultStrategyTriesMetis(double flops, double factor_nonzeros, double matr
 StatusOr<std::shared_ptr<const CholmodOrdering>> AnalyzeScalarOrdering(
     const BlockSparseMatrix& a) {
   UpperPattern upper = MakeUpperPattern(a);
-  cholmod_sparse view = PatternView(a.num_rows(), &upper);
+  cholmod_sparse view = PatternView(a.num_rows(), &upper.col_start, &upper.rows);
   Common common;
   // Only the ordering and its counts are wanted here; the supernodes are
   // found when the solver analyses the permuted matrix.
@@ -171,17 +172,7 @@ StatusOr<std::shared_ptr<const CholmodOrdering>> AnalyzeCholmodOrdering(
   const int b = a.block_size();
   const int nb = a.num_block_rows();
   BlockUpperPattern blocks = MakeBlockUpperPattern(a);
-  cholmod_sparse view{};
-  view.nrow = view.ncol = static_cast<size_t>(nb);
-  view.nzmax = blocks.rows.size();
-  view.p = blocks.col_start.data();
-  view.i = blocks.rows.data();
-  view.stype = 1;
-  view.itype = CHOLMOD_INT;
-  view.xtype = CHOLMOD_PATTERN;
-  view.dtype = CHOLMOD_DOUBLE;
-  view.sorted = 1;
-  view.packed = 1;
+  cholmod_sparse view = PatternView(nb, &blocks.col_start, &blocks.rows);
   Common common;
   cholmod_common* c = common.get();
   c->nmethods = 1;
