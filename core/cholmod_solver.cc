@@ -2,7 +2,6 @@
 
 #include <cholmod.h>
 #include <fmt/format.h>
-#include <omp.h>
 
 #include <algorithm>
 #include <utility>
@@ -10,28 +9,17 @@
 
 #include "core/check.h"
 #include "core/logging.h"
+#include "core/serial_openmp.h"
 
 namespace graphslam::core {
 namespace {
 
-// Makes CHOLMOD's OpenMP regions run on the calling thread alone while it
-// lives. Debian's CHOLMOD opens them in the supernodal factorization with a
-// fixed num_threads(4) clause, which OMP_NUM_THREADS cannot lower; they only
-// clear and scatter memory, and on 2 cores beside TBB's threads, waking four
-// OpenMP threads per supernode and spinning them afterwards costs more than
-// it saves (docs/benchmarks.md, "Where the time goes").
-// max-active-levels 0 makes every region inactive; the caller's value comes
-// back on exit. Our own parallelism is TBB's.
-class SerialOpenMpRegions {
- public:
-  SerialOpenMpRegions() : saved_(omp_get_max_active_levels()) { omp_set_max_active_levels(0); }
-  ~SerialOpenMpRegions() { omp_set_max_active_levels(saved_); }
-  SerialOpenMpRegions(const SerialOpenMpRegions&) = delete;
-  SerialOpenMpRegions& operator=(const SerialOpenMpRegions&) = delete;
-
- private:
-  int saved_;
-};
+// Supernodal when the factor has at least this many flops per nonzero
+// (CHOLMOD's automatic choice uses 40). Per factorization, CPU time,
+// simplicial / supernodal, with the OpenMP regions inline
+// (core/serial_openmp.h): a 10 000-pose chain with 300 short loops (8 flops
+// per nonzero) 5.4 / 6.7 ms, M3500 (35) 5.5 / 4.2 ms, intel (58) 5.2 / 2.9 ms.
+constexpr double kSupernodalSwitch = 20.0;
 
 // cholmod_start / cholmod_finish around a common object; printing off.
 class Common {
@@ -94,12 +82,13 @@ UpperPattern MakeUpperPattern(const BlockSparseMatrix& a) {
 }
 
 // A CHOLMOD view of a pattern-only symmetric matrix (upper triangle stored).
-cholmod_sparse PatternView(int n, UpperPattern* u) {
+// (n columns of col_start / rows, which must outlive the view.)
+cholmod_sparse PatternView(int n, std::vector<int>* col_start, std::vector<int>* rows) {
   cholmod_sparse view{};
   view.nrow = view.ncol = static_cast<size_t>(n);
-  view.nzmax = u->rows.size();
-  view.p = u->col_start.data();
-  view.i = u->rows.data();
+  view.nzmax = rows->size();
+  view.p = col_start->data();
+  view.i = rows->data();
   view.stype = 1;
   view.itype = CHOLMOD_INT;
   view.xtype = CHOLMOD_PATTERN;
@@ -116,11 +105,41 @@ bool CholmodOrdering::Orders(const BlockSparseMatrix& a) const {
          a.block_cols() == block_cols;
 }
 
-StatusOr<std::shared_ptr<const CholmodOrdering>> AnalyzeCholmodOrdering(
+namespace {
+
+// The block pattern's upper triangle (diagonal included), compressed by
+// columns with sorted rows: one node per pose block.
+struct BlockUpperPattern {
+  std::vector<int> col_start;
+  std::vector<int> rows;
+};
+
+BlockUpperPattern MakeBlockUpperPattern(const BlockSparseMatrix& a) {
+  BlockUpperPattern u;
+  const int nb = a.num_block_rows();
+  GS_CHECK(static_cast<int64_t>(a.col_rows().size()) + nb < int64_t{1} << 31);
+  u.col_start.reserve(static_cast<size_t>(nb) + 1);
+  u.rows.reserve(a.col_rows().size() + static_cast<size_t>(nb));
+  u.col_start.push_back(0);
+  for (int k = 0; k < nb; ++k) {
+    for (int64_t t = a.col_start()[k]; t < a.col_start()[k + 1]; ++t)
+      u.rows.push_back(a.col_rows()[t]);
+    u.rows.push_back(k);
+    u.col_start.push_back(static_cast<int>(u.rows.size()));
+  }
+  return u;
+}
+
+// CHOLMOD's default strategy also tries METIS when AMD's factor is large and
+// dense (cholmod_analyze: fl >= 500 lnz and lnz >= 5 nnz(A)).
+bool DefaultStrategyTriesMetis(double flops, double factor_nonzeros, double matrix_nonzeros) {
+  return flops >= 500.0 * factor_nonzeros && factor_nonzeros >= 5.0 * matrix_nonzeros;
+}
+
+StatusOr<std::shared_ptr<const CholmodOrdering>> AnalyzeScalarOrdering(
     const BlockSparseMatrix& a) {
-  GS_CHECK(a.num_rows() > 0);
   UpperPattern upper = MakeUpperPattern(a);
-  cholmod_sparse view = PatternView(a.num_rows(), &upper);
+  cholmod_sparse view = PatternView(a.num_rows(), &upper.col_start, &upper.rows);
   Common common;
   // Only the ordering and its counts are wanted here; the supernodes are
   // found when the solver analyses the permuted matrix.
@@ -142,6 +161,61 @@ StatusOr<std::shared_ptr<const CholmodOrdering>> AnalyzeCholmodOrdering(
   ordering->row_start = a.row_start();
   ordering->block_cols = a.block_cols();
   cholmod_free_factor(&factor, common.get());
+  return std::shared_ptr<const CholmodOrdering>(std::move(ordering));
+}
+
+}  // namespace
+
+StatusOr<std::shared_ptr<const CholmodOrdering>> AnalyzeCholmodOrdering(
+    const BlockSparseMatrix& a) {
+  GS_CHECK(a.num_rows() > 0);
+  const int b = a.block_size();
+  const int nb = a.num_block_rows();
+  BlockUpperPattern blocks = MakeBlockUpperPattern(a);
+  cholmod_sparse view = PatternView(nb, &blocks.col_start, &blocks.rows);
+  Common common;
+  cholmod_common* c = common.get();
+  c->nmethods = 1;
+  c->method[0].ordering = CHOLMOD_AMD;
+  c->supernodal = CHOLMOD_SIMPLICIAL;
+  cholmod_factor* factor = cholmod_analyze(&view, c);
+  if (factor == nullptr || c->status < CHOLMOD_OK || !(c->lnz > 0)) {
+    if (factor != nullptr) cholmod_free_factor(&factor, c);
+    return Status::Numerical(fmt::format(
+        "CHOLMOD symbolic analysis of the reduced information matrix's block pattern ({} "
+        "block rows, {} blocks in the upper triangle) failed: CHOLMOD status {}",
+        nb, blocks.rows.size(), c->status));
+  }
+  // Every block of the pattern is stored dense, so the scalar factor of the
+  // expanded ordering is the block factor with dense blocks: block column k
+  // with m blocks (its diagonal one included) gives scalar columns of
+  // (m - 1) b + b - r nonzeros, r = 0 .. b-1. lnz and fl as CHOLMOD counts
+  // them (fl = sum of squared column counts).
+  auto ordering = std::make_shared<CholmodOrdering>();
+  const int* block_perm = static_cast<const int*>(factor->Perm);
+  const int* block_counts = static_cast<const int*>(factor->ColCount);
+  ordering->permutation.resize(static_cast<size_t>(a.num_rows()));
+  double lnz = 0.0, flops = 0.0;
+  for (int k = 0; k < nb; ++k) {
+    for (int r = 0; r < b; ++r) {
+      ordering->permutation[static_cast<size_t>(k) * b + r] = block_perm[k] * b + r;
+      const double count = static_cast<double>(block_counts[k] - 1) * b + (b - r);
+      lnz += count;
+      flops += count * count;
+    }
+  }
+  cholmod_free_factor(&factor, c);
+  const double matrix_nonzeros = static_cast<double>(blocks.rows.size() - nb) * b * b +
+                                 static_cast<double>(nb) * b * (b + 1) / 2;
+  // Where CHOLMOD's default would weigh METIS against AMD, it runs on the
+  // scalar pattern as before (large dense factors, where the ordering's cost
+  // is small beside the factorization's).
+  if (DefaultStrategyTriesMetis(flops, lnz, matrix_nonzeros)) return AnalyzeScalarOrdering(a);
+  ordering->factor_nonzeros = lnz;
+  ordering->factor_flops = flops;
+  ordering->block_size = b;
+  ordering->row_start = a.row_start();
+  ordering->block_cols = a.block_cols();
   return std::shared_ptr<const CholmodOrdering>(std::move(ordering));
 }
 
@@ -193,7 +267,7 @@ Status CholmodSolver::Impl::Analyze(const BlockSparseMatrix& a) {
   }
   const int n = a.num_rows();
   cholmod_common* c = common.get();
-  supernodal = order->factor_flops >= c->supernodal_switch * order->factor_nonzeros;
+  supernodal = order->factor_flops >= kSupernodalSwitch * order->factor_nonzeros;
 
   // B's pattern: entry (p, q) of S's upper triangle goes to (inverse[p],
   // inverse[q]), stored in the lower triangle (supernodal) or the upper one

@@ -26,11 +26,18 @@
 // cholmod_factorize would otherwise permute and transpose the matrix every
 // time (two copies of it).
 //
-// Supernodal or simplicial: as CHOLMOD's automatic choice (supernodal_switch),
-// the supernodal factorization when the factor has at least 40 flops per
-// nonzero (dense supernodes, BLAS), the simplicial LL^T otherwise (very
-// sparse factors: small 2-D pose graphs, where per-supernode overhead
-// dominates).
+// The ordering is AMD's on the graph of the pose blocks, expanded to their
+// scalar rows (a third or a sixth of the nodes of the scalar graph, and the
+// same fill, since every stored block is dense); where CHOLMOD's default
+// strategy would also try METIS (large dense factors) it runs on the scalar
+// pattern instead.
+//
+// Supernodal or simplicial: as CHOLMOD's automatic choice, but at 20 flops
+// per factor nonzero instead of its 40 (the supernodal factorization's
+// OpenMP regions run inline, core/serial_openmp.h, which makes its
+// per-supernode cost lower than CHOLMOD's switch assumes): the supernodal
+// factorization for dense supernodes (BLAS), the simplicial LL^T for very
+// sparse factors (pose chains with few loops).
 //
 // CHOLMOD's own printing is switched off (libraries never print); failures
 // come back as Status.

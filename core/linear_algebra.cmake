@@ -7,9 +7,11 @@ target_sources(graphslam_core PRIVATE
   preconditioned_conjugate_gradient.cc
   reduced_system_solver.cc
   schur_eliminator.cc
+  serial_openmp.cc
   subgraph_preconditioner.cc
   trajectory_deflation.cc)
-# CHOLMOD's OpenMP regions are made serial (core/cholmod_solver.cc): only
-# omp_set_max_active_levels from the runtime CHOLMOD loads, no -fopenmp here.
+# CHOLMOD's OpenMP regions are made serial (core/serial_openmp.h): only
+# omp_set_max_active_levels and dlvsym for libgomp's GOMP_parallel, no
+# -fopenmp here.
 find_package(OpenMP REQUIRED COMPONENTS CXX)
-target_link_libraries(graphslam_core PRIVATE ${OpenMP_CXX_LIBRARIES})
+target_link_libraries(graphslam_core PRIVATE ${OpenMP_CXX_LIBRARIES} ${CMAKE_DL_LIBS})

@@ -34,9 +34,11 @@ bool PlanarBinary(const C& c, const std::vector<Pose2>& poses,
   return true;
 }
 
-bool RelativePose(const RelativePoseConstraint& c, const Pose2& from, const Pose2& to,
+// Differentiated w.r.t. the increments directly (fewer sine-cosine pairs
+// than the (x, y, theta) Jacobians carried by ToIncrement).
+bool RelativePose(const RelativePoseConstraint& c, const std::vector<Pose2>& poses,
                   Eigen::Vector3d* e, Eigen::Matrix3d* ja, Eigen::Matrix3d* jb) {
-  EvaluateRelativePose(from, to, c.z, e, ja, jb);
+  EvaluateRelativePoseIncrement(poses[c.from], poses[c.to], c.z, e, ja, jb);
   return true;
 }
 
@@ -62,7 +64,7 @@ bool Gps(const GpsConstraint& c, const std::vector<Pose2>& poses, Eigen::Vector2
 
 template <class C, int kResidual, auto Model>
 using PlanarBinaryFactor = PoseFactor<C, kResidual, 3, PlanarBinary<C, kResidual, Model>>;
-using RelativePoseFactor = PlanarBinaryFactor<RelativePoseConstraint, 3, RelativePose>;
+using RelativePoseFactor = PoseFactor<RelativePoseConstraint, 3, 3, RelativePose>;
 using VelocityMotionFactor = PlanarBinaryFactor<VelocityMotionConstraint, 3, VelocityMotion>;
 using PoseRangeBearingFactor = PlanarBinaryFactor<PoseRangeBearingConstraint, 2, PoseRangeBearing>;
 using GpsFactor = PoseFactor<GpsConstraint, 2, 3, Gps>;

@@ -7,6 +7,16 @@
 // Jacobians de/dx_i (3x3) and de/dx_j (3x3) are analytic, with respect to the
 // plain (x, y, theta) parameterization used for the update x <- x + delta.
 //
+// EvaluateRelativePoseIncrement gives the same residual and the Jacobians
+// with respect to the solver's body-frame increments (core/se2.h,
+// RetractPose), J_d = J_xytheta * RetractionJacobian, in closed form. With
+// p = R_i^T (t_j - t_i):
+//   de/dd_i = [ -R_z^T   R_z^T (p_y, -p_x)^T ;  0 0 -1 ]
+//   de/dd_j = [ R(e_th)  0 ;                   0 0  1 ]
+// (R_z^T R_i^T R_j = R(th_j - th_i - z_th) = R(e_th)), three sine-cosine
+// pairs per call where the (x, y, theta) Jacobians and two retraction
+// Jacobians take seven.
+//
 // THREAD SAFETY: pure functions. ALLOCATION: none.
 #pragma once
 
@@ -19,5 +29,9 @@ namespace graphslam::core {
 void EvaluateRelativePose(const Pose2& from, const Pose2& to, const Pose2& measurement,
                           Eigen::Vector3d* residual, Eigen::Matrix3d* jacobian_from,
                           Eigen::Matrix3d* jacobian_to);
+
+void EvaluateRelativePoseIncrement(const Pose2& from, const Pose2& to, const Pose2& measurement,
+                                   Eigen::Vector3d* residual, Eigen::Matrix3d* jacobian_from,
+                                   Eigen::Matrix3d* jacobian_to);
 
 }  // namespace graphslam::core

@@ -32,6 +32,7 @@
 #include <cmath>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -147,6 +148,9 @@ class ChunkedSpace {
       // Recover the features and evaluate the candidate; in the same pass,
       // reduce at the candidate for the next iteration when there is one.
       RecoveryResult recovery;
+      // The pose factors' chi2 at the candidate: the speculative reduction
+      // below sums it while it linearizes them there.
+      std::optional<double> candidate_pose_chi2;
       candidate_poses_ = ApplyPoseStep<Space>(poses, layout_, pose_step_);
       CandidateSink<Space> sink = CandidateSinkForThisStep();
       const BasicRecoveryInput<Space> input{poses, problem_.features, lambda, pose_step_,
@@ -158,7 +162,7 @@ class ChunkedSpace {
         // reduced into the same buffer. Only g_x is still needed, for the
         // model decrease below.
         step_gradient_.swap(system_.gradient);
-        ResetSystem(candidate_poses_, &system_);
+        candidate_pose_chi2 = ResetSystem(candidate_poses_, &system_);
         Status next_status;
         GS_RETURN_IF_ERROR(ranks_.Agree(RecoverAndReducePass<Space>(
             context_, input, sink, &recovery, {speculative_lambda, &system_, &next_status})));
@@ -176,8 +180,9 @@ class ChunkedSpace {
       if (candidate_store_ != nullptr) GS_RETURN_IF_ERROR(candidate_store_->Finish());
       ranks_.SumRecovery(&recovery);
       ++it->chunk_passes;
-      trial->candidate_chi2 =
-          PoseFactorsChi2(problem_, candidate_poses_, pose_kernels_) + recovery.candidate_chi2;
+      if (!candidate_pose_chi2.has_value())
+        candidate_pose_chi2 = PoseFactorsChi2(problem_, candidate_poses_, pose_kernels_);
+      trial->candidate_chi2 = *candidate_pose_chi2 + recovery.candidate_chi2;
       trial->model_decrease = -(step_gradient_.dot(pose_step_) + recovery.gradient_dot_step) +
                               lambda * (pose_step_.dot(damping_.cwiseProduct(pose_step_)) +
                                         recovery.damped_step_norm);
@@ -251,19 +256,25 @@ class ChunkedSpace {
   }
 
   // Zeroes *system and adds the pose-only factors at `poses`: the state
-  // ReducePass (or the reduce half of the fused pass) starts from.
-  void ResetSystem(const std::vector<Pose>& poses, ReducedSystem* system) const {
+  // ReducePass (or the reduce half of the fused pass) starts from. Returns
+  // their chi2 at `poses` (PoseFactorsChi2's sum) when this process adds
+  // them, nothing otherwise.
+  std::optional<double> ResetSystem(const std::vector<Pose>& poses,
+                                    ReducedSystem* system) const {
     const int num_rows = system->matrix.num_rows();
     system->matrix.SetZero();
     system->rhs.setZero(num_rows);
     system->gradient.setZero(num_rows);
     system->hessian_diagonal.setZero(num_rows);
     system->chi2 = 0.0;
+    std::optional<double> pose_chi2;
     if (ranks_.AddsPoseFactors()) {
-      LinearizePoseFactors(problem_, poses, layout_, &system->matrix, &system->gradient,
-                           &system->hessian_diagonal, pose_kernels_);
+      pose_chi2 = LinearizePoseFactors(problem_, poses, layout_, &system->matrix,
+                                       &system->gradient, &system->hessian_diagonal,
+                                       pose_kernels_);
     }
     system->rhs -= system->gradient;
+    return pose_chi2;
   }
 
   const BasicPassContext<Space>& context_;

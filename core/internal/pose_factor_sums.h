@@ -54,6 +54,22 @@ struct PoseFactor {
   static constexpr auto Evaluate = Model;
 };
 
+// H_ik += block for i <= k (H stores the upper blocks, row-major), or
+// H_ki += block^T for i > k; the block must be in the pattern.
+template <int kPose>
+void AddPoseBlock(BlockSparseMatrix* hessian, int i, int k,
+                  const Eigen::Matrix<double, kPose, kPose>& block) {
+  using Stored = Eigen::Map<Eigen::Matrix<double, kPose, kPose, Eigen::RowMajor>>;
+  GS_CHECK(hessian->block_size() == kPose);
+  double* stored = hessian->MutableBlock(std::min(i, k), std::max(i, k));
+  GS_CHECK(stored != nullptr);
+  if (i <= k) {
+    Stored(stored) += block;
+  } else {
+    Stored(stored) += block.transpose();
+  }
+}
+
 // The normal-equation blocks of one constraint (kPose = pose dimension).
 template <int kPose>
 struct PoseFactorSink {
@@ -70,7 +86,7 @@ struct PoseFactorSink {
     if (u < 0) return;
     const Eigen::Matrix<double, kPose, kResidual> w = jacobian.transpose() * information;
     const Eigen::Matrix<double, kPose, kPose> h = w * jacobian;
-    GS_CHECK(hessian->AddBlock(u, u, h));
+    AddPoseBlock<kPose>(hessian, u, u, h);
     gradient->template segment<kPose>(kPose * u) += w * residual;
     hessian_diagonal->template segment<kPose>(kPose * u) += h.diagonal();
   }
@@ -88,22 +104,22 @@ struct PoseFactorSink {
     const Eigen::Matrix<double, kPose, kResidual> wb = jacobian_b.transpose() * information;
     if (ua >= 0) {
       const Block haa = wa * jacobian_a;
-      GS_CHECK(hessian->AddBlock(ua, ua, haa));
+      AddPoseBlock<kPose>(hessian, ua, ua, haa);
       gradient->template segment<kPose>(kPose * ua) += wa * residual;
       hessian_diagonal->template segment<kPose>(kPose * ua) += haa.diagonal();
     }
     if (ub >= 0) {
       const Block hbb = wb * jacobian_b;
-      GS_CHECK(hessian->AddBlock(ub, ub, hbb));
+      AddPoseBlock<kPose>(hessian, ub, ub, hbb);
       gradient->template segment<kPose>(kPose * ub) += wb * residual;
       hessian_diagonal->template segment<kPose>(kPose * ub) += hbb.diagonal();
     }
     if (ua >= 0 && ub >= 0 && ua != ub) {
-      // Store the upper block (row < column); AddBlock mirrors it.
+      // Store the upper block (row < column).
       if (ua < ub) {
-        GS_CHECK(hessian->AddBlock(ua, ub, Block(wa * jacobian_b)));
+        AddPoseBlock<kPose>(hessian, ua, ub, Block(wa * jacobian_b));
       } else {
-        GS_CHECK(hessian->AddBlock(ub, ua, Block(wb * jacobian_a)));
+        AddPoseBlock<kPose>(hessian, ub, ua, Block(wb * jacobian_a));
       }
     }
   }

@@ -3,6 +3,7 @@
 #include "tests/testing/random_linear_system.h"
 
 #include <gtest/gtest.h>
+#include <suitesparse/cholmod.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -225,6 +226,153 @@ TEST(CholmodSolver, UsesAHandedOverOrderingOnlyForItsPattern) {
   ASSERT_TRUE(solver.Solve(rhs, &x).ok());
   EXPECT_LE(RelativeError(x, other.ToDense().ldlt().solve(rhs)), 1e-10);
   EXPECT_EQ(solver.num_analyses(), 2);
+}
+
+// The scalar upper triangle of a block pattern as the solver stores it:
+// every block of `pairs` and every diagonal block dense (b x b, the diagonal
+// ones triangular), compressed by columns with sorted rows.
+struct ScalarPattern {
+  std::vector<int> col_start{0};
+  std::vector<int> rows;
+
+  cholmod_sparse View() {
+    cholmod_sparse view{};
+    view.nrow = view.ncol = col_start.size() - 1;
+    view.nzmax = rows.size();
+    view.p = col_start.data();
+    view.i = rows.data();
+    view.stype = 1;
+    view.itype = CHOLMOD_INT;
+    view.xtype = CHOLMOD_PATTERN;
+    view.dtype = CHOLMOD_DOUBLE;
+    view.sorted = 1;
+    view.packed = 1;
+    return view;
+  }
+};
+
+ScalarPattern MakeScalarPattern(const std::vector<std::pair<int, int>>& pairs, int n, int b) {
+  std::vector<std::vector<int>> block_rows(n);
+  for (const auto& [i, k] : pairs) block_rows[std::max(i, k)].push_back(std::min(i, k));
+  ScalarPattern pattern;
+  for (int k = 0; k < n; ++k) {
+    block_rows[k].push_back(k);
+    std::sort(block_rows[k].begin(), block_rows[k].end());
+    for (int c = 0; c < b; ++c) {
+      for (int i : block_rows[k]) {
+        const int last = i == k ? c : b - 1;
+        for (int r = 0; r <= last; ++r) pattern.rows.push_back(i * b + r);
+      }
+      pattern.col_start.push_back(static_cast<int>(pattern.rows.size()));
+    }
+  }
+  return pattern;
+}
+
+// The ordering is found on the block graph; its factor's size and cost must
+// be CHOLMOD's own counts for the scalar matrix under that permutation.
+TEST(CholmodSolver, BlockOrderingCountsAreThoseOfTheScalarFactor) {
+  for (int b : {3, 6}) {
+    for (uint32_t seed = 31; seed <= 33; ++seed) {
+      SCOPED_TRACE(::testing::Message() << "block size " << b << ", seed " << seed);
+      const int n = 60;
+      const auto pairs = RandomPairs(seed, n);
+      BlockSparseMatrix a = BlockSparseMatrix::FromPattern(b, n, pairs);
+      FillSpd(seed, pairs, &a);
+      StatusOr<std::shared_ptr<const CholmodOrdering>> ordering = AnalyzeCholmodOrdering(a);
+      ASSERT_TRUE(ordering.ok()) << ordering.status().ToString();
+
+      // CHOLMOD's analysis of the scalar upper triangle with the given order.
+      ScalarPattern pattern = MakeScalarPattern(pairs, n, b);
+      cholmod_sparse view = pattern.View();
+      cholmod_common common;
+      cholmod_start(&common);
+      common.print = 0;
+      common.nmethods = 1;
+      common.method[0].ordering = CHOLMOD_GIVEN;
+      common.postorder = 0;
+      common.supernodal = CHOLMOD_SIMPLICIAL;
+      std::vector<int> permutation = (*ordering)->permutation;
+      cholmod_factor* factor =
+          cholmod_analyze_p(&view, permutation.data(), nullptr, 0, &common);
+      ASSERT_NE(factor, nullptr);
+      EXPECT_EQ((*ordering)->factor_nonzeros, common.lnz);
+      EXPECT_EQ((*ordering)->factor_flops, common.fl);
+      cholmod_free_factor(&factor, &common);
+      cholmod_finish(&common);
+
+      const Eigen::VectorXd rhs = RandomVector(seed, a.num_rows());
+      CholmodSolver solver;
+      solver.UseOrdering(*ordering);
+      ASSERT_TRUE(solver.Factorize(a).ok());
+      Eigen::VectorXd x;
+      ASSERT_TRUE(solver.Solve(rhs, &x).ok());
+      EXPECT_LE(RelativeError(x, a.ToDense().ldlt().solve(rhs)), 1e-10);
+    }
+  }
+}
+
+// A 3-D grid of 13^3 poses (6 x 6 blocks): AMD's factor is large and dense
+// (over 500 flops per nonzero and over 5 nonzeros per matrix nonzero), where
+// CHOLMOD's default strategy also weighs METIS, so the ordering comes from
+// the scalar pattern. Checked by its residual (a dense reference of 13 182
+// rows would take longer than the test may).
+TEST(CholmodSolver, LargeDenseFactorsAreOrderedOnTheScalarPattern) {
+  const int k = 13, b = 6, n = k * k * k;
+  const auto index = [&](int x, int y, int z) { return (x * k + y) * k + z; };
+  std::vector<std::pair<int, int>> pairs;
+  for (int x = 0; x < k; ++x)
+    for (int y = 0; y < k; ++y)
+      for (int z = 0; z < k; ++z) {
+        if (x + 1 < k) pairs.emplace_back(index(x, y, z), index(x + 1, y, z));
+        if (y + 1 < k) pairs.emplace_back(index(x, y, z), index(x, y + 1, z));
+        if (z + 1 < k) pairs.emplace_back(index(x, y, z), index(x, y, z + 1));
+      }
+  std::sort(pairs.begin(), pairs.end());
+  BlockSparseMatrix a = BlockSparseMatrix::FromPattern(b, n, pairs);
+  // Entries in [-1, 1]; at most 7 blocks of 6 per row, so a diagonal of 50
+  // makes the matrix diagonally dominant, hence SPD.
+  std::mt19937 rng(41);
+  std::uniform_real_distribution<double> value(-1.0, 1.0);
+  for (const auto& [i, j] : pairs) {
+    Eigen::MatrixXd block(b, b);
+    for (int r = 0; r < b; ++r)
+      for (int c = 0; c < b; ++c) block(r, c) = value(rng);
+    ASSERT_TRUE(a.AddBlock(i, j, block));
+  }
+  a.AddToDiagonal(Eigen::VectorXd::Constant(a.num_rows(), 50.0));
+
+  StatusOr<std::shared_ptr<const CholmodOrdering>> ordering = AnalyzeCholmodOrdering(a);
+  ASSERT_TRUE(ordering.ok()) << ordering.status().ToString();
+  const double matrix_nonzeros =
+      static_cast<double>(pairs.size()) * b * b + static_cast<double>(n) * b * (b + 1) / 2;
+  EXPECT_GE((*ordering)->factor_flops, 500.0 * (*ordering)->factor_nonzeros);
+  EXPECT_GE((*ordering)->factor_nonzeros, 5.0 * matrix_nonzeros);
+  // CHOLMOD's default analysis of the scalar pattern, permutation and all.
+  ScalarPattern pattern = MakeScalarPattern(pairs, n, b);
+  cholmod_sparse view = pattern.View();
+  cholmod_common common;
+  cholmod_start(&common);
+  common.print = 0;
+  common.supernodal = CHOLMOD_SIMPLICIAL;
+  cholmod_factor* factor = cholmod_analyze(&view, &common);
+  ASSERT_NE(factor, nullptr);
+  const int* scalar_perm = static_cast<const int*>(factor->Perm);
+  EXPECT_EQ((*ordering)->permutation, std::vector<int>(scalar_perm, scalar_perm + a.num_rows()));
+  EXPECT_EQ((*ordering)->factor_nonzeros, common.lnz);
+  cholmod_free_factor(&factor, &common);
+  cholmod_finish(&common);
+
+  const Eigen::VectorXd rhs = RandomVector(42, a.num_rows());
+  CholmodSolver solver;
+  solver.UseOrdering(*ordering);
+  ASSERT_TRUE(solver.Factorize(a).ok());
+  EXPECT_TRUE(solver.supernodal());
+  Eigen::VectorXd x;
+  ASSERT_TRUE(solver.Solve(rhs, &x).ok());
+  Eigen::VectorXd product = Eigen::VectorXd::Zero(a.num_rows());
+  a.RightMultiplyAndAccumulate(x.data(), product.data());
+  EXPECT_LE((product - rhs).norm(), 1e-10 * rhs.norm());
 }
 
 TEST(CholmodSolver, WrongRightHandSideSizeIsInvalidArgument) {

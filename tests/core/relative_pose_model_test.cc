@@ -47,6 +47,23 @@ Pose2 RandomPose(std::mt19937& rng) {
   return Pose2(position(rng), position(rng), angle(rng));
 }
 
+struct Edge {
+  Pose2 from, to, z;
+};
+
+// Poses and a measurement near the truth, so the residual is away from its
+// own wrap; draw i % 10 == 0 straddles +-pi in both headings.
+Edge RandomEdge(std::mt19937& rng, int i) {
+  std::normal_distribution<double> noise(0.0, 0.1);
+  Edge edge{RandomPose(rng), RandomPose(rng), Pose2::Zero()};
+  if (i % 10 == 0) {
+    edge.from.z() = kPi - 1e-7;
+    edge.to.z() = -kPi + 1e-7;
+  }
+  edge.z = Between(edge.from, edge.to) + Pose2(noise(rng), noise(rng), noise(rng));
+  return edge;
+}
+
 TEST(Se2, ComposeBetweenAndInverseAreConsistent) {
   std::mt19937 rng(kSeed);
   for (int i = 0; i < 1000; ++i) {
@@ -100,16 +117,8 @@ TEST(RelativePoseModel, AngleResidualIsWrappedAcrossPi) {
 
 TEST(RelativePoseModel, JacobiansMatchCentralDifferences) {
   std::mt19937 rng(kSeed + 2);
-  std::normal_distribution<double> noise(0.0, 0.1);
   for (int i = 0; i < 1000; ++i) {
-    Pose2 from = RandomPose(rng), to = RandomPose(rng);
-    // Every tenth draw straddles +-pi in both headings.
-    if (i % 10 == 0) {
-      from.z() = kPi - 1e-7;
-      to.z() = -kPi + 1e-7;
-    }
-    // A measurement near the truth, so the residual is away from its own wrap.
-    const Pose2 z = Between(from, to) + Pose2(noise(rng), noise(rng), noise(rng));
+    const auto [from, to, z] = RandomEdge(rng, i);
     SCOPED_TRACE(::testing::Message() << "from " << from.transpose() << " to " << to.transpose());
     Eigen::Matrix3d jacobian_from, jacobian_to;
     Eigen::Vector3d residual;
@@ -129,6 +138,40 @@ TEST(RelativePoseModel, JacobiansMatchCentralDifferences) {
     // Jacobians alone (null residual) agree with the full call.
     Eigen::Matrix3d only_from, only_to;
     EvaluateRelativePose(from, to, z, nullptr, &only_from, &only_to);
+    ExpectNear(only_from, jacobian_from, 0.0);
+    ExpectNear(only_to, jacobian_to, 0.0);
+  }
+}
+
+TEST(RelativePoseModel, IncrementFormMatchesTheResidualAndCentralDifferencesOfTheRetraction) {
+  std::mt19937 rng(kSeed + 3);
+  for (int i = 0; i < 1000; ++i) {
+    const auto [from, to, z] = RandomEdge(rng, i);
+    SCOPED_TRACE(::testing::Message() << "from " << from.transpose() << " to " << to.transpose());
+    Eigen::Vector3d residual, expected_residual;
+    Eigen::Matrix3d jacobian_from, jacobian_to, xyt_from, xyt_to;
+    EvaluateRelativePoseIncrement(from, to, z, &residual, &jacobian_from, &jacobian_to);
+    EvaluateRelativePose(from, to, z, &expected_residual, &xyt_from, &xyt_to);
+    // The same arithmetic for the residual: bit for bit.
+    ExpectNear(residual, expected_residual, 0.0);
+    // J_d = J_xytheta * RetractionJacobian.
+    ExpectNear(jacobian_from, xyt_from * RetractionJacobian(from), 1e-12);
+    ExpectNear(jacobian_to, xyt_to * RetractionJacobian(to), 1e-12);
+    // And against central differences through the retraction x (+) d.
+    const auto of_from = [&](const Eigen::VectorXd& d) -> Eigen::VectorXd {
+      Eigen::Vector3d e;
+      EvaluateRelativePoseIncrement(RetractPose(from, d), to, z, &e, nullptr, nullptr);
+      return e;
+    };
+    const auto of_to = [&](const Eigen::VectorXd& d) -> Eigen::VectorXd {
+      Eigen::Vector3d e;
+      EvaluateRelativePoseIncrement(from, RetractPose(to, d), z, &e, nullptr, nullptr);
+      return e;
+    };
+    ExpectNear(jacobian_from, NumericJacobian(of_from, Eigen::Vector3d::Zero()), 1e-7);
+    ExpectNear(jacobian_to, NumericJacobian(of_to, Eigen::Vector3d::Zero()), 1e-7);
+    Eigen::Matrix3d only_from, only_to;
+    EvaluateRelativePoseIncrement(from, to, z, nullptr, &only_from, &only_to);
     ExpectNear(only_from, jacobian_from, 0.0);
     ExpectNear(only_to, jacobian_to, 0.0);
   }
