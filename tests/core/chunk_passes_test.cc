@@ -200,11 +200,8 @@ INSTANTIATE_TEST_SUITE_P(KindsChunkSizesAndKeptFeatures, FusedPassTest,
 // own sum, to the bit (FusedPassTest covers the first).
 TEST(ChunkPassKernels, CandidateChi2EqualsTheRecoverysSum) {
   for (uint32_t seed = 1; seed <= 3; ++seed) {
-    testing::RandomProblemOptions options;
-    options.seed = seed;
-    options.num_poses = 15;
-    options.num_features = 8;
-    const Problem2d problem = testing::MakeRandomProblem(options).problem;
+    const Problem2d problem =
+        testing::MakeRandomProblem({.num_poses = 15, .num_features = 8, .seed = seed}).problem;
     partition::ChunkingOptions chunking;
     chunking.max_observations_per_chunk = 7;
     partition::InMemoryChunkSource chunks(problem, chunking);

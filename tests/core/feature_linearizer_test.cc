@@ -31,13 +31,13 @@ TEST_P(FeatureLinearizerTest, ReducedModesAndPoseFramesGiveTheFullModesNumbers) 
   int64_t features_checked = 0;
   int64_t weighted_observations = 0;  // observations the kernel down-weights
   for (uint32_t seed = 1; seed <= 4; ++seed) {
-    testing::RandomProblemOptions options;
-    options.seed = seed;
-    options.range_bearing = range_bearing;
-    options.num_poses = 20;
-    options.num_features = 10;
-    options.gps_every = seed % 2 == 0 ? 5 : 0;  // without GPS pose 0 is anchored
-    const Problem2d problem = testing::MakeRandomProblem(options).problem;
+    // Without GPS, pose 0 is anchored.
+    const Problem2d problem = testing::MakeRandomProblem({.num_poses = 20,
+                                                          .num_features = 10,
+                                                          .range_bearing = range_bearing,
+                                                          .gps_every = seed % 2 == 0 ? 5 : 0,
+                                                          .seed = seed})
+                                  .problem;
     partition::ChunkingOptions chunking;
     chunking.max_observations_per_chunk = 9;
     const partition::InMemoryChunkSource chunks(problem, chunking);
