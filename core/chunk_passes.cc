@@ -86,9 +86,14 @@ Status ScreenFeatures(const BasicPassContext<Space>& context,
         for (int64_t k = 0; k < chunk.num_features(); ++k) {
           const int32_t g = chunk.features[k];
           LinearizeFeature<Space>(chunk, k, poses, features[g], *context.layout, RobustKernel(),
-                                  &out->scratch);
+                                  &out->scratch, LinearizeWhat::kInformation);
           const FeatureMatrix c = out->scratch.blocks.feature_information;
-          Eigen::SelfAdjointEigenSolver<FeatureMatrix> eigen(c);
+          Eigen::SelfAdjointEigenSolver<FeatureMatrix> eigen;
+          if constexpr (Space::kFeatureDim == 2) {
+            eigen.computeDirect(c, Eigen::EigenvaluesOnly);  // closed form, as EliminateFeature
+          } else {
+            eigen.compute(c, Eigen::EigenvaluesOnly);
+          }
           const double max_eigen = eigen.eigenvalues().maxCoeff();
           const double min_eigen = eigen.eigenvalues().minCoeff();
           // Relative test: a rank-deficient C has min/max at round-off level.
@@ -187,10 +192,12 @@ Status ReducePass(const BasicPassContext<Space>& context,
                   ReducedSystem* system) {
   internal::FeatureLookup<typename Space::Point> lookup;
   lookup.by_feature = &features;
+  const std::vector<typename Space::PoseFrame> frames = PoseFrames<Space>(poses);
   return internal::RunOrderedChunkPipeline<internal::ReduceOutput<Space>>(
       *context.chunks, context.max_in_flight,
       [&](const ChunkOf<Space>& chunk, internal::ReduceOutput<Space>* out) {
-        return internal::ReduceChunk<Space>(context, chunk, poses, lookup, lambda, out);
+        return internal::ReduceChunk<Space>(context, chunk, poses, frames.data(), lookup, lambda,
+                                            out);
       },
       [&](const ChunkOf<Space>& chunk, internal::ReduceOutput<Space>& out) {
         internal::MergeReduced<Space>(out, system);
@@ -221,10 +228,11 @@ Status RecoverPass(const BasicPassContext<Space>& context, const BasicRecoveryIn
                    const CandidateSink<Space>& sink, RecoveryResult* result) {
   *result = RecoveryResult();
   Status sink_status;
+  const std::vector<typename Space::PoseFrame> frames = PoseFrames<Space>(input.poses);
   Status status = internal::RunOrderedChunkPipeline<internal::RecoverOutput<Space>>(
       *context.chunks, context.max_in_flight,
       [&](const ChunkOf<Space>& chunk, internal::RecoverOutput<Space>* out) {
-        internal::RecoverChunk<Space>(context, chunk, input, out);
+        internal::RecoverChunk<Space>(context, chunk, input, frames.data(), out);
         return Status::Ok();
       },
       [&](const ChunkOf<Space>& chunk, internal::RecoverOutput<Space>& out) {
@@ -262,21 +270,33 @@ Status RecoverAndReducePass(const BasicPassContext<Space>& context,
   // Once a chunk's speculative elimination failed, the next system is lost:
   // later chunks skip that half of the work (the recovery goes on).
   std::atomic<bool> next_failed{false};
+  const std::vector<typename Space::PoseFrame> frames = PoseFrames<Space>(input.poses);
+  const std::vector<typename Space::PoseFrame> candidate_frames =
+      PoseFrames<Space>(input.candidate_poses);
   Status status = internal::RunOrderedChunkPipeline<Output>(
       *context.chunks, context.max_in_flight,
       [&](const ChunkOf<Space>& chunk, Output* out) {
         // Recovery first: it gives the candidates of this chunk's features,
-        // which are exactly the features the reduce half reads.
-        internal::RecoverChunk<Space>(context, chunk, input, &out->recover);
+        // which are exactly the features the reduce half reads. The reduce
+        // at the candidate sums the candidate's chi2 as the recovery would
+        // (chunk_pass_kernels.h): the recovery leaves it to the reduce.
+        internal::RecoverChunk<Space>(context, chunk, input, frames.data(), &out->recover,
+                                      /*with_candidate_chi2=*/false);
         out->reduce_status = Status::Ok();
         out->reduced = !next_failed.load();
         if (out->reduced) {
           internal::FeatureLookup<typename Space::Point> candidates;
           candidates.by_slot = out->recover.candidates.data();
-          out->reduce_status = internal::ReduceChunk<Space>(
-              context, chunk, input.candidate_poses, candidates, next.lambda, &out->reduce);
+          out->reduce_status = internal::ReduceChunk<Space>(context, chunk, input.candidate_poses,
+                                                            candidate_frames.data(), candidates,
+                                                            next.lambda, &out->reduce);
           if (!out->reduce_status.ok()) next_failed = true;
         }
+        out->recover.sums.candidate_chi2 =
+            out->reduced && out->reduce_status.ok()
+                ? out->reduce.chi2
+                : internal::CandidateChi2<Space>(context, chunk, input.candidate_poses,
+                                                 out->recover.candidates);
         return Status::Ok();
       },
       [&](const ChunkOf<Space>& chunk, Output& out) {

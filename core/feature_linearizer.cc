@@ -6,58 +6,81 @@ template <class Space>
 void LinearizeFeature(const BasicObservationChunk<typename Space::Observation>& chunk,
                       int64_t feature_slot, const std::vector<typename Space::Pose>& poses,
                       const typename Space::Point& feature, const UnknownLayout& layout,
-                      const RobustKernel& kernel, BasicLinearizedFeature<Space>* out) {
+                      const RobustKernel& kernel, BasicLinearizedFeature<Space>* out,
+                      LinearizeWhat what, const typename Space::PoseFrame* frames) {
   constexpr int P = Space::kPoseDim;
   constexpr int D = Space::kFeatureDim;
   using FeatureMatrix = Eigen::Matrix<double, D, D>;
+  using FeatureVector = Eigen::Matrix<double, D, 1>;
+  const bool coupling = what != LinearizeWhat::kInformation;
+  const bool pose_terms = what == LinearizeWhat::kAll;
+  // The screening's C needs no residual unless a kernel reweights it.
+  const bool needs_residual = coupling || kernel.type != RobustKernel::Type::kNone;
   FeatureBlocks& blocks = out->blocks;
-  blocks.feature_information.setZero(D, D);
-  blocks.feature_gradient.setZero(D);
+  // Summed in fixed-size matrices (unrolled), copied into the blocks at the end.
+  FeatureMatrix information = FeatureMatrix::Zero();
+  FeatureVector gradient = FeatureVector::Zero();
   blocks.poses.clear();
   size_t used = 0;  // slots in use; vectors keep their capacity across features
   out->chi2 = 0.0;
   out->degenerate_observations = 0;
 
-  Eigen::Matrix<double, D, 1> residual;
+  FeatureVector residual;
   Eigen::Matrix<double, D, P> jacobian_pose;
   FeatureMatrix jacobian_feature;
   const int64_t begin = chunk.feature_begin[feature_slot];
   const int64_t end = chunk.feature_begin[feature_slot + 1];
   for (int64_t o = begin; o < end; ++o) {
     const typename Space::Observation& observation = chunk.observations[o];
-    if (!Space::Evaluate(observation, poses[observation.pose], feature, &residual,
-                         &jacobian_pose, &jacobian_feature)) {
+    const int32_t unknown = coupling ? layout.unknown_index[observation.pose] : -1;
+    const typename Space::Pose& pose = poses[observation.pose];
+    const bool ok =
+        frames != nullptr
+            ? Space::Evaluate(observation, pose, frames[observation.pose], feature,
+                              needs_residual ? &residual : nullptr,
+                              unknown >= 0 ? &jacobian_pose : nullptr, &jacobian_feature)
+            : Space::Evaluate(observation, pose, feature, needs_residual ? &residual : nullptr,
+                              unknown >= 0 ? &jacobian_pose : nullptr, &jacobian_feature);
+    if (!ok) {
       ++out->degenerate_observations;
       continue;
     }
-    const double squared = residual.dot(observation.information * residual);
-    out->chi2 += kernel.Cost(squared);
-    const FeatureMatrix w = kernel.Weight(squared) * observation.information;
+    FeatureMatrix w = observation.information;
+    if (needs_residual) {
+      const double squared = residual.dot(observation.information * residual);
+      if (pose_terms) out->chi2 += kernel.Cost(squared);
+      w = kernel.Weight(squared) * observation.information;
+    }
     const FeatureMatrix fw = jacobian_feature.transpose() * w;
-    blocks.feature_information += fw * jacobian_feature;
-    blocks.feature_gradient += fw * residual;
+    information += fw * jacobian_feature;
+    if (!coupling) continue;
+    gradient += fw * residual;
 
-    const int32_t unknown = layout.unknown_index[observation.pose];
     if (unknown < 0) continue;
     size_t slot = 0;
     while (slot < used && blocks.poses[slot] != unknown) ++slot;
     if (slot == used) {
       blocks.poses.push_back(unknown);
       if (blocks.pose_feature.size() <= used) blocks.pose_feature.emplace_back();
-      if (out->pose_hessian.size() <= used) {
-        out->pose_hessian.emplace_back();
-        out->pose_gradient.emplace_back();
-      }
       blocks.pose_feature[slot].setZero(P, D);
-      out->pose_hessian[slot].setZero();
-      out->pose_gradient[slot].setZero();
+      if (pose_terms) {
+        if (out->pose_hessian.size() <= used) {
+          out->pose_hessian.emplace_back();
+          out->pose_gradient.emplace_back();
+        }
+        out->pose_hessian[slot].setZero();
+        out->pose_gradient[slot].setZero();
+      }
       ++used;
     }
     const Eigen::Matrix<double, P, D> aw = jacobian_pose.transpose() * w;
     blocks.pose_feature[slot] += aw * jacobian_feature;
+    if (!pose_terms) continue;
     out->pose_hessian[slot] += aw * jacobian_pose;
     out->pose_gradient[slot] += aw * residual;
   }
+  blocks.feature_information = information;
+  blocks.feature_gradient = gradient;
   // Slots past `used` are stale entries of an earlier feature.
   blocks.pose_feature.resize(used);
 }
@@ -82,11 +105,13 @@ double FeatureChi2(const BasicObservationChunk<typename Space::Observation>& chu
 template void LinearizeFeature<Space2d>(const ObservationChunk&, int64_t,
                                         const std::vector<Pose2>&, const Point2&,
                                         const UnknownLayout&, const RobustKernel&,
-                                        LinearizedFeature*);
+                                        LinearizedFeature*, LinearizeWhat,
+                                        const Space2d::PoseFrame*);
 template void LinearizeFeature<Space3d>(const ObservationChunk3d&, int64_t,
                                         const std::vector<Pose3>&, const Point3&,
                                         const UnknownLayout&, const RobustKernel&,
-                                        LinearizedFeature3d*);
+                                        LinearizedFeature3d*, LinearizeWhat,
+                                        const Space3d::PoseFrame*);
 template double FeatureChi2<Space2d>(const ObservationChunk&, int64_t, const std::vector<Pose2>&,
                                      const Point2&, const RobustKernel&);
 template double FeatureChi2<Space3d>(const ObservationChunk3d&, int64_t,

@@ -15,6 +15,14 @@
 // contribute to C and g_m only. Damping for Levenberg-Marquardt is added by the
 // caller (C + lambda * D_m).
 //
+// frames (optional): PoseFrames(poses) (core/problem_space.h), so that the
+// pose Jacobians reuse each pose's rotation; the same bits as without.
+// What is computed is chosen by LinearizeWhat: the recovery reads only C, g_m
+// and H_pm, the screening only C (each observation's evaluation is the
+// costly part of a streaming pass: skipping the pose Jacobian skips its
+// rotation, skipping the residual skips the bearing's atan2). What is
+// computed is the same floating-point operations in every mode.
+//
 // Instantiated for Space2d and Space3d in feature_linearizer.cc.
 //
 // THREAD SAFETY: LinearizeFeature writes only *out. ALLOCATION: reuses out's
@@ -46,11 +54,22 @@ struct BasicLinearizedFeature {
 using LinearizedFeature = BasicLinearizedFeature<Space2d>;
 using LinearizedFeature3d = BasicLinearizedFeature<Space3d>;
 
+// Each mode computes a subset of the one before it; the rest of *out is left
+// stale (not zeroed).
+enum class LinearizeWhat {
+  kAll,                // everything in BasicLinearizedFeature (the reduce)
+  kFeatureAndCoupling, // C, g_m, poses, H_pm, degenerate_observations (the recovery)
+  kInformation,        // C and degenerate_observations (the screening); the
+                       // residual is evaluated only for a kernel other than kNone
+};
+
 template <class Space>
 void LinearizeFeature(const BasicObservationChunk<typename Space::Observation>& chunk,
                       int64_t feature_slot, const std::vector<typename Space::Pose>& poses,
                       const typename Space::Point& feature, const UnknownLayout& layout,
-                      const RobustKernel& kernel, BasicLinearizedFeature<Space>* out);
+                      const RobustKernel& kernel, BasicLinearizedFeature<Space>* out,
+                      LinearizeWhat what = LinearizeWhat::kAll,
+                      const typename Space::PoseFrame* frames = nullptr);
 
 // chi2 of the feature's observations at (poses, feature), without Jacobians.
 template <class Space>
@@ -61,11 +80,13 @@ double FeatureChi2(const BasicObservationChunk<typename Space::Observation>& chu
 extern template void LinearizeFeature<Space2d>(const ObservationChunk&, int64_t,
                                                const std::vector<Pose2>&, const Point2&,
                                                const UnknownLayout&, const RobustKernel&,
-                                               LinearizedFeature*);
+                                               LinearizedFeature*, LinearizeWhat,
+                                               const Space2d::PoseFrame*);
 extern template void LinearizeFeature<Space3d>(const ObservationChunk3d&, int64_t,
                                                const std::vector<Pose3>&, const Point3&,
                                                const UnknownLayout&, const RobustKernel&,
-                                               LinearizedFeature3d*);
+                                               LinearizedFeature3d*, LinearizeWhat,
+                                               const Space3d::PoseFrame*);
 extern template double FeatureChi2<Space2d>(const ObservationChunk&, int64_t,
                                             const std::vector<Pose2>&, const Point2&,
                                             const RobustKernel&);

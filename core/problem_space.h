@@ -22,6 +22,8 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
+#include <vector>
 
 #include "core/observation_models.h"
 #include "core/point3_observation_model.h"
@@ -42,6 +44,14 @@ struct Space2d {
   using Problem = Problem2d;
   using PoseVector = Eigen::Matrix<double, kPoseDim, 1>;
 
+  // What the pose Jacobian of every observation from a pose shares: the
+  // rotation of RetractionJacobian(pose), (cos theta, sin theta). A pass
+  // computes it once per pose (PoseFrames) instead of once per observation.
+  using PoseFrame = Eigen::Vector2d;
+  static PoseFrame Frame(const Pose& pose) {
+    return PoseFrame(std::cos(pose.z()), std::sin(pose.z()));
+  }
+
   // Residual and Jacobians (any of them may be nullptr); false if the
   // observation is degenerate (e.g. range-bearing with the feature on the robot).
   static bool Evaluate(const Observation& observation, const Pose& pose, const Point& feature,
@@ -50,6 +60,24 @@ struct Space2d {
     const bool ok = EvaluateObservation(observation.kind, pose, feature, observation.z, residual,
                                         jacobian_pose, jacobian_feature);
     if (ok && jacobian_pose != nullptr) *jacobian_pose = *jacobian_pose * RetractionJacobian(pose);
+    return ok;
+  }
+  // The same with the pose's frame given (Frame(pose)); the same bits.
+  static bool Evaluate(const Observation& observation, const Pose& pose, const PoseFrame& frame,
+                       const Point& feature, Eigen::Vector2d* residual,
+                       Eigen::Matrix<double, 2, 3>* jacobian_pose,
+                       Eigen::Matrix2d* jacobian_feature) {
+    const bool ok = EvaluateObservation(observation.kind, pose, feature, observation.z, residual,
+                                        jacobian_pose, jacobian_feature);
+    if (ok && jacobian_pose != nullptr) {
+      // RetractionJacobian(pose), from the frame's cos and sin.
+      Eigen::Matrix3d retraction = Eigen::Matrix3d::Identity();
+      retraction(0, 0) = frame(0);
+      retraction(0, 1) = -frame(1);
+      retraction(1, 0) = frame(1);
+      retraction(1, 1) = frame(0);
+      *jacobian_pose = *jacobian_pose * retraction;
+    }
     return ok;
   }
   static Pose Retract(const Pose& pose, const PoseVector& delta) {
@@ -69,6 +97,10 @@ struct Space3d {
   using Problem = Problem3d;
   using PoseVector = Eigen::Matrix<double, kPoseDim, 1>;
 
+  // Nothing is shared between a pose's observations beyond the pose itself.
+  struct PoseFrame {};
+  static PoseFrame Frame(const Pose&) { return {}; }
+
   static bool Evaluate(const Observation& observation, const Pose& pose, const Point& feature,
                        Eigen::Vector3d* residual, Eigen::Matrix<double, 3, 6>* jacobian_pose,
                        Eigen::Matrix3d* jacobian_feature) {
@@ -76,11 +108,26 @@ struct Space3d {
                               jacobian_feature);
     return true;
   }
+  static bool Evaluate(const Observation& observation, const Pose& pose, const PoseFrame&,
+                       const Point& feature, Eigen::Vector3d* residual,
+                       Eigen::Matrix<double, 3, 6>* jacobian_pose,
+                       Eigen::Matrix3d* jacobian_feature) {
+    return Evaluate(observation, pose, feature, residual, jacobian_pose, jacobian_feature);
+  }
   static Pose Retract(const Pose& pose, const PoseVector& delta) {
     return RetractPose3(pose, delta);
   }
   // The pose's tangent coordinates, |Log(x)|^2.
   static double StateSquaredNorm(const Pose& pose) { return LogSE3(pose).squaredNorm(); }
 };
+
+// Space::Frame of every pose, computed once per pass (a few bytes per pose).
+template <class Space>
+std::vector<typename Space::PoseFrame> PoseFrames(const std::vector<typename Space::Pose>& poses) {
+  std::vector<typename Space::PoseFrame> frames;
+  frames.reserve(poses.size());
+  for (const typename Space::Pose& pose : poses) frames.push_back(Space::Frame(pose));
+  return frames;
+}
 
 }  // namespace graphslam::core

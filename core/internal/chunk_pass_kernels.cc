@@ -53,6 +53,7 @@ template <class Space>
 Status ReduceChunk(const BasicPassContext<Space>& context,
                    const BasicObservationChunk<typename Space::Observation>& chunk,
                    const std::vector<typename Space::Pose>& poses,
+                   const typename Space::PoseFrame* frames,
                    const FeatureLookup<typename Space::Point>& features, double lambda,
                    ReduceOutput<Space>* out) {
   constexpr int P = Space::kPoseDim;
@@ -71,7 +72,7 @@ Status ReduceChunk(const BasicPassContext<Space>& context,
     if (Excluded(context, g)) continue;
     BasicLinearizedFeature<Space>& f = out->scratch;
     LinearizeFeature<Space>(chunk, k, poses, features(k, g), *context.layout, context.kernel,
-                            &f);
+                            &f, LinearizeWhat::kAll, frames);
     out->chi2 += f.chi2;
     for (size_t slot = 0; slot < f.blocks.poses.size(); ++slot) {
       const int u = f.blocks.poses[slot];
@@ -123,7 +124,9 @@ void MergeReduced(const ReduceOutput<Space>& out, ReducedSystem* system) {
 template <class Space>
 void RecoverChunk(const BasicPassContext<Space>& context,
                   const BasicObservationChunk<typename Space::Observation>& chunk,
-                  const BasicRecoveryInput<Space>& input, RecoverOutput<Space>* out) {
+                  const BasicRecoveryInput<Space>& input,
+                  const typename Space::PoseFrame* frames, RecoverOutput<Space>* out,
+                  bool with_candidate_chi2) {
   const std::vector<typename Space::Pose>& poses = input.poses;
   const std::vector<typename Space::Point>& features = input.features;
   const double lambda = input.lambda;
@@ -144,23 +147,42 @@ void RecoverChunk(const BasicPassContext<Space>& context,
       // Solved in the reduced system; its model terms are in the pose part.
       const int fu = context.layout->feature_unknown_index[g];
       candidate = features[g] + step.template segment<D>(P * fu);
-      out->sums.candidate_chi2 +=
-          FeatureChi2<Space>(chunk, k, candidate_poses, candidate, context.kernel);
+      if (with_candidate_chi2) {
+        out->sums.candidate_chi2 +=
+            FeatureChi2<Space>(chunk, k, candidate_poses, candidate, context.kernel);
+      }
       continue;
     }
     BasicLinearizedFeature<Space>& f = out->scratch;
-    LinearizeFeature<Space>(chunk, k, poses, features[g], *context.layout, context.kernel, &f);
+    LinearizeFeature<Space>(chunk, k, poses, features[g], *context.layout, context.kernel, &f,
+                            LinearizeWhat::kFeatureAndCoupling, frames);
     const Eigen::Matrix<double, D, 1> damping = DampingDiagonal<D>(f.blocks.feature_information);
     f.blocks.feature_information.diagonal() += lambda * damping;
     const Eigen::Matrix<double, D, 1> feature_step = RecoverFeature(f.blocks, step);
     candidate = features[g] + feature_step;
-    out->sums.candidate_chi2 +=
-        FeatureChi2<Space>(chunk, k, candidate_poses, candidate, context.kernel);
+    if (with_candidate_chi2) {
+      out->sums.candidate_chi2 +=
+          FeatureChi2<Space>(chunk, k, candidate_poses, candidate, context.kernel);
+    }
     out->sums.gradient_dot_step += f.blocks.feature_gradient.dot(feature_step);
     out->sums.damped_step_norm += feature_step.dot(damping.cwiseProduct(feature_step));
     out->sums.step_squared_norm += feature_step.squaredNorm();
     out->sums.state_squared_norm += features[g].squaredNorm();
   }
+}
+
+template <class Space>
+double CandidateChi2(const BasicPassContext<Space>& context,
+                     const BasicObservationChunk<typename Space::Observation>& chunk,
+                     const std::vector<typename Space::Pose>& candidate_poses,
+                     const std::vector<typename Space::Point>& candidates) {
+  double chi2 = 0.0;
+  for (int64_t k = 0; k < chunk.num_features(); ++k) {
+    if (Excluded(context, chunk.features[k])) continue;
+    chi2 += FeatureChi2<Space>(chunk, k, candidate_poses, candidates[static_cast<size_t>(k)],
+                               context.kernel);
+  }
+  return chi2;
 }
 
 void MergeRecovered(const RecoveryResult& sums, RecoveryResult* result) {
@@ -174,12 +196,15 @@ void MergeRecovered(const RecoveryResult& sums, RecoveryResult* result) {
 #define GS_INSTANTIATE_CHUNK_PASS_KERNELS(Space)                                                  \
   template Status ReduceChunk<Space>(                                                             \
       const BasicPassContext<Space>&, const BasicObservationChunk<Space::Observation>&,           \
-      const std::vector<Space::Pose>&, const FeatureLookup<Space::Point>&, double,                \
-      ReduceOutput<Space>*);                                                                      \
+      const std::vector<Space::Pose>&, const Space::PoseFrame*,                                   \
+      const FeatureLookup<Space::Point>&, double, ReduceOutput<Space>*);                          \
   template void MergeReduced<Space>(const ReduceOutput<Space>&, ReducedSystem*);                  \
   template void RecoverChunk<Space>(                                                              \
       const BasicPassContext<Space>&, const BasicObservationChunk<Space::Observation>&,           \
-      const BasicRecoveryInput<Space>&, RecoverOutput<Space>*);
+      const BasicRecoveryInput<Space>&, const Space::PoseFrame*, RecoverOutput<Space>*, bool);   \
+  template double CandidateChi2<Space>(                                                           \
+      const BasicPassContext<Space>&, const BasicObservationChunk<Space::Observation>&,           \
+      const std::vector<Space::Pose>&, const std::vector<Space::Point>&);
 
 GS_INSTANTIATE_CHUNK_PASS_KERNELS(Space2d)
 GS_INSTANTIATE_CHUNK_PASS_KERNELS(Space3d)

@@ -13,7 +13,11 @@
 //                  order): one addition per position per chunk.
 //   RecoverChunk   (Table 4): dm = -C_d^{-1}(g_m + sum_p H_pm^T dx_p), the
 //                  candidate feature, its chi2 at the candidate poses, and the
-//                  model-decrease terms.
+//                  model-decrease terms. The fused pass leaves the chi2 out:
+//                  its reduce at the candidate sums the very same terms
+//                  (ReduceOutput::chi2, same features, same order), so it
+//                  evaluates each observation at the candidate once, not
+//                  twice; CandidateChi2 gives it when that reduce failed.
 //   MergeRecovered : adds the sums (serial, chunk order).
 //
 // Templates on the problem space (core/problem_space.h), instantiated for
@@ -63,10 +67,12 @@ struct FeatureLookup {
   }
 };
 
+// frames: PoseFrames(poses) (core/problem_space.h), computed once per pass.
 template <class Space>
 Status ReduceChunk(const BasicPassContext<Space>& context,
                    const BasicObservationChunk<typename Space::Observation>& chunk,
                    const std::vector<typename Space::Pose>& poses,
+                   const typename Space::PoseFrame* frames,
                    const FeatureLookup<typename Space::Point>& features, double lambda,
                    ReduceOutput<Space>* out);
 template <class Space>
@@ -81,11 +87,23 @@ struct RecoverOutput {
   std::vector<typename Space::Point> candidates;
 };
 
-// Fills out->candidates (one per chunk slot) and out->sums.
+// Fills out->candidates (one per chunk slot) and out->sums; with
+// with_candidate_chi2 false, out->sums.candidate_chi2 stays 0.
+// frames: PoseFrames(input.poses).
 template <class Space>
 void RecoverChunk(const BasicPassContext<Space>& context,
                   const BasicObservationChunk<typename Space::Observation>& chunk,
-                  const BasicRecoveryInput<Space>& input, RecoverOutput<Space>* out);
+                  const BasicRecoveryInput<Space>& input,
+                  const typename Space::PoseFrame* frames, RecoverOutput<Space>* out,
+                  bool with_candidate_chi2 = true);
+
+// The chi2 of the chunk's features that are not excluded at
+// (candidate_poses, candidates[k]), summed as RecoverChunk sums it.
+template <class Space>
+double CandidateChi2(const BasicPassContext<Space>& context,
+                     const BasicObservationChunk<typename Space::Observation>& chunk,
+                     const std::vector<typename Space::Pose>& candidate_poses,
+                     const std::vector<typename Space::Point>& candidates);
 void MergeRecovered(const RecoveryResult& sums, RecoveryResult* result);
 
 }  // namespace graphslam::core::internal

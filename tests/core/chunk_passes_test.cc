@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "core/internal/chunk_pass_kernels.h"
 #include "core/internal/pose_pair_set.h"
 #include "core/pose_factors.h"
 #include "partition/ingest/in_memory_chunk_source.h"
@@ -193,6 +194,52 @@ TEST_P(FusedPassTest, NextSystemEqualsReducePassAtTheCandidateAndRecoveryIsUncha
 INSTANTIATE_TEST_SUITE_P(KindsChunkSizesAndKeptFeatures, FusedPassTest,
                          ::testing::Combine(::testing::Bool(), ::testing::Values(1, 7, 100000),
                                             ::testing::Bool()));
+
+// The fused pass takes the candidate's chi2 from its reduce half and falls
+// back to CandidateChi2 when that reduce fails: both must be the recovery's
+// own sum, to the bit (FusedPassTest covers the first).
+TEST(ChunkPassKernels, CandidateChi2EqualsTheRecoverysSum) {
+  for (uint32_t seed = 1; seed <= 3; ++seed) {
+    const Problem2d problem =
+        testing::MakeRandomProblem({.num_poses = 15, .num_features = 8, .seed = seed}).problem;
+    partition::ChunkingOptions chunking;
+    chunking.max_observations_per_chunk = 7;
+    partition::InMemoryChunkSource chunks(problem, chunking);
+    UnknownLayout layout = UnknownLayout::FromProblem(problem);
+    std::vector<uint8_t> keep(problem.features.size(), 0);
+    keep[1] = 1;
+    layout.KeepFeatures(keep);
+    std::vector<uint8_t> excluded(problem.features.size(), 0);
+    excluded[2] = 1;
+    PassContext context;
+    context.chunks = &chunks;
+    context.layout = &layout;
+    context.excluded = &excluded;
+    context.kernel.type = RobustKernel::Type::kCauchy;
+
+    // Any step will do: the candidates are what both sums read.
+    const Eigen::VectorXd step = Eigen::VectorXd::Constant(3 * layout.num_blocks(), 0.01);
+    std::vector<Pose2> candidate_poses = problem.poses;
+    for (Pose2& pose : candidate_poses) pose += Pose2(0.02, -0.01, 0.003);
+    const BasicRecoveryInput<Space2d> input{problem.poses, problem.features, 0.1, step,
+                                            candidate_poses};
+    const std::vector<Space2d::PoseFrame> frames = PoseFrames<Space2d>(problem.poses);
+    ObservationChunk chunk;
+    internal::RecoverOutput<Space2d> out;
+    for (int64_t c = 0; c < chunks.NumChunks(); ++c) {
+      ASSERT_TRUE(chunks.Load(c, &chunk).ok());
+      internal::RecoverChunk<Space2d>(context, chunk, input, frames.data(), &out);
+      const double with_chi2 = out.sums.candidate_chi2;
+      EXPECT_EQ(internal::CandidateChi2<Space2d>(context, chunk, candidate_poses, out.candidates),
+                with_chi2)
+          << "seed " << seed << " chunk " << c;
+      internal::RecoverChunk<Space2d>(context, chunk, input, frames.data(), &out,
+                                      /*with_candidate_chi2=*/false);
+      EXPECT_EQ(out.sums.candidate_chi2, 0.0);
+      if (chunk.num_features() > 0 && !excluded[chunk.features[0]]) EXPECT_GT(with_chi2, 0.0);
+    }
+  }
+}
 
 // Adds feature 99, observed once from `pose` with an information that only
 // constrains one direction (its C is rank one, so screening excludes it).
