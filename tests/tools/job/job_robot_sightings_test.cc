@@ -131,28 +131,27 @@ TEST_F(JobRobotSightings, TwoRobotsThatOnlySeeEachOtherEndInOneFrame) {
   // The same files in two folders: nothing ties the robots.
   fs::create_directories(dir_ / "apart");
   fs::copy(dir_ / "together", dir_ / "apart", fs::copy_options::recursive);
-  const Status apart_status = Run("output: out2\n" + solver +
+  // Runs a job of r1 (folder together) and r2 (folder second) writing to
+  // `output`; its report, expected in two components.
+  const auto untied = [&](const std::string& output, const std::string& head,
+                          const std::string& second) {
+    const Status status = Run("output: " + output + "\n" + head + solver +
                                   "runs:\n"
                                   "  - {name: r1, format: mrclam, robot: 1, path: together}\n"
-                                  "  - {name: r2, format: mrclam, robot: 2, path: apart}\n",
-                                  "job2.yaml");
-  ASSERT_TRUE(apart_status.ok()) << apart_status.ToString();
-  const nlohmann::json apart = ReadJsonFile(dir_ / "out2/report.json");
-  EXPECT_EQ(apart["components"].size(), 2u);
-  EXPECT_FALSE(apart["runs"][1]["tied"].get<bool>());
+                                  "  - {name: r2, format: mrclam, robot: 2, path: " + second +
+                                  "}\n",
+                              output + ".yaml");
+    EXPECT_TRUE(status.ok()) << status.ToString();
+    const nlohmann::json report = ReadJsonFile(dir_ / output / "report.json");
+    EXPECT_EQ(report["components"].size(), 2u) << output;
+    EXPECT_FALSE(report["runs"][1]["tied"].get<bool>()) << output;
+    return report;
+  };
+  const nlohmann::json apart = untied("out2", "", "apart");
   EXPECT_EQ(apart["robot_sightings"]["constraints"].get<int>(), 0);
   EXPECT_EQ(apart["robot_sightings"]["robot_not_in_job"].get<int>(), expected);
-
   // The same folder with robot_sightings: false: the constraints are left out.
-  const Status off_status = Run("output: out3\nrobot_sightings: false\n" + solver +
-                                "runs:\n"
-                                "  - {name: r1, format: mrclam, robot: 1, path: together}\n"
-                                "  - {name: r2, format: mrclam, robot: 2, path: together}\n",
-                                "job3.yaml");
-  ASSERT_TRUE(off_status.ok()) << off_status.ToString();
-  const nlohmann::json off = ReadJsonFile(dir_ / "out3/report.json");
-  EXPECT_EQ(off["components"].size(), 2u);
-  EXPECT_FALSE(off["runs"][1]["tied"].get<bool>());
+  untied("out3", "robot_sightings: false\n", "together");
 }
 
 // Robot A stands still for poses 0-3 (controls below the deadband), robot B
