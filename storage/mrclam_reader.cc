@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <unordered_map>
+#include <utility>
 
 #include "core/logging.h"
 #include "core/unidentified_features.h"
@@ -223,6 +224,18 @@ StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOpti
   GS_ASSIGN_OR_RETURN(std::unique_ptr<LineReader> reader, LineReader::Open(measurement_path));
   reader->set_record_name("measurement");
   std::unordered_map<int64_t, int32_t> feature_of_subject;
+  // moving_before[k]: controls 0..k-1 that move the robot (MrclamStandsStill);
+  // poses p, q stand still together iff moving_before[p] == moving_before[q].
+  std::vector<int64_t> moving_before(count, 0);
+  for (size_t k = 1; k < count; ++k) {
+    const Eigen::Vector3d& control = odometry.values[k - 1];
+    moving_before[k] = moving_before[k - 1] + (MrclamStandsStill(control.x(), control.y()) ? 0 : 1);
+  }
+  // (feature, standstill) -> its observation; per observation the sums of
+  // (range, cos bearing, sin bearing) and the count of repeats merged in.
+  std::map<std::pair<int32_t, int64_t>, size_t> standstill_group;
+  std::vector<Eigen::Vector3d> standstill_sums;
+  std::vector<int32_t> standstill_counts;
   while (reader->Next()) {
     if (reader->fields().size() != 4) {
       return reader->Error("measurement has " + std::to_string(reader->fields().size()) +
@@ -286,10 +299,33 @@ StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOpti
     observation.z = Eigen::Vector2d(range, bearing);
     observation.information = options.measurement_information;
     observation.line = reader->line_number();
+    if (options.merge_standstill_repeats && !options.ignore_barcodes) {
+      // One standstill of the robot: no moving control between its poses.
+      const auto [group, inserted] = standstill_group.try_emplace(
+          {feature_index, moving_before[pose]}, problem.observations.size());
+      if (!inserted) {
+        standstill_sums[group->second] += Eigen::Vector3d(range, std::cos(bearing),
+                                                          std::sin(bearing));
+        ++standstill_counts[group->second];
+        ++local_stats.standstill_repeats_merged;
+        continue;
+      }
+    }
+    standstill_sums.emplace_back(range, std::cos(bearing), std::sin(bearing));
+    standstill_counts.push_back(1);
     problem.observations.push_back(observation);
     ++local_stats.landmark_observations;
   }
   GS_RETURN_IF_ERROR(reader->status());
+  // A merged observation is the mean of its repeats (circular mean of the
+  // bearing) with the information of one measurement: the repeats' errors are
+  // the same error seen again, so they add no information.
+  for (size_t i = 0; i < problem.observations.size(); ++i) {
+    if (standstill_counts[i] < 2) continue;
+    const Eigen::Vector3d& sum = standstill_sums[i];
+    problem.observations[i].z =
+        Eigen::Vector2d(sum.x() / standstill_counts[i], std::atan2(sum.z(), sum.y()));
+  }
   if (local_stats.unknown_barcodes_skipped > 0) {
     GS_LOG(WARNING, "%s: %lld measurements have a barcode that is in no row of Barcodes.dat "
            "(first: %s); skipped", reader->name().c_str(),

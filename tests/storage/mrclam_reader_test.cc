@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <Eigen/LU>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -21,7 +22,9 @@ constexpr const char* kFolder = "mrclam_dataset1_sampled50hz";
 TEST(MrclamReader, Robot1CountsAndRobotBarcodeFiltering) {
   GS_REQUIRE_DATASET(kFolder);
   MrclamReadStats stats;
-  const auto problem = ReadMrclam(DatasetPath(kFolder), MrclamOptions(), &stats);
+  MrclamOptions every;  // every reading its own observation
+  every.merge_standstill_repeats = false;
+  const auto problem = ReadMrclam(DatasetPath(kFolder), every, &stats);
   ASSERT_TRUE(problem.ok()) << problem.status().ToString();
   EXPECT_EQ(problem->num_poses(), 75000);
   EXPECT_EQ(problem->motions.size(), 74999u);
@@ -64,7 +67,9 @@ TEST(MrclamReader, Robot1CountsAndRobotBarcodeFiltering) {
 
 TEST(MrclamReader, IgnoredBarcodesKeepTheObservationsWithoutIds) {
   GS_REQUIRE_DATASET(kFolder);
-  const auto known = ReadMrclam(DatasetPath(kFolder), MrclamOptions());
+  MrclamOptions every;  // every reading its own observation, as without barcodes
+  every.merge_standstill_repeats = false;
+  const auto known = ReadMrclam(DatasetPath(kFolder), every);
   ASSERT_TRUE(known.ok()) << known.status().ToString();
   MrclamOptions options;
   options.ignore_barcodes = true;
@@ -166,6 +171,52 @@ TEST_F(MrclamSmallTest, UnknownBarcodesAreSkippedCountedAndListed) {
   EXPECT_EQ(stats.unknown_barcode_lines[4], "Robot1_Measurement.dat:7: 100.04 99 1 0");
 }
 
+// Poses 0-2 stand still (controls 0, 1 are zero), control 2 moves, poses 3-4
+// stand still again: readings of one landmark within a standstill become one
+// observation at the first reading's pose, z = the mean (circular in the
+// bearing), with the information of one reading.
+TEST_F(MrclamSmallTest, StandstillRepeatsOfALandmarkBecomeOneObservation) {
+  Write("Robot1_Odometry.dat", "0 0 0\n0.02 0 0\n0.04 0.1 0\n0.06 0 0\n0.08 0 0\n");
+  Write("Robot1_Measurement.dat",
+        "0 72 1.0 0.1\n0.02 72 1.2 0.3\n0.02 27 2.0 0.0\n0.04 72 1.4 0.2\n"
+        "0.06 72 1.0 3.1\n0.08 72 3.0 -3.1\n");
+  MrclamReadStats stats;
+  const auto merged = ReadMrclam(dir_, MrclamOptions(), &stats);
+  ASSERT_TRUE(merged.ok()) << merged.status().ToString();
+  EXPECT_EQ(stats.standstill_repeats_merged, 3);
+  EXPECT_EQ(stats.landmark_observations, 3);
+  EXPECT_EQ(stats.landmark_observations + stats.standstill_repeats_merged, stats.measurements);
+  ASSERT_EQ(merged->observations.size(), 3u);
+  const core::Observation& first = merged->observations[0];
+  EXPECT_EQ(merged->feature_ids[first.feature], 6);
+  EXPECT_EQ(first.pose, 0);
+  EXPECT_EQ(first.line, 1);
+  EXPECT_NEAR(first.z.x(), 1.2, 1e-12);
+  EXPECT_NEAR(first.z.y(), 0.2, 1e-12);
+  EXPECT_EQ(first.information, MrclamOptions().measurement_information);
+  EXPECT_EQ(merged->feature_ids[merged->observations[1].feature], 7);  // another landmark
+  EXPECT_EQ(merged->observations[1].z, Eigen::Vector2d(2.0, 0.0));
+  // After the robot moved: a new standstill, a new observation; 3.1 and -3.1
+  // average to pi, not to 0.
+  const core::Observation& after = merged->observations[2];
+  EXPECT_EQ(after.pose, 3);
+  EXPECT_NEAR(after.z.x(), 2.0, 1e-12);
+  EXPECT_NEAR(std::abs(after.z.y()), M_PI, 1e-12);
+
+  MrclamOptions every;
+  every.merge_standstill_repeats = false;
+  const auto unmerged = ReadMrclam(dir_, every, &stats);
+  ASSERT_TRUE(unmerged.ok()) << unmerged.status().ToString();
+  EXPECT_EQ(stats.standstill_repeats_merged, 0);
+  EXPECT_EQ(unmerged->observations.size(), 6u);
+  // Unknown correspondence: the barcodes may not group readings.
+  MrclamOptions unknown;
+  unknown.ignore_barcodes = true;
+  const auto unidentified = ReadMrclam(dir_, unknown);
+  ASSERT_TRUE(unidentified.ok()) << unidentified.status().ToString();
+  EXPECT_EQ(unidentified->observations.size(), 6u);
+}
+
 TEST_F(MrclamSmallTest, RobotSightingsAreKeptBesideTheProblem) {
   MrclamReadStats stats;
   const auto problem = ReadMrclam(dir_, MrclamOptions(), &stats);
@@ -193,8 +244,9 @@ TEST(MrclamReader, Dataset1AllRobotsReadWithTheirMisreadBarcodesSkipped) {
     EXPECT_EQ(stats.unknown_barcodes_skipped, expected_unknown[robot - 1]) << robot;
     EXPECT_EQ(static_cast<int64_t>(stats.robot_sightings.size()), expected_sightings[robot - 1])
         << robot;
-    EXPECT_EQ(stats.landmark_observations + stats.robot_measurements_dropped +
-                  stats.unknown_barcodes_skipped + stats.out_of_time_range_dropped,
+    EXPECT_EQ(stats.landmark_observations + stats.standstill_repeats_merged +
+                  stats.robot_measurements_dropped + stats.unknown_barcodes_skipped +
+                  stats.out_of_time_range_dropped,
               stats.measurements)
         << robot;
   }

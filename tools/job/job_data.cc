@@ -444,7 +444,8 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
       break;
     }
   for (int32_t i = 0; i < problem.num_poses(); ++i) problem.pose_ids[static_cast<size_t>(i)] = base + i;
-  data.sightings = AddRobotSightings(sightings, kDefaultSightingMaxTimeDifference, &problem);
+  if (job.robot_sightings)
+    data.sightings = AddRobotSightings(sightings, kDefaultSightingMaxTimeDifference, &problem);
   FindComponents(&data);
   SetGauge(&data);
   return data;

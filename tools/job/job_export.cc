@@ -247,6 +247,7 @@ json RobotSightingsReport(const JobData& data) {
   return {{"constraints", data.sightings.constraints},
           {"robot_not_in_job", data.sightings.robot_not_in_job},
           {"no_pose_at_stamp", data.sightings.no_pose_at_stamp},
+          {"standstill_repeats_merged", data.sightings.standstill_repeats_merged},
           {"pairs", pairs}};
 }
 

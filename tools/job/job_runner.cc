@@ -129,7 +129,8 @@ json RunsToJson(const JobData& data) {
           {"robot_sightings",
            {{"constraints", data.sightings.constraints},
             {"robot_not_in_job", data.sightings.robot_not_in_job},
-            {"no_pose_at_stamp", data.sightings.no_pose_at_stamp}}}};
+            {"no_pose_at_stamp", data.sightings.no_pose_at_stamp},
+            {"standstill_repeats_merged", data.sightings.standstill_repeats_merged}}}};
 }
 
 // The runs (and components) that go with a stage's problem: after data
@@ -187,6 +188,8 @@ Status LoadData(const Context& ctx, const std::string& problem_file, JobData* da
       data->sightings.constraints = sightings.at("constraints").get<int64_t>();
       data->sightings.robot_not_in_job = sightings.at("robot_not_in_job").get<int64_t>();
       data->sightings.no_pose_at_stamp = sightings.at("no_pose_at_stamp").get<int64_t>();
+      data->sightings.standstill_repeats_merged =
+          sightings.value("standstill_repeats_merged", int64_t{0});
     }
   } catch (const json::exception& error) {
     return Status::Corruption(ctx.Work(runs_file) + ": " + error.what());

@@ -434,7 +434,7 @@ StatusOr<JobSpec> ParseJobSpec(const std::string& text, const std::string& path)
     return Status::InvalidArgument(path + ":1:1: a job file is a mapping; expected output: and runs:");
   GS_RETURN_IF_ERROR(r.ExpectMap(root, "the job",
                                  {"output", "threads", "memory_limit", "stages", "solver", "runs",
-                                  "compare_without_gps", "map"}));
+                                  "compare_without_gps", "map", "robot_sightings"}));
   JobSpec job;
   job.path = path;
   // Without output: the folder must come from `graphslam run -o DIR` (RunJob checks).
@@ -447,6 +447,8 @@ StatusOr<JobSpec> ParseJobSpec(const std::string& text, const std::string& path)
   if (root["compare_without_gps"])
     GS_RETURN_IF_ERROR(
         r.Bool(root["compare_without_gps"], "compare_without_gps", &job.compare_without_gps));
+  if (root["robot_sightings"])
+    GS_RETURN_IF_ERROR(r.Bool(root["robot_sightings"], "robot_sightings", &job.robot_sightings));
   if (root["stages"]) {
     const YAML::Node& stages = root["stages"];
     if (!stages.IsSequence())

@@ -7,6 +7,7 @@
 //   memory_limit: 2GiB            # bytes, or with KiB/MiB/GiB
 //   stages: [ingest, initialize, optimize, export]   # default: all
 //   solver: {max_iterations: 50, robust_kernel: cauchy:1, initialization: odometry}
+//   robot_sightings: true         # MRCLAM robot-to-robot constraints (default true)
 //   runs:
 //     - {name: robot1, format: mrclam, path: data/MRCLAM_Dataset1, robot: 1}
 //     - {name: sim, format: simulate, simulate: {poses: 2000, runs: 2, gps_every: 10}}
@@ -123,6 +124,10 @@ struct JobSpec {
   // simulate runs: also solve the job without GPS and report the indoor error
   // of both (the paper's Figure 6 comparison).
   bool compare_without_gps = false;
+  // MRCLAM runs of one dataset: a sighting of another run's robot becomes a
+  // robot-to-robot constraint (tools/job/robot_sightings.h); false leaves
+  // them out, so only shared landmarks tie the runs.
+  bool robot_sightings = true;
   std::vector<RunSpec> runs;
 
   bool HasStage(Stage stage) const;

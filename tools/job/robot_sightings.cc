@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <utility>
 
 namespace graphslam::tools::job {
 namespace {
@@ -27,11 +29,32 @@ int32_t NearestPose(const std::vector<double>& stamps, int32_t first, int32_t co
   return best_difference <= max_difference ? best : -1;
 }
 
+// standstill[p]: the first pose of the standstill that pose p is in (p itself
+// when the control into p moves the robot); motions with to = from + 1 whose
+// control does not move the robot (storage::MrclamStandsStill) join one.
+std::vector<int32_t> StandstillOfPose(const core::Problem2d& problem) {
+  std::vector<int32_t> standstill(static_cast<size_t>(problem.num_poses()));
+  for (int32_t p = 0; p < problem.num_poses(); ++p) standstill[static_cast<size_t>(p)] = p;
+  for (const core::VelocityMotionConstraint& motion : problem.motions)
+    if (motion.to == motion.from + 1 &&
+        storage::MrclamStandsStill(motion.control.v, motion.control.omega))
+      standstill[static_cast<size_t>(motion.to)] = standstill[static_cast<size_t>(motion.from)];
+  return standstill;
+}
+
 }  // namespace
 
 SightingCounts AddRobotSightings(const std::vector<RunSightings>& runs,
                                  double max_time_difference, core::Problem2d* problem) {
   SightingCounts counts;
+  // Motions are appended in pose order, so one pass suffices.
+  const std::vector<int32_t> standstill = StandstillOfPose(*problem);
+  // (standstill of from, standstill of to) -> the constraint of those; per
+  // constraint the sums of (range, cos bearing, sin bearing) and the count.
+  std::map<std::pair<int32_t, int32_t>, size_t> merged_into;
+  std::vector<Eigen::Vector3d> sums;
+  std::vector<int32_t> repeats;
+  const size_t first_new = problem->pose_range_bearings.size();
   for (const RunSightings& observer : runs) {
     if (observer.dataset.empty()) continue;
     for (const storage::MrclamRobotSighting& sighting : observer.sightings) {
@@ -52,6 +75,19 @@ SightingCounts AddRobotSightings(const std::vector<RunSightings>& runs,
         ++counts.no_pose_at_stamp;
         continue;
       }
+      const Eigen::Vector3d sum(sighting.z.x(), std::cos(sighting.z.y()),
+                                std::sin(sighting.z.y()));
+      const auto [group, inserted] = merged_into.try_emplace(
+          {standstill[static_cast<size_t>(from)], standstill[static_cast<size_t>(to)]},
+          sums.size());
+      if (!inserted) {
+        sums[group->second] += sum;
+        ++repeats[group->second];
+        ++counts.standstill_repeats_merged;
+        continue;
+      }
+      sums.push_back(sum);
+      repeats.push_back(1);
       core::PoseRangeBearingConstraint constraint;
       constraint.from = from;
       constraint.to = to;
@@ -61,6 +97,11 @@ SightingCounts AddRobotSightings(const std::vector<RunSightings>& runs,
       problem->pose_range_bearings.push_back(constraint);
       ++counts.constraints;
     }
+  }
+  for (size_t i = 0; i < sums.size(); ++i) {
+    if (repeats[i] < 2) continue;
+    problem->pose_range_bearings[first_new + i].z =
+        Eigen::Vector2d(sums[i].x() / repeats[i], std::atan2(sums[i].z(), sums[i].y()));
   }
   return counts;
 }

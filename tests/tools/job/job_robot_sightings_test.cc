@@ -17,6 +17,7 @@
 #include "core/angle.h"
 #include "core/velocity_motion_model.h"
 #include "tests/tools/job/job_test_folder.h"
+#include "tools/job/robot_sightings.h"
 
 namespace graphslam::tools::job {
 namespace {
@@ -130,17 +131,79 @@ TEST_F(JobRobotSightings, TwoRobotsThatOnlySeeEachOtherEndInOneFrame) {
   // The same files in two folders: nothing ties the robots.
   fs::create_directories(dir_ / "apart");
   fs::copy(dir_ / "together", dir_ / "apart", fs::copy_options::recursive);
-  const Status apart_status = Run("output: out2\n" + solver +
+  // Runs a job of r1 (folder together) and r2 (folder second) writing to
+  // `output`; its report, expected in two components.
+  const auto untied = [&](const std::string& output, const std::string& head,
+                          const std::string& second) {
+    const Status status = Run("output: " + output + "\n" + head + solver +
                                   "runs:\n"
                                   "  - {name: r1, format: mrclam, robot: 1, path: together}\n"
-                                  "  - {name: r2, format: mrclam, robot: 2, path: apart}\n",
-                                  "job2.yaml");
-  ASSERT_TRUE(apart_status.ok()) << apart_status.ToString();
-  const nlohmann::json apart = ReadJsonFile(dir_ / "out2/report.json");
-  EXPECT_EQ(apart["components"].size(), 2u);
-  EXPECT_FALSE(apart["runs"][1]["tied"].get<bool>());
+                                  "  - {name: r2, format: mrclam, robot: 2, path: " + second +
+                                  "}\n",
+                              output + ".yaml");
+    EXPECT_TRUE(status.ok()) << status.ToString();
+    const nlohmann::json report = ReadJsonFile(dir_ / output / "report.json");
+    EXPECT_EQ(report["components"].size(), 2u) << output;
+    EXPECT_FALSE(report["runs"][1]["tied"].get<bool>()) << output;
+    return report;
+  };
+  const nlohmann::json apart = untied("out2", "", "apart");
   EXPECT_EQ(apart["robot_sightings"]["constraints"].get<int>(), 0);
   EXPECT_EQ(apart["robot_sightings"]["robot_not_in_job"].get<int>(), expected);
+  // The same folder with robot_sightings: false: the constraints are left out.
+  untied("out3", "robot_sightings: false\n", "together");
+}
+
+// Robot A stands still for poses 0-3 (controls below the deadband), robot B
+// for its poses 0-1 and then drives: A's sightings of B while both stand are
+// one constraint (the mean of the readings, circular in the bearing, one
+// reading's information); once B moves, each sighting is its own.
+TEST(RobotSightingsStandstill, RepeatsWhileBothStandBecomeOneConstraint) {
+  core::Problem2d problem;
+  const double controls[2][4] = {{0.0, 0.004, 0.0, 0.0}, {0.0, 0.2, 0.2, 0.2}};
+  for (int r = 0; r < 2; ++r) {
+    for (int k = 0; k < 5; ++k) {
+      const int32_t pose = problem.AddPose(10 * r + k, core::Pose2::Zero(), k == 0, 0, 0.02 * k);
+      if (k == 0) continue;
+      core::VelocityMotionConstraint motion;
+      motion.from = pose - 1;
+      motion.to = pose;
+      motion.control.omega = controls[r][k - 1];
+      motion.control.dt = 0.02;
+      problem.motions.push_back(motion);
+    }
+  }
+  RunSightings a, b;
+  a.dataset = b.dataset = "/data";
+  a.robot = 1;
+  b.robot = 2;
+  a.first_pose = 0;
+  b.first_pose = 5;
+  a.num_poses = b.num_poses = 5;
+  a.information = Eigen::Vector2d(100.0, 400.0).asDiagonal();
+  for (int k = 0; k < 4; ++k) {
+    storage::MrclamRobotSighting sighting;
+    sighting.stamp = 0.02 * k;
+    sighting.observed_robot = 2;
+    sighting.z = Eigen::Vector2d(2.0 + 0.1 * k, k % 2 == 0 ? 3.1 : -3.1);
+    sighting.line = k + 1;
+    a.sightings.push_back(sighting);
+  }
+  const SightingCounts counts = AddRobotSightings({a, b}, kDefaultSightingMaxTimeDifference,
+                                                  &problem);
+  // Sightings at poses 0 and 1 (B stands for poses 0-1) merge; 2 and 3 do not.
+  EXPECT_EQ(counts.standstill_repeats_merged, 1);
+  EXPECT_EQ(counts.constraints, 3);
+  ASSERT_EQ(problem.pose_range_bearings.size(), 3u);
+  const core::PoseRangeBearingConstraint& merged = problem.pose_range_bearings[0];
+  EXPECT_EQ(merged.from, 0);
+  EXPECT_EQ(merged.to, 5);
+  EXPECT_NEAR(merged.z.x(), 2.05, 1e-12);
+  EXPECT_NEAR(std::abs(merged.z.y()), std::numbers::pi, 1e-12);
+  EXPECT_EQ(merged.information, a.information);
+  EXPECT_EQ(problem.pose_range_bearings[1].from, 2);
+  EXPECT_EQ(problem.pose_range_bearings[1].to, 7);
+  EXPECT_EQ(problem.pose_range_bearings[2].z, Eigen::Vector2d(2.3, -3.1));
 }
 
 }  // namespace
