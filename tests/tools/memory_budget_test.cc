@@ -185,6 +185,22 @@ class MemoryLimitCommandTest : public graphslam::testing::OutOfCoreFixture {
     *err = text.str();
     return code;
   }
+  // A simulated store in 1024-observation chunks, and the solve need the
+  // refusal of a 1M limit names (the bytes after "need of ... (").
+  int64_t StoreAndItsSolveNeed(const std::string& store) {
+    std::string err;
+    EXPECT_EQ(Run({"ingest", Simulate(600, 7), "-o", store, "--chunk-observations", "1024", "-q"},
+                  &err),
+              0)
+        << err;
+    EXPECT_NE(Run({"solve", store, "--memory-limit", "1M", "-q"}, &err), 0);
+    const size_t open = err.find("need of ");
+    if (open == std::string::npos) {
+      ADD_FAILURE() << err;
+      return 0;
+    }
+    return std::stoll(err.substr(err.find('(', open) + 1));
+  }
 };
 
 // The simulator's log ends with its counts: the ingest's refusal says the
@@ -240,15 +256,10 @@ TEST_F(MemoryLimitCommandTest, TooSmallLimitsAreRefusedNamingTheNeed) {
 // --solver cholmod under a limit that leaves no room for its factor stops
 // before factorizing, naming the smallest limit; at that limit it solves.
 TEST_F(MemoryLimitCommandTest, CholmodIsRefusedWhenItsFactorDoesNotFitTheLimit) {
-  const std::string input = Simulate(600, 7);
   const std::string store = (dir_ / "store").string();
+  const int64_t need = StoreAndItsSolveNeed(store);
+  ASSERT_GT(need, kSolveBaseBytes);
   std::string err;
-  ASSERT_EQ(Run({"ingest", input, "-o", store, "--chunk-observations", "1024", "-q"}, &err), 0)
-      << err;
-  ASSERT_NE(Run({"solve", store, "--memory-limit", "1M", "-q"}, &err), 0);
-  const size_t open = err.find("need of ");
-  ASSERT_NE(open, std::string::npos) << err;
-  const int64_t need = std::stoll(err.substr(err.find('(', open) + 1));
   // At the need exactly, one chunk in flight and nothing left for a factor.
   const std::string out = (dir_ / "out.g2o").string();
   EXPECT_EQ(Run({"solve", store, "--solver", "cholmod", "--memory-limit", std::to_string(need),
@@ -275,17 +286,10 @@ TEST_F(MemoryLimitCommandTest, CholmodIsRefusedWhenItsFactorDoesNotFitTheLimit) 
 // solved at exactly that limit succeeds, and its peak RSS (the report's
 // getrusage figure) stays below the limit.
 TEST_F(MemoryLimitCommandTest, TheNamedNeedIsALimitTheSolveRunsWithin) {
-  const std::string input = Simulate(600, 7);
   const std::string store = (dir_ / "store").string();
+  const int64_t need = StoreAndItsSolveNeed(store);
+  ASSERT_GT(need, kSolveBaseBytes);
   std::string err;
-  ASSERT_EQ(Run({"ingest", input, "-o", store, "--chunk-observations", "1024", "-q"}, &err), 0)
-      << err;
-  ASSERT_NE(Run({"solve", store, "--memory-limit", "1M", "-q"}, &err), 0);
-  // "... the estimated need of X MiB (N bytes) ...": N after the first '('.
-  const size_t open = err.find("need of ");
-  ASSERT_NE(open, std::string::npos) << err;
-  const int64_t need = std::stoll(err.substr(err.find('(', open) + 1));
-  ASSERT_GT(need, kSolveBaseBytes) << err;
   const std::string report = (dir_ / "r.json").string();
   // 0, or 4 (kExitNotConverged) when the 5 iterations do not converge.
   const int code = Run({"solve", store, "--memory-limit", std::to_string(need), "--report",
