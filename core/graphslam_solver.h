@@ -157,6 +157,10 @@ struct SolverOptions {
   // without analysing above auto_cholmod_max_unknowns scalar pose unknowns.
   int64_t auto_cholmod_max_unknowns = 3'000'000;
   int64_t auto_cholmod_max_factor_bytes = int64_t{4} << 30;
+  // linear_solver kCholmod: called with the factor's bytes (8 lnz) from
+  // CHOLMOD's symbolic analysis before the first factorization; an error
+  // stops the solve (core/reduced_system_solver.h). Unset: no check.
+  std::function<Status(double factor_bytes)> cholmod_factor_check;
   int max_chunks_in_flight = 8;
   // One pass over the chunks per well-accepted iteration instead of two (see
   // the header comment); off: always two passes. Same results either way.

@@ -62,6 +62,18 @@ void ChooseFromAnalysis(double nonzeros, double n, double b,
 StatusOr<SolverChoice> ChooseLinearSolver(const BlockSparseMatrix& s,
                                           const ReducedSystemSolverOptions& options) {
   SolverChoice choice;
+  if (options.type == LinearSolverType::kCholmod && options.cholmod_factor_check &&
+      s.num_rows() > 0) {
+    // The analysis CholmodSolver would run first anyway: its fill is the
+    // factor's size before a byte of it is allocated.
+    choice.type = LinearSolverType::kCholmod;
+    GS_ASSIGN_OR_RETURN(choice.ordering, AnalyzeCholmodOrdering(s));
+    choice.factor_nonzeros = choice.ordering->factor_nonzeros;
+    choice.factor_flops = choice.ordering->factor_flops;
+    choice.analyzed = true;
+    GS_RETURN_IF_ERROR(options.cholmod_factor_check(8.0 * choice.factor_nonzeros));
+    return choice;
+  }
   if (options.type != LinearSolverType::kAuto) {
     choice.type = options.type;
     return choice;

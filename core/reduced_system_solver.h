@@ -82,6 +82,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <functional>
 #include <memory>
 
 #include "core/block_jacobi_preconditioner.h"
@@ -114,6 +115,11 @@ struct ReducedSystemSolverOptions {
   int64_t max_factor_bytes = int64_t{4} << 30;
   // kAuto: above this many scalar unknowns, PCG without analysing.
   int64_t max_analysis_unknowns = 3'000'000;
+  // kCholmod (chosen by the caller): when set, CHOLMOD's symbolic analysis
+  // runs up front and this is called with its factor's bytes (8 lnz) before
+  // any numeric factorization; an error is returned as is (a memory limit
+  // the factor does not fit). The analysis is handed to the solver.
+  std::function<Status(double factor_bytes)> cholmod_factor_check;
   // kAuto: S has features eliminated into it (a landmark problem, not a
   // pose graph); selects the crossover constant of item 1.
   bool eliminated_features = false;

@@ -15,6 +15,7 @@ target_sources(graphslam_storage PRIVATE
   isam_reader.cc
   mrclam_reader.cc
   native_log_reader.cc
+  native_log_counts.cc
   tum_writer.cc)
 # Observation chunk files (docs/formats/observation_chunk.md).
 target_sources(graphslam_storage PRIVATE

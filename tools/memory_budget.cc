@@ -1,6 +1,7 @@
 #include "tools/memory_budget.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -10,6 +11,7 @@
 
 #include "core/problem.h"
 #include "storage/compressed_file.h"
+#include "storage/native_log_counts.h"
 
 namespace graphslam::tools {
 
@@ -89,9 +91,15 @@ StatusOr<IngestInput> EstimateIngestInput(const std::string& path, storage::Inpu
   input.streamed = format == storage::InputFormat::kNative;
   if (!input.streamed) return input;
   if (storage::IsZstdFile(path)) input.input_bytes = input.input_bytes / 100 * kZstdLogRatioPercent;
-  input.observations = input.input_bytes / kLogBytesPerObservation;
-  input.features = input.input_bytes / kLogBytesPerFeature;
-  input.poses = input.input_bytes / kLogBytesPerPose;
+  // Exact counts when the log ends with them; its size at the simulator's
+  // proportions otherwise.
+  const StatusOr<storage::NativeLogCounts> counts = storage::ReadNativeLogCounts(path);
+  if (!counts.ok() && counts.status().code() != Status::Code::kNotFound) return counts.status();
+  input.counted = counts.ok();
+  input.observations =
+      counts.ok() ? counts->observations : input.input_bytes / kLogBytesPerObservation;
+  input.features = counts.ok() ? counts->features : input.input_bytes / kLogBytesPerFeature;
+  input.poses = counts.ok() ? counts->poses : input.input_bytes / kLogBytesPerPose;
   return input;
 }
 
@@ -121,8 +129,11 @@ StatusOr<IngestBudget> BudgetIngest(int64_t limit_bytes, const IngestInput& inpu
         FormatBytes(budget.need_bytes) + " (" + std::to_string(budget.need_bytes) +
         " bytes): the smallest limit that works. Estimated from the input's " +
         std::to_string(input.input_bytes) + " bytes" +
-        (input.streamed ? " (~" + std::to_string(input.poses) + " poses, ~" +
-                              std::to_string(input.features) + " features): " +
+        (input.streamed ? std::string(input.counted ? " (" : " (~") +
+                              std::to_string(input.poses) + (input.counted ? " poses, " : " poses, ~") +
+                              std::to_string(input.features) +
+                              (input.counted ? " features, counted by the log's trailer): "
+                                             : " features): ") +
                               FormatBytes(fixed) + " fixed + " + FormatBytes(poses) +
                               " poses + " +
                               FormatBytes(input.features * kIngestPass1BytesPerFeature) +
@@ -191,6 +202,45 @@ StatusOr<SolveBudget> BudgetSolve(int64_t limit_bytes, const SolveSize& size,
       static_cast<int>(std::clamp<int64_t>((limit_bytes - rest) / chunk, 1, default_in_flight));
   budget.factor_bytes = limit_bytes - rest - budget.chunks_in_flight * chunk;
   return budget;
+}
+
+Status CheckCholmodFactor(int64_t limit_bytes, const SolveSize& size, int default_in_flight,
+                          double factor_bytes) {
+  const int64_t factor_need =
+      static_cast<int64_t>(std::ceil(factor_bytes)) * kCholmodBytesPerFactorByte;
+  const auto holds = [&](int64_t limit) {
+    const StatusOr<SolveBudget> budget = BudgetSolve(limit, size, default_in_flight);
+    return budget.ok() && budget->factor_bytes >= factor_need;
+  };
+  if (holds(limit_bytes)) return Status::Ok();
+  // The factor shares the limit with the chunks in flight, which take
+  // whole chunks of what is above the rest: the smallest limit that holds
+  // it is the rest + k chunks + the factor for the smallest k whose budget
+  // keeps k chunks in flight (at the latest k = default_in_flight).
+  const SolveBudget least = BudgetSolve(0, size, default_in_flight).value();
+  const int64_t chunk =
+      std::max<int64_t>(size.chunk_observations, 1) * kBytesPerObservationInFlight;
+  const int64_t rest_and_chunk = BudgetSolve(0, SolveSize{size.poses, size.features,
+                                                          size.observations,
+                                                          size.chunk_observations,
+                                                          size.streaming, 0},
+                                             default_in_flight)
+                                     .value()
+                                     .need_bytes;
+  int64_t smallest = 0;
+  for (int k = 1; k <= std::max(default_in_flight, 1) && smallest == 0; ++k) {
+    const int64_t limit =
+        std::max(least.need_bytes, rest_and_chunk + (k - 1) * chunk + factor_need);
+    if (holds(limit)) smallest = limit;
+  }
+  if (smallest == 0) smallest = least.need_bytes + default_in_flight * chunk + factor_need;
+  return Status::InvalidArgument(
+      "--memory-limit " + FormatBytes(limit_bytes) + " does not hold --solver cholmod: its "
+      "factor (" + FormatBytes(static_cast<int64_t>(factor_bytes)) + " of values from the "
+      "symbolic analysis, " + FormatBytes(factor_need) + " with its indices, the copy of S "
+      "and workspace) needs a limit of at least " + FormatBytes(smallest) + " (" +
+      std::to_string(smallest) + " bytes): the smallest limit that works; or --solver auto, "
+      "which takes PCG when the factor does not fit");
 }
 
 }  // namespace graphslam::tools

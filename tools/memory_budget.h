@@ -17,8 +17,10 @@
 //            most the observations (a larger buffer would hold nothing more)
 // Other formats are read whole by their readers first:
 //   read   = base + blocks + input bytes * read_whole_per_input_byte.
-// P, F and the observations O of a log are not known before it is read: they
-// are estimated from its (decompressed) size at the simulator's proportions
+// P, F and the observations O of a log are its counts trailer's when it ends
+// with one (storage/native_log_counts.h; `graphslam simulate --streaming`
+// writes it). Otherwise they are not known before it is read: they are
+// estimated from its (decompressed) size at the simulator's proportions
 // (~80 bytes per observation line, ~650 bytes of log per observed feature,
 // ~30 KB per pose); a log with more features per byte needs more.
 //
@@ -35,8 +37,11 @@
 //               observation_in_flight), 1, default)
 // and `--solver auto` takes CHOLMOD only if its factor (8 lnz, from the
 // symbolic analysis) fits in what the chunks leave; otherwise PCG, whose
-// vectors are in pose_system. (`--solver cholmod` is not bounded: its factor
-// is known only after the analysis.) In-memory mode is refused with the
+// vectors are in pose_system. `--solver cholmod` gets what the chunks leave
+// for its factor too: its size is known from CHOLMOD's symbolic analysis,
+// which then runs before the first factorization (CheckCholmodFactor); a
+// factor that does not fit stops the solve there, naming the smallest limit
+// that holds it. In-memory mode is refused with the
 // streaming mode's need in the message when only that fits.
 //
 // The constants were measured with /usr/bin/time -v (peak RSS) on the
@@ -96,6 +101,7 @@ struct IngestInput {
   int64_t FixedBytes() const;
 
   bool streamed = true;       // native log; else read whole
+  bool counted = false;       // counts from the log's trailer, not estimated
   int64_t input_bytes = 0;    // decompressed, estimated for zstd
   int64_t poses = 0;
   int64_t features = 0;
@@ -137,6 +143,18 @@ struct SolveBudget {
 // the streaming mode's need) when the limit is below the need.
 StatusOr<SolveBudget> BudgetSolve(int64_t limit_bytes, const SolveSize& size,
                                   int default_in_flight);
+
+// CHOLMOD's factor values (8 lnz) come with their indices, the CSC copy of S
+// they are made from and CHOLMOD's workspace: this many bytes per value byte.
+inline constexpr int64_t kCholmodBytesPerFactorByte = 4;
+
+// `--solver cholmod` under `limit_bytes` (> 0), once the analysis gave the
+// factor's `factor_bytes` (8 lnz): OK if kCholmodBytesPerFactorByte times
+// that fits in BudgetSolve's factor_bytes; else InvalidArgument naming the
+// factor and the smallest limit whose budget holds it (with the chunks in
+// flight that limit leaves).
+Status CheckCholmodFactor(int64_t limit_bytes, const SolveSize& size, int default_in_flight,
+                          double factor_bytes);
 
 // The POSE and FEATURE records of a native log (a store's problem.graphslam,
 // which we write: one record per line, the keyword at its start), counted in

@@ -15,6 +15,7 @@
 #include "core/velocity_motion_model.h"
 #include "storage/atomic_file.h"
 #include "storage/compressed_file.h"
+#include "storage/native_log_counts.h"
 #include "storage/env.h"
 #include "storage/internal/text_reader.h"
 #include "tools/internal/campus_world.h"
@@ -190,9 +191,18 @@ class LogLines {
     line_.clear();
     return pending_.size() >= (size_t{1} << 20) ? WritePending() : Status::Ok();
   }
-  Status Finish() {
+  // Ends the log with `trailer` (storage/native_log_counts.h): in a zstd log
+  // a frame of its own, so that it is read without decompressing the rest.
+  Status Finish(std::string_view trailer) {
+    if (!zstd_) {
+      pending_ += trailer;
+      return WritePending();
+    }
     GS_RETURN_IF_ERROR(WritePending());
-    return zstd_ ? zstd_->Finish() : Status::Ok();
+    GS_RETURN_IF_ERROR(zstd_->Finish());
+    storage::ZstdWriter last(file_, kTrailerZstdLevel);
+    GS_RETURN_IF_ERROR(last.Append(trailer));
+    return last.Finish();
   }
 
  private:
@@ -202,6 +212,7 @@ class LogLines {
     return status;
   }
 
+  static constexpr int kTrailerZstdLevel = 3;
   storage::WritableFile* file_;
   std::optional<storage::ZstdWriter> zstd_;
   std::string line_;
@@ -234,7 +245,8 @@ class StreamingSimulation {
     int64_t index = 0;
     for (int run = 0; run < options_.runs; ++run) GS_RETURN_IF_ERROR(Run(run, log, &index));
     summary_.poses = index;
-    return log->Finish();
+    return log->Finish(storage::NativeLogCountsLine(
+        {summary_.poses, summary_.observed_features, summary_.observations}));
   }
 
  private:

@@ -22,7 +22,9 @@
 //     FIX (pose 0 without GPS), CONTROL_INFO from the previous pose, the RB
 //     observations, GPS. Features are declared by their first use (no FEATURE
 //     records; native_log.md allows it), so feature indices follow first
-//     sight.
+//     sight. The last line is the counts trailer (poses, observed features,
+//     observations; storage/native_log_counts.h), in a zstd log a frame of
+//     its own.
 // A seed therefore gives a different file than SimulateCampus (same
 // distribution: landmark density, observations per pose, noise; tested), and
 // the same file on every run.

@@ -409,6 +409,7 @@ inline ReducedSystemSolverOptions LinearSolverOptions(const SolverOptions& optio
   linear_options.deflation_poses = options.pcg_deflation_poses;
   linear_options.max_analysis_unknowns = options.auto_cholmod_max_unknowns;
   linear_options.max_factor_bytes = options.auto_cholmod_max_factor_bytes;
+  linear_options.cholmod_factor_check = options.cholmod_factor_check;
   linear_options.eliminated_features = eliminated_features;
   return linear_options;
 }

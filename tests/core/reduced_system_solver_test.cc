@@ -257,6 +257,33 @@ TEST(ReducedSystemSolver, AutoChoiceFollowsCholmodAnalysisAndBudget) {
   EXPECT_EQ(choice->type, LinearSolverType::kCholmod);
 }
 
+// An explicit CHOLMOD with a factor check: the analysis runs up front, the
+// check sees 8 lnz (the same fill kAuto's analysis finds), its error is
+// returned, and an accepted analysis is handed on.
+TEST(ReducedSystemSolver, ExplicitCholmodChecksTheFactorBeforeFactorizing) {
+  const BlockSparseMatrix a = RandomSpdMatrix(21, 3, 300);
+  const StatusOr<SolverChoice> automatic = ChooseLinearSolver(a, ReducedSystemSolverOptions());
+  ASSERT_TRUE(automatic.ok());
+  ReducedSystemSolverOptions options;
+  options.type = LinearSolverType::kCholmod;
+  double seen = 0;
+  options.cholmod_factor_check = [&seen](double factor_bytes) {
+    seen = factor_bytes;
+    return Status::InvalidArgument("too large");
+  };
+  StatusOr<SolverChoice> choice = ChooseLinearSolver(a, options);
+  ASSERT_FALSE(choice.ok());
+  EXPECT_EQ(choice.status().ToString(), "InvalidArgument: too large");
+  EXPECT_DOUBLE_EQ(seen, 8 * automatic->factor_nonzeros);
+  options.cholmod_factor_check = [](double) { return Status::Ok(); };
+  choice = ChooseLinearSolver(a, options);
+  ASSERT_TRUE(choice.ok());
+  EXPECT_EQ(choice->type, LinearSolverType::kCholmod);
+  EXPECT_TRUE(choice->analyzed);
+  ASSERT_NE(choice->ordering, nullptr);
+  EXPECT_DOUBLE_EQ(choice->factor_nonzeros, automatic->factor_nonzeros);
+}
+
 // The kAuto rule on the analysis figures of the problems measured in
 // docs/benchmarks.md (issue 4, "crossover"): CHOLMOD's lnz and fl (from
 // `graphslam solve -v`), S's nonzero 3x3 blocks and rows, and whether

@@ -13,6 +13,8 @@
 #include <sstream>
 #include <string>
 
+#include "storage/chunk_store.h"
+#include "storage/native_log_counts.h"
 #include "tests/testing/subprocess.h"
 #include "tests/tools/out_of_core_fixture.h"
 
@@ -73,6 +75,37 @@ TEST(BudgetSolve, TheHundredMillionFeatureStoreFitsThreeGib) {
   EXPECT_EQ(budget->chunks_in_flight, 8);
 }
 
+// --solver cholmod: the factor (4 x its 8 lnz) must fit in what the chunks
+// leave; else the refusal names the smallest limit whose budget holds it.
+TEST(CheckCholmodFactor, TheFactorFitsWhatTheChunksLeaveOrTheSmallestLimitIsNamed) {
+  const SolveSize size{1000, 100, 5000, 1024, /*streaming=*/true};
+  const int64_t rest = kSolveBaseBytes + 1000 * kPoseSystemBytesPerPose +
+                       100 * kBytesPerFeatureStreaming;
+  const int64_t chunk = 1024 * kBytesPerObservationInFlight;
+  // A small factor fits beside one chunk in flight.
+  const double small_factor = 1000;
+  EXPECT_TRUE(CheckCholmodFactor(rest + chunk + 4000, size, 8, small_factor).ok());
+  const Status refused = CheckCholmodFactor(rest + chunk + 3999, size, 8, small_factor);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.code(), Status::Code::kInvalidArgument);
+  EXPECT_NE(refused.ToString().find("needs a limit of at least " +
+                                    FormatBytes(rest + chunk + 4000) + " (" +
+                                    std::to_string(rest + chunk + 4000) + " bytes)"),
+            std::string::npos)
+      << refused.ToString();
+  // A factor larger than a chunk: below 8 chunks in flight the limit's excess
+  // over whole chunks is less than a chunk, so the smallest limit keeps 8.
+  const double large_factor = 3.0 * chunk;
+  const int64_t smallest = rest + 8 * chunk + 12 * chunk;
+  EXPECT_TRUE(CheckCholmodFactor(smallest, size, 8, large_factor).ok());
+  EXPECT_FALSE(CheckCholmodFactor(smallest - 1, size, 8, large_factor).ok());
+  const Status named = CheckCholmodFactor(rest + 5 * chunk, size, 8, large_factor);
+  ASSERT_FALSE(named.ok());
+  // Not "(" + std::to_string(...): a GCC 12 -Wrestrict false positive.
+  const std::string bytes = std::to_string(smallest).append(" bytes)");
+  EXPECT_NE(named.ToString().find(bytes), std::string::npos) << named.ToString();
+}
+
 TEST(BudgetIngest, PassOneOrPassTwoWithOneChunkIsTheNeedAndTheBufferGetsTheRest) {
   IngestInput log;
   log.poses = 10000;
@@ -122,7 +155,20 @@ TEST(EstimateIngestInput, ALogIsMeasuredByItsSizeAndOtherFormatsAreReadWhole) {
   EXPECT_EQ(BudgetIngest(0, *g2o, 16)->need_bytes,
             kIngestBaseBytes + 6500000 / 4 + 6500000 * kReadWholeBytesPerInputByte +
                 16 * kIngestBytesPerBufferedObservation);
+  EXPECT_FALSE(native->counted);
   EXPECT_FALSE(EstimateIngestInput((dir / "missing").string(), storage::InputFormat::kNative).ok());
+  // A log that ends with its counts trailer is budgeted on its counts.
+  {
+    std::ofstream(log, std::ios::app)
+        << "\n" << storage::NativeLogCountsLine({1000, 20000, 300000});
+  }
+  const StatusOr<IngestInput> counted =
+      EstimateIngestInput(log.string(), storage::InputFormat::kNative);
+  ASSERT_TRUE(counted.ok());
+  EXPECT_TRUE(counted->counted);
+  EXPECT_EQ(counted->poses, 1000);
+  EXPECT_EQ(counted->features, 20000);
+  EXPECT_EQ(counted->observations, 300000);
   fs::remove_all(dir);
 }
 
@@ -139,7 +185,50 @@ class MemoryLimitCommandTest : public graphslam::testing::OutOfCoreFixture {
     *err = text.str();
     return code;
   }
+  // A simulated store in 1024-observation chunks, and the solve need the
+  // refusal of a 1M limit names (the bytes after "need of ... (").
+  int64_t StoreAndItsSolveNeed(const std::string& store) {
+    std::string err;
+    EXPECT_EQ(Run({"ingest", Simulate(600, 7), "-o", store, "--chunk-observations", "1024", "-q"},
+                  &err),
+              0)
+        << err;
+    EXPECT_NE(Run({"solve", store, "--memory-limit", "1M", "-q"}, &err), 0);
+    const size_t open = err.find("need of ");
+    if (open == std::string::npos) {
+      ADD_FAILURE() << err;
+      return 0;
+    }
+    return std::stoll(err.substr(err.find('(', open) + 1));
+  }
 };
+
+// The simulator's log ends with its counts: the ingest's refusal says the
+// budget was counted, with the log's exact poses and observed features.
+TEST_F(MemoryLimitCommandTest, TheSimulatorsCountsTrailerSizesTheIngest) {
+  const fs::path sim = dir_ / "streamed";
+  ASSERT_EQ(graphslam::testing::RunGraphslam({"simulate", "-o", sim.string(), "--poses", "600",
+                                              "--runs", "2", "--gps-every", "25", "--streaming",
+                                              "--compress", "-q"}),
+            0);
+  const std::string input = (sim / "log.graphslam.zst").string();
+  const StatusOr<storage::NativeLogCounts> counts = storage::ReadNativeLogCounts(input);
+  ASSERT_TRUE(counts.ok()) << counts.status().ToString();
+  EXPECT_EQ(counts->poses, 600);
+  std::string err;
+  EXPECT_EQ(Run({"ingest", input, "-o", (dir_ / "store").string(), "--memory-limit", "1M", "-q"},
+                &err),
+            2);
+  EXPECT_NE(err.find("(600 poses, " + std::to_string(counts->features) +
+                     " features, counted by the log's trailer)"),
+            std::string::npos)
+      << err;
+  // The ingest reads the log, trailer and all, to the same counts.
+  ASSERT_EQ(Run({"ingest", input, "-o", (dir_ / "store").string(), "-q"}, &err), 0) << err;
+  const auto store = storage::DiskChunkSource::Open((dir_ / "store").string());
+  ASSERT_TRUE(store.ok()) << store.status().ToString();
+  EXPECT_EQ((*store)->total_observations(), counts->observations);
+}
 
 // Each command refuses a limit below its need at the start, naming the need
 // (the smallest limit that works): nothing is written.
@@ -164,21 +253,43 @@ TEST_F(MemoryLimitCommandTest, TooSmallLimitsAreRefusedNamingTheNeed) {
   EXPECT_FALSE(fs::exists(dir_ / "w" / "MANIFEST.json"));
 }
 
+// --solver cholmod under a limit that leaves no room for its factor stops
+// before factorizing, naming the smallest limit; at that limit it solves.
+TEST_F(MemoryLimitCommandTest, CholmodIsRefusedWhenItsFactorDoesNotFitTheLimit) {
+  const std::string store = (dir_ / "store").string();
+  const int64_t need = StoreAndItsSolveNeed(store);
+  ASSERT_GT(need, kSolveBaseBytes);
+  std::string err;
+  // At the need exactly, one chunk in flight and nothing left for a factor.
+  const std::string out = (dir_ / "out.g2o").string();
+  EXPECT_EQ(Run({"solve", store, "--solver", "cholmod", "--memory-limit", std::to_string(need),
+                 "-o", out, "-q"},
+                &err),
+            2)
+      << err;
+  EXPECT_NE(err.find("does not hold --solver cholmod"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(out));
+  const size_t at = err.find("needs a limit of at least ");
+  ASSERT_NE(at, std::string::npos) << err;
+  const int64_t smallest = std::stoll(err.substr(err.find('(', at) + 1));
+  EXPECT_GT(smallest, need);
+  const std::string report = (dir_ / "r.json").string();
+  const int code = Run({"solve", store, "--solver", "cholmod", "--memory-limit",
+                        std::to_string(smallest), "--report", report, "--max-iterations", "5",
+                        "-q"},
+                       &err);
+  ASSERT_TRUE(code == 0 || code == 4) << code << ": " << err;
+  EXPECT_EQ(graphslam::testing::ReadJson(report)["solver"].get<std::string>(), "cholmod");
+}
+
 // The need the refusal names is a limit the solve then runs in: a store
 // solved at exactly that limit succeeds, and its peak RSS (the report's
 // getrusage figure) stays below the limit.
 TEST_F(MemoryLimitCommandTest, TheNamedNeedIsALimitTheSolveRunsWithin) {
-  const std::string input = Simulate(600, 7);
   const std::string store = (dir_ / "store").string();
+  const int64_t need = StoreAndItsSolveNeed(store);
+  ASSERT_GT(need, kSolveBaseBytes);
   std::string err;
-  ASSERT_EQ(Run({"ingest", input, "-o", store, "--chunk-observations", "1024", "-q"}, &err), 0)
-      << err;
-  ASSERT_NE(Run({"solve", store, "--memory-limit", "1M", "-q"}, &err), 0);
-  // "... the estimated need of X MiB (N bytes) ...": N after the first '('.
-  const size_t open = err.find("need of ");
-  ASSERT_NE(open, std::string::npos) << err;
-  const int64_t need = std::stoll(err.substr(err.find('(', open) + 1));
-  ASSERT_GT(need, kSolveBaseBytes) << err;
   const std::string report = (dir_ / "r.json").string();
   // 0, or 4 (kExitNotConverged) when the 5 iterations do not converge.
   const int code = Run({"solve", store, "--memory-limit", std::to_string(need), "--report",

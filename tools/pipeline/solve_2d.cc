@@ -302,19 +302,26 @@ Status ConfigureSolver(const SolveRun& run, Solve2d& s) {
   s.solver = run.request.solver;
   s.solver.progress = s.display->AsCallback();
   s.solver.iteration_callback = s.display->AsIterationCallback();
-  GS_ASSIGN_OR_RETURN(
-      const SolveBudget budget,
-      BudgetSolve(run.request.memory_limit_bytes,
-                  SolveSize{s.problem.num_poses(), s.problem.num_features(), s.num_observations,
-                            s.store ? LargestChunk(*s.store) : options.chunk_observations,
-                            s.streaming, s.store ? ProblemFileBytes(*s.store) : 0},
-                  s.solver.max_chunks_in_flight));
+  const SolveSize size{s.problem.num_poses(), s.problem.num_features(), s.num_observations,
+                       s.store ? LargestChunk(*s.store) : options.chunk_observations,
+                       s.streaming, s.store ? ProblemFileBytes(*s.store) : 0};
+  const int default_in_flight = s.solver.max_chunks_in_flight;
+  GS_ASSIGN_OR_RETURN(const SolveBudget budget,
+                      BudgetSolve(run.request.memory_limit_bytes, size, default_in_flight));
   s.solver.max_chunks_in_flight = budget.chunks_in_flight;
   // The factor's values (8 lnz, what the choice counts) come with its
   // indices, the CSC copy of S it is made from and CHOLMOD's workspace.
   if (run.request.memory_limit_bytes > 0)
     s.solver.auto_cholmod_max_factor_bytes =
-        std::min(s.solver.auto_cholmod_max_factor_bytes, budget.factor_bytes / 4);
+        std::min(s.solver.auto_cholmod_max_factor_bytes,
+                 budget.factor_bytes / kCholmodBytesPerFactorByte);
+  // --solver cholmod: its factor's size from the analysis, before it is made.
+  if (run.request.memory_limit_bytes > 0 &&
+      s.solver.linear_solver == core::LinearSolverType::kCholmod)
+    s.solver.cholmod_factor_check = [limit = run.request.memory_limit_bytes, size,
+                                     default_in_flight](double factor_bytes) {
+      return CheckCholmodFactor(limit, size, default_in_flight, factor_bytes);
+    };
   s.checkpoint_path = options.checkpoint;
   if (s.checkpoint_path.empty() && s.store && !options.associate)
     s.checkpoint_path = s.store_path + "/checkpoint.json";
@@ -342,6 +349,17 @@ Status ConfigureSolver(const SolveRun& run, Solve2d& s) {
 // checkpoints (a probe's checkpoint would resume the wrong solve),
 // --associate, streaming or under mpirun (a store's ranks start
 // incrementally, as one process does).
+// The initializers solve sub-problems (pose-only, prefixes, windows) whose
+// factors differ from the whole problem's: --solver cholmod's factor check
+// (tools/memory_budget.h) is for the whole problem's solves, the odometry
+// probe and the final one, so that the limit it names holds the factor
+// they make.
+core::SolverOptions InitializerOptions(const core::SolverOptions& solver) {
+  core::SolverOptions options = solver;
+  options.cholmod_factor_check = nullptr;
+  return options;
+}
+
 Status TryOdometry(const SolveRun& run, Solve2d& s) {
   s.probe = run.request.initialization == Initialization::kAuto && !s.resuming && !s.streaming &&
             s.checkpoint_path.empty() && !run.options.associate && !run.distributed &&
@@ -389,8 +407,8 @@ Status StartFromPoseGraph(const Solve2d& s, core::Problem2d* problem) {
          static_cast<long long>(aligned.chains), static_cast<long long>(aligned.segments),
          static_cast<long long>(aligned.poses_moved));
   partition::PoseGraphInitializationSummary pose_graph;
-  GS_RETURN_IF_ERROR(
-      partition::InitializeFromPoseGraph(s.solver, 20, *s.chunks, problem, &pose_graph));
+  GS_RETURN_IF_ERROR(partition::InitializeFromPoseGraph(InitializerOptions(s.solver), 20,
+                                                       *s.chunks, problem, &pose_graph));
   GS_LOG(INFO, "pose-graph initialization: %d iterations, pose-only chi2 %.6g -> %.6g, %lld "
          "features re-placed", pose_graph.iterations, pose_graph.initial_chi2,
          pose_graph.final_chi2, static_cast<long long>(pose_graph.placed_features));
@@ -411,15 +429,15 @@ Status ImproveGuess(const SolveRun& run, Solve2d& s) {
   progressive.max_observations_per_chunk = run.options.chunk_observations;
   progressive.max_new_poses = run.options.progressive_max_new_poses;
   partition::ProgressiveSummary progressive_summary;
-  GS_RETURN_IF_ERROR(
-      partition::InitializeProgressively(progressive, s.solver, &s.problem, &progressive_summary));
+  GS_RETURN_IF_ERROR(partition::InitializeProgressively(progressive, InitializerOptions(s.solver),
+                                                       &s.problem, &progressive_summary));
   partition::IncrementalInitializationOptions incremental;
   incremental.enabled = (init == Initialization::kIncremental ||
                          (init == Initialization::kAuto && !s.probe_solved)) &&
                         in_memory;
   incremental.max_observations_per_chunk = run.options.chunk_observations;
-  GS_RETURN_IF_ERROR(partition::InitializeIncrementally(incremental, s.solver, &s.problem,
-                                                        &s.incremental_summary));
+  GS_RETURN_IF_ERROR(partition::InitializeIncrementally(incremental, InitializerOptions(s.solver),
+                                                        &s.problem, &s.incremental_summary));
   const bool streaming_start =
       s.streaming && (init == Initialization::kProgressive || init == Initialization::kAuto ||
                       init == Initialization::kIncremental);
