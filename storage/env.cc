@@ -4,9 +4,12 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <system_error>
 #include <utility>
 
 namespace graphslam::storage {
@@ -14,6 +17,11 @@ namespace {
 
 Status PosixError(const std::string& path, const char* operation, int error_number) {
   return Status::IOError(path + ": " + operation + ": " + std::strerror(error_number));
+}
+
+Status FilesystemError(const std::string& path, const char* operation,
+                       const std::error_code& error) {
+  return Status::IOError(path + ": " + operation + ": " + error.message());
 }
 
 // Buffered writer over a POSIX file descriptor (LevelDB PosixWritableFile).
@@ -208,6 +216,49 @@ class PosixEnv final : public Env {
     ::close(fd);
     return status;
   }
+
+  Status CreateDir(const std::string& path) override {
+    std::error_code error;
+    std::filesystem::create_directories(path, error);
+    if (error) return FilesystemError(path, "mkdir", error);
+    return Status::Ok();
+  }
+
+  Status RemoveDir(const std::string& path) override {
+    if (::rmdir(path.c_str()) != 0) return PosixError(path, "rmdir", errno);
+    return Status::Ok();
+  }
+
+  Status RemoveTree(const std::string& path) override {
+    std::error_code error;
+    std::filesystem::remove_all(path, error);
+    if (error) return FilesystemError(path, "remove", error);
+    return Status::Ok();
+  }
+
+  StatusOr<std::vector<std::string>> ListDir(const std::string& path) override {
+    std::error_code error;
+    std::vector<std::string> names;
+    std::filesystem::directory_iterator it(path, error);
+    for (; !error && it != std::filesystem::directory_iterator(); it.increment(error))
+      names.push_back(it->path().filename().string());
+    if (error) return FilesystemError(path, "list", error);
+    std::sort(names.begin(), names.end());
+    return names;
+  }
+
+  StatusOr<uint64_t> FileSize(const std::string& path) override {
+    struct stat info;
+    if (::stat(path.c_str(), &info) != 0) return PosixError(path, "stat", errno);
+    if (!S_ISREG(info.st_mode)) return Status::IOError(path + ": size: not a regular file");
+    return static_cast<uint64_t>(info.st_size);
+  }
+
+  Status TruncateFile(const std::string& path, uint64_t size) override {
+    if (::truncate(path.c_str(), static_cast<off_t>(size)) != 0)
+      return PosixError(path, "truncate", errno);
+    return Status::Ok();
+  }
 };
 
 // Forwards to the wrapped file after asking the FaultInjectionEnv whether this
@@ -268,6 +319,22 @@ StatusOr<std::unique_ptr<WritableFile>> Env::NewAppendableFile(const std::string
 }
 
 Status Env::SyncFile(const std::string& path) { return Default()->SyncFile(path); }
+
+Status Env::CreateDir(const std::string& path) { return Default()->CreateDir(path); }
+
+Status Env::RemoveDir(const std::string& path) { return Default()->RemoveDir(path); }
+
+Status Env::RemoveTree(const std::string& path) { return Default()->RemoveTree(path); }
+
+StatusOr<std::vector<std::string>> Env::ListDir(const std::string& path) {
+  return Default()->ListDir(path);
+}
+
+StatusOr<uint64_t> Env::FileSize(const std::string& path) { return Default()->FileSize(path); }
+
+Status Env::TruncateFile(const std::string& path, uint64_t size) {
+  return Default()->TruncateFile(path, size);
+}
 
 StatusOr<std::string> ReadFileToString(Env* env, const std::string& path) {
   GS_ASSIGN_OR_RETURN(std::unique_ptr<ReadableFile> file, env->NewReadableFile(path));
@@ -370,6 +437,24 @@ Status FaultInjectionEnv::SyncFile(const std::string& path) {
 Status FaultInjectionEnv::SyncDirectory(const std::string& path) {
   GS_RETURN_IF_ERROR(MaybeFail(Operation::kSyncDirectory, path));
   return base_->SyncDirectory(path);
+}
+
+Status FaultInjectionEnv::CreateDir(const std::string& path) { return base_->CreateDir(path); }
+
+Status FaultInjectionEnv::RemoveDir(const std::string& path) { return base_->RemoveDir(path); }
+
+Status FaultInjectionEnv::RemoveTree(const std::string& path) { return base_->RemoveTree(path); }
+
+StatusOr<std::vector<std::string>> FaultInjectionEnv::ListDir(const std::string& path) {
+  return base_->ListDir(path);
+}
+
+StatusOr<uint64_t> FaultInjectionEnv::FileSize(const std::string& path) {
+  return base_->FileSize(path);
+}
+
+Status FaultInjectionEnv::TruncateFile(const std::string& path, uint64_t size) {
+  return base_->TruncateFile(path, size);
 }
 
 }  // namespace graphslam::storage

@@ -15,6 +15,8 @@
 //                 written in place or through the link, never replaced)
 //   Scratch data: NewReadableFile (sequential reads, seeks), NewAppendableFile,
 //                 SyncFile (fsync by path), ReadFileToString
+//   Folders:      CreateDir (mkdir -p), RemoveDir (an empty one), RemoveTree
+//                 (rm -r), ListDir, FileSize, TruncateFile
 //
 // Every operation that touches the disk returns a Status; IOError messages name
 // the path and the errno text, e.g. "out.g2o: fsync: No space left on device".
@@ -30,6 +32,7 @@
 #include <mutex>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "core/status.h"
 
@@ -109,6 +112,22 @@ class Env {
   // fsyncs the existing file `path` (written earlier through another handle).
   [[nodiscard]] virtual Status SyncFile(const std::string& path);
 
+  // Folders and sizes of scratch and store files; the defaults go to
+  // Env::Default() as above. IOError messages read "PATH: mkdir: ...",
+  // "PATH: remove: ...", "PATH: list: ...", "PATH: truncate: ...".
+  // Creates `path` and its missing parents (mkdir -p); OK if it exists.
+  [[nodiscard]] virtual Status CreateDir(const std::string& path);
+  // Removes the directory `path` if it is empty (rmdir(2)).
+  [[nodiscard]] virtual Status RemoveDir(const std::string& path);
+  // Removes `path` and everything below it (rm -r); OK if it does not exist.
+  [[nodiscard]] virtual Status RemoveTree(const std::string& path);
+  // The names (not paths) of the entries of the directory `path`, sorted.
+  virtual StatusOr<std::vector<std::string>> ListDir(const std::string& path);
+  // The size in bytes of the file `path`.
+  virtual StatusOr<uint64_t> FileSize(const std::string& path);
+  // Cuts the file `path` to its first `size` bytes (truncate(2)).
+  [[nodiscard]] virtual Status TruncateFile(const std::string& path, uint64_t size);
+
   // The process-wide POSIX Env. It is a function-local static, the one
   // singleton the project permits: it holds no state (every call goes straight
   // to the kernel), so sharing it cannot couple callers, and it is never
@@ -160,6 +179,13 @@ class FaultInjectionEnv : public Env {
   StatusOr<std::unique_ptr<ReadableFile>> NewReadableFile(const std::string& path) override;
   StatusOr<std::unique_ptr<WritableFile>> NewAppendableFile(const std::string& path) override;
   [[nodiscard]] Status SyncFile(const std::string& path) override;
+  // Forwarded without faults.
+  [[nodiscard]] Status CreateDir(const std::string& path) override;
+  [[nodiscard]] Status RemoveDir(const std::string& path) override;
+  [[nodiscard]] Status RemoveTree(const std::string& path) override;
+  StatusOr<std::vector<std::string>> ListDir(const std::string& path) override;
+  StatusOr<uint64_t> FileSize(const std::string& path) override;
+  [[nodiscard]] Status TruncateFile(const std::string& path, uint64_t size) override;
 
   // Counts a call of `operation`; returns IOError if this call is to fail.
   // Public for the wrapped files; not part of the test-facing API.

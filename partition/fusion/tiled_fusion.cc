@@ -7,7 +7,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
 #include <sstream>
 #include <system_error>
 #include <iterator>
@@ -314,12 +313,12 @@ TiledFusion::~TiledFusion() {
   if (spill_dir_.empty()) return;
   for (const auto& [id, tile] : tiles_) {
     if (!tile.tree) {
-      std::error_code ec;
-      std::filesystem::remove(SpillPath(id), ec);  // scratch; best effort
+      // scratch; best effort
+      static_cast<void>(storage::Env::Default()->RemoveFile(SpillPath(id)));
     }
   }
-  std::error_code ec;
-  std::filesystem::remove(spill_dir_, ec);  // only if empty (it is ours then)
+  // only if empty (it is ours then)
+  static_cast<void>(storage::Env::Default()->RemoveDir(spill_dir_));
 }
 
 void TiledFusion::EnableSpill(const std::string& dir, size_t budget_bytes) {
@@ -498,8 +497,7 @@ Status TiledFusion::Apply(const BatchCodes& codes) {
         tile.tree = MakeTileTree(options_);
       } else if (!tile.tree) {
         GS_RETURN_IF_ERROR(Load(touched[j], &tile));
-        std::error_code ec;
-        std::filesystem::remove(SpillPath(touched[j]), ec);
+        static_cast<void>(storage::Env::Default()->RemoveFile(SpillPath(touched[j])));
       }
       tile.last_batch = batches_;
       group_tiles.push_back(&tile);
@@ -585,9 +583,7 @@ Status TiledFusion::SpillLeastRecent(size_t trigger_bytes, size_t target_bytes) 
 
 Status TiledFusion::SpillLru(std::vector<std::pair<int64_t, uint64_t>> lru, size_t resident,
                              size_t target_bytes) {
-  std::error_code ec;
-  std::filesystem::create_directories(spill_dir_, ec);
-  if (ec) return Status::IOError(spill_dir_ + ": " + ec.message());
+  GS_RETURN_IF_ERROR(storage::Env::Default()->CreateDir(spill_dir_));
   std::sort(lru.begin(), lru.end());
   for (const auto& [batch_index, id] : lru) {
     if (resident <= target_bytes) break;
@@ -616,8 +612,7 @@ StatusOr<std::unique_ptr<octomap::OcTree>> TiledFusion::Merge() {
   for (auto& [id, tile] : tiles_) {
     if (!tile.tree) {
       GS_RETURN_IF_ERROR(Load(id, &tile));
-      std::error_code ec;
-      std::filesystem::remove(SpillPath(id), ec);
+      static_cast<void>(storage::Env::Default()->RemoveFile(SpillPath(id)));
     }
     for (auto it = tile.tree->begin_leafs(), end = tile.tree->end_leafs(); it != end; ++it) {
       out->SetLeaf(it.getKey(), it.getDepth(), it->getLogOdds());

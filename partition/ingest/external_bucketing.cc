@@ -146,8 +146,7 @@ Status TruncateToProgress(const std::vector<std::string>& bucket_paths,
                           const SpillProgress& progress) {
   for (size_t b = 0; b < bucket_paths.size(); ++b) {
     const std::string& path = bucket_paths[b];
-    std::error_code error;
-    const bool exists = std::filesystem::exists(path, error);
+    const bool exists = storage::Env::Default()->FileExists(path);
     if (!exists && progress.bucket_observations[b] == 0) continue;
     if (!exists)
       return Status::Corruption(path + ": missing; the spill progress records " +
@@ -155,8 +154,8 @@ Status TruncateToProgress(const std::vector<std::string>& bucket_paths,
                                 " observations in it");
     GS_ASSIGN_OR_RETURN(const int64_t keep,
                         SpillFrameBoundary(path, progress.bucket_observations[b]));
-    std::filesystem::resize_file(path, static_cast<std::uintmax_t>(keep), error);
-    if (error) return Status::IOError(path + ": truncate: " + error.message());
+    GS_RETURN_IF_ERROR(
+        storage::Env::Default()->TruncateFile(path, static_cast<uint64_t>(keep)));
   }
   return Status::Ok();
 }
@@ -481,8 +480,8 @@ void BucketChunkSource::ReleaseBucketsBefore(int64_t chunk) {
                             ? bucket_first_chunk_[released_buckets_ + 1]
                             : NumChunks();
     if (end > chunk) break;
-    std::error_code error;  // scratch: a leftover is harmless
-    std::filesystem::remove(BucketPath(released_buckets_), error);
+    // scratch: a leftover is harmless
+    static_cast<void>(storage::Env::Default()->RemoveFile(BucketPath(released_buckets_)));
     ++released_buckets_;
   }
 }

@@ -145,30 +145,23 @@ StatusOr<ScanProgress> ReadProgress(const std::string& path) {
 }
 
 // Whether the recorded chunks are on disk with their recorded sizes.
-bool ChunksOnDisk(const std::string& scans_dir, const ScanProgress& progress) {
+bool ChunksOnDisk(storage::Env* env, const std::string& scans_dir, const ScanProgress& progress) {
   for (const map::ScanStoreWriter::Entry& e : progress.chunks) {
-    std::error_code error;
-    const auto size = fs::file_size(fs::path(scans_dir) / e.file, error);
-    if (error || static_cast<int64_t>(size) != e.bytes) return false;
+    const StatusOr<uint64_t> size = env->FileSize((fs::path(scans_dir) / e.file).string());
+    if (!size.ok() || static_cast<int64_t>(*size) != e.bytes) return false;
   }
   return true;
 }
 
 // Removes every file of `scans_dir` but the first `keep` chunks.
-Status RemoveAllBut(const std::string& scans_dir, const std::vector<map::ScanStoreWriter::Entry>& keep) {
-  std::error_code error;
-  if (!fs::exists(scans_dir, error)) return Status::Ok();
-  std::vector<fs::path> remove;
-  for (const auto& entry : fs::directory_iterator(scans_dir, error)) {
-    const std::string name = entry.path().filename().string();
+Status RemoveAllBut(storage::Env* env, const std::string& scans_dir,
+                    const std::vector<map::ScanStoreWriter::Entry>& keep) {
+  if (!env->FileExists(scans_dir)) return Status::Ok();
+  GS_ASSIGN_OR_RETURN(const std::vector<std::string> names, env->ListDir(scans_dir));
+  for (const std::string& name : names) {
     bool kept = false;
     for (const map::ScanStoreWriter::Entry& e : keep) kept = kept || e.file == name;
-    if (!kept) remove.push_back(entry.path());
-  }
-  if (error) return Status::IOError(scans_dir + ": list: " + error.message());
-  for (const fs::path& path : remove) {
-    fs::remove_all(path, error);
-    if (error) return Status::IOError(path.string() + ": remove: " + error.message());
+    if (!kept) GS_RETURN_IF_ERROR(env->RemoveTree((fs::path(scans_dir) / name).string()));
   }
   return Status::Ok();
 }
@@ -197,12 +190,8 @@ Status SaveScanRecords(storage::Env* env, const std::string& log_path, const std
                                         EncodeRecords(records, poses));
 }
 
-Status RemoveIngestedScans(const std::string& store_dir) {
-  std::error_code error;
-  const fs::path scans = fs::path(store_dir) / map::kScanStoreDirectory;
-  fs::remove_all(scans, error);
-  if (error) return Status::IOError(scans.string() + ": remove: " + error.message());
-  return Status::Ok();
+Status RemoveIngestedScans(storage::Env* env, const std::string& store_dir) {
+  return env->RemoveTree((fs::path(store_dir) / map::kScanStoreDirectory).string());
 }
 
 Status IngestScans(storage::Env* env, const std::string& log_path, const std::string& store_dir,
@@ -213,10 +202,11 @@ Status IngestScans(storage::Env* env, const std::string& log_path, const std::st
   const std::string records_path = (work / kScanRecordsName).string();
   const std::string progress_path = (work / kScanProgressName).string();
   const std::string scans_dir = (fs::path(store_dir) / map::kScanStoreDirectory).string();
-  if (!fs::exists(records_path)) return RemoveIngestedScans(store_dir);  // not a native log
+  // No record file: not a native log.
+  if (!env->FileExists(records_path)) return RemoveIngestedScans(env, store_dir);
   GS_ASSIGN_OR_RETURN(ScanRecords read, ReadRecords(records_path));
   const auto num_records = static_cast<int64_t>(read.records.size());
-  if (num_records == 0) return RemoveIngestedScans(store_dir);
+  if (num_records == 0) return RemoveIngestedScans(env, store_dir);
   GS_ASSIGN_OR_RETURN(std::unique_ptr<map::NativeLogScanSource> source,
                       map::NativeLogScanSource::FromRecords(log_path, std::move(read.records),
                                                             std::move(read.poses)));
@@ -229,21 +219,21 @@ Status IngestScans(storage::Env* env, const std::string& log_path, const std::st
   if (resume) {
     StatusOr<ScanProgress> recorded = ReadProgress(progress_path);
     if (recorded.ok() && recorded->scan_chunk_bytes == scan_chunk_bytes &&
-        recorded->records == num_records && ChunksOnDisk(scans_dir, *recorded)) {
-      GS_RETURN_IF_ERROR(RemoveAllBut(scans_dir, recorded->chunks));
+        recorded->records == num_records && ChunksOnDisk(env, scans_dir, *recorded)) {
+      GS_RETURN_IF_ERROR(RemoveAllBut(env, scans_dir, recorded->chunks));
       for (const map::ScanStoreWriter::Entry& e : recorded->chunks) next += e.scans;
       progress.chunks = recorded->chunks;
       GS_ASSIGN_OR_RETURN(writer, map::ScanStoreWriter::Resume(store_dir, scan_chunk_bytes,
                                                                std::move(recorded).value().chunks));
       summary->resumed_from_scan = next;
-    } else if (fs::exists(progress_path) || fs::exists(scans_dir)) {
+    } else if (env->FileExists(progress_path) || env->FileExists(scans_dir)) {
       GS_LOG(WARNING, "%s: the scan copy restarts from the first scan (%s)", store_dir.c_str(),
              recorded.ok() ? "other options, or recorded chunks are missing"
                            : recorded.status().ToString().c_str());
     }
   }
   if (writer == nullptr) {
-    GS_RETURN_IF_ERROR(RemoveIngestedScans(store_dir));
+    GS_RETURN_IF_ERROR(RemoveIngestedScans(env, store_dir));
     GS_ASSIGN_OR_RETURN(writer, map::ScanStoreWriter::Create(store_dir, scan_chunk_bytes));
   }
 

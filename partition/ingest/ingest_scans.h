@@ -65,7 +65,7 @@ std::vector<core::Pose3> LoggedScanPoses(const core::Problem2d& problem,
                                      const std::vector<core::Pose3>& poses);
 
 // Removes STORE/scans/ (a fresh ingest: no scans of an earlier one survive).
-[[nodiscard]] Status RemoveIngestedScans(const std::string& store_dir);
+[[nodiscard]] Status RemoveIngestedScans(storage::Env* env, const std::string& store_dir);
 
 // Copies the scans recorded in STORE/work/scan_records.bin into STORE/scans/
 // (nothing, and no folder, if there are none or no record file: other input

@@ -149,12 +149,9 @@ Status FindResumePoint(const storage::ChunkStoreWriteOptions& store_options, Ing
     }
   }
   if (run->resuming) return Status::Ok();
-  std::error_code error;
-  std::filesystem::remove_all(run->work, error);
-  if (error) return Status::IOError(run->work + ": remove: " + error.message());
-  std::filesystem::create_directories(run->work, error);
-  if (error) return Status::IOError(run->work + ": mkdir: " + error.message());
-  if (run->root) GS_RETURN_IF_ERROR(RemoveIngestedScans(run->store_dir));
+  GS_RETURN_IF_ERROR(run->env->RemoveTree(run->work));
+  GS_RETURN_IF_ERROR(run->env->CreateDir(run->work));
+  if (run->root) GS_RETURN_IF_ERROR(RemoveIngestedScans(run->env, run->store_dir));
   return Status::Ok();
 }
 
@@ -233,15 +230,12 @@ Status PassTwo(const ObservationReplay& replay, int64_t observations, BucketChun
 Status WriteShardsAndCommit(const BucketChunkSource& chunks, int64_t observations,
                             storage::ChunkStoreWriter* writer, IngestRun* run) {
   const IngestRanks& ranks = run->options.ranks;
-  std::error_code error;
   const int64_t num_chunks = chunks.NumChunks();
   const int64_t begin = num_chunks * ranks.rank / ranks.size;
   const int64_t end = num_chunks * (ranks.rank + 1) / ranks.size;
   GS_RETURN_IF_ERROR(writer->WriteChunkShard(chunks, begin, end));
-  if (!run->root) {
-    std::filesystem::remove_all(run->work, error);  // before rank 0 commits
-    if (error) return Status::IOError(run->work + ": remove: " + error.message());
-  }
+  // before rank 0 commits
+  if (!run->root) GS_RETURN_IF_ERROR(run->env->RemoveTree(run->work));
   std::vector<storage::ChunkStoreEntry> entries = writer->entries();
   std::vector<storage::ChunkStoreShard> shards;
   GS_RETURN_IF_ERROR(ranks.gather(&entries, &shards));
@@ -254,7 +248,7 @@ Status WriteShardsAndCommit(const BucketChunkSource& chunks, int64_t observation
   GS_RETURN_IF_ERROR(IngestScans(run->env, run->input, run->store_dir,
                                  run->options.scan_chunk_bytes, false, &summary->scans));
   GS_RETURN_IF_ERROR(writer->Commit());
-  std::filesystem::remove_all(run->work, error);
+  static_cast<void>(run->env->RemoveTree(run->work));
   summary->poses = run->progress.poses;
   summary->features = run->progress.features;
   return Status::Ok();
@@ -284,8 +278,8 @@ Status WriteChunksAndCommit(int64_t observations, BucketChunkSource* chunks,
   GS_RETURN_IF_ERROR(IngestScans(run->env, run->input, run->store_dir,
                                  run->options.scan_chunk_bytes, run->resuming, &summary->scans));
   GS_RETURN_IF_ERROR(writer->Commit());
-  std::error_code error;
-  std::filesystem::remove_all(run->work, error);  // scratch only; a leftover is harmless
+  // scratch only; a leftover is harmless
+  static_cast<void>(run->env->RemoveTree(run->work));
 
   summary->poses = progress.poses;
   summary->features = progress.features;
@@ -334,9 +328,7 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
   // directory without MANIFEST.json, i.e. an incomplete store.
   storage::ChunkStoreWriter writer(env, store_dir, store_options);
   if (run.root) {
-    std::error_code error;
-    std::filesystem::create_directories(dir, error);
-    if (error) return Status::IOError(store_dir + ": mkdir: " + error.message());
+    GS_RETURN_IF_ERROR(env->CreateDir(store_dir));
     GS_RETURN_IF_ERROR(writer.Uncommit());
   }
   // The other ranks write into the un-committed store only (STORE/chunks/

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace graphslam::storage {
 namespace {
@@ -119,6 +120,97 @@ TEST(FaultInjectionEnv, CountsAppendableOpensAndFileSyncs) {
   auto read = ReadFileToString(&env, dir + "/a.bin");
   ASSERT_TRUE(read.ok()) << read.status().ToString();
   EXPECT_EQ(*read, "kept");
+}
+
+TEST(PosixEnv, CreatesListsAndRemovesFolders) {
+  const std::string dir = TempDir("folders");
+  Env* env = Env::Default();
+  ASSERT_TRUE(env->CreateDir(dir + "/a/b/c").ok());  // parents too
+  ASSERT_TRUE(env->CreateDir(dir + "/a/b/c").ok());  // already there
+  EXPECT_EQ(env->KindOf(dir + "/a/b/c"), FileKind::kDirectory);
+  for (const std::string name : {"y", "x"}) {
+    auto file = env->NewWritableFile(dir + "/a/" + name);
+    ASSERT_TRUE(file.ok());
+    ASSERT_TRUE((*file)->Close().ok());
+  }
+  auto names = env->ListDir(dir + "/a");
+  ASSERT_TRUE(names.ok()) << names.status().ToString();
+  EXPECT_EQ(*names, (std::vector<std::string>{"b", "x", "y"}));
+
+  const Status not_empty = env->RemoveDir(dir + "/a");
+  EXPECT_TRUE(not_empty.IsIOError());
+  EXPECT_NE(not_empty.message().find("/a: rmdir: "), std::string::npos) << not_empty.ToString();
+  ASSERT_TRUE(env->RemoveDir(dir + "/a/b/c").ok());
+  EXPECT_FALSE(env->FileExists(dir + "/a/b/c"));
+  ASSERT_TRUE(env->RemoveTree(dir + "/a").ok());
+  EXPECT_FALSE(env->FileExists(dir + "/a"));
+  EXPECT_TRUE(env->RemoveTree(dir + "/a").ok());  // nothing to remove
+
+  const auto missing = env->ListDir(dir + "/a");
+  EXPECT_TRUE(missing.status().IsIOError());
+  EXPECT_NE(missing.status().message().find("/a: list: "), std::string::npos)
+      << missing.status().ToString();
+  auto file = env->NewWritableFile(dir + "/plain");
+  ASSERT_TRUE(file.ok());
+  ASSERT_TRUE((*file)->Close().ok());
+  const Status under_file = env->CreateDir(dir + "/plain/sub");
+  EXPECT_TRUE(under_file.IsIOError());
+  EXPECT_NE(under_file.message().find("/plain/sub: mkdir: "), std::string::npos)
+      << under_file.ToString();
+  std::filesystem::remove_all(dir);
+}
+
+TEST(PosixEnv, SizesAndTruncatesFiles) {
+  const std::string dir = TempDir("truncate");
+  const std::string path = dir + "/bucket.bin";
+  Env* env = Env::Default();
+  auto file = env->NewWritableFile(path);
+  ASSERT_TRUE(file.ok());
+  ASSERT_TRUE((*file)->Append("0123456789").ok());
+  ASSERT_TRUE((*file)->Close().ok());
+  auto size = env->FileSize(path);
+  ASSERT_TRUE(size.ok()) << size.status().ToString();
+  EXPECT_EQ(*size, 10u);
+  ASSERT_TRUE(env->TruncateFile(path, 4).ok());
+  EXPECT_EQ(Slurp(path), "0123");
+  size = env->FileSize(path);
+  ASSERT_TRUE(size.ok());
+  EXPECT_EQ(*size, 4u);
+
+  EXPECT_TRUE(env->FileSize(dir + "/missing.bin").status().IsIOError());
+  EXPECT_TRUE(env->FileSize(dir).status().IsIOError());  // a folder has no file size
+  const Status missing = env->TruncateFile(dir + "/missing.bin", 0);
+  EXPECT_TRUE(missing.IsIOError());
+  EXPECT_NE(missing.message().find("missing.bin: truncate: No such file"), std::string::npos)
+      << missing.ToString();
+  std::filesystem::remove_all(dir);
+}
+
+// The folder operations reach the wrapped Env and are not counted: a test
+// that fails every removal of files still has its scratch folders.
+TEST(FaultInjectionEnv, ForwardsFolderOperations) {
+  const std::string dir = TempDir("forward");
+  FaultInjectionEnv env(Env::Default());
+  env.FailAlways(Operation::kRemoveFile);
+  ASSERT_TRUE(env.CreateDir(dir + "/work/sub").ok());
+  auto file = env.NewWritableFile(dir + "/work/f");
+  ASSERT_TRUE(file.ok());
+  ASSERT_TRUE((*file)->Append("abc").ok());
+  ASSERT_TRUE((*file)->Close().ok());
+  auto names = env.ListDir(dir + "/work");
+  ASSERT_TRUE(names.ok());
+  EXPECT_EQ(*names, (std::vector<std::string>{"f", "sub"}));
+  auto size = env.FileSize(dir + "/work/f");
+  ASSERT_TRUE(size.ok());
+  EXPECT_EQ(*size, 3u);
+  ASSERT_TRUE(env.TruncateFile(dir + "/work/f", 1).ok());
+  EXPECT_EQ(Slurp(dir + "/work/f"), "a");
+  EXPECT_TRUE(env.RemoveFile(dir + "/work/f").IsIOError());  // still injected
+  ASSERT_TRUE(env.RemoveDir(dir + "/work/sub").ok());
+  ASSERT_TRUE(env.RemoveTree(dir + "/work").ok());
+  EXPECT_FALSE(env.FileExists(dir + "/work"));
+  EXPECT_EQ(env.Count(Operation::kRemoveFile), 1);
+  std::filesystem::remove_all(dir);
 }
 
 TEST(PosixEnv, DefaultIsOneObject) { EXPECT_EQ(Env::Default(), Env::Default()); }
