@@ -1,7 +1,7 @@
 #include "core/graphslam_solver_3d.h"
 
 #include "core/internal/chunked_solve.h"
-#include "core/point3_observation_model.h"
+#include "core/point_3d_observation_model.h"
 #include "core/pose_factors.h"
 
 namespace graphslam::core {

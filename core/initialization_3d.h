@@ -10,7 +10,7 @@
 // its GPS fix, else at the identity.
 //
 // Features without a guess are placed by their first observation,
-// m = x z (core/point3_observation_model.h).
+// m = x z (core/point_3d_observation_model.h).
 //
 // Checks (before anything is modified): indices in range, information
 // matrices finite, symmetric and positive definite, every pose connected to an

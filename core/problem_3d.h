@@ -5,7 +5,7 @@
 // m_0..m_{N-1} in R^3. Constraints (Gaussian, information Omega, each adding
 // e^T Omega e to chi2, the g2o convention):
 //   - relative pose between two poses      (relative_pose_3d_model.h)
-//   - a point in the frame of a pose       (point3_observation_model.h)
+//   - a point in the frame of a pose       (point_3d_observation_model.h)
 //   - GPS position of a pose               (gps_3d_model.h)
 // The unknowns and their ids, and the relative-pose and GPS constraints, are
 // the dimension-free templates of core/problem_unknowns.h (as in Problem2d).

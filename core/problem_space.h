@@ -26,7 +26,7 @@
 #include <vector>
 
 #include "core/observation_models.h"
-#include "core/point3_observation_model.h"
+#include "core/point_3d_observation_model.h"
 #include "core/problem.h"
 #include "core/problem_3d.h"
 #include "core/se2.h"

@@ -18,7 +18,7 @@
 
 #include "core/chunk_passes.h"
 #include "core/gps_3d_model.h"
-#include "core/point3_observation_model.h"
+#include "core/point_3d_observation_model.h"
 #include "core/pose_factors.h"
 #include "core/relative_pose_3d_model.h"
 #include "partition/ingest/in_memory_chunk_source.h"

@@ -14,7 +14,7 @@
 
 #include "core/graphslam_solver_3d.h"
 #include "core/initialization_3d.h"
-#include "core/point3_observation_model.h"
+#include "core/point_3d_observation_model.h"
 #include "core/relative_pose_3d_model.h"
 #include "core/gps_3d_model.h"
 #include "core/robust_kernel.h"

@@ -6,7 +6,7 @@
 #include <random>
 
 #include "core/gps_3d_model.h"
-#include "core/point3_observation_model.h"
+#include "core/point_3d_observation_model.h"
 #include "core/relative_pose_3d_model.h"
 #include "core/se3_lie.h"
 #include "tests/testing/numeric_diff.h"
