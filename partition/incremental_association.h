@@ -72,12 +72,21 @@ struct IncrementalAssociationOptions {
   // Off by default: on Victoria Park it does not yet beat the batch rounds
   // alone (docs/association.md, "The incremental pass").
   bool enabled = false;
-  int64_t stage_poses = 50;          // new poses per stage
+  // A stage takes new poses until it holds at least stage_poses poses and
+  // at least stage_observations observations. Poses alone mean nothing at a
+  // high sampling rate (50 Hz: 50 poses are one second, a few sightings);
+  // observations count the evidence a stage adds whatever the rate.
+  int64_t stage_poses = 50;
+  int64_t stage_observations = 25;
   int max_iterations_per_stage = 10;  // LM iterations of each stage solve
   double search_radius = 10.0;       // targets closer than this to an observation [m]
   JointCompatibilityOptions joint;   // gates (normal z) and node cap of JCBB
   int confirm_observations = 2;      // fewer observations: provisional
-  int64_t provisional_poses = 100;   // unseen this many poses: dropped as clutter
+  // A provisional feature is dropped as clutter once it has been unseen for
+  // more than provisional_poses poses and provisional_observations
+  // observations (of other features) both.
+  int64_t provisional_poses = 100;
+  int64_t provisional_observations = 50;
   // Scale every covariance of the tests by the variance factor s^2 of the
   // last stage solve (partition/internal/variance_factor.h) once its
   // redundancy reaches min_redundancy: the gates then follow the noise the
@@ -99,7 +108,10 @@ struct IncrementalAssociationOptions {
   int max_stage_undo_passes = 2;
   // Loop closure by matching the local map against the older map.
   bool close_loops = true;
-  int64_t local_window = 100;  // poses before the stage whose features are local
+  // Features seen in the local_window poses or the local_observations
+  // observations before the stage (whichever reaches further back) are local.
+  int64_t local_window = 100;
+  int64_t local_observations = 50;
   SubmapMatchOptions loop;
   int64_t chunk_observations = 4096;
 

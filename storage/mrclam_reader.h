@@ -67,6 +67,9 @@ struct MrclamOptions {
       (Eigen::Matrix2d() << 1.0 / (0.1 * 0.1), 0.0, 0.0, 1.0 / (0.05 * 0.05)).finished();
   // Measurements farther than this from every odometry stamp are dropped [s].
   double max_time_offset = 0.5;
+  // > 0: only the first `duration` seconds of the log (odometry records up to
+  // t_0 + duration; later measurements have no pose and are dropped) [s].
+  double duration = 0.0;
   // true: pose 0 starts at the ground-truth pose (the Vicon frame) when
   // RobotN_Groundtruth.dat exists; false: at the origin, in the robot's own
   // frame (a job of several robots, where nothing may give the runs their
