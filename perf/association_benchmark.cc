@@ -22,7 +22,10 @@
 // GS_FULL_SOLVE_UNDOS=2 sets AssociationOptions::full_solve_undos; GS_INC_STAGE,
 // GS_INC_RADIUS, GS_INC_Z, GS_INC_CONFIRM, GS_INC_WINDOW, GS_INC_ITERATIONS set
 // the incremental pass's stage_poses, search_radius, joint.z,
-// confirm_observations, provisional_poses and max_iterations_per_stage (partition/association/incremental_association.h), GS_INCREMENTAL=1 runs
+// confirm_observations, provisional_poses and max_iterations_per_stage (partition/association/incremental_association.h);
+// GS_INC_STAGE_OBS, GS_INC_WINDOW_OBS, GS_LOOP_WINDOW_OBS its stage_observations,
+// provisional_observations, local_observations; GS_SECONDS=S reads only the first
+// S seconds of MRCLAM; GS_MRCLAM_SIGMA=R,PHI its range and bearing sigmas; GS_POSES_OUT=FILE writes each observation's pose; GS_INCREMENTAL=1 runs
 // it (off by default); GS_LOOP=0/1, GS_LOOP_MIN, GS_LOOP_MARGIN, GS_LOOP_TOL,
 // GS_FIXES_FIRST=0/1 its solve_fixes_first, GS_STAGE_UNDO=0/1 its undo_stage_pairings;
 // GS_LOOP_ROT, GS_LOOP_RADIUS, GS_LOOP_WINDOW set its loop closure
@@ -139,6 +142,13 @@ gs::Status LoadVictoria(const std::string& datasets, Benchmark* b) {
 gs::Status LoadMrclam(const std::string& datasets, Benchmark* b) {
   gs::storage::MrclamOptions mrclam;
   if (const char* v = std::getenv("GS_ROBOT")) mrclam.robot = std::atoi(v);
+  if (const char* v = std::getenv("GS_SECONDS")) mrclam.duration = std::atof(v);
+  if (const char* v = std::getenv("GS_MRCLAM_SIGMA")) {  // "sigma_range,sigma_bearing"
+    double range = 0.0, bearing = 0.0;
+    if (std::sscanf(v, "%lf,%lf", &range, &bearing) == 2)
+      mrclam.measurement_information =
+          Eigen::Vector2d(1.0 / (range * range), 1.0 / (bearing * bearing)).asDiagonal();
+  }
   auto known = gs::storage::ReadMrclam(datasets + "/mrclam_dataset1_sampled50hz", mrclam);
   GS_RETURN_IF_ERROR(known.status());
   mrclam.ignore_barcodes = true;
@@ -202,6 +212,9 @@ void AssociationOptionsFromEnvironment(gs::partition::AssociationOptions* option
   if (const char* v = std::getenv("GS_INC_Z")) inc.joint.z = std::atof(v);
   if (const char* v = std::getenv("GS_INC_CONFIRM")) inc.confirm_observations = std::atoi(v);
   if (const char* v = std::getenv("GS_INC_WINDOW")) inc.provisional_poses = std::atoll(v);
+  if (const char* v = std::getenv("GS_INC_STAGE_OBS")) inc.stage_observations = std::atoll(v);
+  if (const char* v = std::getenv("GS_INC_WINDOW_OBS")) inc.provisional_observations = std::atoll(v);
+  if (const char* v = std::getenv("GS_LOOP_WINDOW_OBS")) inc.local_observations = std::atoll(v);
   if (const char* v = std::getenv("GS_INC_ITERATIONS")) inc.max_iterations_per_stage = std::atoi(v);
   if (const char* v = std::getenv("GS_LOOP")) inc.close_loops = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_LOOP_MIN")) inc.loop.min_inliers = std::atoi(v);
@@ -366,6 +379,11 @@ int main(int argc, char** argv) {
   if (!loaded.ok()) return Fail(loaded);
   // Diagnosis: the key, one line per observation.
   if (const char* path = std::getenv("GS_KEY_OUT")) WriteLines(path, b.key);
+  if (const char* path = std::getenv("GS_POSES_OUT")) {
+    std::vector<int64_t> poses;
+    for (const auto& o : b.problem.observations) poses.push_back(o.pose);
+    WriteLines(path, poses);
+  }
   const int next_arg = b.next_arg;
   gs::partition::AssociationOptions& options = b.options;
   if (argc > next_arg) options.chi = std::atof(argv[next_arg]);

@@ -145,6 +145,10 @@ Status MrclamOptions::Validate() const {
         "MrclamOptions.measurement_information is not symmetric positive definite; expected "
         "e.g. diag(1/sigma_range^2, 1/sigma_bearing^2)");
   }
+  if (!(duration >= 0.0) || !std::isfinite(duration)) {
+    return Status::InvalidArgument("MrclamOptions.duration is " + internal::FormatDouble(duration) +
+                                   "; expected a finite number of seconds >= 0 (0: all)");
+  }
   if (!(max_time_offset > 0.0) || !std::isfinite(max_time_offset)) {
     return Status::InvalidArgument("MrclamOptions.max_time_offset is " +
                                    internal::FormatDouble(max_time_offset) +
@@ -174,8 +178,16 @@ StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOpti
   MrclamReadStats local_stats;
   GS_ASSIGN_OR_RETURN(const auto subject_of_barcode, ReadBarcodes(folder + "/Barcodes.dat"));
   const std::string odometry_path = RobotFile(folder, options.robot, "Odometry");
-  GS_ASSIGN_OR_RETURN(const TimedRecords odometry,
-                      ReadTimedRecords(odometry_path, "t v omega"));
+  GS_ASSIGN_OR_RETURN(TimedRecords odometry, ReadTimedRecords(odometry_path, "t v omega"));
+  if (options.duration > 0.0 && !odometry.stamps.empty()) {
+    // The first `duration` seconds; later measurements then have no pose.
+    const auto kept = static_cast<size_t>(
+        std::upper_bound(odometry.stamps.begin(), odometry.stamps.end(),
+                         odometry.stamps.front() + options.duration) - odometry.stamps.begin());
+    odometry.stamps.resize(kept);
+    odometry.values.resize(kept);
+    odometry.lines.resize(kept);
+  }
   local_stats.odometry_records = static_cast<int64_t>(odometry.stamps.size());
 
   // The anchor: ground truth nearest to t_0 if present, else the origin.

@@ -82,6 +82,9 @@ struct MrclamOptions {
   // Readings of one landmark from one standstill become one observation
   // (above); false keeps every reading as its own observation.
   bool merge_standstill_repeats = true;
+  // > 0: only the first `duration` seconds of the log (odometry records up to
+  // t_0 + duration; later measurements have no pose and are dropped) [s].
+  double duration = 0.0;
   // true: pose 0 starts at the ground-truth pose (the Vicon frame) when
   // RobotN_Groundtruth.dat exists; false: at the origin, in the robot's own
   // frame (a job of several robots, where nothing may give the runs their

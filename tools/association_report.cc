@@ -22,10 +22,13 @@ nlohmann::json BuildAssociationReport(const partition::AssociationOptions& optio
   const partition::IncrementalAssociationSummary& inc = summary.incremental;
   out["incremental"] = {{"ran", inc.ran},
                         {"stage_poses", options.incremental.stage_poses},
+                        {"stage_observations", options.incremental.stage_observations},
                         {"search_radius", options.incremental.search_radius},
                         {"gate_z", options.incremental.joint.z},
                         {"confirm_observations", options.incremental.confirm_observations},
                         {"provisional_poses", options.incremental.provisional_poses},
+                        {"provisional_observations",
+                         options.incremental.provisional_observations},
                         {"stages", inc.stages},
                         {"scans", inc.scans},
                         {"paired", inc.paired},

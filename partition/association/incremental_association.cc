@@ -167,15 +167,14 @@ int64_t CellKey(const core::Point2& p, double cell) {
 
 
 // Loop closure of one stage: the local map (clusters seen from pose
-// begin - window on) against the older confirmed clusters, matched as a rigid
+// first_local on) against the older confirmed clusters, matched as a rigid
 // whole (partition/association/submap_matching.h). Each inlier pair is joined: the local
 // cluster's observations go to the older one. Returns the pairs joined.
 int64_t CloseLoop(const IncrementalAssociationOptions& options, const core::Problem2d& problem,
-                  int32_t begin, const std::vector<uint8_t>& solved_before,
+                  int32_t begin, int64_t first_local, const std::vector<uint8_t>& solved_before,
                   std::vector<Cluster>* clusters, std::vector<int32_t>* cluster_of) {
   std::vector<int32_t> local_ids, map_ids;
   std::vector<core::Point2> local, map;
-  const int64_t first_local = static_cast<int64_t>(begin) - options.local_window;
   for (size_t c = 0; c < clusters->size(); ++c) {
     const Cluster& cluster = (*clusters)[c];
     if (cluster.dropped || cluster.absorbed || cluster.members.empty()) continue;
@@ -328,6 +327,8 @@ struct IncrementalRun {
   core::Problem2d* problem;
   IncrementalAssociationSummary* summary;
   std::vector<std::vector<int32_t>> observations_of_pose;
+  // observations_before[p]: observations of poses [0, p) (size poses + 1).
+  std::vector<int64_t> observations_before;
   std::vector<core::Pose2> poses;
   std::vector<Cluster> clusters;
   std::vector<int32_t> cluster_of;  // per input observation
@@ -466,6 +467,34 @@ Status AssociateScan(int32_t p, StageView* view, IncrementalRun* run, Clock::tim
   return Status::Ok();
 }
 
+// The first pose of the local map of a stage starting at `begin`: back by
+// local_window poses or local_observations observations, whichever reaches
+// further.
+int64_t LocalWindowStart(const IncrementalRun& run, int32_t begin) {
+  const std::vector<int64_t>& before = run.observations_before;
+  const int64_t by_poses = static_cast<int64_t>(begin) - run.options.local_window;
+  // The last pose q with at least local_observations observations in [q, begin).
+  const int64_t wanted = before[begin] - run.options.local_observations;
+  const int64_t by_observations =
+      wanted < 0 ? -1
+                 : static_cast<int64_t>(std::upper_bound(before.begin(), before.end(), wanted) -
+                                        before.begin()) - 1;
+  return std::min(by_poses, by_observations);
+}
+
+// The end of the stage starting at `begin`: at least stage_poses poses and
+// stage_observations observations (or the last pose).
+int32_t StageEnd(const IncrementalRun& run, int32_t begin) {
+  const std::vector<int64_t>& before = run.observations_before;
+  const auto n = static_cast<int64_t>(before.size()) - 1;
+  const int64_t by_poses = std::min<int64_t>(n, begin + run.options.stage_poses);
+  // The first end with stage_observations observations in [begin, end).
+  const int64_t by_observations = static_cast<int64_t>(
+      std::lower_bound(before.begin(), before.end(),
+                       before[begin] + run.options.stage_observations) - before.begin());
+  return static_cast<int32_t>(std::min(n, std::max(by_poses, by_observations)));
+}
+
 // Pairs the observations of poses [begin, end) with the clusters, scan by
 // scan, then closes loops.
 Status PairStage(int32_t begin, int32_t end, IncrementalRun* run) {
@@ -503,8 +532,9 @@ Status PairStage(int32_t begin, int32_t end, IncrementalRun* run) {
     GS_RETURN_IF_ERROR(AssociateScan(p, &view, run, &t0));
   }
   if (run->options.close_loops) {
-    const int64_t joined = CloseLoop(run->options, *run->problem, begin, solved_before,
-                                     &run->clusters, &run->cluster_of);
+    const int64_t joined =
+        CloseLoop(run->options, *run->problem, begin, LocalWindowStart(*run, begin), solved_before,
+                  &run->clusters, &run->cluster_of);
     if (joined > 0) {
       ++summary->loop_closures;
       summary->loop_pairs += joined;
@@ -639,9 +669,15 @@ Status IncrementalAssociationOptions::Validate() const {
     return Status::InvalidArgument("incremental association: undo_z must be finite and "
                                    "max_stage_undo_passes >= 0, got " + std::to_string(undo_z) +
                                    " and " + std::to_string(max_stage_undo_passes));
-  if (local_window < 0)
-    return Status::InvalidArgument("incremental association: local_window must be >= 0, got " +
-                                   std::to_string(local_window));
+  if (local_window < 0 || local_observations < 0)
+    return Status::InvalidArgument(
+        "incremental association: local_window and local_observations must be >= 0, got " +
+        std::to_string(local_window) + " and " + std::to_string(local_observations));
+  if (stage_observations < 0 || provisional_observations < 0)
+    return Status::InvalidArgument(
+        "incremental association: stage_observations and provisional_observations must be "
+        ">= 0, got " + std::to_string(stage_observations) + " and " +
+        std::to_string(provisional_observations));
   return loop.Validate();
 }
 
@@ -666,6 +702,10 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
   run.observations_of_pose.resize(n);
   for (int64_t o = 0; o < m; ++o)
     run.observations_of_pose[problem->observations[o].pose].push_back(static_cast<int32_t>(o));
+  run.observations_before.assign(static_cast<size_t>(n) + 1, 0);
+  for (int32_t p = 0; p < n; ++p)
+    run.observations_before[p + 1] =
+        run.observations_before[p] + static_cast<int64_t>(run.observations_of_pose[p].size());
   const std::vector<std::vector<internal::PoseEdge>> adjacency =
       internal::OdometryAdjacency(*problem);
   run.poses = problem->poses;
@@ -682,7 +722,7 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
   run.radius_squared = options.search_radius * options.search_radius;
 
   for (int32_t begin = 0; begin < n;) {
-    const int32_t end = static_cast<int32_t>(std::min<int64_t>(n, begin + options.stage_poses));
+    const int32_t end = StageEnd(run, begin);
     internal::PlacePoses(*problem, adjacency, begin, end, &run.poses, &placed);
     ++summary->stages;
     bool any_new = false;
@@ -704,7 +744,10 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
       if (cluster.dropped || cluster.absorbed ||
           static_cast<int64_t>(cluster.members.size()) >= options.confirm_observations)
         continue;
-      if (static_cast<int64_t>(end) - cluster.last_pose > options.provisional_poses)
+      const int64_t unseen_observations =
+          run.observations_before[end] - run.observations_before[cluster.last_pose + 1];
+      if (static_cast<int64_t>(end) - cluster.last_pose > options.provisional_poses &&
+          unseen_observations > options.provisional_observations)
         cluster.dropped = true;
     }
     GS_VLOG(1, "incremental association: poses 0..%d, %zu features, %lld paired, chi2 %.6g, "

@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "partition/in_memory_chunk_source.h"
+#include "partition/ingest/in_memory_chunk_source.h"
 #include "tests/testing/random_problem.h"
 
 namespace graphslam::core {

@@ -3,6 +3,8 @@
 #include "core/unidentified_features.h"
 
 #include <gtest/gtest.h>
+
+#include <algorithm>
 #include <unistd.h>
 
 #include <Eigen/LU>
@@ -84,6 +86,33 @@ TEST(MrclamReader, IgnoredBarcodesKeepTheObservationsWithoutIds) {
     ASSERT_EQ(unknown->observations[i].z, known->observations[i].z);
     ASSERT_EQ(unknown->feature_ids[unknown->observations[i].feature], core::kNoFeatureId);
   }
+}
+
+TEST(MrclamReader, DurationReadsThePrefixOfTheLog) {
+  GS_REQUIRE_DATASET(kFolder);
+  const auto full = ReadMrclam(DatasetPath(kFolder), MrclamOptions());
+  ASSERT_TRUE(full.ok()) << full.status().ToString();
+  MrclamOptions options;
+  options.duration = 200.0;
+  MrclamReadStats stats;
+  const auto slice = ReadMrclam(DatasetPath(kFolder), options, &stats);
+  ASSERT_TRUE(slice.ok()) << slice.status().ToString();
+  // 50 Hz: the poses of [t_0, t_0 + 200 s].
+  EXPECT_EQ(slice->num_poses(), 10001);
+  EXPECT_LE(slice->pose_stamps.back() - slice->pose_stamps.front(), 200.0);
+  EXPECT_EQ(slice->motions.size(), 10000u);
+  ASSERT_GT(slice->observations.size(), 100u);
+  ASSERT_LT(slice->observations.size(), full->observations.size());
+  EXPECT_GT(stats.out_of_time_range_dropped, 0);
+  // The same observations on the same poses, except that a measurement just
+  // after the end goes to the last pose (within max_time_offset).
+  for (size_t i = 0; i < slice->observations.size(); ++i) {
+    const int32_t pose = full->observations[i].pose;
+    ASSERT_EQ(slice->observations[i].pose, std::min(pose, slice->num_poses() - 1));
+    ASSERT_EQ(slice->observations[i].z, full->observations[i].z);
+  }
+  options.duration = -1.0;
+  EXPECT_TRUE(options.Validate().IsInvalidArgument());
 }
 
 TEST(MrclamReader, GroundTruth) {
