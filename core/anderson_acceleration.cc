@@ -4,7 +4,7 @@
 
 namespace graphslam::core {
 
-bool AndersonAcceleration::Extrapolate(const Eigen::VectorXd& f, Eigen::VectorXd* accelerated) {
+void AndersonAcceleration::Observe(const Eigen::VectorXd& f) {
   // The pair the last Record completed: (x_k - x_{k-1}, f_k - f_{k-1}).
   if (has_recorded_ && recorded_f_.size() == f.size()) {
     dx_.push_back(recorded_taken_);
@@ -17,6 +17,10 @@ bool AndersonAcceleration::Extrapolate(const Eigen::VectorXd& f, Eigen::VectorXd
   has_recorded_ = false;
   last_f_ = f;
   has_last_f_ = true;
+}
+
+bool AndersonAcceleration::Extrapolate(const Eigen::VectorXd& f, Eigen::VectorXd* accelerated) {
+  Observe(f);
   *accelerated = f;
   const int m = static_cast<int>(df_.size());
   if (m == 0) return false;

@@ -38,6 +38,10 @@ class AndersonAcceleration {
   // first step after a Reset) or with a rank-deficient history (v = f then).
   bool Extrapolate(const Eigen::VectorXd& f, Eigen::VectorXd* accelerated);
 
+  // Extrapolate's bookkeeping without the extrapolation: the history still
+  // gains the pair, for a caller that skips this state's extrapolation.
+  void Observe(const Eigen::VectorXd& f);
+
   // The step was accepted: the state moved by `taken` (f or the accelerated
   // step) from the state whose plain step was the last Extrapolate's f.
   void Record(const Eigen::VectorXd& taken);

@@ -25,10 +25,11 @@
 // reduction, a hit saves a read of the chunks).
 // Either way every iteration solves the same system as with two passes, bit
 // for bit, so results do not depend on the option.
-// Pose graphs (no observations): an accepted step is replaced by its Anderson
-// extrapolation over the last anderson_depth accepted steps when that lowers
-// chi2 further (core/anderson_acceleration.h; one more chi2 evaluation of the
-// pose factors per accepted iteration, no factorization). Gauss-Newton
+// Pose graphs (no observations): an accepted step (at least 1/4 of the
+// previous one) is replaced by its Anderson extrapolation over the last
+// anderson_depth accepted steps when that lowers chi2 further
+// (core/anderson_acceleration.h; one more chi2 evaluation of the pose
+// factors, no factorization). Gauss-Newton
 // converges only linearly where the residuals bend along a soft mode
 // (torus3D: 61 iterations, 31 with it); where it converges quadratically the
 // plain step wins and nothing changes.

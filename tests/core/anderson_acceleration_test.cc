@@ -71,6 +71,27 @@ TEST(AndersonAcceleration, ResetForgetsTheHistory) {
   EXPECT_EQ(anderson.history_size(), 0);
 }
 
+// Observe keeps the history as Extrapolate does: skipping the extrapolation
+// on some steps still leaves the fixed point to the next ones.
+TEST(AndersonAcceleration, ObservedStepsStillBuildTheHistory) {
+  const LinearMap map = SlowMap();
+  const Eigen::VectorXd start = Eigen::Vector3d(4.0, 3.0, -1.0);
+  AndersonAcceleration anderson(3);
+  Eigen::VectorXd x = start;
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::VectorXd f = map.Step(x);
+    anderson.Observe(f);
+    x += f;
+    anderson.Record(f);
+  }
+  EXPECT_EQ(anderson.history_size(), 3);
+  EXPECT_GT((x - map.solution).norm(), 0.3 * (start - map.solution).norm());
+  Eigen::VectorXd v;
+  ASSERT_TRUE(anderson.Extrapolate(map.Step(x), &v));
+  x += v;
+  EXPECT_LT((x - map.solution).norm(), 1e-9 * (start - map.solution).norm());
+}
+
 // A step extrapolated but not recorded (rejected by the caller, which then
 // resets) adds nothing: the next Extrapolate after Reset has no history.
 TEST(AndersonAcceleration, AnUnrecordedStepAddsNoPair) {
