@@ -57,6 +57,9 @@ Status SolverOptions::Validate() const {
   if (!(abandon_below_rho >= 0.0) || !(abandon_below_rho < 1.0))
     return Status::InvalidArgument("abandon_below_rho must be in [0, 1), got " +
                                    std::to_string(abandon_below_rho));
+  if (anderson_depth < 0)
+    return Status::InvalidArgument("anderson_depth must be >= 0, got " +
+                                   std::to_string(anderson_depth));
   if (max_chunks_in_flight <= 0)
     return Status::InvalidArgument("max_chunks_in_flight must be > 0");
   return Status::Ok();

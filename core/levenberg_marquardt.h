@@ -16,6 +16,12 @@
 //   convergence        (chi2 - chi2') / chi2 < function_tolerance, or
 //                      |d| <= parameter_tolerance (|state| + parameter_tolerance),
 //                      or mu < min_trust_region_radius (no further decrease)
+//   acceleration       (a space that AcceleratesSteps, a pose graph) after an
+//                      accepted step: its Anderson extrapolation replaces it
+//                      when that lowers chi2 further (the safeguard); rho and
+//                      the radius stay those of the plain step, the chi2
+//                      decrease of the convergence test is the one taken;
+//                      a rejected step forgets the history
 //   abandon            rho < abandon_below_rho (if > 0) on a step whose model
 //                      decrease is > 1e-3 chi2                          -> stop,
 //                      termination "abandoned", not converged (the probe of
@@ -44,6 +50,13 @@
 //   Status TryStep(double lambda, double speculative_lambda, bool usable,
 //                  IterationSummary* it, TrialStep* trial);   // it->start_chi2 is set
 //   void StepResult(bool accepted);          // after every computed step
+//   bool AcceleratesSteps() const;
+//   // After an accepted step (before Accept): chi2 of the extrapolated state;
+//   // *computed = false when there is none. TakeAcceleratedStep makes it the
+//   // candidate Accept() takes; ForgetAcceleration after a rejected step.
+//   Status AcceleratedStepChi2(bool* computed, double* chi2);
+//   void TakeAcceleratedStep();
+//   void ForgetAcceleration();
 //   Status Accept();                         // the candidate becomes the state
 //   void LendState(Checkpoint* checkpoint);    // moves poses, features, excluded,
 //   void ReturnState(Checkpoint* checkpoint);  // kept in; ReturnState moves them back
@@ -161,7 +174,7 @@ Status RunLevenbergMarquardt(
             ? 1.0 / RadiusAfterAcceptedStep(radius, 1.0, options)
             : 0.0;
     GS_RETURN_IF_ERROR(space->TryStep(it.lambda, speculative_lambda, usable, &it, &trial));
-    const double candidate_chi2 = trial.ok ? trial.candidate_chi2
+    double candidate_chi2 = trial.ok ? trial.candidate_chi2
                                            : std::numeric_limits<double>::infinity();
     it.candidate_chi2 = candidate_chi2;
     it.relative_decrease =
@@ -171,7 +184,21 @@ Status RunLevenbergMarquardt(
     if (trial.ok) space->StepResult(it.accepted);
     speculate = it.accepted && it.relative_decrease >= kSpeculationRho;
 
-    // 4. Accept or reject; update the trust region.
+    // 4. Accept (the accelerated step if it is better) or reject; update
+    //    the trust region.
+    if (space->AcceleratesSteps() && it.accepted) {
+      bool computed = false;
+      double accelerated_chi2 = 0.0;
+      GS_RETURN_IF_ERROR(space->AcceleratedStepChi2(&computed, &accelerated_chi2));
+      if (computed && accelerated_chi2 < candidate_chi2) {
+        space->TakeAcceleratedStep();
+        candidate_chi2 = accelerated_chi2;
+        it.candidate_chi2 = accelerated_chi2;
+        it.accelerated = true;
+      }
+    } else if (space->AcceleratesSteps()) {
+      space->ForgetAcceleration();
+    }
     bool converged = false;
     if (it.accepted) {
       const double relative_change = (chi2 - candidate_chi2) / std::max(chi2, 1e-300);
@@ -197,9 +224,10 @@ Status RunLevenbergMarquardt(
     summary->per_iteration.push_back(it);
     summary->iterations = iteration;
     summary->final_chi2 = chi2;
-    GS_VLOG(1, "%siteration %d: chi2 %.9g candidate %.9g rho %.3g lambda %.3g |step| %.3g cg %d %s",
+    GS_VLOG(1, "%siteration %d: chi2 %.9g candidate %.9g rho %.3g lambda %.3g |step| %.3g cg %d %s%s",
             Space::kName, iteration, chi2, candidate_chi2, it.relative_decrease, it.lambda,
-            it.step_norm, it.linear_iterations, it.accepted ? "accepted" : "rejected");
+            it.step_norm, it.linear_iterations, it.accepted ? "accepted" : "rejected",
+            it.accelerated ? " (accelerated)" : "");
     if (options.iteration_callback) options.iteration_callback(it);
     // Total 0 (unknown): the loop stops on convergence, not at max_iterations.
     // An iteration callback already shows every iteration.

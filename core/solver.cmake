@@ -1,5 +1,6 @@
 # Linearization, reduce pass, initialization, Levenberg-Marquardt driver.
 target_sources(graphslam_core PRIVATE
+  anderson_acceleration.cc
   chunk_passes.cc
   internal/chunk_pass_kernels.cc
   internal/chunked_solve.cc

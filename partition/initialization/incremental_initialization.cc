@@ -398,7 +398,10 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
     }
     const int32_t new_begin = previous;
 
-    const bool full = static_cast<double>(t) >= next_full;
+    // A full stage with fewer than a quarter of its prefix still to come is
+    // left to the caller's full solve, which does the same job a few poses
+    // later (header: full stages).
+    const bool full = static_cast<double>(t) >= next_full && 4 * (int64_t{n} - t) > t;
     const int32_t window_begin =
         full ? 0 : static_cast<int32_t>(std::max<int64_t>(0, t - options.window_poses));
     const std::vector<int32_t> unknown =

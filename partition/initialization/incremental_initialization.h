@@ -50,7 +50,11 @@
 // (g = full_stage_growth, j = 1, 2, ...) solves the whole prefix instead, as
 // iSAM's periodic batch steps do: it spreads the drift a loop closure found
 // over the whole loop, which a window cannot (Victoria Park with a 500-pose
-// window: 3 318.8 without them, 389.787 with them).
+// window: 3 318.8 without them, 389.787 with them). A full stage with fewer
+// than a quarter of its prefix still to come is not made: the caller's full
+// solve follows within those poses and does the same job (Victoria Park:
+// its full stage at 6 800 of 6 969 poses was 29 % of the initialization's
+// time, and the full solve then reaches 389.787 in 4 iterations instead of 2).
 //
 // Cost. Every stage's sub-problem has at most window_poses +
 // max_loop_closure_poses unknown poses, and at most that many poses' own

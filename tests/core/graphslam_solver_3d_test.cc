@@ -467,5 +467,98 @@ TEST(GraphSlamSolver3d, KeptFeaturesAndSubgraphPcgReachTheSameOptimum) {
   }
 }
 
+// A torus of poses (rings of poses, each tied to its ring neighbour and to
+// the pose one ring over), odometry chained from pose 0 as the start: a pose
+// graph like SE-Sync's torus3D, on which Gauss-Newton converges linearly
+// along the soft modes.
+Problem3d TorusPoseGraph(int rings, int per_ring, double sigma_t, double sigma_r, uint32_t seed) {
+  std::mt19937 rng(seed);
+  const int n = rings * per_ring;
+  std::vector<Pose3> truth(n);
+  for (int i = 0; i < n; ++i) {
+    const double major = 2.0 * M_PI * (i / per_ring) / rings;
+    const double minor = 2.0 * M_PI * (i % per_ring) / per_ring;
+    const double radius = 10.0 + 3.0 * std::cos(minor);
+    truth[i].t = Eigen::Vector3d(radius * std::cos(major), radius * std::sin(major),
+                                 3.0 * std::sin(minor));
+    truth[i].q = ExpSO3(Eigen::Vector3d(0.0, minor, major));
+  }
+  Problem3d p;
+  p.source = "torus.g2o";
+  Matrix6d info = Matrix6d::Identity();
+  info.topLeftCorner<3, 3>() *= 1.0 / (sigma_t * sigma_t);
+  info.bottomRightCorner<3, 3>() *= 1.0 / (sigma_r * sigma_r);
+  auto add_edge = [&](int i, int j) {
+    RelativePose3Constraint c;
+    c.from = i;
+    c.to = j;
+    c.z = RetractPose3(Between(truth[i], truth[j]), testing::Noise6(rng, sigma_t, sigma_r));
+    c.information = info;
+    p.relative_poses.push_back(c);
+  };
+  for (int i = 0; i + 1 < n; ++i) add_edge(i, i + 1);
+  for (int i = 0; i + per_ring < n; ++i) add_edge(i, i + per_ring);
+  // The start: the odometry chained from the true pose 0.
+  for (int i = 0; i < n; ++i) p.AddPose(i, truth[0], true, 0);
+  for (int i = 1; i < n; ++i) p.poses[i] = Compose(p.poses[i - 1], p.relative_poses[i - 1].z);
+  return p;
+}
+
+// Anderson acceleration (on by default) reaches the optimum of the plain
+// iteration; on this instance (300 poses, 0.2 m / 0.2 rad noise) in 29
+// iterations instead of 40. Not on every instance: with large noise the
+// iterations are mostly the damped start, where it may cost one or two.
+TEST(GraphSlamSolver3d, AndersonAccelerationReachesThePlainOptimumInFewerIterations) {
+  const Problem3d input = TorusPoseGraph(30, 10, 0.2, 0.2, 41);
+  SolverOptions options;
+  options.linear_solver = LinearSolverType::kCholmod;
+  options.initial_trust_region_radius = kDirectInitialTrustRegion;
+  options.function_tolerance = 1e-12;
+  options.max_iterations = 500;
+  ASSERT_GT(options.anderson_depth, 0);  // on by default
+  Problem3d accelerated = input;
+  SolverSummary accelerated_summary;
+  ASSERT_TRUE(Solve3d(options, &accelerated, &accelerated_summary).ok());
+  options.anderson_depth = 0;
+  Problem3d plain = input;
+  SolverSummary plain_summary;
+  ASSERT_TRUE(Solve3d(options, &plain, &plain_summary).ok());
+
+  ASSERT_TRUE(plain_summary.converged) << plain_summary.termination;
+  ASSERT_TRUE(accelerated_summary.converged) << accelerated_summary.termination;
+  int accelerated_steps = 0;
+  for (const IterationSummary& it : accelerated_summary.per_iteration)
+    accelerated_steps += it.accelerated ? 1 : 0;
+  for (const IterationSummary& it : plain_summary.per_iteration) EXPECT_FALSE(it.accelerated);
+  EXPECT_GT(accelerated_steps, 0);
+  EXPECT_LT(accelerated_summary.iterations, plain_summary.iterations);
+  EXPECT_NEAR(accelerated_summary.final_chi2, plain_summary.final_chi2,
+              1e-8 * plain_summary.final_chi2);
+  EXPECT_NEAR(accelerated_summary.final_chi2,
+              Chi2Of3d(accelerated, accelerated.poses, accelerated.features), 1e-9);
+  double max_translation = 0.0, max_rotation = 0.0;
+  for (int i = 0; i < input.num_poses(); ++i) {
+    max_translation = std::max(max_translation, (accelerated.poses[i].t - plain.poses[i].t).norm());
+    max_rotation = std::max(
+        max_rotation, LogSO3(accelerated.poses[i].q.conjugate() * plain.poses[i].q).norm());
+  }
+  EXPECT_LT(max_translation, 1e-4);
+  EXPECT_LT(max_rotation, 1e-5);
+  // The safeguard: no iteration raises chi2.
+  for (const IterationSummary& it : accelerated_summary.per_iteration)
+    EXPECT_LE(it.chi2, it.start_chi2) << it.iteration;
+
+  // With checkpoints the acceleration is off (its history is not in them):
+  // the plain solve, bit for bit.
+  options.anderson_depth = 3;
+  Checkpointing3d record;
+  record.callback = [](const SolverCheckpoint3d&) { return Status::Ok(); };
+  Problem3d checkpointed = input;
+  SolverSummary checkpointed_summary;
+  ASSERT_TRUE(Solve3d(options, &checkpointed, &checkpointed_summary, record).ok());
+  EXPECT_EQ(checkpointed_summary.iterations, plain_summary.iterations);
+  EXPECT_EQ(checkpointed_summary.final_chi2, plain_summary.final_chi2);
+}
+
 }  // namespace
 }  // namespace graphslam::core

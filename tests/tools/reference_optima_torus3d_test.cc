@@ -2,7 +2,7 @@
 // solve must end at or below the chi2 g2o's converged LM reports (23008.92,
 // ../shared/datasets/INDEX.md). A separate binary because it is the slowest
 // 3-D run: with --function-tolerance 1e-2 it stops after 9 iterations at
-// chi2 ~20095; the default 1e-6 runs 61 iterations to 19972.36
+// chi2 ~20095; the default 1e-6 runs 31 iterations to 19972.26
 // (docs/benchmarks.md), i.e. both end BELOW the reference, which the test
 // confirms with a chi2 recomputed independently from the written graph.
 #include <gtest/gtest.h>
