@@ -141,6 +141,8 @@ gs::Status LoadVictoria(const std::string& datasets, Benchmark* b) {
 
 gs::Status LoadMrclam(const std::string& datasets, Benchmark* b) {
   gs::storage::MrclamOptions mrclam;
+  // The barcode key pairs up with the id-less read one observation to one.
+  mrclam.merge_standstill_repeats = false;
   if (const char* v = std::getenv("GS_ROBOT")) mrclam.robot = std::atoi(v);
   if (const char* v = std::getenv("GS_SECONDS")) mrclam.duration = std::atof(v);
   if (const char* v = std::getenv("GS_MRCLAM_SIGMA")) {  // "sigma_range,sigma_bearing"

@@ -236,7 +236,9 @@ TEST(ChunkPassKernels, CandidateChi2EqualsTheRecoverysSum) {
       internal::RecoverChunk<Space2d>(context, chunk, input, frames.data(), &out,
                                       /*with_candidate_chi2=*/false);
       EXPECT_EQ(out.sums.candidate_chi2, 0.0);
-      if (chunk.num_features() > 0 && !excluded[chunk.features[0]]) EXPECT_GT(with_chi2, 0.0);
+      if (chunk.num_features() > 0 && !excluded[chunk.features[0]]) {
+        EXPECT_GT(with_chi2, 0.0);
+      }
     }
   }
 }
