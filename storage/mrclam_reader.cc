@@ -116,6 +116,14 @@ StatusOr<std::map<int64_t, core::Point2>> ReadLandmarkGroundTruth(const std::str
   return landmarks;
 }
 
+// The information of one reading at `range` (MrclamOptions).
+Eigen::Matrix2d ReadingInformation(const MrclamOptions& options, double range) {
+  Eigen::Matrix2d covariance = options.measurement_information.inverse();
+  const double growth = options.range_sigma_per_meter * range;
+  covariance(0, 0) += growth * growth;
+  return covariance.inverse();
+}
+
 }  // namespace
 
 Status MrclamOptions::Validate() const {
@@ -148,6 +156,11 @@ Status MrclamOptions::Validate() const {
   if (!(duration >= 0.0) || !std::isfinite(duration)) {
     return Status::InvalidArgument("MrclamOptions.duration is " + internal::FormatDouble(duration) +
                                    "; expected a finite number of seconds >= 0 (0: all)");
+  }
+  if (!(range_sigma_per_meter >= 0.0) || !std::isfinite(range_sigma_per_meter)) {
+    return Status::InvalidArgument("MrclamOptions.range_sigma_per_meter is " +
+                                   internal::FormatDouble(range_sigma_per_meter) +
+                                   "; expected a finite value >= 0");
   }
   if (!(max_time_offset > 0.0) || !std::isfinite(max_time_offset)) {
     return Status::InvalidArgument("MrclamOptions.max_time_offset is " +
@@ -282,6 +295,7 @@ StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOpti
       sighting.stamp = t;
       sighting.observed_robot = static_cast<int>(subject->second);
       sighting.z = Eigen::Vector2d(range, bearing);
+      sighting.information = ReadingInformation(options, range);
       sighting.line = reader->line_number();
       local_stats.robot_sightings.push_back(sighting);
       continue;
@@ -309,7 +323,7 @@ StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOpti
     observation.feature = feature_index;
     observation.kind = core::ObservationKind::kRangeBearing;
     observation.z = Eigen::Vector2d(range, bearing);
-    observation.information = options.measurement_information;
+    observation.information = ReadingInformation(options, range);
     observation.line = reader->line_number();
     if (options.merge_standstill_repeats && !options.ignore_barcodes) {
       // One standstill of the robot: no moving control between its poses.
@@ -337,6 +351,7 @@ StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOpti
     const Eigen::Vector3d& sum = standstill_sums[i];
     problem.observations[i].z =
         Eigen::Vector2d(sum.x() / standstill_counts[i], std::atan2(sum.z(), sum.y()));
+    problem.observations[i].information = ReadingInformation(options, problem.observations[i].z.x());
   }
   if (local_stats.unknown_barcodes_skipped > 0) {
     GS_LOG(WARNING, "%s: %lld measurements have a barcode that is in no row of Barcodes.dat "

@@ -50,8 +50,10 @@ TEST(MrclamReader, Robot1CountsAndRobotBarcodeFiltering) {
   EXPECT_DOUBLE_EQ(problem->pose_stamps[first.pose], 12.72);
   EXPECT_EQ(first.kind, core::ObservationKind::kRangeBearing);
   EXPECT_EQ(first.z, Eigen::Vector2d(2.148, 0.025));
-  EXPECT_DOUBLE_EQ(first.information(0, 0), 100.0);
-  EXPECT_DOUBLE_EQ(first.information(1, 1), 400.0);
+  // 1 / (0.1^2 + (0.04 * 2.148)^2): the range noise grows with the range.
+  EXPECT_NEAR(first.information(0, 0), 1.0 / (0.01 + 0.04 * 0.04 * 2.148 * 2.148), 1e-9);
+  EXPECT_NEAR(first.information(1, 1), 400.0, 1e-9);
+  EXPECT_NEAR(first.information(0, 1), 0.0, 1e-12);
   // Pose 0: first ground-truth pose, fixed; the rest uninitialized.
   EXPECT_EQ(problem->poses[0], core::Pose2(3.5732, -3.3328, 2.3408));
   EXPECT_EQ(problem->pose_fixed[0], 1);
@@ -134,6 +136,9 @@ TEST(MrclamReader, OptionsAreValidated) {
   EXPECT_EQ(options.Validate().message(), "MrclamOptions.robot is 7; expected 1..5");
   options = MrclamOptions();
   options.measurement_information(1, 1) = -1.0;
+  EXPECT_TRUE(options.Validate().IsInvalidArgument());
+  options = MrclamOptions();
+  options.range_sigma_per_meter = -0.1;
   EXPECT_TRUE(options.Validate().IsInvalidArgument());
   EXPECT_TRUE(ReadMrclam("/nonexistent", MrclamOptions()).status().IsNotFound());
 }
@@ -224,7 +229,9 @@ TEST_F(MrclamSmallTest, StandstillRepeatsOfALandmarkBecomeOneObservation) {
   EXPECT_EQ(first.line, 1);
   EXPECT_NEAR(first.z.x(), 1.2, 1e-12);
   EXPECT_NEAR(first.z.y(), 0.2, 1e-12);
-  EXPECT_EQ(first.information, MrclamOptions().measurement_information);
+  // One reading's information at the mean range.
+  const double sigma2 = 0.1 * 0.1 + 0.04 * 0.04 * 1.2 * 1.2;
+  EXPECT_TRUE(first.information.isApprox(Eigen::Vector2d(1.0 / sigma2, 400.0).asDiagonal().toDenseMatrix(), 1e-9));
   EXPECT_EQ(merged->feature_ids[merged->observations[1].feature], 7);  // another landmark
   EXPECT_EQ(merged->observations[1].z, Eigen::Vector2d(2.0, 0.0));
   // After the robot moved: a new standstill, a new observation; 3.1 and -3.1

@@ -92,7 +92,7 @@ SightingCounts AddRobotSightings(const std::vector<RunSightings>& runs,
       constraint.from = from;
       constraint.to = to;
       constraint.z = sighting.z;
-      constraint.information = observer.information;
+      constraint.information = sighting.information;
       constraint.line = sighting.line;
       problem->pose_range_bearings.push_back(constraint);
       ++counts.constraints;

@@ -156,7 +156,7 @@ TEST_F(JobRobotSightings, TwoRobotsThatOnlySeeEachOtherEndInOneFrame) {
 
 // Robot A stands still for poses 0-3 (controls below the deadband), robot B
 // for its poses 0-1 and then drives: A's sightings of B while both stand are
-// one constraint (the mean of the readings, circular in the bearing, one
+// one constraint (the mean of the readings, circular in the bearing, the first
 // reading's information); once B moves, each sighting is its own.
 TEST(RobotSightingsStandstill, RepeatsWhileBothStandBecomeOneConstraint) {
   core::Problem2d problem;
@@ -180,12 +180,12 @@ TEST(RobotSightingsStandstill, RepeatsWhileBothStandBecomeOneConstraint) {
   a.first_pose = 0;
   b.first_pose = 5;
   a.num_poses = b.num_poses = 5;
-  a.information = Eigen::Vector2d(100.0, 400.0).asDiagonal();
   for (int k = 0; k < 4; ++k) {
     storage::MrclamRobotSighting sighting;
     sighting.stamp = 0.02 * k;
     sighting.observed_robot = 2;
     sighting.z = Eigen::Vector2d(2.0 + 0.1 * k, k % 2 == 0 ? 3.1 : -3.1);
+    sighting.information = Eigen::Vector2d(100.0 - k, 400.0).asDiagonal();
     sighting.line = k + 1;
     a.sightings.push_back(sighting);
   }
@@ -200,7 +200,9 @@ TEST(RobotSightingsStandstill, RepeatsWhileBothStandBecomeOneConstraint) {
   EXPECT_EQ(merged.to, 5);
   EXPECT_NEAR(merged.z.x(), 2.05, 1e-12);
   EXPECT_NEAR(std::abs(merged.z.y()), std::numbers::pi, 1e-12);
-  EXPECT_EQ(merged.information, a.information);
+  EXPECT_EQ(merged.information, Eigen::Matrix2d(Eigen::Vector2d(100.0, 400.0).asDiagonal()));
+  EXPECT_EQ(problem.pose_range_bearings[2].information,
+            Eigen::Matrix2d(Eigen::Vector2d(97.0, 400.0).asDiagonal()));
   EXPECT_EQ(problem.pose_range_bearings[1].from, 2);
   EXPECT_EQ(problem.pose_range_bearings[1].to, 7);
   EXPECT_EQ(problem.pose_range_bearings[2].z, Eigen::Vector2d(2.3, -3.1));
