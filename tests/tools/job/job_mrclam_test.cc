@@ -63,7 +63,7 @@ TEST(JobMrclam, Dataset1RobotOneMatchesVicon) {
 // times, each reading 0.22 m short of Vicon and the survey. As one
 // observation (storage/mrclam_reader.h, standstill repeats) they no longer
 // pull the map: robot 4 alone reaches 0.125 m against Vicon; with every
-// reading its own observation it was 0.152 m (2026-11-27).
+// reading its own observation it was 0.152 m.
 TEST(JobMrclam, Dataset1RobotFourStandstillRepeatsDoNotPullTheMap) {
   GS_REQUIRE_DATASET("mrclam_dataset1_sampled50hz/Robot4_Odometry.dat");
   const fs::path dir =
