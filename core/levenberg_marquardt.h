@@ -108,6 +108,28 @@ inline double SecondsSince(SolverClock::time_point start) {
   return std::chrono::duration<double>(SolverClock::now() - start).count();
 }
 
+// After an accepted step: the space's accelerated step (Anderson mixing of
+// the last accepted steps) replaces it when its chi2 is lower. A rejected
+// step ends the history the acceleration mixes.
+template <class Space>
+Status MaybeAccelerate(Space* space, double* candidate_chi2, IterationSummary* it) {
+  if (!space->AcceleratesSteps()) return Status::Ok();
+  if (!it->accepted) {
+    space->ForgetAcceleration();
+    return Status::Ok();
+  }
+  bool computed = false;
+  double accelerated_chi2 = 0.0;
+  GS_RETURN_IF_ERROR(space->AcceleratedStepChi2(&computed, &accelerated_chi2));
+  if (computed && accelerated_chi2 < *candidate_chi2) {
+    space->TakeAcceleratedStep();
+    *candidate_chi2 = accelerated_chi2;
+    it->candidate_chi2 = accelerated_chi2;
+    it->accelerated = true;
+  }
+  return Status::Ok();
+}
+
 // Runs the iterations from the space's current state, whose chi2 is
 // `initial_chi2` (or from `resume`, whose state the space has already taken
 // over). Fills the control fields of *summary (chi2, iterations,
@@ -186,19 +208,7 @@ Status RunLevenbergMarquardt(
 
     // 4. Accept (the accelerated step if it is better) or reject; update
     //    the trust region.
-    if (space->AcceleratesSteps() && it.accepted) {
-      bool computed = false;
-      double accelerated_chi2 = 0.0;
-      GS_RETURN_IF_ERROR(space->AcceleratedStepChi2(&computed, &accelerated_chi2));
-      if (computed && accelerated_chi2 < candidate_chi2) {
-        space->TakeAcceleratedStep();
-        candidate_chi2 = accelerated_chi2;
-        it.candidate_chi2 = accelerated_chi2;
-        it.accelerated = true;
-      }
-    } else if (space->AcceleratesSteps()) {
-      space->ForgetAcceleration();
-    }
+    GS_RETURN_IF_ERROR(MaybeAccelerate(space, &candidate_chi2, &it));
     bool converged = false;
     if (it.accepted) {
       const double relative_change = (chi2 - candidate_chi2) / std::max(chi2, 1e-300);

@@ -181,36 +181,26 @@ StatusOr<MrclamGroundTruth> ReadMrclamGroundTruth(const std::string& folder, int
   return truth;
 }
 
-StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOptions& options,
-                                     MrclamReadStats* stats) {
-  GS_RETURN_IF_ERROR(options.Validate());
-  std::error_code error;
-  if (!std::filesystem::is_directory(folder, error)) {
-    return Status::NotFound(folder + ": is not a directory; expected an MRCLAM dataset folder");
-  }
-  MrclamReadStats local_stats;
-  GS_ASSIGN_OR_RETURN(const auto subject_of_barcode, ReadBarcodes(folder + "/Barcodes.dat"));
-  const std::string odometry_path = RobotFile(folder, options.robot, "Odometry");
-  GS_ASSIGN_OR_RETURN(TimedRecords odometry, ReadTimedRecords(odometry_path, "t v omega"));
-  if (options.duration > 0.0 && !odometry.stamps.empty()) {
-    // The first `duration` seconds; later measurements then have no pose.
-    const auto kept = static_cast<size_t>(
-        std::upper_bound(odometry.stamps.begin(), odometry.stamps.end(),
-                         odometry.stamps.front() + options.duration) - odometry.stamps.begin());
-    odometry.stamps.resize(kept);
-    odometry.values.resize(kept);
-    odometry.lines.resize(kept);
-  }
-  local_stats.odometry_records = static_cast<int64_t>(odometry.stamps.size());
+namespace {
 
-  // The anchor: ground truth nearest to t_0 if present, else the origin.
-  core::Pose2 initial = core::Pose2::Zero();
-  const std::string truth_path = RobotFile(folder, options.robot, "Groundtruth");
-  if (options.start_at_ground_truth && std::filesystem::exists(truth_path, error)) {
-    GS_ASSIGN_OR_RETURN(const TimedRecords truth, ReadTimedRecords(truth_path, "t x y theta"));
-    initial = truth.values[NearestStamp(truth.stamps, odometry.stamps[0])];
+// "FILE:LINE: the fields" of the reader's current line, for the report.
+std::string QuotedLine(const LineReader& reader) {
+  std::string text = reader.name() + ":" + std::to_string(reader.line_number()) + ":";
+  for (std::string_view field : reader.fields()) {
+    text += ' ';
+    text += field;
   }
+  return text;
+}
 
+// The poses at the odometry stamps, dead-reckoned from `initial` (pose 0,
+// fixed), and one velocity motion constraint per control with the
+// information of options.noise.
+StatusOr<core::Problem2d> DeadReckonedPoses(const std::string& folder,
+                                            const std::string& odometry_path,
+                                            const TimedRecords& odometry,
+                                            const core::Pose2& initial,
+                                            const MrclamOptions& options) {
   core::Problem2d problem;
   problem.source = folder;
   const size_t count = odometry.stamps.size();
@@ -244,6 +234,44 @@ StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOpti
     motion.line = odometry.lines[k];
     problem.motions.push_back(motion);
   }
+  return problem;
+}
+
+}  // namespace
+
+StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOptions& options,
+                                     MrclamReadStats* stats) {
+  GS_RETURN_IF_ERROR(options.Validate());
+  std::error_code error;
+  if (!std::filesystem::is_directory(folder, error)) {
+    return Status::NotFound(folder + ": is not a directory; expected an MRCLAM dataset folder");
+  }
+  MrclamReadStats local_stats;
+  GS_ASSIGN_OR_RETURN(const auto subject_of_barcode, ReadBarcodes(folder + "/Barcodes.dat"));
+  const std::string odometry_path = RobotFile(folder, options.robot, "Odometry");
+  GS_ASSIGN_OR_RETURN(TimedRecords odometry, ReadTimedRecords(odometry_path, "t v omega"));
+  if (options.duration > 0.0 && !odometry.stamps.empty()) {
+    // The first `duration` seconds; later measurements then have no pose.
+    const auto kept = static_cast<size_t>(
+        std::upper_bound(odometry.stamps.begin(), odometry.stamps.end(),
+                         odometry.stamps.front() + options.duration) - odometry.stamps.begin());
+    odometry.stamps.resize(kept);
+    odometry.values.resize(kept);
+    odometry.lines.resize(kept);
+  }
+  local_stats.odometry_records = static_cast<int64_t>(odometry.stamps.size());
+
+  // The anchor: ground truth nearest to t_0 if present, else the origin.
+  core::Pose2 initial = core::Pose2::Zero();
+  const std::string truth_path = RobotFile(folder, options.robot, "Groundtruth");
+  if (options.start_at_ground_truth && std::filesystem::exists(truth_path, error)) {
+    GS_ASSIGN_OR_RETURN(const TimedRecords truth, ReadTimedRecords(truth_path, "t x y theta"));
+    initial = truth.values[NearestStamp(truth.stamps, odometry.stamps[0])];
+  }
+
+  GS_ASSIGN_OR_RETURN(core::Problem2d problem,
+                      DeadReckonedPoses(folder, odometry_path, odometry, initial, options));
+  const size_t count = odometry.stamps.size();
 
   const std::string measurement_path = RobotFile(folder, options.robot, "Measurement");
   GS_ASSIGN_OR_RETURN(std::unique_ptr<LineReader> reader, LineReader::Open(measurement_path));
@@ -274,15 +302,8 @@ StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOpti
     const auto subject = subject_of_barcode.find(barcode);
     if (subject == subject_of_barcode.end()) {
       // A misread barcode of the published data: skipped, not fatal.
-      if (local_stats.unknown_barcode_lines.size() < MrclamReadStats::kMaxUnknownBarcodeLines) {
-        std::string text;
-        for (std::string_view field : reader->fields()) {
-          if (!text.empty()) text += ' ';
-          text += field;
-        }
-        local_stats.unknown_barcode_lines.push_back(
-            reader->name() + ":" + std::to_string(reader->line_number()) + ": " + text);
-      }
+      if (local_stats.unknown_barcode_lines.size() < MrclamReadStats::kMaxUnknownBarcodeLines)
+        local_stats.unknown_barcode_lines.push_back(QuotedLine(*reader));
       ++local_stats.unknown_barcodes_skipped;
       continue;
     }

@@ -298,6 +298,27 @@ void AlignNewPosesToGps(const core::Problem2d& problem, const Indices& index, in
   for (int32_t p = begin; p < end; ++p) (*poses)[p] = stretch.poses[p - begin];
 }
 
+// The features first seen from poses [begin, end), placed from their first
+// sighting (lowest pose, then input order); their indices in *new_features.
+void PlaceNewFeatures(const core::Problem2d& problem, const Indices& index, int32_t begin,
+                      int32_t end, const std::vector<Pose2>& poses,
+                      std::vector<uint8_t>* feature_placed, std::vector<Point2>* features,
+                      std::vector<int32_t>* new_features) {
+  new_features->clear();
+  for (int32_t p = begin; p < end; ++p) {
+    for (int64_t i = index.observations_of_pose.begin(p); i < index.observations_of_pose.end(p);
+         ++i) {
+      const core::Observation& o = problem.observations[index.observations_of_pose.items[i]];
+      if ((*feature_placed)[o.feature]) continue;
+      (*feature_placed)[o.feature] = 1;
+      new_features->push_back(o.feature);
+      (*features)[o.feature] = o.kind == core::ObservationKind::kRangeBearing
+                                   ? core::InvertRangeBearing(poses[o.pose], o.z)
+                                   : core::InvertPointObservation(poses[o.pose], o.z);
+    }
+  }
+}
+
 }  // namespace
 
 Status IncrementalInitializationOptions::Validate() const {
@@ -382,20 +403,8 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
       internal::PlacePoses(*problem, adjacency, previous, t, &poses, &placed);
     }
     AlignNewPosesToGps(*problem, index, previous, t, &poses);
-    // New features from their first sighting (lowest pose, then input order).
-    new_features.clear();
-    for (int32_t p = previous; p < t; ++p) {
-      for (int64_t i = index.observations_of_pose.begin(p); i < index.observations_of_pose.end(p);
-           ++i) {
-        const core::Observation& o = problem->observations[index.observations_of_pose.items[i]];
-        if (feature_placed[o.feature]) continue;
-        feature_placed[o.feature] = 1;
-        new_features.push_back(o.feature);
-        features[o.feature] = o.kind == core::ObservationKind::kRangeBearing
-                                  ? core::InvertRangeBearing(poses[o.pose], o.z)
-                                  : core::InvertPointObservation(poses[o.pose], o.z);
-      }
-    }
+    PlaceNewFeatures(*problem, index, previous, t, poses, &feature_placed, &features,
+                     &new_features);
     const int32_t new_begin = previous;
 
     // A full stage with fewer than a quarter of its prefix still to come is
