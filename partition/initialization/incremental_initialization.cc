@@ -7,6 +7,7 @@
 
 #include "core/initialization.h"
 #include "core/logging.h"
+#include "core/observation_models.h"
 #include "core/point_observation_model.h"
 #include "core/range_bearing_model.h"
 #include "partition/initialization/gps_segment_alignment.h"
@@ -312,9 +313,7 @@ void PlaceNewFeatures(const core::Problem2d& problem, const Indices& index, int3
       if ((*feature_placed)[o.feature]) continue;
       (*feature_placed)[o.feature] = 1;
       new_features->push_back(o.feature);
-      (*features)[o.feature] = o.kind == core::ObservationKind::kRangeBearing
-                                   ? core::InvertRangeBearing(poses[o.pose], o.z)
-                                   : core::InvertPointObservation(poses[o.pose], o.z);
+      (*features)[o.feature] = core::InvertObservation(o.kind, poses[o.pose], o.z);
     }
   }
 }
