@@ -43,21 +43,27 @@ Status CheckStoreDirectory(const std::string& dir) {
     return Status::InvalidArgument(dir + ": exists and is not a folder; expected a chunk store "
                                    "folder, an empty folder or a new path");
   if (fs::exists(path / kStoreMarkerName, error) || HoldsOurManifest(path)) return Status::Ok();
+  std::string foreign;
   for (const auto& entry : fs::directory_iterator(path, error)) {
     const std::string name = entry.path().filename().string();
     // The lock file, and the marker's temporary while another writer
-    // claims the folder (it then holds the lock; ours to wait for). The
-    // marker itself may appear between the check above and this listing
-    // (that writer's rename): then the folder is ours too.
+    // claims the folder (it then holds the lock; ours to wait for).
     if (name == kDirectoryLockName || name == kStoreMarkerName ||
         (IsTemporaryFileName(name) && name.rfind(std::string(kStoreMarkerName) + ".tmp-", 0) == 0))
       continue;
-    return Status::InvalidArgument(
-        dir + ": folder is not empty and is not a graphslam chunk store (it holds '" + name +
-        "'); nothing was written or deleted; choose a new or empty folder");
+    if (foreign.empty()) foreign = name;
   }
   if (error) return Status::IOError(dir + ": list: " + error.message());
-  return Status::Ok();
+  if (foreign.empty()) return Status::Ok();
+  // Another writer may have renamed its marker into place after the check
+  // above and then created its files, which the listing (in no particular
+  // order) can show without the marker. A marker is never removed once
+  // there, so a second look settles it: then the folder is ours, and that
+  // writer's lock decides who writes.
+  if (fs::exists(path / kStoreMarkerName, error) || HoldsOurManifest(path)) return Status::Ok();
+  return Status::InvalidArgument(
+      dir + ": folder is not empty and is not a graphslam chunk store (it holds '" + foreign +
+      "'); nothing was written or deleted; choose a new or empty folder");
 }
 
 StatusOr<DirectoryLock> OpenStoreForWriting(Env* env, const std::string& dir) {
