@@ -19,6 +19,13 @@ other peers on the same files:
                               G2O_MAX_ITERATIONS (default 1000). -i -1 stops
                               on a relative chi2 gain below 1e-6 (our
                               --function-tolerance).
+  GTSAM_PEER=/path/to/graphslam_gtsam_peer
+                              perf/gtsam_peer, built against GTSAM (from
+                              source, not in Debian; configure the build with
+                              -DGTSAM_DIR=PREFIX/lib/cmake/GTSAM): Gauss-Newton
+                              and Levenberg-Marquardt (GTSAM_OPTIMIZERS,
+                              default "gn lm"), relative error tolerance 1e-6;
+                              its chi2 is evaluated with graphslam's models.
 Each configuration runs RUNS times (default 5), interleaved: round r runs
 every configuration on every file before round r+1 starts, so a burst of load
 from other work on the machine spreads over all of them. Wall time is the
@@ -123,6 +130,16 @@ def configurations(args, dim):
                             int(its[-1]) + 1 if its else 0)
                 return cmd, parse
             configs.append(("g2o " + solver, g2o_run))
+
+    gtsam = os.environ.get("GTSAM_PEER")
+    if gtsam:
+        for optimizer in os.environ.get("GTSAM_OPTIMIZERS", "gn lm").split():
+            def gtsam_run(path, scratch, optimizer=optimizer):
+                report = os.path.join(scratch, "gtsam.json")
+                cmd = [gtsam, path, "--report", report, "-q", "--optimizer", optimizer,
+                       "--relative-error-tol", "1e-6"] + (["--3d"] if dim == 3 else [])
+                return cmd, report_parser(report)
+            configs.append(("gtsam " + optimizer, gtsam_run))
 
     ceres = args.ceres_peers[dim]
 
