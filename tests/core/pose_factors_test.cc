@@ -141,6 +141,52 @@ TEST(PoseFactors, ThreeDimensionalGradientIsHalfTheNumericDerivativeOfTheRobustC
   }
 }
 
+// The planar relative poses' blocks come from products of their Jacobians'
+// pieces (core/pose_factors.cc): H and g against sum rho'(s) A^T W A and
+// A^T W e with A the dense Jacobians of EvaluateRelativePoseIncrement, with a
+// correlated information matrix, edges both ways and to an anchored pose.
+TEST(PoseFactors, PlanarRelativePoseBlocksAreTheWeightedGaussNewtonSums) {
+  Problem2d problem;
+  for (int i = 0; i < 6; ++i)
+    problem.AddPose(i, Pose2(0.9 * i + 0.1 * i * i, 0.4 * std::sin(i), 0.5 * i - 1.0), true, 0);
+  problem.pose_fixed[2] = 1;
+  Eigen::Matrix3d information;
+  information << 30.0, 4.0, -2.0, 4.0, 20.0, 3.0, -2.0, 3.0, 200.0;
+  const std::vector<std::pair<int, int>> edges = {{0, 1}, {1, 2}, {2, 3}, {3, 4},
+                                                  {4, 5}, {5, 1}, {4, 0}, {3, 2}};
+  for (const auto& [from, to] : edges) {
+    problem.relative_poses.push_back(RelativePoseConstraint{
+        from, to, Pose2(0.8, 0.1 * from - 0.2, 0.4 + 0.1 * to), information, 0});
+  }
+  const UnknownLayout layout = UnknownLayout::FromProblem(problem);
+  ASSERT_EQ(layout.num_unknown_poses, 5);
+  for (const PoseFactorKernels& kernels : KernelCases()) {
+    const Linearization lin = Linearize(problem, layout, kernels);
+    Eigen::MatrixXd expected_h = Eigen::MatrixXd::Zero(15, 15);
+    Eigen::VectorXd expected_g = Eigen::VectorXd::Zero(15);
+    for (const RelativePoseConstraint& c : problem.relative_poses) {
+      Eigen::Vector3d e;
+      Eigen::Matrix3d j[2];
+      EvaluateRelativePoseIncrement(problem.poses[c.from], problem.poses[c.to], c.z, &e, &j[0],
+                                    &j[1]);
+      const Eigen::Matrix3d w =
+          kernels.relative_pose.Weight(e.dot(c.information * e)) * c.information;
+      const int32_t u[2] = {layout.unknown_index[c.from], layout.unknown_index[c.to]};
+      for (int a = 0; a < 2; ++a) {
+        if (u[a] < 0) continue;
+        expected_g.segment<3>(3 * u[a]) += j[a].transpose() * w * e;
+        for (int b = 0; b < 2; ++b) {
+          if (u[b] >= 0) expected_h.block<3, 3>(3 * u[a], 3 * u[b]) += j[a].transpose() * w * j[b];
+        }
+      }
+    }
+    EXPECT_LT((lin.hessian - expected_h).norm(), 1e-12 * expected_h.norm())
+        << RobustKernelsName(RobustKernel(), kernels);
+    EXPECT_LT((lin.gradient - expected_g).norm(), 1e-12 * expected_g.norm())
+        << RobustKernelsName(RobustKernel(), kernels);
+  }
+}
+
 // The 3-D relative poses' blocks come from products of their Jacobians'
 // factors (core/pose_factors_3d.cc): H and g against sum rho'(s) A^T W A and
 // A^T W e with A the dense Jacobians EvaluateRelativePose3 gives, with edges
