@@ -152,7 +152,8 @@ void BlockSparseMatrix::SetZero() { std::fill(values_.begin(), values_.end(), 0.
 
 int64_t BlockSparseMatrix::FindBlock(int i, int k) const {
   if (i < 0 || i >= num_block_rows_ || k < i || k >= num_block_rows_) return -1;
-  const auto first = block_cols_.begin() + row_start_[i];
+  if (k == i) return row_start_[i];  // every row stores its diagonal block first
+  const auto first = block_cols_.begin() + row_start_[i] + 1;
   const auto last = block_cols_.begin() + row_start_[i + 1];
   const auto it = std::lower_bound(first, last, k);
   if (it == last || *it != k) return -1;

@@ -64,7 +64,51 @@ bool Gps(const GpsConstraint& c, const std::vector<Pose2>& poses, Eigen::Vector2
 
 template <class C, int kResidual, auto Model>
 using PlanarBinaryFactor = PoseFactor<C, kResidual, 3, PlanarBinary<C, kResidual, Model>>;
-using RelativePoseFactor = PoseFactor<RelativePoseConstraint, 3, 3, RelativePose>;
+// The normal-equation blocks of a relative pose from the pieces of its
+// Jacobians (core/relative_pose_model.h): with J_i = [ -q u ; 0 0 -1 ],
+// J_j = [ g 0 ; 0 0 1 ] and W = rho'(s) Omega = [ a b_c ; b_r w_22 ],
+//   W J_j = [ a g  b_c ; b_r g  w_22 ],   W J_i = [ -a q  a u - b_c ; -b_r q  b_r u - w_22 ],
+// and J^T (W J) by the zero blocks of J: 2x2 products only.
+struct RelativePoseFactor : PoseFactor<RelativePoseConstraint, 3, 3, RelativePose> {
+  static double Linearize(const RelativePoseConstraint& c, const std::vector<Pose2>& poses,
+                          const RobustKernel& kernel, internal::PoseFactorSink<3>* sink) {
+    Eigen::Vector3d e;
+    RelativePoseIncrementFactors f;
+    EvaluateRelativePoseIncrementFactors(poses[c.from], poses[c.to], c.z, &e, &f);
+    Eigen::Matrix3d w;
+    const double chi2 = internal::RobustTerm<3>(kernel, e, c.information, &w);
+    const Eigen::Matrix2d a = w.topLeftCorner<2, 2>();
+    const Eigen::Vector2d b_c = w.topRightCorner<2, 1>();
+    const Eigen::RowVector2d b_r = w.bottomLeftCorner<1, 2>();
+    const double w22 = w(2, 2);
+    const Eigen::Matrix2d ag = a * f.g;
+    const Eigen::Matrix2d aq = a * f.q;
+    const Eigen::Vector2d au = a * f.u - b_c;  // W J_i, top right
+    const double bu = b_r.dot(f.u) - w22;      // W J_i, bottom right
+    const Eigen::Matrix2d qt = f.q.transpose();
+    Eigen::Matrix3d h_ii, h_jj, h_ij;
+    h_ii.topLeftCorner<2, 2>() = qt * aq;
+    h_ii.topRightCorner<2, 1>() = -(qt * au);
+    h_ii.bottomLeftCorner<1, 2>() = b_r * f.q - f.u.transpose() * aq;
+    h_ii(2, 2) = f.u.dot(au) - bu;
+    h_jj.topLeftCorner<2, 2>() = f.g.transpose() * ag;
+    h_jj.topRightCorner<2, 1>() = f.g.transpose() * b_c;
+    h_jj.bottomLeftCorner<1, 2>() = b_r * f.g;
+    h_jj(2, 2) = w22;
+    h_ij.topLeftCorner<2, 2>() = -(qt * ag);
+    h_ij.topRightCorner<2, 1>() = -(qt * b_c);
+    h_ij.bottomLeftCorner<1, 2>() = f.u.transpose() * ag - b_r * f.g;
+    h_ij(2, 2) = f.u.dot(b_c) - w22;
+    const Eigen::Vector3d we = w * e;
+    Eigen::Vector3d g_i, g_j;
+    g_i.head<2>() = -(qt * we.head<2>());
+    g_i.z() = f.u.dot(we.head<2>()) - we.z();
+    g_j.head<2>() = f.g.transpose() * we.head<2>();
+    g_j.z() = we.z();
+    sink->AddBinaryBlocks(c.from, c.to, h_ii, h_jj, h_ij, g_i, g_j);
+    return chi2;
+  }
+};
 using VelocityMotionFactor = PlanarBinaryFactor<VelocityMotionConstraint, 3, VelocityMotion>;
 using PoseRangeBearingFactor = PlanarBinaryFactor<PoseRangeBearingConstraint, 2, PoseRangeBearing>;
 using GpsFactor = PoseFactor<GpsConstraint, 2, 3, Gps>;

@@ -22,7 +22,46 @@ bool Gps3(const Gps3Constraint& c, const std::vector<Pose3>& poses, Eigen::Vecto
   return true;
 }
 
-using RelativePose3Factor = PoseFactor<RelativePose3Constraint, 6, 6, RelativePose3>;
+// The normal-equation blocks of a relative pose from the factors of its
+// Jacobians (core/relative_pose_3d_model.h): with J_j = D = diag(d_t, d_q),
+// J_i = -D A, A = [r s; 0 r] and W = rho'(s) Omega,
+//   h_jj = D^T W D,   P = h_jj A,   h_ii = A^T P,   h_ij = -A^T h_jj = -P^T,
+//   g_j = D^T W e,    g_i = -A^T g_j,
+// products of 3x3 blocks that skip the zero blocks of D and A: about 540
+// multiply-adds where the dense 6x6 products (J_i itself, then W J_i, W J_j
+// and three blocks) take about 1 300.
+struct RelativePose3Factor : PoseFactor<RelativePose3Constraint, 6, 6, RelativePose3> {
+  static double Linearize(const RelativePose3Constraint& c, const std::vector<Pose3>& poses,
+                          const RobustKernel& kernel, internal::PoseFactorSink<6>* sink) {
+    using Eigen::Matrix3d;
+    Vector6d e;
+    RelativePose3Factors f;
+    EvaluateRelativePose3Factors(poses[c.from], poses[c.to], c.z, &e, &f);
+    Matrix6d w;
+    const double chi2 = internal::RobustTerm<6>(kernel, e, c.information, &w);
+    Matrix6d wd;  // W D (= (D^T W)^T, W symmetric)
+    wd.leftCols<3>().noalias() = w.leftCols<3>() * f.d_t;
+    wd.rightCols<3>().noalias() = w.rightCols<3>() * f.d_q;
+    Matrix6d h_jj;
+    h_jj.topRows<3>().noalias() = f.d_t.transpose() * wd.topRows<3>();
+    h_jj.bottomRows<3>().noalias() = f.d_q.transpose() * wd.bottomRows<3>();
+    const Vector6d g_j = wd.transpose() * e;
+    Matrix6d p;
+    p.leftCols<3>().noalias() = h_jj.leftCols<3>() * f.r;
+    p.rightCols<3>().noalias() = h_jj.leftCols<3>() * f.s;
+    p.rightCols<3>().noalias() += h_jj.rightCols<3>() * f.r;
+    Matrix6d h_ii;
+    h_ii.topRows<3>().noalias() = f.r.transpose() * p.topRows<3>();
+    h_ii.bottomRows<3>().noalias() = f.s.transpose() * p.topRows<3>();
+    h_ii.bottomRows<3>().noalias() += f.r.transpose() * p.bottomRows<3>();
+    Vector6d g_i;
+    g_i.head<3>().noalias() = -(f.r.transpose() * g_j.head<3>());
+    g_i.tail<3>().noalias() = -(f.s.transpose() * g_j.head<3>() + f.r.transpose() * g_j.tail<3>());
+    const Matrix6d h_ij = -p.transpose();
+    sink->AddBinaryBlocks(c.from, c.to, h_ii, h_jj, h_ij, g_i, g_j);
+    return chi2;
+  }
+};
 using Gps3Factor = PoseFactor<Gps3Constraint, 3, 6, Gps3>;
 
 }  // namespace

@@ -37,20 +37,51 @@ inline Vector6d PoseError3(const Pose3& e_pose) {
   return e;
 }
 
+// The Jacobians in the factors they are made of, for products that use their
+// structure (core/pose_factors_3d.cc): J_j = D(E) = diag(d_t, d_q) and
+// J_i = -D(E) Adjoint(x_j^-1 x_i), Adjoint = [r s; 0 r] (core/se3_lie.h).
+struct RelativePose3Factors {
+  Eigen::Matrix3d d_t;  // R_E
+  Eigen::Matrix3d d_q;  // (w I + [v]x) / 2
+  Eigen::Matrix3d r;    // rotation of x_j^-1 x_i
+  Eigen::Matrix3d s;    // [t]x r, t its translation
+};
+
+// The residual (when wanted) and the Jacobians' factors.
+inline void EvaluateRelativePose3Factors(const Pose3& xi, const Pose3& xj, const Pose3& z,
+                                         Vector6d* residual, RelativePose3Factors* factors) {
+  const Pose3 e_pose = Between(z, Between(xi, xj));
+  if (residual != nullptr) *residual = PoseError3(e_pose);
+  Eigen::Quaterniond q = e_pose.q.normalized();
+  if (q.w() < 0.0) q.coeffs() = -q.coeffs();
+  factors->d_t = q.toRotationMatrix();
+  factors->d_q = 0.5 * (q.w() * Eigen::Matrix3d::Identity() + Skew(q.vec()));
+  const Pose3 ji = Between(xj, xi);
+  factors->r = ji.rotation();
+  factors->s = Skew(ji.t) * factors->r;
+}
+
 // Any of the outputs may be nullptr.
 inline void EvaluateRelativePose3(const Pose3& xi, const Pose3& xj, const Pose3& z,
                                   Vector6d* residual, Matrix6d* jacobian_i,
                                   Matrix6d* jacobian_j) {
-  const Pose3 e_pose = Between(z, Between(xi, xj));
-  if (residual != nullptr) *residual = PoseError3(e_pose);
-  if (jacobian_i == nullptr && jacobian_j == nullptr) return;
-  Eigen::Quaterniond q = e_pose.q.normalized();
-  if (q.w() < 0.0) q.coeffs() = -q.coeffs();
+  if (jacobian_i == nullptr && jacobian_j == nullptr) {
+    if (residual != nullptr) *residual = PoseError3(Between(z, Between(xi, xj)));
+    return;
+  }
+  RelativePose3Factors f;
+  EvaluateRelativePose3Factors(xi, xj, z, residual, &f);
   Matrix6d d = Matrix6d::Zero();
-  d.topLeftCorner<3, 3>() = q.toRotationMatrix();
-  d.bottomRightCorner<3, 3>() = 0.5 * (q.w() * Eigen::Matrix3d::Identity() + Skew(q.vec()));
+  d.topLeftCorner<3, 3>() = f.d_t;
+  d.bottomRightCorner<3, 3>() = f.d_q;
   if (jacobian_j != nullptr) *jacobian_j = d;
-  if (jacobian_i != nullptr) *jacobian_i = -d * Adjoint(Between(xj, xi));
+  if (jacobian_i != nullptr) {
+    Matrix6d adjoint = Matrix6d::Zero();
+    adjoint.topLeftCorner<3, 3>() = f.r;
+    adjoint.topRightCorner<3, 3>() = f.s;
+    adjoint.bottomRightCorner<3, 3>() = f.r;
+    *jacobian_i = -d * adjoint;
+  }
 }
 
 }  // namespace graphslam::core

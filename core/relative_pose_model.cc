@@ -45,26 +45,38 @@ void EvaluateRelativePose(const Pose2& from, const Pose2& to, const Pose2& measu
   }
 }
 
-void EvaluateRelativePoseIncrement(const Pose2& from, const Pose2& to, const Pose2& measurement,
-                                   Eigen::Vector3d* residual, Eigen::Matrix3d* jacobian_from,
-                                   Eigen::Matrix3d* jacobian_to) {
+void EvaluateRelativePoseIncrementFactors(const Pose2& from, const Pose2& to,
+                                          const Pose2& measurement, Eigen::Vector3d* residual,
+                                          RelativePoseIncrementFactors* factors) {
   // The residual's arithmetic is Between(measurement, Between(from, to))'s.
   const Eigen::Matrix2d measurement_rotation_t = Rotation2(measurement.z()).transpose();
   const Eigen::Vector2d p = Rotation2(from.z()).transpose() * (to.head<2>() - from.head<2>());
   const double angle = WrapAngle(WrapAngle(to.z() - from.z()) - measurement.z());
-  if (residual != nullptr) {
-    residual->head<2>() = measurement_rotation_t * (p - measurement.head<2>());
-    residual->z() = angle;
-  }
+  residual->head<2>() = measurement_rotation_t * (p - measurement.head<2>());
+  residual->z() = angle;
+  if (factors == nullptr) return;
+  factors->q = measurement_rotation_t;
+  factors->u = measurement_rotation_t * Eigen::Vector2d(p.y(), -p.x());
+  factors->g = Rotation2(angle);
+}
+
+void EvaluateRelativePoseIncrement(const Pose2& from, const Pose2& to, const Pose2& measurement,
+                                   Eigen::Vector3d* residual, Eigen::Matrix3d* jacobian_from,
+                                   Eigen::Matrix3d* jacobian_to) {
+  Eigen::Vector3d e;
+  RelativePoseIncrementFactors f;
+  const bool jacobians = jacobian_from != nullptr || jacobian_to != nullptr;
+  EvaluateRelativePoseIncrementFactors(from, to, measurement, &e, jacobians ? &f : nullptr);
+  if (residual != nullptr) *residual = e;
   if (jacobian_from != nullptr) {
     jacobian_from->setZero();
-    jacobian_from->block<2, 2>(0, 0) = -measurement_rotation_t;
-    jacobian_from->block<2, 1>(0, 2) = measurement_rotation_t * Eigen::Vector2d(p.y(), -p.x());
+    jacobian_from->block<2, 2>(0, 0) = -f.q;
+    jacobian_from->block<2, 1>(0, 2) = f.u;
     (*jacobian_from)(2, 2) = -1.0;
   }
   if (jacobian_to != nullptr) {
     jacobian_to->setZero();
-    jacobian_to->block<2, 2>(0, 0) = Rotation2(angle);
+    jacobian_to->block<2, 2>(0, 0) = f.g;
     (*jacobian_to)(2, 2) = 1.0;
   }
 }

@@ -34,4 +34,19 @@ void EvaluateRelativePoseIncrement(const Pose2& from, const Pose2& to, const Pos
                                    Eigen::Vector3d* residual, Eigen::Matrix3d* jacobian_from,
                                    Eigen::Matrix3d* jacobian_to);
 
+// The increment Jacobians in the pieces they are made of, for products that
+// skip their zeros (core/pose_factors.cc): de/dd_i = [ -q  u ; 0 0 -1 ] and
+// de/dd_j = [ g  0 ; 0 0  1 ], with q = R_z^T, u = R_z^T (p_y, -p_x)^T and
+// g = R(e_th).
+struct RelativePoseIncrementFactors {
+  Eigen::Matrix2d q;
+  Eigen::Vector2d u;
+  Eigen::Matrix2d g;
+};
+
+// The residual (EvaluateRelativePoseIncrement's, bit for bit) and the pieces.
+void EvaluateRelativePoseIncrementFactors(const Pose2& from, const Pose2& to,
+                                          const Pose2& measurement, Eigen::Vector3d* residual,
+                                          RelativePoseIncrementFactors* factors);
+
 }  // namespace graphslam::core

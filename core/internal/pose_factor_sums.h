@@ -11,7 +11,12 @@
 // increments d of the pose retraction (the Jacobians may be nullptr). A
 // constraint with a member `pose` is unary (j_b unused), else it couples
 // `from` and `to`. Model returns false when the constraint is degenerate at
-// `poses` and contributes nothing.
+// `poses` and contributes nothing. A binary factor may also provide
+//   static double Linearize(const Constraint&, const std::vector<Pose>&,
+//                           const RobustKernel&, PoseFactorSink<pose dimension>*)
+// adding its blocks (AddBinaryBlocks) from products that use the structure
+// of its Jacobians and returning its rho(s); LinearizePoseFactors calls it
+// instead of Model and AddBinary.
 //
 // For each constraint, with IRLS weight W' = rho'(s) W, s = e^T W e
 // (core/internal/robust_term.h):
@@ -123,6 +128,29 @@ struct PoseFactorSink {
       }
     }
   }
+
+  // The same sums from blocks a factor computed itself: h_aa = A_a^T W A_a,
+  // h_bb, h_ab = A_a^T W A_b, g_a = A_a^T W e, g_b.
+  void AddBinaryBlocks(int32_t pose_a, int32_t pose_b,
+                       const Eigen::Matrix<double, kPose, kPose>& h_aa,
+                       const Eigen::Matrix<double, kPose, kPose>& h_bb,
+                       const Eigen::Matrix<double, kPose, kPose>& h_ab,
+                       const Eigen::Matrix<double, kPose, 1>& g_a,
+                       const Eigen::Matrix<double, kPose, 1>& g_b) {
+    const int32_t ua = layout.unknown_index[pose_a];
+    const int32_t ub = layout.unknown_index[pose_b];
+    if (ua >= 0) {
+      AddPoseBlock<kPose>(hessian, ua, ua, h_aa);
+      gradient->template segment<kPose>(kPose * ua) += g_a;
+      hessian_diagonal->template segment<kPose>(kPose * ua) += h_aa.diagonal();
+    }
+    if (ub >= 0) {
+      AddPoseBlock<kPose>(hessian, ub, ub, h_bb);
+      gradient->template segment<kPose>(kPose * ub) += g_b;
+      hessian_diagonal->template segment<kPose>(kPose * ub) += h_bb.diagonal();
+    }
+    if (ua >= 0 && ub >= 0 && ua != ub) AddPoseBlock<kPose>(hessian, ua, ub, h_ab);
+  }
 };
 
 }  // namespace internal
@@ -156,6 +184,11 @@ double LinearizePoseFactors(const Problem& problem,
         constexpr int kResidual = F::Residual::RowsAtCompileTime;
         internal::PoseFactorSink<F::Jacobian::ColsAtCompileTime> sink{layout, hessian, gradient,
                                                              hessian_diagonal};
+        if constexpr (requires { F::Linearize; }) {
+          for (const typename F::Constraint& c : constraints)
+            chi2 += F::Linearize(c, poses, kernel, &sink);
+          return;
+        }
         typename F::Residual e;
         typename F::Jacobian ja, jb;
         Eigen::Matrix<double, kResidual, kResidual> w;

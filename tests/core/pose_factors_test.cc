@@ -11,9 +11,11 @@
 #include <random>
 #include <type_traits>
 
+#include "core/gps_3d_model.h"
 #include "core/gps_model.h"
 #include "core/graphslam_solver.h"
 #include "core/pose_range_bearing_model.h"
+#include "core/relative_pose_3d_model.h"
 #include "core/relative_pose_model.h"
 #include "core/velocity_motion_model.h"
 #include "partition/ingest/in_memory_chunk_source.h"
@@ -135,6 +137,116 @@ TEST(PoseFactors, ThreeDimensionalGradientIsHalfTheNumericDerivativeOfTheRobustC
         0.5 * testing::NumericJacobian(cost, Eigen::VectorXd::Zero(lin.gradient.size()), 1e-6)
                   .transpose();
     EXPECT_LT((lin.gradient - expected).norm(), 1e-5 * std::max(1.0, expected.norm()))
+        << RobustKernelsName(RobustKernel(), kernels);
+  }
+}
+
+// The planar relative poses' blocks come from products of their Jacobians'
+// pieces (core/pose_factors.cc): H and g against sum rho'(s) A^T W A and
+// A^T W e with A the dense Jacobians of EvaluateRelativePoseIncrement, with a
+// correlated information matrix, edges both ways and to an anchored pose.
+TEST(PoseFactors, PlanarRelativePoseBlocksAreTheWeightedGaussNewtonSums) {
+  Problem2d problem;
+  for (int i = 0; i < 6; ++i)
+    problem.AddPose(i, Pose2(0.9 * i + 0.1 * i * i, 0.4 * std::sin(i), 0.5 * i - 1.0), true, 0);
+  problem.pose_fixed[2] = 1;
+  Eigen::Matrix3d information;
+  information << 30.0, 4.0, -2.0, 4.0, 20.0, 3.0, -2.0, 3.0, 200.0;
+  const std::vector<std::pair<int, int>> edges = {{0, 1}, {1, 2}, {2, 3}, {3, 4},
+                                                  {4, 5}, {5, 1}, {4, 0}, {3, 2}};
+  for (const auto& [from, to] : edges) {
+    problem.relative_poses.push_back(RelativePoseConstraint{
+        from, to, Pose2(0.8, 0.1 * from - 0.2, 0.4 + 0.1 * to), information, 0});
+  }
+  const UnknownLayout layout = UnknownLayout::FromProblem(problem);
+  ASSERT_EQ(layout.num_unknown_poses, 5);
+  for (const PoseFactorKernels& kernels : KernelCases()) {
+    const Linearization lin = Linearize(problem, layout, kernels);
+    Eigen::MatrixXd expected_h = Eigen::MatrixXd::Zero(15, 15);
+    Eigen::VectorXd expected_g = Eigen::VectorXd::Zero(15);
+    for (const RelativePoseConstraint& c : problem.relative_poses) {
+      Eigen::Vector3d e;
+      Eigen::Matrix3d j[2];
+      EvaluateRelativePoseIncrement(problem.poses[c.from], problem.poses[c.to], c.z, &e, &j[0],
+                                    &j[1]);
+      const Eigen::Matrix3d w =
+          kernels.relative_pose.Weight(e.dot(c.information * e)) * c.information;
+      const int32_t u[2] = {layout.unknown_index[c.from], layout.unknown_index[c.to]};
+      for (int a = 0; a < 2; ++a) {
+        if (u[a] < 0) continue;
+        expected_g.segment<3>(3 * u[a]) += j[a].transpose() * w * e;
+        for (int b = 0; b < 2; ++b) {
+          if (u[b] >= 0) expected_h.block<3, 3>(3 * u[a], 3 * u[b]) += j[a].transpose() * w * j[b];
+        }
+      }
+    }
+    EXPECT_LT((lin.hessian - expected_h).norm(), 1e-12 * expected_h.norm())
+        << RobustKernelsName(RobustKernel(), kernels);
+    EXPECT_LT((lin.gradient - expected_g).norm(), 1e-12 * expected_g.norm())
+        << RobustKernelsName(RobustKernel(), kernels);
+  }
+}
+
+// The 3-D relative poses' blocks come from products of their Jacobians'
+// factors (core/pose_factors_3d.cc): H and g against sum rho'(s) A^T W A and
+// A^T W e with A the dense Jacobians EvaluateRelativePose3 gives, with edges
+// both ways (i < j and i > j), edges to an anchored pose, and kernels.
+TEST(PoseFactors, ThreeDimensionalBlocksAreTheWeightedGaussNewtonSums) {
+  Problem3d problem = testing::MakeRandomProblem3d(9, 0, /*gps=*/true, 23);
+  problem.pose_fixed[0] = 1;
+  problem.pose_fixed[4] = 1;
+  RelativePose3Constraint backwards = problem.relative_poses[5];  // 5 -> 6
+  std::swap(backwards.from, backwards.to);
+  backwards.z = Inverse(backwards.z);
+  problem.relative_poses.push_back(backwards);
+  const UnknownLayout layout = UnknownLayout::FromProblem(problem);
+  ASSERT_EQ(layout.num_unknown_poses, problem.num_poses() - 2);  // pose 0 and 4 anchored
+  int descending = 0, anchored = 0;
+  for (const RelativePose3Constraint& c : problem.relative_poses) {
+    descending += c.from > c.to;
+    anchored += layout.unknown_index[c.from] < 0 || layout.unknown_index[c.to] < 0;
+  }
+  ASSERT_GE(descending, 2);
+  ASSERT_GE(anchored, 3);
+  for (const PoseFactorKernels& kernels : KernelCases()) {
+    const Linearization lin = Linearize(problem, layout, kernels);
+    const int n = 6 * layout.num_unknown_poses;
+    Eigen::MatrixXd expected_h = Eigen::MatrixXd::Zero(n, n);
+    Eigen::VectorXd expected_g = Eigen::VectorXd::Zero(n);
+    const auto add = [&](const std::vector<int32_t>& poses, const Eigen::MatrixXd& jacobian,
+                         const Eigen::MatrixXd& information, const Eigen::VectorXd& e,
+                         const RobustKernel& kernel) {
+      const Eigen::MatrixXd w = kernel.Weight(e.dot(information * e)) * information;
+      for (size_t a = 0; a < poses.size(); ++a) {
+        const int32_t ua = layout.unknown_index[poses[a]];
+        if (ua < 0) continue;
+        const Eigen::MatrixXd ja = jacobian.middleCols(6 * a, 6);
+        expected_g.segment<6>(6 * ua) += ja.transpose() * w * e;
+        for (size_t b = 0; b < poses.size(); ++b) {
+          const int32_t ub = layout.unknown_index[poses[b]];
+          if (ub < 0) continue;
+          expected_h.block<6, 6>(6 * ua, 6 * ub) +=
+              ja.transpose() * w * jacobian.middleCols(6 * b, 6);
+        }
+      }
+    };
+    for (const RelativePose3Constraint& c : problem.relative_poses) {
+      Vector6d e;
+      Matrix6d ji, jj;
+      EvaluateRelativePose3(problem.poses[c.from], problem.poses[c.to], c.z, &e, &ji, &jj);
+      Eigen::MatrixXd jacobian(6, 12);
+      jacobian << ji, jj;
+      add({c.from, c.to}, jacobian, c.information, e, kernels.relative_pose);
+    }
+    for (const Gps3Constraint& c : problem.gps) {
+      Eigen::Vector3d e;
+      Eigen::Matrix<double, 3, 6> j;
+      EvaluateGps3(problem.poses[c.pose], c.z, &e, &j);
+      add({c.pose}, j, c.information, e, kernels.gps);
+    }
+    EXPECT_LT((lin.hessian - expected_h).norm(), 1e-12 * expected_h.norm())
+        << RobustKernelsName(RobustKernel(), kernels);
+    EXPECT_LT((lin.gradient - expected_g).norm(), 1e-12 * expected_g.norm())
         << RobustKernelsName(RobustKernel(), kernels);
   }
 }
