@@ -272,10 +272,9 @@ StatusOr<json> BuildJobMap(const JobSpec& spec, const JobData& data, const std::
       options.batch_points = std::clamp<int64_t>(spec.memory_limit / 2048, 20'000, 2'000'000);
     }
     // A restart after kill -9 starts from nothing: no stale spill or tiles.
-    GS_RETURN_IF_ERROR(
-        storage::Env::Default()->RemoveTree((fs::path(work) / (stem + ".spill")).string()));
-    GS_RETURN_IF_ERROR(
-        storage::Env::Default()->RemoveTree((fs::path(work) / (stem + ".tiles")).string()));
+    for (const char* scratch : {".spill", ".tiles"})
+      GS_RETURN_IF_ERROR(
+          storage::Env::Default()->RemoveTree((fs::path(work) / (stem + scratch)).string()));
     StatusOr<map::MapSummary> summary = map::BuildMap(options, source, &poses);
     if (!summary.ok()) return summary.status();
     if (display != nullptr) display->Finish();
