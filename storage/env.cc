@@ -68,12 +68,14 @@ class PosixWritableFile final : public WritableFile {
     return status;
   }
 
- private:
-  Status Flush() {
+  Status Flush() override {
+    if (fd_ < 0) return Status::IOError(path_ + ": flush after close");
     Status status = WriteUnbuffered(buffer_);
     buffer_.clear();
     return status;
   }
+
+ private:
 
   Status WriteUnbuffered(std::string_view data) {
     while (!data.empty()) {
@@ -247,6 +249,21 @@ class PosixEnv final : public Env {
     return names;
   }
 
+  StatusOr<std::vector<std::string>> ListTree(const std::string& path) override {
+    namespace fs = std::filesystem;
+    std::error_code error;
+    std::vector<std::string> files;
+    fs::recursive_directory_iterator it(path, error);
+    for (; !error && it != fs::recursive_directory_iterator(); it.increment(error)) {
+      std::error_code kind_error;
+      if (!it->is_regular_file(kind_error)) continue;
+      files.push_back(it->path().lexically_relative(path).generic_string());
+    }
+    if (error) return FilesystemError(path, "list", error);
+    std::sort(files.begin(), files.end());
+    return files;
+  }
+
   StatusOr<uint64_t> FileSize(const std::string& path) override {
     struct stat info;
     if (::stat(path.c_str(), &info) != 0) return PosixError(path, "stat", errno);
@@ -273,6 +290,7 @@ class FaultInjectionWritableFile final : public WritableFile {
     GS_RETURN_IF_ERROR(env_->MaybeFail(FaultInjectionEnv::Operation::kAppend, path_));
     return base_->Append(data);
   }
+  Status Flush() override { return base_->Flush(); }
   Status Sync() override {
     GS_RETURN_IF_ERROR(env_->MaybeFail(FaultInjectionEnv::Operation::kSync, path_));
     return base_->Sync();
@@ -330,6 +348,10 @@ StatusOr<std::vector<std::string>> Env::ListDir(const std::string& path) {
   return Default()->ListDir(path);
 }
 
+StatusOr<std::vector<std::string>> Env::ListTree(const std::string& path) {
+  return Default()->ListTree(path);
+}
+
 StatusOr<uint64_t> Env::FileSize(const std::string& path) { return Default()->FileSize(path); }
 
 Status Env::TruncateFile(const std::string& path, uint64_t size) {
@@ -342,6 +364,13 @@ StatusOr<std::string> ReadFileToString(Env* env, const std::string& path) {
   std::string bytes(static_cast<size_t>(size), '\0');
   GS_ASSIGN_OR_RETURN(const size_t got, file->Read(bytes.size(), bytes.data()));
   bytes.resize(got);  // a file that shrank meanwhile
+  return bytes;
+}
+
+StatusOr<std::string> ReadFileToString(Env* env, const std::string& path,
+                                       const std::string& missing) {
+  StatusOr<std::string> bytes = ReadFileToString(env, path);
+  if (!bytes.ok() && bytes.status().IsNotFound()) return Status::NotFound(missing);
   return bytes;
 }
 
@@ -447,6 +476,10 @@ Status FaultInjectionEnv::RemoveTree(const std::string& path) { return base_->Re
 
 StatusOr<std::vector<std::string>> FaultInjectionEnv::ListDir(const std::string& path) {
   return base_->ListDir(path);
+}
+
+StatusOr<std::vector<std::string>> FaultInjectionEnv::ListTree(const std::string& path) {
+  return base_->ListTree(path);
 }
 
 StatusOr<uint64_t> FaultInjectionEnv::FileSize(const std::string& path) {

@@ -7,7 +7,8 @@
 // the "kill between write and rename" and "disk full during write" paths of
 // WriteFileAtomically (atomic_file.h) can be asserted.
 //
-//   WritableFile: Append* -> Sync (fsync: data durable) -> Close
+//   WritableFile: Append* -> Sync (fsync: data durable) -> Close; Flush
+//                 (write(2) without fsync) for logs read while written
 //   Env:          NewWritableFile, Rename (atomic on POSIX within one
 //                 filesystem), RemoveFile, FileExists, SyncDirectory (fsync of
 //                 a directory: makes a rename durable), KindOf / ResolvePath /
@@ -16,7 +17,8 @@
 //   Scratch data: NewReadableFile (sequential reads, seeks), NewAppendableFile,
 //                 SyncFile (fsync by path), ReadFileToString
 //   Folders:      CreateDir (mkdir -p), RemoveDir (an empty one), RemoveTree
-//                 (rm -r), ListDir, FileSize, TruncateFile
+//                 (rm -r), ListDir, ListTree (the files below a folder),
+//                 FileSize, TruncateFile
 //
 // Every operation that touches the disk returns a Status; IOError messages name
 // the path and the errno text, e.g. "out.g2o: fsync: No space left on device".
@@ -48,6 +50,10 @@ class WritableFile {
   virtual ~WritableFile() = default;
 
   [[nodiscard]] virtual Status Append(std::string_view data) = 0;
+  // Hands buffered data to the kernel (write(2), no fsync): after OK the data
+  // survive a kill of the process, not a power loss. For files with no
+  // buffer of their own the default does nothing.
+  [[nodiscard]] virtual Status Flush() { return Status::Ok(); }
   // Flushes buffers and fsyncs: after OK the data survive a power loss.
   [[nodiscard]] virtual Status Sync() = 0;
   // Flushes and closes. Further calls except the destructor are errors.
@@ -123,6 +129,10 @@ class Env {
   [[nodiscard]] virtual Status RemoveTree(const std::string& path);
   // The names (not paths) of the entries of the directory `path`, sorted.
   virtual StatusOr<std::vector<std::string>> ListDir(const std::string& path);
+  // The regular files anywhere below the directory `path` (not following
+  // links to folders), as paths relative to it with '/' between the parts,
+  // sorted: "a.bin", "sub/b.bin".
+  virtual StatusOr<std::vector<std::string>> ListTree(const std::string& path);
   // The size in bytes of the file `path`.
   virtual StatusOr<uint64_t> FileSize(const std::string& path);
   // Cuts the file `path` to its first `size` bytes (truncate(2)).
@@ -184,6 +194,7 @@ class FaultInjectionEnv : public Env {
   [[nodiscard]] Status RemoveDir(const std::string& path) override;
   [[nodiscard]] Status RemoveTree(const std::string& path) override;
   StatusOr<std::vector<std::string>> ListDir(const std::string& path) override;
+  StatusOr<std::vector<std::string>> ListTree(const std::string& path) override;
   StatusOr<uint64_t> FileSize(const std::string& path) override;
   [[nodiscard]] Status TruncateFile(const std::string& path, uint64_t size) override;
 
@@ -201,5 +212,9 @@ class FaultInjectionEnv : public Env {
 
 // The whole of `path` (NotFound when it does not exist).
 StatusOr<std::string> ReadFileToString(Env* env, const std::string& path);
+// The same, but NotFound(`missing`) when `path` does not exist: a message
+// that says what the caller expected there ("PATH: no such job file").
+StatusOr<std::string> ReadFileToString(Env* env, const std::string& path,
+                                       const std::string& missing);
 
 }  // namespace graphslam::storage

@@ -237,6 +237,138 @@ StatusOr<core::Problem2d> DeadReckonedPoses(const std::string& folder,
   return problem;
 }
 
+// One record of RobotN_Measurement.dat: "t barcode range bearing".
+struct Reading {
+  double t = 0;
+  int64_t barcode = 0;
+  double range = 0;
+  double bearing = 0;
+};
+
+StatusOr<Reading> ParseReading(const LineReader& reader) {
+  if (reader.fields().size() != 4) {
+    return reader.Error("measurement has " + std::to_string(reader.fields().size()) +
+                        " fields; expected 4 (t barcode range bearing)");
+  }
+  Reading reading;
+  GS_ASSIGN_OR_RETURN(reading.t, reader.Double(0, "time", internal::Magnitude::kTime));
+  GS_ASSIGN_OR_RETURN(reading.barcode, reader.Id(1, "barcode"));
+  GS_ASSIGN_OR_RETURN(reading.range, reader.Double(2, "range"));
+  GS_ASSIGN_OR_RETURN(reading.bearing, reader.Double(3, "bearing"));
+  return reading;
+}
+
+// A reading of another robot (subject 1..5): kept beside the problem.
+MrclamRobotSighting RobotSighting(const Reading& reading, int64_t subject,
+                                  const MrclamOptions& options, int32_t line) {
+  MrclamRobotSighting sighting;
+  sighting.stamp = reading.t;
+  sighting.observed_robot = static_cast<int>(subject);
+  sighting.z = Eigen::Vector2d(reading.range, reading.bearing);
+  sighting.information = ReadingInformation(options, reading.range);
+  sighting.line = line;
+  return sighting;
+}
+
+// Robot `options.robot`'s odometry, cut to its first options.duration
+// seconds when that is set (later measurements then have no pose).
+StatusOr<TimedRecords> ReadOdometry(const std::string& path, const MrclamOptions& options) {
+  GS_ASSIGN_OR_RETURN(TimedRecords odometry, ReadTimedRecords(path, "t v omega"));
+  if (options.duration > 0.0 && !odometry.stamps.empty()) {
+    const auto kept = static_cast<size_t>(
+        std::upper_bound(odometry.stamps.begin(), odometry.stamps.end(),
+                         odometry.stamps.front() + options.duration) - odometry.stamps.begin());
+    odometry.stamps.resize(kept);
+    odometry.values.resize(kept);
+    odometry.lines.resize(kept);
+  }
+  return odometry;
+}
+
+// moving_before[k]: controls 0..k-1 that move the robot (MrclamStandsStill);
+// poses p, q stand still together iff moving_before[p] == moving_before[q].
+std::vector<int64_t> MovingBefore(const TimedRecords& odometry) {
+  std::vector<int64_t> moving_before(odometry.stamps.size(), 0);
+  for (size_t k = 1; k < moving_before.size(); ++k) {
+    const Eigen::Vector3d& control = odometry.values[k - 1];
+    moving_before[k] = moving_before[k - 1] + (MrclamStandsStill(control.x(), control.y()) ? 0 : 1);
+  }
+  return moving_before;
+}
+
+// Repeats of one landmark reading while the robot stands still (no moving
+// control between their poses), merged into the first: per observation the sums of (range, cos bearing, sin bearing)
+// and the count of readings merged in.
+class StandstillRepeats {
+ public:
+  // Observation `index` (the next one) of `feature` at standstill `still`
+  // when `merge`; returns false when the reading joins an earlier one.
+  bool Add(bool merge, int32_t feature, int64_t still, size_t index, double range,
+           double bearing) {
+    const Eigen::Vector3d reading(range, std::cos(bearing), std::sin(bearing));
+    if (merge) {
+      const auto [group, inserted] = group_.try_emplace({feature, still}, index);
+      if (!inserted) {
+        sums_[group->second] += reading;
+        ++counts_[group->second];
+        return false;
+      }
+    }
+    sums_.push_back(reading);
+    counts_.push_back(1);
+    return true;
+  }
+
+  // A merged observation is the mean of its repeats (circular mean of the
+  // bearing) with the information of one measurement: the repeats' errors
+  // are the same error seen again, so they add no information.
+  void Average(const MrclamOptions& options, std::vector<core::Observation>* observations) const {
+    for (size_t i = 0; i < observations->size(); ++i) {
+      if (counts_[i] < 2) continue;
+      core::Observation& observation = (*observations)[i];
+      const Eigen::Vector3d& sum = sums_[i];
+      observation.z = Eigen::Vector2d(sum.x() / counts_[i], std::atan2(sum.z(), sum.y()));
+      observation.information = ReadingInformation(options, observation.z.x());
+    }
+  }
+
+ private:
+  std::map<std::pair<int32_t, int64_t>, size_t> group_;  // (feature, standstill) -> observation
+  std::vector<Eigen::Vector3d> sums_;
+  std::vector<int32_t> counts_;
+};
+
+// The feature a landmark reading of `subject` observes: a new one per
+// reading with options.ignore_barcodes (unknown correspondence: the barcode
+// only tells a landmark from a robot, robots carry barcodes too), else the
+// subject's.
+int32_t FeatureOfSubject(int64_t subject, const MrclamOptions& options,
+                         std::unordered_map<int64_t, int32_t>* feature_of_subject,
+                         core::Problem2d* problem) {
+  if (options.ignore_barcodes)
+    return problem->AddFeature(core::kNoFeatureId, core::Point2::Zero(), /*initialized=*/false);
+  const auto [feature, inserted] =
+      feature_of_subject->try_emplace(subject, problem->num_features());
+  if (inserted) problem->AddFeature(subject, core::Point2::Zero(), /*initialized=*/false);
+  return feature->second;
+}
+
+void LogReadStats(const std::string& folder, const std::string& measurements, int robot,
+                  const MrclamReadStats& stats) {
+  if (stats.unknown_barcodes_skipped > 0) {
+    GS_LOG(WARNING, "%s: %lld measurements have a barcode that is in no row of Barcodes.dat "
+           "(first: %s); skipped", measurements.c_str(),
+           static_cast<long long>(stats.unknown_barcodes_skipped),
+           stats.unknown_barcode_lines.front().c_str());
+  }
+  GS_VLOG(1, "%s robot %d: %lld poses, %lld landmark observations, %lld robot measurements "
+          "dropped, %lld out of time range",
+          folder.c_str(), robot, static_cast<long long>(stats.odometry_records),
+          static_cast<long long>(stats.landmark_observations),
+          static_cast<long long>(stats.robot_measurements_dropped),
+          static_cast<long long>(stats.out_of_time_range_dropped));
+}
+
 }  // namespace
 
 StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOptions& options,
@@ -249,16 +381,7 @@ StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOpti
   MrclamReadStats local_stats;
   GS_ASSIGN_OR_RETURN(const auto subject_of_barcode, ReadBarcodes(folder + "/Barcodes.dat"));
   const std::string odometry_path = RobotFile(folder, options.robot, "Odometry");
-  GS_ASSIGN_OR_RETURN(TimedRecords odometry, ReadTimedRecords(odometry_path, "t v omega"));
-  if (options.duration > 0.0 && !odometry.stamps.empty()) {
-    // The first `duration` seconds; later measurements then have no pose.
-    const auto kept = static_cast<size_t>(
-        std::upper_bound(odometry.stamps.begin(), odometry.stamps.end(),
-                         odometry.stamps.front() + options.duration) - odometry.stamps.begin());
-    odometry.stamps.resize(kept);
-    odometry.values.resize(kept);
-    odometry.lines.resize(kept);
-  }
+  GS_ASSIGN_OR_RETURN(const TimedRecords odometry, ReadOdometry(odometry_path, options));
   local_stats.odometry_records = static_cast<int64_t>(odometry.stamps.size());
 
   // The anchor: ground truth nearest to t_0 if present, else the origin.
@@ -271,34 +394,17 @@ StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOpti
 
   GS_ASSIGN_OR_RETURN(core::Problem2d problem,
                       DeadReckonedPoses(folder, odometry_path, odometry, initial, options));
-  const size_t count = odometry.stamps.size();
-
   const std::string measurement_path = RobotFile(folder, options.robot, "Measurement");
   GS_ASSIGN_OR_RETURN(std::unique_ptr<LineReader> reader, LineReader::Open(measurement_path));
   reader->set_record_name("measurement");
   std::unordered_map<int64_t, int32_t> feature_of_subject;
-  // moving_before[k]: controls 0..k-1 that move the robot (MrclamStandsStill);
-  // poses p, q stand still together iff moving_before[p] == moving_before[q].
-  std::vector<int64_t> moving_before(count, 0);
-  for (size_t k = 1; k < count; ++k) {
-    const Eigen::Vector3d& control = odometry.values[k - 1];
-    moving_before[k] = moving_before[k - 1] + (MrclamStandsStill(control.x(), control.y()) ? 0 : 1);
-  }
-  // (feature, standstill) -> its observation; per observation the sums of
-  // (range, cos bearing, sin bearing) and the count of repeats merged in.
-  std::map<std::pair<int32_t, int64_t>, size_t> standstill_group;
-  std::vector<Eigen::Vector3d> standstill_sums;
-  std::vector<int32_t> standstill_counts;
+  const std::vector<int64_t> moving_before = MovingBefore(odometry);
+  const bool merge = options.merge_standstill_repeats && !options.ignore_barcodes;
+  StandstillRepeats repeats;
   while (reader->Next()) {
-    if (reader->fields().size() != 4) {
-      return reader->Error("measurement has " + std::to_string(reader->fields().size()) +
-                           " fields; expected 4 (t barcode range bearing)");
-    }
+    GS_ASSIGN_OR_RETURN(const Reading reading, ParseReading(*reader));
+    const auto [t, barcode, range, bearing] = reading;
     ++local_stats.measurements;
-    GS_ASSIGN_OR_RETURN(const double t, reader->Double(0, "time", internal::Magnitude::kTime));
-    GS_ASSIGN_OR_RETURN(const int64_t barcode, reader->Id(1, "barcode"));
-    GS_ASSIGN_OR_RETURN(const double range, reader->Double(2, "range"));
-    GS_ASSIGN_OR_RETURN(const double bearing, reader->Double(3, "bearing"));
     const auto subject = subject_of_barcode.find(barcode);
     if (subject == subject_of_barcode.end()) {
       // A misread barcode of the published data: skipped, not fatal.
@@ -312,13 +418,8 @@ StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOpti
     }
     if (subject->second <= kLastRobotSubject) {
       ++local_stats.robot_measurements_dropped;
-      MrclamRobotSighting sighting;
-      sighting.stamp = t;
-      sighting.observed_robot = static_cast<int>(subject->second);
-      sighting.z = Eigen::Vector2d(range, bearing);
-      sighting.information = ReadingInformation(options, range);
-      sighting.line = reader->line_number();
-      local_stats.robot_sightings.push_back(sighting);
+      local_stats.robot_sightings.push_back(
+          RobotSighting(reading, subject->second, options, reader->line_number()));
       continue;
     }
     const size_t pose = NearestStamp(odometry.stamps, t);
@@ -326,66 +427,26 @@ StatusOr<core::Problem2d> ReadMrclam(const std::string& folder, const MrclamOpti
       ++local_stats.out_of_time_range_dropped;
       continue;
     }
-    int32_t feature_index = 0;
-    if (options.ignore_barcodes) {
-      // Unknown correspondence: the barcode only tells a landmark from a robot
-      // (robots carry barcodes too); which landmark is for association.
-      feature_index =
-          problem.AddFeature(core::kNoFeatureId, core::Point2::Zero(), /*initialized=*/false);
-    } else {
-      const auto [feature, inserted] =
-          feature_of_subject.try_emplace(subject->second, problem.num_features());
-      if (inserted)
-        problem.AddFeature(subject->second, core::Point2::Zero(), /*initialized=*/false);
-      feature_index = feature->second;
+    const int32_t feature =
+        FeatureOfSubject(subject->second, options, &feature_of_subject, &problem);
+    if (!repeats.Add(merge, feature, moving_before[pose], problem.observations.size(), range,
+                     bearing)) {
+      ++local_stats.standstill_repeats_merged;
+      continue;
     }
     core::Observation observation;
     observation.pose = static_cast<int32_t>(pose);
-    observation.feature = feature_index;
+    observation.feature = feature;
     observation.kind = core::ObservationKind::kRangeBearing;
     observation.z = Eigen::Vector2d(range, bearing);
     observation.information = ReadingInformation(options, range);
     observation.line = reader->line_number();
-    if (options.merge_standstill_repeats && !options.ignore_barcodes) {
-      // One standstill of the robot: no moving control between its poses.
-      const auto [group, inserted] = standstill_group.try_emplace(
-          {feature_index, moving_before[pose]}, problem.observations.size());
-      if (!inserted) {
-        standstill_sums[group->second] += Eigen::Vector3d(range, std::cos(bearing),
-                                                          std::sin(bearing));
-        ++standstill_counts[group->second];
-        ++local_stats.standstill_repeats_merged;
-        continue;
-      }
-    }
-    standstill_sums.emplace_back(range, std::cos(bearing), std::sin(bearing));
-    standstill_counts.push_back(1);
     problem.observations.push_back(observation);
     ++local_stats.landmark_observations;
   }
   GS_RETURN_IF_ERROR(reader->status());
-  // A merged observation is the mean of its repeats (circular mean of the
-  // bearing) with the information of one measurement: the repeats' errors are
-  // the same error seen again, so they add no information.
-  for (size_t i = 0; i < problem.observations.size(); ++i) {
-    if (standstill_counts[i] < 2) continue;
-    const Eigen::Vector3d& sum = standstill_sums[i];
-    problem.observations[i].z =
-        Eigen::Vector2d(sum.x() / standstill_counts[i], std::atan2(sum.z(), sum.y()));
-    problem.observations[i].information = ReadingInformation(options, problem.observations[i].z.x());
-  }
-  if (local_stats.unknown_barcodes_skipped > 0) {
-    GS_LOG(WARNING, "%s: %lld measurements have a barcode that is in no row of Barcodes.dat "
-           "(first: %s); skipped", reader->name().c_str(),
-           static_cast<long long>(local_stats.unknown_barcodes_skipped),
-           local_stats.unknown_barcode_lines.front().c_str());
-  }
-  GS_VLOG(1, "%s robot %d: %lld poses, %lld landmark observations, %lld robot measurements "
-          "dropped, %lld out of time range",
-          folder.c_str(), options.robot, static_cast<long long>(local_stats.odometry_records),
-          static_cast<long long>(local_stats.landmark_observations),
-          static_cast<long long>(local_stats.robot_measurements_dropped),
-          static_cast<long long>(local_stats.out_of_time_range_dropped));
+  repeats.Average(options, &problem.observations);
+  LogReadStats(folder, reader->name(), options.robot, local_stats);
   if (stats != nullptr) *stats = local_stats;
   return problem;
 }

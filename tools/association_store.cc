@@ -47,9 +47,7 @@ Status RewriteAssociatedChunkStore(storage::Env* env, const std::string& store,
   // A stale staging store of a killed rewrite is ours to remove; any other
   // folder of that name is not (storage/store_directory.h).
   GS_RETURN_IF_ERROR(storage::CheckStoreDirectory(staging));
-  std::error_code error;
-  std::filesystem::remove_all(staging, error);
-  if (error) return Status::IOError(staging + ": remove stale staging store: " + error.message());
+  GS_RETURN_IF_ERROR(env->RemoveTree(staging).WithContext("remove stale staging store"));
   // Locked while written, and after the exchange, when it is STORE's lock.
   GS_ASSIGN_OR_RETURN(storage::DirectoryLock staging_lock,
                       storage::OpenStoreForWriting(env, staging));
@@ -58,10 +56,9 @@ Status RewriteAssociatedChunkStore(storage::Env* env, const std::string& store,
     *store_lock = std::move(staging_lock);
     const std::filesystem::path parent = std::filesystem::absolute(dir).parent_path();
     GS_RETURN_IF_ERROR(env->SyncDirectory(parent.string()));
-    std::filesystem::remove_all(staging, error);
-    if (error) {
+    if (Status removed = env->RemoveTree(staging); !removed.ok()) {
       GS_LOG(WARNING, "%s: could not remove the old store after the rewrite: %s",
-             staging.c_str(), error.message().c_str());
+             staging.c_str(), removed.message().c_str());
     }
     storage::StopPointForTests("associate_exchanged");
     return Status::Ok();
@@ -70,7 +67,7 @@ Status RewriteAssociatedChunkStore(storage::Env* env, const std::string& store,
   GS_LOG(WARNING, "%s: cannot exchange directories (%s); rewriting the store in place",
          dir.c_str(), std::strerror(exchange_errno));
   staging_lock.Release();
-  std::filesystem::remove_all(staging, error);
+  (void)env->RemoveTree(staging);  // as before: the in-place rewrite goes on regardless
   // In place: the commit rule of WriteChunkStore; chunk files beyond the new
   // count are removed after the new manifest is durable.
   GS_RETURN_IF_ERROR(storage::WriteChunkStore(env, dir, problem, chunks, options));

@@ -65,6 +65,103 @@ nlohmann::json TransformJson(const Eigen::Isometry2d& transform) {
           {"theta", RotationAngle(transform)}};
 }
 
+// The ground truth: MRCLAM's (Vicon poses and landmark survey), or a
+// trajectory file with an optional features CSV.
+struct GroundTruth {
+  std::vector<StampedPose2> poses;
+  std::map<int64_t, core::Point2> features;
+  bool have_features = false;
+};
+
+StatusOr<GroundTruth> ReadTruth(const EvaluateCommandOptions& options) {
+  GroundTruth truth;
+  if (!options.mrclam.empty()) {
+    GS_ASSIGN_OR_RETURN(storage::MrclamGroundTruth mrclam,
+                        storage::ReadMrclamGroundTruth(options.mrclam, options.robot));
+    truth.poses.reserve(mrclam.poses.size());
+    for (size_t i = 0; i < mrclam.poses.size(); ++i) {
+      truth.poses.push_back(StampedPose2{mrclam.stamps[i], mrclam.poses[i]});
+    }
+    truth.features = std::move(mrclam.landmarks);
+    truth.have_features = true;
+    return truth;
+  }
+  GS_ASSIGN_OR_RETURN(truth.poses,
+                      ReadGroundTruth({options.ground_truth, options.ground_truth_format,
+                                       options.ground_truth_times}));
+  if (!options.ground_truth_features.empty()) {
+    GS_ASSIGN_OR_RETURN(truth.features, ReadFeaturesCsv(options.ground_truth_features));
+    truth.have_features = true;
+  }
+  return truth;
+}
+
+// What the comparison found, for the report and the summary.
+struct Evaluation {
+  size_t estimated_poses = 0;
+  size_t truth_poses = 0;
+  TrajectoryErrors errors;
+  bool features = false;  // landmarks compared
+  FeatureErrors feature_errors;
+  size_t excluded = 0;  // features the estimate marks excluded
+};
+
+nlohmann::json ReportJson(const EvaluateCommandOptions& options, const Evaluation& e) {
+  const TrajectoryErrors& errors = e.errors;
+  nlohmann::json report;
+  report["trajectory"] = options.trajectory;
+  report["ground_truth"] = options.mrclam.empty() ? options.ground_truth : options.mrclam;
+  if (!options.mrclam.empty()) report["robot"] = options.robot;
+  report["estimated_poses"] = static_cast<int64_t>(e.estimated_poses);
+  report["ground_truth_poses"] = static_cast<int64_t>(e.truth_poses);
+  report["runs"] = errors.runs;
+  report["matched_poses"] = errors.matched;
+  report["unmatched_poses"] = errors.unmatched;
+  report["max_time_difference_s"] = errors.max_time_difference;
+  report["position_rmse_m"] = errors.position_rmse;
+  report["position_mean_m"] = errors.position_mean;
+  report["position_max_m"] = errors.position_max;
+  report["heading_rmse_rad"] = errors.heading_rmse_rad;
+  report["heading_rmse_deg"] = errors.heading_rmse_rad * 180.0 / std::numbers::pi;
+  report["alignment"] = TransformJson(errors.alignment);
+  if (e.features) {
+    const FeatureErrors& f = e.feature_errors;
+    report["features"] = {{"estimated", options.features},
+                          {"matched", f.matched},
+                          {"missing", f.missing},
+                          {"extra", f.extra},
+                          {"excluded", static_cast<int64_t>(e.excluded)},
+                          {"rmse_trajectory_aligned_m", Number(f.rmse_trajectory_aligned)},
+                          {"rmse_self_aligned_m", Number(f.rmse_self_aligned)},
+                          {"self_alignment", TransformJson(f.self_alignment)}};
+  }
+  return report;
+}
+
+void PrintEvaluation(const Evaluation& e) {
+  const TrajectoryErrors& errors = e.errors;
+  std::printf("graphslam evaluate summary\n");
+  std::printf("  matched poses      %lld of %zu (%lld unmatched, tolerance %.3g s, %lld run(s))\n",
+              static_cast<long long>(errors.matched), e.estimated_poses,
+              static_cast<long long>(errors.unmatched), errors.max_time_difference,
+              static_cast<long long>(errors.runs));
+  std::printf("  position RMSE      %.4f m (mean %.4f m, max %.4f m)\n", errors.position_rmse,
+              errors.position_mean, errors.position_max);
+  std::printf("  heading RMSE       %.5f rad (%.3f deg)\n", errors.heading_rmse_rad,
+              errors.heading_rmse_rad * 180.0 / std::numbers::pi);
+  std::printf("  alignment          x %.3f m, y %.3f m, theta %.5f rad\n",
+              errors.alignment.translation().x(), errors.alignment.translation().y(),
+              RotationAngle(errors.alignment));
+  if (e.features) {
+    const FeatureErrors& f = e.feature_errors;
+    std::printf("  landmarks          %lld matched, %lld missing, %lld extra, %zu excluded\n",
+                static_cast<long long>(f.matched), static_cast<long long>(f.missing),
+                static_cast<long long>(f.extra), e.excluded);
+    std::printf("  landmark RMSE      %.4f m (trajectory alignment), %.4f m (own alignment)\n",
+                f.rmse_trajectory_aligned, f.rmse_self_aligned);
+  }
+}
+
 }  // namespace
 
 void AddEvaluateCommand(CLI::App* app, EvaluateCommandOptions* options, int* exit_code) {
@@ -112,36 +209,13 @@ int RunEvaluateCommand(const EvaluateCommandOptions& options) {
   // Read everything first.
   StatusOr<std::vector<StampedPose2>> estimated = ReadTum(options.trajectory);
   if (!estimated.ok()) return fail(estimated.status());
-  std::vector<StampedPose2> truth;
-  std::map<int64_t, core::Point2> truth_features;
-  bool have_truth_features = false;
-  if (!options.mrclam.empty()) {
-    StatusOr<storage::MrclamGroundTruth> mrclam =
-        storage::ReadMrclamGroundTruth(options.mrclam, options.robot);
-    if (!mrclam.ok()) return fail(mrclam.status());
-    truth.reserve(mrclam->poses.size());
-    for (size_t i = 0; i < mrclam->poses.size(); ++i) {
-      truth.push_back(StampedPose2{mrclam->stamps[i], mrclam->poses[i]});
-    }
-    truth_features = std::move(mrclam->landmarks);
-    have_truth_features = true;
-  } else {
-    StatusOr<std::vector<StampedPose2>> read = ReadGroundTruth(
-        {options.ground_truth, options.ground_truth_format, options.ground_truth_times});
-    if (!read.ok()) return fail(read.status());
-    truth = std::move(read).value();
-    if (!options.ground_truth_features.empty()) {
-      StatusOr<std::map<int64_t, core::Point2>> features =
-          ReadFeaturesCsv(options.ground_truth_features);
-      if (!features.ok()) return fail(features.status());
-      truth_features = std::move(features).value();
-      have_truth_features = true;
-    }
-  }
+  StatusOr<GroundTruth> truth = ReadTruth(options);
+  if (!truth.ok()) return fail(truth.status());
+  Evaluation evaluation;
   std::map<int64_t, core::Point2> estimated_features;
   std::vector<int64_t> excluded;
-  const bool evaluate_features = !options.features.empty() && have_truth_features;
-  if (evaluate_features) {
+  evaluation.features = !options.features.empty() && truth->have_features;
+  if (evaluation.features) {
     StatusOr<std::map<int64_t, core::Point2>> features =
         ReadFeaturesCsv(options.features, &excluded);
     if (!features.ok()) return fail(features.status());
@@ -151,71 +225,26 @@ int RunEvaluateCommand(const EvaluateCommandOptions& options) {
   // Compare.
   TrajectoryMatchOptions match;
   match.max_time_difference = options.max_time_difference;
-  StatusOr<TrajectoryErrors> compared = CompareTrajectories(*estimated, truth, match);
+  StatusOr<TrajectoryErrors> compared = CompareTrajectories(*estimated, truth->poses, match);
   if (!compared.ok()) return fail(compared.status());
-  const TrajectoryErrors& errors = *compared;
-  FeatureErrors feature_errors;
-  if (evaluate_features) {
-    feature_errors = CompareFeatures(estimated_features, truth_features, errors.alignment);
+  evaluation.errors = *compared;
+  evaluation.estimated_poses = estimated->size();
+  evaluation.truth_poses = truth->poses.size();
+  evaluation.excluded = excluded.size();
+  if (evaluation.features) {
+    evaluation.feature_errors =
+        CompareFeatures(estimated_features, truth->features, evaluation.errors.alignment);
   }
 
-  nlohmann::json report;
-  report["trajectory"] = options.trajectory;
-  report["ground_truth"] = options.mrclam.empty() ? options.ground_truth : options.mrclam;
-  if (!options.mrclam.empty()) report["robot"] = options.robot;
-  report["estimated_poses"] = static_cast<int64_t>(estimated->size());
-  report["ground_truth_poses"] = static_cast<int64_t>(truth.size());
-  report["runs"] = errors.runs;
-  report["matched_poses"] = errors.matched;
-  report["unmatched_poses"] = errors.unmatched;
-  report["max_time_difference_s"] = errors.max_time_difference;
-  report["position_rmse_m"] = errors.position_rmse;
-  report["position_mean_m"] = errors.position_mean;
-  report["position_max_m"] = errors.position_max;
-  report["heading_rmse_rad"] = errors.heading_rmse_rad;
-  report["heading_rmse_deg"] = errors.heading_rmse_rad * 180.0 / std::numbers::pi;
-  report["alignment"] = TransformJson(errors.alignment);
-  if (evaluate_features) {
-    report["features"] = {
-        {"estimated", options.features},
-        {"matched", feature_errors.matched},
-        {"missing", feature_errors.missing},
-        {"extra", feature_errors.extra},
-        {"excluded", static_cast<int64_t>(excluded.size())},
-        {"rmse_trajectory_aligned_m", Number(feature_errors.rmse_trajectory_aligned)},
-        {"rmse_self_aligned_m", Number(feature_errors.rmse_self_aligned)},
-        {"self_alignment", TransformJson(feature_errors.self_alignment)}};
-  }
   if (!options.report.empty()) {
-    if (Status status = storage::WriteStringAtomically(storage::Env::Default(), options.report,
-                                                       report.dump(2) + "\n");
+    const std::string report = ReportJson(options, evaluation).dump(2) + "\n";
+    if (Status status =
+            storage::WriteStringAtomically(storage::Env::Default(), options.report, report);
         !status.ok()) {
       return fail(status);
     }
   }
-
-  if (!options.quiet) {
-    std::printf("graphslam evaluate summary\n");
-    std::printf("  matched poses      %lld of %zu (%lld unmatched, tolerance %.3g s, %lld run(s))\n",
-                static_cast<long long>(errors.matched), estimated->size(),
-                static_cast<long long>(errors.unmatched), errors.max_time_difference,
-                static_cast<long long>(errors.runs));
-    std::printf("  position RMSE      %.4f m (mean %.4f m, max %.4f m)\n", errors.position_rmse,
-                errors.position_mean, errors.position_max);
-    std::printf("  heading RMSE       %.5f rad (%.3f deg)\n", errors.heading_rmse_rad,
-                errors.heading_rmse_rad * 180.0 / std::numbers::pi);
-    std::printf("  alignment          x %.3f m, y %.3f m, theta %.5f rad\n",
-                errors.alignment.translation().x(), errors.alignment.translation().y(),
-                RotationAngle(errors.alignment));
-    if (evaluate_features) {
-      std::printf("  landmarks          %lld matched, %lld missing, %lld extra, %zu excluded\n",
-                  static_cast<long long>(feature_errors.matched),
-                  static_cast<long long>(feature_errors.missing),
-                  static_cast<long long>(feature_errors.extra), excluded.size());
-      std::printf("  landmark RMSE      %.4f m (trajectory alignment), %.4f m (own alignment)\n",
-                  feature_errors.rmse_trajectory_aligned, feature_errors.rmse_self_aligned);
-    }
-  }
+  if (!options.quiet) PrintEvaluation(evaluation);
   return kExitOk;
 }
 

@@ -59,6 +59,65 @@ void AddIngestCommand(CLI::App* app, IngestCommandOptions* options, int* exit_co
   ingest->callback([options, exit_code]() { *exit_code = RunIngestCommand(*options); });
 }
 
+namespace {
+
+// The summary `graphslam ingest` prints on standard output (rank 0 only).
+void PrintIngestSummary(const IngestCommandOptions& options, storage::InputFormat format,
+                        const partition::StreamingIngestOptions& ingest,
+                        const partition::IngestSummary& summary) {
+  std::printf("graphslam ingest summary\n");
+  std::printf("  input              %s (%s%s)\n", options.input.c_str(),
+              storage::InputFormatName(format), summary.streamed ? ", streamed" : ", read whole");
+  std::printf("  store              %s\n", options.output_dir.c_str());
+  if (summary.resumed_stage == "spill")
+    std::printf("  resumed            second pass, after %lld observations\n",
+                static_cast<long long>(summary.resumed_from_observation));
+  else if (summary.resumed_stage == "chunks")
+    std::printf("  resumed            after %lld durable chunks\n",
+                static_cast<long long>(summary.resumed_from_chunk));
+  std::printf("  poses / features   %d / %d\n", summary.poses, summary.features);
+  std::printf("  observations       %lld in %lld chunks\n",
+              static_cast<long long>(summary.observations),
+              static_cast<long long>(summary.chunks));
+  if (ingest.ranks.size > 1)
+    std::printf("  ranks              %d, one shard of chunks each\n", ingest.ranks.size);
+  if (summary.scans.scans > 0)
+    std::printf("  scans              %lld (%lld points) in %lld chunks in %s/scans%s\n",
+                static_cast<long long>(summary.scans.scans),
+                static_cast<long long>(summary.scans.points),
+                static_cast<long long>(summary.scans.chunks), options.output_dir.c_str(),
+                summary.scans.resumed_from_scan > 0 ? " (resumed)" : "");
+  std::printf("  buckets / spills   %lld / %lld (buffer %lld observations, peak %lld held)\n",
+              static_cast<long long>(summary.bucketing.buckets),
+              static_cast<long long>(summary.bucketing.spills),
+              static_cast<long long>(ingest.buffer_observations),
+              static_cast<long long>(summary.bucketing.peak_observations_in_memory));
+  if (summary.streamed)
+    std::printf("  scratch            %.1f MB replay written, %.1f MB read; %.1f MB spilled\n",
+                summary.replay_bytes_written / 1e6, summary.replay_bytes_read / 1e6,
+                summary.bucketing.spilled_bytes / 1e6);
+  std::printf("  peak RSS           %.1f MiB\n", PeakRssBytes() / (1024.0 * 1024.0));
+}
+
+// Under mpirun with N > 1: N ranks write one store, a shard of its chunks
+// each (partition::IngestRanks); rank 0 is the writer the lock knows.
+StatusOr<std::unique_ptr<DistributedSolveRun>> JoinRanks(
+    partition::StreamingIngestOptions* ingest) {
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<DistributedSolveRun> distributed,
+                      DistributedSolveRun::Start(""));
+  DistributedSolveRun* run = distributed.get();
+  ingest->ranks.rank = run->rank();
+  ingest->ranks.size = run->size();
+  ingest->ranks.barrier = [run] { run->Barrier(); };
+  ingest->ranks.gather = [run](std::vector<storage::ChunkStoreEntry>* entries,
+                               std::vector<storage::ChunkStoreShard>* shards) {
+    return run->GatherChunkEntries(entries, shards);
+  };
+  return distributed;
+}
+
+}  // namespace
+
 int RunIngestCommand(const IngestCommandOptions& options) {
   SetLogVerbosity(options.verbosity);
   SetQuietLogging(options.quiet);
@@ -124,21 +183,11 @@ int RunIngestCommand(const IngestCommandOptions& options) {
   ingest.scan_chunk_bytes = *scan_chunk;
   ingest.resume = options.resume;
   ingest.checkpoint_seconds = options.checkpoint_seconds;
-  // Under mpirun with N > 1: N ranks write one store, a shard of its chunks
-  // each (partition::IngestRanks); rank 0 is the writer the lock knows.
-  if (LaunchedProcesses() > 1) {
+  if (LaunchedProcesses() > 1) {  // under mpirun: one shard of chunks per rank
     if (options.resume) return usage("--resume is not supported under mpirun");
-    StatusOr<std::unique_ptr<DistributedSolveRun>> started = DistributedSolveRun::Start("");
+    StatusOr<std::unique_ptr<DistributedSolveRun>> started = JoinRanks(&ingest);
     if (!started.ok()) return fail(started.status());
     distributed = std::move(started).value();
-    DistributedSolveRun* run = distributed.get();
-    ingest.ranks.rank = run->rank();
-    ingest.ranks.size = run->size();
-    ingest.ranks.barrier = [run] { run->Barrier(); };
-    ingest.ranks.gather = [run](std::vector<storage::ChunkStoreEntry>* entries,
-                                std::vector<storage::ChunkStoreShard>* shards) {
-      return run->GatherChunkEntries(entries, shards);
-    };
   }
   const bool root = ingest.ranks.rank == 0;
   // One writer per store: the exclusive lock, held to the end; a folder that
@@ -157,40 +206,7 @@ int RunIngestCommand(const IngestCommandOptions& options) {
       !status.ok())
     return fail(status);
 
-  if (!options.quiet && root) {
-    std::printf("graphslam ingest summary\n");
-    std::printf("  input              %s (%s%s)\n", options.input.c_str(),
-                storage::InputFormatName(format), summary.streamed ? ", streamed" : ", read whole");
-    std::printf("  store              %s\n", options.output_dir.c_str());
-    if (summary.resumed_stage == "spill")
-      std::printf("  resumed            second pass, after %lld observations\n",
-                  static_cast<long long>(summary.resumed_from_observation));
-    else if (summary.resumed_stage == "chunks")
-      std::printf("  resumed            after %lld durable chunks\n",
-                  static_cast<long long>(summary.resumed_from_chunk));
-    std::printf("  poses / features   %d / %d\n", summary.poses, summary.features);
-    std::printf("  observations       %lld in %lld chunks\n",
-                static_cast<long long>(summary.observations),
-                static_cast<long long>(summary.chunks));
-    if (ingest.ranks.size > 1)
-      std::printf("  ranks              %d, one shard of chunks each\n", ingest.ranks.size);
-    if (summary.scans.scans > 0)
-      std::printf("  scans              %lld (%lld points) in %lld chunks in %s/scans%s\n",
-                  static_cast<long long>(summary.scans.scans),
-                  static_cast<long long>(summary.scans.points),
-                  static_cast<long long>(summary.scans.chunks), options.output_dir.c_str(),
-                  summary.scans.resumed_from_scan > 0 ? " (resumed)" : "");
-    std::printf("  buckets / spills   %lld / %lld (buffer %lld observations, peak %lld held)\n",
-                static_cast<long long>(summary.bucketing.buckets),
-                static_cast<long long>(summary.bucketing.spills),
-                static_cast<long long>(ingest.buffer_observations),
-                static_cast<long long>(summary.bucketing.peak_observations_in_memory));
-    if (summary.streamed)
-      std::printf("  scratch            %.1f MB replay written, %.1f MB read; %.1f MB spilled\n",
-                  summary.replay_bytes_written / 1e6, summary.replay_bytes_read / 1e6,
-                  summary.bucketing.spilled_bytes / 1e6);
-    std::printf("  peak RSS           %.1f MiB\n", PeakRssBytes() / (1024.0 * 1024.0));
-  }
+  if (!options.quiet && root) PrintIngestSummary(options, format, ingest, summary);
   return kExitOk;
 }
 

@@ -2,12 +2,12 @@
 
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <sstream>
 
 #include "core/logging.h"
 #include "storage/chunk_store.h"
 #include "storage/directory_lock.h"
+#include "storage/env.h"
 #include "storage/native_log_scans.h"
 #include "storage/threedtk_reader.h"
 #include "tools/exit_codes.h"
@@ -37,8 +37,10 @@ StatusOr<std::unique_ptr<map::ScanSource>> OpenScanSource(const std::string& inp
 }
 
 StatusOr<std::vector<core::Pose3>> ReadTumPoses(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return Status::NotFound(path + ": cannot open");
+  GS_ASSIGN_OR_RETURN(const std::string text,
+                      storage::ReadFileToString(storage::Env::Default(), path,
+                                                path + ": cannot open"));
+  std::istringstream in(text);
   std::vector<core::Pose3> poses;
   std::string line;
   int64_t line_no = 0;

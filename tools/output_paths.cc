@@ -6,6 +6,7 @@
 
 #include "core/logging.h"
 #include "storage/abandoned_temporaries.h"
+#include "storage/env.h"
 
 namespace graphslam::tools {
 namespace {
@@ -13,13 +14,12 @@ namespace {
 namespace fs = std::filesystem;
 
 Status CheckWritableFolder(const OutputPath& output, const fs::path& folder) {
-  std::error_code error;
-  const fs::file_status status = fs::status(folder, error);
+  const storage::FileKind kind = storage::Env::Default()->KindOf(folder.string());
   const std::string where = output.option + " " + output.path + ": ";
-  if (!fs::exists(status))
+  if (kind == storage::FileKind::kMissing)
     return Status::IOError(where + "the folder " + folder.string() +
                            " does not exist; expected an existing folder to write the output into");
-  if (!fs::is_directory(status))
+  if (kind != storage::FileKind::kDirectory)
     return Status::IOError(where + folder.string() +
                            " is not a folder; expected a folder to write the output into");
   if (access(folder.c_str(), W_OK | X_OK) != 0)
@@ -30,24 +30,25 @@ Status CheckWritableFolder(const OutputPath& output, const fs::path& folder) {
 
 Status CheckOne(const OutputPath& output) {
   if (output.path.empty() || output.path == "-") return Status::Ok();
+  storage::Env* env = storage::Env::Default();
   const fs::path path(output.path);
-  std::error_code error;
-  const fs::file_status status = fs::status(path, error);
+  const storage::FileKind kind = env->KindOf(output.path);
   if (output.folder) {
-    if (fs::exists(status)) return CheckWritableFolder(output, path);
+    if (kind != storage::FileKind::kMissing) return CheckWritableFolder(output, path);
     // Created with its parents: the nearest existing ancestor must take them.
+    std::error_code error;
     fs::path ancestor = fs::absolute(path, error).parent_path();
-    while (!ancestor.empty() && !fs::exists(ancestor, error) &&
+    while (!ancestor.empty() && env->KindOf(ancestor.string()) == storage::FileKind::kMissing &&
            ancestor != ancestor.root_path())
       ancestor = ancestor.parent_path();
     return CheckWritableFolder(output, ancestor);
   }
-  if (fs::is_directory(status))
+  if (kind == storage::FileKind::kDirectory)
     return Status::IOError(output.option + " " + output.path +
                            ": is a folder; expected a file path for the output");
   // A device or FIFO is written in place (storage/atomic_file.h): its folder
   // need not be writable (/dev), the file itself must be.
-  if (fs::exists(status) && !fs::is_regular_file(status)) {
+  if (kind == storage::FileKind::kOther) {
     if (::access(output.path.c_str(), W_OK) != 0)
       return Status::IOError(output.option + " " + output.path + ": not writable");
     return Status::Ok();

@@ -6,7 +6,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <sstream>
-#include <system_error>
 
 #include "storage/scan_store.h"
 #include "storage/atomic_file.h"
@@ -62,9 +61,8 @@ int RunSimulate3dCommand(const std::string& output_dir, const Simulate3dOptions&
     std::fprintf(stderr, "graphslam simulate --3d: only --scans output is implemented; add --scans\n");
     return kExitUsage;
   }
-  std::error_code error;
-  std::filesystem::create_directories(output_dir, error);
-  if (error) return fail(Status::IOError("cannot create " + output_dir + ": " + error.message()));
+  if (Status status = storage::Env::Default()->CreateDir(output_dir); !status.ok())
+    return fail(status);
 
   const map::Campus3d campus = map::MakeCampus3d(campus_options);
   StatusOr<std::unique_ptr<map::ScanStoreWriter>> writer = map::ScanStoreWriter::Create(output_dir);

@@ -3,10 +3,10 @@
 #include <Eigen/Dense>
 #include <cstdio>
 #include <filesystem>
-#include <system_error>
 #include <utility>
 
 #include "core/logging.h"
+#include "storage/env.h"
 #include "storage/features_csv_writer.h"
 #include "storage/g2o_writer.h"
 #include "storage/native_log_reader.h"
@@ -160,12 +160,9 @@ int RunSimulateCommand(const SimulateCommandOptions& options) {
   while (simulator.feature_id_base < simulator.poses) simulator.feature_id_base *= 10;
   if (Status status = simulator.Validate(); !status.ok()) return usage(status.message());
 
-  std::error_code error;
-  std::filesystem::create_directories(options.output_dir, error);
-  if (error) {
-    return fail(Status::IOError("cannot create " + options.output_dir + ": " + error.message()));
-  }
-  if (!std::filesystem::is_directory(options.output_dir, error)) {
+  if (Status status = storage::Env::Default()->CreateDir(options.output_dir); !status.ok())
+    return fail(status);
+  if (storage::Env::Default()->KindOf(options.output_dir) != storage::FileKind::kDirectory) {
     return fail(Status::IOError(options.output_dir + " is not a folder"));
   }
 

@@ -164,10 +164,9 @@ class StreamedFile {
     return env_->SyncDirectory(std::filesystem::path(path_).parent_path().string());
   }
   ~StreamedFile() {
-    if (file_ != nullptr) {
-      std::error_code error;
-      std::filesystem::remove(storage::TemporaryFileName(path_), error);
-    }
+    // An unfinished temporary goes; a failure to remove it is not reported
+    // (the error that stopped the write is).
+    if (file_ != nullptr) (void)env_->RemoveFile(storage::TemporaryFileName(path_));
   }
 
  private:

@@ -4,14 +4,14 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
-#include <filesystem>
-#include <fstream>
+#include <sstream>
 #include <limits>
 #include <string_view>
 #include <utility>
 
 #include "core/angle.h"
 #include "core/check.h"
+#include "storage/env.h"
 #include "storage/tum_reader.h"
 
 namespace graphslam::tools {
@@ -55,14 +55,6 @@ std::string Where(const std::string& path, int64_t line) {
   return path + ":" + std::to_string(line) + ": ";
 }
 
-Status OpenForReading(const std::string& path, std::ifstream* in) {
-  std::error_code error;
-  if (!std::filesystem::exists(path, error)) return Status::NotFound(path + ": no such file");
-  in->open(path);
-  if (!in->is_open()) return Status::IOError(path + ": cannot open for reading");
-  return Status::Ok();
-}
-
 // [begin, end) of each run: a stamp below its predecessor starts a new one.
 std::vector<std::pair<size_t, size_t>> SplitRuns(const std::vector<StampedPose2>& poses) {
   std::vector<std::pair<size_t, size_t>> runs;
@@ -102,8 +94,10 @@ StatusOr<std::vector<StampedPose2>> ReadTum(const std::string& path) {
 
 StatusOr<std::map<int64_t, core::Point2>> ReadFeaturesCsv(const std::string& path,
                                                           std::vector<int64_t>* excluded_ids) {
-  std::ifstream in;
-  GS_RETURN_IF_ERROR(OpenForReading(path, &in));
+  GS_ASSIGN_OR_RETURN(const std::string text,
+                      storage::ReadFileToString(storage::Env::Default(), path,
+                                                path + ": no such file"));
+  std::istringstream in(text);
   std::map<int64_t, core::Point2> features;
   std::map<int64_t, int64_t> first_line;  // id -> line, for duplicate messages
   if (excluded_ids != nullptr) excluded_ids->clear();

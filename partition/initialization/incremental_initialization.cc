@@ -318,6 +318,138 @@ void PlaceNewFeatures(const core::Problem2d& problem, const Indices& index, int3
   }
 }
 
+// A stage that did not converge within its iterations and lowered chi2 more
+// than kFarStartChi2Ratio-fold on the way (header: redo): its new poses
+// started far outside the basin, so it is discarded and done again with half
+// of them, unless it already has no more than `floor_new_poses`.
+bool IsFarStart(const IncrementalInitializationOptions& options,
+                const core::SolverSummary& solver, int64_t new_poses, int64_t floor_new_poses) {
+  return options.max_iterations_per_stage > 0 && !solver.converged &&
+         solver.initial_chi2 > kFarStartChi2Ratio * solver.final_chi2 &&
+         new_poses > floor_new_poses;
+}
+
+// One stage's sub-problem, its unknown poses and what its solve did.
+struct StageSolve {
+  std::vector<int32_t> unknown;
+  core::Problem2d sub;
+  core::SolverSummary solver;
+  IncrementalStageSummary summary;
+};
+
+// The stages of InitializeIncrementally over a working copy of the estimate:
+// *problem changes only in Finish, when every stage succeeded.
+class IncrementalStages {
+ public:
+  IncrementalStages(const IncrementalInitializationOptions& options,
+                    const core::SolverOptions& base, const core::Problem2d& problem)
+      : options_(options),
+        problem_(problem),
+        index_(BuildIndices(problem)),
+        adjacency_(internal::OdometryAdjacency(problem)),
+        builder_(problem, index_),
+        stage_options_(internal::StageSolverOptions(base, options.max_iterations_per_stage)),
+        poses_(problem.poses),
+        features_(problem.features),
+        placed_(problem.poses.size(), 0),
+        feature_placed_(problem.features.size(), 0),
+        mark_(problem.poses.size(), 0) {
+    // Anchors stay put.
+    for (size_t p = 0; p < placed_.size(); ++p) placed_[p] = problem.pose_fixed[p] != 0;
+    chunking_.max_observations_per_chunk = options.max_observations_per_chunk;
+  }
+
+  // Start values of the new poses [previous, t) (the input guess for the
+  // first stage, chained along the odometry after it, then put onto their
+  // GPS fixes) and of the features they see first.
+  void Place(int32_t previous, int32_t t) {
+    if (previous == 0) {
+      for (int32_t p = 0; p < t; ++p) placed_[p] = 1;  // the input guess
+    } else {
+      internal::PlacePoses(problem_, adjacency_, previous, t, &poses_, &placed_);
+    }
+    AlignNewPosesToGps(problem_, index_, previous, t, &poses_);
+    PlaceNewFeatures(problem_, index_, previous, t, poses_, &feature_placed_, &features_,
+                     &new_features_);
+  }
+
+  // Builds and solves the stage W_k of the poses [0, t) whose new ones start
+  // at `new_begin`: all of them when `full`, else the window and the old ends
+  // of the new loop closures. `stage` numbers it in error messages.
+  Status Solve(int32_t attempt, int32_t new_begin, int32_t t, bool full, size_t stage,
+               StageSolve* out) {
+    const int32_t window_begin =
+        full ? 0 : static_cast<int32_t>(std::max<int64_t>(0, t - options_.window_poses));
+    out->unknown = UnknownPoses(options_, index_, new_begin, window_begin, t, &mark_);
+    IncrementalStageSummary& summary = out->summary;
+    out->sub = builder_.Build(attempt, out->unknown, window_begin, t,
+                              options_.max_prior_observations_per_feature, poses_, features_,
+                              &summary.constraints);
+    summary.poses = t;
+    summary.full = full;
+    summary.solved_poses = static_cast<int64_t>(out->unknown.size());
+    summary.fixed_poses = builder_.fixed_poses();
+    summary.features = out->sub.num_features();
+    summary.observations = static_cast<int64_t>(out->sub.observations.size());
+    Status status = SolveWithoutSingletons(stage_options_, chunking_, &out->sub, &out->solver);
+    if (!status.ok())
+      return status.WithContext("incremental initialization stage " + std::to_string(stage) +
+                                " (" + std::to_string(t) + " poses)");
+    summary.initial_chi2 = out->solver.initial_chi2;
+    summary.final_chi2 = out->solver.final_chi2;
+    summary.iterations = out->solver.iterations;
+    summary.termination = out->solver.termination;
+    return Status::Ok();
+  }
+
+  // Discards a stage: its new poses [new_begin, t) and features unplaced.
+  void Undo(int32_t new_begin, int32_t t) {
+    for (int32_t p = new_begin; p < t; ++p) {
+      poses_[p] = problem_.poses[p];
+      placed_[p] = problem_.pose_fixed[p] != 0;
+    }
+    for (int32_t f : new_features_) feature_placed_[f] = 0;
+  }
+
+  // Keeps a stage: its solved poses and features become the estimate.
+  void Keep(const StageSolve& stage) {
+    for (int32_t p : stage.unknown) poses_[p] = stage.sub.poses[builder_.local_pose(p)];
+    const std::vector<int32_t>& sub_features = builder_.sub_features();
+    for (size_t j = 0; j < sub_features.size(); ++j)
+      features_[sub_features[j]] = stage.sub.features[j];
+  }
+
+  void Finish(core::Problem2d* problem) {
+    problem->poses = std::move(poses_);
+    problem->features = std::move(features_);
+    for (size_t f = 0; f < feature_placed_.size(); ++f)
+      if (feature_placed_[f]) problem->feature_initialized[f] = 1;
+  }
+
+ private:
+  const IncrementalInitializationOptions& options_;
+  const core::Problem2d& problem_;
+  const Indices index_;
+  const std::vector<std::vector<internal::PoseEdge>> adjacency_;
+  StageBuilder builder_;
+  const core::SolverOptions stage_options_;
+  ChunkingOptions chunking_;
+  std::vector<Pose2> poses_;
+  std::vector<Point2> features_;
+  std::vector<uint8_t> placed_;
+  std::vector<uint8_t> feature_placed_;
+  std::vector<int32_t> new_features_;  // placed by the last Place
+  std::vector<uint8_t> mark_;          // UnknownPoses' scratch
+};
+
+void LogStage(size_t stage, const IncrementalStageSummary& s) {
+  GS_VLOG(1, "incremental initialization: stage %zu, %d poses (%lld solved, %lld fixed), "
+             "%lld features, chi2 %.6g -> %.6g in %d iterations (%s), %.3f s",
+          stage, static_cast<int>(s.poses), static_cast<long long>(s.solved_poses),
+          static_cast<long long>(s.fixed_poses), static_cast<long long>(s.features),
+          s.initial_chi2, s.final_chi2, s.iterations, s.termination.c_str(), s.seconds);
+}
+
 }  // namespace
 
 Status IncrementalInitializationOptions::Validate() const {
@@ -364,23 +496,7 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
   const int32_t n = problem->num_poses();
   if (n == 0) return Status::Ok();
 
-  // Working copies: *problem changes only at the end, when every stage succeeded.
-  std::vector<Pose2> poses = problem->poses;
-  std::vector<Point2> features = problem->features;
-  std::vector<uint8_t> placed(n, 0);
-  for (int32_t p = 0; p < n; ++p) placed[p] = problem->pose_fixed[p] != 0;  // anchors stay put
-  std::vector<uint8_t> feature_placed(problem->features.size(), 0);
-  std::vector<uint8_t> mark(n, 0);
-
-  const Indices index = BuildIndices(*problem);
-  const std::vector<std::vector<internal::PoseEdge>> adjacency = internal::OdometryAdjacency(*problem);
-  StageBuilder builder(*problem, index);
-
-  ChunkingOptions chunking;
-  chunking.max_observations_per_chunk = options.max_observations_per_chunk;
-  const core::SolverOptions stage_options =
-      internal::StageSolverOptions(base, options.max_iterations_per_stage);
-
+  IncrementalStages stages(options, base, *problem);
   int64_t allowed = options.max_new_poses;
   // The next prefix length solved whole (header: full stages).
   double next_full = options.full_stage_growth > 0.0
@@ -391,66 +507,27 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
   int32_t t = static_cast<int32_t>(std::min<int64_t>(options.first_poses, n));
   bool t_chosen = true;  // t set by the first stage or by a redo
   bool redone = false;   // the stage kept last was a redo
-  std::vector<int32_t> new_features;
   for (int32_t attempt = 0;; ++attempt) {
     if (!t_chosen) t = internal::NextStageSize(options.growth, allowed, previous, n);
     t_chosen = false;
     const Clock::time_point stage_start = Clock::now();
-    if (previous == 0) {
-      for (int32_t p = 0; p < t; ++p) placed[p] = 1;  // the input guess
-    } else {
-      internal::PlacePoses(*problem, adjacency, previous, t, &poses, &placed);
-    }
-    AlignNewPosesToGps(*problem, index, previous, t, &poses);
-    PlaceNewFeatures(*problem, index, previous, t, poses, &feature_placed, &features,
-                     &new_features);
+    stages.Place(previous, t);
     const int32_t new_begin = previous;
-
     // A full stage with fewer than a quarter of its prefix still to come is
     // left to the caller's full solve, which does the same job a few poses
     // later (header: full stages).
     const bool full = static_cast<double>(t) >= next_full && 4 * (int64_t{n} - t) > t;
-    const int32_t window_begin =
-        full ? 0 : static_cast<int32_t>(std::max<int64_t>(0, t - options.window_poses));
-    const std::vector<int32_t> unknown =
-        UnknownPoses(options, index, new_begin, window_begin, t, &mark);
-    IncrementalStageSummary stage_summary;
-    core::Problem2d sub =
-        builder.Build(attempt, unknown, window_begin, t, options.max_prior_observations_per_feature,
-                      poses, features, &stage_summary.constraints);
-    stage_summary.poses = t;
-    stage_summary.full = full;
-    stage_summary.solved_poses = static_cast<int64_t>(unknown.size());
-    stage_summary.fixed_poses = builder.fixed_poses();
-    stage_summary.features = sub.num_features();
-    stage_summary.observations = static_cast<int64_t>(sub.observations.size());
-    core::SolverSummary solver_summary;
-    Status status = SolveWithoutSingletons(stage_options, chunking, &sub, &solver_summary);
-    if (!status.ok())
-      return status.WithContext("incremental initialization stage " +
-                                std::to_string(summary->stages.size()) + " (" + std::to_string(t) +
-                                " poses)");
-    stage_summary.initial_chi2 = solver_summary.initial_chi2;
-    stage_summary.final_chi2 = solver_summary.final_chi2;
-    stage_summary.iterations = solver_summary.iterations;
-    stage_summary.termination = solver_summary.termination;
-    stage_summary.seconds = SecondsSince(stage_start);
-    // A redo (header): the stage did not converge within its iterations and
-    // lowered chi2 more than tenfold on the way, so its new poses started far
-    // outside the basin; it is discarded and done again with half of them.
-    if (options.max_iterations_per_stage > 0 && !solver_summary.converged &&
-        solver_summary.initial_chi2 > kFarStartChi2Ratio * solver_summary.final_chi2 &&
-        t - new_begin > floor_new_poses) {
+    StageSolve stage;
+    GS_RETURN_IF_ERROR(
+        stages.Solve(attempt, new_begin, t, full, summary->stages.size(), &stage));
+    stage.summary.seconds = SecondsSince(stage_start);
+    if (IsFarStart(options, stage.solver, t - new_begin, floor_new_poses)) {
+      allowed = std::max<int64_t>(floor_new_poses, (t - new_begin) / 2);
       GS_VLOG(1, "incremental initialization: %d poses not converged in %d iterations "
                  "(chi2 %.6g -> %.6g): redone with %lld new poses",
-              t, stage_summary.iterations, stage_summary.initial_chi2, stage_summary.final_chi2,
-              static_cast<long long>(std::max<int64_t>(floor_new_poses, (t - new_begin) / 2)));
-      for (int32_t p = new_begin; p < t; ++p) {
-        poses[p] = problem->poses[p];
-        placed[p] = problem->pose_fixed[p] != 0;
-      }
-      for (int32_t f : new_features) feature_placed[f] = 0;
-      allowed = std::max<int64_t>(floor_new_poses, (t - new_begin) / 2);
+              t, stage.summary.iterations, stage.summary.initial_chi2, stage.summary.final_chi2,
+              static_cast<long long>(allowed));
+      stages.Undo(new_begin, t);
       t = static_cast<int32_t>(new_begin + allowed);
       t_chosen = true;
       redone = true;
@@ -459,33 +536,21 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
     }
     previous = t;
     while (static_cast<double>(t) >= next_full) next_full *= options.full_stage_growth;
-    for (int32_t p : unknown) poses[p] = sub.poses[builder.local_pose(p)];
-    const std::vector<int32_t>& sub_features = builder.sub_features();
-    for (size_t j = 0; j < sub_features.size(); ++j) features[sub_features[j]] = sub.features[j];
-    GS_VLOG(1, "incremental initialization: stage %zu, %d poses (%lld solved, %lld fixed), "
-               "%lld features, chi2 %.6g -> %.6g in %d iterations (%s), %.3f s",
-            summary->stages.size(), t, static_cast<long long>(stage_summary.solved_poses),
-            static_cast<long long>(stage_summary.fixed_poses),
-            static_cast<long long>(stage_summary.features), stage_summary.initial_chi2,
-            stage_summary.final_chi2, stage_summary.iterations, stage_summary.termination.c_str(),
-            stage_summary.seconds);
-    summary->stages.push_back(std::move(stage_summary));
+    stages.Keep(stage);
+    LogStage(summary->stages.size(), stage.summary);
+    summary->stages.push_back(std::move(stage.summary));
     if (base.progress) base.progress("incremental initialization", t, n);
     if (t == n) break;
     if (options.max_iterations_per_stage > 0 && !redone) {
       // Unsettled (at the floor, so not redone): fewer new poses next time.
       // After a redo the next stage adds as many as the redo did: twice that
       // many just failed.
-      allowed = internal::NextAllowedNewPoses(solver_summary, allowed, options.min_new_poses,
+      allowed = internal::NextAllowedNewPoses(stage.solver, allowed, options.min_new_poses,
                                               options.max_new_poses);
     }
     redone = false;
   }
-
-  problem->poses = std::move(poses);
-  problem->features = std::move(features);
-  for (size_t f = 0; f < feature_placed.size(); ++f)
-    if (feature_placed[f]) problem->feature_initialized[f] = 1;
+  stages.Finish(problem);
   summary->seconds = SecondsSince(start);
   return Status::Ok();
 }

@@ -160,6 +160,77 @@ TEST(PosixEnv, CreatesListsAndRemovesFolders) {
   std::filesystem::remove_all(dir);
 }
 
+// Flush hands the buffer to the kernel: another reader sees the bytes before
+// Close (a log read while it is written); after Close it is an error.
+TEST(PosixEnv, FlushMakesBufferedBytesVisible) {
+  const std::string dir = TempDir("flush");
+  const std::string path = dir + "/log.jsonl";
+  auto file = Env::Default()->NewAppendableFile(path);
+  ASSERT_TRUE(file.ok());
+  ASSERT_TRUE((*file)->Append("line 1\n").ok());
+  EXPECT_EQ(Slurp(path), "");  // still in the 64 KiB buffer
+  ASSERT_TRUE((*file)->Flush().ok());
+  EXPECT_EQ(Slurp(path), "line 1\n");
+  ASSERT_TRUE((*file)->Close().ok());
+  EXPECT_TRUE((*file)->Flush().IsIOError());
+  FaultInjectionEnv faulty(Env::Default());
+  auto wrapped = faulty.NewAppendableFile(path);
+  ASSERT_TRUE(wrapped.ok());
+  ASSERT_TRUE((*wrapped)->Append("line 2\n").ok());
+  ASSERT_TRUE((*wrapped)->Flush().ok());
+  EXPECT_EQ(Slurp(path), "line 1\nline 2\n");
+  ASSERT_TRUE((*wrapped)->Close().ok());
+  std::filesystem::remove_all(dir);
+}
+
+// ListTree: the regular files at any depth, relative and sorted; folders
+// (empty or not) are not listed; a missing folder is an IOError.
+TEST(PosixEnv, ListsTheFilesOfATree) {
+  const std::string dir = TempDir("tree");
+  Env* env = Env::Default();
+  ASSERT_TRUE(env->CreateDir(dir + "/t/sub/deeper").ok());
+  ASSERT_TRUE(env->CreateDir(dir + "/t/empty").ok());
+  for (const std::string name : {"z.bin", "sub/b.json", "sub/deeper/a.bin", "a.txt"}) {
+    auto file = env->NewWritableFile(dir + "/t/" + name);
+    ASSERT_TRUE(file.ok());
+    ASSERT_TRUE((*file)->Close().ok());
+  }
+  auto files = env->ListTree(dir + "/t");
+  ASSERT_TRUE(files.ok()) << files.status().ToString();
+  EXPECT_EQ(*files,
+            (std::vector<std::string>{"a.txt", "sub/b.json", "sub/deeper/a.bin", "z.bin"}));
+  FaultInjectionEnv faulty(env);
+  auto forwarded = faulty.ListTree(dir + "/t/sub");
+  ASSERT_TRUE(forwarded.ok());
+  EXPECT_EQ(*forwarded, (std::vector<std::string>{"b.json", "deeper/a.bin"}));
+
+  const auto missing = env->ListTree(dir + "/none");
+  EXPECT_TRUE(missing.status().IsIOError());
+  EXPECT_NE(missing.status().message().find("/none: list: "), std::string::npos)
+      << missing.status().ToString();
+  std::filesystem::remove_all(dir);
+}
+
+// The message of a missing file is the caller's; other errors are the Env's.
+TEST(PosixEnv, ReadsAFileWithTheCallersMessageWhenMissing) {
+  const std::string dir = TempDir("missing");
+  Env* env = Env::Default();
+  auto file = env->NewWritableFile(dir + "/present.json");
+  ASSERT_TRUE(file.ok());
+  ASSERT_TRUE((*file)->Append("{}\n").ok());
+  ASSERT_TRUE((*file)->Close().ok());
+  auto present = ReadFileToString(env, dir + "/present.json", "unused");
+  ASSERT_TRUE(present.ok());
+  EXPECT_EQ(*present, "{}\n");
+  const auto missing = ReadFileToString(env, dir + "/gone.json", "gone.json: missing (ran?)");
+  EXPECT_TRUE(missing.status().IsNotFound());
+  EXPECT_EQ(missing.status().message(), "gone.json: missing (ran?)");
+  const auto folder = ReadFileToString(env, dir, "unused");
+  EXPECT_FALSE(folder.ok());
+  EXPECT_FALSE(folder.status().IsNotFound());
+  std::filesystem::remove_all(dir);
+}
+
 TEST(PosixEnv, SizesAndTruncatesFiles) {
   const std::string dir = TempDir("truncate");
   const std::string path = dir + "/bucket.bin";

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -12,6 +11,7 @@
 #include "storage/atomic_file.h"
 #include "storage/checksummed_json.h"
 #include "storage/directory_lock.h"
+#include "storage/env.h"
 #include "storage/stop_point.h"
 #include "tools/benchmark/child_process.h"
 #include "tools/benchmark/scaling_report.h"
@@ -83,13 +83,15 @@ ScalingRow RowFromJson(const json& j) {
 
 // OUT may be written if it is missing, empty, or a benchmark folder.
 Status CheckOutputFolder(const std::string& output) {
-  std::error_code error;
-  if (!fs::exists(output, error)) return Status::Ok();
-  if (!fs::is_directory(output, error))
+  storage::Env* env = storage::Env::Default();
+  const storage::FileKind kind = env->KindOf(output);
+  if (kind == storage::FileKind::kMissing) return Status::Ok();
+  if (kind != storage::FileKind::kDirectory)
     return Status::InvalidArgument(output + ": not a folder; expected the benchmark's output folder");
-  if (fs::is_directory(fs::path(output) / kWorkFolder, error)) return Status::Ok();
-  for (const auto& entry : fs::directory_iterator(output, error)) {
-    const std::string name = entry.path().filename().string();
+  if (env->KindOf((fs::path(output) / kWorkFolder).string()) == storage::FileKind::kDirectory)
+    return Status::Ok();
+  GS_ASSIGN_OR_RETURN(const std::vector<std::string> names, env->ListDir(output));
+  for (const std::string& name : names) {
     if (name == storage::kDirectoryLockName) continue;
     return Status::InvalidArgument(output + ": folder is not empty and is not a graphslam "
                                    "benchmark folder (it holds '" + name +
@@ -100,9 +102,10 @@ Status CheckOutputFolder(const std::string& output) {
 
 StatusOr<std::vector<ScalingRow>> ReadState(const std::string& path,
                                             const ScalingProportion& proportion) {
-  std::ifstream in(path);
-  if (!in) return std::vector<ScalingRow>();
-  json state = json::parse(in, nullptr, /*allow_exceptions=*/false);
+  StatusOr<std::string> text = storage::ReadFileToString(storage::Env::Default(), path);
+  if (!text.ok() && text.status().IsNotFound()) return std::vector<ScalingRow>();
+  if (!text.ok()) return text.status();
+  json state = json::parse(*text, nullptr, /*allow_exceptions=*/false);
   if (state.is_discarded() || !state.is_object())
     return Status::Corruption(path + ": not a JSON object; expected the benchmark's state");
   GS_RETURN_IF_ERROR(storage::UnsealJson(&state, path));
@@ -131,11 +134,16 @@ Status WriteState(const std::string& path, const ScalingProportion& proportion,
   return storage::WriteStringAtomically(storage::Env::Default(), path, state.dump(1) + "\n");
 }
 
+// The bytes of the files below `dir`; what cannot be listed or sized counts 0.
 int64_t BytesUnder(const fs::path& dir) {
+  storage::Env* env = storage::Env::Default();
+  const StatusOr<std::vector<std::string>> files = env->ListTree(dir.string());
+  if (!files.ok()) return 0;
   int64_t bytes = 0;
-  std::error_code error;
-  for (const auto& entry : fs::recursive_directory_iterator(dir, error))
-    if (entry.is_regular_file(error)) bytes += static_cast<int64_t>(entry.file_size(error));
+  for (const std::string& file : *files) {
+    const StatusOr<uint64_t> size = env->FileSize((dir / file).string());
+    if (size.ok()) bytes += static_cast<int64_t>(*size);
+  }
   return bytes;
 }
 
@@ -158,10 +166,9 @@ StatusOr<ChildCost> Step(const std::string& step, int64_t features,
 StatusOr<ScalingRow> RunSize(const ScalingSweepOptions& options, int64_t features,
                              const fs::path& work) {
   const ScalingProportion& p = options.proportion;
-  std::error_code error;
-  fs::remove_all(work, error);  // an interrupted size starts over
-  fs::create_directories(work, error);
-  if (error) return Status::IOError(work.string() + ": create: " + error.message());
+  storage::Env* env = storage::Env::Default();
+  GS_RETURN_IF_ERROR(env->RemoveTree(work.string()));  // an interrupted size starts over
+  GS_RETURN_IF_ERROR(env->CreateDir(work.string()));
   ScalingRow row;
   row.features = features;
   row.poses = PosesFor(p, features);
@@ -183,7 +190,7 @@ StatusOr<ScalingRow> RunSize(const ScalingSweepOptions& options, int64_t feature
                            {"ingest", (sim / "log.graphslam.zst").string(), "-o", store.string(),
                             "-q"},
                            work, options.quiet));
-  fs::remove_all(sim, error);  // the store is the input from here on
+  (void)env->RemoveTree(sim.string());  // the store is the input from here on
   row.store_bytes = BytesUnder(store);
   std::vector<std::string> solve_args = {"solve", store.string(), "--report", report.string(),
                                          "-q"};
@@ -193,8 +200,9 @@ StatusOr<ScalingRow> RunSize(const ScalingSweepOptions& options, int64_t feature
   }
   GS_ASSIGN_OR_RETURN(const ChildCost solve,
                       Step("solve", features, solve_args, work, options.quiet));
-  std::ifstream in(report);
-  const json r = json::parse(in, nullptr, /*allow_exceptions=*/false);
+  const StatusOr<std::string> report_text = storage::ReadFileToString(env, report.string());
+  const json r = json::parse(report_text.ok() ? *report_text : std::string(), nullptr,
+                             /*allow_exceptions=*/false);
   if (r.is_discarded() || !r.is_object())
     return Status::Corruption(report.string() + ": the solve wrote no readable report");
   row.simulate_seconds = simulate.wall_seconds;
@@ -211,7 +219,7 @@ StatusOr<ScalingRow> RunSize(const ScalingSweepOptions& options, int64_t feature
   row.seconds_per_iteration = optimize / std::max(1, row.iterations);
   const double dof = r.value("residual_dimension", 0.0) - r.value("unknowns", 0.0);
   row.chi2_per_dof = dof > 0 ? r.value("final_chi2", 0.0) / dof : 0.0;
-  if (!options.keep_stores) fs::remove_all(store, error);
+  if (!options.keep_stores) (void)env->RemoveTree(store.string());
   return row;
 }
 
@@ -224,9 +232,8 @@ int64_t PosesFor(const ScalingProportion& proportion, int64_t features) {
 
 Status RunScalingSweep(const ScalingSweepOptions& options, std::vector<ScalingRow>* rows) {
   GS_RETURN_IF_ERROR(CheckOutputFolder(options.output));
-  std::error_code error;
-  fs::create_directories(fs::path(options.output) / kWorkFolder, error);
-  if (error) return Status::IOError(options.output + ": create: " + error.message());
+  GS_RETURN_IF_ERROR(
+      storage::Env::Default()->CreateDir((fs::path(options.output) / kWorkFolder).string()));
   GS_ASSIGN_OR_RETURN(storage::DirectoryLock lock,
                       storage::DirectoryLock::Acquire(options.output,
                                                       storage::DirectoryLock::Mode::kExclusive));
@@ -236,7 +243,8 @@ Status RunScalingSweep(const ScalingSweepOptions& options, std::vector<ScalingRo
   if (options.resume) {
     GS_ASSIGN_OR_RETURN(*rows, ReadState(state_path, options.proportion));
   } else {
-    fs::remove(state_path, error);
+    if (storage::Env::Default()->FileExists(state_path))
+      GS_RETURN_IF_ERROR(storage::Env::Default()->RemoveFile(state_path));
   }
   std::vector<int64_t> sizes = options.features;
   std::sort(sizes.begin(), sizes.end());

@@ -7,13 +7,13 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <numeric>
 #include <sstream>
 
 #include "core/range_bearing_model.h"
 #include "core/unidentified_features.h"
+#include "storage/env.h"
 #include "storage/format_detection.h"
 #include "tools/campus_simulator.h"
 #include "tools/ground_truth.h"
@@ -118,8 +118,8 @@ StatusOr<Block> ReadRun(const RunSpec& spec, bool repair_information) {
     if (!truth.ok()) return truth.status();
     block.ground_truth.push_back(std::move(truth).value());
   } else if (*format == storage::InputFormat::kMrclam &&
-             std::filesystem::exists(spec.path + "/Robot" + std::to_string(spec.robot) +
-                                     "_Groundtruth.dat")) {
+             storage::Env::Default()->FileExists(spec.path + "/Robot" +
+                                                 std::to_string(spec.robot) + "_Groundtruth.dat")) {
     // MRCLAM carries its Vicon ground truth: used for the report's errors.
     // (Its landmark survey is not: two of its labels are swapped, see
     // docs/benchmarks.md.)
@@ -158,8 +158,10 @@ bool ParseNumber(const std::string& text, double* value) {
 // Attaches the fixes of `gps` to the poses [first, first + count) of `problem`.
 Status AttachGps(const GpsSource& gps, int32_t first, int32_t count,
                  std::optional<std::array<double, 3>>* origin, core::Problem2d* problem) {
-  std::ifstream in(gps.path);
-  if (!in) return Status::NotFound(gps.path + ": cannot open the GPS file");
+  GS_ASSIGN_OR_RETURN(const std::string text,
+                      storage::ReadFileToString(storage::Env::Default(), gps.path,
+                                                gps.path + ": cannot open the GPS file"));
+  std::istringstream in(text);
   std::vector<std::pair<double, int32_t>> stamps;
   for (int32_t i = first; i < first + count; ++i) {
     const double t = problem->pose_stamps[static_cast<size_t>(i)];

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <utility>
 
+#include "storage/env.h"
 #include "storage/pcd_run_names.h"
 #include "storage/tum_writer.h"
 #include "tools/job/robot_sightings.h"
@@ -184,9 +185,7 @@ std::vector<double> ExportTimeOffsets(const JobData& data) {
 
 Status WriteRunTrajectories(const JobData& data, const std::string& output) {
   const fs::path folder = fs::path(output) / "trajectories";
-  std::error_code error;
-  fs::create_directories(folder, error);
-  if (error) return Status::IOError("cannot create " + folder.string() + ": " + error.message());
+  GS_RETURN_IF_ERROR(storage::Env::Default()->CreateDir(folder.string()));
   const std::vector<double> offsets = ExportTimeOffsets(data);
   for (size_t r = 0; r < data.runs.size(); ++r) {
     const RunInfo& run = data.runs[r];

@@ -2,10 +2,8 @@
 
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <set>
-#include <sstream>
 #include <vector>
 
 #include "storage/atomic_file.h"
@@ -91,12 +89,10 @@ int FirstRunOf(const JobData& data, const RunSpec& spec) {
 }
 
 Status CopyAtomically(const std::string& from, const std::string& to) {
-  std::ifstream in(from, std::ios::binary);
-  if (!in) return Status::NotFound(from + ": missing (did the map stage complete?)");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  if (in.bad()) return Status::IOError(from + ": read failed");
-  return storage::WriteStringAtomically(storage::Env::Default(), to, buffer.str());
+  GS_ASSIGN_OR_RETURN(const std::string bytes,
+                      storage::ReadFileToString(storage::Env::Default(), from,
+                                                from + ": missing (did the map stage complete?)"));
+  return storage::WriteStringAtomically(storage::Env::Default(), to, bytes);
 }
 
 }  // namespace
@@ -159,8 +155,8 @@ StatusOr<int64_t> WriteSimulatedScans(const JobSpec& spec, const JobData& data,
   for (const RunSpec& run : spec.runs) {
     if (TakesLogScans(run)) {
       // A restart of the stage rewrites the copy from nothing.
-      std::error_code error;
-      fs::remove_all(SimulatedScanDir(work, run.name), error);
+      GS_RETURN_IF_ERROR(
+          storage::Env::Default()->RemoveTree(SimulatedScanDir(work, run.name)));
       StatusOr<int64_t> copied =
           CopyLogScans(run.path, SimulatedScanDir(work, run.name), ScanChunkBytes(spec.memory_limit));
       if (!copied.ok()) return copied.status();
@@ -276,9 +272,9 @@ StatusOr<json> BuildJobMap(const JobSpec& spec, const JobData& data, const std::
       options.batch_points = std::clamp<int64_t>(spec.memory_limit / 2048, 20'000, 2'000'000);
     }
     // A restart after kill -9 starts from nothing: no stale spill or tiles.
-    std::error_code error;
-    fs::remove_all(fs::path(work) / (stem + ".spill"), error);
-    fs::remove_all(fs::path(work) / (stem + ".tiles"), error);
+    for (const char* scratch : {".spill", ".tiles"})
+      GS_RETURN_IF_ERROR(
+          storage::Env::Default()->RemoveTree((fs::path(work) / (stem + scratch)).string()));
     StatusOr<map::MapSummary> summary = map::BuildMap(options, source, &poses);
     if (!summary.ok()) return summary.status();
     if (display != nullptr) display->Finish();
@@ -328,11 +324,11 @@ StatusOr<json> BuildJobMap(const JobSpec& spec, const JobData& data, const std::
 StatusOr<std::vector<std::string>> ExportJobMap(const std::string& work, const std::string& output) {
   json summary;
   {
-    std::ifstream in((fs::path(work) / "map.json").string(), std::ios::binary);
-    if (!in) return Status::NotFound(work + "/map.json: missing (did the map stage complete?)");
-    std::stringstream buffer;
-    buffer << in.rdbuf();
-    summary = json::parse(buffer.str(), nullptr, false);
+    GS_ASSIGN_OR_RETURN(const std::string text,
+                        storage::ReadFileToString(
+                            storage::Env::Default(), (fs::path(work) / "map.json").string(),
+                            work + "/map.json: missing (did the map stage complete?)"));
+    summary = json::parse(text, nullptr, false);
     if (summary.is_discarded() || !summary.contains("files"))
       return Status::Corruption(work + "/map.json: not a map summary");
   }
@@ -341,13 +337,10 @@ StatusOr<std::vector<std::string>> ExportJobMap(const std::string& work, const s
     const std::string name = entry.get<std::string>();
     if (!name.empty() && name.back() == '/') {  // a tiled map
       const fs::path tiles = fs::path(work) / name;
-      std::error_code error;
-      fs::create_directories(fs::path(output) / name, error);
-      if (error) return Status::IOError(output + "/" + name + ": " + error.message());
-      std::vector<fs::path> names;
-      for (const auto& file : fs::directory_iterator(tiles)) names.push_back(file.path().filename());
-      std::sort(names.begin(), names.end());
-      for (const fs::path& file : names)
+      GS_RETURN_IF_ERROR(storage::Env::Default()->CreateDir((fs::path(output) / name).string()));
+      GS_ASSIGN_OR_RETURN(const std::vector<std::string> names,
+                          storage::Env::Default()->ListDir(tiles.string()));
+      for (const std::string& file : names)
         GS_RETURN_IF_ERROR(CopyAtomically((tiles / file).string(),
                                           (fs::path(output) / name / file).string()));
     } else {

@@ -8,11 +8,9 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "core/graphslam_solver.h"
 #include "core/initialization.h"
@@ -76,12 +74,14 @@ struct Context {
   }
 };
 
+bool Exists(const std::string& path) { return storage::Env::Default()->FileExists(path); }
+
 Status ReadJson(const std::string& path, json* out) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Status::NotFound(path + ": missing (was the stage before it completed?)");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  *out = json::parse(buffer.str(), nullptr, /*allow_exceptions=*/false);
+  GS_ASSIGN_OR_RETURN(const std::string text,
+                      storage::ReadFileToString(
+                          storage::Env::Default(), path,
+                          path + ": missing (was the stage before it completed?)"));
+  *out = json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (out->is_discarded()) return Status::Corruption(path + ": not valid JSON");
   return Status::Ok();
 }
@@ -138,7 +138,7 @@ json RunsToJson(const JobData& data) {
 std::string RunsFileFor(const Context& ctx, const std::string& problem_file) {
   if (problem_file == "ingested.graphslam" || problem_file == "initialized.graphslam" ||
       problem_file == "optimized_without_gps.graphslam" ||
-      !fs::exists(ctx.Work("associated_runs.json")))
+      !Exists(ctx.Work("associated_runs.json")))
     return "runs.json";
   return "associated_runs.json";
 }
@@ -424,7 +424,7 @@ Status SolveComponents(Context& ctx, bool checkpoints, JobData* data, json* comp
     const std::string input = ctx.spec.path + "#component" + std::to_string(c);
     core::SolverCheckpoint resume_state;
     json history = json::array();
-    if (checkpoints && fs::exists(checkpoint_path)) {
+    if (checkpoints && Exists(checkpoint_path)) {
       StatusOr<core::SolverCheckpoint> read = storage::ReadSolverCheckpoint(checkpoint_path, input);
       if (!read.ok()) return read.status();
       resume_state = std::move(read).value();
@@ -482,7 +482,7 @@ Status SolveComponents(Context& ctx, bool checkpoints, JobData* data, json* comp
 Status StageOptimize(Context& ctx) {
   JobData data;
   GS_RETURN_IF_ERROR(LoadData(ctx,
-                              fs::exists(ctx.Work("associated_runs.json")) ? "associated.graphslam"
+                              Exists(ctx.Work("associated_runs.json")) ? "associated.graphslam"
                                                                             : "initialized.graphslam",
                               &data));
   json components;
@@ -565,7 +565,7 @@ StatusOr<std::vector<uint8_t>> ExcludedFeatures(const Context& ctx, const json& 
 // tables, and its summary (null without a map).
 StatusOr<json> ExportMap(const Context& ctx, const JobData& data,
                          std::vector<std::string>* map_files) {
-  if (!ctx.spec.HasStage(Stage::kMap) || !fs::exists(ctx.Work("map.json"))) return json(nullptr);
+  if (!ctx.spec.HasStage(Stage::kMap) || !Exists(ctx.Work("map.json"))) return json(nullptr);
   json summary;
   GS_RETURN_IF_ERROR(ReadJson(ctx.Work("map.json"), &summary));
   GS_ASSIGN_OR_RETURN(*map_files, ExportJobMap(ctx.work, ctx.spec.output));
@@ -580,7 +580,7 @@ Status AddJobReport(Context& ctx, const JobData& data, const std::vector<uint8_t
                     const ErrorSums& sums, json* report) {
   if (json sightings = RobotSightingsReport(data); !sightings.is_null())
     (*report)["robot_sightings"] = sightings;
-  if (fs::exists(ctx.Work("associate.json"))) {
+  if (Exists(ctx.Work("associate.json"))) {
     json association;
     GS_RETURN_IF_ERROR(ReadJson(ctx.Work("associate.json"), &association));
     (*report)["association"] = association;
@@ -593,7 +593,7 @@ Status AddJobReport(Context& ctx, const JobData& data, const std::vector<uint8_t
   if (!data.ground_truth_features.empty())
     (*report)["features"] = FeatureErrorsReport(data, excluded);
   // GPS ablation (Figure 6).
-  if (fs::exists(ctx.Work("optimized_without_gps.graphslam"))) {
+  if (Exists(ctx.Work("optimized_without_gps.graphslam"))) {
     JobData without;
     GS_RETURN_IF_ERROR(LoadData(ctx, "optimized_without_gps.graphslam", &without));
     const ErrorSums w = SumRunErrors(without);
@@ -670,13 +670,6 @@ Status RunStage(Context& ctx, Stage stage, Clock::time_point start) {
   return Status::InvalidArgument("unknown stage");
 }
 
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
 // Removes the temporaries (storage/atomic_file.h "NAME.tmp-PID") a killed
 // job left: anywhere in OUTPUT/.job/ (ours), and in OUTPUT/ and
 // OUTPUT/trajectories/ only those of the files the export stage writes.
@@ -684,22 +677,20 @@ Status RemoveStaleJobTemporaries(const std::string& output, const std::string& w
   GS_RETURN_IF_ERROR(storage::RemoveStaleTemporaries(storage::Env::Default(), work, true));
   static const std::vector<std::string> kExports = {"features.csv", "graph.g2o", "report.json",
                                                     "report.html"};
+  storage::Env* env = storage::Env::Default();
   for (const fs::path& folder : {fs::path(output), fs::path(output) / "trajectories"}) {
-    std::error_code error;
-    if (!fs::is_directory(folder, error)) continue;
-    std::vector<fs::path> stale;
-    for (const auto& entry : fs::directory_iterator(folder, error)) {
-      const std::string name = entry.path().filename().string();
-      if (!entry.is_regular_file(error) || !storage::IsTemporaryFileName(name)) continue;
+    if (env->KindOf(folder.string()) != storage::FileKind::kDirectory) continue;
+    GS_ASSIGN_OR_RETURN(const std::vector<std::string> names, env->ListDir(folder.string()));
+    for (const std::string& name : names) {
+      const std::string path = (folder / name).string();
+      if (!storage::IsTemporaryFileName(name) || env->KindOf(path) != storage::FileKind::kRegular)
+        continue;
       const std::string base = name.substr(0, name.rfind(".tmp-"));
       const bool ours = folder.filename() == "trajectories"
                             ? base.size() > 4 && base.compare(base.size() - 4, 4, ".tum") == 0
                             : std::find(kExports.begin(), kExports.end(), base) != kExports.end();
-      if (ours) stale.push_back(entry.path());
+      if (ours) GS_RETURN_IF_ERROR(env->RemoveFile(path));
     }
-    if (error) return Status::IOError(folder.string() + ": list: " + error.message());
-    for (const fs::path& path : stale)
-      GS_RETURN_IF_ERROR(storage::Env::Default()->RemoveFile(path.string()));
   }
   return Status::Ok();
 }
@@ -720,7 +711,9 @@ Status RunJob(const RunJobOptions& options) {
                                    ": no 'output' and no -o; expected output: <folder> in the job "
                                    "file or graphslam run -o DIR");
   ctx.quiet = options.quiet;
-  ctx.fingerprint = Fingerprint(ReadAll(options.job_path));
+  GS_ASSIGN_OR_RETURN(const std::string job_text,
+                      storage::ReadFileToString(storage::Env::Default(), options.job_path));
+  ctx.fingerprint = Fingerprint(job_text);
   ctx.work = (fs::path(ctx.spec.output) / ".job").string();
   // Stages need their predecessors' results: ingest -> initialize -> optimize
   // -> export form a chain, so a later one pulls in the earlier ones;
@@ -742,9 +735,7 @@ Status RunJob(const RunJobOptions& options) {
       stages.push_back(stage);
   ctx.spec.stages = stages;
 
-  std::error_code error;
-  fs::create_directories(ctx.spec.output, error);
-  if (error) return Status::IOError("cannot create " + ctx.spec.output + ": " + error.message());
+  GS_RETURN_IF_ERROR(storage::Env::Default()->CreateDir(ctx.spec.output));
   // One job per output folder (storage/directory_lock.h): a second one fails
   // here, naming the holder's pid, before it touches anything.
   GS_ASSIGN_OR_RETURN(storage::DirectoryLock lock,
@@ -753,7 +744,7 @@ Status RunJob(const RunJobOptions& options) {
   // Under the lock, temporaries of our own files are those a killed job left.
   GS_RETURN_IF_ERROR(RemoveStaleJobTemporaries(ctx.spec.output, ctx.work));
   const std::string state_path = ctx.Work("state.json");
-  if (options.resume && fs::exists(state_path)) {
+  if (options.resume && Exists(state_path)) {
     StatusOr<JobState> state = ReadJobState(state_path);
     if (!state.ok()) return state.status();
     if (state->job_fingerprint != ctx.fingerprint)
@@ -766,12 +757,10 @@ Status RunJob(const RunJobOptions& options) {
   } else {
     // A fresh start: stage results of an earlier job go, its final outputs stay
     // until this job's export replaces them.
-    fs::remove_all(ctx.work, error);
-    if (error) return Status::IOError("cannot clear " + ctx.work + ": " + error.message());
+    GS_RETURN_IF_ERROR(storage::Env::Default()->RemoveTree(ctx.work));
     ctx.state.job_fingerprint = ctx.fingerprint;
   }
-  fs::create_directories(ctx.work, error);
-  if (error) return Status::IOError("cannot create " + ctx.work + ": " + error.message());
+  GS_RETURN_IF_ERROR(storage::Env::Default()->CreateDir(ctx.work));
   GS_RETURN_IF_ERROR(WriteJobState(state_path, ctx.state));
   GS_RETURN_IF_ERROR(ctx.log.Open(ctx.Output("log.jsonl")));
   ctx.display = std::make_unique<ProgressDisplay>(!options.quiet);

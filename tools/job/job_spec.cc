@@ -5,10 +5,11 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
+
+#include "storage/env.h"
 
 namespace graphslam::tools::job {
 namespace {
@@ -489,14 +490,10 @@ StatusOr<JobSpec> ParseJobSpec(const std::string& text, const std::string& path)
 }
 
 StatusOr<JobSpec> ReadJobSpec(const std::string& path) {
-  std::error_code error;
-  if (!fs::exists(path, error)) return Status::NotFound(path + ": no such job file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Status::IOError(path + ": cannot open");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  if (in.bad()) return Status::IOError(path + ": read failed");
-  return ParseJobSpec(buffer.str(), path);
+  GS_ASSIGN_OR_RETURN(const std::string text,
+                      storage::ReadFileToString(storage::Env::Default(), path,
+                                                path + ": no such job file"));
+  return ParseJobSpec(text, path);
 }
 
 }  // namespace graphslam::tools::job

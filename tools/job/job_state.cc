@@ -1,11 +1,10 @@
 #include "tools/job/job_state.h"
 
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <ctime>
-#include <fstream>
 #include <cstdlib>
-#include <sstream>
 #include <vector>
 
 #include "storage/atomic_file.h"
@@ -50,50 +49,44 @@ std::string StateChecksum(nlohmann::json json) {
   return Hex32(storage::crc32c::Value(json.dump()));
 }
 
-StatusOr<FileDigest> DigestFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Status::IOError(path.string() + ": cannot open to check its checksum");
+StatusOr<FileDigest> DigestFile(const std::string& path) {
+  StatusOr<std::unique_ptr<storage::ReadableFile>> file =
+      storage::Env::Default()->NewReadableFile(path);
+  if (!file.ok()) return file.status().WithContext("cannot open to check its checksum");
   FileDigest digest;
   std::vector<char> buffer(size_t{1} << 20);
-  while (in) {
-    in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
-    const auto got = static_cast<size_t>(in.gcount());
+  for (;;) {
+    GS_ASSIGN_OR_RETURN(const size_t got, (*file)->Read(buffer.size(), buffer.data()));
     digest.crc32c = storage::crc32c::Extend(digest.crc32c, buffer.data(), got);
     digest.bytes += static_cast<int64_t>(got);
+    if (got < buffer.size()) return digest;
   }
-  if (in.bad()) return Status::IOError(path.string() + ": read failed");
-  return digest;
 }
 
 }  // namespace
 
 StatusOr<std::map<std::string, FileDigest>> DigestJobFiles(const std::string& work) {
   std::map<std::string, FileDigest> files;
-  std::error_code error;
-  fs::recursive_directory_iterator it(work, error), end;
-  if (error) return Status::IOError("cannot list " + work + ": " + error.message());
-  for (; it != end; it.increment(error)) {
-    if (error) return Status::IOError("cannot list " + work + ": " + error.message());
-    if (!it->is_regular_file(error)) continue;
-    const std::string relative = fs::relative(it->path(), work, error).generic_string();
+  GS_ASSIGN_OR_RETURN(const std::vector<std::string> relatives,
+                      storage::Env::Default()->ListTree(work));
+  for (const std::string& relative : relatives) {
     if (relative == kStateFile || relative.find(".tmp-") != std::string::npos) continue;
-    GS_ASSIGN_OR_RETURN(files[relative], DigestFile(it->path()));
+    GS_ASSIGN_OR_RETURN(files[relative], DigestFile((fs::path(work) / relative).string()));
   }
   return files;
 }
 
 Status VerifyJobFiles(const std::string& work, const JobState& state) {
   for (const auto& [relative, expected] : state.files) {
-    const fs::path path = fs::path(work) / relative;
-    std::error_code error;
-    if (!fs::is_regular_file(path, error))
-      return Status::Corruption(path.string() +
+    const std::string path = (fs::path(work) / relative).string();
+    if (storage::Env::Default()->KindOf(path) != storage::FileKind::kRegular)
+      return Status::Corruption(path +
                                 ": missing, but state.json lists it as the result of a completed "
                                 "stage; run without --resume to start over");
     GS_ASSIGN_OR_RETURN(const FileDigest actual, DigestFile(path));
     if (!(actual == expected))
       return Status::Corruption(
-          path.string() + ": changed after the stage that wrote it completed (" +
+          path + ": changed after the stage that wrote it completed (" +
           std::to_string(actual.bytes) + " bytes, crc32c " + Hex32(actual.crc32c) +
           "; state.json records " + std::to_string(expected.bytes) + " bytes, crc32c " +
           Hex32(expected.crc32c) + "); run without --resume to start over");
@@ -102,11 +95,10 @@ Status VerifyJobFiles(const std::string& work, const JobState& state) {
 }
 
 StatusOr<JobState> ReadJobState(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Status::NotFound(path + ": cannot open the job state");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  nlohmann::json json = nlohmann::json::parse(buffer.str(), nullptr, /*allow_exceptions=*/false);
+  GS_ASSIGN_OR_RETURN(const std::string text,
+                      storage::ReadFileToString(storage::Env::Default(), path,
+                                                path + ": cannot open the job state"));
+  nlohmann::json json = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (json.is_discarded() || !json.is_object())
     return Status::Corruption(path + ": not a JSON object; expected a job state");
   if (json.value("format", "") != kJobStateFormat)
@@ -178,15 +170,13 @@ Status WriteJobState(const std::string& path, const JobState& state) {
   return storage::WriteStringAtomically(storage::Env::Default(), path, json.dump(2) + "\n");
 }
 
-JobLog::~JobLog() {
-  if (file_ != nullptr) std::fclose(file_);
-}
-
 Status JobLog::Open(const std::string& path) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (file_ != nullptr) std::fclose(file_);
-  file_ = std::fopen(path.c_str(), "a");
-  if (file_ == nullptr) return Status::IOError("cannot open the job log " + path);
+  file_.reset();
+  StatusOr<std::unique_ptr<storage::WritableFile>> file =
+      storage::Env::Default()->NewAppendableFile(path);
+  if (!file.ok()) return file.status().WithContext("cannot open the job log");
+  file_ = std::move(file).value();
   return Status::Ok();
 }
 
@@ -204,9 +194,7 @@ void JobLog::Write(nlohmann::json event) {
   line.update(event);
   std::lock_guard<std::mutex> lock(mutex_);
   if (file_ == nullptr) return;
-  const std::string text = line.dump() + "\n";
-  std::fwrite(text.data(), 1, text.size(), file_);
-  std::fflush(file_);
+  if (file_->Append(line.dump() + "\n").ok()) (void)file_->Flush();
 }
 
 }  // namespace graphslam::tools::job

@@ -26,14 +26,15 @@
 #pragma once
 
 #include <cstdint>
-#include <cstdio>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "core/status.h"
+#include "storage/env.h"
 
 namespace graphslam::tools::job {
 
@@ -80,7 +81,6 @@ class JobLog {
   JobLog() = default;
   JobLog(const JobLog&) = delete;
   JobLog& operator=(const JobLog&) = delete;
-  ~JobLog();
   // Opens `path` for appending (created if missing).
   [[nodiscard]] Status Open(const std::string& path);
   // Adds "time" and writes one line; write errors are ignored (logging must
@@ -89,7 +89,7 @@ class JobLog {
 
  private:
   std::mutex mutex_;
-  std::FILE* file_ = nullptr;
+  std::unique_ptr<storage::WritableFile> file_;
 };
 
 }  // namespace graphslam::tools::job

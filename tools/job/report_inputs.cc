@@ -2,6 +2,8 @@
 
 #include <filesystem>
 
+#include "storage/env.h"
+
 namespace graphslam::tools::job {
 
 StatusOr<ReportInputs> CollectReportInputs(const JobData& data,
@@ -9,6 +11,7 @@ StatusOr<ReportInputs> CollectReportInputs(const JobData& data,
                                            const nlohmann::json& report,
                                            const std::string& output_dir) {
   namespace fs = std::filesystem;
+  storage::Env* env = storage::Env::Default();
   ReportInputs inputs;
   for (const RunInfo& run : data.runs) {
     ReportRun r;
@@ -21,7 +24,7 @@ StatusOr<ReportInputs> CollectReportInputs(const JobData& data,
     // (a synthetic run's times are shifted to follow the previous run's).
     const fs::path truth_file =
         fs::path(output_dir) / "trajectories" / (run.name + "_groundtruth.tum");
-    if (data.ground_truth.contains(run.name) && fs::exists(truth_file)) {
+    if (data.ground_truth.contains(run.name) && env->FileExists(truth_file.string())) {
       StatusOr<std::vector<StampedPose2>> truth = ReadTum(truth_file.string());
       if (!truth.ok()) return truth.status();
       r.ground_truth = std::move(truth).value();
@@ -35,7 +38,8 @@ StatusOr<ReportInputs> CollectReportInputs(const JobData& data,
   if (report.contains("map"))
     for (const nlohmann::json& file : report["map"].value("files", nlohmann::json::array())) {
       const std::string name = file.get<std::string>();
-      if (name.size() > 4 && name.ends_with(".pcd") && fs::exists(fs::path(output_dir) / name))
+      if (name.size() > 4 && name.ends_with(".pcd") &&
+          env->FileExists((fs::path(output_dir) / name).string()))
         inputs.map_pcds.push_back((fs::path(output_dir) / name).string());
     }
   return inputs;

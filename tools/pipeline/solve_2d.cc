@@ -13,7 +13,6 @@
 //   WriteOutputs     -o, --tum, --features-csv, --report, the summary
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
 #include <limits>
 #include <memory>
 #include <string_view>
@@ -35,6 +34,7 @@
 #include "storage/candidate_file.h"
 #include "storage/chunk_store.h"
 #include "storage/directory_lock.h"
+#include "storage/env.h"
 #include "storage/feature_id_file.h"
 #include "storage/features_csv_writer.h"
 #include "storage/g2o_writer.h"
@@ -326,7 +326,8 @@ Status ConfigureSolver(const SolveRun& run, Solve2d& s) {
   if (s.checkpoint_path.empty() && s.store && !options.associate)
     s.checkpoint_path = s.store_path + "/checkpoint.json";
   // Under mpirun rank 0 reads it and broadcasts it (docs/distributed.md).
-  s.resuming = run.root && options.resume && std::filesystem::exists(s.checkpoint_path);
+  s.resuming =
+      run.root && options.resume && storage::Env::Default()->FileExists(s.checkpoint_path);
   if (s.resuming) {
     GS_ASSIGN_OR_RETURN(s.resume_state,
                         storage::ReadSolverCheckpoint(s.checkpoint_path, options.input));

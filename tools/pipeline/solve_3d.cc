@@ -4,7 +4,6 @@
 // the same outputs and report keys as the 2-D steps (-o in the 3-D g2o
 // records, --tum, --report). --features-csv and --initialization apply to
 // 2-D only.
-#include <filesystem>
 #include <memory>
 
 #include <nlohmann/json.hpp>
@@ -13,6 +12,7 @@
 #include "core/initialization_3d.h"
 #include "core/logging.h"
 #include "partition/ingest/in_memory_chunk_source.h"
+#include "storage/env.h"
 #include "storage/g2o_3d_writer.h"
 #include "storage/solver_checkpoint.h"
 #include "tools/exit_codes.h"
@@ -36,7 +36,7 @@ struct Solve3d {
 // Checkpoints: one durable file replaced after every iteration; --resume
 // continues from it, bit-identical to an uninterrupted solve.
 Status AttachCheckpoints(const SolveCommandOptions& options, Solve3d& s) {
-  if (options.resume && std::filesystem::exists(options.checkpoint)) {
+  if (options.resume && storage::Env::Default()->FileExists(options.checkpoint)) {
     GS_ASSIGN_OR_RETURN(s.resume_state,
                         storage::ReadSolverCheckpoint3d(options.checkpoint, options.input));
     s.checkpointing.resume_from = &s.resume_state;
