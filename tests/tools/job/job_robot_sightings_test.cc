@@ -172,7 +172,9 @@ TEST_F(JobRobotSightings, SightingsBetweenTheObservedRobotsPosesAreInterpolated)
   robots[1].v = 0.2;
   robots[1].omega = -0.1;
   WriteDataset(dir_ / "sparse", robots, /*robot2_stride=*/2);
-  const Status status = Run("output: out\nsolver: {initialization: odometry}\n"
+  // The default (incremental) initialization: its stages take the
+  // three-pose constraints too (partition/initialization/incremental_initialization.h).
+  const Status status = Run("output: out\n"
                             "runs:\n"
                             "  - {name: r1, format: mrclam, robot: 1, path: sparse}\n"
                             "  - {name: r2, format: mrclam, robot: 2, path: sparse}\n");
