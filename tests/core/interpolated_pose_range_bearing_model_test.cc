@@ -2,9 +2,10 @@
 // position interpolated between two of its poses
 // (core/interpolated_pose_range_bearing_model.h): alpha = 0 and 1 against the
 // two-pose model bit for bit, the Jacobians against central differences at
-// several alpha, the three-pose factor's H and g against numeric
-// differentiation of the cost, and a solve where the observed robot has a pose
-// only at every other sighting.
+// several alpha, and a solve where the observed robot has a pose only at
+// every other sighting. (The three-pose factor's H and g against numeric
+// differentiation of the cost: tests/core/pose_factors_test.cc,
+// RobotSightingMatchesNumericDifferentiation.)
 #include "core/interpolated_pose_range_bearing_model.h"
 
 #include <gtest/gtest.h>
@@ -92,95 +93,6 @@ TEST(InterpolatedPoseRangeBearingModel, JacobiansMatchCentralDifferences) {
       EXPECT_LT((j0 - numeric.middleCols<3>(3)).norm(), 1e-6) << alpha << " draw " << draw;
       EXPECT_LT((j1 - numeric.middleCols<3>(6)).norm(), 1e-6) << alpha << " draw " << draw;
     }
-  }
-}
-
-// The poses with every unknown one moved by its block of `delta`.
-std::vector<Pose2> Retracted(const Problem2d& problem, const UnknownLayout& layout,
-                             const Eigen::VectorXd& delta) {
-  std::vector<Pose2> poses = problem.poses;
-  for (int32_t p = 0; p < problem.num_poses(); ++p) {
-    const int32_t u = layout.unknown_index[p];
-    if (u >= 0) poses[p] = RetractPose(poses[p], delta.segment<3>(3 * u));
-  }
-  return poses;
-}
-
-// Interpolated sightings beside a two-pose one, among unknown poses and the
-// anchor: the factor's H = sum rho'(s) A^T W A with A the numeric Jacobian of
-// each residual w.r.t. the body-frame increments, g = half the numeric
-// derivative of the (robust) cost, and the pattern holding every pair.
-TEST(InterpolatedPoseRangeBearingModel, FactorMatchesNumericDifferentiation) {
-  Problem2d problem;
-  problem.AddPose(0, Pose2(0.0, 0.0, 0.2), true, 0);
-  problem.AddPose(1, Pose2(3.0, 1.0, 2.8), true, 0);
-  problem.AddPose(2, Pose2(-1.0, 4.0, -1.9), true, 0);
-  problem.AddPose(3, Pose2(-0.5, 4.6, -1.7), true, 0);
-  problem.pose_fixed[0] = 1;
-  const Eigen::Matrix2d w = Eigen::Vector2d(100.0, 400.0).asDiagonal();
-  // (from, to, z, information, line, to_next, alpha)
-  problem.pose_range_bearings = {{1, 2, Eigen::Vector2d(4.9, 1.2), w, 0, 3, 0.3},
-                                 {0, 2, Eigen::Vector2d(4.0, 1.0), w, 0, 3, 0.9},
-                                 {2, 0, Eigen::Vector2d(4.2, 1.5), w, 0, 1, 0.5},
-                                 {0, 1, Eigen::Vector2d(3.3, 0.05), w, 0}};
-  const UnknownLayout layout = UnknownLayout::FromProblem(problem);
-  ASSERT_EQ(layout.num_unknown_poses, 3);
-  const size_t count = problem.pose_range_bearings.size();
-  const auto residuals = [&](const std::vector<Pose2>& x) {
-    Eigen::VectorXd e(2 * count);
-    for (size_t k = 0; k < count; ++k) {
-      const PoseRangeBearingConstraint& c = problem.pose_range_bearings[k];
-      Eigen::Vector2d ek;
-      if (c.interpolated()) {
-        EXPECT_TRUE(EvaluateInterpolatedPoseRangeBearing(x[c.from], x[c.to], x[c.to_next],
-                                                         c.alpha, c.z, &ek, nullptr, nullptr,
-                                                         nullptr));
-      } else {
-        EXPECT_TRUE(EvaluatePoseRangeBearing(x[c.from], x[c.to], c.z, &ek, nullptr, nullptr));
-      }
-      e.segment<2>(2 * static_cast<Eigen::Index>(k)) = ek;
-    }
-    return e;
-  };
-  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(9);
-  const Eigen::MatrixXd jacobian = testing::NumericJacobian(
-      [&](const Eigen::VectorXd& delta) { return residuals(Retracted(problem, layout, delta)); },
-      zero);
-  const Eigen::VectorXd e = residuals(problem.poses);
-  std::vector<std::pair<int, int>> pairs;
-  AppendPoseFactorPattern(problem, layout, &pairs);
-  for (RobustKernel::Type type :
-       {RobustKernel::Type::kNone, RobustKernel::Type::kHuber, RobustKernel::Type::kCauchy}) {
-    PoseFactorKernels kernels;
-    kernels.robot.type = type;
-    kernels.robot.scale = 1.5;
-    BlockSparseMatrix hessian = BlockSparseMatrix::FromPattern(3, 3, pairs);
-    Eigen::VectorXd gradient = Eigen::VectorXd::Zero(9);
-    Eigen::VectorXd diagonal = Eigen::VectorXd::Zero(9);
-    const double chi2 = LinearizePoseFactors(problem, problem.poses, layout, &hessian, &gradient,
-                                             &diagonal, kernels);
-    EXPECT_DOUBLE_EQ(chi2, PoseFactorsChi2(problem, problem.poses, kernels));
-    Eigen::MatrixXd expected = Eigen::MatrixXd::Zero(9, 9);
-    double cost = 0.0;
-    for (Eigen::Index k = 0; k < static_cast<Eigen::Index>(count); ++k) {
-      const Eigen::Vector2d ek = e.segment<2>(2 * k);
-      const double s = ek.dot(w * ek);
-      cost += kernels.robot.Cost(s);
-      const Eigen::MatrixXd a = jacobian.middleRows(2 * k, 2);
-      expected += kernels.robot.Weight(s) * a.transpose() * w * a;
-    }
-    EXPECT_NEAR(chi2, cost, 1e-9 * cost);
-    const Eigen::MatrixXd dense = hessian.ToDense();
-    EXPECT_LT((dense - expected).norm(), 1e-6 * expected.norm());
-    EXPECT_TRUE(diagonal.isApprox(dense.diagonal()));
-    const Eigen::MatrixXd numeric = testing::NumericJacobian(
-        [&](const Eigen::VectorXd& delta) {
-          return Eigen::VectorXd::Constant(
-              1, PoseFactorsChi2(problem, Retracted(problem, layout, delta), kernels));
-        },
-        zero, 1e-6);
-    const Eigen::VectorXd half = 0.5 * numeric.transpose();
-    EXPECT_LT((gradient - half).norm(), 1e-5 * std::max(1.0, half.norm()));
   }
 }
 

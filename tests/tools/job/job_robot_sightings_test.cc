@@ -90,17 +90,21 @@ void WriteDataset(const fs::path& folder, Robot* robots, int robot2_stride = 1) 
   }
 }
 
-class JobRobotSightings : public JobTestFolder {};
-
-TEST_F(JobRobotSightings, TwoRobotsThatOnlySeeEachOtherEndInOneFrame) {
-  // Two circles that overlap, driven at the same time.
-  Robot robots[2];
+// Two circles that overlap, driven at the same time.
+void OverlappingCircles(Robot* robots) {
   robots[0].start = core::Pose2(3.0, 0.0, std::numbers::pi / 2);
   robots[0].v = 0.3;
   robots[0].omega = 0.1;
   robots[1].start = core::Pose2(-1.0, 1.0, -std::numbers::pi / 2);
   robots[1].v = 0.2;
   robots[1].omega = -0.1;
+}
+
+class JobRobotSightings : public JobTestFolder {};
+
+TEST_F(JobRobotSightings, TwoRobotsThatOnlySeeEachOtherEndInOneFrame) {
+  Robot robots[2];
+  OverlappingCircles(robots);
   WriteDataset(dir_ / "together", robots);
   const std::string solver = "solver: {initialization: odometry}\n";
   const Status together = Run("output: out\n" + solver +
@@ -165,12 +169,7 @@ TEST_F(JobRobotSightings, TwoRobotsThatOnlySeeEachOtherEndInOneFrame) {
 // none is dropped or snapped, and the job still puts both in one frame.
 TEST_F(JobRobotSightings, SightingsBetweenTheObservedRobotsPosesAreInterpolated) {
   Robot robots[2];
-  robots[0].start = core::Pose2(3.0, 0.0, std::numbers::pi / 2);
-  robots[0].v = 0.3;
-  robots[0].omega = 0.1;
-  robots[1].start = core::Pose2(-1.0, 1.0, -std::numbers::pi / 2);
-  robots[1].v = 0.2;
-  robots[1].omega = -0.1;
+  OverlappingCircles(robots);
   WriteDataset(dir_ / "sparse", robots, /*robot2_stride=*/2);
   // The default (incremental) initialization: its stages take the
   // three-pose constraints too (partition/initialization/incremental_initialization.h).
