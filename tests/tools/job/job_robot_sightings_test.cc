@@ -261,5 +261,47 @@ TEST(RobotSightingsStandstill, RepeatsWhileBothStandBecomeOneConstraint) {
   EXPECT_EQ(problem.pose_range_bearings[2].z, Eigen::Vector2d(2.3, -3.1));
 }
 
+// Where the observed robot B was at each sighting: at its pose (t = 0.1 s),
+// between two poses (t = 0.02 s: alpha = 0.2 between B's poses at 0 and
+// 0.1 s), in a gap longer than the limit (0.5 s, between 0.2 and 1.0 s), after
+// its last pose (1.1 s); A, the observer, has a pose every 0.02 s.
+TEST(RobotSightingsInterpolation, BetweenTwoPosesAtOneOrNone) {
+  core::Problem2d problem;
+  for (int k = 0; k <= 60; ++k) problem.AddPose(k, core::Pose2::Zero(), k == 0, 0, 0.02 * k);
+  for (const double stamp : {0.0, 0.1, 0.2, 1.0})
+    problem.AddPose(100 + problem.num_poses(), core::Pose2::Zero(), false, 0, stamp);
+  RunSightings a, b;
+  a.dataset = b.dataset = "/data";
+  a.robot = 1;
+  b.robot = 2;
+  a.first_pose = 0;
+  a.num_poses = 61;
+  b.first_pose = 61;
+  b.num_poses = 4;
+  for (const double stamp : {0.02, 0.1, 0.5, 1.1}) {
+    storage::MrclamRobotSighting sighting;
+    sighting.stamp = stamp;
+    sighting.observed_robot = 2;
+    sighting.z = Eigen::Vector2d(2.0, 0.1);
+    a.sightings.push_back(sighting);
+  }
+  const SightingCounts counts = AddRobotSightings({a, b}, kDefaultSightingMaxTimeDifference,
+                                                  kDefaultSightingMaxInterpolationGap, &problem);
+  EXPECT_EQ(counts.constraints, 2);
+  EXPECT_EQ(counts.interpolated, 1);
+  EXPECT_EQ(counts.no_pose_at_stamp, 2);
+  ASSERT_EQ(problem.pose_range_bearings.size(), 2u);
+  const core::PoseRangeBearingConstraint& between = problem.pose_range_bearings[0];
+  EXPECT_EQ(between.from, 1);
+  EXPECT_EQ(between.to, 61);
+  EXPECT_EQ(between.to_next, 62);
+  EXPECT_NEAR(between.alpha, 0.2, 1e-12);
+  const core::PoseRangeBearingConstraint& at = problem.pose_range_bearings[1];
+  EXPECT_EQ(at.from, 5);
+  EXPECT_EQ(at.to, 62);
+  EXPECT_FALSE(at.interpolated());
+  EXPECT_EQ(at.alpha, 0.0);
+}
+
 }  // namespace
 }  // namespace graphslam::tools::job
