@@ -207,6 +207,16 @@ TEST_F(JobRobotSightings, SightingsBetweenTheObservedRobotsPosesAreInterpolated)
     EXPECT_LT(run["position_rmse_m"].get<double>(), 0.05) << run["name"];
 }
 
+// Robot `robot` of one dataset folder, poses [first, first + count).
+RunSightings RobotRun(int robot, int32_t first, int32_t count) {
+  RunSightings run;
+  run.dataset = "/data";
+  run.robot = robot;
+  run.first_pose = first;
+  run.num_poses = count;
+  return run;
+}
+
 // Robot A stands still for poses 0-3 (controls below the deadband), robot B
 // for its poses 0-1 and then drives: A's sightings of B while both stand are
 // one constraint (the mean of the readings, circular in the bearing, the first
@@ -226,13 +236,7 @@ TEST(RobotSightingsStandstill, RepeatsWhileBothStandBecomeOneConstraint) {
       problem.motions.push_back(motion);
     }
   }
-  RunSightings a, b;
-  a.dataset = b.dataset = "/data";
-  a.robot = 1;
-  b.robot = 2;
-  a.first_pose = 0;
-  b.first_pose = 5;
-  a.num_poses = b.num_poses = 5;
+  RunSightings a = RobotRun(1, 0, 5), b = RobotRun(2, 5, 5);
   for (int k = 0; k < 4; ++k) {
     storage::MrclamRobotSighting sighting;
     sighting.stamp = 0.02 * k;
@@ -270,14 +274,7 @@ TEST(RobotSightingsInterpolation, BetweenTwoPosesAtOneOrNone) {
   for (int k = 0; k <= 60; ++k) problem.AddPose(k, core::Pose2::Zero(), k == 0, 0, 0.02 * k);
   for (const double stamp : {0.0, 0.1, 0.2, 1.0})
     problem.AddPose(100 + problem.num_poses(), core::Pose2::Zero(), false, 0, stamp);
-  RunSightings a, b;
-  a.dataset = b.dataset = "/data";
-  a.robot = 1;
-  b.robot = 2;
-  a.first_pose = 0;
-  a.num_poses = 61;
-  b.first_pose = 61;
-  b.num_poses = 4;
+  RunSightings a = RobotRun(1, 0, 61), b = RobotRun(2, 61, 4);
   for (const double stamp : {0.02, 0.1, 0.5, 1.1}) {
     storage::MrclamRobotSighting sighting;
     sighting.stamp = stamp;
