@@ -103,6 +103,9 @@ Status CheckConstraints(const Problem2d& problem) {
   for (const PoseRangeBearingConstraint& c : problem.pose_range_bearings) {
     GS_RETURN_IF_ERROR(CheckIndex(problem, c.from, num_poses, c.line, "robot sighting", "pose"));
     GS_RETURN_IF_ERROR(CheckIndex(problem, c.to, num_poses, c.line, "robot sighting", "pose"));
+    if (c.interpolated())
+      GS_RETURN_IF_ERROR(
+          CheckIndex(problem, c.to_next, num_poses, c.line, "robot sighting", "pose"));
     GS_RETURN_IF_ERROR(CheckInformation<2>(
         problem, c.information, c.line,
         "robot sighting " + PoseName(problem, c.from) + " -> " + PoseName(problem, c.to)));
@@ -166,7 +169,10 @@ Status CheckConnectivity(const Problem2d& problem) {
   DisjointSets sets(num_poses + problem.num_features());
   for (const auto& c : problem.relative_poses) sets.Union(c.from, c.to);
   for (const auto& c : problem.motions) sets.Union(c.from, c.to);
-  for (const auto& c : problem.pose_range_bearings) sets.Union(c.from, c.to);
+  for (const auto& c : problem.pose_range_bearings) {
+    sets.Union(c.from, c.to);
+    if (c.interpolated()) sets.Union(c.from, c.to_next);
+  }
   for (const auto& c : problem.observations) sets.Union(c.pose, num_poses + c.feature);
 
   std::vector<int32_t> fixed_poses;

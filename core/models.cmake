@@ -2,6 +2,7 @@
 target_sources(graphslam_core PRIVATE
   gps_model.cc
   initialization.cc
+  interpolated_pose_range_bearing_model.cc
   point_observation_model.cc
   pose_range_bearing_model.cc
   range_bearing_model.cc

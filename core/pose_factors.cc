@@ -5,6 +5,7 @@
 
 #include "core/gps_model.h"
 #include "core/internal/pose_factor_sums.h"
+#include "core/interpolated_pose_range_bearing_model.h"
 #include "core/pose_range_bearing_model.h"
 #include "core/relative_pose_model.h"
 #include "core/velocity_motion_model.h"
@@ -13,6 +14,7 @@ namespace graphslam::core {
 namespace {
 
 using internal::PoseFactor;
+using internal::TernaryPoseFactor;
 
 using Jacobian23 = Eigen::Matrix<double, 2, 3>;
 
@@ -50,9 +52,25 @@ bool VelocityMotion(const VelocityMotionConstraint& c, const Pose2& from, const 
 
 // Coincident positions (undefined bearing) contribute nothing, as an
 // observation at its feature's position does in the feature linearizer.
+// Interpolated sightings (to_next >= 0) are the three-pose factor's.
 bool PoseRangeBearing(const PoseRangeBearingConstraint& c, const Pose2& from, const Pose2& to,
                       Eigen::Vector2d* e, Jacobian23* ja, Jacobian23* jb) {
+  if (c.interpolated()) return false;
   return EvaluatePoseRangeBearing(from, to, c.z, e, ja, jb);
+}
+
+// The observed robot's position interpolated between `to` and `to_next`.
+bool InterpolatedPoseRangeBearing(const PoseRangeBearingConstraint& c,
+                                  const std::vector<Pose2>& poses, Eigen::Vector2d* e,
+                                  Jacobian23* ja, Jacobian23* jb, Jacobian23* jc) {
+  if (!c.interpolated()) return false;
+  if (!EvaluateInterpolatedPoseRangeBearing(poses[c.from], poses[c.to], poses[c.to_next], c.alpha,
+                                            c.z, e, ja, jb, jc))
+    return false;
+  ToIncrement(poses[c.from], ja);
+  ToIncrement(poses[c.to], jb);
+  ToIncrement(poses[c.to_next], jc);
+  return true;
 }
 
 bool Gps(const GpsConstraint& c, const std::vector<Pose2>& poses, Eigen::Vector2d* e,
@@ -111,6 +129,8 @@ struct RelativePoseFactor : PoseFactor<RelativePoseConstraint, 3, 3, RelativePos
 };
 using VelocityMotionFactor = PlanarBinaryFactor<VelocityMotionConstraint, 3, VelocityMotion>;
 using PoseRangeBearingFactor = PlanarBinaryFactor<PoseRangeBearingConstraint, 2, PoseRangeBearing>;
+using InterpolatedPoseRangeBearingFactor =
+    TernaryPoseFactor<PoseRangeBearingConstraint, 2, 3, InterpolatedPoseRangeBearing>;
 using GpsFactor = PoseFactor<GpsConstraint, 2, 3, Gps>;
 
 }  // namespace
@@ -123,6 +143,7 @@ struct internal::PoseFactorList<Problem2d> {
     visit(VelocityMotionFactor{}, problem.motions, kernels.motion);
     visit(GpsFactor{}, problem.gps, kernels.gps);
     visit(PoseRangeBearingFactor{}, problem.pose_range_bearings, kernels.robot);
+    visit(InterpolatedPoseRangeBearingFactor{}, problem.pose_range_bearings, kernels.robot);
   }
 };
 

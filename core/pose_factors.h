@@ -3,7 +3,8 @@
 //   - planar (Problem2d, core/pose_factors.cc): relative-pose odometry,
 //     velocity motion, GPS (paper Table 2 l.4-9 for motion; eq. 3 for GPS) and
 //     range-bearing measurements of one pose from another (robot to robot,
-//     core/pose_range_bearing_model.h);
+//     core/pose_range_bearing_model.h), or of a position interpolated
+//     between two poses (core/interpolated_pose_range_bearing_model.h);
 //   - 3-D (Problem3d, core/pose_factors_3d.cc): relative poses
 //     (core/relative_pose_3d_model.h) and GPS positions (core/gps_3d_model.h).
 //

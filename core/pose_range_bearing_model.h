@@ -16,11 +16,12 @@
 //           [ -d_y/q         d_x/q         0 ]
 // The observed heading theta_b does not enter (the marker sits on b's origin).
 //
-// The observed pose is the one at the measurement's time stamp: the job
-// pairs the stamp with the pose of the observed run nearest in time
+// The observed pose is the one at the measurement's time stamp
 // (tools/job/robot_sightings.h); on MRCLAM's 50 Hz data every run is sampled
-// on the same 0.02 s grid, so that pose is at the very stamp and no
-// interpolation between two poses is needed.
+// on the same 0.02 s grid, so there is one. When the observed robot has no
+// pose at the stamp, its position is interpolated between the poses around it
+// (core/interpolated_pose_range_bearing_model.h, which is this model at
+// alpha = 0).
 //
 // THREAD SAFETY: pure functions. ALLOCATION: none.
 #pragma once

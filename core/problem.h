@@ -11,6 +11,8 @@
 //     of the registry                                   (observation_models.h)
 //   - range-bearing measurements of one pose's position from another pose
 //     (a robot seeing another robot)                    (pose_range_bearing_model.h)
+//     or from a position interpolated between two poses
+//                                      (interpolated_pose_range_bearing_model.h)
 // The unknowns and their ids, and the relative-pose and GPS constraints, are
 // the dimension-free templates of core/problem_unknowns.h (as in Problem3d).
 //
@@ -52,13 +54,20 @@ struct VelocityMotionConstraint {
 using GpsConstraint = GpsConstraintOf<2>;  // core/gps_model.h
 
 // Pose `to`'s position (x, y) measured as (range, bearing) from pose `from`
-// (core/pose_range_bearing_model.h): a robot seeing another robot.
+// (core/pose_range_bearing_model.h): a robot seeing another robot. With
+// to_next >= 0 the observed robot had no pose at the measurement's time, and
+// its position is interpolated at alpha between poses `to` and `to_next`
+// (core/interpolated_pose_range_bearing_model.h): a three-pose factor.
 struct PoseRangeBearingConstraint {
   int32_t from = -1;  // observing pose
-  int32_t to = -1;    // observed pose
+  int32_t to = -1;    // observed pose (with to_next >= 0: the one before)
   Eigen::Vector2d z = Eigen::Vector2d::Zero();  // range, bearing
   Eigen::Matrix2d information = Eigen::Matrix2d::Identity();
   int32_t line = 0;
+  int32_t to_next = -1;  // -1: the observed pose is `to`; else the one after
+  double alpha = 0.0;    // in [0, 1]: where between `to` and `to_next`
+
+  bool interpolated() const { return to_next >= 0; }
 };
 
 struct Problem2d : ProblemUnknowns<Pose2, Point2> {

@@ -36,7 +36,7 @@ std::string KnownTags() {
   std::string tags = "POSE, FEATURE, CONTROL, CONTROL_INFO, ODOM, ";
   for (int k = 0; k < core::kNumObservationKinds; ++k)
     tags += std::string(core::NativeLogTag(static_cast<core::ObservationKind>(k))) + ", ";
-  return tags + "RB_POSE, GPS, FIX or SCAN";
+  return tags + "RB_POSE, RB_POSE_INTERP, GPS, FIX or SCAN";
 }
 
 class NativeLogParser {
@@ -140,6 +140,7 @@ class NativeLogParser {
     if (core::ObservationKindOfNativeLogTag(tag, &kind)) return ParseObservation(reader, kind);
     if (tag == "GPS") return ParseGps(reader);
     if (tag == "RB_POSE") return ParsePoseRangeBearing(reader);
+    if (tag == "RB_POSE_INTERP") return ParseInterpolatedPoseRangeBearing(reader);
     if (tag == "FIX") return ParseFix(reader);
     if (tag == "SCAN") return ParseScan(reader);
     if (tag == kNativeLogMagic) {
@@ -404,6 +405,37 @@ class NativeLogParser {
     return Status::Ok();
   }
 
+  // RB_POSE_INTERP from to to_next alpha range bearing i11 i12 i22: the
+  // position interpolated at alpha between poses `to` and `to_next`, seen
+  // from pose `from`.
+  Status ParseInterpolatedPoseRangeBearing(const LineReader& reader) {
+    GS_RETURN_IF_ERROR(reader.ExpectFieldCount(10));
+    core::PoseRangeBearingConstraint constraint;
+    GS_RETURN_IF_ERROR(PosePair(reader, &constraint.from, &constraint.to));
+    GS_ASSIGN_OR_RETURN(constraint.to_next, Pose(reader, 3));
+    if (constraint.to_next == constraint.from || constraint.to_next == constraint.to) {
+      return reader.Error("RB_POSE_INTERP pose " + std::string(reader.fields()[3]) +
+                          " repeats pose " + std::string(reader.fields()[1]) + " or " +
+                          std::string(reader.fields()[2]) + "; expected three distinct poses");
+    }
+    GS_ASSIGN_OR_RETURN(constraint.alpha, reader.Double(4, "alpha"));
+    if (!(constraint.alpha >= 0.0 && constraint.alpha <= 1.0)) {
+      return reader.Error("RB_POSE_INTERP alpha is " + FormatDouble(constraint.alpha) +
+                          "; expected 0 <= alpha <= 1");
+    }
+    double z[2];
+    GS_RETURN_IF_ERROR(reader.Doubles(5, 2, "measurement", z));
+    if (!(z[0] > 0.0)) {
+      return reader.Error("RB_POSE_INTERP range is " + FormatDouble(z[0]) +
+                          "; expected range > 0");
+    }
+    constraint.z = Eigen::Vector2d(z[0], z[1]);
+    GS_ASSIGN_OR_RETURN(constraint.information, Information2(reader, 7));
+    constraint.line = reader.line_number();
+    problem_.pose_range_bearings.push_back(constraint);
+    return Status::Ok();
+  }
+
   Status ParseFix(const LineReader& reader) {
     GS_RETURN_IF_ERROR(reader.ExpectFieldCount(2));
     GS_ASSIGN_OR_RETURN(const int32_t pose, Pose(reader, 1));
@@ -633,9 +665,13 @@ Status WriteNativeLog(const core::Problem2d& problem, const std::string& path, E
         file, static_cast<int64_t>(problem.pose_range_bearings.size()),
         lines([&](int64_t i, std::string* out) {
           const auto& c = problem.pose_range_bearings[static_cast<size_t>(i)];
-          AppendField(out, "RB_POSE");
+          AppendField(out, c.interpolated() ? "RB_POSE_INTERP" : "RB_POSE");
           AppendField(out, pose_ids[c.from]);
           AppendField(out, pose_ids[c.to]);
+          if (c.interpolated()) {
+            AppendField(out, pose_ids[c.to_next]);
+            AppendField(out, c.alpha);
+          }
           AppendField(out, c.z.x());
           AppendField(out, c.z.y());
           AppendUpperTriangle(out, c.information);

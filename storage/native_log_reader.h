@@ -10,6 +10,9 @@
 //   GPS pose x y i11 i12 i22       FIX pose      # comment
 //   RB_POSE from to range bearing i11 i12 i22   (pose `to`'s position seen from
 //                                                pose `from`: robot to robot)
+//   RB_POSE_INTERP from to to_next alpha range bearing i11 i12 i22
+//                  (the position (1 - alpha) p_to + alpha p_to_next seen from
+//                   pose `from`, core/interpolated_pose_range_bearing_model.h)
 //   SCAN pose file.pcd             (a scan of the pose, path relative to the log)
 //
 // CONTROL without explicit information gets Omega = R^{-1} with
@@ -19,16 +22,17 @@
 // ReadNativeLog rejects (Corruption, "<file>:<line>: ...; expected ..."):
 // missing header, malformed or non-finite numbers, wrong field counts,
 // information not positive definite, undeclared or duplicate poses, duplicate
-// or late FEATURE records, dt < 0, range <= 0, self-loops. NotSupported: other
+// or late FEATURE records, dt < 0, range <= 0, self-loops, alpha outside
+// [0, 1]. NotSupported: other
 // versions, unknown tags. An RB/XY with feature '-' gets a feature of its own
 // (id core::kNoFeatureId, core/unidentified_features.h). With `repairs`
 // (opt-in), an information given in the file (CONTROL_INFO, ODOM, RB, XY, GPS,
-// RB_POSE, the 1-D kinds) that is not positive definite is repaired
+// RB_POSE, RB_POSE_INTERP, the 1-D kinds) that is not positive definite is repaired
 // (core/information_repair.h) and counted there instead of rejected; a
 // CONTROL's information, computed from the noise model, is not repaired.
 //
 // WriteNativeLog writes through WriteFileAtomically (atomic_file.h): poses,
-// features, FIX, then CONTROL_INFO / ODOM / RB / XY / GPS / RB_POSE records, numbers as
+// features, FIX, then CONTROL_INFO / ODOM / RB / XY / GPS / RB_POSE(_INTERP) records, numbers as
 // "%.17g", so reading the file back gives the same problem (exactly: same
 // numbers, same dense order; uninitialized values come back as reader hints).
 //

@@ -11,12 +11,15 @@
 // increments d of the pose retraction (the Jacobians may be nullptr). A
 // constraint with a member `pose` is unary (j_b unused), else it couples
 // `from` and `to`. Model returns false when the constraint is degenerate at
-// `poses` and contributes nothing. A binary factor may also provide
+// `poses` (or is not this factor's: the binary and the three-pose robot
+// sightings share one list) and contributes nothing. A binary factor may also
+// provide
 //   static double Linearize(const Constraint&, const std::vector<Pose>&,
 //                           const RobustKernel&, PoseFactorSink<pose dimension>*)
 // adding its blocks (AddBinaryBlocks) from products that use the structure
 // of its Jacobians and returning its rho(s); LinearizePoseFactors calls it
-// instead of Model and AddBinary.
+// instead of Model and AddBinary. A TernaryPoseFactor's Model takes a third
+// Jacobian and couples `from`, `to` and `to_next`.
 //
 // For each constraint, with IRLS weight W' = rho'(s) W, s = e^T W e
 // (core/internal/robust_term.h):
@@ -56,8 +59,31 @@ struct PoseFactor {
   using Residual = Eigen::Matrix<double, kResidual, 1>;
   using Jacobian = Eigen::Matrix<double, kResidual, kPoseDim>;
   static constexpr bool kUnary = requires(const C& c) { c.pose; };
+  static constexpr bool kTernary = false;
   static constexpr auto Evaluate = Model;
 };
+
+// Model(c, poses, e, j_from, j_to, j_to_next).
+template <class C, int kResidual, int kPoseDim, auto Model>
+struct TernaryPoseFactor {
+  using Constraint = C;
+  using Residual = Eigen::Matrix<double, kResidual, 1>;
+  using Jacobian = Eigen::Matrix<double, kResidual, kPoseDim>;
+  static constexpr bool kUnary = false;
+  static constexpr bool kTernary = true;
+  static constexpr auto Evaluate = Model;
+};
+
+// F's residual at `poses` (no Jacobians); false when it contributes nothing.
+template <class F, class Pose>
+bool EvaluateResidual(const typename F::Constraint& c, const std::vector<Pose>& poses,
+                      typename F::Residual* e) {
+  if constexpr (F::kTernary) {
+    return F::Evaluate(c, poses, e, nullptr, nullptr, nullptr);
+  } else {
+    return F::Evaluate(c, poses, e, nullptr, nullptr);
+  }
+}
 
 // H_ik += block for i <= k (H stores the upper blocks, row-major), or
 // H_ki += block^T for i > k; the block must be in the pattern.
@@ -151,6 +177,33 @@ struct PoseFactorSink {
     }
     if (ua >= 0 && ub >= 0 && ua != ub) AddPoseBlock<kPose>(hessian, ua, ub, h_ab);
   }
+
+  // The blocks of a factor on the distinct poses `pose[0..2]`: for each pair
+  // of unknown poses k <= l, H_kl += A_k^T W A_l.
+  template <int kResidual>
+  void AddTernary(const int32_t (&pose)[3],
+                  const Eigen::Matrix<double, kResidual, kPose>* const (&jacobian)[3],
+                  const Eigen::Matrix<double, kResidual, kResidual>& information,
+                  const Eigen::Matrix<double, kResidual, 1>& residual) {
+    int32_t u[3];
+    Eigen::Matrix<double, kPose, kResidual> w[3];
+    for (int k = 0; k < 3; ++k) {
+      u[k] = layout.unknown_index[pose[k]];
+      w[k] = jacobian[k]->transpose() * information;
+    }
+    for (int k = 0; k < 3; ++k) {
+      if (u[k] < 0) continue;
+      const Eigen::Matrix<double, kPose, kPose> hkk = w[k] * *jacobian[k];
+      AddPoseBlock<kPose>(hessian, u[k], u[k], hkk);
+      gradient->template segment<kPose>(kPose * u[k]) += w[k] * residual;
+      hessian_diagonal->template segment<kPose>(kPose * u[k]) += hkk.diagonal();
+      for (int l = 0; l < 3; ++l) {
+        if (u[l] <= u[k]) continue;  // each pair once, as the upper block
+        AddPoseBlock<kPose>(hessian, u[k], u[l],
+                            Eigen::Matrix<double, kPose, kPose>(w[k] * *jacobian[l]));
+      }
+    }
+  }
 };
 
 }  // namespace internal
@@ -164,7 +217,7 @@ double PoseFactorsChi2(const Problem& problem, const std::vector<typename Proble
         using F = decltype(factor);
         typename F::Residual e;
         for (const typename F::Constraint& c : constraints) {
-          if (!F::Evaluate(c, poses, &e, nullptr, nullptr)) continue;
+          if (!internal::EvaluateResidual<F>(c, poses, &e)) continue;
           chi2 += internal::RobustTerm<F::Residual::RowsAtCompileTime>(kernel, e, c.information, nullptr);
         }
       });
@@ -190,10 +243,17 @@ double LinearizePoseFactors(const Problem& problem,
           return;
         }
         typename F::Residual e;
-        typename F::Jacobian ja, jb;
+        typename F::Jacobian ja, jb, jc;
         Eigen::Matrix<double, kResidual, kResidual> w;
         for (const typename F::Constraint& c : constraints) {
-          if (!F::Evaluate(c, poses, &e, &ja, &jb)) continue;
+          if constexpr (F::kTernary) {
+            if (!F::Evaluate(c, poses, &e, &ja, &jb, &jc)) continue;
+            chi2 += internal::RobustTerm<kResidual>(kernel, e, c.information, &w);
+            sink.AddTernary({c.from, c.to, c.to_next}, {&ja, &jb, &jc}, w, e);
+            continue;
+          } else {
+            if (!F::Evaluate(c, poses, &e, &ja, &jb)) continue;
+          }
           chi2 += internal::RobustTerm<kResidual>(kernel, e, c.information, &w);
           if constexpr (F::kUnary) {
             sink.AddUnary(c.pose, ja, w, e);
@@ -211,7 +271,17 @@ void AppendPoseFactorPattern(const Problem& problem, const UnknownLayout& layout
   internal::PoseFactorList<Problem>::ForEach(
       problem, PoseFactorKernels(), [&](auto factor, const auto& constraints, const RobustKernel&) {
         using F = decltype(factor);
-        if constexpr (!F::kUnary) {
+        if constexpr (F::kTernary) {
+          for (const typename F::Constraint& c : constraints) {
+            if (c.to_next < 0) continue;  // the binary factor's
+            const int32_t u[3] = {layout.unknown_index[c.from], layout.unknown_index[c.to],
+                                  layout.unknown_index[c.to_next]};
+            for (int k = 0; k < 3; ++k)
+              for (int l = k + 1; l < 3; ++l)
+                if (u[k] >= 0 && u[l] >= 0)
+                  pairs->emplace_back(std::min(u[k], u[l]), std::max(u[k], u[l]));
+          }
+        } else if constexpr (!F::kUnary) {
           for (const typename F::Constraint& c : constraints) {
             const int32_t ua = layout.unknown_index[c.from], ub = layout.unknown_index[c.to];
             if (ua >= 0 && ub >= 0) pairs->emplace_back(std::min(ua, ub), std::max(ua, ub));

@@ -79,9 +79,12 @@ Indices BuildIndices(const core::Problem2d& problem) {
     link(EdgeKind::kRelativePose, k, problem.relative_poses[k].from, problem.relative_poses[k].to);
   for (size_t k = 0; k < problem.motions.size(); ++k)
     link(EdgeKind::kMotion, k, problem.motions[k].from, problem.motions[k].to);
-  for (size_t k = 0; k < problem.pose_range_bearings.size(); ++k)
-    link(EdgeKind::kSighting, k, problem.pose_range_bearings[k].from,
-         problem.pose_range_bearings[k].to);
+  for (size_t k = 0; k < problem.pose_range_bearings.size(); ++k) {
+    const core::PoseRangeBearingConstraint& c = problem.pose_range_bearings[k];
+    link(EdgeKind::kSighting, k, c.from, c.to);
+    // An interpolated sighting also ties the observer to the pose after.
+    if (c.interpolated()) link(EdgeKind::kSighting, k, c.from, c.to_next);
+  }
   index.gps_of_pose = BuildRows(n, [&](auto emit) {
     for (size_t k = 0; k < problem.gps.size(); ++k)
       emit(problem.gps[k].pose, static_cast<int32_t>(k));
@@ -131,6 +134,9 @@ class StageBuilder {
     for (int32_t p : unknown) {
       for (const PoseLink& l : index_.links[p]) {
         if (l.other >= t) continue;  // not placed yet
+        if (l.kind == EdgeKind::kSighting &&
+            problem_.pose_range_bearings[l.constraint].to_next >= t)
+          continue;  // interpolated towards a pose not placed yet
         int32_t& used = l.kind == EdgeKind::kRelativePose ? used_relative_[l.constraint]
                         : l.kind == EdgeKind::kMotion     ? used_motion_[l.constraint]
                                                           : used_sighting_[l.constraint];
@@ -150,8 +156,11 @@ class StageBuilder {
           sub.motions.push_back(c);
         } else {
           core::PoseRangeBearingConstraint c = problem_.pose_range_bearings[l.constraint];
+          for (const int32_t q : {c.to, c.to_next})  // the third pose, if any
+            if (q >= 0 && local_pose_[q] < 0) AddPose(q, poses, true, &sub);
           c.from = local_pose_[c.from];
           c.to = local_pose_[c.to];
+          if (c.interpolated()) c.to_next = local_pose_[c.to_next];
           sub.pose_range_bearings.push_back(c);
         }
       }

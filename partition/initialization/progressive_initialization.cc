@@ -89,7 +89,7 @@ core::Problem2d BuildPrefix(const core::Problem2d& problem, const std::vector<Po
   for (const core::GpsConstraint& c : problem.gps)
     if (c.pose < t) sub.gps.push_back(c);
   for (const core::PoseRangeBearingConstraint& c : problem.pose_range_bearings)
-    if (c.from < t && c.to < t) sub.pose_range_bearings.push_back(c);
+    if (c.from < t && c.to < t && c.to_next < t) sub.pose_range_bearings.push_back(c);
   for (const core::Observation& o : problem.observations) {
     if (o.pose >= t) continue;
     sub.observations.push_back(o);

@@ -67,6 +67,12 @@ Status ValidateConstraintsForWriting(const core::Problem2d& problem) {
     const std::string name = "pose_range_bearings[" + std::to_string(k) + "]";
     GS_RETURN_IF_ERROR(CheckPose(name + ".from", c.from, problem));
     GS_RETURN_IF_ERROR(CheckPose(name + ".to", c.to, problem));
+    if (c.interpolated()) {
+      GS_RETURN_IF_ERROR(CheckPose(name + ".to_next", c.to_next, problem));
+      if (!(c.alpha >= 0.0 && c.alpha <= 1.0))
+        return Status::InvalidArgument(name + ".alpha is " + std::to_string(c.alpha) +
+                                       "; expected 0 <= alpha <= 1");
+    }
     GS_RETURN_IF_ERROR(CheckFinite(name + ".z", c.z));
     GS_RETURN_IF_ERROR(CheckFinite(name + ".information", c.information));
   }

@@ -2,6 +2,7 @@
 graphslam_test(core/bearing_model)
 graphslam_test(core/gps_model)
 graphslam_test(core/initialization)
+graphslam_test(core/interpolated_pose_range_bearing_model)
 graphslam_test(core/point_observation_model)
 graphslam_test(core/pose_range_bearing_model)
 graphslam_test(core/range_bearing_model)

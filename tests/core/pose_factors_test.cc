@@ -14,6 +14,7 @@
 #include "core/gps_3d_model.h"
 #include "core/gps_model.h"
 #include "core/graphslam_solver.h"
+#include "core/interpolated_pose_range_bearing_model.h"
 #include "core/pose_range_bearing_model.h"
 #include "core/relative_pose_3d_model.h"
 #include "core/relative_pose_model.h"
@@ -323,32 +324,44 @@ TEST(PoseFactors, RobustHessianIsTheWeightedGaussNewtonBlock) {
 }
 
 // Robot-to-robot range-bearing constraints (pose_range_bearings) between
-// unknown poses and to the anchor: gradient against the numeric derivative of
-// the (robust) cost, and H = sum rho'(s) A^T W A with A the numeric Jacobian
-// of the stacked residuals w.r.t. the body-frame increments of both poses.
+// unknown poses and to the anchor, two-pose ones and ones interpolated between
+// two poses of the observed robot (three-pose factors, alpha in (0, 1)):
+// gradient against the numeric derivative of the (robust) cost, and
+// H = sum rho'(s) A^T W A with A the numeric Jacobian of the stacked residuals
+// w.r.t. the body-frame increments of all poses.
 TEST(PoseFactors, RobotSightingMatchesNumericDifferentiation) {
   Problem2d problem;
   problem.AddPose(0, Pose2(0.0, 0.0, 0.2), true, 0);
   problem.AddPose(1, Pose2(3.0, 1.0, 2.8), true, 0);
   problem.AddPose(2, Pose2(-1.0, 4.0, -1.9), true, 0);
+  problem.AddPose(3, Pose2(-0.5, 4.6, -1.7), true, 0);
   problem.pose_fixed[0] = 1;
   const Eigen::Matrix2d w = Eigen::Vector2d(100.0, 400.0).asDiagonal();
+  // (from, to, z, information, line[, to_next, alpha])
   problem.pose_range_bearings = {{1, 2, Eigen::Vector2d(4.9, 1.2), w, 0},
                                  {2, 1, Eigen::Vector2d(5.1, -2.3), w, 0},
-                                 {0, 1, Eigen::Vector2d(3.3, 0.05), w, 0}};
+                                 {0, 1, Eigen::Vector2d(3.3, 0.05), w, 0},
+                                 {1, 2, Eigen::Vector2d(4.7, 1.3), w, 0, 3, 0.3},
+                                 {0, 2, Eigen::Vector2d(4.0, 1.0), w, 0, 3, 0.9},
+                                 {2, 0, Eigen::Vector2d(4.2, 1.5), w, 0, 1, 0.5}};
   const UnknownLayout layout = UnknownLayout::FromProblem(problem);
-  ASSERT_EQ(layout.num_unknown_poses, 2);
+  ASSERT_EQ(layout.num_unknown_poses, 3);
+  const auto count = static_cast<Eigen::Index>(problem.pose_range_bearings.size());
   const auto residuals = [&](const std::vector<Pose2>& x) {
-    Eigen::VectorXd e(6);
-    for (size_t k = 0; k < 3; ++k) {
-      const PoseRangeBearingConstraint& c = problem.pose_range_bearings[k];
+    Eigen::VectorXd e(2 * count);
+    for (Eigen::Index k = 0; k < count; ++k) {
+      const PoseRangeBearingConstraint& c = problem.pose_range_bearings[static_cast<size_t>(k)];
       Eigen::Vector2d ek;
-      EXPECT_TRUE(EvaluatePoseRangeBearing(x[c.from], x[c.to], c.z, &ek, nullptr, nullptr));
-      e.segment<2>(2 * static_cast<Eigen::Index>(k)) = ek;
+      EXPECT_TRUE(c.interpolated()
+                      ? EvaluateInterpolatedPoseRangeBearing(x[c.from], x[c.to], x[c.to_next],
+                                                             c.alpha, c.z, &ek, nullptr, nullptr,
+                                                             nullptr)
+                      : EvaluatePoseRangeBearing(x[c.from], x[c.to], c.z, &ek, nullptr, nullptr));
+      e.segment<2>(2 * k) = ek;
     }
     return e;
   };
-  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(6);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(9);
   const Eigen::MatrixXd jacobian = testing::NumericJacobian(
       [&](const Eigen::VectorXd& delta) { return residuals(Retracted(problem, layout, delta)); },
       zero);
@@ -358,9 +371,9 @@ TEST(PoseFactors, RobotSightingMatchesNumericDifferentiation) {
     PoseFactorKernels kernels;
     kernels.robot = Kernel(type, 1.5);
     const Linearization lin = Linearize(problem, layout, kernels);
-    Eigen::MatrixXd expected = Eigen::MatrixXd::Zero(6, 6);
+    Eigen::MatrixXd expected = Eigen::MatrixXd::Zero(9, 9);
     double cost = 0.0;
-    for (Eigen::Index k = 0; k < 3; ++k) {
+    for (Eigen::Index k = 0; k < count; ++k) {
       const Eigen::Vector2d ek = e.segment<2>(2 * k);
       const double s = ek.dot(w * ek);
       cost += kernels.robot.Cost(s);

@@ -199,7 +199,44 @@ TEST(NativeLogReader, RejectsMalformedRecords) {
   EXPECT_THAT(unknown.message(),
               ::testing::StartsWith("bad.log:4: unknown tag 'LIDAR'; expected POSE, FEATURE, "
                                     "CONTROL, CONTROL_INFO, ODOM, RB, XY, "));
-  EXPECT_THAT(unknown.message(), ::testing::EndsWith(", RB_POSE, GPS, FIX or SCAN"));
+  EXPECT_THAT(unknown.message(), ::testing::EndsWith(", RB_POSE, RB_POSE_INTERP, GPS, FIX or SCAN"));
+}
+
+// A robot sighting between two poses of the observed robot: read, written and
+// read back exactly, and its errors.
+TEST(NativeLogReader, InterpolatedRobotSightingRoundTripsAndIsChecked) {
+  const std::string header = "GRAPHSLAM_LOG 1\nPOSE 0 0 0 0 0\nPOSE 1 1\nPOSE 2 2\n";
+  const auto problem =
+      ReadNativeLog(WriteTemp("interp.log", header + "RB_POSE_INTERP 0 1 2 0.25 3.5 -0.2 100 0 400\n"));
+  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+  ASSERT_EQ(problem->pose_range_bearings.size(), 1u);
+  const core::PoseRangeBearingConstraint& c = problem->pose_range_bearings[0];
+  EXPECT_EQ(c.from, 0);
+  EXPECT_EQ(c.to, 1);
+  EXPECT_EQ(c.to_next, 2);
+  EXPECT_EQ(c.alpha, 0.25);
+  EXPECT_EQ(c.z, Eigen::Vector2d(3.5, -0.2));
+  EXPECT_EQ(c.information, Eigen::Matrix2d(Eigen::Vector2d(100.0, 400.0).asDiagonal()));
+  EXPECT_EQ(c.line, 5);
+  core::Problem2d changed = *problem;
+  changed.pose_range_bearings[0].alpha = 1.0 / 3.0;  // needs all 17 digits
+  const std::string path = TempPath("interp_round_trip.log");
+  ASSERT_TRUE(WriteNativeLog(changed, path).ok());
+  const auto back = ReadNativeLog(path);
+  ASSERT_TRUE(back.ok()) << back.status().ToString();
+  ASSERT_EQ(back->pose_range_bearings.size(), 1u);
+  EXPECT_EQ(back->pose_range_bearings[0].to_next, 2);
+  EXPECT_EQ(back->pose_range_bearings[0].alpha, 1.0 / 3.0);
+  EXPECT_EQ(back->pose_range_bearings[0].z, c.z);
+  EXPECT_EQ(back->pose_range_bearings[0].information, c.information);
+  EXPECT_EQ(ReadError(header + "RB_POSE_INTERP 0 1 2 1.5 3.5 -0.2 100 0 400\n").message(),
+            "bad.log:5: RB_POSE_INTERP alpha is 1.5; expected 0 <= alpha <= 1");
+  EXPECT_EQ(ReadError(header + "RB_POSE_INTERP 0 1 1 0.5 3.5 -0.2 100 0 400\n").message(),
+            "bad.log:5: RB_POSE_INTERP pose 1 repeats pose 0 or 1; expected three distinct poses");
+  EXPECT_EQ(ReadError(header + "RB_POSE_INTERP 0 1 2 0.5 0 -0.2 100 0 400\n").message(),
+            "bad.log:5: RB_POSE_INTERP range is 0; expected range > 0");
+  EXPECT_EQ(ReadError(header + "RB_POSE_INTERP 0 1 2 0.5 3.5\n").message(),
+            "bad.log:5: RB_POSE_INTERP has 6 fields; expected 10");
 }
 
 TEST(NativeLogReader, UnknownCorrespondenceGivesAFeaturePerObservation) {

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "core/gps_model.h"
+#include "core/interpolated_pose_range_bearing_model.h"
 #include "core/point_observation_model.h"
 #include "core/pose_range_bearing_model.h"
 #include "core/range_bearing_model.h"
@@ -55,9 +56,15 @@ std::vector<ConstraintChi2> ConstraintChi2ByType(const core::Problem2d& problem,
   for (const core::PoseRangeBearingConstraint& c : problem.pose_range_bearings) {
     Eigen::Vector2d e;
     Eigen::Matrix<double, 2, 3> a, b;
-    if (!core::EvaluatePoseRangeBearing(poses[static_cast<size_t>(c.from)],
-                                        poses[static_cast<size_t>(c.to)], c.z, &e, &a, &b))
-      continue;
+    const bool ok =
+        c.interpolated()
+            ? core::EvaluateInterpolatedPoseRangeBearing(
+                  poses[static_cast<size_t>(c.from)], poses[static_cast<size_t>(c.to)],
+                  poses[static_cast<size_t>(c.to_next)], c.alpha, c.z, &e, nullptr, nullptr,
+                  nullptr)
+            : core::EvaluatePoseRangeBearing(poses[static_cast<size_t>(c.from)],
+                                             poses[static_cast<size_t>(c.to)], c.z, &e, &a, &b);
+    if (!ok) continue;
     sightings.chi2.push_back(e.dot(c.information * e));
   }
   std::vector<ConstraintChi2> out;

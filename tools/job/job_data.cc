@@ -11,6 +11,7 @@
 #include <numeric>
 #include <sstream>
 
+#include "core/interpolated_pose_range_bearing_model.h"
 #include "core/range_bearing_model.h"
 #include "core/unidentified_features.h"
 #include "storage/env.h"
@@ -269,6 +270,7 @@ void Append(const core::Problem2d& part, std::map<int64_t, int32_t>* feature_ind
   for (core::PoseRangeBearingConstraint c : part.pose_range_bearings) {
     c.from += offset;
     c.to += offset;
+    if (c.interpolated()) c.to_next += offset;
     merged->pose_range_bearings.push_back(c);
   }
   for (core::Observation o : part.observations) {
@@ -447,7 +449,8 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
     }
   for (int32_t i = 0; i < problem.num_poses(); ++i) problem.pose_ids[static_cast<size_t>(i)] = base + i;
   if (job.robot_sightings)
-    data.sightings = AddRobotSightings(sightings, kDefaultSightingMaxTimeDifference, &problem);
+    data.sightings = AddRobotSightings(sightings, kDefaultSightingMaxTimeDifference,
+                                       kDefaultSightingMaxInterpolationGap, &problem);
   FindComponents(&data);
   SetGauge(&data);
   return data;
@@ -506,6 +509,7 @@ core::Problem2d ExtractComponent(const JobData& data, int32_t component,
     if (!in(c.from)) continue;
     c.from = map(c.from);
     c.to = map(c.to);
+    if (c.interpolated()) c.to_next = map(c.to_next);
     sub.pose_range_bearings.push_back(c);
   }
   for (core::Observation o : problem.observations) {
@@ -625,7 +629,11 @@ int AlignRunFrames(const JobData& data, int32_t component, core::Problem2d* sub)
       const auto observer = static_cast<size_t>(run_of_pose[static_cast<size_t>(c.from)]);
       const auto observed = static_cast<size_t>(run_of_pose[static_cast<size_t>(c.to)]);
       const core::Point2 seen = core::InvertRangeBearing(sub->poses[static_cast<size_t>(c.from)], c.z);
-      const core::Point2 at = sub->poses[static_cast<size_t>(c.to)].head<2>();
+      const core::Point2 at =
+          c.interpolated()
+              ? core::InterpolatePosition(sub->poses[static_cast<size_t>(c.to)],
+                                          sub->poses[static_cast<size_t>(c.to_next)], c.alpha)
+              : core::Point2(sub->poses[static_cast<size_t>(c.to)].head<2>());
       if (observer == r && placed[observed]) {
         own->push_back(seen);
         reference->push_back(at);

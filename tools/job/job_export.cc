@@ -244,6 +244,7 @@ json RobotSightingsReport(const JobData& data) {
                        data.runs[static_cast<size_t>(pair.second)].name}},
                      {"constraints", count}});
   return {{"constraints", data.sightings.constraints},
+          {"interpolated", data.sightings.interpolated},
           {"robot_not_in_job", data.sightings.robot_not_in_job},
           {"no_pose_at_stamp", data.sightings.no_pose_at_stamp},
           {"standstill_repeats_merged", data.sightings.standstill_repeats_merged},

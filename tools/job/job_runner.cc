@@ -128,6 +128,7 @@ json RunsToJson(const JobData& data) {
           {"enu_origin", origin},
           {"robot_sightings",
            {{"constraints", data.sightings.constraints},
+            {"interpolated", data.sightings.interpolated},
             {"robot_not_in_job", data.sightings.robot_not_in_job},
             {"no_pose_at_stamp", data.sightings.no_pose_at_stamp},
             {"standstill_repeats_merged", data.sightings.standstill_repeats_merged}}}};
@@ -186,6 +187,7 @@ Status LoadData(const Context& ctx, const std::string& problem_file, JobData* da
     if (runs.contains("robot_sightings")) {
       const json& sightings = runs.at("robot_sightings");
       data->sightings.constraints = sightings.at("constraints").get<int64_t>();
+      data->sightings.interpolated = sightings.value("interpolated", int64_t{0});
       data->sightings.robot_not_in_job = sightings.at("robot_not_in_job").get<int64_t>();
       data->sightings.no_pose_at_stamp = sightings.at("no_pose_at_stamp").get<int64_t>();
       data->sightings.standstill_repeats_merged =
@@ -274,7 +276,8 @@ Status StageIngest(Context& ctx) {
           data.sightings.no_pose_at_stamp > 0)
     ctx.Info("ingest",
              "robot sightings: " + std::to_string(data.sightings.constraints) +
-                 " robot-to-robot constraints; dropped " +
+                 " robot-to-robot constraints (" + std::to_string(data.sightings.interpolated) +
+                 " interpolated); dropped " +
                  std::to_string(data.sightings.robot_not_in_job) + " of robots not in the job, " +
                  std::to_string(data.sightings.no_pose_at_stamp) + " without a pose at their stamp",
              {{"robot_sighting_constraints", data.sightings.constraints}});

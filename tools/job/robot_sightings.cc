@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <tuple>
 #include <utility>
 
 namespace graphslam::tools::job {
@@ -29,6 +30,28 @@ int32_t NearestPose(const std::vector<double>& stamps, int32_t first, int32_t co
   return best_difference <= max_difference ? best : -1;
 }
 
+// Where run [first, first + count) was at t: its pose at t itself (within
+// kSameInstant; *next = -1), else the poses before and after t when they are
+// at most max_gap apart (*next >= 0, *alpha in (0, 1)), else -1.
+constexpr double kSameInstant = 1e-9;  // s
+
+int32_t ObservedPose(const std::vector<double>& stamps, int32_t first, int32_t count, double t,
+                     double max_gap, int32_t* next, double* alpha) {
+  *next = -1;
+  *alpha = 0.0;
+  const int32_t at = NearestPose(stamps, first, count, t, kSameInstant);
+  if (at >= 0) return at;
+  const auto begin = stamps.begin() + first;
+  const auto end = begin + count;
+  const auto after = std::upper_bound(begin, end, t);
+  if (after == begin || after == end) return -1;  // before the first or after the last pose
+  const double t0 = *std::prev(after), t1 = *after;
+  if (!(t1 - t0 <= max_gap)) return -1;
+  *next = static_cast<int32_t>(after - stamps.begin());
+  *alpha = (t - t0) / (t1 - t0);
+  return *next - 1;
+}
+
 // standstill[p]: the first pose of the standstill that pose p is in (p itself
 // when the control into p moves the robot); motions with to = from + 1 whose
 // control does not move the robot (storage::MrclamStandsStill) join one.
@@ -45,13 +68,15 @@ std::vector<int32_t> StandstillOfPose(const core::Problem2d& problem) {
 }  // namespace
 
 SightingCounts AddRobotSightings(const std::vector<RunSightings>& runs,
-                                 double max_time_difference, core::Problem2d* problem) {
+                                 double max_time_difference, double max_interpolation_gap,
+                                 core::Problem2d* problem) {
   SightingCounts counts;
   // Motions are appended in pose order, so one pass suffices.
   const std::vector<int32_t> standstill = StandstillOfPose(*problem);
-  // (standstill of from, standstill of to) -> the constraint of those; per
-  // constraint the sums of (range, cos bearing, sin bearing) and the count.
-  std::map<std::pair<int32_t, int32_t>, size_t> merged_into;
+  // (standstill of from, standstill of to, standstill of to_next or of to)
+  // -> the constraint of those; per constraint the sums of (range, cos
+  // bearing, sin bearing) and the count.
+  std::map<std::tuple<int32_t, int32_t, int32_t>, size_t> merged_into;
   std::vector<Eigen::Vector3d> sums;
   std::vector<int32_t> repeats;
   const size_t first_new = problem->pose_range_bearings.size();
@@ -69,8 +94,11 @@ SightingCounts AddRobotSightings(const std::vector<RunSightings>& runs,
       }
       const int32_t from = NearestPose(problem->pose_stamps, observer.first_pose,
                                        observer.num_poses, sighting.stamp, max_time_difference);
-      const int32_t to = NearestPose(problem->pose_stamps, observed->first_pose,
-                                     observed->num_poses, sighting.stamp, max_time_difference);
+      int32_t to_next = -1;
+      double alpha = 0.0;
+      const int32_t to =
+          ObservedPose(problem->pose_stamps, observed->first_pose, observed->num_poses,
+                       sighting.stamp, max_interpolation_gap, &to_next, &alpha);
       if (from < 0 || to < 0) {
         ++counts.no_pose_at_stamp;
         continue;
@@ -78,7 +106,8 @@ SightingCounts AddRobotSightings(const std::vector<RunSightings>& runs,
       const Eigen::Vector3d sum(sighting.z.x(), std::cos(sighting.z.y()),
                                 std::sin(sighting.z.y()));
       const auto [group, inserted] = merged_into.try_emplace(
-          {standstill[static_cast<size_t>(from)], standstill[static_cast<size_t>(to)]},
+          {standstill[static_cast<size_t>(from)], standstill[static_cast<size_t>(to)],
+           standstill[static_cast<size_t>(to_next >= 0 ? to_next : to)]},
           sums.size());
       if (!inserted) {
         sums[group->second] += sum;
@@ -94,8 +123,11 @@ SightingCounts AddRobotSightings(const std::vector<RunSightings>& runs,
       constraint.z = sighting.z;
       constraint.information = sighting.information;
       constraint.line = sighting.line;
+      constraint.to_next = to_next;
+      constraint.alpha = alpha;
       problem->pose_range_bearings.push_back(constraint);
       ++counts.constraints;
+      if (to_next >= 0) ++counts.interpolated;
     }
   }
   for (size_t i = 0; i < sums.size(); ++i) {

@@ -4,16 +4,27 @@
 //
 // A sighting (stamp t, observed robot j, z = (range, bearing)) read from run
 // A's measurements (storage::MrclamRobotSighting) becomes the constraint
-//   from = A's pose nearest to t,  to = B's pose nearest to t,
+//   from = A's pose nearest to t (within max_time_difference, else dropped),
 //   z, information = A's measurement information,
-// where B is the job's run of robot j of the SAME dataset folder. Both poses
-// must lie within max_time_difference of t, else the sighting is dropped and
-// counted. MRCLAM's 50 Hz files put every robot on one 0.02 s grid starting
-// at 0 and the measurements on that grid too, so both poses are at t itself
-// (difference 0) and no interpolation is needed; with irregular raw stamps,
-// 0.02 s at the robots' speeds (< 0.5 m/s) is at most 1 cm of motion, a tenth
-// of the range noise. A sighting of a robot that is no run of the job is
-// counted and dropped.
+// where B is the job's run of robot j of the SAME dataset folder, and B's
+// position at t is
+//   - B's pose at t itself (stamp within 1e-9 s): to = that pose, the
+//     two-pose constraint of core/pose_range_bearing_model.h;
+//   - else, when t lies between two consecutive poses of B at t0 < t < t1
+//     with t1 - t0 <= max_interpolation_gap: to = the pose at t0, to_next =
+//     the pose at t1, alpha = (t - t0) / (t1 - t0), the three-pose constraint
+//     of core/interpolated_pose_range_bearing_model.h (counted as
+//     `interpolated`);
+//   - else (t before B's first or after its last pose, or in a longer gap)
+//     the sighting is dropped and counted.
+// MRCLAM's 50 Hz files put every robot on one 0.02 s grid starting at 0 and
+// the measurements on that grid too, so both poses are at t itself and no
+// sighting is interpolated; B's poses on another grid (raw stamps, thinned
+// poses, another rate) are interpolated instead of snapped to the nearest
+// pose, which is up to half a gap of B's motion off. The observer's pose is
+// still the nearest: with irregular raw stamps, 0.02 s at the robots' speeds
+// (< 0.5 m/s) is at most 1 cm of motion, a tenth of the range noise. A
+// sighting of a robot that is no run of the job is counted and dropped.
 //
 // Standstill repeats: while BOTH robots stand still (every control between
 // the poses, as the motions carry them, below storage::MrclamStandsStill), the
@@ -22,7 +33,8 @@
 // every time (Vicon). As in storage/mrclam_reader.h, all sightings of one
 // observer's standstill of one observed robot's standstill become ONE
 // constraint, z = their mean (circular in the bearing), at the first
-// sighting's poses, with the information of one reading.
+// sighting's poses, with the information of one reading. (An interpolated
+// sighting merges only with others between poses of the same standstills.)
 //
 // THREAD SAFETY: pure functions. ALLOCATION: O(sightings + runs).
 #pragma once
@@ -51,18 +63,24 @@ struct RunSightings {
 
 struct SightingCounts {
   int64_t constraints = 0;       // became pose_range_bearings
+  int64_t interpolated = 0;      // of those, B's position between two poses
   int64_t robot_not_in_job = 0;  // the observed robot is no run of the job
-  int64_t no_pose_at_stamp = 0;  // a pose farther than max_time_difference from t
+  int64_t no_pose_at_stamp = 0;  // no pose of A near t, or t not within B's poses
   int64_t standstill_repeats_merged = 0;  // merged into an earlier constraint
 };
 
 inline constexpr double kDefaultSightingMaxTimeDifference = 0.02;  // s
+// The longest gap between two poses of B to interpolate in: at most 0.016 m
+// between the chord and the arc at 0.5 m/s and 1 rad/s
+// (core/interpolated_pose_range_bearing_model.h).
+inline constexpr double kDefaultSightingMaxInterpolationGap = 0.5;  // s
 
 // Appends the constraints of every run's sightings to
 // problem->pose_range_bearings (pose stamps from problem->pose_stamps, each
 // run's in non-decreasing order; standstills from problem->motions).
 SightingCounts AddRobotSightings(const std::vector<RunSightings>& runs,
-                                 double max_time_difference, core::Problem2d* problem);
+                                 double max_time_difference, double max_interpolation_gap,
+                                 core::Problem2d* problem);
 
 // How many pose_range_bearings tie each pair of runs (a < b, either
 // direction); `run_of_pose` gives each pose's run.
