@@ -14,6 +14,7 @@
 #include "storage/native_log_scans.h"
 #include "storage/scan_store.h"
 #include "tools/campus_simulator.h"
+#include "tools/job/job_memory_budget.h"
 #include "tools/job/simulated_scans.h"
 #include "tools/map_builder.h"
 
@@ -90,13 +91,21 @@ int FirstRunOf(const JobData& data, const RunSpec& spec) {
   return direct >= 0 ? direct : RunIndex(data, spec.name + "_1");
 }
 
+// In 1 MiB blocks: a map file may be as large as the fusion's tile budget,
+// half the job's memory_limit or more, and must not be held whole.
 Status CopyAtomically(const std::string& from, const std::string& to) {
   std::ifstream in(from, std::ios::binary);
   if (!in) return Status::NotFound(from + ": missing (did the map stage complete?)");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  if (in.bad()) return Status::IOError(from + ": read failed");
-  return storage::WriteStringAtomically(storage::Env::Default(), to, buffer.str());
+  std::string block(size_t{1} << 20, '\0');
+  return storage::WriteFileAtomically(
+      storage::Env::Default(), to, [&](storage::WritableFile* file) -> Status {
+        while (in) {
+          in.read(block.data(), static_cast<std::streamsize>(block.size()));
+          if (in.bad()) return Status::IOError(from + ": read failed");
+          GS_RETURN_IF_ERROR(file->Append(std::string_view(block.data(), in.gcount())));
+        }
+        return Status::Ok();
+      });
 }
 
 }  // namespace
@@ -272,8 +281,11 @@ StatusOr<json> BuildJobMap(const JobSpec& spec, const JobData& data, const std::
     options.pcd_path = (fs::path(work) / (stem + ".pcd")).string();
     options.pcd_voxel = spec.map.pcd_voxel;
     if (spec.memory_limit > 0) {
-      options.memory_budget_bytes = std::max<int64_t>(spec.memory_limit / 2, int64_t{16} << 20);
-      options.batch_points = std::clamp<int64_t>(spec.memory_limit / 2048, 20'000, 2'000'000);
+      // What the limit leaves beside the problem (tools/job/job_memory_budget.h).
+      GS_ASSIGN_OR_RETURN(const JobBudget budget,
+                          BudgetJob(spec.memory_limit, JobSizeOf(spec, data.problem)));
+      options.memory_budget_bytes = budget.map_tile_bytes;
+      options.batch_points = budget.map_batch_points;
     }
     // A restart after kill -9 starts from nothing: no stale spill or tiles.
     std::error_code error;
