@@ -85,6 +85,17 @@ int64_t IngestInput::FixedBytes() const {
   return kIngestBaseBytes + std::min(kIngestBlockBytes, input_bytes / 4);
 }
 
+int64_t IngestInput::Pass1FeatureBytes() const {
+  if (counted && feature_id_end >= 0)
+    return features * kIngestPass1BytesPerFeature + feature_id_end * kIngestBytesPerFeatureId;
+  return features * kIngestPass1BytesPerFeatureUnknownIds;
+}
+
+storage::ExpectedSizes IngestInput::Expected() const {
+  if (!counted) return {};
+  return {features, feature_id_end};
+}
+
 StatusOr<IngestInput> EstimateIngestInput(const std::string& path, storage::InputFormat format) {
   IngestInput input;
   GS_ASSIGN_OR_RETURN(input.input_bytes, InputBytes(path));
@@ -100,6 +111,7 @@ StatusOr<IngestInput> EstimateIngestInput(const std::string& path, storage::Inpu
       counts.ok() ? counts->observations : input.input_bytes / kLogBytesPerObservation;
   input.features = counts.ok() ? counts->features : input.input_bytes / kLogBytesPerFeature;
   input.poses = counts.ok() ? counts->poses : input.input_bytes / kLogBytesPerPose;
+  input.feature_id_end = counts.ok() ? counts->feature_id_end : -1;
   return input;
 }
 
@@ -110,7 +122,7 @@ StatusOr<IngestBudget> BudgetIngest(int64_t limit_bytes, const IngestInput& inpu
   const int64_t fixed = input.FixedBytes();
   // Before the buffer: pass 1 of a streamed log, the whole problem otherwise.
   const int64_t read = input.streamed
-                           ? fixed + poses + input.features * kIngestPass1BytesPerFeature
+                           ? fixed + poses + input.Pass1FeatureBytes()
                            : fixed + input.input_bytes * kReadWholeBytesPerInputByte;
   const int64_t pass2 = input.streamed
                             ? fixed + poses + input.features * kIngestPass2BytesPerFeature
@@ -136,8 +148,12 @@ StatusOr<IngestBudget> BudgetIngest(int64_t limit_bytes, const IngestInput& inpu
                                              : " features): ") +
                               FormatBytes(fixed) + " fixed + " + FormatBytes(poses) +
                               " poses + " +
-                              FormatBytes(input.features * kIngestPass1BytesPerFeature) +
-                              " features in pass 1"
+                              FormatBytes(input.Pass1FeatureBytes()) + " features" +
+                              (input.counted && input.feature_id_end >= 0
+                                   ? " and ids (" + std::to_string(input.feature_id_end) +
+                                         " ids in the table)"
+                                   : std::string()) +
+                              " in pass 1"
                         : ", read whole: " + FormatBytes(read)) +
         ", and a buffer of one chunk (" + std::to_string(chunk_observations) +
         " observations, " + FormatBytes(chunk_observations * kIngestBytesPerBufferedObservation) +
