@@ -24,6 +24,8 @@ JobSize JobSizeOf(const JobSpec& job, const core::Problem2d& problem) {
                run.format == "native";  // a native log's SCAN records
   size.map = size.map && job.HasStage(Stage::kMap);
   size.second_problem = job.compare_without_gps;
+  for (const RunSpec& run : job.runs) size.associate = size.associate || !run.ids;
+  size.associate = size.associate && job.HasStage(Stage::kAssociate);
   return size;
 }
 
@@ -37,7 +39,9 @@ StatusOr<JobBudget> BudgetJob(int64_t limit_bytes, const JobSize& size) {
   const int64_t map_fixed = budget.core_bytes + kJobMapFixedBytes;
   const int64_t map_need =
       size.map ? map_fixed + kMinBatchPoints * kJobMapBytesPerBatchPoint + kJobMinTileBytes : 0;
-  budget.need_bytes = std::max(budget.core_bytes, map_need);
+  const int64_t associate_need =
+      size.associate ? budget.core_bytes + size.features * kJobAssociateBytesPerFeature : 0;
+  budget.need_bytes = std::max({budget.core_bytes, map_need, associate_need});
   if (limit_bytes < budget.need_bytes) {
     std::string message =
         "memory_limit " + FormatBytes(limit_bytes) + " is below the job's estimated need of " +
@@ -50,6 +54,10 @@ StatusOr<JobBudget> BudgetJob(int64_t limit_bytes, const JobSize& size) {
         FormatBytes(size.features * kJobBytesPerFeature) + " for " +
         std::to_string(size.features) + " features, held in memory by every stage" +
         (size.second_problem ? ", twice (compare_without_gps)" : "");
+    if (size.associate)
+      message += "; data association (ids: false) adds " +
+                 FormatBytes(associate_need - budget.core_bytes) + " for the " +
+                 std::to_string(size.features) + " features";
     if (size.map)
       message += "; the map stage adds " + FormatBytes(map_need - budget.core_bytes) +
                  " (fusion, one batch of 20000 points, tiles of at least " +

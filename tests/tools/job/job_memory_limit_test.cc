@@ -23,7 +23,7 @@ using ::testing::HasSubstr;
 constexpr int64_t kMiB = int64_t{1} << 20;
 
 TEST(JobMemoryBudget, CoreIsTheSumOfItsTermsAndTheNeedIsTheSmallestLimit) {
-  const JobSize size{10'000, 2'000, 50'000, false, false};
+  const JobSize size{10'000, 2'000, 50'000, false, false, false};
   const int64_t core = kJobBaseBytes + 10'000 * kJobBytesPerPose + 50'000 * kJobBytesPerObservation +
                        2'000 * kJobBytesPerFeature;
   const StatusOr<JobBudget> at_need = BudgetJob(core, size);
@@ -41,13 +41,13 @@ TEST(JobMemoryBudget, CoreIsTheSumOfItsTermsAndTheNeedIsTheSmallestLimit) {
   EXPECT_THAT(below.status().message(), HasSubstr("50000 observations"));
   // A second problem (compare_without_gps) doubles the per-item terms.
   const StatusOr<JobBudget> twice = BudgetJob(int64_t{1} << 30, JobSize{10'000, 2'000, 50'000,
-                                                                         false, true});
+                                                                         false, true, false});
   ASSERT_TRUE(twice.ok());
   EXPECT_EQ(twice->core_bytes - kJobBaseBytes, 2 * (core - kJobBaseBytes));
 }
 
 TEST(JobMemoryBudget, TheMapsPartsAddUpToTheLimitAndTheTilesKeepTheirLeast) {
-  const JobSize size{600, 95, 2'158, true, false};
+  const JobSize size{600, 95, 2'158, true, false, false};
   const int64_t core = kJobBaseBytes + 600 * kJobBytesPerPose + 2'158 * kJobBytesPerObservation +
                        95 * kJobBytesPerFeature;
   const int64_t need = core + kJobMapFixedBytes + 20'000 * kJobMapBytesPerBatchPoint + kJobMinTileBytes;
@@ -70,11 +70,22 @@ TEST(JobMemoryBudget, TheMapsPartsAddUpToTheLimitAndTheTilesKeepTheirLeast) {
         << limit;
   }
   // Without scans no map term.
-  EXPECT_EQ(BudgetJob(core, JobSize{600, 95, 2'158, false, false})->need_bytes, core);
+  EXPECT_EQ(BudgetJob(core, JobSize{600, 95, 2'158, false, false, false})->need_bytes, core);
+}
+
+TEST(JobMemoryBudget, DataAssociationAddsItsPerFeatureTerm) {
+  const JobSize known{1'000, 3'507, 3'507, false, false, false};
+  JobSize unknown = known;
+  unknown.associate = true;
+  const int64_t core = BudgetJob(int64_t{1} << 30, known)->need_bytes;
+  EXPECT_EQ(BudgetJob(int64_t{1} << 30, unknown)->need_bytes,
+            core + 3'507 * kJobAssociateBytesPerFeature);
+  EXPECT_THAT(BudgetJob(core, unknown).status().message(),
+              HasSubstr("data association (ids: false) adds"));
 }
 
 TEST(JobMemoryBudget, CholmodFactorFitsInWhatTheLimitLeavesOrNamesTheLimitThatHoldsIt) {
-  const JobSize size{1'000, 100, 4'000, false, false};
+  const JobSize size{1'000, 100, 4'000, false, false, false};
   const int64_t core = BudgetJob(int64_t{1} << 30, size)->core_bytes;
   const double factor = 3.0 * kMiB;  // 8 lnz
   EXPECT_TRUE(CheckJobCholmodFactor(core + 4 * 3 * kMiB, size, factor).ok());
