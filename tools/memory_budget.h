@@ -188,4 +188,16 @@ StatusOr<RecordCounts> CountPoseAndFeatureRecords(const std::string& path);
 // "1.5 GiB", "300 MiB": for the messages.
 std::string FormatBytes(int64_t bytes);
 
+// The head of a refusal: "OPTION 1.0 MiB is below the NEED of 2.0 MiB
+// (2097152 bytes): the smallest limit that works".
+std::string BelowNeed(const std::string& option, int64_t limit_bytes, const std::string& need,
+                      int64_t need_bytes);
+
+// The refusal of a CHOLMOD factor of `factor_bytes` values (`factor_need`
+// with its indices, S and workspace) under `option` = `limit_bytes`, naming
+// `smallest`; `cholmod` / `auto` are how the caller's options spell them.
+Status CholmodRefusal(const std::string& option, int64_t limit_bytes, const std::string& cholmod,
+                      const std::string& automatic, double factor_bytes, int64_t factor_need,
+                      int64_t smallest);
+
 }  // namespace graphslam::tools

@@ -44,9 +44,8 @@ StatusOr<JobBudget> BudgetJob(int64_t limit_bytes, const JobSize& size) {
   budget.need_bytes = std::max({budget.core_bytes, map_need, associate_need});
   if (limit_bytes < budget.need_bytes) {
     std::string message =
-        "memory_limit " + FormatBytes(limit_bytes) + " is below the job's estimated need of " +
-        FormatBytes(budget.need_bytes) + " (" + std::to_string(budget.need_bytes) +
-        " bytes): the smallest limit that works. Parts: " + FormatBytes(kJobBaseBytes) +
+        BelowNeed("memory_limit", limit_bytes, "job's estimated need", budget.need_bytes) +
+        ". Parts: " + FormatBytes(kJobBaseBytes) +
         " fixed + " + FormatBytes(size.poses * kJobBytesPerPose) + " for " +
         std::to_string(size.poses) + " poses + " +
         FormatBytes(size.observations * kJobBytesPerObservation) + " for " +
@@ -82,13 +81,8 @@ Status CheckJobCholmodFactor(int64_t limit_bytes, const JobSize& size, double fa
       static_cast<int64_t>(std::ceil(factor_bytes)) * kCholmodBytesPerFactorByte;
   if (factor_need <= budget.spare_bytes) return Status::Ok();
   const int64_t smallest = std::max(budget.need_bytes, budget.core_bytes + factor_need);
-  return Status::InvalidArgument(
-      "memory_limit " + FormatBytes(limit_bytes) + " does not hold linear_solver: cholmod: its "
-      "factor (" + FormatBytes(static_cast<int64_t>(factor_bytes)) + " of values from the "
-      "symbolic analysis, " + FormatBytes(factor_need) + " with its indices, the copy of S and "
-      "workspace) needs a limit of at least " + FormatBytes(smallest) + " (" +
-      std::to_string(smallest) + " bytes): the smallest limit that works; or linear_solver: "
-      "auto, which takes PCG when the factor does not fit");
+  return CholmodRefusal("memory_limit", limit_bytes, "linear_solver: cholmod",
+                        "linear_solver: auto", factor_bytes, factor_need, smallest);
 }
 
 }  // namespace graphslam::tools::job
