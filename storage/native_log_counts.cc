@@ -27,6 +27,15 @@ bool ParseLastLine(std::string_view text, NativeLogCounts* counts) {
                   "# counts: poses %" SCNd64 " features %" SCNd64 " observations %" SCNd64 "%n",
                   &counts->poses, &counts->features, &counts->observations, &consumed) != 3)
     return false;
+  // The optional id range.
+  counts->feature_id_end = -1;
+  if (static_cast<size_t>(consumed) < line.size()) {
+    int more = 0;
+    if (std::sscanf(line.c_str() + consumed, " feature_ids %" SCNd64 "%n", &counts->feature_id_end,
+                    &more) != 1 || counts->feature_id_end < 0)
+      return false;
+    consumed += more;
+  }
   return static_cast<size_t>(consumed) == line.size() && counts->poses >= 0 &&
          counts->features >= 0 && counts->observations >= 0;
 }
@@ -58,7 +67,10 @@ bool LastZstdFrame(const std::string& tail, std::string* text) {
 std::string NativeLogCountsLine(const NativeLogCounts& counts) {
   return std::string(kPrefix) + "poses " + std::to_string(counts.poses) + " features " +
          std::to_string(counts.features) + " observations " +
-         std::to_string(counts.observations) + "\n";
+         std::to_string(counts.observations) +
+         (counts.feature_id_end >= 0 ? " feature_ids " + std::to_string(counts.feature_id_end)
+                                     : std::string()) +
+         "\n";
 }
 
 StatusOr<NativeLogCounts> ReadNativeLogCounts(const std::string& path) {

@@ -51,6 +51,20 @@ class NativeLogParser {
       : path_(path), sink_(sink), scans_(scans), repairs_(repairs),
         skip_features_(skip_features) {}
 
+  // Dense indices are int32: a larger figure is not a real log's.
+  void Reserve(const ExpectedSizes& expected) {
+    constexpr int64_t kMost = std::numeric_limits<int32_t>::max();
+    if (expected.features <= 0 || expected.features > kMost) return;
+    const auto features = static_cast<size_t>(expected.features);
+    problem_.features.reserve(features);
+    problem_.feature_ids.reserve(features);
+    problem_.feature_initialized.reserve(features);
+    feature_lines_.reserve(features);
+    feature_declared_.reserve(features);
+    if (expected.feature_id_end > 0 && expected.feature_id_end <= kMost)
+      features_.ReserveDirect(expected.feature_id_end, expected.features);
+  }
+
   // Lines are cut into blocks and tokenized (fields split, numbers
   // converted) in parallel; the records are then interpreted in file order,
   // so ids, dense indices, checks and messages are those of a serial read.
@@ -504,9 +518,12 @@ StatusOr<core::Problem2d> ReadNativeLog(const std::string& path,
 
 StatusOr<core::Problem2d> ReadNativeLogStreaming(const std::string& path,
                                                  const ObservationSink& sink,
-                                                 std::vector<NativeLogScan>* scans) {
+                                                 std::vector<NativeLogScan>* scans,
+                                                 const ExpectedSizes& expected) {
   if (scans != nullptr) scans->clear();
-  return ReleasingFreedMemory(NativeLogParser(path, &sink, scans).Parse());
+  NativeLogParser parser(path, &sink, scans);
+  parser.Reserve(expected);
+  return ReleasingFreedMemory(parser.Parse());
 }
 
 namespace {

@@ -86,9 +86,20 @@ using ObservationSink = std::function<Status(const core::Observation&)>;
 // observations do not fit in memory. Same checks, same dense indices.
 // `scans`, if given, receives every SCAN record in file order (the ingest
 // copies their files into the store, partition/ingest/ingest_scans.h).
+// `expected`: the sizes a counts trailer gives before the read
+// (storage/native_log_counts.h; 0 / -1: unknown): the per-feature arrays and
+// the feature id table are reserved to them, so they never grow by copying
+// (a moment with the old and the new array both resident) and keep no spare
+// capacity; what the budget of the ingest counts on (tools/memory_budget.h).
+// A wrong trailer changes no result, only what is reserved.
+struct ExpectedSizes {
+  int64_t features = 0;
+  int64_t feature_id_end = -1;
+};
 StatusOr<core::Problem2d> ReadNativeLogStreaming(const std::string& path,
                                                  const ObservationSink& sink,
-                                                 std::vector<NativeLogScan>* scans = nullptr);
+                                                 std::vector<NativeLogScan>* scans = nullptr,
+                                                 const ExpectedSizes& expected = {});
 
 // InvalidArgument (before anything is written) if `problem` is inconsistent;
 // IOError if the disk fails (an existing `path` is then left untouched).

@@ -171,6 +171,7 @@ int RunIngestCommand(const IngestCommandOptions& options) {
   ingest.buffer_observations = options.buffer_observations > 0 ? options.buffer_observations
                                                                : budget->buffer_observations;
   ingest.buffer_observations = std::max(ingest.buffer_observations, options.chunk_observations);
+  ingest.expected = estimate->Expected();
   ingest.store.source = options.input;
   if (options.compress) ingest.store.chunk.compression = storage::ChunkCompression::kZstd;
   if (options.checkpoint_seconds < 0)

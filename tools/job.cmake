@@ -4,6 +4,7 @@ target_sources(graphslam_tools PRIVATE
   job/job_data.cc
   job/job_export.cc
   job/job_map.cc
+  job/job_memory_budget.cc
   job/job_runner.cc
   job/job_spec.cc
   job/job_state.cc

@@ -81,8 +81,26 @@ std::string FormatBytes(int64_t bytes) {
   return text;
 }
 
+std::string BelowNeed(const std::string& option, int64_t limit_bytes, const std::string& need,
+                      int64_t need_bytes) {
+  return option + " " + FormatBytes(limit_bytes) + " is below the " + need + " of " +
+         FormatBytes(need_bytes) + " (" + std::to_string(need_bytes) +
+         " bytes): the smallest limit that works";
+}
+
 int64_t IngestInput::FixedBytes() const {
   return kIngestBaseBytes + std::min(kIngestBlockBytes, input_bytes / 4);
+}
+
+int64_t IngestInput::Pass1FeatureBytes() const {
+  if (counted && feature_id_end >= 0)
+    return features * kIngestPass1BytesPerFeature + feature_id_end * kIngestBytesPerFeatureId;
+  return features * kIngestPass1BytesPerFeatureUnknownIds;
+}
+
+storage::ExpectedSizes IngestInput::Expected() const {
+  if (!counted) return {};
+  return {features, feature_id_end};
 }
 
 StatusOr<IngestInput> EstimateIngestInput(const std::string& path, storage::InputFormat format) {
@@ -100,6 +118,7 @@ StatusOr<IngestInput> EstimateIngestInput(const std::string& path, storage::Inpu
       counts.ok() ? counts->observations : input.input_bytes / kLogBytesPerObservation;
   input.features = counts.ok() ? counts->features : input.input_bytes / kLogBytesPerFeature;
   input.poses = counts.ok() ? counts->poses : input.input_bytes / kLogBytesPerPose;
+  input.feature_id_end = counts.ok() ? counts->feature_id_end : -1;
   return input;
 }
 
@@ -110,7 +129,7 @@ StatusOr<IngestBudget> BudgetIngest(int64_t limit_bytes, const IngestInput& inpu
   const int64_t fixed = input.FixedBytes();
   // Before the buffer: pass 1 of a streamed log, the whole problem otherwise.
   const int64_t read = input.streamed
-                           ? fixed + poses + input.features * kIngestPass1BytesPerFeature
+                           ? fixed + poses + input.Pass1FeatureBytes()
                            : fixed + input.input_bytes * kReadWholeBytesPerInputByte;
   const int64_t pass2 = input.streamed
                             ? fixed + poses + input.features * kIngestPass2BytesPerFeature
@@ -125,9 +144,8 @@ StatusOr<IngestBudget> BudgetIngest(int64_t limit_bytes, const IngestInput& inpu
   }
   if (limit_bytes < budget.need_bytes) {
     return Status::InvalidArgument(
-        "--memory-limit " + FormatBytes(limit_bytes) + " is below the estimated need of " +
-        FormatBytes(budget.need_bytes) + " (" + std::to_string(budget.need_bytes) +
-        " bytes): the smallest limit that works. Estimated from the input's " +
+        BelowNeed("--memory-limit", limit_bytes, "estimated need", budget.need_bytes) +
+        ". Estimated from the input's " +
         std::to_string(input.input_bytes) + " bytes" +
         (input.streamed ? std::string(input.counted ? " (" : " (~") +
                               std::to_string(input.poses) + (input.counted ? " poses, " : " poses, ~") +
@@ -136,8 +154,12 @@ StatusOr<IngestBudget> BudgetIngest(int64_t limit_bytes, const IngestInput& inpu
                                              : " features): ") +
                               FormatBytes(fixed) + " fixed + " + FormatBytes(poses) +
                               " poses + " +
-                              FormatBytes(input.features * kIngestPass1BytesPerFeature) +
-                              " features in pass 1"
+                              FormatBytes(input.Pass1FeatureBytes()) + " features" +
+                              (input.counted && input.feature_id_end >= 0
+                                   ? " and ids (" + std::to_string(input.feature_id_end) +
+                                         " ids in the table)"
+                                   : std::string()) +
+                              " in pass 1"
                         : ", read whole: " + FormatBytes(read)) +
         ", and a buffer of one chunk (" + std::to_string(chunk_observations) +
         " observations, " + FormatBytes(chunk_observations * kIngestBytesPerBufferedObservation) +
@@ -172,9 +194,8 @@ StatusOr<SolveBudget> BudgetSolve(int64_t limit_bytes, const SolveSize& size,
   }
   if (limit_bytes < budget.need_bytes) {
     std::string message =
-        "--memory-limit " + FormatBytes(limit_bytes) + " is below the estimated need of " +
-        FormatBytes(budget.need_bytes) + " (" + std::to_string(budget.need_bytes) +
-        " bytes): the smallest limit that works. Parts: " + FormatBytes(kSolveBaseBytes) +
+        BelowNeed("--memory-limit", limit_bytes, "estimated need", budget.need_bytes) +
+        ". Parts: " + FormatBytes(kSolveBaseBytes) +
         " fixed + " + FormatBytes(size.poses * kPoseSystemBytesPerPose) + " for " +
         std::to_string(size.poses) + " poses + " +
         FormatBytes(rest - kSolveBaseBytes - size.poses * kPoseSystemBytesPerPose) + " for " +
@@ -234,13 +255,20 @@ Status CheckCholmodFactor(int64_t limit_bytes, const SolveSize& size, int defaul
     if (holds(limit)) smallest = limit;
   }
   if (smallest == 0) smallest = least.need_bytes + default_in_flight * chunk + factor_need;
+  return CholmodRefusal("--memory-limit", limit_bytes, "--solver cholmod", "--solver auto",
+                        factor_bytes, factor_need, smallest);
+}
+
+Status CholmodRefusal(const std::string& option, int64_t limit_bytes, const std::string& cholmod,
+                      const std::string& automatic, double factor_bytes, int64_t factor_need,
+                      int64_t smallest) {
   return Status::InvalidArgument(
-      "--memory-limit " + FormatBytes(limit_bytes) + " does not hold --solver cholmod: its "
-      "factor (" + FormatBytes(static_cast<int64_t>(factor_bytes)) + " of values from the "
-      "symbolic analysis, " + FormatBytes(factor_need) + " with its indices, the copy of S "
-      "and workspace) needs a limit of at least " + FormatBytes(smallest) + " (" +
-      std::to_string(smallest) + " bytes): the smallest limit that works; or --solver auto, "
-      "which takes PCG when the factor does not fit");
+      option + " " + FormatBytes(limit_bytes) + " does not hold " + cholmod + ": its factor (" +
+      FormatBytes(static_cast<int64_t>(factor_bytes)) + " of values from the symbolic "
+      "analysis, " + FormatBytes(factor_need) + " with its indices, the copy of S and "
+      "workspace) needs a limit of at least " + FormatBytes(smallest) + " (" +
+      std::to_string(smallest) + " bytes): the smallest limit that works; or " + automatic +
+      ", which takes PCG when the factor does not fit");
 }
 
 }  // namespace graphslam::tools

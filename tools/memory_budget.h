@@ -8,8 +8,13 @@
 //
 // Ingest of a native log (streamed, partition/ingest/streaming_ingest.h), P poses,
 // F observed features, B observations per chunk, K buffered observations:
-//   pass 1 = base + blocks + P ingest_pose + F pass1_feature  (problem, id
-//            map, feature index; blocks: tokenizer and replay frames)
+//   pass 1 = base + blocks + P ingest_pose + F pass1_feature + I feature_id
+//            (problem, the reader's per-feature lines and flags, feature
+//            index: reserved to F, so never grown by copying; the reader's
+//            direct id table over the I ids [0, I); blocks: tokenizer and
+//            replay frames). I is the counts trailer's `feature_ids`; a log
+//            without it takes F pass1_feature_unknown_ids instead (the id
+//            table up to 8 ids per feature, the arrays grown by doubling)
 //   pass 2 = base + blocks + P ingest_pose + F pass2_feature + K buffered_observation
 //            (the buffer and the counting sort's scratch of each record)
 //   need   = max(pass 1, pass 2 at K = B)
@@ -57,6 +62,7 @@
 
 #include "core/status.h"
 #include "storage/format_detection.h"
+#include "storage/native_log_reader.h"
 
 namespace graphslam::tools {
 
@@ -66,9 +72,16 @@ namespace graphslam::tools {
 inline constexpr int64_t kIngestBaseBytes = int64_t{16} << 20;
 inline constexpr int64_t kIngestBlockBytes = int64_t{56} << 20;
 inline constexpr int64_t kIngestBytesPerPose = 512;
-// Pass 1's per-feature vectors (docs/out_of_core.md "First sights on disk":
-// 47 B) at up to 2x capacity slack.
-inline constexpr int64_t kIngestPass1BytesPerFeature = 80;
+// Pass 1's per-feature arrays reserved to the counted features: the problem's
+// guess, id and flag (25 B), the reader's line and declared flag (5 B), the
+// feature index (8 B); at the initialization the union-find over poses and
+// features and its flags (9 B) instead of the reader's (docs/out_of_core.md
+// "What --memory-limit bounds"), plus the id table's 4 B per id in [0, I).
+inline constexpr int64_t kIngestPass1BytesPerFeature = 48;
+inline constexpr int64_t kIngestBytesPerFeatureId = 4;
+// Without the id range (or the counts): the id table at up to 8 ids per
+// feature and the arrays' growth by doubling.
+inline constexpr int64_t kIngestPass1BytesPerFeatureUnknownIds = 80;
 inline constexpr int64_t kIngestPass2BytesPerFeature = 48;
 inline constexpr int64_t kIngestBytesPerBufferedObservation = 160;
 inline constexpr int64_t kReadWholeBytesPerInputByte = 4;
@@ -106,6 +119,12 @@ struct IngestInput {
   int64_t poses = 0;
   int64_t features = 0;
   int64_t observations = 0;
+  int64_t feature_id_end = -1;  // the trailer's feature_ids; -1: not known
+
+  // Pass 1's per-feature and id-table bytes (the terms above).
+  int64_t Pass1FeatureBytes() const;
+  // What pass 1 may reserve (counted logs only).
+  storage::ExpectedSizes Expected() const;
 };
 
 // The sizes above for `path` in `format` (kNative: streamed). IOError if the
@@ -168,5 +187,17 @@ StatusOr<RecordCounts> CountPoseAndFeatureRecords(const std::string& path);
 
 // "1.5 GiB", "300 MiB": for the messages.
 std::string FormatBytes(int64_t bytes);
+
+// The head of a refusal: "OPTION 1.0 MiB is below the NEED of 2.0 MiB
+// (2097152 bytes): the smallest limit that works".
+std::string BelowNeed(const std::string& option, int64_t limit_bytes, const std::string& need,
+                      int64_t need_bytes);
+
+// The refusal of a CHOLMOD factor of `factor_bytes` values (`factor_need`
+// with its indices, S and workspace) under `option` = `limit_bytes`, naming
+// `smallest`; `cholmod` / `auto` are how the caller's options spell them.
+Status CholmodRefusal(const std::string& option, int64_t limit_bytes, const std::string& cholmod,
+                      const std::string& automatic, double factor_bytes, int64_t factor_need,
+                      int64_t smallest);
 
 }  // namespace graphslam::tools

@@ -36,6 +36,7 @@ Status IngestIntoWorkdir(const std::string& input, const std::string& format, in
   GS_ASSIGN_OR_RETURN(const IngestBudget budget,
                       BudgetIngest(memory_limit_bytes, estimate, chunk_observations));
   options.buffer_observations = budget.buffer_observations;
+  options.expected = estimate.Expected();
   options.store.source = input;
   options.resume = resume;
   options.copy_scans = false;  // the solve needs no scans (graphslam ingest copies them)

@@ -244,8 +244,10 @@ class StreamingSimulation {
     int64_t index = 0;
     for (int run = 0; run < options_.runs; ++run) GS_RETURN_IF_ERROR(Run(run, log, &index));
     summary_.poses = index;
+    // The id range only when every id is >= 0 (a negative id base).
     return log->Finish(storage::NativeLogCountsLine(
-        {summary_.poses, summary_.observed_features, summary_.observations}));
+        {summary_.poses, summary_.observed_features, summary_.observations,
+         options_.feature_id_base >= 0 ? summary_.feature_id_end : -1}));
   }
 
  private:
@@ -353,7 +355,11 @@ class StreamingSimulation {
       AppendUpperTriangle(line, observation_information_);
       GS_RETURN_IF_ERROR(log->EndLine());
       uint16_t& seen = counts_[static_cast<size_t>(landmark.slot)];
-      if (seen == 0) ++summary_.observed_features;
+      if (seen == 0) {
+        ++summary_.observed_features;
+        summary_.feature_id_end =
+            std::max(summary_.feature_id_end, options_.feature_id_base + landmark.slot + 1);
+      }
       if (seen < std::numeric_limits<uint16_t>::max()) ++seen;
       ++summary_.observations;
     }

@@ -54,6 +54,7 @@ struct StreamingCampusSummary {
   int64_t landmarks = 0;          // kept landmarks in the world
   int64_t observed_features = 0;  // landmarks seen at least once
   int64_t observations = 0;
+  int64_t feature_id_end = 0;     // one past the highest observed feature id
   int64_t motions = 0;
   int64_t gps = 0;
   double distance_travelled = 0;  // m, true path length

@@ -43,6 +43,12 @@ void FeatureIndex::Resize(int32_t num_features) {
   first_pose_.resize(num_features, std::numeric_limits<int32_t>::max());
 }
 
+void FeatureIndex::Reserve(int64_t num_features) {
+  if (num_features <= 0 || num_features > std::numeric_limits<int32_t>::max()) return;
+  counts_.reserve(static_cast<size_t>(num_features));
+  first_pose_.reserve(static_cast<size_t>(num_features));
+}
+
 void FeatureIndex::Add(const core::Observation& observation) {
   GS_CHECK(observation.feature >= 0 && observation.pose >= 0);
   if (observation.feature >= static_cast<int32_t>(counts_.size())) {

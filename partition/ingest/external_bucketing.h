@@ -92,6 +92,9 @@ class FeatureIndex {
   void Add(const core::Observation& observation);
   // Makes the index cover `num_features` features (unobserved ones count 0).
   void Resize(int32_t num_features);
+  // Capacity for `num_features` (a log's counts trailer): the arrays then
+  // never grow by copying (old and new both resident for a moment).
+  void Reserve(int64_t num_features);
   // An index recorded earlier (partition/ingest/ingest_progress.h, resumed ingest).
   void Assign(std::vector<int32_t> counts, std::vector<int32_t> first_pose, int64_t observations) {
     GS_CHECK(counts.size() == first_pose.size());

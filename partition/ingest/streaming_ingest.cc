@@ -60,7 +60,9 @@ StatusOr<FirstPass> RunFirstPass(const std::string& input, const std::string& wo
   };
   if (options.format == storage::InputFormat::kNative) {
     replay = std::make_unique<ReplayFrameWriter>(work, options.replay);
-    GS_ASSIGN_OR_RETURN(pass.problem, storage::ReadNativeLogStreaming(input, pass1, &pass.scans));
+    pass.index.Reserve(options.expected.features);
+    GS_ASSIGN_OR_RETURN(pass.problem, storage::ReadNativeLogStreaming(input, pass1, &pass.scans,
+                                                                      options.expected));
     GS_RETURN_IF_ERROR(replay->Finish());  // durable before the first progress record
     *replay_bytes = replay->bytes_written();
     replay.reset();

@@ -69,6 +69,7 @@
 #include "storage/chunk_store.h"
 #include "storage/env.h"
 #include "storage/format_detection.h"
+#include "storage/native_log_reader.h"
 
 namespace graphslam::partition {
 
@@ -101,6 +102,10 @@ struct StreamingIngestOptions {
   storage::MrclamOptions mrclam;
   int64_t max_observations_per_chunk = 4096;  // B
   int64_t buffer_observations = 1 << 20;      // K
+  // A native log's sizes from its counts trailer (storage/native_log_counts.h),
+  // if known: pass 1 reserves its per-feature arrays to them
+  // (storage/native_log_reader.h ReadNativeLogStreaming).
+  storage::ExpectedSizes expected;
   storage::ChunkStoreWriteOptions store;
   // Continue an interrupted ingest of the same input with the same options
   // from STORE/work/ (partition/ingest/ingest_progress.h); without a usable record

@@ -123,6 +123,12 @@ class GrowingIdMap {
     if (!sparse_.empty() && (size_ & (size_ - 1)) == 0) MoveDenseIdsToTheTable(dense_limit);
   }
   int64_t size() const { return size_; }
+  // Ids [0, id_end) of `count` ids will be inserted: the direct table's
+  // capacity, if the ids are dense enough for it (as Insert decides once all
+  // are in), so it never grows by copying.
+  void ReserveDirect(int64_t id_end, int64_t count) {
+    if (id_end < 8 * count + 1024) direct_.reserve(static_cast<size_t>(id_end));
+  }
 
  private:
   void MoveDenseIdsToTheTable(int64_t dense_limit) {

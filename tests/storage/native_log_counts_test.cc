@@ -70,6 +70,26 @@ TEST_F(NativeLogCountsTest, ThePlainLogsLastLineGivesTheCounts) {
   EXPECT_EQ(read->observations, 399899840);
 }
 
+TEST_F(NativeLogCountsTest, TheIdRangeIsOptional) {
+  const std::string line = NativeLogCountsLine({10, 20, 30, 1000020});
+  EXPECT_EQ(line, "# counts: poses 10 features 20 observations 30 feature_ids 1000020\n");
+  WritePlain(Path("with"), records_ + line);
+  const StatusOr<NativeLogCounts> with = ReadNativeLogCounts(Path("with"));
+  ASSERT_TRUE(with.ok()) << with.status().ToString();
+  EXPECT_EQ(with->features, 20);
+  EXPECT_EQ(with->feature_id_end, 1000020);
+  // A trailer without it (older logs): not known.
+  WritePlain(Path("without"), records_ + NativeLogCountsLine({10, 20, 30}));
+  const StatusOr<NativeLogCounts> without = ReadNativeLogCounts(Path("without"));
+  ASSERT_TRUE(without.ok()) << without.status().ToString();
+  EXPECT_EQ(without->feature_id_end, -1);
+  // Anything else after the observations is no trailer.
+  WritePlain(Path("bad"), records_ + "# counts: poses 1 features 2 observations 3 feature_ids\n");
+  EXPECT_EQ(ReadNativeLogCounts(Path("bad")).status().code(), Status::Code::kNotFound);
+  WritePlain(Path("neg"), records_ + "# counts: poses 1 features 2 observations 3 feature_ids -4\n");
+  EXPECT_EQ(ReadNativeLogCounts(Path("neg")).status().code(), Status::Code::kNotFound);
+}
+
 TEST_F(NativeLogCountsTest, TheZstdLogsLastFrameGivesTheCountsAndReadsBackAsAComment) {
   const std::string line = NativeLogCountsLine({7, 8, 9});
   WriteZstd(Path("log.graphslam.zst"), line);

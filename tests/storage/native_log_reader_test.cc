@@ -92,6 +92,39 @@ TEST(NativeLogReader, ReadsEveryRecordOfTheSpecExample) {
 // ReadNativeLogWithoutFeatures (an MPI rank's read of a chunk store's
 // problem): the poses and pose-only factors of ReadNativeLog, no feature; a
 // FEATURE record is still checked.
+// Expected sizes (a counts trailer's) only reserve: right, too small, too
+// large or absurd, the streamed read gives the same problem and observations.
+TEST(NativeLogReader, ExpectedSizesChangeNothingButWhatIsReserved) {
+  const std::string path = WriteTemp("expected.log", kExample);
+  const auto read = [&](const ExpectedSizes& expected, std::vector<core::Observation>* seen) {
+    return ReadNativeLogStreaming(
+        path, [seen](const core::Observation& o) { seen->push_back(o); return Status::Ok(); },
+        nullptr, expected);
+  };
+  std::vector<core::Observation> plain_seen;
+  const auto plain = read({}, &plain_seen);
+  ASSERT_TRUE(plain.ok()) << plain.status().ToString();
+  ASSERT_EQ(plain->num_features(), 2);
+  for (const ExpectedSizes expected : {ExpectedSizes{2, 8}, ExpectedSizes{1, 4},
+                                       ExpectedSizes{1000, 1000000}, ExpectedSizes{-5, -1},
+                                       ExpectedSizes{int64_t{1} << 40, int64_t{1} << 40}}) {
+    std::vector<core::Observation> seen;
+    const auto problem = read(expected, &seen);
+    ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+    EXPECT_EQ(problem->feature_ids, plain->feature_ids);
+    EXPECT_EQ(problem->feature_initialized, plain->feature_initialized);
+    ASSERT_EQ(problem->features.size(), plain->features.size());
+    for (size_t f = 0; f < problem->features.size(); ++f)
+      EXPECT_EQ(problem->features[f], plain->features[f]);
+    ASSERT_EQ(seen.size(), plain_seen.size());
+    for (size_t i = 0; i < seen.size(); ++i) {
+      EXPECT_EQ(seen[i].pose, plain_seen[i].pose);
+      EXPECT_EQ(seen[i].feature, plain_seen[i].feature);
+      EXPECT_EQ(seen[i].z, plain_seen[i].z);
+    }
+  }
+}
+
 TEST(NativeLogReader, WithoutFeaturesKeepsThePosesAndPoseFactorsOnly) {
   const std::string log =
       "GRAPHSLAM_LOG 1\n"

@@ -114,8 +114,9 @@ TEST(BudgetIngest, PassOneOrPassTwoWithOneChunkIsTheNeedAndTheBufferGetsTheRest)
   log.input_bytes = 1000;
   const int64_t fixed = kIngestBaseBytes + 250;
   EXPECT_EQ(log.FixedBytes(), fixed);
+  // Not counted: the features at the unknown id range's figure.
   const int64_t pass1 =
-      fixed + 10000 * kIngestBytesPerPose + 1000000 * kIngestPass1BytesPerFeature;
+      fixed + 10000 * kIngestBytesPerPose + 1000000 * kIngestPass1BytesPerFeatureUnknownIds;
   const int64_t pass2 =
       fixed + 10000 * kIngestBytesPerPose + 1000000 * kIngestPass2BytesPerFeature;
   ASSERT_GT(pass1, pass2 + 4096 * kIngestBytesPerBufferedObservation);
@@ -133,6 +134,19 @@ TEST(BudgetIngest, PassOneOrPassTwoWithOneChunkIsTheNeedAndTheBufferGetsTheRest)
   ASSERT_FALSE(refused.ok());
   EXPECT_NE(refused.status().ToString().find(std::to_string(pass1) + " bytes"), std::string::npos)
       << refused.status().ToString();
+  // Counted by a trailer with the id range: the reserved arrays per
+  // feature plus the id table per id; without the range, as uncounted.
+  log.counted = true;
+  log.feature_id_end = 2500000;
+  EXPECT_EQ(BudgetIngest(0, log, 4096)->need_bytes,
+            fixed + 10000 * kIngestBytesPerPose + 1000000 * kIngestPass1BytesPerFeature +
+                2500000 * kIngestBytesPerFeatureId);
+  EXPECT_EQ(log.Expected().features, 1000000);
+  EXPECT_EQ(log.Expected().feature_id_end, 2500000);
+  log.feature_id_end = -1;
+  EXPECT_EQ(BudgetIngest(0, log, 4096)->need_bytes, pass1);
+  log.counted = false;
+  EXPECT_EQ(log.Expected().features, 0);  // nothing reserved on an estimate
   // A log with few features: pass 2 with one chunk of buffer is the need.
   log.features = 10;
   EXPECT_EQ(BudgetIngest(0, log, 4096)->need_bytes,
@@ -215,12 +229,17 @@ TEST_F(MemoryLimitCommandTest, TheSimulatorsCountsTrailerSizesTheIngest) {
   const StatusOr<storage::NativeLogCounts> counts = storage::ReadNativeLogCounts(input);
   ASSERT_TRUE(counts.ok()) << counts.status().ToString();
   EXPECT_EQ(counts->poses, 600);
+  // Ids are feature_id_base (10^6) + the world's slot.
+  EXPECT_GT(counts->feature_id_end, 1000000 + counts->features - 1);
   std::string err;
   EXPECT_EQ(Run({"ingest", input, "-o", (dir_ / "store").string(), "--memory-limit", "1M", "-q"},
                 &err),
             2);
   EXPECT_NE(err.find("(600 poses, " + std::to_string(counts->features) +
                      " features, counted by the log's trailer)"),
+            std::string::npos)
+      << err;
+  EXPECT_NE(err.find(" (" + std::to_string(counts->feature_id_end) + " ids in the table)"),
             std::string::npos)
       << err;
   // The ingest reads the log, trailer and all, to the same counts.

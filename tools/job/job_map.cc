@@ -12,6 +12,7 @@
 #include "storage/native_log_scans.h"
 #include "storage/scan_store.h"
 #include "tools/campus_simulator.h"
+#include "tools/job/job_memory_budget.h"
 #include "tools/job/simulated_scans.h"
 #include "tools/map_builder.h"
 
@@ -88,11 +89,21 @@ int FirstRunOf(const JobData& data, const RunSpec& spec) {
   return direct >= 0 ? direct : RunIndex(data, spec.name + "_1");
 }
 
+// In 1 MiB blocks: a map file may be as large as the fusion's tile budget,
+// half the job's memory_limit or more, and must not be held whole.
 Status CopyAtomically(const std::string& from, const std::string& to) {
-  GS_ASSIGN_OR_RETURN(const std::string bytes,
-                      storage::ReadFileToString(storage::Env::Default(), from,
-                                                from + ": missing (did the map stage complete?)"));
-  return storage::WriteStringAtomically(storage::Env::Default(), to, bytes);
+  storage::Env* env = storage::Env::Default();
+  if (!env->FileExists(from))
+    return Status::NotFound(from + ": missing (did the map stage complete?)");
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<storage::ReadableFile> in, env->NewReadableFile(from));
+  std::string block(size_t{1} << 20, '\0');
+  return storage::WriteFileAtomically(env, to, [&](storage::WritableFile* file) -> Status {
+    while (true) {
+      GS_ASSIGN_OR_RETURN(const size_t n, in->Read(block.size(), block.data()));
+      if (n == 0) return Status::Ok();
+      GS_RETURN_IF_ERROR(file->Append(std::string_view(block.data(), n)));
+    }
+  });
 }
 
 }  // namespace
@@ -268,8 +279,11 @@ StatusOr<json> BuildJobMap(const JobSpec& spec, const JobData& data, const std::
     options.pcd_path = (fs::path(work) / (stem + ".pcd")).string();
     options.pcd_voxel = spec.map.pcd_voxel;
     if (spec.memory_limit > 0) {
-      options.memory_budget_bytes = std::max<int64_t>(spec.memory_limit / 2, int64_t{16} << 20);
-      options.batch_points = std::clamp<int64_t>(spec.memory_limit / 2048, 20'000, 2'000'000);
+      // What the limit leaves beside the problem (tools/job/job_memory_budget.h).
+      GS_ASSIGN_OR_RETURN(const JobBudget budget,
+                          BudgetJob(spec.memory_limit, JobSizeOf(spec, data.problem)));
+      options.memory_budget_bytes = budget.map_tile_bytes;
+      options.batch_points = budget.map_batch_points;
     }
     // A restart after kill -9 starts from nothing: no stale spill or tiles.
     for (const char* scratch : {".spill", ".tiles"})

@@ -11,6 +11,7 @@
 #include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "core/graphslam_solver.h"
 #include "core/initialization.h"
@@ -32,10 +33,12 @@
 #include "tools/job/job_data.h"
 #include "tools/job/job_export.h"
 #include "tools/job/job_map.h"
+#include "tools/job/job_memory_budget.h"
 #include "tools/job/job_spec.h"
 #include "tools/job/job_state.h"
 #include "tools/job/report_html.h"
 #include "tools/job/report_inputs.h"
+#include "tools/memory_budget.h"
 #include "tools/pipeline/solve_request.h"
 #include "tools/progress_display.h"
 #include "tools/resource_usage.h"
@@ -56,6 +59,8 @@ struct Context {
   JobLog log;
   std::unique_ptr<ProgressDisplay> display;
   JobState state;
+  // The runs read for the memory_limit check at the start, for the ingest.
+  std::optional<JobData> loaded;
 
   std::string Work(const std::string& name) const { return (fs::path(work) / name).string(); }
   std::string Output(const std::string& name) const {
@@ -212,7 +217,10 @@ Status LoadData(const Context& ctx, const std::string& problem_file, JobData* da
 
 // The job file's solver settings through the application layer
 // (tools/pipeline/solve_request.h), as `graphslam solve` builds its own.
-StatusOr<core::SolverOptions> SolverOptionsFor(const JobSpec& spec) {
+// Under memory_limit the CHOLMOD factor gets what the limit leaves beside
+// the problem (tools/job/job_memory_budget.h).
+StatusOr<core::SolverOptions> SolverOptionsFor(const JobSpec& spec,
+                                               const core::Problem2d& problem) {
   SolverSettings settings;
   settings.linear_solver = spec.solver.linear_solver;
   settings.robust_kernel = spec.solver.robust_kernel;
@@ -224,6 +232,16 @@ StatusOr<core::SolverOptions> SolverOptionsFor(const JobSpec& spec) {
   // A robot's barcode is read by the same camera as a landmark's: robot
   // sightings get the same kernel (misreads happen to both).
   options->pose_kernels.robot = options->observation_kernel;
+  if (spec.memory_limit > 0) {
+    const JobSize size = JobSizeOf(spec, problem);
+    GS_ASSIGN_OR_RETURN(const JobBudget budget, BudgetJob(spec.memory_limit, size));
+    options->auto_cholmod_max_factor_bytes = std::min(
+        options->auto_cholmod_max_factor_bytes, budget.spare_bytes / kCholmodBytesPerFactorByte);
+    if (options->linear_solver == core::LinearSolverType::kCholmod)
+      options->cholmod_factor_check = [limit = spec.memory_limit, size](double factor_bytes) {
+        return CheckJobCholmodFactor(limit, size, factor_bytes);
+      };
+  }
   return options;
 }
 
@@ -256,7 +274,8 @@ Status InitializeComponents(const JobSpec& spec, const core::SolverOptions& base
 // ---- stages -----------------------------------------------------------------
 
 Status StageIngest(Context& ctx) {
-  StatusOr<JobData> loaded = LoadJobData(ctx.spec);
+  StatusOr<JobData> loaded = ctx.loaded ? std::move(*ctx.loaded) : LoadJobData(ctx.spec);
+  ctx.loaded.reset();
   if (!loaded.ok()) return loaded.status();
   const JobData& data = *loaded;
   for (const RunInfo& run : data.runs) {
@@ -295,7 +314,7 @@ Status StageIngest(Context& ctx) {
 Status StageInitialize(Context& ctx) {
   JobData data;
   GS_RETURN_IF_ERROR(LoadData(ctx, "ingested.graphslam", &data));
-  StatusOr<core::SolverOptions> base = SolverOptionsFor(ctx.spec);
+  StatusOr<core::SolverOptions> base = SolverOptionsFor(ctx.spec, data.problem);
   if (!base.ok()) return base.status();
   GS_RETURN_IF_ERROR(InitializeComponents(ctx.spec, *base, ctx.display.get(), &data));
   return storage::WriteNativeLog(data.problem, ctx.Work("initialized.graphslam"));
@@ -310,7 +329,7 @@ Status AssociateUnknown(Context& ctx) {
   JobData data;
   GS_RETURN_IF_ERROR(LoadData(ctx, "initialized.graphslam", &data));
   const int32_t components_before = data.num_components;
-  StatusOr<core::SolverOptions> base = SolverOptionsFor(ctx.spec);
+  StatusOr<core::SolverOptions> base = SolverOptionsFor(ctx.spec, data.problem);
   if (!base.ok()) return base.status();
   core::SolverOptions solver = *base;
   if (ctx.display) solver.progress = ctx.display->AsCallback();
@@ -393,7 +412,7 @@ void RecordIterations(const std::vector<core::IterationSummary>& iterations, jso
 // from / writes .job/optimize_c<k>.checkpoint.json and its chi2 history.
 Status SolveComponents(Context& ctx, bool checkpoints, JobData* data, json* components,
                        std::vector<uint8_t>* excluded) {
-  StatusOr<core::SolverOptions> base = SolverOptionsFor(ctx.spec);
+  StatusOr<core::SolverOptions> base = SolverOptionsFor(ctx.spec, data->problem);
   if (!base.ok()) return base.status();
   excluded->assign(static_cast<size_t>(data->problem.num_features()), 1);  // unobserved: 1
   *components = json::array();
@@ -497,7 +516,7 @@ Status StageOptimize(Context& ctx) {
     JobData without;
     GS_RETURN_IF_ERROR(LoadData(ctx, "ingested.graphslam", &without));
     RemoveGps(&without);
-    StatusOr<core::SolverOptions> base = SolverOptionsFor(ctx.spec);
+    StatusOr<core::SolverOptions> base = SolverOptionsFor(ctx.spec, without.problem);
     if (!base.ok()) return base.status();
     GS_RETURN_IF_ERROR(InitializeComponents(ctx.spec, *base, ctx.display.get(), &without));
     json ignored;
@@ -610,6 +629,25 @@ Status AddJobReport(Context& ctx, const JobData& data, const std::vector<uint8_t
   return Status::Ok();
 }
 
+// The report's map picture reads every point of the map's .pcd files: under
+// memory_limit it is left out, with a warning, when they do not fit in what
+// the limit leaves beside the problem (tools/job/job_memory_budget.h).
+StatusOr<bool> MapPictureFits(const Context& ctx, const JobData& data, const json& map_summary,
+                              json* warnings) {
+  if (ctx.spec.memory_limit <= 0 || map_summary.is_null()) return true;
+  int64_t points = 0;
+  for (const json& map : map_summary.value("maps", json::array()))
+    points += map.value("pcd_points", int64_t{0});
+  GS_ASSIGN_OR_RETURN(const JobBudget budget,
+                      BudgetJob(ctx.spec.memory_limit, JobSizeOf(ctx.spec, data.problem)));
+  const int64_t bytes = points * kJobMapPictureBytesPerPoint;
+  if (bytes <= budget.spare_bytes) return true;
+  warnings->push_back("the report's map picture is left out: its " + std::to_string(points) +
+                      " points need " + FormatBytes(bytes) + ", more than the memory limit " +
+                      "leaves beside the problem (" + FormatBytes(budget.spare_bytes) + ")");
+  return false;
+}
+
 Status StageExport(Context& ctx, const Clock::time_point export_start) {
   JobData data;
   GS_RETURN_IF_ERROR(LoadData(ctx, "optimized.graphslam", &data));
@@ -633,6 +671,7 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
   GS_ASSIGN_OR_RETURN(const json map_summary, ExportMap(ctx, data, &map_files));
 
   report["stages"] = StagesReport(ctx, export_start, !map_summary.is_null());
+  GS_ASSIGN_OR_RETURN(const bool map_picture, MapPictureFits(ctx, data, map_summary, &warnings));
   if (ctx.spec.memory_limit > 0 && PeakRssBytes() > ctx.spec.memory_limit)
     warnings.push_back("peak resident memory " + std::to_string(PeakRssBytes() >> 20) +
                        " MiB exceeded the memory limit of " +
@@ -649,6 +688,7 @@ Status StageExport(Context& ctx, const Clock::time_point export_start) {
   StatusOr<ReportInputs> report_inputs =
       CollectReportInputs(data, excluded, report, ctx.spec.output);
   if (!report_inputs.ok()) return report_inputs.status();
+  if (!map_picture) report_inputs->map_pcds.clear();
   StatusOr<std::string> html = RenderReportHtml(report, *report_inputs);
   if (!html.ok()) return html.status();
   GS_RETURN_IF_ERROR(
@@ -698,6 +738,27 @@ Status RemoveStaleJobTemporaries(const std::string& output, const std::string& w
   return Status::Ok();
 }
 
+// memory_limit: the job's need (tools/job/job_memory_budget.h) from its
+// runs, read or simulated now and kept for the ingest stage, or, resuming
+// after the ingest, from its result. A limit below the need is refused
+// before the job writes anything (InvalidArgument: exit 2).
+Status CheckMemoryLimit(Context& ctx, bool after_ingest) {
+  if (ctx.spec.memory_limit <= 0) return Status::Ok();
+  if (after_ingest) {
+    GS_ASSIGN_OR_RETURN(const core::Problem2d problem,
+                        storage::ReadNativeLog(ctx.Work("ingested.graphslam")));
+    return BudgetJob(ctx.spec.memory_limit, JobSizeOf(ctx.spec, problem))
+        .status()
+        .WithContext(ctx.spec.path);
+  }
+  GS_ASSIGN_OR_RETURN(JobData data, LoadJobData(ctx.spec));
+  GS_RETURN_IF_ERROR(BudgetJob(ctx.spec.memory_limit, JobSizeOf(ctx.spec, data.problem))
+                         .status()
+                         .WithContext(ctx.spec.path));
+  ctx.loaded = std::move(data);
+  return Status::Ok();
+}
+
 }  // namespace
 
 Status RunJob(const RunJobOptions& options) {
@@ -737,6 +798,9 @@ Status RunJob(const RunJobOptions& options) {
     if (ctx.spec.HasStage(stage) || (core_rank(stage) >= 0 && core_rank(stage) <= last_core))
       stages.push_back(stage);
   ctx.spec.stages = stages;
+  const std::string state_path = ctx.Work("state.json");
+  const bool resuming = options.resume && Exists(state_path);
+  if (!resuming) GS_RETURN_IF_ERROR(CheckMemoryLimit(ctx, /*after_ingest=*/false));
 
   GS_RETURN_IF_ERROR(storage::Env::Default()->CreateDir(ctx.spec.output));
   // One job per output folder (storage/directory_lock.h): a second one fails
@@ -746,8 +810,7 @@ Status RunJob(const RunJobOptions& options) {
                                                       storage::DirectoryLock::Mode::kExclusive));
   // Under the lock, temporaries of our own files are those a killed job left.
   GS_RETURN_IF_ERROR(RemoveStaleJobTemporaries(ctx.spec.output, ctx.work));
-  const std::string state_path = ctx.Work("state.json");
-  if (options.resume && Exists(state_path)) {
+  if (resuming) {
     StatusOr<JobState> state = ReadJobState(state_path);
     if (!state.ok()) return state.status();
     if (state->job_fingerprint != ctx.fingerprint)
@@ -757,6 +820,7 @@ Status RunJob(const RunJobOptions& options) {
     // The completed stages' results must be the bytes they wrote.
     GS_RETURN_IF_ERROR(VerifyJobFiles(ctx.work, *state));
     ctx.state = std::move(state).value();
+    GS_RETURN_IF_ERROR(CheckMemoryLimit(ctx, ctx.state.IsCompleted("ingest")));
   } else {
     // A fresh start: stage results of an earlier job go, its final outputs stay
     // until this job's export replaces them.

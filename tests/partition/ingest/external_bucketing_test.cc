@@ -704,6 +704,27 @@ TEST_F(ExternalBucketingTest, ResumeWithAChangedInputStartsAfresh) {
 // ingests into the very store of the plain log, byte for byte, also when the
 // ingest dies in pass 2 and resumes (its offsets are decompressed offsets); a
 // truncated or corrupted .zst is an error naming the file and the offset.
+// The sizes of a counts trailer (tools/memory_budget.h IngestInput::Expected)
+// only reserve pass 1's arrays: exact, too small or too large, the store's
+// bytes are those of an ingest without them.
+TEST_F(ExternalBucketingTest, ExpectedSizesGiveTheSameStoreBytes) {
+  const std::string input = WriteInput(31, 150, 80);
+  StreamingIngestOptions options = SmallSpillOptions();
+  IngestSummary summary;
+  ASSERT_TRUE(IngestToStore(Env::Default(), input, Path("plain"), options, &summary).ok());
+  const int64_t features = summary.features;
+  ASSERT_GT(features, 10);
+  int run = 0;
+  for (const storage::ExpectedSizes expected :
+       {storage::ExpectedSizes{features, 4 * features}, storage::ExpectedSizes{3, 5},
+        storage::ExpectedSizes{100 * features, 1000 * features}}) {
+    options.expected = expected;
+    const std::string store = Path("expected" + std::to_string(run++));
+    ASSERT_TRUE(IngestToStore(Env::Default(), input, store, options, &summary).ok());
+    ExpectSameBytesButInputIdentity(store, Path("plain"));
+  }
+}
+
 TEST_F(ExternalBucketingTest, ZstdInputGivesThePlainInputsStoreBytesAndResumes) {
   const std::string input = WriteInput(29, 150, 80);
   StreamingIngestOptions options = SmallSpillOptions();

@@ -14,3 +14,4 @@ add_dependencies(job_resume_test graphslam)
 graphslam_test(tools/job/job_input_checks)
 # Runs from files: KITTI ground truth with times, repaired information (issue 23).
 graphslam_test(tools/job/job_file_runs)
+graphslam_test(tools/job/job_memory_limit)
