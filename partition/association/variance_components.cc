@@ -3,7 +3,6 @@
 #include <string>
 
 #include <tbb/blocked_range.h>
-#include <tbb/combinable.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
@@ -20,7 +19,6 @@ struct Sums {
   double chi2 = 0.0;
   double redundancy = 0.0;
   int64_t residuals = 0;
-  int64_t unknowns = 0;  // 2 per usable feature observed here (observations only)
 };
 
 void SetFactor(double min_redundancy, VarianceComponent* c) {
@@ -50,14 +48,16 @@ Status EstimateVarianceComponents(const core::Problem2d& problem,
   const core::UnknownLayout layout = core::UnknownLayout::FromProblem(problem);
   const auto m = static_cast<int64_t>(problem.observations.size());
 
-  // Observations: chi2 and redundancy numbers, in parallel.
+  // Observations: chi2 and redundancy number of each, in parallel, then
+  // summed in order (the same bits on every run and thread count).
   std::vector<Status> errors(static_cast<size_t>(m));
+  std::vector<double> chi2(static_cast<size_t>(m), 0.0);
+  std::vector<double> redundancy(static_cast<size_t>(m), 0.0);
+  std::vector<uint8_t> counted(static_cast<size_t>(m), 0);
   tbb::enumerable_thread_specific<core::PoseMarginals::WhitenWorkspace> workspaces;
-  tbb::combinable<Sums> observation_sums;
   tbb::parallel_for(tbb::blocked_range<int64_t>(0, m, 256), [&](const tbb::blocked_range<int64_t>&
                                                                     range) {
     core::PoseMarginals::WhitenWorkspace& workspace = workspaces.local();
-    Sums& sums = observation_sums.local();
     std::vector<int32_t> blocks;
     std::vector<Eigen::Matrix<double, 3, 2>> values;
     core::PoseMarginals::WhitenedColumns y;
@@ -95,15 +95,19 @@ Status EstimateVarianceComponents(const core::Problem2d& problem,
       // The IRLS weight the linearization gave this observation.
       const double squared = e.dot(o.information * e);
       const double weight = observation_kernel.Weight(squared);
-      sums.chi2 += weight * squared;
-      sums.redundancy += 2.0 - weight * Leverage(o.information, y, own);
-      sums.residuals += 2;
+      chi2[i] = weight * squared;
+      redundancy[i] = 2.0 - weight * Leverage(o.information, y, own);
+      counted[i] = 1;
     }
   });
   for (const Status& error : errors) GS_RETURN_IF_ERROR(error);
-  const Sums obs = observation_sums.combine([](const Sums& a, const Sums& b) {
-    return Sums{a.chi2 + b.chi2, a.redundancy + b.redundancy, a.residuals + b.residuals, 0};
-  });
+  Sums obs;
+  for (int64_t i = 0; i < m; ++i) {
+    if (!counted[i]) continue;
+    obs.chi2 += chi2[i];
+    obs.redundancy += redundancy[i];
+    obs.residuals += 2;
+  }
   int64_t feature_unknowns = 0;
   {
     std::vector<uint8_t> seen(states.size(), 0);

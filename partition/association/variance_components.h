@@ -40,8 +40,8 @@
 // plain one (their kernels, off by default, are not applied).
 //
 // THREAD SAFETY: const use of the marginals; internally parallel (TBB, one
-// whitening workspace per thread). ALLOCATION: O(observations) plus one
-// whitened block per thread at a time.
+// whitening workspace per thread), deterministic (summed in order).
+// ALLOCATION: O(observations) plus one whitened block per thread at a time.
 #pragma once
 
 #include <cstdint>
