@@ -32,7 +32,8 @@
 // (close_loops, loop.min_inliers, .ambiguity_margin, .tolerance,
 // .max_rotation, .search_radius, local_window); GS_KEY_OUT=FILE writes the key,
 // one landmark per observation line (with GS_VERBOSE=2 the loop pairs'
-// observations are logged); GS_SCALE=0/1 sets the variance-factor scaling of both
+// observations are logged); GS_VCE=0 gives the pass the pooled variance factor instead of the observations' own
+// (variance components); GS_SCALE=0/1 sets the variance-factor scaling of both
 // passes (default: incremental pass on, batch rounds off); GS_SPLITS=1 prints
 // every key landmark split over several features with the pose spans.
 // Prints one line per round and a summary; the commands and figures are in
@@ -228,6 +229,7 @@ void AssociationOptionsFromEnvironment(gs::partition::AssociationOptions* option
   if (const char* v = std::getenv("GS_STAGE_UNDO")) inc.undo_stage_pairings = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_FIXES_FIRST")) inc.solve_fixes_first = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_INCREMENTAL")) inc.enabled = std::atoi(v) != 0;
+  if (const char* v = std::getenv("GS_VCE")) inc.variance_components = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_SCALE")) {
     options->scale_by_variance_factor = std::atoi(v) != 0;
     inc.scale_by_variance_factor = std::atoi(v) != 0;
@@ -288,6 +290,9 @@ void PrintIncremental(const gs::partition::AssociationSummary& summary) {
               inc.chi2, inc.variance_factor,
               inc.solve_seconds,
               inc.covariance_seconds, inc.assignment_seconds, inc.seconds);
+  std::printf("incremental variance components (last stage): observations %.4g, pose "
+              "constraints %.4g, GPS %.4g\n",
+              inc.observation_variance_factor, inc.pose_variance_factor, inc.gps_variance_factor);
 }
 
 // Were the undone merges wrong (sides' representatives from different

@@ -20,6 +20,7 @@
 #include "partition/association/internal/observation_chi2.h"
 #include "partition/initialization/internal/odometry_chain.h"
 #include "partition/association/internal/variance_factor.h"
+#include "partition/association/variance_components.h"
 #include "partition/initialization/singleton_solve.h"
 
 namespace graphslam::partition {
@@ -336,7 +337,7 @@ struct IncrementalRun {
   ChunkingOptions chunking;
   core::SolverOptions stage_options;
   double radius_squared = 0.0;
-  double scale = 1.0;  // variance factor of the last stage solve
+  double scale = 1.0;  // variance factor of the gates and the stage undo
 };
 
 // The stage's view of the clusters met so far: the linearization at its
@@ -495,6 +496,31 @@ int32_t StageEnd(const IncrementalRun& run, int32_t begin) {
   return static_cast<int32_t>(std::min(n, std::max(by_poses, by_observations)));
 }
 
+// The variance factor of the observations at the stage's start (the
+// previous stage's solution; the new poses and singletons fit exactly and add
+// no redundancy), for the stage's gates and its undo.
+Status ObservationVarianceFactor(const StageView& view, const core::PoseMarginals& marginals,
+                                 IncrementalRun* run) {
+  VarianceComponents components;
+  GS_RETURN_IF_ERROR(EstimateVarianceComponents(view.stage.sub, marginals, view.states,
+                                                run->solver_options.observation_kernel,
+                                                static_cast<double>(run->options.min_redundancy),
+                                                &components));
+  run->scale = std::clamp(components.observations.factor, 1e-4, 1.0);
+  IncrementalAssociationSummary* summary = run->summary;
+  summary->variance_factor = run->scale;
+  summary->observation_variance_factor = components.observations.factor;
+  summary->pose_variance_factor = components.pose_constraints.factor;
+  summary->gps_variance_factor = components.gps.factor;
+  GS_VLOG(1, "incremental association: variance factors observations %.4g (chi2 %.6g, r %.1f), "
+          "pose constraints %.4g (chi2 %.6g, r %.1f), GPS %.4g (r %.1f)",
+          components.observations.factor, components.observations.chi2,
+          components.observations.redundancy, components.pose_constraints.factor,
+          components.pose_constraints.chi2, components.pose_constraints.redundancy,
+          components.gps.factor, components.gps.redundancy);
+  return Status::Ok();
+}
+
 // Pairs the observations of poses [begin, end) with the clusters, scan by
 // scan, then closes loops.
 Status PairStage(int32_t begin, int32_t end, IncrementalRun* run) {
@@ -513,6 +539,8 @@ Status PairStage(int32_t begin, int32_t end, IncrementalRun* run) {
           .WithContext("incremental association, poses " + std::to_string(begin) + ".." +
                        std::to_string(end - 1)));
   view.cache = std::make_unique<WhitenedCache>(marginals, view.states);
+  if (run->options.scale_by_variance_factor && run->options.variance_components)
+    GS_RETURN_IF_ERROR(ObservationVarianceFactor(view, marginals, run));
   summary->covariance_seconds += SecondsSince(t0);
 
   t0 = Clock::now();
@@ -587,10 +615,11 @@ Status SolveStage(int32_t end, const std::vector<int32_t>& cluster_before, Incre
     Stage solved;
     GS_RETURN_IF_ERROR(SolvePrefix(end, "stage solve", run, &solved, &solver_summary));
     summary->chi2 = solver_summary.final_chi2;
-    if (run->options.scale_by_variance_factor)
+    if (run->options.scale_by_variance_factor && !run->options.variance_components) {
       run->scale = internal::VarianceFactor(solved.sub, solver_summary.final_chi2,
                                             run->options.min_redundancy);
-    summary->variance_factor = run->scale;
+      summary->variance_factor = run->scale;
+    }
     if (!run->options.undo_stage_pairings || attempt >= run->options.max_stage_undo_passes)
       return Status::Ok();
     const int64_t undone = UndoStagePairings(run->options, *run->problem, run->poses,

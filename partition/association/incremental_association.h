@@ -18,8 +18,9 @@
 //       feature's covariance with any other is a sparse dot product
 //       (partition/association/feature_covariances.h); the new poses carry the odometry
 //       uncertainty of their chain, the old ones that of the map
-//     every covariance is scaled by the variance factor s^2 of the previous
-//       stage solve (scale_by_variance_factor)
+//     every covariance is scaled by the variance factor of the previous
+//       stage solve (scale_by_variance_factor; pooled, or the observations'
+//       own with variance_components)
 //     for each new pose p with observations (a scan), in order:
 //       targets: features (not dropped) whose representative lies within
 //         search_radius of one of the scan's observations; a feature already
@@ -93,11 +94,20 @@ struct IncrementalAssociationOptions {
   // observations (of other features) both.
   int64_t provisional_poses = 100;
   int64_t provisional_observations = 50;
-  // Scale every covariance of the tests by the variance factor s^2 of the
-  // last stage solve (partition/association/internal/variance_factor.h) once its
-  // redundancy reaches min_redundancy: the gates then follow the noise the
-  // data show, not the inputs' nominal models.
+  // Scale every covariance of the tests (and the stage undo's quantile) by
+  // a variance factor once its redundancy reaches min_redundancy, clamped to
+  // [1e-4, 1]: the gates then follow the noise the data show, not the
+  // inputs' nominal models. By default the pooled s^2 = chi2 / (m - n) of
+  // the last stage solve (partition/association/internal/variance_factor.h).
+  // With variance_components, the factor of the observations alone,
+  // estimated with redundancy numbers at the start of each stage
+  // (partition/association/variance_components.h); off by default: it
+  // separates the groups (on Victoria Park 0.009 for the observations, 0.04
+  // for the odometry), but scaling the whole gate covariance, whose pose
+  // part comes from the odometry, by the smaller factor lost recall on
+  // Victoria Park and on MRCLAM (docs/association.md).
   bool scale_by_variance_factor = true;
+  bool variance_components = false;
   int64_t min_redundancy = 50;
   // A stage whose new poses have GPS fixes is solved with them (new
   // observations left out) before its tests: the chained poses do not fit the
@@ -137,7 +147,11 @@ struct IncrementalAssociationSummary {
   int64_t loop_pairs = 0;            // local features joined to older ones by them
   int64_t stage_undone = 0;          // stage pairings undone after a stage solve
   double chi2 = 0.0;                 // after the last stage solve
-  double variance_factor = 1.0;      // s^2 after the last stage solve
+  double variance_factor = 1.0;      // the factor the last gates and undo used
+  // Variance components at the start of the last stage (0 when not estimated).
+  double observation_variance_factor = 0.0;
+  double pose_variance_factor = 0.0;  // odometry, motion, robot range-bearing
+  double gps_variance_factor = 0.0;
   double solve_seconds = 0.0;
   double covariance_seconds = 0.0;   // linearization, factorization, whitening
   double assignment_seconds = 0.0;   // targets and JCBB

@@ -106,6 +106,31 @@ TEST(IncrementalAssociation, EasyDataEndsWithTheBatchCorrespondences) {
   }
 }
 
+// With variance_components the gates take the observations' own factor,
+// estimated at the start of each stage: on data drawn with the stated models
+// it is near 1, and the pass ends with the true correspondences.
+TEST(IncrementalAssociation, ObservationVarianceComponentScalesTheGates) {
+  testing::RandomProblem random = testing::MakeSmallPointWorld(13);
+  core::Problem2d problem = random.problem;
+  const std::vector<int64_t> key = ForgetIds(&problem);
+  ASSERT_TRUE(core::InitializeProblem(&problem).ok());
+  IncrementalAssociationOptions options;
+  options.enabled = true;
+  options.stage_poses = 8;
+  options.search_radius = 2.0;
+  options.variance_components = true;
+  options.min_redundancy = 20;
+  IncrementalAssociationSummary summary;
+  PairwiseScore score;
+  ASSERT_TRUE(RunPass(options, key, &problem, &summary, &score).ok());
+  EXPECT_NE(summary.observation_variance_factor, 1.0);  // estimated, not the fallback
+  EXPECT_GT(summary.observation_variance_factor, 0.4);
+  EXPECT_LT(summary.observation_variance_factor, 2.0);
+  EXPECT_EQ(summary.variance_factor, std::min(summary.observation_variance_factor, 1.0));
+  EXPECT_EQ(score.precision(), 1.0);
+  EXPECT_EQ(score.recall(), 1.0);
+}
+
 TEST(IncrementalAssociation, MisdetectionSeenOnceEndsAsClutter) {
   testing::RandomProblem random = testing::MakeSmallPointWorld(13);
   core::Problem2d input = random.problem;
