@@ -215,27 +215,30 @@ struct Solved {
   double optimize_seconds = 0.0;
 };
 
-Solved Optimize(const PeerOptions& options, const gtsam::NonlinearFactorGraph& graph,
-                const gtsam::Values& initial) {
+// Params: gtsam::GaussNewtonParams or LevenbergMarquardtParams, with the
+// optimizer that takes them.
+template <class Optimizer, class Params>
+Solved OptimizeWith(const PeerOptions& options, const gtsam::NonlinearFactorGraph& graph,
+                    const gtsam::Values& initial) {
   Solved solved;
   const Clock::time_point start = Clock::now();
-  if (options.optimizer == "lm") {
-    gtsam::LevenbergMarquardtParams params;
-    params.relativeErrorTol = options.relative_error_tol;
-    params.maxIterations = options.max_iterations;
-    gtsam::LevenbergMarquardtOptimizer optimizer(graph, initial, params);
-    solved.values = optimizer.optimize();
-    solved.iterations = static_cast<int>(optimizer.iterations());
-  } else {
-    gtsam::GaussNewtonParams params;
-    params.relativeErrorTol = options.relative_error_tol;
-    params.maxIterations = options.max_iterations;
-    gtsam::GaussNewtonOptimizer optimizer(graph, initial, params);
-    solved.values = optimizer.optimize();
-    solved.iterations = static_cast<int>(optimizer.iterations());
-  }
+  Params params;
+  params.relativeErrorTol = options.relative_error_tol;
+  params.maxIterations = options.max_iterations;
+  Optimizer optimizer(graph, initial, params);
+  solved.values = optimizer.optimize();
+  solved.iterations = static_cast<int>(optimizer.iterations());
   solved.optimize_seconds = Seconds(start);
   return solved;
+}
+
+Solved Optimize(const PeerOptions& options, const gtsam::NonlinearFactorGraph& graph,
+                const gtsam::Values& initial) {
+  if (options.optimizer == "lm")
+    return OptimizeWith<gtsam::LevenbergMarquardtOptimizer, gtsam::LevenbergMarquardtParams>(
+        options, graph, initial);
+  return OptimizeWith<gtsam::GaussNewtonOptimizer, gtsam::GaussNewtonParams>(options, graph,
+                                                                             initial);
 }
 
 template <class Problem>
