@@ -328,9 +328,10 @@ void PlaceNewFeatures(const core::Problem2d& problem, const Indices& index, int3
       const int64_t first = index.observations_of_pose.begin(p);
       // The chained step from p - 1 taken from where p - 1 ended up: a pose
       // that sees too few placed features follows its localized predecessor.
-      const Pose2 guess = p > begin && problem.pose_fixed[p - 1] == 0
-                              ? core::Compose((*poses)[p - 1], core::Between(chained_before, chained))
-                              : chained;
+      const Pose2 guess =
+          p > begin && problem.pose_fixed[p - 1] == 0
+              ? core::Compose((*poses)[p - 1], core::Between(chained_before, chained))
+              : chained;
       LocalizeFromFeatures(FeatureLocalizationOptions(), problem,
                            items.subspan(first, index.observations_of_pose.end(p) - first),
                            *features, *feature_placed, guess, &(*poses)[p]);

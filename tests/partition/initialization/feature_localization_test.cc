@@ -52,7 +52,8 @@ Scene MakeScene(const Pose2& truth, int n, uint32_t seed,
                 core::ObservationKind kind = core::ObservationKind::kRangeBearing) {
   Scene s;
   std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> range(1.0, 8.0), bearing(-std::numbers::pi, std::numbers::pi);
+  std::uniform_real_distribution<double> range(1.0, 8.0);
+  std::uniform_real_distribution<double> bearing(-std::numbers::pi, std::numbers::pi);
   std::normal_distribution<double> normal(0.0, 1.0);
   const double sigma_range = 0.1, sigma_bearing = 0.02;
   s.problem.AddPose(0, truth, true, 0);
