@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <span>
 #include <utility>
 
 #include "core/initialization.h"
@@ -10,6 +11,7 @@
 #include "core/observation_models.h"
 #include "core/point_observation_model.h"
 #include "core/range_bearing_model.h"
+#include "partition/initialization/feature_localization.h"
 #include "partition/initialization/gps_segment_alignment.h"
 #include "partition/ingest/in_memory_chunk_source.h"
 #include "partition/initialization/internal/odometry_chain.h"
@@ -310,19 +312,38 @@ void AlignNewPosesToGps(const core::Problem2d& problem, const Indices& index, in
 
 // The features first seen from poses [begin, end), placed from their first
 // sighting (lowest pose, then input order); their indices in *new_features.
+// Before its features are placed, each pose not fixed is localized from the
+// placed features it sees (partition/initialization/feature_localization.h;
+// it keeps its chained guess when it sees too few).
 void PlaceNewFeatures(const core::Problem2d& problem, const Indices& index, int32_t begin,
-                      int32_t end, const std::vector<Pose2>& poses,
+                      int32_t end, std::vector<Pose2>* poses,
                       std::vector<uint8_t>* feature_placed, std::vector<Point2>* features,
                       std::vector<int32_t>* new_features) {
   new_features->clear();
+  const std::span<const int32_t> items(index.observations_of_pose.items);
+  Pose2 chained_before = Pose2::Zero();  // pose p - 1 as chained, before localization
   for (int32_t p = begin; p < end; ++p) {
+    const Pose2 chained = (*poses)[p];
+    if (problem.pose_fixed[p] == 0) {
+      const int64_t first = index.observations_of_pose.begin(p);
+      // The chained step from p - 1 taken from where p - 1 ended up: a pose
+      // that sees too few placed features follows its localized predecessor.
+      const Pose2 guess =
+          p > begin && problem.pose_fixed[p - 1] == 0
+              ? core::Compose((*poses)[p - 1], core::Between(chained_before, chained))
+              : chained;
+      LocalizeFromFeatures(FeatureLocalizationOptions(), problem,
+                           items.subspan(first, index.observations_of_pose.end(p) - first),
+                           *features, *feature_placed, guess, &(*poses)[p]);
+    }
+    chained_before = chained;
     for (int64_t i = index.observations_of_pose.begin(p); i < index.observations_of_pose.end(p);
          ++i) {
       const core::Observation& o = problem.observations[index.observations_of_pose.items[i]];
       if ((*feature_placed)[o.feature]) continue;
       (*feature_placed)[o.feature] = 1;
       new_features->push_back(o.feature);
-      (*features)[o.feature] = core::InvertObservation(o.kind, poses[o.pose], o.z);
+      (*features)[o.feature] = core::InvertObservation(o.kind, (*poses)[o.pose], o.z);
     }
   }
 }
@@ -378,7 +399,7 @@ class IncrementalStages {
       internal::PlacePoses(problem_, adjacency_, previous, t, &poses_, &placed_);
     }
     AlignNewPosesToGps(problem_, index_, previous, t, &poses_);
-    PlaceNewFeatures(problem_, index_, previous, t, poses_, &feature_placed_, &features_,
+    PlaceNewFeatures(problem_, index_, previous, t, &poses_, &feature_placed_, &features_,
                      &new_features_);
   }
 
@@ -387,8 +408,7 @@ class IncrementalStages {
   // of the new loop closures. `stage` numbers it in error messages.
   Status Solve(int32_t attempt, int32_t new_begin, int32_t t, bool full, size_t stage,
                StageSolve* out) {
-    const int32_t window_begin =
-        full ? 0 : static_cast<int32_t>(std::max<int64_t>(0, t - options_.window_poses));
+    const int32_t window_begin = full ? 0 : WindowBegin(new_begin, t);
     out->unknown = UnknownPoses(options_, index_, new_begin, window_begin, t, &mark_);
     IncrementalStageSummary& summary = out->summary;
     out->sub = builder_.Build(attempt, out->unknown, window_begin, t,
@@ -409,6 +429,27 @@ class IncrementalStages {
     summary.iterations = out->solver.iterations;
     summary.termination = out->solver.termination;
     return Status::Ok();
+  }
+
+  // The last pose of the stage after `previous` at most at t whose new poses
+  // [previous, result) hold at most max_new_observations observations (at
+  // least one new pose).
+  int32_t CapNewPoses(int32_t previous, int32_t t) const {
+    const std::vector<int64_t>& before = index_.observations_of_pose.offsets;
+    const int64_t limit = before[previous] + options_.max_new_observations;
+    const auto end = std::upper_bound(before.begin() + previous + 1, before.begin() + t + 1, limit);
+    return std::max(previous + 1, static_cast<int32_t>(end - before.begin()) - 1);
+  }
+
+  // The first pose of a window stage's window ending at t (header: the most
+  // recent window_poses poses holding at most max_window_observations
+  // observations), never above new_begin.
+  int32_t WindowBegin(int32_t new_begin, int32_t t) const {
+    const std::vector<int64_t>& before = index_.observations_of_pose.offsets;
+    const int32_t by_poses = static_cast<int32_t>(std::max<int64_t>(0, t - options_.window_poses));
+    const auto first = std::lower_bound(before.begin() + by_poses, before.begin() + t,
+                                        before[t] - options_.max_window_observations);
+    return std::min(new_begin, static_cast<int32_t>(first - before.begin()));
   }
 
   // Discards a stage: its new poses [new_begin, t) and features unplaced.
@@ -473,6 +514,12 @@ Status IncrementalInitializationOptions::Validate() const {
   if (window_poses < max_new_poses)
     return fail("window_poses must be >= max_new_poses (" + std::to_string(max_new_poses) + ")",
                 std::to_string(window_poses));
+  if (max_new_observations < 1)
+    return fail("max_new_observations must be >= 1", std::to_string(max_new_observations));
+  if (max_window_observations < max_new_observations)
+    return fail("max_window_observations must be >= max_new_observations (" +
+                    std::to_string(max_new_observations) + ")",
+                std::to_string(max_window_observations));
   if (loop_closure_poses < 0)
     return fail("loop_closure_poses must be >= 0", std::to_string(loop_closure_poses));
   if (max_loop_closure_poses < 0)
@@ -518,6 +565,7 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
   bool redone = false;   // the stage kept last was a redo
   for (int32_t attempt = 0;; ++attempt) {
     if (!t_chosen) t = internal::NextStageSize(options.growth, allowed, previous, n);
+    t = stages.CapNewPoses(previous, t);
     t_chosen = false;
     const Clock::time_point stage_start = Clock::now();
     stages.Place(previous, t);

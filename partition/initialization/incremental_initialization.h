@@ -7,7 +7,11 @@
 //
 // Stages. Prefix lengths T_k grow as in progressive initialization
 // (geometric from first_poses, at most A_k new poses, A_k halved after an
-// unsettled stage and doubled back after a settled one). A stage whose solve
+// unsettled stage and doubled back after a settled one), and the new poses
+// of a stage hold at most max_new_observations observations (at least one
+// pose): dense sensing (hundreds of observations per pose) makes a pose cost
+// hundreds of times more than in a pose graph, so a stage is bounded by what
+// it costs, not only by its poses. A stage whose solve
 // does not converge within max_iterations_per_stage after lowering chi2 more
 // than tenfold (it started far from its optimum) is redone: its results
 // are discarded, its new poses and features unplaced, and the stage is done
@@ -29,7 +33,10 @@
 // them by a rigid motion (partition/initialization/gps_segment_alignment.h: a window started
 // far from its fixes can settle in a local minimum that later windows, which
 // hold it fixed, never leave). Stage k then solves the sub-problem W_k:
-//   unknown poses  the window [max(0, T_k - window_poses), T_k), plus for
+//   unknown poses  the window [B_k, T_k): the most recent window_poses
+//                  poses, cut further to those whose own observations total
+//                  at most max_window_observations (never cutting into the
+//                  new poses), plus for
 //                  every relative pose or robot sighting from a new pose to a
 //                  pose q below the window (a loop closure) the
 //                  2 loop_closure_poses + 1 poses centred on q, at most
@@ -56,11 +63,13 @@
 // its full stage at 6 800 of 6 969 poses was 29 % of the initialization's
 // time, and the full solve then reaches 389.787 in 4 iterations instead of 2).
 //
-// Cost. Every stage's sub-problem has at most window_poses +
+// Cost. Every window stage's sub-problem has at most window_poses +
 // max_loop_closure_poses unknown poses, and at most that many poses' own
-// constraints plus max_prior_observations_per_feature observations per
-// unknown feature: bounded independently of the trajectory length. There are
-// O(N / min_new_poses) stages, and the indices (constraints per pose,
+// constraints, max_window_observations observations of its window's poses
+// (or those of its new poses, if more) and max_prior_observations_per_feature
+// observations per unknown feature: bounded independently of the trajectory
+// length and of the sensing density. There are O(N / min_new_poses +
+// M / max_new_observations) stages (M observations), and the indices (constraints per pose,
 // observations per feature) are built once in O(poses + constraints). The
 // full stages solve fewer than g / (g - 1) (N + max_new_poses) poses in all.
 // So the whole initialization is O(N) stage poses for a bounded number of
@@ -106,6 +115,13 @@ struct IncrementalInitializationOptions {
   // The most recent poses re-solved by each stage (new poses included);
   // at least max_new_poses.
   int64_t window_poses = 2000;
+  // The most observations a window stage re-solves from its window's own
+  // poses: the window is cut to the most recent poses whose observations
+  // total at most this (never below its new poses).
+  int64_t max_window_observations = 50000;
+  // The most observations of a stage's new poses (at least one new pose);
+  // at most max_window_observations.
+  int64_t max_new_observations = 12500;
   // Poses on each side of a loop closure's old end re-solved with the window.
   int64_t loop_closure_poses = 10;
   // At most this many loop-closure poses per stage.

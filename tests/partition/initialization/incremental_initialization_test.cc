@@ -108,6 +108,53 @@ TEST(IncrementalInitialization, StageSizeDoesNotGrowWithTheTrajectory) {
   EXPECT_GE(total_solved[1], 3.7 * total_solved[0]);
 }
 
+// Windows and new poses bounded by observations, not poses: with the pose
+// bounds out of reach, a window stage re-solves at most
+// max_window_observations observations of its window's own poses (never
+// cutting into its new poses) and adds new poses holding at most
+// max_new_observations (at least one pose); the full solve after it still
+// reaches the dense optimum.
+TEST(IncrementalInitialization, ObservationBoundsCutWindowsAndNewPoses) {
+  IncrementalInitializationOptions options;
+  options.first_poses = 8;
+  options.max_window_observations = 120;
+  options.max_new_observations = 30;
+  options.loop_closure_poses = 2;
+  options.max_prior_observations_per_feature = 6;
+  for (uint32_t seed = 1; seed <= 3; ++seed) {
+    const testing::RandomProblem random = testing::BadlyInitializedProblem(seed, 48, true, false);
+    const double optimum = testing::DenseOptimum(random);
+    std::vector<int64_t> before(random.problem.num_poses() + 1, 0);
+    for (const core::Observation& o : random.problem.observations) ++before[o.pose + 1];
+    for (size_t p = 1; p < before.size(); ++p) before[p] += before[p - 1];
+    core::Problem2d problem = random.problem;
+    core::SolverOptions solver;
+    solver.function_tolerance = 1e-12;
+    IncrementalSummary incremental;
+    ASSERT_TRUE(InitializeIncrementally(options, solver, &problem, &incremental).ok());
+    ASSERT_GE(incremental.stages.size(), 4u);
+    int64_t previous = 0;
+    int windows_cut = 0;
+    for (const IncrementalStageSummary& stage : incremental.stages) {
+      const int64_t new_observations = before[stage.poses] - before[previous];
+      if (stage.poses - previous > 1) {
+        EXPECT_LE(new_observations, options.max_new_observations) << "stage up to " << stage.poses;
+      }
+      if (!stage.full) {
+        // No loop closures: the unknown poses are the window itself.
+        const int64_t window = before[stage.poses] - before[stage.poses - stage.solved_poses];
+        EXPECT_LE(window, std::max(options.max_window_observations, new_observations))
+            << "stage up to " << stage.poses;
+        windows_cut += stage.solved_poses < stage.poses ? 1 : 0;
+      }
+      previous = stage.poses;
+    }
+    EXPECT_GE(windows_cut, 2) << "seed " << seed;
+    const core::SolverSummary summary = FullSolve(&problem, solver);
+    EXPECT_NEAR(summary.final_chi2, optimum, 1e-6 * optimum) << "seed " << seed;
+  }
+}
+
 TEST(IncrementalInitialization, LoopClosureSolvesItsOldEndToo) {
   // A relative pose from pose 250 back to pose 5: the stage that adds pose
   // 250 also solves the 2 * loop_closure_poses + 1 poses centred on pose 5.
@@ -175,6 +222,12 @@ TEST(IncrementalInitialization, RejectsBadOptions) {
   EXPECT_FALSE(options.Validate().ok());
   options = IncrementalInitializationOptions();
   options.max_prior_observations_per_feature = -1;
+  EXPECT_FALSE(options.Validate().ok());
+  options = IncrementalInitializationOptions();
+  options.max_new_observations = 0;
+  EXPECT_FALSE(options.Validate().ok());
+  options = IncrementalInitializationOptions();
+  options.max_window_observations = options.max_new_observations - 1;
   EXPECT_FALSE(options.Validate().ok());
   EXPECT_TRUE(IncrementalInitializationOptions().Validate().ok());
 }

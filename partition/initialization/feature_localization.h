@@ -1,0 +1,75 @@
+// LocalizeFromFeatures: where a new pose is, from its observations of
+// features already placed, before a stage of incremental initialization
+// solves it. With dense sensing (hundreds of features per pose, most of them
+// seen from the poses before) the features pin a pose far better than weak
+// odometry chained from its predecessor: chained over 25 poses at 0.03 rad of
+// heading noise each, odometry ends metres off and the stage's solve starts
+// outside the basin.
+//
+// Closed form (2-D rigid alignment, Umeyama 1991 without scale): with l_i the
+// feature as observation i places it in the pose's own frame (Table 1
+// inverted from the identity pose) and g_i its placed position, the pose
+// (R(theta), t) minimizing sum_i |R l_i + t - g_i|^2 is
+//   theta = atan2(sum_i l'_i x g'_i, sum_i l'_i . g'_i),  t = g_bar - R l_bar
+// with l' = l - l_bar, g' = g - g_bar the centred points (x the 2-D cross
+// product).
+// Choice and refinement: of `guess` (the odometry-chained pose) and the
+// closed-form pose, the one with the lower observation chi2
+//   chi2(x) = sum_i e_i(x)^T W_i e_i(x),  e_i = h(x, g_i) - z_i
+// is kept and refined by Gauss-Newton on the pose alone (features held),
+// each step kept only if it lowers chi2; the result is kept only if its chi2
+// per observation is at most max_chi2_per_observation. Only range-bearing and point
+// observations take part (a bearing alone places no point), and only when at
+// least min_features distinct placed features are seen: a pose that sees a
+// few landmarks (Victoria Park, MRCLAM) or none (pose graphs) keeps `guess`.
+//
+// THREAD SAFETY: pure function. ALLOCATION: O(observations of the pose).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "core/problem.h"
+
+namespace graphslam::partition {
+
+struct FeatureLocalizationOptions {
+  // The fewest placed features a pose must see to be localized from them.
+  int min_features = 8;
+  // Gauss-Newton steps on the chosen pose.
+  int max_iterations = 5;
+  // The largest chi2 per observation the localized pose may keep: placed
+  // features that disagree among themselves (a place revisited after drift,
+  // features first seen from poses not yet solved) give a pose that fits
+  // none of them, and the guess is kept then. A pose in the basin fits at
+  // about 2-3 per observation (the placed features' own error adds to the
+  // measurement's).
+  double max_chi2_per_observation = 6.0;
+};
+
+struct FeatureLocalization {
+  bool localized = false;  // false: too few placed features or no fit, *pose == guess
+  bool closed_form_chosen = false;  // the closed-form pose beat `guess`
+  int features = 0;                 // placed features used
+  double guess_chi2 = 0.0;
+  double chi2 = 0.0;  // of the returned pose
+};
+
+// The closed-form rigid alignment above: the pose mapping each local[i] onto
+// global[i] best in least squares. At least two points, not all coincident
+// (else the identity rotation about the centroids).
+core::Pose2 AlignPoints2d(const std::vector<core::Point2>& local,
+                          const std::vector<core::Point2>& global);
+
+// Localizes a pose from `observations` (indices into problem.observations,
+// all of the pose) of the features with placed[f] != 0 at features[f],
+// starting from `guess`, as described above.
+FeatureLocalization LocalizeFromFeatures(const FeatureLocalizationOptions& options,
+                                         const core::Problem2d& problem,
+                                         std::span<const int32_t> observations,
+                                         const std::vector<core::Point2>& features,
+                                         const std::vector<uint8_t>& placed,
+                                         const core::Pose2& guess, core::Pose2* pose);
+
+}  // namespace graphslam::partition
