@@ -20,6 +20,7 @@
 #include "core/velocity_motion_model.h"
 #include "storage/atomic_file.h"
 #include "storage/internal/id_map.h"
+#include "storage/internal/monotone_lines.h"
 #include "storage/internal/problem_validation.h"
 #include "storage/internal/text_blocks.h"
 #include "storage/internal/text_reader.h"
@@ -39,6 +40,12 @@ std::string KnownTags() {
   return tags + "RB_POSE, RB_POSE_INTERP, GPS, FIX or SCAN";
 }
 
+}  // namespace
+
+void SizeGuesses(core::Problem2d* problem);
+
+namespace {
+
 class NativeLogParser {
  public:
   static constexpr int64_t kBlockBytes = int64_t{1} << 20;
@@ -51,7 +58,13 @@ class NativeLogParser {
       : path_(path), sink_(sink), scans_(scans), repairs_(repairs),
         skip_features_(skip_features) {}
 
-  // Dense indices are int32: a larger figure is not a real log's.
+  // false: a log without FEATURE guesses is returned with `features` and
+  // `feature_initialized` empty (ReadNativeLogStreaming's `size_guesses`).
+  void SizeGuessesAtTheEnd(bool size) { size_guesses_ = size; }
+
+  // Dense indices are int32: a larger figure is not a real log's. Reserved
+  // pages are resident only once written: the guesses and flags of a log
+  // without FEATURE guesses are written after the id table is freed.
   void Reserve(const ExpectedSizes& expected) {
     constexpr int64_t kMost = std::numeric_limits<int32_t>::max();
     if (expected.features <= 0 || expected.features > kMost) return;
@@ -59,7 +72,7 @@ class NativeLogParser {
     problem_.features.reserve(features);
     problem_.feature_ids.reserve(features);
     problem_.feature_initialized.reserve(features);
-    feature_lines_.reserve(features);
+    feature_lines_.Reserve(expected.features);
     feature_declared_.reserve(features);
     if (expected.feature_id_end > 0 && expected.feature_id_end <= kMost)
       features_.ReserveDirect(expected.feature_id_end, expected.features);
@@ -123,6 +136,12 @@ class NativeLogParser {
       return Status::Corruption(reader->name() + ": is empty; expected the header " +
                                 kNativeLogMagic + " " + std::to_string(kNativeLogVersion));
     }
+    // The per-feature state of the checks goes before the guesses come:
+    // the id table, lines and flags are never resident with them.
+    features_ = internal::GrowingIdMap();
+    feature_lines_ = internal::MonotoneLines();
+    feature_declared_ = std::vector<bool>();
+    if (guesses_held_ || size_guesses_) SizeGuesses(&problem_);
     return std::move(problem_);
   }
 
@@ -199,10 +218,29 @@ class NativeLogParser {
                                     : " comes after its first use at line ") +
           std::to_string(line) + "; expected one FEATURE record, before the feature's first use");
     }
-    features_.Insert(id, problem_.AddFeature(id, core::Point2(guess[0], guess[1]), initialized));
-    feature_lines_.push_back(reader.line_number());
-    feature_declared_.push_back(1);
+    features_.Insert(id, NewFeature(id, initialized ? guess : nullptr));
+    feature_lines_.Append(reader.line_number());
+    feature_declared_.push_back(true);
     return Status::Ok();
+  }
+
+  // Appends a feature (its id; its guess only once some feature has one)
+  // and returns its dense index. Until the first FEATURE record with a
+  // guess, problem_.features and feature_initialized stay empty (Parse
+  // sizes them at the end): a log whose features are all placed by the
+  // initialization holds 8 B per feature while it is read, not 25.
+  int32_t NewFeature(int64_t id, const double* guess) {
+    if (guess != nullptr && !guesses_held_) {
+      guesses_held_ = true;
+      SizeGuesses(&problem_);
+    }
+    problem_.feature_ids.push_back(id);
+    if (guesses_held_) {
+      problem_.features.push_back(guess != nullptr ? core::Point2(guess[0], guess[1])
+                                                   : core::Point2::Zero());
+      problem_.feature_initialized.push_back(guess != nullptr ? 1 : 0);
+    }
+    return static_cast<int32_t>(problem_.feature_ids.size() - 1);
   }
 
   StatusOr<int32_t> Pose(const LineReader& reader, size_t field) {
@@ -220,18 +258,17 @@ class NativeLogParser {
   StatusOr<int32_t> Feature(const LineReader& reader, size_t field) {
     if (reader.fields()[field] == "-") {
       // Unknown correspondence: a feature of its own, for data association.
-      const int32_t feature =
-          problem_.AddFeature(core::kNoFeatureId, core::Point2::Zero(), /*initialized=*/false);
-      feature_lines_.push_back(reader.line_number());
-      feature_declared_.push_back(0);
+      const int32_t feature = NewFeature(core::kNoFeatureId, nullptr);
+      feature_lines_.Append(reader.line_number());
+      feature_declared_.push_back(false);
       return feature;
     }
     GS_ASSIGN_OR_RETURN(const int64_t id, reader.Id(field, "feature id"));
     if (const int32_t known = features_.Find(id); known >= 0) return known;
-    const int32_t feature = problem_.AddFeature(id, core::Point2::Zero(), /*initialized=*/false);
+    const int32_t feature = NewFeature(id, nullptr);
     features_.Insert(id, feature);
-    feature_lines_.push_back(reader.line_number());
-    feature_declared_.push_back(0);
+    feature_lines_.Append(reader.line_number());
+    feature_declared_.push_back(false);
     return feature;
   }
 
@@ -476,11 +513,19 @@ class NativeLogParser {
   internal::GrowingIdMap poses_;     // dense ids: a direct table (one look-up per record)
   internal::GrowingIdMap features_;  // dense ids: a direct table
   std::vector<uint8_t> reached_;          // per pose: has a value (guess or prediction)
-  std::vector<int32_t> feature_lines_;    // per feature: declaration or first use
-  std::vector<uint8_t> feature_declared_;  // per feature: by a FEATURE record
+  // Per feature, for the FEATURE-record rules and their messages:
+  internal::MonotoneLines feature_lines_;  // declaration or first use (file order)
+  std::vector<bool> feature_declared_;     // by a FEATURE record
+  bool guesses_held_ = false;              // NewFeature
+  bool size_guesses_ = true;
 };
 
 }  // namespace
+
+void SizeGuesses(core::Problem2d* problem) {
+  problem->features.resize(problem->feature_ids.size(), core::Point2::Zero());
+  problem->feature_initialized.resize(problem->feature_ids.size(), 0);
+}
 
 namespace {
 
@@ -519,10 +564,12 @@ StatusOr<core::Problem2d> ReadNativeLog(const std::string& path,
 StatusOr<core::Problem2d> ReadNativeLogStreaming(const std::string& path,
                                                  const ObservationSink& sink,
                                                  std::vector<NativeLogScan>* scans,
-                                                 const ExpectedSizes& expected) {
+                                                 const ExpectedSizes& expected,
+                                                 bool size_guesses) {
   if (scans != nullptr) scans->clear();
   NativeLogParser parser(path, &sink, scans);
   parser.Reserve(expected);
+  parser.SizeGuessesAtTheEnd(size_guesses);
   return ReleasingFreedMemory(parser.Parse());
 }
 

@@ -96,10 +96,24 @@ struct ExpectedSizes {
   int64_t features = 0;
   int64_t feature_id_end = -1;
 };
+//
+// The reader's per-feature state (id table, lines, flags) is freed before
+// the features' guesses and flags are sized, so they are never resident
+// together; until a FEATURE record gives a guess they are not held at all
+// (8 B per feature, the id, while the log is read). `size_guesses` false: a
+// log without FEATURE guesses comes back with `features` and
+// `feature_initialized` empty -- num_features() is 0, feature_ids.size() the
+// count -- for the caller to size with SizeGuesses once it has freed memory
+// of its own.
 StatusOr<core::Problem2d> ReadNativeLogStreaming(const std::string& path,
                                                  const ObservationSink& sink,
                                                  std::vector<NativeLogScan>* scans = nullptr,
-                                                 const ExpectedSizes& expected = {});
+                                                 const ExpectedSizes& expected = {},
+                                                 bool size_guesses = true);
+
+// Sizes `features` and `feature_initialized` to `feature_ids` (new entries:
+// zero, not initialized).
+void SizeGuesses(core::Problem2d* problem);
 
 // InvalidArgument (before anything is written) if `problem` is inconsistent;
 // IOError if the disk fails (an existing `path` is then left untouched).

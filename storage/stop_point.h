@@ -13,6 +13,9 @@
 //   "map_batch N"           after the N-th batch of scans was fused
 //   "associate_exchanged"   after `solve STORE --associate` put the rewritten
 //                           store in place
+//   "ingest_index_on_disk"  after an ingest wrote its FeatureIndex to
+//                           work/pass1.bin, before the initialization (no
+//                           progress record yet: a resume starts afresh)
 //   "ingest_pass1"          after an ingest recorded its first pass
 //   "ingest_spill N"        after the N-th spill of the observation buffer
 //   "ingest_chunks N"       after chunks [0, k) with k >= N are durable and

@@ -94,7 +94,9 @@ int64_t IngestInput::FixedBytes() const {
 
 int64_t IngestInput::Pass1FeatureBytes() const {
   if (counted && feature_id_end >= 0)
-    return features * kIngestPass1BytesPerFeature + feature_id_end * kIngestBytesPerFeatureId;
+    return std::max(features * kIngestPass1BytesPerFeature +
+                        feature_id_end * kIngestBytesPerFeatureId,
+                    features * kIngestHeldBytesPerFeature);
   return features * kIngestPass1BytesPerFeatureUnknownIds;
 }
 

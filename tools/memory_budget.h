@@ -8,10 +8,13 @@
 //
 // Ingest of a native log (streamed, partition/ingest/streaming_ingest.h), P poses,
 // F observed features, B observations per chunk, K buffered observations:
-//   pass 1 = base + blocks + P ingest_pose + F pass1_feature + I feature_id
-//            (problem, the reader's per-feature lines and flags, feature
-//            index: reserved to F, so never grown by copying; the reader's
-//            direct id table over the I ids [0, I); blocks: tokenizer and
+//   pass 1 = base + blocks + P ingest_pose
+//            + max(F read_feature + I feature_id, F held_feature)
+//            (while the log is read: the ids, the feature index and the
+//            reader's compact lines and flags, reserved to F, so never grown
+//            by copying, and its direct id table over the I ids [0, I);
+//            after it: the guesses, flags and ids, until problem.graphslam
+//            is written, with the index on disk; blocks: tokenizer and
 //            replay frames). I is the counts trailer's `feature_ids`; a log
 //            without it takes F pass1_feature_unknown_ids instead (the id
 //            table up to 8 ids per feature, the arrays grown by doubling)
@@ -72,17 +75,22 @@ namespace graphslam::tools {
 inline constexpr int64_t kIngestBaseBytes = int64_t{16} << 20;
 inline constexpr int64_t kIngestBlockBytes = int64_t{56} << 20;
 inline constexpr int64_t kIngestBytesPerPose = 512;
-// Pass 1's per-feature arrays reserved to the counted features: the problem's
-// guess, id and flag (25 B), the reader's line and declared flag (5 B), the
-// feature index (8 B); at the initialization the union-find over poses and
-// features and its flags (9 B) instead of the reader's (docs/out_of_core.md
-// "What --memory-limit bounds"), plus the id table's 4 B per id in [0, I).
-inline constexpr int64_t kIngestPass1BytesPerFeature = 48;
+// Pass 1's per-feature arrays reserved to the counted features
+// (docs/out_of_core.md "Memory per feature"). While the log is read: the id
+// (8 B), the feature index (8 B), the reader's line (~1.2 B, varints) and
+// declared flag (1 bit), ~17 B measured at 10^7 and 20 B counted (the 10^6
+// run's other growth), plus the id table's 4 B per id in [0, I). After it
+// (the id table freed, the index on disk): the guess, id and flag (25 B) for
+// the initialization and problem.graphslam.
+inline constexpr int64_t kIngestPass1BytesPerFeature = 20;
+inline constexpr int64_t kIngestHeldBytesPerFeature = 26;
 inline constexpr int64_t kIngestBytesPerFeatureId = 4;
 // Without the id range (or the counts): the id table at up to 8 ids per
-// feature and the arrays' growth by doubling.
-inline constexpr int64_t kIngestPass1BytesPerFeatureUnknownIds = 80;
-inline constexpr int64_t kIngestPass2BytesPerFeature = 48;
+// feature and the ids and index at twice their size while they grow.
+inline constexpr int64_t kIngestPass1BytesPerFeatureUnknownIds = 72;
+// The plan (chunk, slot and chunk lists: 12 B) while it is made from the
+// index read back (8 B) and the features' order (4 B, its sort's buffer 2 B).
+inline constexpr int64_t kIngestPass2BytesPerFeature = 26;
 inline constexpr int64_t kIngestBytesPerBufferedObservation = 160;
 inline constexpr int64_t kReadWholeBytesPerInputByte = 4;
 // Native log proportions (uncompressed bytes) and zstd's ratio on it.

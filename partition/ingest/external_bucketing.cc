@@ -76,6 +76,7 @@ StatusOr<std::unique_ptr<BucketChunkSource>> BucketChunkSource::Plan(
   // The plan of InMemoryChunkSource: observed features by first pose (stable),
   // greedy packing of whole features into at most B observations.
   std::vector<int32_t> order;
+  order.reserve(counts.size());  // never grown by copying; unused capacity is not resident
   for (int32_t f = 0; f < num_features; ++f)
     if (counts[f] > 0) order.push_back(f);
   std::stable_sort(order.begin(), order.end(),

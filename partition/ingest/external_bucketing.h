@@ -103,6 +103,14 @@ class FeatureIndex {
     observations_ = observations;
   }
 
+  // Moves the arrays out (to be written to disk); the index is empty after.
+  void Release(std::vector<int32_t>* counts, std::vector<int32_t>* first_pose) {
+    *counts = std::move(counts_);
+    *first_pose = std::move(first_pose_);
+    counts_.clear();
+    first_pose_.clear();
+  }
+
   const std::vector<int32_t>& counts() const { return counts_; }
   const std::vector<int32_t>& first_pose() const { return first_pose_; }
   int64_t observations() const { return observations_; }

@@ -2,7 +2,10 @@
 #include "partition/ingest/ingest_progress.h"
 
 #include <nlohmann/json.hpp>
+#include <algorithm>
+#include <memory>
 #include <string_view>
+#include <utility>
 
 #include "storage/atomic_file.h"
 #include "storage/checksummed_json.h"
@@ -83,16 +86,85 @@ Status WritePass1Record(storage::Env* env, const std::string& path, const Pass1R
   });
 }
 
+namespace {
+
+// Reads pass1.bin front to back in blocks of 1 MiB, extending the CRC32C of
+// everything before the footer.
+class Pass1Reader {
+ public:
+  Pass1Reader(std::string path, std::unique_ptr<storage::ReadableFile> file, uint64_t size)
+      : path_(std::move(path)), file_(std::move(file)), left_(size - 4) {}
+
+  // The next n bytes (n <= what is left before the footer), into *out.
+  Status Next(size_t n, std::string* out) {
+    out->resize(n);
+    size_t got = 0;
+    while (got < n) {
+      GS_ASSIGN_OR_RETURN(const size_t read, file_->Read(n - got, out->data() + got));
+      if (read == 0)
+        return Status::Corruption(path_ + ": ends early; expected " + std::to_string(n - got) +
+                                  " more bytes");
+      got += read;
+    }
+    crc_ = storage::crc32c::Extend(crc_, out->data(), n);
+    left_ -= n;
+    return Status::Ok();
+  }
+
+  // `count` values of sizeof(T) bytes; kept in *values if it is not null.
+  template <typename T>
+  Status Array(uint64_t count, std::vector<T>* values) {
+    constexpr uint64_t kPerBlock = (uint64_t{1} << 20) / sizeof(T);
+    if (values != nullptr) values->reserve(count);
+    std::string block;
+    for (uint64_t done = 0; done < count;) {
+      const uint64_t n = std::min(kPerBlock, count - done);
+      GS_RETURN_IF_ERROR(Next(static_cast<size_t>(n * sizeof(T)), &block));
+      if (values != nullptr) {
+        for (const char* p = block.data(); p < block.data() + block.size(); p += sizeof(T)) {
+          if constexpr (sizeof(T) == 8) {
+            values->push_back(static_cast<T>(format::DecodeFixed64(p)));
+          } else {
+            values->push_back(static_cast<T>(format::DecodeFixed32(p)));
+          }
+        }
+      }
+      done += n;
+    }
+    return Status::Ok();
+  }
+
+  Status CheckFooter() {
+    GS_CHECK(left_ == 0);
+    std::string footer(4, '\0');
+    GS_ASSIGN_OR_RETURN(const size_t read, file_->Read(4, footer.data()));
+    if (read != 4) return Status::Corruption(path_ + ": ends early; expected the crc");
+    if (storage::crc32c::Unmask(format::DecodeFixed32(footer.data())) != crc_)
+      return Status::Corruption(path_ + ": crc mismatch");
+    return Status::Ok();
+  }
+
+ private:
+  const std::string path_;
+  std::unique_ptr<storage::ReadableFile> file_;
+  uint64_t left_ = 0;
+  uint32_t crc_ = 0;
+};
+
+}  // namespace
+
 StatusOr<Pass1Record> ReadPass1Record(const std::string& path) {
-  StatusOr<std::string> read = storage::ReadFileToString(storage::Env::Default(), path);
-  if (!read.ok())
-    return read.status().IsNotFound() ? Status::NotFound(path + ": no first-pass record")
-                                      : read.status();
-  const std::string& bytes = read.value();
-  if (bytes.size() < kPass1HeaderSize + 4)
-    return Status::Corruption(path + ": " + std::to_string(bytes.size()) +
+  storage::Env* env = storage::Env::Default();
+  if (!env->FileExists(path)) return Status::NotFound(path + ": no first-pass record");
+  GS_ASSIGN_OR_RETURN(std::unique_ptr<storage::ReadableFile> file, env->NewReadableFile(path));
+  GS_ASSIGN_OR_RETURN(const uint64_t size, file->Size());
+  if (size < kPass1HeaderSize + 4)
+    return Status::Corruption(path + ": " + std::to_string(size) +
                               " bytes; expected at least a header and a crc");
-  const char* p = bytes.data();
+  Pass1Reader reader(path, std::move(file), size);
+  std::string header;
+  GS_RETURN_IF_ERROR(reader.Next(kPass1HeaderSize, &header));
+  const char* p = header.data();
   if (format::DecodeFixed64(p) != kPass1Magic)
     return Status::Corruption(path + ": bad magic; expected a first-pass record");
   if (format::DecodeFixed32(p + 8) != kPass1Version)
@@ -100,25 +172,18 @@ StatusOr<Pass1Record> ReadPass1Record(const std::string& path) {
                                 "; expected " + std::to_string(kPass1Version));
   const uint64_t poses = format::DecodeFixed64(p + 16);
   const uint64_t features = format::DecodeFixed64(p + 24);
-  const uint64_t expected = kPass1HeaderSize + 8 * poses + 16 * features + 4;
-  if (poses > bytes.size() || features > bytes.size() || bytes.size() != expected)
-    return Status::Corruption(path + ": " + std::to_string(bytes.size()) + " bytes; expected " +
-                              std::to_string(expected) + " for " + std::to_string(poses) +
-                              " poses and " + std::to_string(features) + " features");
-  const uint32_t stored = storage::crc32c::Unmask(format::DecodeFixed32(p + bytes.size() - 4));
-  const uint32_t actual = storage::crc32c::Value(p, bytes.size() - 4);
-  if (stored != actual) return Status::Corruption(path + ": crc mismatch");
+  if (poses > size || features > size || size != kPass1HeaderSize + 8 * poses + 16 * features + 4)
+    return Status::Corruption(path + ": " + std::to_string(size) + " bytes; expected " +
+                              std::to_string(kPass1HeaderSize + 8 * poses + 16 * features + 4) +
+                              " for " + std::to_string(poses) + " poses and " +
+                              std::to_string(features) + " features");
   Pass1Record record;
   record.observations = static_cast<int64_t>(format::DecodeFixed64(p + 32));
-  p += kPass1HeaderSize;
-  record.pose_ids.resize(poses);
-  for (auto& id : record.pose_ids) id = static_cast<int64_t>(format::DecodeFixed64(p)), p += 8;
-  record.feature_ids.resize(features);
-  for (auto& id : record.feature_ids) id = static_cast<int64_t>(format::DecodeFixed64(p)), p += 8;
-  record.counts.resize(features);
-  for (auto& n : record.counts) n = static_cast<int32_t>(format::DecodeFixed32(p)), p += 4;
-  record.first_pose.resize(features);
-  for (auto& n : record.first_pose) n = static_cast<int32_t>(format::DecodeFixed32(p)), p += 4;
+  GS_RETURN_IF_ERROR(reader.Array<int64_t>(poses, nullptr));
+  GS_RETURN_IF_ERROR(reader.Array<int64_t>(features, nullptr));
+  GS_RETURN_IF_ERROR(reader.Array<int32_t>(features, &record.counts));
+  GS_RETURN_IF_ERROR(reader.Array<int32_t>(features, &record.first_pose));
+  GS_RETURN_IF_ERROR(reader.CheckFooter());
   return record;
 }
 

@@ -24,8 +24,8 @@
 // overstates, what is on disk; the resumed ingest truncates or rewrites the
 // rest.
 //
-// THREAD SAFETY: none needed (one ingest per store). ALLOCATION: pass1.bin is
-// read whole (16 bytes per feature plus 8 per pose).
+// THREAD SAFETY: none needed (one ingest per store). ALLOCATION: reading
+// pass1.bin keeps the FeatureIndex (8 bytes per feature) and 1 MiB of it.
 #pragma once
 
 #include <cstdint>
@@ -60,6 +60,9 @@ struct Pass1Record {
 
 [[nodiscard]] Status WritePass1Record(storage::Env* env, const std::string& path,
                                       const Pass1Record& record);
+// The counts, first poses and observations of a record; its ids are checked
+// (CRC) but not kept (a resume needs the FeatureIndex only). Read in blocks
+// of 1 MiB: 8 bytes per feature resident. NotFound if `path` is missing;
 // Corruption naming the path and what is wrong (magic, version, sizes, CRC).
 StatusOr<Pass1Record> ReadPass1Record(const std::string& path);
 

@@ -37,10 +37,11 @@ IngestProgress ThisIngest(const std::string& input, const storage::FileChecksum&
 }
 
 // Pass 1 and the initialization: the pose-only, initialized problem, the
-// FeatureIndex, and (other formats) the replay of their observations.
+// observation count, and (other formats) the replay of their observations.
+// The FeatureIndex is in the pass-1 record on disk (PassOne reads it back).
 struct FirstPass {
   core::Problem2d problem;
-  FeatureIndex index;
+  int64_t observations = 0;
   ObservationReplay replay;  // set for formats read whole
   std::vector<storage::NativeLogScan> scans;  // native logs: SCAN records
   std::vector<core::Pose3> scan_poses;        // their scans' logged poses
@@ -48,21 +49,25 @@ struct FirstPass {
 
 // Native logs: every observation also goes to `replay` (pass 2 reads it back
 // instead of the text); *replay_bytes gets the bytes it wrote.
-StatusOr<FirstPass> RunFirstPass(const std::string& input, const std::string& work,
+StatusOr<FirstPass> RunFirstPass(storage::Env* env, const std::string& input,
+                                 const std::string& work, const std::string& pass1_path,
                                  const StreamingIngestOptions& options, int64_t* replay_bytes) {
   FirstPass pass;
+  FeatureIndex index;
   FirstSightInitialization init((std::filesystem::path(work) / kFirstSightScratchName).string());
   std::unique_ptr<ReplayFrameWriter> replay;
   const storage::ObservationSink pass1 = [&](const core::Observation& observation) {
-    GS_RETURN_IF_ERROR(init.Add(observation, pass.index));  // before the index counts it
-    pass.index.Add(observation);
+    GS_RETURN_IF_ERROR(init.Add(observation, index));  // before the index counts it
+    index.Add(observation);
     return replay ? replay->Add(observation) : Status::Ok();
   };
   if (options.format == storage::InputFormat::kNative) {
     replay = std::make_unique<ReplayFrameWriter>(work, options.replay);
-    pass.index.Reserve(options.expected.features);
-    GS_ASSIGN_OR_RETURN(pass.problem, storage::ReadNativeLogStreaming(input, pass1, &pass.scans,
-                                                                      options.expected));
+    index.Reserve(options.expected.features);
+    // The guesses are sized below, once the index is on disk.
+    GS_ASSIGN_OR_RETURN(pass.problem,
+                        storage::ReadNativeLogStreaming(input, pass1, &pass.scans, options.expected,
+                                                        /*size_guesses=*/false));
     GS_RETURN_IF_ERROR(replay->Finish());  // durable before the first progress record
     *replay_bytes = replay->bytes_written();
     replay.reset();
@@ -100,10 +105,26 @@ StatusOr<FirstPass> RunFirstPass(const std::string& input, const std::string& wo
   // Exactly one entry per feature (Add grows to the highest feature
   // observed; features declared but never observed count 0): a resumed
   // ingest reads back the same index.
-  pass.index.Resize(pass.problem.num_features());
-  GS_CHECK(pass.index.counts().size() == static_cast<size_t>(pass.problem.num_features()));
+  const auto num_features = static_cast<int32_t>(pass.problem.feature_ids.size());
+  index.Resize(num_features);
+  GS_CHECK(index.counts().size() == static_cast<size_t>(num_features));
 
   pass.scan_poses = LoggedScanPoses(pass.problem, pass.scans);  // the guesses, as logged
+
+  // The pass-1 record now, with the ids lent by the problem: the index (8 B
+  // per feature) waits on disk while the initialization holds the guesses.
+  pass.observations = index.observations();
+  Pass1Record record;
+  record.pose_ids = pass.problem.pose_ids;
+  record.feature_ids = std::move(pass.problem.feature_ids);
+  record.observations = pass.observations;
+  index.Release(&record.counts, &record.first_pose);
+  const Status written = WritePass1Record(env, pass1_path, record);
+  pass.problem.feature_ids = std::move(record.feature_ids);
+  record = Pass1Record();
+  GS_RETURN_IF_ERROR(written);
+  storage::StopPointForTests("ingest_index_on_disk");
+  storage::SizeGuesses(&pass.problem);  // 17 B per feature from here
 
   // Table 1 from the first sights on disk and the joining observations.
   GS_RETURN_IF_ERROR(init.Initialize(&pass.problem));
@@ -164,29 +185,28 @@ Status PassOne(storage::ChunkStoreWriter* writer, IngestRun* run, FeatureIndex* 
   if (run->resuming) {
     index->Assign(std::move(run->pass1.counts), std::move(run->pass1.first_pose),
                   run->pass1.observations);
+    run->pass1 = Pass1Record();
     run->summary->resumed_stage = run->progress.stage;
     return Status::Ok();
   }
-  GS_ASSIGN_OR_RETURN(FirstPass first, RunFirstPass(run->input, run->work, run->options,
-                                                    &run->summary->replay_bytes_written));
+  GS_ASSIGN_OR_RETURN(FirstPass first,
+                      RunFirstPass(run->env, run->input, run->work, run->pass1_path, run->options,
+                                   &run->summary->replay_bytes_written));
   if (run->native && run->options.copy_scans && run->root)
     GS_RETURN_IF_ERROR(
         SaveScanRecords(run->env, run->input, run->work, first.scans, first.scan_poses));
   if (run->root) GS_RETURN_IF_ERROR(writer->WriteProblem(first.problem));
-  *index = std::move(first.index);
   *replay = std::move(first.replay);
   run->progress.poses = first.problem.num_poses();
   run->progress.features = first.problem.num_features();
-  run->progress.observations = index->observations();
+  run->progress.observations = first.observations;
+  first.problem = core::Problem2d();  // in problem.graphslam: 25 B per feature freed
+  // The FeatureIndex back from the pass-1 record, for the plan.
+  GS_ASSIGN_OR_RETURN(Pass1Record pass1, ReadPass1Record(run->pass1_path));
+  GS_CHECK(pass1.observations == first.observations &&
+           pass1.counts.size() == static_cast<size_t>(run->progress.features));
+  index->Assign(std::move(pass1.counts), std::move(pass1.first_pose), pass1.observations);
   if (!run->native) return Status::Ok();
-  Pass1Record& pass1 = run->pass1;
-  pass1.pose_ids = std::move(first.problem.pose_ids);
-  pass1.feature_ids = std::move(first.problem.feature_ids);
-  pass1.counts = index->counts();
-  pass1.first_pose = index->first_pose();
-  pass1.observations = index->observations();
-  GS_RETURN_IF_ERROR(WritePass1Record(run->env, run->pass1_path, pass1));
-  pass1 = Pass1Record();  // freed: pass 2 needs neither ids nor counts (24 B per feature)
   run->progress.stage = "spill";
   GS_RETURN_IF_ERROR(WriteIngestProgress(run->env, run->progress_path, run->progress));
   storage::StopPointForTests("ingest_pass1");

@@ -13,12 +13,13 @@
 //      (step 4). Native logs are streamed (ReadNativeLogStreaming: O(poses +
 //      features)); other formats (g2o, iSAM, MRCLAM) are read whole by their
 //      readers and replayed from memory -- only the native log path is bounded.
-//   3. Table 1 initialization (core/initialization.h) of the pose-only problem
+//   3. work/pass1.bin (ids and FeatureIndex; the index is then freed), then
+//      Table 1 initialization (core/initialization.h) of the pose-only problem
 //      from the joining observations and the first sights read back from
 //      disk: the same guesses and the same connectivity check as with every
-//      observation. STORE/problem.graphslam is written now (atomically), then,
-//      for native logs, work/pass1.bin and the first work/ingest_progress.json
-//      (stage "spill").
+//      observation. STORE/problem.graphslam is written now (atomically), the
+//      problem freed and the FeatureIndex read back from work/pass1.bin; for
+//      native logs then the first work/ingest_progress.json (stage "spill").
 //   4. pass 2: spill into bucket files in STORE/work/ (BucketChunkSource);
 //      native logs from the observations pass 1 parsed, kept as replay frames
 //      in work/replay_NNNNNN.bin (partition/ingest/replay_frames.h: binary, zstd,
@@ -45,16 +46,23 @@
 // logs, plus the counting sorts' scratch (up to as many again). Nothing per
 // observation. What stays per observed feature, and why (resident bytes;
 // docs/out_of_core.md "Memory per feature"):
-//   pass 1 (the peak at 10^7-10^8 features): the problem's guess (16), id
-//     (8) and initialized flag (1), all written to problem.graphslam; the
-//     reader's id -> index table (direct int32 table over the id range: ~9 B
-//     at the simulator's ~2.3 ids per observed feature) and its per-feature
-//     line (4) and declared flag (1), for its error messages and the
-//     FEATURE-record rules; the FeatureIndex (count + lowest pose, 8), which
-//     makes the plan. ~47 B. The first sight (72 B) is on disk.
+//   pass 1, while the log is read: the feature's id (8), the FeatureIndex
+//     (count + lowest pose, 8), the reader's line of first use (~1.2,
+//     varints of the gaps: storage/internal/monotone_lines.h) and declared
+//     flag (1 bit), for its error messages and the FEATURE-record rules, and
+//     its id -> index table (direct int32 table over the id range: ~7-13 B
+//     at the simulator's 1.7-3.3 ids per observed feature). ~17.5 B + 4 B
+//     per id. The guesses are not held (a log without FEATURE guesses has
+//     none to hold) and the first sight (72 B) is on disk.
+//   pass 1, after the read: the reader's state freed and the FeatureIndex
+//     written to work/pass1.bin, the guess (16), id (8) and initialized flag
+//     (1), 25 B, through the initialization (whose union-find covers the
+//     poses and the <= poses - 1 joining features only) and until
+//     problem.graphslam is written.
 //   pass 2: the plan (chunk + slot per feature, and each chunk's feature
-//     list: 12). The FeatureIndex, the problem and the ids are freed before
-//     it (the replay frames hold dense indices: no id table).
+//     list: 12), made from the FeatureIndex read back (8) and freed after
+//     it. The problem and the ids are not held (the replay frames hold
+//     dense indices: no id table).
 #pragma once
 
 #include <cstdint>

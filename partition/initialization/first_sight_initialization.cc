@@ -107,12 +107,38 @@ Status FirstSightInitialization::Initialize(core::Problem2d* problem) {
   }));
   GS_CHECK(kept.size() == joined.size());
 
-  // 2. Validation, poses, connectivity, the joining features' placement.
+  // 2. Validation, poses, connectivity, the joining features' placement, on
+  // the problem with only the joined features (renumbered to their rank in
+  // `joined`): the others have no observation here, so they join nothing,
+  // and the union-find and flags of InitializeProblem stay O(poses).
   kept.insert(kept.end(), joining_.begin(), joining_.end());
   joining_ = std::vector<core::Observation>();
+  for (core::Observation& o : kept) {
+    o.feature = static_cast<int32_t>(std::lower_bound(joined.begin(), joined.end(), o.feature) -
+                                     joined.begin());
+  }
+  std::vector<core::Point2> features = std::move(problem->features);
+  std::vector<int64_t> feature_ids = std::move(problem->feature_ids);
+  std::vector<uint8_t> feature_initialized = std::move(problem->feature_initialized);
+  problem->features.clear();
+  problem->feature_ids.clear();
+  problem->feature_initialized.clear();
+  for (const int32_t f : joined) {
+    problem->features.push_back(features[static_cast<size_t>(f)]);
+    problem->feature_ids.push_back(feature_ids[static_cast<size_t>(f)]);
+    problem->feature_initialized.push_back(feature_initialized[static_cast<size_t>(f)]);
+  }
   problem->observations = std::move(kept);
   const Status status = core::InitializeProblem(problem);
   problem->observations = std::vector<core::Observation>();
+  for (size_t j = 0; j < joined.size(); ++j) {
+    const auto f = static_cast<size_t>(joined[j]);
+    features[f] = problem->features[j];
+    feature_initialized[f] = problem->feature_initialized[j];
+  }
+  problem->features = std::move(features);
+  problem->feature_ids = std::move(feature_ids);
+  problem->feature_initialized = std::move(feature_initialized);
   GS_RETURN_IF_ERROR(status);
 
   // 3. Every other feature, by its first sight.

@@ -24,9 +24,12 @@
 //      observations (a sorted list of at most poses - 1 features);
 //   2. runs core::InitializeProblem on the pose-only problem plus those first
 //      sights and the joining observations (first sights first: each feature
-//      is placed by its first sight), which validates, initializes the poses,
-//      checks connectivity exactly as with all observations (a feature seen
-//      from one pose component joins nothing), and places those features;
+//      is placed by its first sight), with the problem's features cut down
+//      to the joining ones (renumbered; the others have no observation
+//      there, so its union-find and flags stay O(poses)), which validates,
+//      initializes the poses, checks connectivity exactly as with all
+//      observations (a feature seen from one pose component joins nothing),
+//      and places those features;
 //   3. reads the file again, placing every other uninitialized feature by its
 //      first sight (core::PlaceFeature), then removes the file.
 // The guesses are bit for bit InitializeProblem's on every observation

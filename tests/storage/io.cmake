@@ -15,6 +15,7 @@ graphslam_test(storage/chunk_store)
 graphslam_test(storage/internal/text_reader)
 graphslam_test(storage/internal/text_blocks)
 graphslam_test(storage/internal/id_map)
+graphslam_test(storage/internal/monotone_lines)
 graphslam_test(storage/compressed_file)
 graphslam_test(storage/native_log_counts)
 # Locks, ownership and checksums of stores (docs/guarantees.md, issue 22).

@@ -125,6 +125,99 @@ TEST(NativeLogReader, ExpectedSizesChangeNothingButWhatIsReserved) {
   }
 }
 
+// A log whose features mostly come by their first use (no guess held while
+// it is read) with one FEATURE guess late (from there on they are): the
+// guesses, flags and ids are those of a read that holds them all along, and
+// with size_guesses false the caller gets them unsized and sizes them.
+TEST(NativeLogReader, GuessesAreSizedAfterTheReadOrFromTheFirstFeatureGuess) {
+  std::string log = "GRAPHSLAM_LOG 1\nPOSE 0 0 0 0 0\nPOSE 1 1 1 0 0\n";
+  for (int f = 0; f < 150; ++f) log += "RB 0 " + std::to_string(1000 + 3 * f) + " 5 0.1 1 0 1\n";
+  const std::string unguessed = log + "RB 1 - 4 0.2 1 0 1\n";
+  const std::string guessed = unguessed + "FEATURE 77 2.5 -1\nRB 1 77 3 0 1 0 1\nFEATURE 78\n";
+  for (const std::string& contents : {unguessed, guessed}) {
+    const std::string path = WriteTemp("guesses.log", contents);
+    const auto all = ReadNativeLog(path);
+    ASSERT_TRUE(all.ok()) << all.status().ToString();
+    const ObservationSink ignore = [](const core::Observation&) { return Status::Ok(); };
+    for (const bool size_guesses : {true, false}) {
+      auto streamed = ReadNativeLogStreaming(path, ignore, nullptr, {}, size_guesses);
+      ASSERT_TRUE(streamed.ok()) << streamed.status().ToString();
+      EXPECT_EQ(streamed->feature_ids, all->feature_ids);
+      // Unsized only when no FEATURE record gave a guess.
+      EXPECT_EQ(streamed->features.empty(), !size_guesses && contents == unguessed);
+      SizeGuesses(&*streamed);
+      EXPECT_EQ(streamed->feature_initialized, all->feature_initialized);
+      ASSERT_EQ(streamed->features.size(), all->features.size());
+      for (size_t f = 0; f < all->features.size(); ++f)
+        EXPECT_EQ(streamed->features[f], all->features[f]) << f;
+    }
+  }
+  const auto read = ReadNativeLog(WriteTemp("guesses.log", guessed));
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  ASSERT_EQ(read->num_features(), 153);
+  EXPECT_EQ(read->feature_ids[150], core::kNoFeatureId);
+  EXPECT_EQ(read->feature_initialized[151], 1);
+  EXPECT_EQ(read->features[151], core::Point2(2.5, -1));
+  EXPECT_EQ(read->feature_initialized[152], 0);
+  EXPECT_EQ(read->feature_initialized[149], 0);
+}
+
+// The FEATURE-record rules name the line of the earlier declaration or first
+// use, kept compactly (storage/internal/monotone_lines.h) for every feature,
+// here the 130th of 150 (past two groups of 64) and after a long gap.
+TEST(NativeLogReader, FeatureRuleMessagesNameTheEarlierLineOfAnyFeature) {
+  std::string log = "GRAPHSLAM_LOG 1\nPOSE 0 0 0 0 0\n";
+  for (int f = 0; f < 150; ++f) {
+    log += f % 2 == 0 ? "FEATURE " + std::to_string(f) + "\n"
+                      : "RB 0 " + std::to_string(f) + " 5 0.1 1 0 1\n";
+    if (f == 100)
+      for (int k = 0; k < 300; ++k) log += "POSE " + std::to_string(1 + k) + " 1\n";
+  }
+  // Feature 130 (declared) is on line 2 + 130 + 300 + 1; 131 (used) the next.
+  EXPECT_EQ(ReadError(log + "FEATURE 130\n").message(),
+            "bad.log:453: FEATURE 130 is already declared at line 433; expected one FEATURE "
+            "record, before the feature's first use");
+  EXPECT_EQ(ReadError(log + "FEATURE 131\n").message(),
+            "bad.log:453: FEATURE 131 comes after its first use at line 434; expected one FEATURE "
+            "record, before the feature's first use");
+  EXPECT_EQ(ReadError(log + "FEATURE 3\n").message(),
+            "bad.log:453: FEATURE 3 comes after its first use at line 6; expected one FEATURE "
+            "record, before the feature's first use");
+}
+
+// The writer's duplicate check takes one bit per id for dense ids and a
+// sorted copy otherwise: a repeated feature or pose id is named either way,
+// and distinct ids of either kind are written.
+TEST(NativeLogReader, WriterRejectsRepeatedIdsDenseOrSparse) {
+  const std::string path = TempPath("ids.log");
+  const auto problem_with = [](const std::vector<int64_t>& feature_ids,
+                               const std::vector<int64_t>& pose_ids) {
+    core::Problem2d problem;
+    for (size_t i = 0; i < pose_ids.size(); ++i)
+      problem.AddPose(pose_ids[i], core::Pose2(static_cast<double>(i), 0, 0), true, 0);
+    problem.pose_fixed[0] = 1;
+    for (const int64_t id : feature_ids) problem.AddFeature(id, core::Point2(1, 2), true);
+    return problem;
+  };
+  std::vector<int64_t> dense(200), sparse(200), negative(200);
+  for (int i = 0; i < 200; ++i) {
+    dense[static_cast<size_t>(i)] = 3 * i;
+    sparse[static_cast<size_t>(i)] = (int64_t{1} << 40) + int64_t{1000000} * i;
+    negative[static_cast<size_t>(i)] = -5 - i;
+  }
+  const std::vector<int64_t> poses = {0, 1, 2};
+  for (std::vector<int64_t> ids : {dense, sparse, negative}) {
+    EXPECT_TRUE(WriteNativeLog(problem_with(ids, poses), path).ok());
+    const int64_t repeated = ids[150];
+    ids[170] = repeated;
+    EXPECT_EQ(WriteNativeLog(problem_with(ids, poses), path).message(),
+              "writing " + path + ": feature id " + std::to_string(repeated) +
+                  " appears twice; expected unique feature ids");
+  }
+  EXPECT_EQ(WriteNativeLog(problem_with(dense, {0, 1, 0}), path).message(),
+            "writing " + path + ": pose id 0 appears twice; expected unique pose ids");
+}
+
 TEST(NativeLogReader, WithoutFeaturesKeepsThePosesAndPoseFactorsOnly) {
   const std::string log =
       "GRAPHSLAM_LOG 1\n"

@@ -91,6 +91,32 @@ TEST_F(IngestKillTest, KillNineAtSeveralPointsThenResumeGivesTheSameStoreBytes) 
   }
 }
 
+// kill -9 while the FeatureIndex waits in work/pass1.bin and the
+// initialization has not run: no progress record exists, so `--resume`
+// starts afresh (the half-done pass 1 is discarded) and gives the
+// uninterrupted ingest's store, byte for byte; an ingest that reads the
+// index back from that file gives it too.
+TEST_F(IngestKillTest, KillNineWithTheIndexOnDiskThenResumeStartsAfresh) {
+  const std::string input = Simulate(2000, 6);
+  auto ingest = [&](const fs::path& store, bool resume) {
+    std::vector<std::string> args = {"ingest", input, "-o", store.string(),
+                                     "--chunk-observations", "128", "-q"};
+    if (resume) args.push_back("--resume");
+    return args;
+  };
+  ASSERT_EQ(RunGraphslam(ingest(dir_ / "full", false)), 0);
+  const auto expected = graphslam::testing::FilesUnder(dir_ / "full");
+  const fs::path store = dir_ / "store";
+  ASSERT_TRUE(
+      graphslam::testing::SpawnAndKillAtStopPoint(ingest(store, false), "ingest_index_on_disk"))
+      << "the ingest ended before writing its index";
+  EXPECT_TRUE(fs::exists(store / "work" / "pass1.bin"));
+  EXPECT_FALSE(fs::exists(store / "work" / "ingest_progress.json"));
+  EXPECT_FALSE(fs::exists(store / "problem.graphslam"));
+  ASSERT_EQ(RunGraphslam(ingest(store, true)), 0);
+  graphslam::testing::ExpectSameFiles(graphslam::testing::FilesUnder(store), expected);
+}
+
 TEST_F(IngestKillTest, KillNineDuringWorkdirSolveThenResumeEqualsUninterruptedRun) {
   const std::string input = Simulate(1500, 4);
   ASSERT_EQ(RunGraphslam({"solve", input, "--workdir", (dir_ / "full").string(), "--report",

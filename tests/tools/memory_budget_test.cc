@@ -5,6 +5,8 @@
 #include "tools/memory_budget.h"
 
 #include <gtest/gtest.h>
+
+#include <algorithm>
 #include <sys/resource.h>
 #include <sys/wait.h>
 
@@ -137,10 +139,21 @@ TEST(BudgetIngest, PassOneOrPassTwoWithOneChunkIsTheNeedAndTheBufferGetsTheRest)
   // Counted by a trailer with the id range: the reserved arrays per
   // feature plus the id table per id; without the range, as uncounted.
   log.counted = true;
-  log.feature_id_end = 2500000;
+  log.feature_id_end = 3000000;
   EXPECT_EQ(BudgetIngest(0, log, 4096)->need_bytes,
             fixed + 10000 * kIngestBytesPerPose + 1000000 * kIngestPass1BytesPerFeature +
-                2500000 * kIngestBytesPerFeatureId);
+                3000000 * kIngestBytesPerFeatureId);
+  // Few ids per feature: the guesses held after the read, or pass 2 with
+  // one chunk, are the larger part.
+  log.feature_id_end = 1000000;
+  ASSERT_LT(1000000 * kIngestPass1BytesPerFeature + 1000000 * kIngestBytesPerFeatureId,
+            1000000 * kIngestHeldBytesPerFeature);
+  EXPECT_EQ(BudgetIngest(0, log, 4096)->need_bytes,
+            fixed + 10000 * kIngestBytesPerPose +
+                std::max(1000000 * kIngestHeldBytesPerFeature,
+                         1000000 * kIngestPass2BytesPerFeature +
+                             4096 * kIngestBytesPerBufferedObservation));
+  log.feature_id_end = 2500000;
   EXPECT_EQ(log.Expected().features, 1000000);
   EXPECT_EQ(log.Expected().feature_id_end, 2500000);
   log.feature_id_end = -1;

@@ -79,5 +79,46 @@ TEST_F(IngestProgressTest, RemovedChecksumIsCorruption) {
   EXPECT_TRUE(ReadIngestProgress(path_).status().IsCorruption());
 }
 
+// pass1.bin, read in 1 MiB blocks: the FeatureIndex of more than one block
+// comes back exactly (the ids are checked, not kept); a flipped byte in the
+// ids, a truncated file and a missing one are reported.
+TEST_F(IngestProgressTest, Pass1RecordGivesBackTheIndexAndChecksTheIds) {
+  Pass1Record record;
+  record.pose_ids = {10, 20, 30};
+  for (int32_t f = 0; f < 300000; ++f) {  // 2.4 MB of ids, 1.2 MB of counts
+    record.feature_ids.push_back(int64_t{7} * f + 5);
+    record.counts.push_back(f % 9 + 1);
+    record.first_pose.push_back(f % 3);
+  }
+  record.observations = 1234567;
+  const std::string pass1 = (dir_ / kPass1RecordName).string();
+  ASSERT_TRUE(WritePass1Record(storage::Env::Default(), pass1, record).ok());
+  StatusOr<Pass1Record> read = ReadPass1Record(pass1);
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  EXPECT_EQ(read->counts, record.counts);
+  EXPECT_EQ(read->first_pose, record.first_pose);
+  EXPECT_EQ(read->observations, 1234567);
+  EXPECT_TRUE(read->pose_ids.empty() && read->feature_ids.empty());
+
+  std::string bytes;
+  {
+    std::ifstream in(pass1, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  std::string flipped = bytes;
+  flipped[40 + 3 * 8 + 8 * 200000] ^= 1;  // feature 200000's id, in the second block of ids
+  std::ofstream(pass1, std::ios::binary | std::ios::trunc) << flipped;
+  read = ReadPass1Record(pass1);
+  ASSERT_FALSE(read.ok());
+  EXPECT_TRUE(read.status().IsCorruption()) << read.status().ToString();
+  EXPECT_THAT(read.status().message(), HasSubstr("crc mismatch"));
+  std::ofstream(pass1, std::ios::binary | std::ios::trunc) << bytes.substr(0, bytes.size() - 8);
+  read = ReadPass1Record(pass1);
+  ASSERT_FALSE(read.ok());
+  EXPECT_TRUE(read.status().IsCorruption()) << read.status().ToString();
+  fs::remove(pass1);
+  EXPECT_TRUE(ReadPass1Record(pass1).status().IsNotFound());
+}
+
 }  // namespace
 }  // namespace graphslam::partition
