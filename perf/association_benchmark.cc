@@ -25,8 +25,8 @@
 // confirm_observations, provisional_poses and max_iterations_per_stage (partition/association/incremental_association.h);
 // GS_INC_STAGE_OBS, GS_INC_WINDOW_OBS, GS_LOOP_WINDOW_OBS its stage_observations,
 // provisional_observations, local_observations; GS_SECONDS=S reads only the first
-// S seconds of MRCLAM; GS_MRCLAM_SIGMA=R,PHI its range and bearing sigmas; GS_POSES_OUT=FILE writes each observation's pose; GS_INCREMENTAL=1 runs
-// it (off by default); GS_LOOP=0/1, GS_LOOP_MIN, GS_LOOP_MARGIN, GS_LOOP_TOL,
+// S seconds of MRCLAM; GS_MRCLAM_SIGMA=R,PHI its range and bearing sigmas; GS_POSES_OUT=FILE writes each observation's pose; GS_INCREMENTAL=0 skips
+// it (the batch rounds alone; on by default); GS_LOOP=0/1, GS_LOOP_MIN, GS_LOOP_MARGIN, GS_LOOP_TOL,
 // GS_FIXES_FIRST=0/1 its solve_fixes_first, GS_STAGE_UNDO=0/1 its undo_stage_pairings;
 // GS_LOOP_ROT, GS_LOOP_RADIUS, GS_LOOP_WINDOW set its loop closure
 // (close_loops, loop.min_inliers, .ambiguity_margin, .tolerance,

@@ -672,6 +672,10 @@ Status IncrementalAssociationOptions::Validate() const {
   if (stage_poses < 1)
     return Status::InvalidArgument("incremental association: stage_poses must be >= 1, got " +
                                    std::to_string(stage_poses));
+  if (!(stage_initial_trust_region_radius > 0.0))
+    return Status::InvalidArgument(
+        "incremental association: stage_initial_trust_region_radius must be > 0, got " +
+        std::to_string(stage_initial_trust_region_radius));
   if (max_iterations_per_stage < 0)
     return Status::InvalidArgument(
         "incremental association: max_iterations_per_stage must be >= 0, got " +
@@ -746,6 +750,10 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
   run.chunking.max_observations_per_chunk = options.chunk_observations;
   run.stage_options = solver_options;
   run.stage_options.max_iterations = options.max_iterations_per_stage;
+  run.stage_options.initial_trust_region_radius =
+      std::min(solver_options.max_trust_region_radius,
+               std::max(solver_options.initial_trust_region_radius,
+                        options.stage_initial_trust_region_radius));
   run.stage_options.progress = nullptr;
   run.stage_options.iteration_callback = nullptr;
   run.radius_squared = options.search_radius * options.search_radius;

@@ -98,8 +98,10 @@ TEST_F(SolveAssociateTest, IdLessInputNeedsAssociate) {
   EXPECT_FALSE(std::filesystem::exists(options.output_g2o));
 }
 
+// The batch rounds alone (--association batch): merges with probabilities.
 TEST_F(SolveAssociateTest, AssociatesIdLessObservations) {
-  const SolveCommandOptions options = AssociateOptions();
+  SolveCommandOptions options = AssociateOptions();
+  options.association = "batch";
   ASSERT_EQ(RunSolveCommand(options), kExitOk);
   ExpectTheThreeLandmarks(options.output_g2o);
   std::ifstream report_file(options.report);
@@ -112,11 +114,10 @@ TEST_F(SolveAssociateTest, AssociatesIdLessObservations) {
   EXPECT_GT(report["association"]["merge_list"][0]["probability"].get<double>(), 1e-3);
 }
 
-// The incremental pass before the rounds (--associate-incremental) runs and
-// ends with the same correspondences on this easy input.
+// The incremental pass before the rounds (the default) runs and ends with the
+// same correspondences on this easy input.
 TEST_F(SolveAssociateTest, IncrementalPassFindsTheSameCorrespondences) {
-  SolveCommandOptions options = AssociateOptions();
-  options.associate_incremental = true;
+  const SolveCommandOptions options = AssociateOptions();
   ASSERT_EQ(RunSolveCommand(options), kExitOk);
   ExpectTheThreeLandmarks(options.output_g2o);
   std::ifstream report_file(options.report);
