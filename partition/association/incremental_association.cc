@@ -338,6 +338,7 @@ struct IncrementalRun {
   core::SolverOptions stage_options;
   double radius_squared = 0.0;
   double scale = 1.0;  // variance factor of the gates and the stage undo
+  int64_t stage_observations = 0;  // options.stage_observations, or the high-rate one
 };
 
 // The stage's view of the clusters met so far: the linearization at its
@@ -492,7 +493,7 @@ int32_t StageEnd(const IncrementalRun& run, int32_t begin) {
   // The first end with stage_observations observations in [begin, end).
   const int64_t by_observations = static_cast<int64_t>(
       std::lower_bound(before.begin(), before.end(),
-                       before[begin] + run.options.stage_observations) - before.begin());
+                       before[begin] + run.stage_observations) - before.begin());
   return static_cast<int32_t>(std::min(n, std::max(by_poses, by_observations)));
 }
 
@@ -706,11 +707,14 @@ Status IncrementalAssociationOptions::Validate() const {
     return Status::InvalidArgument(
         "incremental association: local_window and local_observations must be >= 0, got " +
         std::to_string(local_window) + " and " + std::to_string(local_observations));
-  if (stage_observations < 0 || provisional_observations < 0)
+  if (stage_observations < 0 || provisional_observations < 0 || sparse_stage_observations < 0 ||
+      !(sparse_observations_per_pose >= 0.0))
     return Status::InvalidArgument(
-        "incremental association: stage_observations and provisional_observations must be "
-        ">= 0, got " + std::to_string(stage_observations) + " and " +
-        std::to_string(provisional_observations));
+        "incremental association: stage_observations, provisional_observations, "
+        "sparse_stage_observations and sparse_observations_per_pose must be >= 0, got " +
+        std::to_string(stage_observations) + ", " + std::to_string(provisional_observations) +
+        ", " + std::to_string(sparse_stage_observations) + " and " +
+        std::to_string(sparse_observations_per_pose));
   return loop.Validate();
 }
 
@@ -757,6 +761,9 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
   run.stage_options.progress = nullptr;
   run.stage_options.iteration_callback = nullptr;
   run.radius_squared = options.search_radius * options.search_radius;
+  run.stage_observations = options.stage_observations;
+  if (static_cast<double>(m) < options.sparse_observations_per_pose * n)
+    run.stage_observations = std::max(run.stage_observations, options.sparse_stage_observations);
 
   for (int32_t begin = 0; begin < n;) {
     const int32_t end = StageEnd(run, begin);
