@@ -339,6 +339,7 @@ struct IncrementalRun {
   double radius_squared = 0.0;
   double scale = 1.0;  // variance factor of the gates and the stage undo
   int64_t stage_observations = 0;  // options.stage_observations, or the high-rate one
+  bool scale_gates = true;          // scale_by_variance_factor, unless a high-rate log
 };
 
 // The stage's view of the clusters met so far: the linearization at its
@@ -540,7 +541,7 @@ Status PairStage(int32_t begin, int32_t end, IncrementalRun* run) {
           .WithContext("incremental association, poses " + std::to_string(begin) + ".." +
                        std::to_string(end - 1)));
   view.cache = std::make_unique<WhitenedCache>(marginals, view.states);
-  if (run->options.scale_by_variance_factor && run->options.variance_components)
+  if (run->scale_gates && run->options.variance_components)
     GS_RETURN_IF_ERROR(ObservationVarianceFactor(view, marginals, run));
   summary->covariance_seconds += SecondsSince(t0);
 
@@ -616,7 +617,7 @@ Status SolveStage(int32_t end, const std::vector<int32_t>& cluster_before, Incre
     Stage solved;
     GS_RETURN_IF_ERROR(SolvePrefix(end, "stage solve", run, &solved, &solver_summary));
     summary->chi2 = solver_summary.final_chi2;
-    if (run->options.scale_by_variance_factor && !run->options.variance_components) {
+    if (run->scale_gates && !run->options.variance_components) {
       run->scale = internal::VarianceFactor(solved.sub, solver_summary.final_chi2,
                                             run->options.min_redundancy);
       summary->variance_factor = run->scale;
@@ -762,8 +763,11 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
   run.stage_options.iteration_callback = nullptr;
   run.radius_squared = options.search_radius * options.search_radius;
   run.stage_observations = options.stage_observations;
-  if (static_cast<double>(m) < options.sparse_observations_per_pose * n)
+  run.scale_gates = options.scale_by_variance_factor;
+  if (static_cast<double>(m) < options.sparse_observations_per_pose * n) {
     run.stage_observations = std::max(run.stage_observations, options.sparse_stage_observations);
+    run.scale_gates = run.scale_gates && options.scale_high_rate_logs;
+  }
 
   for (int32_t begin = 0; begin < n;) {
     const int32_t end = StageEnd(run, begin);
