@@ -23,10 +23,12 @@
 // GS_INC_RADIUS, GS_INC_Z, GS_INC_CONFIRM, GS_INC_WINDOW, GS_INC_ITERATIONS set
 // the incremental pass's stage_poses, search_radius, joint.z,
 // confirm_observations, provisional_poses and max_iterations_per_stage (partition/association/incremental_association.h);
-// GS_INC_STAGE_OBS, GS_INC_WINDOW_OBS, GS_LOOP_WINDOW_OBS its stage_observations,
+// GS_INC_STAGE_OBS, GS_SPARSE_STAGE_OBS, GS_SCALE_HIGH_RATE, GS_INC_WINDOW_OBS,
+// GS_LOOP_WINDOW_OBS its stage_observations, sparse_stage_observations,
+// scale_high_rate_logs,
 // provisional_observations, local_observations; GS_SECONDS=S reads only the first
-// S seconds of MRCLAM; GS_MRCLAM_SIGMA=R,PHI its range and bearing sigmas; GS_POSES_OUT=FILE writes each observation's pose; GS_INCREMENTAL=1 runs
-// it (off by default); GS_LOOP=0/1, GS_LOOP_MIN, GS_LOOP_MARGIN, GS_LOOP_TOL,
+// S seconds of MRCLAM; GS_MRCLAM_SIGMA=R,PHI its range and bearing sigmas; GS_POSES_OUT=FILE writes each observation's pose; GS_INCREMENTAL=0 skips
+// it (the batch rounds alone; on by default); GS_LOOP=0/1, GS_LOOP_MIN, GS_LOOP_MARGIN, GS_LOOP_TOL,
 // GS_FIXES_FIRST=0/1 its solve_fixes_first, GS_STAGE_UNDO=0/1 its undo_stage_pairings;
 // GS_LOOP_ROT, GS_LOOP_RADIUS, GS_LOOP_WINDOW set its loop closure
 // (close_loops, loop.min_inliers, .ambiguity_margin, .tolerance,
@@ -216,6 +218,8 @@ void AssociationOptionsFromEnvironment(gs::partition::AssociationOptions* option
   if (const char* v = std::getenv("GS_INC_CONFIRM")) inc.confirm_observations = std::atoi(v);
   if (const char* v = std::getenv("GS_INC_WINDOW")) inc.provisional_poses = std::atoll(v);
   if (const char* v = std::getenv("GS_INC_STAGE_OBS")) inc.stage_observations = std::atoll(v);
+  if (const char* v = std::getenv("GS_SPARSE_STAGE_OBS")) inc.sparse_stage_observations = std::atoll(v);
+  if (const char* v = std::getenv("GS_SCALE_HIGH_RATE")) inc.scale_high_rate_logs = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_INC_WINDOW_OBS")) inc.provisional_observations = std::atoll(v);
   if (const char* v = std::getenv("GS_LOOP_WINDOW_OBS")) inc.local_observations = std::atoll(v);
   if (const char* v = std::getenv("GS_INC_ITERATIONS")) inc.max_iterations_per_stage = std::atoi(v);

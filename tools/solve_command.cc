@@ -131,9 +131,14 @@ void AddAssociationOptions(CLI::App* solve, SolveCommandOptions* options) {
                     "with --associate: test feature pairs closer than this [m]")
       ->check(PositiveReal())
       ->capture_default_str();
+  solve->add_option("--association", options->association,
+                    "with --associate: incremental (pair each scan with the map so far: joint "
+                    "compatibility, stage undo, loop closure by submap matching; then the "
+                    "rounds) or batch (the rounds alone)")
+      ->check(CLI::IsMember({"incremental", "batch"}))
+      ->capture_default_str();
   solve->add_flag("--associate-incremental", options->associate_incremental,
-                  "with --associate: first pair each scan with the map so far (joint "
-                  "compatibility, stage undo, loop closure by submap matching), then the rounds");
+                  "same as --association incremental (the default)");
   solve->add_flag("--ignore-barcodes", options->ignore_barcodes,
                   "MRCLAM: drop the landmark identities (use with --associate)");
 }

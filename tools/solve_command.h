@@ -55,7 +55,10 @@ struct SolveCommandOptions {
   bool associate = false;           // --associate
   double chi = 1e-3;                // --chi: accept pi_{j=k} > chi
   double association_radius = 5.0;  // --association-radius [m]
-  bool associate_incremental = false;  // --associate-incremental: the scan-by-scan pass first
+  // --association: "incremental" (the scan-by-scan pass, then the rounds) or
+  // "batch" (the rounds alone).
+  std::string association = "incremental";
+  bool associate_incremental = false;  // --associate-incremental: same as --association incremental
   bool ignore_barcodes = false;     // --ignore-barcodes (MRCLAM)
   bool repair_information = false;  // --repair-information (core/information_repair.h)
   bool quiet = false;

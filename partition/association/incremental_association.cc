@@ -338,6 +338,8 @@ struct IncrementalRun {
   core::SolverOptions stage_options;
   double radius_squared = 0.0;
   double scale = 1.0;  // variance factor of the gates and the stage undo
+  int64_t stage_observations = 0;  // options.stage_observations, or the high-rate one
+  bool scale_gates = true;          // scale_by_variance_factor, unless a high-rate log
 };
 
 // The stage's view of the clusters met so far: the linearization at its
@@ -492,7 +494,7 @@ int32_t StageEnd(const IncrementalRun& run, int32_t begin) {
   // The first end with stage_observations observations in [begin, end).
   const int64_t by_observations = static_cast<int64_t>(
       std::lower_bound(before.begin(), before.end(),
-                       before[begin] + run.options.stage_observations) - before.begin());
+                       before[begin] + run.stage_observations) - before.begin());
   return static_cast<int32_t>(std::min(n, std::max(by_poses, by_observations)));
 }
 
@@ -539,7 +541,7 @@ Status PairStage(int32_t begin, int32_t end, IncrementalRun* run) {
           .WithContext("incremental association, poses " + std::to_string(begin) + ".." +
                        std::to_string(end - 1)));
   view.cache = std::make_unique<WhitenedCache>(marginals, view.states);
-  if (run->options.scale_by_variance_factor && run->options.variance_components)
+  if (run->scale_gates && run->options.variance_components)
     GS_RETURN_IF_ERROR(ObservationVarianceFactor(view, marginals, run));
   summary->covariance_seconds += SecondsSince(t0);
 
@@ -615,7 +617,7 @@ Status SolveStage(int32_t end, const std::vector<int32_t>& cluster_before, Incre
     Stage solved;
     GS_RETURN_IF_ERROR(SolvePrefix(end, "stage solve", run, &solved, &solver_summary));
     summary->chi2 = solver_summary.final_chi2;
-    if (run->options.scale_by_variance_factor && !run->options.variance_components) {
+    if (run->scale_gates && !run->options.variance_components) {
       run->scale = internal::VarianceFactor(solved.sub, solver_summary.final_chi2,
                                             run->options.min_redundancy);
       summary->variance_factor = run->scale;
@@ -672,6 +674,10 @@ Status IncrementalAssociationOptions::Validate() const {
   if (stage_poses < 1)
     return Status::InvalidArgument("incremental association: stage_poses must be >= 1, got " +
                                    std::to_string(stage_poses));
+  if (!(stage_initial_trust_region_radius > 0.0))
+    return Status::InvalidArgument(
+        "incremental association: stage_initial_trust_region_radius must be > 0, got " +
+        std::to_string(stage_initial_trust_region_radius));
   if (max_iterations_per_stage < 0)
     return Status::InvalidArgument(
         "incremental association: max_iterations_per_stage must be >= 0, got " +
@@ -702,11 +708,14 @@ Status IncrementalAssociationOptions::Validate() const {
     return Status::InvalidArgument(
         "incremental association: local_window and local_observations must be >= 0, got " +
         std::to_string(local_window) + " and " + std::to_string(local_observations));
-  if (stage_observations < 0 || provisional_observations < 0)
+  if (stage_observations < 0 || provisional_observations < 0 || sparse_stage_observations < 0 ||
+      !(sparse_observations_per_pose >= 0.0))
     return Status::InvalidArgument(
-        "incremental association: stage_observations and provisional_observations must be "
-        ">= 0, got " + std::to_string(stage_observations) + " and " +
-        std::to_string(provisional_observations));
+        "incremental association: stage_observations, provisional_observations, "
+        "sparse_stage_observations and sparse_observations_per_pose must be >= 0, got " +
+        std::to_string(stage_observations) + ", " + std::to_string(provisional_observations) +
+        ", " + std::to_string(sparse_stage_observations) + " and " +
+        std::to_string(sparse_observations_per_pose));
   return loop.Validate();
 }
 
@@ -746,9 +755,19 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
   run.chunking.max_observations_per_chunk = options.chunk_observations;
   run.stage_options = solver_options;
   run.stage_options.max_iterations = options.max_iterations_per_stage;
+  run.stage_options.initial_trust_region_radius =
+      std::min(solver_options.max_trust_region_radius,
+               std::max(solver_options.initial_trust_region_radius,
+                        options.stage_initial_trust_region_radius));
   run.stage_options.progress = nullptr;
   run.stage_options.iteration_callback = nullptr;
   run.radius_squared = options.search_radius * options.search_radius;
+  run.stage_observations = options.stage_observations;
+  run.scale_gates = options.scale_by_variance_factor;
+  if (static_cast<double>(m) < options.sparse_observations_per_pose * n) {
+    run.stage_observations = std::max(run.stage_observations, options.sparse_stage_observations);
+    run.scale_gates = run.scale_gates && options.scale_high_rate_logs;
+  }
 
   for (int32_t begin = 0; begin < n;) {
     const int32_t end = StageEnd(run, begin);

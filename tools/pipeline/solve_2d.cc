@@ -492,7 +492,8 @@ Status Associate(const SolveRun& run, Solve2d& s) {
   s.association.chi = run.options.chi;
   s.association.search_radius = run.options.association_radius;
   s.association.chunk_observations = run.options.chunk_observations;
-  s.association.incremental.enabled = run.options.associate_incremental;
+  s.association.incremental.enabled =
+      run.options.association != "batch" || run.options.associate_incremental;
   GS_RETURN_IF_ERROR(partition::AssociateAndSolve(s.association, s.solver, &s.problem,
                                                   &s.association_summary));
   s.summary = s.association_summary.final_solve;

@@ -389,9 +389,10 @@ TEST(IncrementalAssociation, HighRateLogCountsStagesAndWindowsInObservations) {
                                           (std::find(key.rbegin(), key.rend(), 1000) - key.rbegin()));
   ASSERT_TRUE(core::InitializeProblem(&input).ok());
   core::Problem2d problem = input;
+  // The defaults: 0.02 observations per pose is a high-rate log, so the
+  // stages take at least sparse_stage_observations (25) observations.
   IncrementalAssociationOptions options;
-  options.enabled = true;
-  options.stage_observations = 25;
+  ASSERT_EQ(options.stage_observations, 0);
   IncrementalAssociationSummary summary;
   std::vector<int32_t> input_observation;
   ASSERT_TRUE(AssociateIncrementally(options, testing::TightCholmodSolverOptions(), &problem,
@@ -411,6 +412,13 @@ TEST(IncrementalAssociation, HighRateLogCountsStagesAndWindowsInObservations) {
   EXPECT_GE(score.recall(), 0.95);
   // Stages of at least 25 observations: a handful, not one per 50 poses.
   EXPECT_LT(summary.stages, poses / 100);
+  // Counted in poses alone (the rate rule off) there is one per 50 poses.
+  options.sparse_stage_observations = 0;
+  core::Problem2d by_poses = input;
+  ASSERT_TRUE(AssociateIncrementally(options, testing::TightCholmodSolverOptions(), &by_poses,
+                                     &summary, &input_observation)
+                  .ok());
+  EXPECT_EQ(summary.stages, poses / 50);
 }
 
 // The first 200 s of MRCLAM dataset 1, robot 1, with barcodes ignored (the
