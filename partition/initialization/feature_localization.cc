@@ -1,9 +1,12 @@
 #include "partition/initialization/feature_localization.h"
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <tuple>
+#include <utility>
 
 #include "core/angle.h"
 #include "core/observation_models.h"
@@ -32,6 +35,38 @@ double Chi2(const core::Problem2d& problem, const std::vector<int32_t>& used,
     chi2 += e.dot(o.information * e);
   }
   return chi2;
+}
+
+// The pose's information H = sum_i J_i^T W_i J_i from the used observations
+// at `pose`; false when a model is degenerate there.
+bool Information(const core::Problem2d& problem, const std::vector<int32_t>& used,
+                 const std::vector<Point2>& features, const Pose2& pose, Eigen::Matrix3d* h,
+                 Eigen::Vector3d* b) {
+  h->setZero();
+  b->setZero();
+  for (int32_t k : used) {
+    const core::Observation& o = problem.observations[k];
+    Eigen::Vector2d e;
+    Eigen::Matrix<double, 2, 3> j;
+    if (!core::EvaluateObservation(o.kind, pose, features[o.feature], o.z, &e, &j, nullptr))
+      return false;
+    *h += j.transpose() * o.information * j;
+    *b += j.transpose() * o.information * e;
+  }
+  return true;
+}
+
+// Marginal standard deviations (heading, position) of a pose with
+// information h; infinite when h is not positive definite.
+std::pair<double, double> MarginalSigmas(const Eigen::Matrix3d& h) {
+  const Eigen::LDLT<Eigen::Matrix3d> ldlt(h);
+  if (ldlt.info() != Eigen::Success || !ldlt.isPositive() || ldlt.vectorD().minCoeff() <= 0.0)
+    return {HUGE_VAL, HUGE_VAL};
+  const Eigen::Matrix3d covariance = ldlt.solve(Eigen::Matrix3d::Identity());
+  if (!covariance.allFinite()) return {HUGE_VAL, HUGE_VAL};
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> position(covariance.topLeftCorner<2, 2>());
+  return {std::sqrt(std::max(0.0, covariance(2, 2))),
+          std::sqrt(std::max(0.0, position.eigenvalues().maxCoeff()))};
 }
 
 }  // namespace
@@ -70,7 +105,9 @@ FeatureLocalization LocalizeFromFeatures(const FeatureLocalizationOptions& optio
   const Pose2 origin = Pose2::Zero();
   for (int32_t k : observations) {
     const core::Observation& o = problem.observations[k];
-    if (!placed[o.feature] || !PlacesAPoint(o.kind)) continue;
+    if (placed[o.feature] < options.placed_at_least || placed[o.feature] == 0 ||
+        !PlacesAPoint(o.kind))
+      continue;
     used.push_back(k);
     local.push_back(core::InvertObservation(o.kind, origin, o.z));
     global.push_back(features[o.feature]);
@@ -91,21 +128,9 @@ FeatureLocalization LocalizeFromFeatures(const FeatureLocalizationOptions& optio
   Pose2 x = result.closed_form_chosen ? aligned : guess;
   double chi2 = std::min(aligned_chi2, result.guess_chi2);
   for (int iteration = 0; iteration < options.max_iterations && std::isfinite(chi2); ++iteration) {
-    Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d b = Eigen::Vector3d::Zero();
-    bool degenerate = false;
-    for (int32_t k : used) {
-      const core::Observation& o = problem.observations[k];
-      Eigen::Vector2d e;
-      Eigen::Matrix<double, 2, 3> j;
-      if (!core::EvaluateObservation(o.kind, x, features[o.feature], o.z, &e, &j, nullptr)) {
-        degenerate = true;
-        break;
-      }
-      h += j.transpose() * o.information * j;
-      b += j.transpose() * o.information * e;
-    }
-    if (degenerate) break;
+    Eigen::Matrix3d h;
+    Eigen::Vector3d b;
+    if (!Information(problem, used, features, x, &h, &b)) break;
     const Eigen::LDLT<Eigen::Matrix3d> ldlt(h);
     if (ldlt.info() != Eigen::Success) break;
     const Eigen::Vector3d step = ldlt.solve(-b);
@@ -120,8 +145,16 @@ FeatureLocalization LocalizeFromFeatures(const FeatureLocalizationOptions& optio
     if (small) break;
   }
   result.chi2 = chi2;
-  if (!(chi2 <= options.max_chi2_per_observation * static_cast<double>(used.size()))) {
-    result.localized = false;  // the placed features disagree: keep the guess
+  Eigen::Matrix3d h;
+  Eigen::Vector3d b;
+  std::tie(result.heading_sigma, result.position_sigma) =
+      Information(problem, used, features, x, &h, &b) ? MarginalSigmas(h)
+                                                      : std::pair(HUGE_VAL, HUGE_VAL);
+  if (!(chi2 <= options.max_chi2_per_observation * static_cast<double>(used.size())) ||
+      !(result.heading_sigma <= options.max_heading_sigma) ||
+      !(result.position_sigma <= options.max_position_sigma)) {
+    // The placed features disagree, or do not pin the pose: keep the guess.
+    result.localized = false;
     result.closed_form_chosen = false;
     return result;
   }

@@ -18,7 +18,18 @@
 //   chi2(x) = sum_i e_i(x)^T W_i e_i(x),  e_i = h(x, g_i) - z_i
 // is kept and refined by Gauss-Newton on the pose alone (features held),
 // each step kept only if it lowers chi2; the result is kept only if its chi2
-// per observation is at most max_chi2_per_observation. Only range-bearing and point
+// per observation is at most max_chi2_per_observation and the features pin it:
+// with H = sum_i J_i^T W_i J_i the pose's information from them at the
+// result, its marginal standard deviations sqrt((H^-1)_thth) and
+// sqrt(lambda_max((H^-1)_xy)) must be at most max_heading_sigma and
+// max_position_sigma. Range-bearing observations of features bunched in one
+// spot (a dense campus: the few placed features a pose after a feature-free
+// stretch shares with its predecessor, 15 features within 0.09 m at 8 m)
+// leave the pose free to swing about them, heading and bearings turning
+// together, at no cost in chi2: the alignment then picks a heading by noise
+// (2 rad off), the features placed from that pose carry the error into a
+// rigid block of poses, and the stage settles in a local minimum.
+// Only range-bearing and point
 // observations take part (a bearing alone places no point), and only when at
 // least min_features distinct placed features are seen: a pose that sees a
 // few landmarks (Victoria Park, MRCLAM) or none (pose graphs) keeps `guess`.
@@ -46,6 +57,15 @@ struct FeatureLocalizationOptions {
   // about 2-3 per observation (the placed features' own error adds to the
   // measurement's).
   double max_chi2_per_observation = 6.0;
+  // The largest marginal standard deviations of the localized pose's heading
+  // [rad] and position [m] the features may leave (above: the guess is
+  // kept). Features spread over the sensor's field pin a pose to about
+  // 0.001 rad; a bunch 0.09 m wide seen from 8 m leaves about 0.5 rad.
+  double max_heading_sigma = 0.05;
+  double max_position_sigma = 0.5;
+  // Only features with placed[f] >= this take part (a caller may rank how
+  // far it trusts its placed features).
+  uint8_t placed_at_least = 1;
 };
 
 struct FeatureLocalization {
@@ -54,6 +74,10 @@ struct FeatureLocalization {
   int features = 0;                 // placed features used
   double guess_chi2 = 0.0;
   double chi2 = 0.0;  // of the returned pose
+  // Marginal standard deviations of the localized pose from the features
+  // (infinite when they do not pin it at all).
+  double heading_sigma = 0.0;
+  double position_sigma = 0.0;
 };
 
 // The closed-form rigid alignment above: the pose mapping each local[i] onto
@@ -63,7 +87,8 @@ core::Pose2 AlignPoints2d(const std::vector<core::Point2>& local,
                           const std::vector<core::Point2>& global);
 
 // Localizes a pose from `observations` (indices into problem.observations,
-// all of the pose) of the features with placed[f] != 0 at features[f],
+// all of the pose) of the features with placed[f] >= options.placed_at_least
+// at features[f],
 // starting from `guess`, as described above.
 FeatureLocalization LocalizeFromFeatures(const FeatureLocalizationOptions& options,
                                          const core::Problem2d& problem,

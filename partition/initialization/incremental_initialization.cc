@@ -310,11 +310,17 @@ void AlignNewPosesToGps(const core::Problem2d& problem, const Indices& index, in
   for (int32_t p = begin; p < end; ++p) (*poses)[p] = stretch.poses[p - begin];
 }
 
+// Values of the per-feature placed flags: placed from a new pose of the
+// current stage, or solved by a stage kept.
+constexpr uint8_t kFeaturePlaced = 1;
+constexpr uint8_t kFeatureSolved = 2;
+
 // The features first seen from poses [begin, end), placed from their first
 // sighting (lowest pose, then input order); their indices in *new_features.
 // Before its features are placed, each pose not fixed is localized from the
 // placed features it sees (partition/initialization/feature_localization.h;
-// it keeps its chained guess when it sees too few).
+// it keeps its chained guess when it sees too few), those solved by earlier
+// stages first.
 void PlaceNewFeatures(const core::Problem2d& problem, const Indices& index, int32_t begin,
                       int32_t end, std::vector<Pose2>* poses,
                       std::vector<uint8_t>* feature_placed, std::vector<Point2>* features,
@@ -332,16 +338,25 @@ void PlaceNewFeatures(const core::Problem2d& problem, const Indices& index, int3
           p > begin && problem.pose_fixed[p - 1] == 0
               ? core::Compose((*poses)[p - 1], core::Between(chained_before, chained))
               : chained;
-      LocalizeFromFeatures(FeatureLocalizationOptions(), problem,
-                           items.subspan(first, index.observations_of_pose.end(p) - first),
-                           *features, *feature_placed, guess, &(*poses)[p]);
+      // Features an earlier stage solved first: the ones placed from this
+      // stage's new poses carry their chained error (a pose re-entering a
+      // street seen before, after a stretch chained by weak odometry).
+      const std::span<const int32_t> own =
+          items.subspan(first, index.observations_of_pose.end(p) - first);
+      FeatureLocalizationOptions solved;
+      solved.placed_at_least = kFeatureSolved;
+      if (!LocalizeFromFeatures(solved, problem, own, *features, *feature_placed, guess,
+                                &(*poses)[p])
+               .localized)
+        LocalizeFromFeatures(FeatureLocalizationOptions(), problem, own, *features,
+                             *feature_placed, guess, &(*poses)[p]);
     }
     chained_before = chained;
     for (int64_t i = index.observations_of_pose.begin(p); i < index.observations_of_pose.end(p);
          ++i) {
       const core::Observation& o = problem.observations[index.observations_of_pose.items[i]];
       if ((*feature_placed)[o.feature]) continue;
-      (*feature_placed)[o.feature] = 1;
+      (*feature_placed)[o.feature] = kFeaturePlaced;
       new_features->push_back(o.feature);
       (*features)[o.feature] = core::InvertObservation(o.kind, (*poses)[o.pose], o.z);
     }
@@ -467,6 +482,7 @@ class IncrementalStages {
     const std::vector<int32_t>& sub_features = builder_.sub_features();
     for (size_t j = 0; j < sub_features.size(); ++j)
       features_[sub_features[j]] = stage.sub.features[j];
+    for (int32_t f : new_features_) feature_placed_[f] = kFeatureSolved;
   }
 
   void Finish(core::Problem2d* problem) {

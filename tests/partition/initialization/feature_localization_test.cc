@@ -4,7 +4,8 @@
 // and radians off is put within the measurement noise of the truth by its
 // noisy range-bearing observations of placed features; and the guess is kept
 // when the pose sees too few placed features, when the placed features
-// disagree among themselves, and for bearing-only observations.
+// disagree among themselves, when they are bunched in one spot (they leave
+// the pose free to swing about it), and for bearing-only observations.
 #include "partition/initialization/feature_localization.h"
 
 #include <gtest/gtest.h>
@@ -134,6 +135,44 @@ TEST(LocalizeFromFeatures, KeepsTheGuessWhenPlacedFeaturesDisagree) {
   EXPECT_FALSE(result.localized);
   EXPECT_EQ(pose, guess);
   EXPECT_GT(result.chi2, FeatureLocalizationOptions().max_chi2_per_observation * 40);
+}
+
+TEST(LocalizeFromFeatures, KeepsTheGuessWhenBunchedFeaturesLeaveItFree) {
+  // 15 features within 0.1 m of one spot 8 m ahead (the few a pose after a
+  // feature-free stretch shares with its predecessor in a dense campus):
+  // swinging the pose about the spot keeps every range and bearing, so they
+  // pin neither its heading nor its position, and the guess 0.1 rad off
+  // stays.
+  const Pose2 truth(40.0, 20.0, 1.2), guess(40.3, 19.8, 1.3);
+  for (uint32_t seed = 1; seed <= 5; ++seed) {
+    Scene s = MakeScene(truth, 15, seed);
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> offset(-0.1, 0.1);
+    std::normal_distribution<double> normal(0.0, 1.0);
+    for (core::Observation& o : s.problem.observations) {
+      const Point2 local(8.0 + offset(rng), offset(rng));
+      s.problem.features[o.feature] = core::TransformPoint(truth, local);
+      o.z = Eigen::Vector2d(local.norm() + 0.1 * normal(rng),
+                            std::atan2(local.y(), local.x()) + 0.02 * normal(rng));
+    }
+    Pose2 pose;
+    const FeatureLocalization result = LocalizeFromFeatures(
+        FeatureLocalizationOptions(), s.problem, s.observations, s.problem.features, s.placed,
+        guess, &pose);
+    EXPECT_FALSE(result.localized) << "seed " << seed;
+    EXPECT_EQ(pose, guess) << "seed " << seed;
+    EXPECT_GT(result.heading_sigma, FeatureLocalizationOptions().max_heading_sigma)
+        << "seed " << seed;
+  }
+  // The same number of features spread over the field pin it to 0.01 rad.
+  const Scene s = MakeScene(truth, 15, 3);
+  Pose2 pose;
+  const FeatureLocalization result = LocalizeFromFeatures(
+      FeatureLocalizationOptions(), s.problem, s.observations, s.problem.features, s.placed,
+      guess, &pose);
+  EXPECT_TRUE(result.localized);
+  EXPECT_LT(result.heading_sigma, 0.01);
+  EXPECT_LT(std::abs(core::WrapAngle(pose.z() - truth.z())), 0.03);
 }
 
 TEST(LocalizeFromFeatures, IgnoresBearingOnlyObservations) {
