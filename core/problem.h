@@ -31,14 +31,11 @@
 
 namespace graphslam::core {
 
-struct Observation {
-  int32_t pose = -1;     // index into Problem2d::poses
-  int32_t feature = -1;  // index into Problem2d::features
-  ObservationKind kind = ObservationKind::kRangeBearing;
-  Eigen::Vector2d z = Eigen::Vector2d::Zero();
-  Eigen::Matrix2d information = Eigen::Matrix2d::Identity();
-  int32_t line = 0;  // 1-based line in the input, 0 if not from a text file
-};
+// A feature seen from a pose by one of the registry's models
+// (core/problem_unknowns.h: ObservationOf; z and information 2-D, a 1-D
+// model padded as core/observation_models.h says).
+using Observation = ObservationOf<2, ObservationKind>;
+static_assert(ObservationKind{} == ObservationKind::kRangeBearing);
 
 // Pose `to` in the frame of pose `from` (core/relative_pose_model.h).
 using RelativePoseConstraint = RelativePoseConstraintOf<Pose2, 3>;

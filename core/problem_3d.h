@@ -25,13 +25,9 @@ namespace graphslam::core {
 // Information on e = [t; vec(q)] (g2o), core/relative_pose_3d_model.h.
 using RelativePose3Constraint = RelativePoseConstraintOf<Pose3, 6>;
 
-struct Point3Observation {
-  int32_t pose = -1;
-  int32_t feature = -1;
-  Eigen::Vector3d z = Eigen::Vector3d::Zero();  // feature in the pose frame
-  Eigen::Matrix3d information = Eigen::Matrix3d::Identity();
-  int32_t line = 0;
-};
+// The feature in the pose frame (core/point_3d_observation_model.h), the one
+// 3-D model (core/problem_unknowns.h: ObservationOf).
+using Point3Observation = ObservationOf<3, OneModel>;
 
 using Gps3Constraint = GpsConstraintOf<3>;  // core/gps_3d_model.h
 

@@ -6,7 +6,10 @@
 //     m_0..m_{N-1}, with their input ids and flags;
 //   - RelativePoseConstraintOf: pose `to` measured in the frame of pose
 //     `from`, information on the model's residual (kDof x kDof);
-//   - GpsConstraintOf: a pose's position measured in the world frame.
+//   - GpsConstraintOf: a pose's position measured in the world frame;
+//   - ObservationOf: a feature measured from a pose, z in R^kDim with its
+//     information (kDim x kDim), and the model's kind where the space has
+//     several (2-D: core/observation_models.h; 3-D has one, OneModel).
 // Indices are dense (0..n-1); the ids of the input file are kept beside them
 // so outputs reuse them. Pose and feature ids may share one number space (g2o).
 //
@@ -47,6 +50,22 @@ struct GpsConstraintOf {
   Eigen::Matrix<double, kDim, 1> z = Eigen::Matrix<double, kDim, 1>::Zero();
   Eigen::Matrix<double, kDim, kDim> information = Eigen::Matrix<double, kDim, kDim>::Identity();
   int32_t line = 0;
+};
+
+// The kind of a space with a single observation model: nothing stored
+// ([[no_unique_address]] below: the record keeps the size it had without it).
+struct OneModel {
+  friend bool operator==(OneModel, OneModel) { return true; }
+};
+
+template <int kDim, class Kind>
+struct ObservationOf {
+  int32_t pose = -1;     // index into the problem's poses
+  int32_t feature = -1;  // index into the problem's features
+  [[no_unique_address]] Kind kind{};  // 2-D: kRangeBearing (0) unless set
+  Eigen::Matrix<double, kDim, 1> z = Eigen::Matrix<double, kDim, 1>::Zero();
+  Eigen::Matrix<double, kDim, kDim> information = Eigen::Matrix<double, kDim, kDim>::Identity();
+  int32_t line = 0;  // 1-based line in the input, 0 if not from a text file
 };
 
 template <class PoseT, class PointT>

@@ -137,9 +137,10 @@ Status VerifyChunkStoreFiles(const std::string& dir, const std::string& prefix) 
   return Status::Ok();
 }
 
-StatusOr<std::unique_ptr<DiskChunkSource>> DiskChunkSource::Open(const std::string& dir) {
-  GS_RETURN_IF_ERROR(CheckComplete(dir));
-  const std::string path = Join(dir, kChunkStoreManifestName);
+namespace {
+
+// The manifest's JSON object (not yet checked).
+StatusOr<nlohmann::json> ReadManifest(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return Status::IOError(path + ": cannot open for reading");
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -147,24 +148,28 @@ StatusOr<std::unique_ptr<DiskChunkSource>> DiskChunkSource::Open(const std::stri
   nlohmann::json manifest = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (manifest.is_discarded() || !manifest.is_object())
     return Status::Corruption(path + ": not a JSON object");
+  return manifest;
+}
 
-  auto format = manifest.find("format");
-  if (format == manifest.end() || !format->is_string() ||
+// The format and a version this build reads; from version 2 the manifest
+// checks itself (its seal) before any field is trusted. Returns the version.
+StatusOr<int64_t> CheckManifestVersion(nlohmann::json* manifest, const std::string& path) {
+  auto format = manifest->find("format");
+  if (format == manifest->end() || !format->is_string() ||
       format->get<std::string>() != kChunkStoreFormatName)
     return Status::Corruption(path + ": \"format\" is not \"" +
                               std::string(kChunkStoreFormatName) + "\"");
   int64_t version = 0;
-  GS_RETURN_IF_ERROR(ReadCount(manifest, "version", path, &version));
+  GS_RETURN_IF_ERROR(ReadCount(*manifest, "version", path, &version));
   if (version > kChunkStoreVersion)
     return Status::NotSupported(path + ": chunk store version " + std::to_string(version) +
                                 "; this build reads up to " + std::to_string(kChunkStoreVersion));
   if (version < 1)
     return Status::Corruption(path + ": chunk store version " + std::to_string(version) +
                               "; expected >= 1");
-  // From version 2 the manifest checks itself before any field is trusted.
   if (version >= 2) {
-    GS_RETURN_IF_ERROR(UnsealJson(&manifest, path));
-  } else if (manifest.contains(kJsonChecksumKey) || manifest.contains("files")) {
+    GS_RETURN_IF_ERROR(UnsealJson(manifest, path));
+  } else if (manifest->contains(kJsonChecksumKey) || manifest->contains("files")) {
     // A version 2 manifest edited down to version 1 would skip every check.
     return Status::Corruption(path + ": \"version\" is 1 but the manifest has version 2 "
                               "fields (\"checksum\", \"files\"): it was edited or damaged");
@@ -173,6 +178,37 @@ StatusOr<std::unique_ptr<DiskChunkSource>> DiskChunkSource::Open(const std::stri
            "problem.graphslam or an edited manifest goes undetected; run graphslam ingest "
            "again to make a version %d store", path.c_str(), kChunkStoreVersion);
   }
+  return version;
+}
+
+// Entry k of "chunks": its file (exactly ChunkStoreFileName(k): no path may
+// escape STORE/chunks, and order is position), counts and (version 2) CRC.
+StatusOr<ChunkStoreEntry> ReadChunkEntry(const nlohmann::json& item, int64_t k,
+                                         const std::string& path, int64_t version) {
+  const std::string where = path + ": chunks[" + std::to_string(k) + "]";
+  if (!item.is_object()) return Status::Corruption(where + ": not an object");
+  ChunkStoreEntry entry;
+  auto file = item.find("file");
+  if (file == item.end() || !file->is_string())
+    return Status::Corruption(where + ": missing \"file\"");
+  entry.file = file->get<std::string>();
+  if (entry.file != ChunkStoreFileName(k))
+    return Status::Corruption(where + ": file is \"" + entry.file + "\"; expected \"" +
+                              ChunkStoreFileName(k) + "\"");
+  GS_RETURN_IF_ERROR(ReadCount(item, "features", where, &entry.features));
+  GS_RETURN_IF_ERROR(ReadCount(item, "observations", where, &entry.observations));
+  GS_RETURN_IF_ERROR(ReadCount(item, "bytes", where, &entry.bytes));
+  if (version >= 2) GS_RETURN_IF_ERROR(ReadCrc(item, where, &entry.crc32c));
+  return entry;
+}
+
+}  // namespace
+
+StatusOr<std::unique_ptr<DiskChunkSource>> DiskChunkSource::Open(const std::string& dir) {
+  GS_RETURN_IF_ERROR(CheckComplete(dir));
+  const std::string path = Join(dir, kChunkStoreManifestName);
+  GS_ASSIGN_OR_RETURN(nlohmann::json manifest, ReadManifest(path));
+  GS_ASSIGN_OR_RETURN(const int64_t version, CheckManifestVersion(&manifest, path));
 
   std::unique_ptr<DiskChunkSource> source(new DiskChunkSource());
   source->dir_ = dir;
@@ -189,22 +225,8 @@ StatusOr<std::unique_ptr<DiskChunkSource>> DiskChunkSource::Open(const std::stri
                               " entries; expected num_chunks = " + std::to_string(num_chunks));
   source->entries_.reserve(chunks->size());
   for (int64_t k = 0; k < num_chunks; ++k) {
-    const nlohmann::json& item = (*chunks)[static_cast<size_t>(k)];
-    const std::string where = path + ": chunks[" + std::to_string(k) + "]";
-    if (!item.is_object()) return Status::Corruption(where + ": not an object");
-    ChunkStoreEntry entry;
-    auto file = item.find("file");
-    if (file == item.end() || !file->is_string())
-      return Status::Corruption(where + ": missing \"file\"");
-    entry.file = file->get<std::string>();
-    // Exact name: no path may escape STORE/chunks, and order is position.
-    if (entry.file != ChunkStoreFileName(k))
-      return Status::Corruption(where + ": file is \"" + entry.file + "\"; expected \"" +
-                                ChunkStoreFileName(k) + "\"");
-    GS_RETURN_IF_ERROR(ReadCount(item, "features", where, &entry.features));
-    GS_RETURN_IF_ERROR(ReadCount(item, "observations", where, &entry.observations));
-    GS_RETURN_IF_ERROR(ReadCount(item, "bytes", where, &entry.bytes));
-    if (version >= 2) GS_RETURN_IF_ERROR(ReadCrc(item, where, &entry.crc32c));
+    GS_ASSIGN_OR_RETURN(ChunkStoreEntry entry,
+                        ReadChunkEntry((*chunks)[static_cast<size_t>(k)], k, path, version));
     source->total_features_ += entry.features;
     source->total_observations_ += entry.observations;
     source->total_bytes_ += entry.bytes;

@@ -103,6 +103,71 @@ void RemoveTemporaries(Env* env, std::vector<PendingFile>* group) {
   group->clear();
 }
 
+// Chunk `index` of `chunks`, which must say it is chunk `index`.
+Status LoadChunkAt(const core::ChunkSource& chunks, int64_t index, core::ObservationChunk* chunk) {
+  GS_RETURN_IF_ERROR(chunks.Load(index, chunk));
+  if (chunk->index == index) return Status::Ok();
+  return Status::InvalidArgument("chunk at position " + std::to_string(index) + " has index " +
+                                 std::to_string(chunk->index) + "; expected " +
+                                 std::to_string(index));
+}
+
+// The manifest entry of an encoded chunk (chunk_format.h: the header holds
+// its features at byte 24 and observations at byte 32).
+ChunkStoreEntry EntryOf(const std::string& file, const std::string& bytes) {
+  const auto features = static_cast<int64_t>(chunk_format::DecodeFixed64(bytes.data() + 24));
+  const auto observations = static_cast<int64_t>(chunk_format::DecodeFixed64(bytes.data() + 32));
+  return {file, features, observations, static_cast<int64_t>(bytes.size()),
+          crc32c::Value(bytes)};
+}
+
+// Chunk files written to temporaries but not yet durable: made durable
+// together (synced concurrently, renamed, the folder synced once), and
+// removed if any step fails.
+class PendingChunkGroup {
+ public:
+  PendingChunkGroup(Env* env, std::string chunk_dir)
+      : env_(env), chunk_dir_(std::move(chunk_dir)) {}
+  ~PendingChunkGroup() { RemoveTemporaries(env_, &group_); }
+
+  size_t size() const { return group_.size(); }
+
+  // Writes `bytes` to a temporary beside `path`. The file joins the group
+  // before the error check, so that a failure removes it too.
+  Status Add(const std::string& path, const std::string& bytes) {
+    PendingFile pending;
+    pending.path = path;
+    pending.temporary = TemporaryFileName(path);
+    Status status = [&]() -> Status {
+      GS_ASSIGN_OR_RETURN(pending.file, env_->NewWritableFile(pending.temporary));
+      return pending.file->Append(bytes);
+    }();
+    group_.push_back(std::move(pending));
+    if (status.ok()) return Status::Ok();
+    RemoveTemporaries(env_, &group_);
+    return status.WithContext("writing " + path);
+  }
+
+  Status MakeDurable() {
+    Status status = SyncAndCloseConcurrently(&group_, ChunkStoreWriter::kMaxSyncThreads);
+    for (size_t i = 0; status.ok() && i < group_.size(); ++i) {
+      status = env_->Rename(group_[i].temporary, group_[i].path);
+      if (!status.ok()) status = status.WithContext("writing " + group_[i].path);
+    }
+    if (!status.ok()) {
+      RemoveTemporaries(env_, &group_);
+      return status;
+    }
+    group_.clear();
+    return env_->SyncDirectory(chunk_dir_);
+  }
+
+ private:
+  Env* const env_;
+  const std::string chunk_dir_;
+  std::vector<PendingFile> group_;
+};
+
 }  // namespace
 
 ChunkStoreWriter::ChunkStoreWriter(Env* env, std::string dir, ChunkStoreWriteOptions options)
@@ -172,8 +237,6 @@ Status ChunkStoreWriter::WriteRange(const core::ChunkSource& chunks, int64_t fir
                                     const std::function<Status(int64_t)>& on_durable) {
   GS_RETURN_IF_ERROR(options_.Validate());
   const std::string chunk_dir = Join(dir_, kChunkStoreChunkDirectory);
-  const int64_t num_chunks = end;
-
   struct Item {
     int64_t index = 0;
     core::ObservationChunk chunk;
@@ -182,42 +245,32 @@ Status ChunkStoreWriter::WriteRange(const core::ChunkSource& chunks, int64_t fir
   };
   Status failure;  // the first error, in chunk order (set by serial stages only)
   std::atomic<bool> failed{false};
-  std::vector<PendingFile> group;
+  PendingChunkGroup group(env_, chunk_dir);
   int64_t next = first;
-
-  auto flush_group = [&]() -> Status {
-    Status status = SyncAndCloseConcurrently(&group, kMaxSyncThreads);
-    for (size_t i = 0; status.ok() && i < group.size(); ++i) {
-      status = env_->Rename(group[i].temporary, group[i].path);
-      if (!status.ok()) status = status.WithContext("writing " + group[i].path);
-    }
-    if (!status.ok()) {
-      RemoveTemporaries(env_, &group);
-      return status;
-    }
-    group.clear();
-    GS_RETURN_IF_ERROR(env_->SyncDirectory(chunk_dir));
-    if (on_durable) GS_RETURN_IF_ERROR(on_durable(static_cast<int64_t>(entries_.size())));
-    return Status::Ok();
+  // Stage 3, in chunk order: the file, its entry, and every
+  // options_.sync_group_chunks files (and at the end) the group made durable.
+  const auto store = [&](const Item& item) -> Status {
+    GS_RETURN_IF_ERROR(item.status);
+    const std::string file = ChunkStoreFileName(item.index);
+    GS_RETURN_IF_ERROR(group.Add(Join(chunk_dir, file), item.bytes));
+    entries_.push_back(EntryOf(file, item.bytes));
+    if (static_cast<int64_t>(group.size()) < options_.sync_group_chunks && item.index + 1 != end)
+      return Status::Ok();
+    GS_RETURN_IF_ERROR(group.MakeDurable());
+    return on_durable ? on_durable(static_cast<int64_t>(entries_.size())) : Status::Ok();
   };
-
   tbb::parallel_pipeline(
       kChunksInFlight,
       tbb::make_filter<void, Item*>(
           tbb::filter_mode::serial_in_order,
           [&](tbb::flow_control& control) -> Item* {
-            if (next >= num_chunks || failed.load()) {
+            if (next >= end || failed.load()) {
               control.stop();
               return nullptr;
             }
             auto item = std::make_unique<Item>();
             item->index = next++;
-            item->status = chunks.Load(item->index, &item->chunk);
-            if (item->status.ok() && item->chunk.index != item->index)
-              item->status = Status::InvalidArgument(
-                  "chunk at position " + std::to_string(item->index) + " has index " +
-                  std::to_string(item->chunk.index) + "; expected " +
-                  std::to_string(item->index));
+            item->status = LoadChunkAt(chunks, item->index, &item->chunk);
             if (!item->status.ok()) failed = true;
             return item.release();
           }) &
@@ -233,54 +286,15 @@ Status ChunkStoreWriter::WriteRange(const core::ChunkSource& chunks, int64_t fir
                 item->chunk = core::ObservationChunk();  // its memory goes now
                 return item;
               }) &
-          tbb::make_filter<Item*, void>(
-              tbb::filter_mode::serial_in_order, [&](Item* raw) {
-                std::unique_ptr<Item> item(raw);
-                if (!failure.ok()) return;
-                if (!item->status.ok()) {
-                  failure = item->status;
-                  failed = true;
-                  return;
-                }
-                const std::string file = ChunkStoreFileName(item->index);
-                PendingFile pending;
-                pending.path = Join(chunk_dir, file);
-                pending.temporary = TemporaryFileName(pending.path);
-                Status status = [&]() -> Status {
-                  GS_ASSIGN_OR_RETURN(pending.file, env_->NewWritableFile(pending.temporary));
-                  return pending.file->Append(item->bytes);
-                }();
-                // Counted before the error check so that RemoveTemporaries
-                // finds this file too.
-                group.push_back(std::move(pending));
-                if (status.ok()) {
-                  int64_t features = 0;
-                  int64_t observations = 0;
-                  features = static_cast<int64_t>(chunk_format::DecodeFixed64(
-                      item->bytes.data() + 24));
-                  observations = static_cast<int64_t>(chunk_format::DecodeFixed64(
-                      item->bytes.data() + 32));
-                  entries_.push_back({file, features, observations,
-                                      static_cast<int64_t>(item->bytes.size()),
-                                      crc32c::Value(item->bytes)});
-                  if (static_cast<int64_t>(group.size()) >= options_.sync_group_chunks ||
-                      item->index + 1 == num_chunks)
-                    status = flush_group();
-                } else {
-                  status = status.WithContext("writing " + group.back().path);
-                  RemoveTemporaries(env_, &group);
-                }
-                if (!status.ok()) {
-                  failure = status;
-                  failed = true;
-                }
-              }));
-  if (!failure.ok()) {
-    RemoveTemporaries(env_, &group);
-    return failure;
-  }
-  GS_CHECK(group.empty());
-  if (first == num_chunks) GS_RETURN_IF_ERROR(env_->SyncDirectory(chunk_dir));
+          tbb::make_filter<Item*, void>(tbb::filter_mode::serial_in_order, [&](Item* raw) {
+            std::unique_ptr<Item> item(raw);
+            if (!failure.ok()) return;
+            failure = store(*item);
+            if (!failure.ok()) failed = true;
+          }));
+  if (!failure.ok()) return failure;  // the group's temporaries go with it
+  GS_CHECK(group.size() == 0);
+  if (first == end) GS_RETURN_IF_ERROR(env_->SyncDirectory(chunk_dir));
   return Status::Ok();
 }
 

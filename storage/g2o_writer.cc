@@ -39,6 +39,119 @@ void MotionToRelative(const core::Problem2d& problem, const core::VelocityMotion
   *information = 0.5 * (*information + information->transpose());
 }
 
+// Ends the line in *line, appends it to `file` and clears it.
+Status FlushLine(WritableFile* file, std::string* line) {
+  line->push_back('\n');
+  Status status = file->Append(*line);
+  line->clear();
+  return status;
+}
+
+// Only range-bearing and point-xy observations have a g2o edge (EDGE_SE2_XY),
+// and a range-bearing one converts only at a positive range.
+Status CheckObservationsWritable(const core::Problem2d& problem, const std::string& context) {
+  for (size_t k = 0; k < problem.observations.size(); ++k) {
+    const auto& observation = problem.observations[k];
+    if (observation.kind != core::ObservationKind::kRangeBearing &&
+        observation.kind != core::ObservationKind::kPointXY) {
+      return Status::InvalidArgument(context + ": observations[" + std::to_string(k) + "] is a " +
+                                     core::ObservationKindName(observation.kind) +
+                                     " observation; expected range-bearing or point-xy (g2o "
+                                     "has no edge for the others)");
+    }
+    if (observation.kind == core::ObservationKind::kRangeBearing && !(observation.z.x() > 0.0)) {
+      return Status::InvalidArgument(
+          context + ": observations[" + std::to_string(k) + "] range is " +
+          FormatDouble(observation.z.x()) +
+          "; expected range > 0 to convert it to EDGE_SE2_XY (the polar Jacobian is singular)");
+    }
+  }
+  return Status::Ok();
+}
+
+// The renumbering comment, VERTEX_SE2, VERTEX_XY (ids + offset) and FIX.
+Status AppendVertices(WritableFile* file, const core::Problem2d& problem, int64_t offset) {
+  using internal::AppendField;
+  std::string line;
+  if (offset != 0) {
+    AppendField(&line, "# graphslam: feature ids renumbered: VERTEX_XY id = feature id +");
+    AppendField(&line, offset);
+    GS_RETURN_IF_ERROR(FlushLine(file, &line));
+  }
+  for (int32_t i = 0; i < problem.num_poses(); ++i) {
+    AppendField(&line, "VERTEX_SE2");
+    AppendField(&line, problem.pose_ids[i]);
+    for (int k = 0; k < 3; ++k) AppendField(&line, problem.poses[i][k]);
+    GS_RETURN_IF_ERROR(FlushLine(file, &line));
+  }
+  for (int32_t i = 0; i < problem.num_features(); ++i) {
+    AppendField(&line, "VERTEX_XY");
+    AppendField(&line, problem.feature_ids[i] + offset);
+    AppendField(&line, problem.features[i].x());
+    AppendField(&line, problem.features[i].y());
+    GS_RETURN_IF_ERROR(FlushLine(file, &line));
+  }
+  for (int32_t i = 0; i < problem.num_poses(); ++i) {
+    if (!problem.pose_fixed[i]) continue;
+    AppendField(&line, "FIX");
+    AppendField(&line, problem.pose_ids[i]);
+    GS_RETURN_IF_ERROR(FlushLine(file, &line));
+  }
+  return Status::Ok();
+}
+
+Status AppendPoseEdge(WritableFile* file, const core::Problem2d& problem, int32_t from,
+                      int32_t to, const core::Pose2& z, const Eigen::Matrix3d& information) {
+  std::string line;
+  internal::AppendField(&line, "EDGE_SE2");
+  internal::AppendField(&line, problem.pose_ids[from]);
+  internal::AppendField(&line, problem.pose_ids[to]);
+  for (int k = 0; k < 3; ++k) internal::AppendField(&line, z[k]);
+  internal::AppendUpperTriangle(&line, information);
+  return FlushLine(file, &line);
+}
+
+// EDGE_SE2 (relative poses, then motions as relative poses), EDGE_SE2_XY
+// (observations as points in the pose frame), EDGE_PRIOR_SE2_XY (GPS).
+Status AppendEdges(WritableFile* file, const core::Problem2d& problem, int64_t offset) {
+  using internal::AppendField;
+  using internal::AppendUpperTriangle;
+  for (const auto& constraint : problem.relative_poses) {
+    GS_RETURN_IF_ERROR(AppendPoseEdge(file, problem, constraint.from, constraint.to, constraint.z,
+                                      constraint.information));
+  }
+  for (const auto& motion : problem.motions) {
+    core::Pose2 z;
+    Eigen::Matrix3d information;
+    MotionToRelative(problem, motion, &z, &information);
+    GS_RETURN_IF_ERROR(AppendPoseEdge(file, problem, motion.from, motion.to, z, information));
+  }
+  std::string line;
+  for (const auto& observation : problem.observations) {
+    Eigen::Vector2d point = observation.z;
+    Eigen::Matrix2d information = observation.information;
+    if (observation.kind == core::ObservationKind::kRangeBearing) {
+      RangeBearingToPoint(observation, &point, &information);
+    }
+    AppendField(&line, "EDGE_SE2_XY");
+    AppendField(&line, problem.pose_ids[observation.pose]);
+    AppendField(&line, problem.feature_ids[observation.feature] + offset);
+    AppendField(&line, point.x());
+    AppendField(&line, point.y());
+    AppendUpperTriangle(&line, information);
+    GS_RETURN_IF_ERROR(FlushLine(file, &line));
+  }
+  for (const auto& gps : problem.gps) {
+    AppendField(&line, "EDGE_PRIOR_SE2_XY");
+    AppendField(&line, problem.pose_ids[gps.pose]);
+    AppendField(&line, gps.z.x());
+    AppendField(&line, gps.z.y());
+    AppendUpperTriangle(&line, gps.information);
+    GS_RETURN_IF_ERROR(FlushLine(file, &line));
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 StatusOr<int64_t> G2oFeatureIdOffset(const core::Problem2d& problem) {
@@ -75,101 +188,11 @@ Status WriteG2o(const core::Problem2d& problem, const std::string& path, Env* en
   StatusOr<int64_t> offset_or = G2oFeatureIdOffset(problem);
   if (!offset_or.ok()) return offset_or.status().WithContext(context);
   const int64_t offset = *offset_or;
-  for (size_t k = 0; k < problem.observations.size(); ++k) {
-    const auto& observation = problem.observations[k];
-    if (observation.kind != core::ObservationKind::kRangeBearing &&
-        observation.kind != core::ObservationKind::kPointXY) {
-      return Status::InvalidArgument(context + ": observations[" + std::to_string(k) + "] is a " +
-                                     core::ObservationKindName(observation.kind) +
-                                     " observation; expected range-bearing or point-xy (g2o "
-                                     "has no edge for the others)");
-    }
-    if (observation.kind == core::ObservationKind::kRangeBearing && !(observation.z.x() > 0.0)) {
-      return Status::InvalidArgument(
-          context + ": observations[" + std::to_string(k) + "] range is " +
-          FormatDouble(observation.z.x()) +
-          "; expected range > 0 to convert it to EDGE_SE2_XY (the polar Jacobian is singular)");
-    }
-  }
+  GS_RETURN_IF_ERROR(CheckObservationsWritable(problem, context));
   if (env == nullptr) env = Env::Default();
   return WriteFileAtomically(env, path, [&problem, offset](WritableFile* file) -> Status {
-    using internal::AppendField;
-    using internal::AppendUpperTriangle;
-    const auto& pose_ids = problem.pose_ids;
-    const auto& feature_ids = problem.feature_ids;
-    std::string line;
-    const auto flush = [&]() {
-      line.push_back('\n');
-      Status status = file->Append(line);
-      line.clear();
-      return status;
-    };
-    if (offset != 0) {
-      AppendField(&line, "# graphslam: feature ids renumbered: VERTEX_XY id = feature id +");
-      AppendField(&line, offset);
-      GS_RETURN_IF_ERROR(flush());
-    }
-    for (int32_t i = 0; i < problem.num_poses(); ++i) {
-      AppendField(&line, "VERTEX_SE2");
-      AppendField(&line, pose_ids[i]);
-      for (int k = 0; k < 3; ++k) AppendField(&line, problem.poses[i][k]);
-      GS_RETURN_IF_ERROR(flush());
-    }
-    for (int32_t i = 0; i < problem.num_features(); ++i) {
-      AppendField(&line, "VERTEX_XY");
-      AppendField(&line, feature_ids[i] + offset);
-      AppendField(&line, problem.features[i].x());
-      AppendField(&line, problem.features[i].y());
-      GS_RETURN_IF_ERROR(flush());
-    }
-    for (int32_t i = 0; i < problem.num_poses(); ++i) {
-      if (!problem.pose_fixed[i]) continue;
-      AppendField(&line, "FIX");
-      AppendField(&line, pose_ids[i]);
-      GS_RETURN_IF_ERROR(flush());
-    }
-    const auto append_edge = [&](int32_t from, int32_t to, const core::Pose2& z,
-                                 const Eigen::Matrix3d& information) {
-      AppendField(&line, "EDGE_SE2");
-      AppendField(&line, pose_ids[from]);
-      AppendField(&line, pose_ids[to]);
-      for (int k = 0; k < 3; ++k) AppendField(&line, z[k]);
-      AppendUpperTriangle(&line, information);
-      return flush();
-    };
-    for (const auto& constraint : problem.relative_poses) {
-      GS_RETURN_IF_ERROR(
-          append_edge(constraint.from, constraint.to, constraint.z, constraint.information));
-    }
-    for (const auto& motion : problem.motions) {
-      core::Pose2 z;
-      Eigen::Matrix3d information;
-      MotionToRelative(problem, motion, &z, &information);
-      GS_RETURN_IF_ERROR(append_edge(motion.from, motion.to, z, information));
-    }
-    for (const auto& observation : problem.observations) {
-      Eigen::Vector2d point = observation.z;
-      Eigen::Matrix2d information = observation.information;
-      if (observation.kind == core::ObservationKind::kRangeBearing) {
-        RangeBearingToPoint(observation, &point, &information);
-      }
-      AppendField(&line, "EDGE_SE2_XY");
-      AppendField(&line, pose_ids[observation.pose]);
-      AppendField(&line, feature_ids[observation.feature] + offset);
-      AppendField(&line, point.x());
-      AppendField(&line, point.y());
-      AppendUpperTriangle(&line, information);
-      GS_RETURN_IF_ERROR(flush());
-    }
-    for (const auto& gps : problem.gps) {
-      AppendField(&line, "EDGE_PRIOR_SE2_XY");
-      AppendField(&line, pose_ids[gps.pose]);
-      AppendField(&line, gps.z.x());
-      AppendField(&line, gps.z.y());
-      AppendUpperTriangle(&line, gps.information);
-      GS_RETURN_IF_ERROR(flush());
-    }
-    return Status::Ok();
+    GS_RETURN_IF_ERROR(AppendVertices(file, problem, offset));
+    return AppendEdges(file, problem, offset);
   });
 }
 

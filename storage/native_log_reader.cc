@@ -615,6 +615,154 @@ Status AppendRecords(WritableFile* file, int64_t n,
   return status;
 }
 
+// One record of each type, appended to *out as one line without its newline
+// (AppendField starts a field with a space unless the string is empty).
+using RecordFormatter = void (*)(const core::Problem2d&, int64_t, std::string*);
+
+void AppendPoseRecord(const core::Problem2d& problem, int64_t i, std::string* out) {
+  using internal::AppendField;
+  AppendField(out, "POSE");
+  AppendField(out, problem.pose_ids[i]);
+  const double stamp = problem.pose_stamps[i];
+  if (std::isnan(stamp)) {
+    AppendField(out, "-");
+  } else {
+    AppendField(out, stamp);
+  }
+  if (problem.pose_initialized[i]) {
+    for (int k = 0; k < 3; ++k) AppendField(out, problem.poses[i][k]);
+  }
+}
+
+void AppendFeatureRecord(const core::Problem2d& problem, int64_t i, std::string* out) {
+  using internal::AppendField;
+  AppendField(out, "FEATURE");
+  AppendField(out, problem.feature_ids[i]);
+  if (problem.feature_initialized[i]) {
+    AppendField(out, problem.features[i].x());
+    AppendField(out, problem.features[i].y());
+  }
+}
+
+void AppendMotionRecord(const core::Problem2d& problem, int64_t i, std::string* out) {
+  using internal::AppendField;
+  const auto& motion = problem.motions[static_cast<size_t>(i)];
+  AppendField(out, "CONTROL_INFO");
+  AppendField(out, problem.pose_ids[motion.from]);
+  AppendField(out, problem.pose_ids[motion.to]);
+  AppendField(out, motion.control.v);
+  AppendField(out, motion.control.omega);
+  AppendField(out, motion.control.dt);
+  internal::AppendUpperTriangle(out, motion.information);
+}
+
+void AppendOdometryRecord(const core::Problem2d& problem, int64_t i, std::string* out) {
+  using internal::AppendField;
+  const auto& constraint = problem.relative_poses[static_cast<size_t>(i)];
+  AppendField(out, "ODOM");
+  AppendField(out, problem.pose_ids[constraint.from]);
+  AppendField(out, problem.pose_ids[constraint.to]);
+  for (int k = 0; k < 3; ++k) AppendField(out, constraint.z[k]);
+  internal::AppendUpperTriangle(out, constraint.information);
+}
+
+// The record layout of the observation's model (core/observation_models.h):
+// TAG pose feature z[dim] information-upper-triangle.
+void AppendObservationRecord(const core::Problem2d& problem, int64_t i, std::string* out) {
+  using internal::AppendField;
+  const auto& observation = problem.observations[static_cast<size_t>(i)];
+  const int dim = core::MeasurementDim(observation.kind);
+  AppendField(out, core::NativeLogTag(observation.kind));
+  AppendField(out, problem.pose_ids[observation.pose]);
+  AppendField(out, problem.feature_ids[observation.feature]);
+  for (int k = 0; k < dim; ++k) AppendField(out, observation.z[k]);
+  if (dim == 2) {
+    internal::AppendUpperTriangle(out, observation.information);
+  } else {
+    AppendField(out, observation.information(0, 0));
+  }
+}
+
+void AppendGpsRecord(const core::Problem2d& problem, int64_t i, std::string* out) {
+  using internal::AppendField;
+  const auto& gps = problem.gps[static_cast<size_t>(i)];
+  AppendField(out, "GPS");
+  AppendField(out, problem.pose_ids[gps.pose]);
+  AppendField(out, gps.z.x());
+  AppendField(out, gps.z.y());
+  internal::AppendUpperTriangle(out, gps.information);
+}
+
+void AppendRobotSightingRecord(const core::Problem2d& problem, int64_t i, std::string* out) {
+  using internal::AppendField;
+  const auto& c = problem.pose_range_bearings[static_cast<size_t>(i)];
+  AppendField(out, c.interpolated() ? "RB_POSE_INTERP" : "RB_POSE");
+  AppendField(out, problem.pose_ids[c.from]);
+  AppendField(out, problem.pose_ids[c.to]);
+  if (c.interpolated()) {
+    AppendField(out, problem.pose_ids[c.to_next]);
+    AppendField(out, c.alpha);
+  }
+  AppendField(out, c.z.x());
+  AppendField(out, c.z.y());
+  internal::AppendUpperTriangle(out, c.information);
+}
+
+// Records [0, n) of one type, a line each (AppendRecords).
+Status AppendLines(WritableFile* file, const core::Problem2d& problem, size_t n,
+                   RecordFormatter record) {
+  return AppendRecords(file, static_cast<int64_t>(n),
+                       [&problem, record](int64_t i, std::string* text) {
+                         std::string one;
+                         record(problem, i, &one);
+                         if (one.empty()) return;
+                         text->append(one);
+                         text->push_back('\n');
+                       });
+}
+
+// The magic and version line, then where the problem came from.
+Status AppendHeader(WritableFile* file, const core::Problem2d& problem) {
+  using internal::AppendField;
+  // A field starts with a space unless the string is empty: one string a line.
+  std::string magic, comment;
+  AppendField(&magic, kNativeLogMagic);
+  AppendField(&magic, static_cast<int64_t>(kNativeLogVersion));
+  AppendField(&comment, "# written by graphslam from");
+  AppendField(&comment, problem.source.empty() ? std::string_view("memory") : problem.source);
+  AppendField(&comment, "(spec: docs/formats/native_log.md)");
+  return file->Append(magic + "\n" + comment + "\n");
+}
+
+Status AppendFixes(WritableFile* file, const core::Problem2d& problem) {
+  std::string lines;
+  for (int32_t i = 0; i < problem.num_poses(); ++i) {
+    if (!problem.pose_fixed[i]) continue;
+    std::string line;  // AppendField: no leading space on an empty string
+    internal::AppendField(&line, "FIX");
+    internal::AppendField(&line, problem.pose_ids[i]);
+    lines += line;
+    lines.push_back('\n');
+  }
+  return lines.empty() ? Status::Ok() : file->Append(lines);
+}
+
+// Every record of `problem`, in the order of docs/formats/native_log.md.
+Status AppendNativeLog(WritableFile* file, const core::Problem2d& problem) {
+  GS_RETURN_IF_ERROR(AppendHeader(file, problem));
+  GS_RETURN_IF_ERROR(AppendLines(file, problem, problem.poses.size(), AppendPoseRecord));
+  GS_RETURN_IF_ERROR(AppendLines(file, problem, problem.features.size(), AppendFeatureRecord));
+  GS_RETURN_IF_ERROR(AppendFixes(file, problem));
+  GS_RETURN_IF_ERROR(AppendLines(file, problem, problem.motions.size(), AppendMotionRecord));
+  GS_RETURN_IF_ERROR(
+      AppendLines(file, problem, problem.relative_poses.size(), AppendOdometryRecord));
+  GS_RETURN_IF_ERROR(
+      AppendLines(file, problem, problem.observations.size(), AppendObservationRecord));
+  GS_RETURN_IF_ERROR(AppendLines(file, problem, problem.gps.size(), AppendGpsRecord));
+  return AppendLines(file, problem, problem.pose_range_bearings.size(),
+                     AppendRobotSightingRecord);
+}
+
 }  // namespace
 
 Status WriteNativeLog(const core::Problem2d& problem, const std::string& path, Env* env) {
@@ -623,124 +771,7 @@ Status WriteNativeLog(const core::Problem2d& problem, const std::string& path, E
           .WithContext("writing " + path));
   if (env == nullptr) env = Env::Default();
   return WriteFileAtomically(env, path, [&problem](WritableFile* file) -> Status {
-    using internal::AppendField;
-    using internal::AppendUpperTriangle;
-    std::string line;
-    const auto flush = [&]() {
-      line.push_back('\n');
-      Status status = file->Append(line);
-      line.clear();
-      return status;
-    };
-    AppendField(&line, kNativeLogMagic);
-    AppendField(&line, static_cast<int64_t>(kNativeLogVersion));
-    GS_RETURN_IF_ERROR(flush());
-    AppendField(&line, "# written by graphslam from");
-    AppendField(&line, problem.source.empty() ? std::string_view("memory") : problem.source);
-    AppendField(&line, "(spec: docs/formats/native_log.md)");
-    GS_RETURN_IF_ERROR(flush());
-    const auto& pose_ids = problem.pose_ids;
-    const auto& feature_ids = problem.feature_ids;
-    // Each formatter appends one line to *text; AppendField starts a field
-    // with a space unless the string is empty, so a line is built apart and
-    // then appended.
-    const auto lines = [](const std::function<void(int64_t, std::string*)>& record) {
-      return [record](int64_t i, std::string* text) {
-        std::string one;
-        record(i, &one);
-        if (one.empty()) return;
-        text->append(one);
-        text->push_back('\n');
-      };
-    };
-    GS_RETURN_IF_ERROR(AppendRecords(file, problem.num_poses(), lines([&](int64_t i, std::string* out) {
-      AppendField(out, "POSE");
-      AppendField(out, pose_ids[i]);
-      const double stamp = problem.pose_stamps[i];
-      if (std::isnan(stamp)) {
-        AppendField(out, "-");
-      } else {
-        AppendField(out, stamp);
-      }
-      if (problem.pose_initialized[i]) {
-        for (int k = 0; k < 3; ++k) AppendField(out, problem.poses[i][k]);
-      }
-    })));
-    GS_RETURN_IF_ERROR(AppendRecords(file, problem.num_features(), lines([&](int64_t i, std::string* out) {
-      AppendField(out, "FEATURE");
-      AppendField(out, feature_ids[i]);
-      if (problem.feature_initialized[i]) {
-        AppendField(out, problem.features[i].x());
-        AppendField(out, problem.features[i].y());
-      }
-    })));
-    for (int32_t i = 0; i < problem.num_poses(); ++i) {
-      if (!problem.pose_fixed[i]) continue;
-      AppendField(&line, "FIX");
-      AppendField(&line, pose_ids[i]);
-      GS_RETURN_IF_ERROR(flush());
-    }
-    GS_RETURN_IF_ERROR(AppendRecords(
-        file, static_cast<int64_t>(problem.motions.size()), lines([&](int64_t i, std::string* out) {
-          const auto& motion = problem.motions[static_cast<size_t>(i)];
-          AppendField(out, "CONTROL_INFO");
-          AppendField(out, pose_ids[motion.from]);
-          AppendField(out, pose_ids[motion.to]);
-          AppendField(out, motion.control.v);
-          AppendField(out, motion.control.omega);
-          AppendField(out, motion.control.dt);
-          AppendUpperTriangle(out, motion.information);
-        })));
-    GS_RETURN_IF_ERROR(AppendRecords(
-        file, static_cast<int64_t>(problem.relative_poses.size()),
-        lines([&](int64_t i, std::string* out) {
-          const auto& constraint = problem.relative_poses[static_cast<size_t>(i)];
-          AppendField(out, "ODOM");
-          AppendField(out, pose_ids[constraint.from]);
-          AppendField(out, pose_ids[constraint.to]);
-          for (int k = 0; k < 3; ++k) AppendField(out, constraint.z[k]);
-          AppendUpperTriangle(out, constraint.information);
-        })));
-    GS_RETURN_IF_ERROR(AppendRecords(
-        file, static_cast<int64_t>(problem.observations.size()),
-        lines([&](int64_t i, std::string* out) {
-          const auto& observation = problem.observations[static_cast<size_t>(i)];
-          const int dim = core::MeasurementDim(observation.kind);
-          AppendField(out, core::NativeLogTag(observation.kind));
-          AppendField(out, pose_ids[observation.pose]);
-          AppendField(out, feature_ids[observation.feature]);
-          for (int k = 0; k < dim; ++k) AppendField(out, observation.z[k]);
-          if (dim == 2) {
-            AppendUpperTriangle(out, observation.information);
-          } else {
-            AppendField(out, observation.information(0, 0));
-          }
-        })));
-    GS_RETURN_IF_ERROR(AppendRecords(
-        file, static_cast<int64_t>(problem.gps.size()), lines([&](int64_t i, std::string* out) {
-          const auto& gps = problem.gps[static_cast<size_t>(i)];
-          AppendField(out, "GPS");
-          AppendField(out, pose_ids[gps.pose]);
-          AppendField(out, gps.z.x());
-          AppendField(out, gps.z.y());
-          AppendUpperTriangle(out, gps.information);
-        })));
-    GS_RETURN_IF_ERROR(AppendRecords(
-        file, static_cast<int64_t>(problem.pose_range_bearings.size()),
-        lines([&](int64_t i, std::string* out) {
-          const auto& c = problem.pose_range_bearings[static_cast<size_t>(i)];
-          AppendField(out, c.interpolated() ? "RB_POSE_INTERP" : "RB_POSE");
-          AppendField(out, pose_ids[c.from]);
-          AppendField(out, pose_ids[c.to]);
-          if (c.interpolated()) {
-            AppendField(out, pose_ids[c.to_next]);
-            AppendField(out, c.alpha);
-          }
-          AppendField(out, c.z.x());
-          AppendField(out, c.z.y());
-          AppendUpperTriangle(out, c.information);
-        })));
-    return Status::Ok();
+    return AppendNativeLog(file, problem);
   });
 }
 

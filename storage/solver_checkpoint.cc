@@ -273,14 +273,22 @@ Status ReadFeatureFile(const std::string& file_path, int64_t expected,
   return Status::Ok();
 }
 
-template <class Layout, class Checkpoint>
-StatusOr<Checkpoint> Read(const std::string& path, const std::string& input) {
+// The checkpoint's JSON object: sealed (storage/checksummed_json.h) and parsed.
+StatusOr<nlohmann::json> ReadCheckpointJson(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return Status::NotFound(path + ": cannot open checkpoint");
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   GS_RETURN_IF_ERROR(CheckJsonTextSeal(path, text));
   nlohmann::json json = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (json.is_discarded() || !json.is_object()) return Bad(path, "not a JSON object");
+  return json;
+}
+
+// The format, a version this build reads, the input it was made on and the
+// dimension of the solve.
+template <class Layout>
+Status CheckCheckpointHeader(const std::string& path, const nlohmann::json& json,
+                             const std::string& input) {
   if (json.value("format", "") != kSolverCheckpointFormat)
     return Bad(path, std::string("format is not '") + kSolverCheckpointFormat + "'");
   if (!json.contains("version") || !json["version"].is_number_integer())
@@ -298,7 +306,15 @@ StatusOr<Checkpoint> Read(const std::string& path, const std::string& input) {
     return Status::InvalidArgument(path + ": checkpoint of a " + dimension.dump() +
                                    "-D solve, expected " + std::to_string(Layout::kDimension) +
                                    "-D");
-  Checkpoint checkpoint;
+  return Status::Ok();
+}
+
+// The control state, poses, features and the PCG state, from the JSON or the
+// files beside it (a 2-D feature file, version 3; a state file, version 4).
+template <class Layout, class Checkpoint>
+Status ReadCheckpointFields(const std::string& path, const nlohmann::json& json,
+                            Checkpoint* checkpoint_out) {
+  Checkpoint& checkpoint = *checkpoint_out;
   try {
     checkpoint.iterations = json.at("iterations").get<int>();
     checkpoint.trust_region_radius = json.at("trust_region_radius").get<double>();
@@ -355,6 +371,12 @@ StatusOr<Checkpoint> Read(const std::string& path, const std::string& input) {
   } catch (const nlohmann::json::exception& error) {
     return Bad(path, std::string("malformed field: ") + error.what());
   }
+  return Status::Ok();
+}
+
+// What a resumed solve relies on: sizes that agree, finite values.
+template <class Layout, class Checkpoint>
+Status CheckCheckpointValues(const std::string& path, const Checkpoint& checkpoint) {
   if (checkpoint.iterations < 0) return Bad(path, "'iterations' is negative");
   if (!(checkpoint.trust_region_radius > 0) || !std::isfinite(checkpoint.trust_region_radius))
     return Bad(path, "'trust_region_radius' must be positive and finite");
@@ -378,6 +400,16 @@ StatusOr<Checkpoint> Read(const std::string& path, const std::string& input) {
                            " entries, 'pcg.forest_parent' " +
                            std::to_string(pcg.forest_parent.size()));
   }
+  return Status::Ok();
+}
+
+template <class Layout, class Checkpoint>
+StatusOr<Checkpoint> Read(const std::string& path, const std::string& input) {
+  GS_ASSIGN_OR_RETURN(const nlohmann::json json, ReadCheckpointJson(path));
+  GS_RETURN_IF_ERROR(CheckCheckpointHeader<Layout>(path, json, input));
+  Checkpoint checkpoint;
+  GS_RETURN_IF_ERROR((ReadCheckpointFields<Layout, Checkpoint>(path, json, &checkpoint)));
+  GS_RETURN_IF_ERROR((CheckCheckpointValues<Layout, Checkpoint>(path, checkpoint)));
   return checkpoint;
 }
 

@@ -102,6 +102,104 @@ Status WriteSolverStateFile(Env* env, const std::string& path,
   });
 }
 
+namespace {
+
+// What ReadSolverStateFile fills, section by section, and the sizes of the
+// sections as the summary record names them.
+class StateSections {
+ public:
+  StateSections(std::vector<core::Pose2>* poses, core::PcgSolverState* pcg)
+      : poses_(poses), pcg_(pcg) {}
+
+  // Section 0 (after its tag byte): the PCG scalars and the sizes of the
+  // sections that follow. Reserves only what a record could plausibly hold:
+  // the counts come from a CRC-checked record, but a wrong writer could
+  // still name absurd sizes.
+  void ReadSummary(const char* p) {
+    expected_[kPoses] = DecodeFixed64(p);
+    *pcg_ = core::PcgSolverState();
+    pcg_->present = p[8] != 0;
+    pcg_->eta = DecodeDouble(p + 9);
+    pcg_->previous_rhs_norm = DecodeDouble(p + 17);
+    pcg_->last_rhs_norm = DecodeDouble(p + 25);
+    pcg_->have_previous = p[33] != 0;
+    expected_[kPreviousX] = DecodeFixed64(p + 34);
+    expected_[kForestOrder] = expected_[kForestParent] = DecodeFixed64(p + 42);
+    constexpr uint64_t kMaxReserve = uint64_t{1} << 28;
+    poses_->clear();
+    poses_->reserve(std::min(expected_[kPoses], kMaxReserve));
+    pcg_->previous_x.reserve(std::min(expected_[kPreviousX], kMaxReserve));
+    pcg_->forest_order.reserve(std::min(expected_[kForestOrder], kMaxReserve));
+    pcg_->forest_parent.reserve(std::min(expected_[kForestParent], kMaxReserve));
+  }
+
+  uint64_t expected(uint8_t section) const { return expected_[section]; }
+  uint64_t SizeOf(uint8_t section) const {
+    switch (section) {
+      case kPoses: return poses_->size();
+      case kPreviousX: return pcg_->previous_x.size();
+      case kForestOrder: return pcg_->forest_order.size();
+      default: return pcg_->forest_parent.size();
+    }
+  }
+
+  void Append(uint8_t section, const char* values, uint64_t count) {
+    for (uint64_t i = 0; i < count; ++i) {
+      switch (section) {
+        case kPoses:
+          poses_->emplace_back(DecodeDouble(values + 24 * i), DecodeDouble(values + 24 * i + 8),
+                               DecodeDouble(values + 24 * i + 16));
+          break;
+        case kPreviousX: pcg_->previous_x.push_back(DecodeDouble(values + 8 * i)); break;
+        case kForestOrder:
+          pcg_->forest_order.push_back(static_cast<int32_t>(DecodeFixed32(values + 4 * i)));
+          break;
+        default:
+          pcg_->forest_parent.push_back(static_cast<int32_t>(DecodeFixed32(values + 4 * i)));
+      }
+    }
+  }
+
+ private:
+  std::vector<core::Pose2>* const poses_;
+  core::PcgSolverState* const pcg_;
+  uint64_t expected_[5] = {0, 0, 0, 0, 0};  // by section
+};
+
+// A data record must continue the section being read (*current, which moves
+// past the sections that are complete), from its next element, within the
+// size the summary names.
+Status CheckDataRecord(const feature_records::Reader& reader, const std::string& payload,
+                       const StateSections& sections, uint8_t* current) {
+  const int64_t offset = reader.record_offset();
+  if (payload.size() < kRecordPrefix)
+    return reader.Bad(offset, "record shorter than " + std::to_string(kRecordPrefix) + " bytes");
+  const uint8_t section = static_cast<uint8_t>(payload[0]);
+  const uint64_t first = DecodeFixed64(payload.data() + 1);
+  const uint64_t count = DecodeFixed32(payload.data() + 9);
+  // Skip the sections that are complete (or empty) up to this record's.
+  while (*current <= kForestParent &&
+         sections.SizeOf(*current) == sections.expected(*current) && section != *current)
+    ++*current;
+  if (section != *current || section < kPoses || section > kForestParent)
+    return reader.Bad(offset, "record of section " + std::to_string(section) + ", expected " +
+                                  std::to_string(*current) + " (" + SectionName(*current) + ")");
+  if (first != sections.SizeOf(section) || first + count > sections.expected(section))
+    return reader.Bad(offset, std::string(SectionName(section)) + " record of " +
+                                  std::to_string(count) + " elements from " +
+                                  std::to_string(first) + ", expected from " +
+                                  std::to_string(sections.SizeOf(section)) + " of " +
+                                  std::to_string(sections.expected(section)));
+  if (payload.size() != kRecordPrefix + ElementSize(section) * count)
+    return reader.Bad(offset, std::string(SectionName(section)) + " record of " +
+                                  std::to_string(count) + " elements has " +
+                                  std::to_string(payload.size()) + " bytes, expected " +
+                                  std::to_string(kRecordPrefix + ElementSize(section) * count));
+  return Status::Ok();
+}
+
+}  // namespace
+
 Status ReadSolverStateFile(const std::string& path, std::vector<core::Pose2>* poses,
                            core::PcgSolverState* pcg) {
   GS_ASSIGN_OR_RETURN(std::unique_ptr<feature_records::Reader> reader,
@@ -114,83 +212,24 @@ Status ReadSolverStateFile(const std::string& path, std::vector<core::Pose2>* po
     return reader->Bad(reader->record_offset(),
                        "summary record of " + std::to_string(payload.size()) +
                            " bytes, expected section 0 of " + std::to_string(kSummarySize));
-  const char* p = payload.data() + 1;
-  // Sizes of the sections, in the order they follow.
-  uint64_t expected[5] = {0, DecodeFixed64(p), 0, 0, 0};
-  *pcg = core::PcgSolverState();
-  pcg->present = p[8] != 0;
-  pcg->eta = DecodeDouble(p + 9);
-  pcg->previous_rhs_norm = DecodeDouble(p + 17);
-  pcg->last_rhs_norm = DecodeDouble(p + 25);
-  pcg->have_previous = p[33] != 0;
-  expected[kPreviousX] = DecodeFixed64(p + 34);
-  expected[kForestOrder] = expected[kForestParent] = DecodeFixed64(p + 42);
-  // The counts come from a CRC-checked record, but a wrong writer could
-  // still name absurd sizes: reserve only what a record could plausibly hold.
-  constexpr uint64_t kMaxReserve = uint64_t{1} << 28;
-  poses->clear();
-  poses->reserve(std::min(expected[kPoses], kMaxReserve));
-  pcg->previous_x.reserve(std::min(expected[kPreviousX], kMaxReserve));
-  pcg->forest_order.reserve(std::min(expected[kForestOrder], kMaxReserve));
-  pcg->forest_parent.reserve(std::min(expected[kForestParent], kMaxReserve));
-  const auto size_of = [&](uint8_t section) -> uint64_t {
-    switch (section) {
-      case kPoses: return poses->size();
-      case kPreviousX: return pcg->previous_x.size();
-      case kForestOrder: return pcg->forest_order.size();
-      default: return pcg->forest_parent.size();
-    }
-  };
+  StateSections sections(poses, pcg);
+  sections.ReadSummary(payload.data() + 1);
   uint8_t current = kPoses;
   uint64_t items = 0;
   while (true) {
     GS_ASSIGN_OR_RETURN(more, reader->Next(&payload, items));
     if (!more) break;
-    const int64_t offset = reader->record_offset();
-    if (payload.size() < kRecordPrefix)
-      return reader->Bad(offset, "record shorter than " + std::to_string(kRecordPrefix) + " bytes");
+    GS_RETURN_IF_ERROR(CheckDataRecord(*reader, payload, sections, &current));
     const uint8_t section = static_cast<uint8_t>(payload[0]);
-    const uint64_t first = DecodeFixed64(payload.data() + 1);
     const uint64_t count = DecodeFixed32(payload.data() + 9);
-    // Skip the sections that are complete (or empty) up to this record's.
-    while (current <= kForestParent && size_of(current) == expected[current] && section != current)
-      ++current;
-    if (section != current || section < kPoses || section > kForestParent)
-      return reader->Bad(offset, "record of section " + std::to_string(section) + ", expected " +
-                                     std::to_string(current) + " (" + SectionName(current) + ")");
-    if (first != size_of(section) || first + count > expected[section])
-      return reader->Bad(offset, std::string(SectionName(section)) + " record of " +
-                                     std::to_string(count) + " elements from " +
-                                     std::to_string(first) + ", expected from " +
-                                     std::to_string(size_of(section)) + " of " +
-                                     std::to_string(expected[section]));
-    if (payload.size() != kRecordPrefix + ElementSize(section) * count)
-      return reader->Bad(offset, std::string(SectionName(section)) + " record of " +
-                                     std::to_string(count) + " elements has " +
-                                     std::to_string(payload.size()) + " bytes, expected " +
-                                     std::to_string(kRecordPrefix + ElementSize(section) * count));
-    const char* values = payload.data() + kRecordPrefix;
-    for (uint64_t i = 0; i < count; ++i) {
-      switch (section) {
-        case kPoses:
-          poses->emplace_back(DecodeDouble(values + 24 * i), DecodeDouble(values + 24 * i + 8),
-                              DecodeDouble(values + 24 * i + 16));
-          break;
-        case kPreviousX: pcg->previous_x.push_back(DecodeDouble(values + 8 * i)); break;
-        case kForestOrder:
-          pcg->forest_order.push_back(static_cast<int32_t>(DecodeFixed32(values + 4 * i)));
-          break;
-        default:
-          pcg->forest_parent.push_back(static_cast<int32_t>(DecodeFixed32(values + 4 * i)));
-      }
-    }
+    sections.Append(section, payload.data() + kRecordPrefix, count);
     items += count;
   }
   for (uint8_t section = kPoses; section <= kForestParent; ++section) {
-    if (size_of(section) != expected[section])
-      return Status::Corruption(path + ": " + std::to_string(size_of(section)) + " " +
+    if (sections.SizeOf(section) != sections.expected(section))
+      return Status::Corruption(path + ": " + std::to_string(sections.SizeOf(section)) + " " +
                                 SectionName(section) + " elements, the summary names " +
-                                std::to_string(expected[section]));
+                                std::to_string(sections.expected(section)));
   }
   return Status::Ok();
 }

@@ -35,6 +35,106 @@ struct FileCloser {
 };
 using File = std::unique_ptr<std::FILE, FileCloser>;
 
+// The PCD's columns (x, y, z [intensity] [run]), each compressed segment by
+// segment (LZF, kSegmentFloats values) into DIR/column_<f>.lzf, then copied
+// one after the other behind the header: binary_compressed's layout.
+class CompressedColumns {
+ public:
+  Status Open(const std::string& dir, size_t fields) {
+    paths_.resize(fields);
+    files_.resize(fields);
+    buffers_.resize(fields);
+    compressed_bytes_.assign(fields, 0);
+    for (size_t f = 0; f < fields; ++f) {
+      paths_[f] = (fs::path(dir) / ("column_" + std::to_string(f) + ".lzf")).string();
+      files_[f].reset(std::fopen(paths_[f].c_str(), "wb"));
+      if (files_[f] == nullptr) return Status::IOError(paths_[f] + ": cannot create");
+      buffers_[f].reserve(kSegmentFloats);
+    }
+    return Status::Ok();
+  }
+
+  // One point: values[f] for every column f.
+  Status Add(const float* values) {
+    for (size_t f = 0; f < buffers_.size(); ++f) {
+      buffers_[f].push_back(values[f]);
+      if (buffers_[f].size() == kSegmentFloats) GS_RETURN_IF_ERROR(Flush(f));
+    }
+    return Status::Ok();
+  }
+
+  Status Close() {
+    for (size_t f = 0; f < files_.size(); ++f) {
+      GS_RETURN_IF_ERROR(Flush(f));
+      if (std::fclose(files_[f].release()) != 0)
+        return Status::IOError(paths_[f] + ": close failed");
+    }
+    return Status::Ok();
+  }
+
+  uint64_t compressed_bytes() const {
+    uint64_t total = 0;
+    for (const uint64_t c : compressed_bytes_) total += c;
+    return total;
+  }
+
+  Status CopyTo(storage::WritableFile* out) const {
+    std::string block(size_t{1} << 20, '\0');
+    for (const std::string& path : paths_) {
+      File in(std::fopen(path.c_str(), "rb"));
+      if (in == nullptr) return Status::IOError(path + ": cannot open");
+      size_t n = 0;
+      while ((n = std::fread(block.data(), 1, block.size(), in.get())) > 0)
+        GS_RETURN_IF_ERROR(out->Append(std::string_view(block.data(), n)));
+      if (std::ferror(in.get())) return Status::IOError(path + ": read failed");
+    }
+    return Status::Ok();
+  }
+
+ private:
+  Status Flush(size_t f) {
+    if (buffers_[f].empty()) return Status::Ok();
+    segment_.clear();
+    GS_RETURN_IF_ERROR(AppendLzfSegment(reinterpret_cast<const char*>(buffers_[f].data()),
+                                        buffers_[f].size() * sizeof(float), &segment_));
+    if (std::fwrite(segment_.data(), 1, segment_.size(), files_[f].get()) != segment_.size())
+      return Status::IOError(paths_[f] + ": write failed: " + std::strerror(errno));
+    compressed_bytes_[f] += segment_.size();
+    buffers_[f].clear();
+    return Status::Ok();
+  }
+
+  std::vector<std::string> paths_;
+  std::vector<File> files_;
+  std::vector<std::vector<float>> buffers_;
+  std::vector<uint64_t> compressed_bytes_;
+  std::string segment_;
+};
+
+// The binary_compressed PCD at `path`: header, the sizes, the columns.
+Status WriteCompressedPcd(const std::string& path, const std::vector<std::string>& names,
+                          uint64_t points, const CompressedColumns& columns) {
+  const uint64_t uncompressed = points * names.size() * sizeof(float);
+  const uint64_t compressed = columns.compressed_bytes();
+  if (uncompressed > std::numeric_limits<uint32_t>::max() ||
+      compressed > std::numeric_limits<uint32_t>::max())
+    return Status::InvalidArgument(path + ": " + std::to_string(points) +
+                                   " points exceed binary_compressed's 4 GiB (u32 sizes); "
+                                   "expected a coarser --pcd-voxel");
+  if (points > std::numeric_limits<uint32_t>::max())
+    return Status::InvalidArgument(path + ": too many points for a PCD width");
+  StatusOr<std::string> header = BinaryCompressedPcdHeader(names, static_cast<uint32_t>(points));
+  GS_RETURN_IF_ERROR(header.status());
+  std::string head = std::move(header).value();
+  format::PutFixed32(&head, static_cast<uint32_t>(compressed));
+  format::PutFixed32(&head, static_cast<uint32_t>(uncompressed));
+  return storage::WriteFileAtomically(
+      storage::Env::Default(), path, [&](storage::WritableFile* out) -> Status {
+        GS_RETURN_IF_ERROR(out->Append(head));
+        return columns.CopyTo(out);
+      });
+}
+
 }  // namespace
 
 TiledVoxelCloud::TiledVoxelCloud(TiledVoxelCloudOptions options) : options_(std::move(options)) {
@@ -174,35 +274,13 @@ Status TiledVoxelCloud::Finish(const std::string& path) {
   std::vector<std::string> names = {"x", "y", "z"};
   if (has_intensity_) names.push_back("intensity");
   if (has_run_) names.push_back("run");
-  const size_t fields = names.size();
   std::error_code error;
   fs::create_directories(options_.spill_dir, error);
   if (error) return Status::IOError(options_.spill_dir + ": mkdir: " + error.message());
-
-  // Columns, compressed segment by segment into column_<f>.lzf.
-  std::vector<std::string> column_paths(fields);
-  std::vector<File> columns(fields);
-  std::vector<std::vector<float>> buffers(fields);
-  std::vector<uint64_t> compressed_bytes(fields, 0);
-  for (size_t f = 0; f < fields; ++f) {
-    column_paths[f] = (fs::path(options_.spill_dir) / ("column_" + std::to_string(f) + ".lzf")).string();
-    columns[f].reset(std::fopen(column_paths[f].c_str(), "wb"));
-    if (columns[f] == nullptr) return Status::IOError(column_paths[f] + ": cannot create");
-    buffers[f].reserve(kSegmentFloats);
-  }
-  std::string segment;
-  auto flush = [&](size_t f) -> Status {
-    if (buffers[f].empty()) return Status::Ok();
-    segment.clear();
-    GS_RETURN_IF_ERROR(AppendLzfSegment(reinterpret_cast<const char*>(buffers[f].data()),
-                                        buffers[f].size() * sizeof(float), &segment));
-    if (std::fwrite(segment.data(), 1, segment.size(), columns[f].get()) != segment.size())
-      return Status::IOError(column_paths[f] + ": write failed: " + std::strerror(errno));
-    compressed_bytes[f] += segment.size();
-    buffers[f].clear();
-    return Status::Ok();
-  };
-
+  CompressedColumns columns;
+  GS_RETURN_IF_ERROR(columns.Open(options_.spill_dir, names.size()));
+  // Tile after tile in id order, each tile's voxels in key order: the
+  // voxel mean of every field.
   uint64_t points = 0;
   std::vector<std::pair<uint64_t, const Accumulator*>> sorted;
   while (!tiles_.empty()) {
@@ -221,51 +299,15 @@ Status TiledVoxelCloud::Finish(const std::string& path) {
       size_t k = 3;
       if (has_intensity_) values[k++] = static_cast<float>(acc->intensity / n);
       if (has_run_) values[k++] = static_cast<float>(acc->run);
-      for (size_t f = 0; f < fields; ++f) {
-        buffers[f].push_back(values[f]);
-        if (buffers[f].size() == kSegmentFloats) GS_RETURN_IF_ERROR(flush(f));
-      }
+      GS_RETURN_IF_ERROR(columns.Add(values));
       ++points;
     }
     resident_voxels_ -= static_cast<int64_t>(tile.voxels.size());
     tiles_.erase(it);
   }
-  for (size_t f = 0; f < fields; ++f) {
-    GS_RETURN_IF_ERROR(flush(f));
-    if (std::fclose(columns[f].release()) != 0)
-      return Status::IOError(column_paths[f] + ": close failed");
-  }
+  GS_RETURN_IF_ERROR(columns.Close());
   stats_.voxels = static_cast<int64_t>(points);
-
-  const uint64_t uncompressed = points * fields * sizeof(float);
-  uint64_t compressed = 0;
-  for (const uint64_t c : compressed_bytes) compressed += c;
-  if (uncompressed > std::numeric_limits<uint32_t>::max() ||
-      compressed > std::numeric_limits<uint32_t>::max())
-    return Status::InvalidArgument(path + ": " + std::to_string(points) +
-                                   " points exceed binary_compressed's 4 GiB (u32 sizes); "
-                                   "expected a coarser --pcd-voxel");
-  if (points > std::numeric_limits<uint32_t>::max())
-    return Status::InvalidArgument(path + ": too many points for a PCD width");
-  StatusOr<std::string> header = BinaryCompressedPcdHeader(names, static_cast<uint32_t>(points));
-  GS_RETURN_IF_ERROR(header.status());
-  std::string head = std::move(header).value();
-  format::PutFixed32(&head, static_cast<uint32_t>(compressed));
-  format::PutFixed32(&head, static_cast<uint32_t>(uncompressed));
-  GS_RETURN_IF_ERROR(storage::WriteFileAtomically(
-      storage::Env::Default(), path, [&](storage::WritableFile* out) -> Status {
-        GS_RETURN_IF_ERROR(out->Append(head));
-        std::string block(size_t{1} << 20, '\0');
-        for (size_t f = 0; f < fields; ++f) {
-          File in(std::fopen(column_paths[f].c_str(), "rb"));
-          if (in == nullptr) return Status::IOError(column_paths[f] + ": cannot open");
-          size_t n = 0;
-          while ((n = std::fread(block.data(), 1, block.size(), in.get())) > 0)
-            GS_RETURN_IF_ERROR(out->Append(std::string_view(block.data(), n)));
-          if (std::ferror(in.get())) return Status::IOError(column_paths[f] + ": read failed");
-        }
-        return Status::Ok();
-      }));
+  GS_RETURN_IF_ERROR(WriteCompressedPcd(path, names, points, columns));
   fs::remove_all(options_.spill_dir, error);
   return Status::Ok();
 }

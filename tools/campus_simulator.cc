@@ -243,81 +243,71 @@ Status CampusSimulatorOptions::Validate() const {
   return Status::Ok();
 }
 
-StatusOr<SimulatedCampus> SimulateCampus(const CampusSimulatorOptions& options) {
-  GS_RETURN_IF_ERROR(options.Validate());
-  Random random(options.seed);
-  SimulatedCampus campus;
+namespace {
+
+// Run `run` (run_poses poses): from a random intersection, pure pursuit
+// along random streets; the poses' guess is the dead reckoning of the
+// controls (the first run starts at the truth, later ones off by the
+// initial sigmas).
+void DriveRun(const CampusSimulatorOptions& options, const Grid& grid, int run,
+              int64_t run_poses, Random* random_out, SimulatedCampus* campus) {
+  Random& random = *random_out;
+  core::Problem2d& problem = campus->problem;
+  // A random intersection and a street leaving it.
+  const int start_x = static_cast<int>(random.UniformInt(grid.columns));
+  const int start_y = static_cast<int>(random.UniformInt(grid.rows));
+  int directions[4];
+  int count = 0;
+  for (int d = 0; d < 4; ++d) {
+    if (grid.Contains(start_x + kStepX[d], start_y + kStepY[d])) directions[count++] = d;
+  }
+  const int direction = directions[random.UniformInt(count)];
+  StreetPath path(grid, options, start_x, start_y, direction, &random);
+
+  core::Pose2 truth(start_x * grid.block_size, start_y * grid.block_size,
+                    core::WrapAngle(DirectionAngle(direction)));
+  core::Pose2 guess = truth;
+  if (run > 0) {
+    guess.x() += random.Normal(options.initial_position_sigma);
+    guess.y() += random.Normal(options.initial_position_sigma);
+    guess.z() = core::WrapAngle(guess.z() + random.Normal(options.initial_heading_sigma));
+  }
+  double s = 0.0;
+  for (int64_t k = 0; k < run_poses; ++k) {
+    const int32_t index = problem.AddPose(problem.num_poses(), guess, /*initialized=*/k == 0,
+                                          /*line=*/0, static_cast<double>(k) * options.dt);
+    if (run == 0 && k == 0 && options.gps_every == 0) problem.pose_fixed[index] = 1;
+    campus->true_poses.push_back(truth);
+    campus->run_of_pose.push_back(run);
+    if (k + 1 == run_poses) break;
+
+    // Pure pursuit on the true pose, executed with noise (campus_world.h).
+    const core::VelocityControl control = internal::PursuitControl(options, truth, &path, &s);
+    const core::Pose2 next = internal::ExecuteWithNoise(options, truth, control, &random);
+
+    core::VelocityMotionConstraint motion;
+    motion.from = index;
+    motion.to = index + 1;
+    motion.control = control;
+    motion.information =
+        SymmetricInverse(core::VelocityMotionCovariance(truth, control, options.noise));
+    problem.motions.push_back(motion);
+
+    campus->distance_travelled += (next.head<2>() - truth.head<2>()).norm();
+    truth = next;
+    guess = core::PredictVelocityMotion(guess, control);  // dead reckoning: the hint
+  }
+}
+
+// Range-bearing observations of every landmark in range and field of view,
+// pose after pose; a feature's guess is its first sight from the
+// dead-reckoned pose (Table 1).
+void SenseLandmarks(const CampusSimulatorOptions& options, const Grid& grid, Random* random_out,
+                    SimulatedCampus* campus_out) {
+  Random& random = *random_out;
+  SimulatedCampus& campus = *campus_out;
   core::Problem2d& problem = campus.problem;
-  problem.source = "simulated campus (seed " + std::to_string(options.seed) + ")";
-
-  Grid grid;
-  campus.true_features = BuildCampus(options, &random, &grid);
-  campus.grid_columns = grid.columns;
-  campus.grid_rows = grid.rows;
   const int64_t num_features = static_cast<int64_t>(campus.true_features.size());
-  problem.features.reserve(static_cast<size_t>(num_features));
-  problem.feature_ids.reserve(static_cast<size_t>(num_features));
-  problem.feature_initialized.reserve(static_cast<size_t>(num_features));
-  for (int64_t i = 0; i < num_features; ++i) {
-    problem.AddFeature(options.feature_id_base + i, core::Point2::Zero(), /*initialized=*/false);
-  }
-
-  // Trajectories and controls, run after run.
-  const size_t total_poses = static_cast<size_t>(options.poses);
-  campus.true_poses.reserve(total_poses);
-  campus.run_of_pose.reserve(total_poses);
-  problem.poses.reserve(total_poses);
-  problem.motions.reserve(total_poses);
-  for (int run = 0; run < options.runs; ++run) {
-    const int64_t run_poses =
-        options.poses / options.runs + (run < options.poses % options.runs ? 1 : 0);
-    // A random intersection and a street leaving it.
-    const int start_x = static_cast<int>(random.UniformInt(grid.columns));
-    const int start_y = static_cast<int>(random.UniformInt(grid.rows));
-    int directions[4];
-    int count = 0;
-    for (int d = 0; d < 4; ++d) {
-      if (grid.Contains(start_x + kStepX[d], start_y + kStepY[d])) directions[count++] = d;
-    }
-    const int direction = directions[random.UniformInt(count)];
-    StreetPath path(grid, options, start_x, start_y, direction, &random);
-
-    core::Pose2 truth(start_x * grid.block_size, start_y * grid.block_size,
-                      core::WrapAngle(DirectionAngle(direction)));
-    core::Pose2 guess = truth;
-    if (run > 0) {
-      guess.x() += random.Normal(options.initial_position_sigma);
-      guess.y() += random.Normal(options.initial_position_sigma);
-      guess.z() = core::WrapAngle(guess.z() + random.Normal(options.initial_heading_sigma));
-    }
-    double s = 0.0;
-    for (int64_t k = 0; k < run_poses; ++k) {
-      const int32_t index = problem.AddPose(problem.num_poses(), guess, /*initialized=*/k == 0,
-                                            /*line=*/0, static_cast<double>(k) * options.dt);
-      if (run == 0 && k == 0 && options.gps_every == 0) problem.pose_fixed[index] = 1;
-      campus.true_poses.push_back(truth);
-      campus.run_of_pose.push_back(run);
-      if (k + 1 == run_poses) break;
-
-      // Pure pursuit on the true pose, executed with noise (campus_world.h).
-      const core::VelocityControl control = internal::PursuitControl(options, truth, &path, &s);
-      const core::Pose2 next = internal::ExecuteWithNoise(options, truth, control, &random);
-
-      core::VelocityMotionConstraint motion;
-      motion.from = index;
-      motion.to = index + 1;
-      motion.control = control;
-      motion.information =
-          SymmetricInverse(core::VelocityMotionCovariance(truth, control, options.noise));
-      problem.motions.push_back(motion);
-
-      campus.distance_travelled += (next.head<2>() - truth.head<2>()).norm();
-      truth = next;
-      guess = core::PredictVelocityMotion(guess, control);  // dead reckoning: the hint
-    }
-  }
-
-  // Sensing, pose after pose.
   const double margin = 0.5 * options.street_width + options.sensor_range;
   LandmarkIndex index(campus.true_features, grid, options.sensor_range, margin);
   std::vector<int32_t> nearby;
@@ -355,27 +345,66 @@ StatusOr<SimulatedCampus> SimulateCampus(const CampusSimulatorOptions& options) 
       }
     }
   }
+}
 
-  // GPS every gps_every-th pose of each run.
-  if (options.gps_every > 0) {
-    const Eigen::Matrix2d gps_information =
-        Eigen::Matrix2d::Identity() / (options.gps_sigma * options.gps_sigma);
-    int64_t k = 0;
-    for (int32_t pose = 0; pose < problem.num_poses(); ++pose, ++k) {
-      if (pose > 0 && campus.run_of_pose[static_cast<size_t>(pose)] !=
-                          campus.run_of_pose[static_cast<size_t>(pose) - 1]) {
-        k = 0;
-      }
-      if (k % options.gps_every != 0) continue;
-      core::GpsConstraint gps;
-      gps.pose = pose;
-      const core::Pose2& truth = campus.true_poses[static_cast<size_t>(pose)];
-      gps.z = Eigen::Vector2d(truth.x() + random.Normal(options.gps_sigma),
-                              truth.y() + random.Normal(options.gps_sigma));
-      gps.information = gps_information;
-      problem.gps.push_back(gps);
+// A GPS fix every gps_every-th pose of each run.
+void AddGps(const CampusSimulatorOptions& options, Random* random_out, SimulatedCampus* campus_out) {
+  Random& random = *random_out;
+  SimulatedCampus& campus = *campus_out;
+  core::Problem2d& problem = campus.problem;
+  const Eigen::Matrix2d gps_information =
+      Eigen::Matrix2d::Identity() / (options.gps_sigma * options.gps_sigma);
+  int64_t k = 0;
+  for (int32_t pose = 0; pose < problem.num_poses(); ++pose, ++k) {
+    if (pose > 0 && campus.run_of_pose[static_cast<size_t>(pose)] !=
+                        campus.run_of_pose[static_cast<size_t>(pose) - 1]) {
+      k = 0;
     }
+    if (k % options.gps_every != 0) continue;
+    core::GpsConstraint gps;
+    gps.pose = pose;
+    const core::Pose2& truth = campus.true_poses[static_cast<size_t>(pose)];
+    gps.z = Eigen::Vector2d(truth.x() + random.Normal(options.gps_sigma),
+                            truth.y() + random.Normal(options.gps_sigma));
+    gps.information = gps_information;
+    problem.gps.push_back(gps);
   }
+}
+
+}  // namespace
+
+StatusOr<SimulatedCampus> SimulateCampus(const CampusSimulatorOptions& options) {
+  GS_RETURN_IF_ERROR(options.Validate());
+  Random random(options.seed);
+  SimulatedCampus campus;
+  core::Problem2d& problem = campus.problem;
+  problem.source = "simulated campus (seed " + std::to_string(options.seed) + ")";
+
+  Grid grid;
+  campus.true_features = BuildCampus(options, &random, &grid);
+  campus.grid_columns = grid.columns;
+  campus.grid_rows = grid.rows;
+  const int64_t num_features = static_cast<int64_t>(campus.true_features.size());
+  problem.features.reserve(static_cast<size_t>(num_features));
+  problem.feature_ids.reserve(static_cast<size_t>(num_features));
+  problem.feature_initialized.reserve(static_cast<size_t>(num_features));
+  for (int64_t i = 0; i < num_features; ++i) {
+    problem.AddFeature(options.feature_id_base + i, core::Point2::Zero(), /*initialized=*/false);
+  }
+
+  // Trajectories and controls, run after run.
+  const size_t total_poses = static_cast<size_t>(options.poses);
+  campus.true_poses.reserve(total_poses);
+  campus.run_of_pose.reserve(total_poses);
+  problem.poses.reserve(total_poses);
+  problem.motions.reserve(total_poses);
+  for (int run = 0; run < options.runs; ++run) {
+    const int64_t run_poses =
+        options.poses / options.runs + (run < options.poses % options.runs ? 1 : 0);
+    DriveRun(options, grid, run, run_poses, &random, &campus);
+  }
+  SenseLandmarks(options, grid, &random, &campus);
+  if (options.gps_every > 0) AddGps(options, &random, &campus);
   return campus;
 }
 

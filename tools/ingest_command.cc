@@ -116,6 +116,57 @@ StatusOr<std::unique_ptr<DistributedSolveRun>> JoinRanks(
   return distributed;
 }
 
+// The ingest's options from the command's: the format (--format, or
+// detected), the --memory-limit budget (checked before anything is read;
+// --buffer-observations overrides the buffer it leaves, not the check), the
+// chunk and scan-chunk sizes, --resume and checkpoints. *usage is set when
+// the error is a bad option (exit 1) rather than a failure.
+StatusOr<partition::StreamingIngestOptions> PlanIngest(const IngestCommandOptions& options,
+                                                       bool* usage) {
+  const auto bad_option = [usage](const std::string& message) {
+    *usage = true;
+    return Status::InvalidArgument(message);
+  };
+  storage::InputFormat format;
+  if (options.format == "auto") {
+    GS_ASSIGN_OR_RETURN(format, storage::DetectInputFormat(options.input));
+  } else {
+    StatusOr<storage::InputFormat> parsed = storage::ParseInputFormat(options.format);
+    if (!parsed.ok()) return bad_option("--format: " + parsed.status().ToString());
+    format = *parsed;
+  }
+  partition::StreamingIngestOptions ingest;
+  ingest.format = format;
+  ingest.mrclam.robot = options.robot;
+  ingest.max_observations_per_chunk = options.chunk_observations;
+  int64_t limit = 0;
+  if (!options.memory_limit.empty()) {
+    StatusOr<int64_t> parsed = ParseMemorySize(options.memory_limit);
+    if (!parsed.ok()) return bad_option("--memory-limit: " + parsed.status().ToString());
+    limit = *parsed;
+  }
+  GS_ASSIGN_OR_RETURN(const IngestInput estimate, EstimateIngestInput(options.input, format));
+  GS_ASSIGN_OR_RETURN(const IngestBudget budget,
+                      BudgetIngest(limit, estimate, options.chunk_observations));
+  ingest.buffer_observations = options.buffer_observations > 0 ? options.buffer_observations
+                                                               : budget.buffer_observations;
+  ingest.buffer_observations = std::max(ingest.buffer_observations, options.chunk_observations);
+  ingest.expected = estimate.Expected();
+  ingest.store.source = options.input;
+  if (options.compress) ingest.store.chunk.compression = storage::ChunkCompression::kZstd;
+  if (options.checkpoint_seconds < 0)
+    return bad_option("--checkpoint-seconds must be >= 0, got " +
+                      std::to_string(options.checkpoint_seconds));
+  StatusOr<int64_t> scan_chunk = ParseMemorySize(options.scan_chunk_size);
+  if (!scan_chunk.ok() || *scan_chunk <= 0)
+    return bad_option("--scan-chunk-size: expected a size > 0 such as 256K or 16M, got '" +
+                      options.scan_chunk_size + "'");
+  ingest.scan_chunk_bytes = *scan_chunk;
+  ingest.resume = options.resume;
+  ingest.checkpoint_seconds = options.checkpoint_seconds;
+  return ingest;
+}
+
 }  // namespace
 
 int RunIngestCommand(const IngestCommandOptions& options) {
@@ -142,48 +193,11 @@ int RunIngestCommand(const IngestCommandOptions& options) {
   if (Status status = CheckOutputPaths({{"-o", options.output_dir, /*folder=*/true}});
       !status.ok())
     return fail(status);
-  storage::InputFormat format;
-  if (options.format == "auto") {
-    StatusOr<storage::InputFormat> detected = storage::DetectInputFormat(options.input);
-    if (!detected.ok()) return fail(detected.status());
-    format = *detected;
-  } else {
-    StatusOr<storage::InputFormat> parsed = storage::ParseInputFormat(options.format);
-    if (!parsed.ok()) return usage("--format: " + parsed.status().ToString());
-    format = *parsed;
-  }
-  partition::StreamingIngestOptions ingest;
-  ingest.format = format;
-  ingest.mrclam.robot = options.robot;
-  ingest.max_observations_per_chunk = options.chunk_observations;
-  // The budget (tools/memory_budget.h) is checked before anything is read;
-  // --buffer-observations overrides the buffer it leaves, not the check.
-  int64_t limit = 0;
-  if (!options.memory_limit.empty()) {
-    StatusOr<int64_t> parsed = ParseMemorySize(options.memory_limit);
-    if (!parsed.ok()) return usage("--memory-limit: " + parsed.status().ToString());
-    limit = *parsed;
-  }
-  StatusOr<IngestInput> estimate = EstimateIngestInput(options.input, format);
-  if (!estimate.ok()) return fail(estimate.status());
-  StatusOr<IngestBudget> budget = BudgetIngest(limit, *estimate, options.chunk_observations);
-  if (!budget.ok()) return fail(budget.status());
-  ingest.buffer_observations = options.buffer_observations > 0 ? options.buffer_observations
-                                                               : budget->buffer_observations;
-  ingest.buffer_observations = std::max(ingest.buffer_observations, options.chunk_observations);
-  ingest.expected = estimate->Expected();
-  ingest.store.source = options.input;
-  if (options.compress) ingest.store.chunk.compression = storage::ChunkCompression::kZstd;
-  if (options.checkpoint_seconds < 0)
-    return usage("--checkpoint-seconds must be >= 0, got " +
-                 std::to_string(options.checkpoint_seconds));
-  StatusOr<int64_t> scan_chunk = ParseMemorySize(options.scan_chunk_size);
-  if (!scan_chunk.ok() || *scan_chunk <= 0)
-    return usage("--scan-chunk-size: expected a size > 0 such as 256K or 16M, got '" +
-                 options.scan_chunk_size + "'");
-  ingest.scan_chunk_bytes = *scan_chunk;
-  ingest.resume = options.resume;
-  ingest.checkpoint_seconds = options.checkpoint_seconds;
+  bool bad_option = false;
+  StatusOr<partition::StreamingIngestOptions> planned = PlanIngest(options, &bad_option);
+  if (!planned.ok())
+    return bad_option ? usage(planned.status().message()) : fail(planned.status());
+  partition::StreamingIngestOptions ingest = std::move(planned).value();
   if (LaunchedProcesses() > 1) {  // under mpirun: one shard of chunks per rank
     if (options.resume) return usage("--resume is not supported under mpirun");
     StatusOr<std::unique_ptr<DistributedSolveRun>> started = JoinRanks(&ingest);
@@ -207,7 +221,7 @@ int RunIngestCommand(const IngestCommandOptions& options) {
       !status.ok())
     return fail(status);
 
-  if (!options.quiet && root) PrintIngestSummary(options, format, ingest, summary);
+  if (!options.quiet && root) PrintIngestSummary(options, ingest.format, ingest, summary);
   return kExitOk;
 }
 

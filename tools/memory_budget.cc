@@ -2,44 +2,49 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cerrno>
-#include <cstdio>
-#include <cstring>
-#include <filesystem>
+#include <memory>
 #include <string_view>
-#include <system_error>
+#include <vector>
 
 #include "core/problem.h"
 #include "storage/compressed_file.h"
+#include "storage/env.h"
 #include "storage/native_log_counts.h"
 
 namespace graphslam::tools {
 
 namespace {
 
+// Missing or unreadable inputs are I/O errors here (exit 3), as the
+// estimates are made before any reader has looked at the input.
+Status AsIOError(const Status& status) {
+  return status.IsIOError() ? status : Status::IOError(status.message());
+}
+
 // Bytes of the directory tree or file at `path` (an MRCLAM input is a folder).
-StatusOr<int64_t> InputBytes(const std::string& path) {
-  namespace fs = std::filesystem;
-  std::error_code error;
-  if (fs::is_directory(path, error)) {
+StatusOr<int64_t> InputBytes(storage::Env* env, const std::string& path) {
+  if (env->KindOf(path) == storage::FileKind::kDirectory) {
+    StatusOr<std::vector<std::string>> files = env->ListTree(path);
+    if (!files.ok()) return AsIOError(files.status());
     int64_t total = 0;
-    for (fs::recursive_directory_iterator it(path, error), end; !error && it != end;
-         it.increment(error)) {
-      if (it->is_regular_file(error)) total += static_cast<int64_t>(it->file_size(error));
+    for (const std::string& file : *files) {
+      StatusOr<uint64_t> bytes = env->FileSize(path + "/" + file);
+      if (!bytes.ok()) return AsIOError(bytes.status());
+      total += static_cast<int64_t>(*bytes);
     }
-    if (error) return Status::IOError(path + ": " + error.message());
     return total;
   }
-  const std::uintmax_t bytes = fs::file_size(path, error);
-  if (error) return Status::IOError(path + ": size: " + error.message());
-  return static_cast<int64_t>(bytes);
+  StatusOr<uint64_t> bytes = env->FileSize(path);
+  if (!bytes.ok()) return AsIOError(bytes.status());
+  return static_cast<int64_t>(*bytes);
 }
 
 }  // namespace
 
 StatusOr<RecordCounts> CountPoseAndFeatureRecords(const std::string& path) {
-  std::FILE* file = std::fopen(path.c_str(), "rb");
-  if (file == nullptr) return Status::IOError(path + ": cannot open: " + std::strerror(errno));
+  StatusOr<std::unique_ptr<storage::ReadableFile>> file =
+      storage::Env::Default()->NewReadableFile(path);
+  if (!file.ok()) return AsIOError(file.status());
   constexpr std::string_view kPose = "\nPOSE ";
   constexpr std::string_view kFeature = "\nFEATURE ";
   constexpr size_t kBlock = size_t{1} << 20;
@@ -58,7 +63,7 @@ StatusOr<RecordCounts> CountPoseAndFeatureRecords(const std::string& path) {
   for (;;) {
     const size_t kept = buffer.size();
     buffer.resize(kept + kBlock);
-    const size_t got = std::fread(buffer.data() + kept, 1, kBlock, file);
+    GS_ASSIGN_OR_RETURN(const size_t got, (*file)->Read(kBlock, buffer.data() + kept));
     buffer.resize(kept + got);
     counts.poses += count(buffer, kPose);
     counts.features += count(buffer, kFeature);
@@ -66,9 +71,6 @@ StatusOr<RecordCounts> CountPoseAndFeatureRecords(const std::string& path) {
     // Shorter than either record: no match lies wholly inside the kept tail.
     buffer.erase(0, buffer.size() - (kPose.size() - 1));
   }
-  const bool failed = std::ferror(file) != 0;
-  std::fclose(file);
-  if (failed) return Status::IOError(path + ": read error");
   return counts;
 }
 
@@ -107,7 +109,7 @@ storage::ExpectedSizes IngestInput::Expected() const {
 
 StatusOr<IngestInput> EstimateIngestInput(const std::string& path, storage::InputFormat format) {
   IngestInput input;
-  GS_ASSIGN_OR_RETURN(input.input_bytes, InputBytes(path));
+  GS_ASSIGN_OR_RETURN(input.input_bytes, InputBytes(storage::Env::Default(), path));
   input.streamed = format == storage::InputFormat::kNative;
   if (!input.streamed) return input;
   if (storage::IsZstdFile(path)) input.input_bytes = input.input_bytes / 100 * kZstdLogRatioPercent;

@@ -121,36 +121,33 @@ void AddSimulateCommand(CLI::App* app, SimulateCommandOptions* options, int* exi
   simulate->callback([options, exit_code]() { *exit_code = RunSimulateCommand(*options); });
 }
 
-int RunSimulateCommand(const SimulateCommandOptions& options) {
-  SetLogVerbosity(options.verbosity);
-  SetQuietLogging(options.quiet);
-  auto fail = [](const Status& status) {
-    std::fprintf(stderr, "graphslam simulate: %s\n", status.ToString().c_str());
-    return ExitCodeFor(status);
-  };
-  auto usage = [](const std::string& message) {
-    std::fprintf(stderr, "graphslam simulate: %s\n", message.c_str());
-    return kExitUsage;
-  };
-  if (options.output_dir.empty()) return usage("no output folder given (-o DIR)");
-  if (options.sim3d.enabled) {
-    return RunSimulate3dCommand(options.output_dir, options.sim3d, options.simulator.seed,
-                                options.quiet);
-  }
-  if (options.format != "native" && options.format != "g2o") {
-    return usage("--format must be 'native' or 'g2o', got '" + options.format + "'");
-  }
+namespace {
+
+int Fail(const Status& status) {
+  std::fprintf(stderr, "graphslam simulate: %s\n", status.ToString().c_str());
+  return ExitCodeFor(status);
+}
+
+int Usage(const std::string& message) {
+  std::fprintf(stderr, "graphslam simulate: %s\n", message.c_str());
+  return kExitUsage;
+}
+
+// The simulator's options from the command's: --alpha, --landmark-spacing,
+// the feature id base; an error is a usage error (its message).
+StatusOr<CampusSimulatorOptions> SimulatorOptions(const SimulateCommandOptions& options) {
   CampusSimulatorOptions simulator = options.simulator;
   if (!options.alpha.empty()) {
     if (options.alpha.size() != 6) {
-      return usage("--alpha takes 6 values a1..a6, got " + std::to_string(options.alpha.size()));
+      return Status::InvalidArgument("--alpha takes 6 values a1..a6, got " +
+                                     std::to_string(options.alpha.size()));
     }
     for (int i = 0; i < 6; ++i) simulator.noise.alpha[i] = options.alpha[static_cast<size_t>(i)];
   }
   if (!options.landmark_spacing.empty()) {
     if (options.landmark_spacing.size() != 2) {
-      return usage("--landmark-spacing takes 2 values MIN MAX, got " +
-                   std::to_string(options.landmark_spacing.size()));
+      return Status::InvalidArgument("--landmark-spacing takes 2 values MIN MAX, got " +
+                                     std::to_string(options.landmark_spacing.size()));
     }
     simulator.min_landmark_spacing = options.landmark_spacing[0];
     simulator.max_landmark_spacing = options.landmark_spacing[1];
@@ -158,38 +155,59 @@ int RunSimulateCommand(const SimulateCommandOptions& options) {
   // Pose and feature ids share one id space (g2o): feature ids start at 10^6,
   // or at the first power of ten not below the pose count for larger runs.
   while (simulator.feature_id_base < simulator.poses) simulator.feature_id_base *= 10;
-  if (Status status = simulator.Validate(); !status.ok()) return usage(status.message());
+  GS_RETURN_IF_ERROR(simulator.Validate());
+  return simulator;
+}
 
-  if (Status status = storage::Env::Default()->CreateDir(options.output_dir); !status.ok())
-    return fail(status);
-  if (storage::Env::Default()->KindOf(options.output_dir) != storage::FileKind::kDirectory) {
-    return fail(Status::IOError(options.output_dir + " is not a folder"));
+// --streaming: the world generated per street segment, the log written as
+// the robot drives.
+int RunStreaming(const SimulateCommandOptions& options, const CampusSimulatorOptions& simulator) {
+  if (options.format != "native") return Usage("--streaming writes the native format only");
+  StreamingCampusSummary summary;
+  if (Status status = SimulateCampusStreaming(simulator, options.output_dir, &summary,
+                                              options.compress ? kLogZstdLevel : 0);
+      !status.ok())
+    return Fail(status);
+  if (!options.quiet) {
+    std::printf(
+        "Simulated (streaming) a campus of %d x %d intersections (seed %u) with %lld "
+        "landmarks (%lld observed); %lld poses in %d run(s) over %.0f m, %lld motion controls, "
+        "%lld range-bearing observations, %lld GPS fixes. Wrote %s.\n",
+        summary.grid_columns, summary.grid_rows, simulator.seed,
+        static_cast<long long>(summary.landmarks),
+        static_cast<long long>(summary.observed_features), static_cast<long long>(summary.poses),
+        simulator.runs, summary.distance_travelled, static_cast<long long>(summary.motions),
+        static_cast<long long>(summary.observations), static_cast<long long>(summary.gps),
+        options.output_dir.c_str());
   }
+  return kExitOk;
+}
 
-  if (options.streaming) {
-    if (options.format != "native") return usage("--streaming writes the native format only");
-    StreamingCampusSummary summary;
-    if (Status status = SimulateCampusStreaming(simulator, options.output_dir, &summary,
-                                                options.compress ? kLogZstdLevel : 0);
-        !status.ok())
-      return fail(status);
-    if (!options.quiet) {
-      std::printf(
-          "Simulated (streaming) a campus of %d x %d intersections (seed %u) with %lld "
-          "landmarks (%lld observed); %lld poses in %d run(s) over %.0f m, %lld motion controls, "
-          "%lld range-bearing observations, %lld GPS fixes. Wrote %s.\n",
-          summary.grid_columns, summary.grid_rows, simulator.seed,
-          static_cast<long long>(summary.landmarks),
-          static_cast<long long>(summary.observed_features), static_cast<long long>(summary.poses),
-          simulator.runs, summary.distance_travelled, static_cast<long long>(summary.motions),
-          static_cast<long long>(summary.observations), static_cast<long long>(summary.gps),
-          options.output_dir.c_str());
-    }
-    return kExitOk;
-  }
-  if (options.compress) return usage("--compress needs --streaming");
+void PrintCampusSummary(const CampusSimulatorOptions& sim, const SimulatedCampus& campus,
+                        const std::string& measurements, const std::string& tum,
+                        const std::string& features) {
+  const core::Problem2d& problem = campus.problem;
+  const double width = (campus.grid_columns - 1) * sim.block_size;
+  const double height = (campus.grid_rows - 1) * sim.block_size;
+  std::printf(
+      "Simulated a campus of %d x %d intersections (%.0f m x %.0f m, %.0f m blocks, seed %u) "
+      "with %d landmarks (%lld observed); %d poses in %d run(s) over %.0f m of driving, "
+      "%zu motion controls, %zu range-bearing observations (%.1f per pose), %zu GPS fixes. "
+      "Wrote %s, %s and %s.\n",
+      campus.grid_columns, campus.grid_rows, width, height, sim.block_size, sim.seed,
+      problem.num_features(), static_cast<long long>(campus.observed_features),
+      problem.num_poses(), sim.runs, campus.distance_travelled, problem.motions.size(),
+      problem.observations.size(),
+      static_cast<double>(problem.observations.size()) / problem.num_poses(), problem.gps.size(),
+      measurements.c_str(), tum.c_str(), features.c_str());
+}
+
+// The whole campus in memory, then the measurements (native log or g2o) and
+// the ground truth (TUM trajectory, features CSV).
+int RunInMemory(const SimulateCommandOptions& options, const CampusSimulatorOptions& simulator) {
+  if (options.compress) return Usage("--compress needs --streaming");
   StatusOr<SimulatedCampus> simulated = SimulateCampus(simulator);
-  if (!simulated.ok()) return fail(simulated.status());
+  if (!simulated.ok()) return Fail(simulated.status());
   SimulatedCampus campus = std::move(simulated).value();
 
   const std::filesystem::path folder(options.output_dir);
@@ -201,27 +219,33 @@ int RunSimulateCommand(const SimulateCommandOptions& options) {
   const Status written = options.format == "g2o"
                              ? storage::WriteG2o(campus.problem, measurements)
                              : storage::WriteNativeLog(campus.problem, measurements);
-  if (!written.ok()) return fail(written);
-  if (Status status = WriteGroundTruth(&campus, tum, features); !status.ok()) return fail(status);
-
-  if (!options.quiet) {
-    const CampusSimulatorOptions& sim = simulator;
-    const core::Problem2d& problem = campus.problem;
-    const double width = (campus.grid_columns - 1) * sim.block_size;
-    const double height = (campus.grid_rows - 1) * sim.block_size;
-    std::printf(
-        "Simulated a campus of %d x %d intersections (%.0f m x %.0f m, %.0f m blocks, seed %u) "
-        "with %d landmarks (%lld observed); %d poses in %d run(s) over %.0f m of driving, "
-        "%zu motion controls, %zu range-bearing observations (%.1f per pose), %zu GPS fixes. "
-        "Wrote %s, %s and %s.\n",
-        campus.grid_columns, campus.grid_rows, width, height, sim.block_size, sim.seed,
-        problem.num_features(), static_cast<long long>(campus.observed_features),
-        problem.num_poses(), sim.runs, campus.distance_travelled, problem.motions.size(),
-        problem.observations.size(),
-        static_cast<double>(problem.observations.size()) / problem.num_poses(),
-        problem.gps.size(), measurements.c_str(), tum.c_str(), features.c_str());
-  }
+  if (!written.ok()) return Fail(written);
+  if (Status status = WriteGroundTruth(&campus, tum, features); !status.ok()) return Fail(status);
+  if (!options.quiet) PrintCampusSummary(simulator, campus, measurements, tum, features);
   return kExitOk;
+}
+
+}  // namespace
+
+int RunSimulateCommand(const SimulateCommandOptions& options) {
+  SetLogVerbosity(options.verbosity);
+  SetQuietLogging(options.quiet);
+  if (options.output_dir.empty()) return Usage("no output folder given (-o DIR)");
+  if (options.sim3d.enabled) {
+    return RunSimulate3dCommand(options.output_dir, options.sim3d, options.simulator.seed,
+                                options.quiet);
+  }
+  if (options.format != "native" && options.format != "g2o") {
+    return Usage("--format must be 'native' or 'g2o', got '" + options.format + "'");
+  }
+  StatusOr<CampusSimulatorOptions> simulator = SimulatorOptions(options);
+  if (!simulator.ok()) return Usage(simulator.status().message());
+  if (Status status = storage::Env::Default()->CreateDir(options.output_dir); !status.ok())
+    return Fail(status);
+  if (storage::Env::Default()->KindOf(options.output_dir) != storage::FileKind::kDirectory) {
+    return Fail(Status::IOError(options.output_dir + " is not a folder"));
+  }
+  return options.streaming ? RunStreaming(options, *simulator) : RunInMemory(options, *simulator);
 }
 
 }  // namespace graphslam::tools

@@ -2,8 +2,9 @@
 // 2-D (tools/pipeline/solve_2d.cc) and the 3-D (tools/pipeline/solve_3d.cc)
 // steps share: the solver's outcome, the feature partition, timings,
 // resources and one entry per Levenberg-Marquardt iteration
-// (docs/formats/report.md lists the keys). Each branch adds its own counts
-// (constraints, residual dimension, unknowns) and stage timings.
+// (docs/cli.md, "The report", lists the keys). The solve path
+// (tools/pipeline/solve_path.h) adds the counts (constraints, residual
+// dimension, unknowns) and stage timings for both dimensions.
 //
 // THREAD SAFETY: plain functions. ALLOCATION: O(iterations).
 #pragma once

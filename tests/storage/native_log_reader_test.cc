@@ -11,6 +11,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <string>
+#include <vector>
 
 namespace graphslam::storage {
 namespace {
@@ -281,6 +283,35 @@ TEST(NativeLogReader, RoundTripIsExact) {
   EXPECT_EQ(back->pose_range_bearings[0].z, problem.pose_range_bearings[0].z);
   EXPECT_EQ(back->pose_range_bearings[0].information,
             problem.pose_range_bearings[0].information);
+}
+
+// The writer's lines as docs/formats/native_log.md gives them: the header,
+// the provenance comment, then one record a line with single spaces between
+// the fields and none before the first.
+TEST(NativeLogReader, WrittenLinesHaveTheSpecLayout) {
+  const std::string input = WriteTemp("layout_in.log", kExample);
+  const auto problem = ReadNativeLog(input);
+  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+  const std::string path = TempPath("layout_out.log");
+  ASSERT_TRUE(WriteNativeLog(*problem, path).ok());
+  std::ifstream in(path);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  ASSERT_GE(lines.size(), 3u);
+  EXPECT_EQ(lines[0], "GRAPHSLAM_LOG " + std::to_string(kNativeLogVersion));
+  EXPECT_EQ(lines[1], "# written by graphslam from " + input +
+                          " (spec: docs/formats/native_log.md)");
+  EXPECT_THAT(lines, ::testing::Contains("FIX 0"));
+  for (const std::string& line : lines) {
+    ASSERT_FALSE(line.empty());
+    EXPECT_NE(line.front(), ' ') << line;
+    EXPECT_EQ(line.find("  "), std::string::npos) << line;
+  }
+  // One line a record (one pose is fixed) after the two header lines.
+  const core::Problem2d& p = *problem;
+  EXPECT_EQ(lines.size(), 2 + p.poses.size() + p.features.size() + 1 + p.motions.size() +
+                              p.relative_poses.size() + p.observations.size() + p.gps.size() +
+                              p.pose_range_bearings.size());
 }
 
 TEST(NativeLogReader, RejectsBadHeaders) {

@@ -367,6 +367,72 @@ void UpdateComponents(JobData* data) {
   SetGauge(data);
 }
 
+namespace {
+
+// GPS fixes per run of the block.
+std::vector<int64_t> GpsFixesPerRun(const Block& block) {
+  std::vector<int64_t> fixes(block.runs.size(), 0);
+  std::vector<size_t> run_of_pose;
+  for (size_t r = 0; r < block.runs.size(); ++r)
+    run_of_pose.insert(run_of_pose.end(), static_cast<size_t>(block.runs[r].second), r);
+  for (const core::GpsConstraint& gps : block.problem.gps)
+    ++fixes[run_of_pose[static_cast<size_t>(gps.pose)]];
+  return fixes;
+}
+
+// The block's runs, from pose `first` of data->problem on; a run name used
+// twice is an error naming the spec's line.
+Status AddRuns(const JobSpec& job, const RunSpec& spec, const Block& block, int32_t first,
+               JobData* data) {
+  const bool unidentified = core::CountUnidentifiedObservations(block.problem).count > 0;
+  const std::vector<int64_t> fixes = GpsFixesPerRun(block);
+  const bool synthetic_time =
+      spec.format == "simulate" ||
+      !std::all_of(block.problem.pose_stamps.begin(), block.problem.pose_stamps.end(),
+                   [](double t) { return std::isfinite(t); });
+  for (size_t r = 0; r < block.runs.size(); ++r) {
+    RunInfo run;
+    run.name = block.runs[r].first;
+    run.first_pose = first;
+    run.num_poses = block.runs[r].second;
+    run.gps_fixes = fixes[r];
+    run.has_ground_truth = !block.ground_truth[r].empty();
+    run.synthetic_time = synthetic_time;
+    run.information_repairs = block.repairs;
+    if (run.has_ground_truth) data->ground_truth[run.name] = block.ground_truth[r];
+    run.indoor = block.indoor[r];
+    run.unidentified = unidentified;
+    run.unknown_barcodes_skipped = block.mrclam.unknown_barcodes_skipped;
+    run.unknown_barcode_lines = block.mrclam.unknown_barcode_lines;
+    first += run.num_poses;
+    for (const RunInfo& other : data->runs)
+      if (other.name == run.name)
+        return Status::InvalidArgument(job.path + ":" + std::to_string(spec.line) +
+                                       ": run name '" + run.name + "' is used twice");
+    data->runs.push_back(std::move(run));
+  }
+  return Status::Ok();
+}
+
+// Fresh ids for the features of unknown correspondence; pose ids 0..P-1,
+// past the feature ids if they would collide.
+void AssignIds(core::Problem2d* problem) {
+  int64_t next = 0;
+  for (int64_t id : problem->feature_ids) next = std::max(next, id + 1);
+  for (int64_t& id : problem->feature_ids)
+    if (id == core::kNoFeatureId) id = next++;
+  int64_t base = 0;
+  for (int64_t id : problem->feature_ids)
+    if (id >= 0 && id < problem->num_poses()) {
+      base = *std::max_element(problem->feature_ids.begin(), problem->feature_ids.end()) + 1;
+      break;
+    }
+  for (int32_t i = 0; i < problem->num_poses(); ++i)
+    problem->pose_ids[static_cast<size_t>(i)] = base + i;
+}
+
+}  // namespace
+
 StatusOr<JobData> LoadJobData(const JobSpec& job) {
   JobData data;
   data.problem.source = job.path;
@@ -380,7 +446,6 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
       StripIds(&block.problem);
       block.ground_truth_features.clear();
     }
-    const bool unidentified = core::CountUnidentifiedObservations(block.problem).count > 0;
     if (spec.gps) {
       if (block.runs.size() != 1)
         return Status::InvalidArgument(job.path + ":" + std::to_string(spec.gps->line) +
@@ -388,66 +453,19 @@ StatusOr<JobData> LoadJobData(const JobSpec& job) {
       GS_RETURN_IF_ERROR(
           AttachGps(*spec.gps, 0, block.problem.num_poses(), &data.enu_origin, &block.problem));
     }
-    // GPS fixes per run of the block.
-    std::vector<int64_t> fixes(block.runs.size(), 0);
-    {
-      std::vector<size_t> run_of_pose;
-      for (size_t r = 0; r < block.runs.size(); ++r)
-        run_of_pose.insert(run_of_pose.end(), static_cast<size_t>(block.runs[r].second), r);
-      for (const core::GpsConstraint& gps : block.problem.gps)
-        ++fixes[run_of_pose[static_cast<size_t>(gps.pose)]];
-    }
-    int32_t first = data.problem.num_poses();
-    const bool synthetic_time =
-        spec.format == "simulate" ||
-        !std::all_of(block.problem.pose_stamps.begin(), block.problem.pose_stamps.end(),
-                     [](double t) { return std::isfinite(t); });
+    const int32_t first = data.problem.num_poses();
     if (!block.sightings.dataset.empty()) {
       block.sightings.first_pose = first;
       block.sightings.num_poses = block.problem.num_poses();
       sightings.push_back(std::move(block.sightings));
     }
     Append(block.problem, &feature_index, &data.problem);
-    for (size_t r = 0; r < block.runs.size(); ++r) {
-      RunInfo run;
-      run.name = block.runs[r].first;
-      run.first_pose = first;
-      run.num_poses = block.runs[r].second;
-      run.gps_fixes = fixes[r];
-      run.has_ground_truth = !block.ground_truth[r].empty();
-      run.synthetic_time = synthetic_time;
-      run.information_repairs = block.repairs;
-      if (run.has_ground_truth) data.ground_truth[run.name] = block.ground_truth[r];
-      run.indoor = block.indoor[r];
-      run.unidentified = unidentified;
-      run.unknown_barcodes_skipped = block.mrclam.unknown_barcodes_skipped;
-      run.unknown_barcode_lines = block.mrclam.unknown_barcode_lines;
-      first += run.num_poses;
-      for (const RunInfo& other : data.runs)
-        if (other.name == run.name)
-          return Status::InvalidArgument(job.path + ":" + std::to_string(spec.line) +
-                                         ": run name '" + run.name + "' is used twice");
-      data.runs.push_back(std::move(run));
-    }
+    GS_RETURN_IF_ERROR(AddRuns(job, spec, block, first, &data));
     data.ground_truth_features.insert(block.ground_truth_features.begin(),
                                       block.ground_truth_features.end());
   }
   core::Problem2d& problem = data.problem;
-  // Fresh ids for the features of unknown correspondence.
-  {
-    int64_t next = 0;
-    for (int64_t id : problem.feature_ids) next = std::max(next, id + 1);
-    for (int64_t& id : problem.feature_ids)
-      if (id == core::kNoFeatureId) id = next++;
-  }
-  // Pose ids: 0..P-1, past the feature ids if they would collide.
-  int64_t base = 0;
-  for (int64_t id : problem.feature_ids)
-    if (id >= 0 && id < problem.num_poses()) {
-      base = *std::max_element(problem.feature_ids.begin(), problem.feature_ids.end()) + 1;
-      break;
-    }
-  for (int32_t i = 0; i < problem.num_poses(); ++i) problem.pose_ids[static_cast<size_t>(i)] = base + i;
+  AssignIds(&problem);
   if (job.robot_sightings)
     data.sightings = AddRobotSightings(sightings, kDefaultSightingMaxTimeDifference,
                                        kDefaultSightingMaxInterpolationGap, &problem);
@@ -558,110 +576,153 @@ void Apply(const Eigen::Isometry2d& t, core::Pose2* pose) {
 
 }  // namespace
 
-int AlignRunFrames(const JobData& data, int32_t component, core::Problem2d* sub) {
-  // The runs of the component and their pose ranges in `sub`.
-  std::vector<std::pair<int32_t, int32_t>> ranges;  // first, count
-  int32_t next = 0;
-  for (const RunInfo& run : data.runs) {
-    if (run.component != component) continue;
-    ranges.emplace_back(next, run.num_poses);
-    next += run.num_poses;
-  }
-  if (next != sub->num_poses()) return 0;
-  const size_t num_runs = ranges.size();
-  std::vector<int32_t> run_of_pose(static_cast<size_t>(sub->num_poses()));
-  for (size_t r = 0; r < num_runs; ++r)
-    for (int32_t i = 0; i < ranges[r].second; ++i)
-      run_of_pose[static_cast<size_t>(ranges[r].first + i)] = static_cast<int32_t>(r);
-  const auto num_features = static_cast<size_t>(sub->num_features());
-  // First observation of each feature overall (its run owns the feature's
-  // guess) and by each run (for the correspondences).
-  std::vector<int32_t> first_run(num_features, -1);
-  std::vector<std::vector<int64_t>> first_by_run(num_runs, std::vector<int64_t>(num_features, -1));
-  for (size_t k = 0; k < sub->observations.size(); ++k) {
-    const core::Observation& o = sub->observations[k];
-    const auto f = static_cast<size_t>(o.feature);
-    const auto r = static_cast<size_t>(run_of_pose[static_cast<size_t>(o.pose)]);
-    if (first_run[f] < 0) first_run[f] = static_cast<int32_t>(r);
-    if (first_by_run[r][f] < 0) first_by_run[r][f] = static_cast<int64_t>(k);
-  }
-  auto sight = [&](int64_t k) {
-    const core::Observation& o = sub->observations[static_cast<size_t>(k)];
-    return FirstSight(sub->poses[static_cast<size_t>(o.pose)], o);
-  };
-  auto move = [&](size_t r, const Eigen::Isometry2d& t) {
-    for (int32_t i = ranges[r].first; i < ranges[r].first + ranges[r].second; ++i)
-      Apply(t, &sub->poses[static_cast<size_t>(i)]);
-    for (size_t f = 0; f < num_features; ++f)
-      if (first_run[f] == static_cast<int32_t>(r)) sub->features[f] = t * sub->features[f];
-  };
-  std::vector<uint8_t> placed(num_runs, 0);
-  int moved = 0;
-  // GPS: a run with >= 2 fixes goes onto them.
-  for (size_t r = 0; r < num_runs; ++r) {
-    std::vector<core::Point2> own, reference;
-    for (const core::GpsConstraint& gps : sub->gps) {
-      if (run_of_pose[static_cast<size_t>(gps.pose)] != static_cast<int32_t>(r)) continue;
-      own.push_back(sub->poses[static_cast<size_t>(gps.pose)].head<2>());
-      reference.push_back(gps.z);
+namespace {
+
+// AlignRunFrames' state: the component's runs as pose ranges of `sub`, the
+// first observation of each feature overall (its run owns the feature's
+// guess) and by each run (for the correspondences), and which runs are
+// placed.
+class RunFrameAligner {
+ public:
+  explicit RunFrameAligner(core::Problem2d* sub) : sub_(sub) {}
+
+  // The runs of `component`; false if their poses are not all of `sub`.
+  bool Index(const JobData& data, int32_t component) {
+    int32_t next = 0;
+    for (const RunInfo& run : data.runs) {
+      if (run.component != component) continue;
+      ranges_.emplace_back(next, run.num_poses);
+      next += run.num_poses;
     }
-    if (own.size() < 2) continue;
-    move(r, AlignRigid(own, reference));
-    placed[r] = 1;
-    ++moved;
+    if (next != sub_->num_poses()) return false;
+    const size_t num_runs = ranges_.size();
+    run_of_pose_.resize(static_cast<size_t>(sub_->num_poses()));
+    for (size_t r = 0; r < num_runs; ++r)
+      for (int32_t i = 0; i < ranges_[r].second; ++i)
+        run_of_pose_[static_cast<size_t>(ranges_[r].first + i)] = static_cast<int32_t>(r);
+    num_features_ = static_cast<size_t>(sub_->num_features());
+    first_run_.assign(num_features_, -1);
+    first_by_run_.assign(num_runs, std::vector<int64_t>(num_features_, -1));
+    for (size_t k = 0; k < sub_->observations.size(); ++k) {
+      const core::Observation& o = sub_->observations[k];
+      const auto f = static_cast<size_t>(o.feature);
+      const auto r = static_cast<size_t>(run_of_pose_[static_cast<size_t>(o.pose)]);
+      if (first_run_[f] < 0) first_run_[f] = static_cast<int32_t>(r);
+      if (first_by_run_[r][f] < 0) first_by_run_[r][f] = static_cast<int64_t>(k);
+    }
+    placed_.assign(num_runs, 0);
+    return true;
   }
-  if (std::find(placed.begin(), placed.end(), 1) == placed.end() && num_runs > 0) placed[0] = 1;
-  // Landmarks and robot sightings shared with placed runs.
-  auto correspondences = [&](size_t r, std::vector<core::Point2>* own,
-                             std::vector<core::Point2>* reference) {
+
+  // GPS: a run with >= 2 fixes goes onto them. Returns the runs moved.
+  int PlaceOnGps() {
+    int moved = 0;
+    for (size_t r = 0; r < ranges_.size(); ++r) {
+      std::vector<core::Point2> own, reference;
+      for (const core::GpsConstraint& gps : sub_->gps) {
+        if (run_of_pose_[static_cast<size_t>(gps.pose)] != static_cast<int32_t>(r)) continue;
+        own.push_back(sub_->poses[static_cast<size_t>(gps.pose)].head<2>());
+        reference.push_back(gps.z);
+      }
+      if (own.size() < 2) continue;
+      Move(r, AlignRigid(own, reference));
+      placed_[r] = 1;
+      ++moved;
+    }
+    return moved;
+  }
+
+  // Greedily, the unplaced run with the most landmarks and robot sightings
+  // shared with placed runs next (the first run is the frame when no run
+  // was placed on GPS). Returns the runs moved.
+  int PlaceByCorrespondences() {
+    const size_t num_runs = ranges_.size();
+    if (std::find(placed_.begin(), placed_.end(), 1) == placed_.end() && num_runs > 0)
+      placed_[0] = 1;
+    int moved = 0;
+    std::vector<core::Point2> own, reference;
+    for (;;) {
+      size_t best = num_runs, best_count = 1;
+      for (size_t r = 0; r < num_runs; ++r) {
+        if (placed_[r]) continue;
+        Correspondences(r, &own, &reference);
+        if (own.size() > best_count) {
+          best = r;
+          best_count = own.size();
+        }
+      }
+      if (best == num_runs) break;
+      Correspondences(best, &own, &reference);
+      Move(best, AlignRigid(own, reference));
+      placed_[best] = 1;
+      ++moved;
+    }
+    return moved;
+  }
+
+ private:
+  core::Point2 Sight(int64_t k) const {
+    const core::Observation& o = sub_->observations[static_cast<size_t>(k)];
+    return FirstSight(sub_->poses[static_cast<size_t>(o.pose)], o);
+  }
+
+  void Move(size_t r, const Eigen::Isometry2d& t) {
+    for (int32_t i = ranges_[r].first; i < ranges_[r].first + ranges_[r].second; ++i)
+      Apply(t, &sub_->poses[static_cast<size_t>(i)]);
+    for (size_t f = 0; f < num_features_; ++f)
+      if (first_run_[f] == static_cast<int32_t>(r)) sub_->features[f] = t * sub_->features[f];
+  }
+
+  // Run r's points against the placed runs' for the same landmark or robot.
+  void Correspondences(size_t r, std::vector<core::Point2>* own,
+                       std::vector<core::Point2>* reference) const {
     own->clear();
     reference->clear();
-    for (size_t f = 0; f < num_features; ++f) {
-      if (first_by_run[r][f] < 0) continue;
-      for (size_t q = 0; q < num_runs; ++q) {
-        if (!placed[q] || first_by_run[q][f] < 0) continue;
-        own->push_back(sight(first_by_run[r][f]));
-        reference->push_back(sight(first_by_run[q][f]));
+    for (size_t f = 0; f < num_features_; ++f) {
+      if (first_by_run_[r][f] < 0) continue;
+      for (size_t q = 0; q < ranges_.size(); ++q) {
+        if (!placed_[q] || first_by_run_[q][f] < 0) continue;
+        own->push_back(Sight(first_by_run_[r][f]));
+        reference->push_back(Sight(first_by_run_[q][f]));
         break;
       }
     }
-    for (const core::PoseRangeBearingConstraint& c : sub->pose_range_bearings) {
-      const auto observer = static_cast<size_t>(run_of_pose[static_cast<size_t>(c.from)]);
-      const auto observed = static_cast<size_t>(run_of_pose[static_cast<size_t>(c.to)]);
-      const core::Point2 seen = core::InvertRangeBearing(sub->poses[static_cast<size_t>(c.from)], c.z);
+    const std::vector<core::Pose2>& poses = sub_->poses;
+    for (const core::PoseRangeBearingConstraint& c : sub_->pose_range_bearings) {
+      const auto observer = static_cast<size_t>(run_of_pose_[static_cast<size_t>(c.from)]);
+      const auto observed = static_cast<size_t>(run_of_pose_[static_cast<size_t>(c.to)]);
+      const core::Point2 seen = core::InvertRangeBearing(poses[static_cast<size_t>(c.from)], c.z);
       const core::Point2 at =
           c.interpolated()
-              ? core::InterpolatePosition(sub->poses[static_cast<size_t>(c.to)],
-                                          sub->poses[static_cast<size_t>(c.to_next)], c.alpha)
-              : core::Point2(sub->poses[static_cast<size_t>(c.to)].head<2>());
-      if (observer == r && placed[observed]) {
+              ? core::InterpolatePosition(poses[static_cast<size_t>(c.to)],
+                                          poses[static_cast<size_t>(c.to_next)], c.alpha)
+              : core::Point2(poses[static_cast<size_t>(c.to)].head<2>());
+      if (observer == r && placed_[observed]) {
         own->push_back(seen);
         reference->push_back(at);
-      } else if (observed == r && placed[observer]) {
+      } else if (observed == r && placed_[observer]) {
         own->push_back(at);
         reference->push_back(seen);
       }
     }
-  };
-  // Greedily: the unplaced run with the most correspondences next.
-  std::vector<core::Point2> own, reference;
-  for (;;) {
-    size_t best = num_runs, best_count = 1;
-    for (size_t r = 0; r < num_runs; ++r) {
-      if (placed[r]) continue;
-      correspondences(r, &own, &reference);
-      if (own.size() > best_count) {
-        best = r;
-        best_count = own.size();
-      }
-    }
-    if (best == num_runs) break;
-    correspondences(best, &own, &reference);
-    move(best, AlignRigid(own, reference));
-    placed[best] = 1;
-    ++moved;
   }
-  return moved;
+
+  core::Problem2d* const sub_;
+  std::vector<std::pair<int32_t, int32_t>> ranges_;  // per run: first pose, count
+  std::vector<int32_t> run_of_pose_;
+  size_t num_features_ = 0;
+  std::vector<int32_t> first_run_;
+  std::vector<std::vector<int64_t>> first_by_run_;
+  std::vector<uint8_t> placed_;
+};
+
+}  // namespace
+
+int AlignRunFrames(const JobData& data, int32_t component, core::Problem2d* sub) {
+  RunFrameAligner aligner(sub);
+  if (!aligner.Index(data, component)) return 0;
+  const int on_gps = aligner.PlaceOnGps();
+  return on_gps + aligner.PlaceByCorrespondences();
 }
 
 void RemoveGps(JobData* data) {

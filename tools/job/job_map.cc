@@ -249,6 +249,51 @@ Status OpenScanParts(const JobSpec& spec, const JobData& data, const std::string
   return Status::Ok();
 }
 
+// The map options of one component's map STEM.{bt,pcd} in `work`: the
+// job's resolution, range and voxel, and what --memory-limit leaves beside
+// the problem (tools/job/job_memory_budget.h).
+StatusOr<map::MapOptions> ComponentMapOptions(const JobSpec& spec, const JobData& data,
+                                              const std::string& work, const std::string& stem) {
+  map::MapOptions options;
+  options.fusion.resolution = spec.map.resolution;
+  options.fusion.max_range = spec.map.max_range;
+  options.bt_path = (fs::path(work) / (stem + ".bt")).string();
+  options.pcd_path = (fs::path(work) / (stem + ".pcd")).string();
+  options.pcd_voxel = spec.map.pcd_voxel;
+  if (spec.memory_limit > 0) {
+    GS_ASSIGN_OR_RETURN(const JobBudget budget,
+                        BudgetJob(spec.memory_limit, JobSizeOf(spec, data.problem)));
+    options.memory_budget_bytes = budget.map_tile_bytes;
+    options.batch_points = budget.map_batch_points;
+  }
+  return options;
+}
+
+// One map's entry of map.json.
+json MapEntry(int32_t component, const JobData& data, const map::MapSummary& summary,
+              const map::MapOptions& options, const json& map_files) {
+  json runs = json::array();
+  for (const RunInfo& run : data.runs)
+    if (run.component == component) runs.push_back(run.name);
+  return {{"component", component},
+          {"runs", runs},
+          {"scans", summary.scans},
+          {"points", summary.points},
+          {"pcd_points", summary.pcd_points},
+          {"occupied_leaves", summary.occupied_leaves},
+          {"free_leaves", summary.free_leaves},
+          {"tiles", summary.tiles},
+          {"tiled_output", summary.tiled_output},
+          {"tree_bytes", summary.tree_bytes},
+          {"memory_budget_bytes", options.memory_budget_bytes},
+          {"batch_points", options.batch_points},
+          {"resolution_m", options.fusion.resolution},
+          {"max_range_m", options.fusion.max_range},
+          {"fusion_seconds", summary.fusion_seconds},
+          {"points_per_second", summary.points_per_second},
+          {"files", map_files}};
+}
+
 }  // namespace
 
 StatusOr<json> BuildJobMap(const JobSpec& spec, const JobData& data, const std::string& work,
@@ -272,19 +317,8 @@ StatusOr<json> BuildJobMap(const JobSpec& spec, const JobData& data, const std::
     JobScanSource source(std::move(parts), &data.runs, component, display);
     parts.clear();
 
-    map::MapOptions options;
-    options.fusion.resolution = spec.map.resolution;
-    options.fusion.max_range = spec.map.max_range;
-    options.bt_path = (fs::path(work) / (stem + ".bt")).string();
-    options.pcd_path = (fs::path(work) / (stem + ".pcd")).string();
-    options.pcd_voxel = spec.map.pcd_voxel;
-    if (spec.memory_limit > 0) {
-      // What the limit leaves beside the problem (tools/job/job_memory_budget.h).
-      GS_ASSIGN_OR_RETURN(const JobBudget budget,
-                          BudgetJob(spec.memory_limit, JobSizeOf(spec, data.problem)));
-      options.memory_budget_bytes = budget.map_tile_bytes;
-      options.batch_points = budget.map_batch_points;
-    }
+    GS_ASSIGN_OR_RETURN(const map::MapOptions options,
+                        ComponentMapOptions(spec, data, work, stem));
     // A restart after kill -9 starts from nothing: no stale spill or tiles.
     for (const char* scratch : {".spill", ".tiles"})
       GS_RETURN_IF_ERROR(
@@ -297,26 +331,7 @@ StatusOr<json> BuildJobMap(const JobSpec& spec, const JobData& data, const std::
     map_files.push_back(summary->tiled_output ? stem + ".tiles/" : stem + ".bt");
     map_files.push_back(stem + ".pcd");
     for (const json& f : map_files) files.push_back(f);
-    json runs = json::array();
-    for (const RunInfo& run : data.runs)
-      if (run.component == component) runs.push_back(run.name);
-    maps.push_back({{"component", component},
-                    {"runs", runs},
-                    {"scans", summary->scans},
-                    {"points", summary->points},
-                    {"pcd_points", summary->pcd_points},
-                    {"occupied_leaves", summary->occupied_leaves},
-                    {"free_leaves", summary->free_leaves},
-                    {"tiles", summary->tiles},
-                    {"tiled_output", summary->tiled_output},
-                    {"tree_bytes", summary->tree_bytes},
-                    {"memory_budget_bytes", options.memory_budget_bytes},
-                    {"batch_points", options.batch_points},
-                    {"resolution_m", options.fusion.resolution},
-                    {"max_range_m", options.fusion.max_range},
-                    {"fusion_seconds", summary->fusion_seconds},
-                    {"points_per_second", summary->points_per_second},
-                    {"files", map_files}});
+    maps.push_back(MapEntry(component, data, *summary, options, map_files));
   }
   // The first map's figures at the top; every map (one per component with
   // scans) in `maps`; all files in `files`.

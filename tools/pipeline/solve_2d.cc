@@ -1,16 +1,17 @@
-// Steps 3-7 of RunSolve for a 2-D input (tools/pipeline/solve_pipeline.h):
+// The 2-D hooks of the solve path (tools/pipeline/solve_path.h: Hooks2d), in
+// the order RunSolvePath calls them:
 //
-//   LockStore        the locks, and a FILE ingested into --workdir
-//   ReadInput        a chunk store (poses; observations loaded unless it
-//                    streams) or a file in its format
+//   ReadInput        LockStore (the locks, and a FILE ingested into
+//                    --workdir), then a chunk store (poses; observations
+//                    loaded unless it streams) or a file in its format
 //   InitializeGuess  Table 1, or as-given's check
-//   ConfigureSolver  chunks, progress, chunks in flight, checkpoint, resume
-//   TryOdometry      --initialization auto: the solve from Table 1's guess,
-//                    kept if it converged
-//   ImproveGuess     progressive or pose-graph initialization
-//   AttachCheckpoints  resume state, streaming scratch files, the callback
+//   ConfigureChunks  the chunk source, the --memory-limit budget
+//   ImproveGuess     TryOdometry (--initialization auto: the solve from
+//                    Table 1's guess, kept if it converged), then ImproveGuess
+//                    (incremental, progressive or pose-graph initialization)
+//   PrepareCheckpoints  streaming scratch files beside the checkpoint
 //   Optimize         association, the MPI solve, or SolveGraphSlam
-//   WriteOutputs     -o, --tum, --features-csv, --report, the summary
+//   AddReport, PrintDetails  the report's and summary's 2-D parts
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -46,6 +47,7 @@
 #include "tools/exit_codes.h"
 #include "tools/memory_budget.h"
 #include "tools/out_of_core_solve.h"
+#include "tools/pipeline/solve_path.h"
 #include "tools/pipeline/solve_run.h"
 #include "tools/progress_display.h"
 #include "tools/resource_usage.h"
@@ -59,39 +61,24 @@ namespace {
 // (docs/benchmarks.md gives the lowest rho of each dataset's steps).
 constexpr double kAutoAbandonRho = 0.25;
 
-// Everything one 2-D solve holds, in the order the steps fill it.
-struct Solve2d {
+// What a 2-D solve holds beyond SolveState (tools/pipeline/solve_path.h), in
+// the order the steps fill it.
+struct Solve2d : SolveState<core::Space2d> {
   storage::DirectoryLock lock;  // held to the end
   std::string store_path;       // the store solved from ("": a file in memory)
   std::unique_ptr<storage::DiskChunkSource> store;
-  core::Problem2d problem;
-  const char* format_name = "chunk-store";
   storage::MrclamReadStats mrclam_stats;  // an MRCLAM input's skipped records
-  core::InformationRepairs repairs;       // --repair-information
-  bool streaming = false;  // observations stay on disk; the ingest's guess starts
-  int64_t num_observations = 0;
-  double read_seconds = 0, initialize_seconds = 0, progressive_seconds = 0;
-  double initialization_cpu_seconds = 0;  // of the initializer that improved the guess
   partition::IncrementalSummary incremental_summary;
 
-  std::unique_ptr<tbb::global_control> threads;
   std::unique_ptr<partition::InMemoryChunkSource> in_memory;
-  const core::ChunkSource* chunks = nullptr;
-  std::unique_ptr<ProgressDisplay> display;
-  core::SolverOptions solver;
-  std::string checkpoint_path;
-  core::SolverCheckpoint resume_state;
-  bool resuming = false;
   std::unique_ptr<storage::CandidateFile> candidate_file;
   std::unique_ptr<storage::FeatureIdFile> id_file;
 
   // --initialization auto's solve from odometry.
   bool probe = false, probe_solved = false;
-  double input_chi2 = std::numeric_limits<double>::quiet_NaN();
   nlohmann::json probe_report;
-  double probe_seconds = 0, probe_cpu_seconds = 0, optimize_cpu_seconds = 0;
+  double probe_seconds = 0, probe_cpu_seconds = 0;
 
-  core::SolverSummary summary;
   partition::AssociationOptions association;
   partition::AssociationSummary association_summary;
   nlohmann::json distributed_report = nlohmann::json::object();
@@ -288,20 +275,14 @@ Status InitializeGuess(const SolveRun& run, Solve2d& s) {
   return Status::Ok();
 }
 
-// The chunks, the solver options, and the checkpoint to write or resume
-// from (one durable file, replaced atomically after every iteration; --resume
-// continues from it bit-identical to an uninterrupted solve).
-Status ConfigureSolver(const SolveRun& run, Solve2d& s) {
+// The chunks (the store, or cut from the problem in memory) and what the
+// --memory-limit budget allows: the chunks in flight and CHOLMOD's factor.
+Status ConfigureChunks(const SolveRun& run, Solve2d& s) {
   const SolveCommandOptions& options = run.options;
-  s.threads = LimitThreads(options.threads);
   partition::ChunkingOptions chunking;
   chunking.max_observations_per_chunk = options.chunk_observations;
   if (!s.store) s.in_memory = std::make_unique<partition::InMemoryChunkSource>(s.problem, chunking);
   s.chunks = s.store ? static_cast<const core::ChunkSource*>(s.store.get()) : s.in_memory.get();
-  s.display = std::make_unique<ProgressDisplay>(!run.quiet);
-  s.solver = run.request.solver;
-  s.solver.progress = s.display->AsCallback();
-  s.solver.iteration_callback = s.display->AsIterationCallback();
   const SolveSize size{s.problem.num_poses(), s.problem.num_features(), s.num_observations,
                        s.store ? LargestChunk(*s.store) : options.chunk_observations,
                        s.streaming, s.store ? ProblemFileBytes(*s.store) : 0};
@@ -322,21 +303,6 @@ Status ConfigureSolver(const SolveRun& run, Solve2d& s) {
                                      default_in_flight](double factor_bytes) {
       return CheckCholmodFactor(limit, size, default_in_flight, factor_bytes);
     };
-  s.checkpoint_path = options.checkpoint;
-  if (s.checkpoint_path.empty() && s.store && !options.associate)
-    s.checkpoint_path = s.store_path + "/checkpoint.json";
-  // Under mpirun rank 0 reads it and broadcasts it (docs/distributed.md).
-  s.resuming =
-      run.root && options.resume && storage::Env::Default()->FileExists(s.checkpoint_path);
-  if (s.resuming) {
-    GS_ASSIGN_OR_RETURN(s.resume_state,
-                        storage::ReadSolverCheckpoint(s.checkpoint_path, options.input));
-    GS_LOG(INFO, "resuming from %s after iteration %d (chi2 %.9g)", s.checkpoint_path.c_str(),
-           s.resume_state.iterations, s.resume_state.chi2);
-  } else if (options.resume && run.root) {
-    GS_LOG(WARNING, "no checkpoint at %s yet: starting from the beginning",
-           s.checkpoint_path.c_str());
-  }
   return Status::Ok();
 }
 
@@ -449,41 +415,30 @@ Status ImproveGuess(const SolveRun& run, Solve2d& s) {
   return Status::Ok();
 }
 
-Status AttachCheckpoints(const SolveRun& run, Solve2d& s) {
-  if (s.resuming) {
-    // The solve continues from these estimates: moved into the problem, not
-    // held twice (16 bytes per feature for the whole solve).
-    if (s.resume_state.features.size() == s.problem.features.size() &&
-        !s.problem.features.empty()) {
-      s.problem.features = std::move(s.resume_state.features);
-      s.resume_state.features = {};
-    }
-    s.solver.resume_from = &s.resume_state;
-  }
-  if (s.checkpoint_path.empty()) return Status::Ok();
-  // (Not under mpirun: every rank would use the same scratch files.)
-  if (s.streaming && !run.distributed) {
-    // Streaming mode keeps no per-feature array of candidates (a scratch file
-    // beside the checkpoint, storage/candidate_file.h) and parks the feature
-    // ids there while it solves (8 B per feature, the passes' peak included;
-    // only the outputs read them, storage/feature_id_file.h); the
-    // checkpoint's feature estimates go to a binary file, not JSON arrays.
-    s.candidate_file = std::make_unique<storage::CandidateFile>(
-        storage::Env::Default(), s.checkpoint_path + ".candidates.bin");
-    s.solver.candidate_store = s.candidate_file.get();
-    s.id_file = std::make_unique<storage::FeatureIdFile>(storage::Env::Default(),
-                                                         s.checkpoint_path + ".ids.bin");
-    GS_RETURN_IF_ERROR(s.id_file->Park(&s.problem.feature_ids));
-  }
-  const std::string& input = run.options.input;
-  s.solver.checkpoint_callback = [&s, &input](const core::SolverCheckpoint& checkpoint) {
-    if (s.streaming)
-      return storage::WriteSolverCheckpointWithFeatureFile(storage::Env::Default(),
-                                                           s.checkpoint_path, input, checkpoint);
-    return storage::WriteSolverCheckpoint(storage::Env::Default(), s.checkpoint_path, input,
-                                          checkpoint);
-  };
-  return Status::Ok();
+// Before the checkpoint writer is attached (not under mpirun: every rank
+// would use the same scratch files): streaming mode keeps no per-feature
+// array of candidates (a scratch file beside the checkpoint,
+// storage/candidate_file.h) and parks the feature ids there while it solves
+// (8 B per feature, the passes' peak included; only the outputs read them,
+// storage/feature_id_file.h); the checkpoint's feature estimates go to a
+// binary file, not JSON arrays.
+Status PrepareCheckpoints(const SolveRun& run, Solve2d& s) {
+  if (!s.streaming || run.distributed) return Status::Ok();
+  s.candidate_file = std::make_unique<storage::CandidateFile>(
+      storage::Env::Default(), s.checkpoint_path + ".candidates.bin");
+  s.solver.candidate_store = s.candidate_file.get();
+  s.id_file = std::make_unique<storage::FeatureIdFile>(storage::Env::Default(),
+                                                       s.checkpoint_path + ".ids.bin");
+  return s.id_file->Park(&s.problem.feature_ids);
+}
+
+Status WriteCheckpoint(const Solve2d& s, const std::string& input,
+                       const core::SolverCheckpoint& checkpoint) {
+  if (s.streaming)
+    return storage::WriteSolverCheckpointWithFeatureFile(storage::Env::Default(),
+                                                         s.checkpoint_path, input, checkpoint);
+  return storage::WriteSolverCheckpoint(storage::Env::Default(), s.checkpoint_path, input,
+                                        checkpoint);
 }
 
 // Unknown correspondence (docs/association.md): merges, then the final
@@ -525,37 +480,11 @@ Status Optimize(const SolveRun& run, Solve2d& s) {
   return Status::Ok();
 }
 
-nlohmann::json ProblemReport(const SolveRun& run, const Solve2d& s, double total_seconds) {
-  const core::Problem2d& problem = s.problem;
-  const core::SolverSummary& summary = s.summary;
-  nlohmann::json report = SolverReport(run.options, summary, s.format_name, total_seconds);
-  report["poses"] = problem.num_poses();
-  report["features"] = problem.num_features();
-  report["observations"] = s.num_observations;
-  report["relative_pose_constraints"] = static_cast<int64_t>(problem.relative_poses.size());
-  report["motion_constraints"] = static_cast<int64_t>(problem.motions.size());
-  report["gps_constraints"] = static_cast<int64_t>(problem.gps.size());
-  report["robot_sighting_constraints"] = static_cast<int64_t>(problem.pose_range_bearings.size());
-  // Degrees of freedom: chi2 / (residual_dimension - unknowns) should be near 1
-  // when the noise is what the model says.
-  report["residual_dimension"] =
-      3 * static_cast<int64_t>(problem.relative_poses.size() + problem.motions.size()) +
-      2 * static_cast<int64_t>(problem.gps.size() + problem.pose_range_bearings.size()) +
-      2 * summary.observations_used;
-  report["unknowns"] =
-      3 * summary.unknown_poses + 2 * (summary.eliminated_features + summary.kept_features);
-  report["stage_seconds"] = {{"read", s.read_seconds},
-                             {"initialize", s.initialize_seconds},
-                             {"progressive_initialization", s.progressive_seconds},
-                             {"optimize", summary.seconds}};
-  report["streaming"] = s.streaming;
-  if (std::isfinite(s.input_chi2)) report["input_chi2"] = s.input_chi2;
-  return report;
-}
-
-nlohmann::json Report2d(const SolveRun& run, const Solve2d& s, double total_seconds) {
+// The report's 2-D keys (tools/pipeline/solve_path.h: SolveReport gives the
+// shared ones).
+void AddReport(const SolveRun& run, const Solve2d& s, nlohmann::json* report_out) {
   const SolveCommandOptions& options = run.options;
-  nlohmann::json report = ProblemReport(run, s, total_seconds);
+  nlohmann::json& report = *report_out;
   // -o renumbers features past the largest pose id when the ids collide
   // (storage/g2o_writer.h): the written id is the feature id plus this.
   if (!options.output_g2o.empty()) {
@@ -582,16 +511,6 @@ nlohmann::json Report2d(const SolveRun& run, const Solve2d& s, double total_seco
     report["odometry_attempt"] = s.probe_report;
     report["stage_seconds"]["odometry_attempt"] = s.probe_seconds;
   }
-  // CPU seconds (user + system, all threads) of the optimization and of the
-  // whole process so far: on a shared machine the cost, where wall time
-  // also counts the waits for a core.
-  report["optimize_cpu_seconds"] = s.optimize_cpu_seconds;
-  // Of the incremental, progressive or pose-graph initialization (its wall
-  // time is stage_seconds.progressive_initialization).
-  report["initialization_cpu_seconds"] = s.initialization_cpu_seconds;
-  report["cpu_seconds"] = ProcessCpuSeconds();
-  report["chunks_in_flight"] = s.solver.max_chunks_in_flight;
-  report["memory_limit_bytes"] = run.request.memory_limit_bytes;
   if (s.store) report["store"] = s.store_path;
   if (run.distributed) report["distributed"] = s.distributed_report["distributed"];
   if (s.format_name == std::string_view("mrclam"))
@@ -600,11 +519,8 @@ nlohmann::json Report2d(const SolveRun& run, const Solve2d& s, double total_seco
         {"out_of_time_range_dropped", s.mrclam_stats.out_of_time_range_dropped},
         {"unknown_barcodes_skipped", s.mrclam_stats.unknown_barcodes_skipped},
         {"unknown_barcode_lines", s.mrclam_stats.unknown_barcode_lines}};
-  if (options.repair_information)
-    report["information_repairs"] = InformationRepairsReport(s.repairs);
   if (options.associate)
     report["association"] = BuildAssociationReport(s.association, s.association_summary, 200);
-  return report;
 }
 
 void PrintAssociation(std::FILE* out, const partition::AssociationSummary& a) {
@@ -624,57 +540,68 @@ void PrintAssociation(std::FILE* out, const partition::AssociationSummary& a) {
                inc.covariance_seconds, inc.assignment_seconds);
 }
 
-void PrintSummary2d(const SolveRun& run, const Solve2d& s, double total_seconds) {
-  const SolveCommandOptions& options = run.options;
-  std::FILE* const out = SummaryStream(options);
-  std::fprintf(out, "graphslam solve summary\n");
-  std::fprintf(out, "  input              %s (%s)\n", options.input.c_str(), s.format_name);
-  std::fprintf(out, "  poses / features   %d / %d (%lld eliminated, %lld excluded)\n",
-               s.problem.num_poses(), s.problem.num_features(),
-               static_cast<long long>(s.summary.eliminated_features),
-               static_cast<long long>(s.summary.excluded_features));
-  std::fprintf(out, "  observations       %lld%s\n", static_cast<long long>(s.num_observations),
-               s.streaming ? " (streamed from disk)" : "");
-  if (options.associate) PrintAssociation(out, s.association_summary);
-  if (options.repair_information)
-    PrintInformationRepairs(out, s.repairs);
-  if (std::isfinite(s.input_chi2))
-    std::fprintf(out, "  input chi2         %.9g (the input's own estimate)\n", s.input_chi2);
-  PrintSolverSummaryLines(out, s.summary, total_seconds);
-}
+// The 2-D steps of tools/pipeline/solve_path.h.
+struct Hooks2d {
+  using Space = core::Space2d;
+  using State = Solve2d;
+  static constexpr int kDimension = 2;
 
-// Each output atomically; under mpirun rank 0 only.
-Status WriteOutputs(const SolveRun& run, Solve2d& s) {
-  const SolveOutputs& outputs = run.request.outputs;
-  if (!outputs.g2o.empty()) GS_RETURN_IF_ERROR(storage::WriteG2o(s.problem, outputs.g2o));
-  if (!outputs.tum.empty()) GS_RETURN_IF_ERROR(storage::WriteTum(s.problem, outputs.tum));
-  if (!outputs.features_csv.empty())
-    GS_RETURN_IF_ERROR(
-        storage::WriteFeaturesCsv(s.problem, outputs.features_csv, &s.summary.excluded));
-  const double total_seconds = SecondsSince(run.start);
-  if (!outputs.report.empty())
-    GS_RETURN_IF_ERROR(WriteReport(outputs.report, Report2d(run, s, total_seconds)));
-  if (!run.quiet) PrintSummary2d(run, s, total_seconds);
-  return Status::Ok();
-}
-
-Status Solve(SolveRun& run, const DetectedInput* file, Solve2d& s) {
-  GS_RETURN_IF_ERROR(ReadInput(run, file, s));
-  GS_RETURN_IF_ERROR(InitializeGuess(run, s));
-  GS_RETURN_IF_ERROR(ConfigureSolver(run, s));
-  GS_RETURN_IF_ERROR(TryOdometry(run, s));
-  GS_RETURN_IF_ERROR(ImproveGuess(run, s));
-  GS_RETURN_IF_ERROR(AttachCheckpoints(run, s));
-  GS_RETURN_IF_ERROR(Optimize(run, s));
-  return run.root ? WriteOutputs(run, s) : Status::Ok();
-}
+  static Status ReadInput(const SolveRun& run, const DetectedInput* file, Solve2d& s) {
+    return tools::ReadInput(run, file, s);
+  }
+  static Status InitializeGuess(const SolveRun& run, Solve2d& s) {
+    return tools::InitializeGuess(run, s);
+  }
+  static Status ConfigureChunks(const SolveRun& run, Solve2d& s) {
+    return tools::ConfigureChunks(run, s);
+  }
+  // A store is checkpointed by default (STORE/checkpoint.json), unless
+  // --associate rewrites it.
+  static std::string DefaultCheckpointPath(const SolveRun& run, const Solve2d& s) {
+    return s.store && !run.options.associate ? s.store_path + "/checkpoint.json" : "";
+  }
+  static StatusOr<core::SolverCheckpoint> ReadCheckpoint(const std::string& path,
+                                                        const std::string& input) {
+    return storage::ReadSolverCheckpoint(path, input);
+  }
+  static Status ImproveGuess(const SolveRun& run, Solve2d& s) {
+    GS_RETURN_IF_ERROR(TryOdometry(run, s));
+    return tools::ImproveGuess(run, s);
+  }
+  static Status PrepareCheckpoints(const SolveRun& run, Solve2d& s) {
+    return tools::PrepareCheckpoints(run, s);
+  }
+  static void SetResume(Solve2d& s) { s.solver.resume_from = &s.resume_state; }
+  static void SetCheckpointWriter(Solve2d& s, CheckpointWriter<Space> writer) {
+    s.solver.checkpoint_callback = std::move(writer);
+  }
+  static Status WriteCheckpoint(const Solve2d& s, const std::string& input,
+                                const core::SolverCheckpoint& checkpoint) {
+    return tools::WriteCheckpoint(s, input, checkpoint);
+  }
+  static Status Optimize(const SolveRun& run, Solve2d& s) { return tools::Optimize(run, s); }
+  static Status WriteGraph(const Solve2d& s, const std::string& path) {
+    return storage::WriteG2o(s.problem, path);
+  }
+  static Status WriteTrajectory(const Solve2d& s, const std::string& path) {
+    return storage::WriteTum(s.problem, path);
+  }
+  static Status WriteFeatures(const Solve2d& s, const std::string& path) {
+    return storage::WriteFeaturesCsv(s.problem, path, &s.summary.excluded);
+  }
+  static void AddReport(const SolveRun& run, const Solve2d& s, nlohmann::json* report) {
+    tools::AddReport(run, s, report);
+  }
+  static void PrintCounts(std::FILE*, const Solve2d&) {}
+  static void PrintDetails(std::FILE* out, const SolveRun& run, const Solve2d& s) {
+    if (run.options.associate) PrintAssociation(out, s.association_summary);
+  }
+};
 
 }  // namespace
 
 int RunSolve2d(SolveRun& run, const DetectedInput* file) {
-  Solve2d s;
-  if (Status status = Solve(run, file, s); !status.ok()) return run.Fail(status);
-  return s.summary.converged ? kExitOk : kExitNotConverged;
+  return RunSolvePath<Hooks2d>(run, file);
 }
 
 }  // namespace graphslam::tools

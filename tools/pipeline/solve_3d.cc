@@ -1,10 +1,12 @@
-// Steps 4-7 of RunSolve for a 3-D file (SE(3) poses, 3-D points): read,
-// chain the initial guess (core/initialization_3d.h), SolveGraphSlam3d with
-// --checkpoint / --resume (docs/formats/solver_checkpoint.md, 3-D poses), and
-// the same outputs and report keys as the 2-D steps (-o in the 3-D g2o
-// records, --tum, --report). --features-csv and --initialization apply to
-// 2-D only.
+// The 3-D hooks of the solve path (tools/pipeline/solve_path.h: Hooks3d) for a
+// file of SE(3) poses and 3-D points: read, chain the initial guess
+// (core/initialization_3d.h), SolveGraphSlam3d on in-memory chunks with
+// --checkpoint / --resume (docs/formats/solver_checkpoint.md, 3-D poses).
+// Everything else is the shared path: the same outputs (-o in the 3-D g2o
+// records, --tum, --report with the same keys plus "dimension": 3) and the
+// same summary. --features-csv and --initialization apply to 2-D only.
 #include <memory>
+#include <string>
 
 #include <nlohmann/json.hpp>
 
@@ -15,131 +17,95 @@
 #include "storage/env.h"
 #include "storage/g2o_3d_writer.h"
 #include "storage/solver_checkpoint.h"
-#include "tools/exit_codes.h"
+#include "tools/pipeline/solve_path.h"
 #include "tools/pipeline/solve_run.h"
-#include "tools/progress_display.h"
-#include "tools/solve_report.h"
 
 namespace graphslam::tools {
 namespace {
 
-struct Solve3d {
-  core::Problem3d problem;
-  double read_seconds = 0;
-  double initialize_seconds = 0;
+struct Solve3d : SolveState<core::Space3d> {
+  std::unique_ptr<partition::InMemoryChunkSource3d> in_memory;
   core::Checkpointing3d checkpointing;
-  core::SolverCheckpoint3d resume_state;
-  core::SolverSummary summary;
-  core::InformationRepairs repairs;  // --repair-information
 };
 
-// Checkpoints: one durable file replaced after every iteration; --resume
-// continues from it, bit-identical to an uninterrupted solve.
-Status AttachCheckpoints(const SolveCommandOptions& options, Solve3d& s) {
-  if (options.resume && storage::Env::Default()->FileExists(options.checkpoint)) {
-    GS_ASSIGN_OR_RETURN(s.resume_state,
-                        storage::ReadSolverCheckpoint3d(options.checkpoint, options.input));
-    s.checkpointing.resume_from = &s.resume_state;
-    GS_LOG(INFO, "resuming from %s after iteration %d (chi2 %.9g)", options.checkpoint.c_str(),
-           s.resume_state.iterations, s.resume_state.chi2);
-  } else if (options.resume) {
-    GS_LOG(WARNING, "no checkpoint at %s yet: starting from the beginning",
-           options.checkpoint.c_str());
-  }
-  if (!options.checkpoint.empty()) {
-    s.checkpointing.callback = [&options](const core::SolverCheckpoint3d& checkpoint) {
-      return storage::WriteSolverCheckpoint(storage::Env::Default(), options.checkpoint,
-                                            options.input, checkpoint);
-    };
-  }
-  return Status::Ok();
-}
+struct Hooks3d {
+  using Space = core::Space3d;
+  using State = Solve3d;
+  static constexpr int kDimension = 3;
 
-// Steps 4-6.
-Status ReadInitializeSolve(SolveRun& run, const DetectedInput& file, Solve3d& s) {
-  const SolveCommandOptions& options = run.options;
-  GS_ASSIGN_OR_RETURN(s.problem, storage::ReadProblem3d(options.input, file.format,
-                                                       options.repair_information ? &s.repairs
-                                                                                  : nullptr));
-  s.read_seconds = SecondsSince(run.start);
-  const SolveClock::time_point initialize_start = SolveClock::now();
-  GS_RETURN_IF_ERROR(core::InitializeProblem3d(&s.problem));
-  s.initialize_seconds = SecondsSince(initialize_start);
-
-  const std::unique_ptr<tbb::global_control> threads = LimitThreads(options.threads);
-  ProgressDisplay display(!options.quiet);
-  core::SolverOptions solver_options = run.request.solver;
-  solver_options.progress = display.AsCallback();
-  solver_options.iteration_callback = display.AsIterationCallback();
-  GS_RETURN_IF_ERROR(AttachCheckpoints(options, s));
+  static Status ReadInput(const SolveRun& run, const DetectedInput* file, Solve3d& s) {
+    const SolveCommandOptions& options = run.options;
+    GS_ASSIGN_OR_RETURN(s.problem,
+                        storage::ReadProblem3d(options.input, file->format,
+                                               options.repair_information ? &s.repairs : nullptr));
+    s.format_name = storage::InputFormatName(file->format);
+    s.num_observations = static_cast<int64_t>(s.problem.observations.size());
+    s.read_seconds = SecondsSince(run.start);
+    return Status::Ok();
+  }
+  static Status InitializeGuess(const SolveRun&, Solve3d& s) {
+    const SolveClock::time_point initialize_start = SolveClock::now();
+    GS_RETURN_IF_ERROR(core::InitializeProblem3d(&s.problem));
+    s.initialize_seconds = SecondsSince(initialize_start);
+    return Status::Ok();
+  }
   // The observations in feature-complete chunks (the solver streams them).
-  partition::ChunkingOptions chunking;
-  chunking.max_observations_per_chunk = options.chunk_observations;
-  const partition::InMemoryChunkSource3d chunks(s.problem, chunking);
-  GS_RETURN_IF_ERROR(
-      core::SolveGraphSlam3d(solver_options, chunks, &s.problem, &s.summary, s.checkpointing));
-  display.Finish();
-  return Status::Ok();
-}
-
-nlohmann::json Report3d(const SolveRun& run, const Solve3d& s, const char* format_name,
-                        double total_seconds) {
-  const core::Problem3d& problem = s.problem;
-  nlohmann::json report = SolverReport(run.options, s.summary, format_name, total_seconds);
-  report["dimension"] = 3;
-  report["poses"] = problem.num_poses();
-  report["features"] = problem.num_features();
-  report["observations"] = static_cast<int64_t>(problem.observations.size());
-  report["initialization"] = "odometry";
-  report["relative_pose_constraints"] = static_cast<int64_t>(problem.relative_poses.size());
-  report["motion_constraints"] = 0;
-  report["gps_constraints"] = static_cast<int64_t>(problem.gps.size());
-  report["residual_dimension"] = 6 * static_cast<int64_t>(problem.relative_poses.size()) +
-                                 3 * static_cast<int64_t>(problem.gps.size()) +
-                                 3 * s.summary.observations_used;
-  report["unknowns"] = 6 * s.summary.unknown_poses +
-                       3 * (s.summary.eliminated_features + s.summary.kept_features);
-  report["stage_seconds"] = {{"read", s.read_seconds},
-                             {"initialize", s.initialize_seconds},
-                             {"progressive_initialization", 0.0},
-                             {"optimize", s.summary.seconds}};
-  if (run.options.repair_information)
-    report["information_repairs"] = InformationRepairsReport(s.repairs);
-  return report;
-}
-
-// Step 7.
-Status WriteOutputs3d(const SolveRun& run, const Solve3d& s, const char* format_name) {
-  const SolveOutputs& outputs = run.request.outputs;
-  if (!outputs.g2o.empty()) GS_RETURN_IF_ERROR(storage::WriteG2o3d(s.problem, outputs.g2o));
-  if (!outputs.tum.empty()) GS_RETURN_IF_ERROR(storage::WriteTum3d(s.problem, outputs.tum));
-  const double total_seconds = SecondsSince(run.start);
-  if (!outputs.report.empty())
-    GS_RETURN_IF_ERROR(WriteReport(outputs.report, Report3d(run, s, format_name, total_seconds)));
-  if (!run.options.quiet) {
-    std::FILE* const out = SummaryStream(run.options);
-    std::fprintf(out, "graphslam solve summary (3-D)\n");
-    std::fprintf(out, "  input              %s (%s)\n", run.options.input.c_str(), format_name);
-    std::fprintf(out, "  poses / features   %d / %d\n", s.problem.num_poses(),
-                 s.problem.num_features());
-    std::fprintf(out, "  relative poses     %zu\n", s.problem.relative_poses.size());
-    std::fprintf(out, "  observations       %zu\n", s.problem.observations.size());
-    if (run.options.repair_information) PrintInformationRepairs(out, s.repairs);
-    PrintSolverSummaryLines(out, s.summary, total_seconds);
+  static Status ConfigureChunks(const SolveRun& run, Solve3d& s) {
+    partition::ChunkingOptions chunking;
+    chunking.max_observations_per_chunk = run.options.chunk_observations;
+    s.in_memory = std::make_unique<partition::InMemoryChunkSource3d>(s.problem, chunking);
+    s.chunks = s.in_memory.get();
+    return Status::Ok();
   }
-  return Status::Ok();
-}
+  static std::string DefaultCheckpointPath(const SolveRun&, const Solve3d&) { return ""; }
+  static StatusOr<core::SolverCheckpoint3d> ReadCheckpoint(const std::string& path,
+                                                          const std::string& input) {
+    return storage::ReadSolverCheckpoint3d(path, input);
+  }
+  static Status ImproveGuess(const SolveRun&, Solve3d&) { return Status::Ok(); }
+  static Status PrepareCheckpoints(const SolveRun&, Solve3d&) { return Status::Ok(); }
+  static void SetResume(Solve3d& s) { s.checkpointing.resume_from = &s.resume_state; }
+  static void SetCheckpointWriter(Solve3d& s, CheckpointWriter<Space> writer) {
+    s.checkpointing.callback = std::move(writer);
+  }
+  static Status WriteCheckpoint(const Solve3d& s, const std::string& input,
+                                const core::SolverCheckpoint3d& checkpoint) {
+    return storage::WriteSolverCheckpoint(storage::Env::Default(), s.checkpoint_path, input,
+                                          checkpoint);
+  }
+  static Status Optimize(const SolveRun&, Solve3d& s) {
+    const double optimize_cpu_start = ProcessCpuSeconds();
+    GS_RETURN_IF_ERROR(
+        core::SolveGraphSlam3d(s.solver, *s.chunks, &s.problem, &s.summary, s.checkpointing));
+    s.optimize_cpu_seconds = ProcessCpuSeconds() - optimize_cpu_start;
+    s.display->Finish();
+    return Status::Ok();
+  }
+  static Status WriteGraph(const Solve3d& s, const std::string& path) {
+    return storage::WriteG2o3d(s.problem, path);
+  }
+  static Status WriteTrajectory(const Solve3d& s, const std::string& path) {
+    return storage::WriteTum3d(s.problem, path);
+  }
+  // No 3-D features CSV: RunSolve3d warned that it is ignored.
+  static Status WriteFeatures(const Solve3d&, const std::string&) { return Status::Ok(); }
+  // The chain of relative poses (core/initialization_3d.h) is the only start.
+  static void AddReport(const SolveRun&, const Solve3d&, nlohmann::json* report) {
+    (*report)["initialization"] = "odometry";
+    (*report)["initialization_used"] = "odometry";
+  }
+  static void PrintCounts(std::FILE* out, const Solve3d& s) {
+    std::fprintf(out, "  relative poses     %zu\n", s.problem.relative_poses.size());
+  }
+  static void PrintDetails(std::FILE*, const SolveRun&, const Solve3d&) {}
+};
 
 }  // namespace
 
 int RunSolve3d(SolveRun& run, const DetectedInput& file) {
   if (!run.options.features_csv.empty())
     GS_LOG(WARNING, "--features-csv is ignored for 3-D inputs");
-  Solve3d s;
-  if (Status status = ReadInitializeSolve(run, file, s); !status.ok()) return run.Fail(status);
-  const char* format_name = storage::InputFormatName(file.format);
-  if (Status status = WriteOutputs3d(run, s, format_name); !status.ok()) return run.Fail(status);
-  return s.summary.converged ? kExitOk : kExitNotConverged;
+  return RunSolvePath<Hooks3d>(run, &file);
 }
 
 }  // namespace graphslam::tools

@@ -13,9 +13,11 @@
 //     7. write     -o, --tum, --features-csv, --report (each atomically, after
 //                  a successful solve only), then the terminal summary
 //
-// The 2-D steps are tools/pipeline/solve_2d.cc, the 3-D ones
-// tools/pipeline/solve_3d.cc; both take the same request, and the report and
-// summary share their keys and lines (tools/solve_report.h).
+// Steps 4-7 are one template over the problem space
+// (tools/pipeline/solve_path.h: RunSolvePath), with the 2-D hooks in
+// tools/pipeline/solve_2d.cc and the 3-D ones in tools/pipeline/solve_3d.cc;
+// both take the same request, and the report and summary share their keys
+// and lines.
 //
 // THREAD SAFETY: one call at a time per process (the TBB thread limit and the
 // log verbosity are process-wide). ALLOCATION: the problem in memory, or its

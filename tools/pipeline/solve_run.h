@@ -48,8 +48,9 @@ struct DetectedInput {
   bool three_d = false;
 };
 
-// The 2-D and 3-D steps 3-7 (tools/pipeline/solve_2d.cc, solve_3d.cc);
-// `file` is empty for a chunk store or a --workdir ingest.
+// Steps 4-7 for each dimension (tools/pipeline/solve_path.h with the hooks
+// of solve_2d.cc, solve_3d.cc); `file` is empty for a chunk store or a
+// --workdir ingest.
 int RunSolve2d(SolveRun& run, const DetectedInput* file);
 int RunSolve3d(SolveRun& run, const DetectedInput& file);
 
