@@ -13,6 +13,8 @@
 //   accept             rho > min_relative_decrease (and a finite chi2')
 //   Nielsen update     success: mu /= max(1/3, 1 - (2 rho - 1)^3) (<= mu_max), v = 2
 //                      failure: mu /= v, v *= 2
+//   model fit so far   while every step has been accepted with rho >=
+//                      kSpeculationRho: mu *= kFitRadiusGrowth (<= mu_max)
 //   convergence        (chi2 - chi2') / chi2 < function_tolerance, or
 //                      |d| <= parameter_tolerance (|state| + parameter_tolerance),
 //                      or mu < min_trust_region_radius (no further decrease)
@@ -82,17 +84,43 @@
 
 namespace graphslam::core {
 
-// The trust region radius after a step accepted with ratio rho (Nielsen):
-// radius / max(1/3, 1 - (2 rho - 1)^3), at most max_trust_region_radius. For
-// every rho >= kSpeculationRho the max is 1/3 itself, so the result is one
-// and the same double: the value RadiusAfterAcceptedStep(radius, 1.0, ...)
-// a space can speculate on before rho is known.
-inline double RadiusAfterAcceptedStep(double radius, double rho, const SolverOptions& options) {
+// (1 + cbrt(2/3)) / 2: 1 - (2 rho - 1)^3 <= 1/3 from here on.
+inline constexpr double kSpeculationRho = 0.9368;
+
+// While the quadratic model has fit every step of the solve (each accepted
+// with rho >= kSpeculationRho, from the first on), the solve is in
+// Gauss-Newton's regime and the damping only holds back the weakest modes:
+// parking-garage's floors take 7 iterations with the radius growing 3x per
+// step, 5 with 10x. A solve that starts outside that regime (torus3D's
+// first steps are rejected) keeps Nielsen's rule throughout.
+inline constexpr double kFitRadiusGrowth = 10.0;
+
+// The trust region radius after a step accepted with ratio rho: Nielsen's
+// radius / max(1/3, 1 - (2 rho - 1)^3), or radius * kFitRadiusGrowth when
+// the model has fit every step so far and this one too, at most
+// max_trust_region_radius. For every rho >= kSpeculationRho the result is
+// one and the same double (Nielsen's max is 1/3 itself there): the value
+// RadiusAfterAcceptedStep(radius, 1.0, fit_so_far, ...) a space can
+// speculate on before rho is known.
+inline double RadiusAfterAcceptedStep(double radius, double rho, bool fit_so_far,
+                                      const SolverOptions& options) {
+  if (fit_so_far && rho >= kSpeculationRho)
+    return std::min(radius * kFitRadiusGrowth, options.max_trust_region_radius);
   const double factor = 1.0 - std::pow(2.0 * rho - 1.0, 3);
   return std::min(radius / std::max(1.0 / 3.0, factor), options.max_trust_region_radius);
 }
-// (1 + cbrt(2/3)) / 2: 1 - (2 rho - 1)^3 <= 1/3 from here on.
-inline constexpr double kSpeculationRho = 0.9368;
+
+// Whether a solve that completed `iterations` iterations and holds `radius`
+// had the model fit every step: exactly then its radius is the initial one
+// grown kFitRadiusGrowth times per iteration (a resume recovers the flag from
+// the checkpoint's radius; where the other history meets the same capped
+// radius, both rules give the same radius from there on).
+inline bool ModelFitEveryStep(int iterations, double radius, const SolverOptions& options) {
+  double fit_radius = options.initial_trust_region_radius;
+  for (int k = 0; k < iterations; ++k)
+    fit_radius = std::min(fit_radius * kFitRadiusGrowth, options.max_trust_region_radius);
+  return fit_radius == radius;
+}
 
 // What the space reports about one trial step.
 struct TrialStep {
@@ -148,6 +176,7 @@ Status RunLevenbergMarquardt(
   }
   double radius = options.initial_trust_region_radius;
   double decrease_factor = 2.0;
+  bool fit_so_far = true;  // every step accepted with rho >= kSpeculationRho
   int first_iteration = 1;
   // Whether this iteration's step is likely to give rho >= kSpeculationRho:
   // optimistic at the start (and after a resume), then the last rho.
@@ -160,6 +189,7 @@ Status RunLevenbergMarquardt(
     summary->initial_chi2 = resume->initial_chi2;
     radius = resume->trust_region_radius;
     decrease_factor = resume->decrease_factor;
+    fit_so_far = ModelFitEveryStep(resume->iterations, radius, options);
     first_iteration = resume->iterations + 1;
     summary->iterations = resume->iterations;
     summary->resumed_from_iteration = resume->iterations;
@@ -193,7 +223,7 @@ Status RunLevenbergMarquardt(
     TrialStep trial;
     const double speculative_lambda =
         speculate && iteration < options.max_iterations
-            ? 1.0 / RadiusAfterAcceptedStep(radius, 1.0, options)
+            ? 1.0 / RadiusAfterAcceptedStep(radius, 1.0, fit_so_far, options)
             : 0.0;
     GS_RETURN_IF_ERROR(space->TryStep(it.lambda, speculative_lambda, usable, &it, &trial));
     double candidate_chi2 = trial.ok ? trial.candidate_chi2
@@ -214,7 +244,8 @@ Status RunLevenbergMarquardt(
       const double relative_change = (chi2 - candidate_chi2) / std::max(chi2, 1e-300);
       GS_RETURN_IF_ERROR(space->Accept());
       chi2 = candidate_chi2;
-      radius = RadiusAfterAcceptedStep(radius, it.relative_decrease, options);
+      radius = RadiusAfterAcceptedStep(radius, it.relative_decrease, fit_so_far, options);
+      fit_so_far = fit_so_far && it.relative_decrease >= kSpeculationRho;
       decrease_factor = 2.0;
       if (relative_change < options.function_tolerance) {
         summary->termination = "function_tolerance";
@@ -226,6 +257,7 @@ Status RunLevenbergMarquardt(
         converged = true;
       }
     } else {
+      fit_so_far = false;
       radius /= decrease_factor;
       decrease_factor *= 2.0;
     }
