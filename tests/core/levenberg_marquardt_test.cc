@@ -77,6 +77,46 @@ TEST(LevenbergMarquardt, IntelDampingFallsTenfoldPerFittingStep) {
   }
 }
 
+TEST(LevenbergMarquardt, ExtrapolatesOnlyASuperlinearContraction) {
+  // Decreases 100, 5, 0.01 at chi2 1000: next ~2e-5 < 1e-6 x 1000.
+  EXPECT_TRUE(ExtrapolatedDecreaseBelow(100.0, 5.0, 0.01, 1000.0, 1e-6));
+  EXPECT_FALSE(ExtrapolatedDecreaseBelow(100.0, 5.0, 0.01, 1000.0, 1e-8));
+  EXPECT_FALSE(ExtrapolatedDecreaseBelow(100.0, 20.0, 0.01, 1000.0, 1e-6));  // 0.2 contraction
+  EXPECT_FALSE(ExtrapolatedDecreaseBelow(100.0, 5.0, 0.6, 1000.0, 1e-2));    // 0.12 contraction
+  EXPECT_FALSE(ExtrapolatedDecreaseBelow(0.0, 5.0, 0.01, 1000.0, 1e-6));     // unqualified step
+  EXPECT_FALSE(ExtrapolatedDecreaseBelow(100.0, 0.0, 0.0, 1000.0, 1e-6));
+  EXPECT_FALSE(ExtrapolatedDecreaseBelow(100.0, 5.0, 0.01, 1000.0, 0.0));  // tolerance off
+}
+
+// intel converges quadratically: the extrapolated test stops it one
+// iteration before the plain test would (a checkpoint callback turns the
+// extrapolation off), at a chi2 above that one's by less than the tolerance.
+TEST(LevenbergMarquardt, IntelStopsOneConfirmingIterationEarly) {
+  GS_REQUIRE_DATASET("freiburg_course_g2o/intel.g2o");
+  SolverSummary extrapolated, plain;
+  for (bool checkpoints : {false, true}) {
+    StatusOr<Problem2d> problem =
+        storage::ReadG2o(graphslam::testing::DatasetPath("freiburg_course_g2o/intel.g2o"));
+    ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+    partition::InMemoryChunkSource chunks(*problem, partition::ChunkingOptions());
+    SolverOptions options;
+    options.linear_solver = LinearSolverType::kCholmod;
+    options.initial_trust_region_radius = kDirectInitialTrustRegion;
+    if (checkpoints)
+      options.checkpoint_callback = [](const SolverCheckpoint&) { return Status::Ok(); };
+    SolverSummary* summary = checkpoints ? &plain : &extrapolated;
+    ASSERT_TRUE(SolveGraphSlam(options, chunks, &*problem, summary).ok());
+  }
+  EXPECT_TRUE(extrapolated.converged);
+  EXPECT_EQ(extrapolated.termination, "function_tolerance");
+  EXPECT_EQ(extrapolated.iterations + 1, plain.iterations);
+  const double last_decrease = plain.per_iteration.back().start_chi2 - plain.final_chi2;
+  EXPECT_GE(last_decrease, 0.0);
+  EXPECT_LT(last_decrease, 1e-6 * plain.final_chi2);
+  EXPECT_NEAR(extrapolated.final_chi2, plain.final_chi2, 1e-6 * plain.final_chi2);
+  EXPECT_NEAR(extrapolated.final_chi2, 359.996112, 1e-8 * 359.996112);
+}
+
 // Headings off by up to 2.5 rad: some step is rejected or fits poorly;
 // from then on the radius grows at most 3x per step (Nielsen).
 TEST(LevenbergMarquardt, NielsenAfterAStepThatDidNotFit) {
