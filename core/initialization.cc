@@ -38,15 +38,18 @@ std::string FormatDouble(double value) {
 }
 
 // Finite, symmetric (to 1e-9 relative) and positive definite (LLT succeeds).
-template <int kSize>
+// what() names the constraint; messages are built only for an error, not for
+// every valid constraint of the file.
+template <int kSize, class What>
 Status CheckInformation(const Problem2d& problem, const Eigen::Matrix<double, kSize, kSize>& info,
-                        int32_t line, const std::string& what) {
-  const std::string prefix = Location(problem, line) + "EDGE information";
-  if (!info.allFinite()) return Status::InvalidArgument(prefix + " is not finite (" + what + ")");
+                        int32_t line, const What& what) {
+  auto prefix = [&] { return Location(problem, line) + "EDGE information"; };
+  if (!info.allFinite())
+    return Status::InvalidArgument(prefix() + " is not finite (" + what() + ")");
   const double scale = info.cwiseAbs().maxCoeff();
   const double asymmetry = (info - info.transpose()).cwiseAbs().maxCoeff();
   if (asymmetry > 1e-9 * scale) {
-    return Status::InvalidArgument(prefix + " is not symmetric (" + what +
+    return Status::InvalidArgument(prefix() + " is not symmetric (" + what() +
                                    "; max |Omega - Omega^T| = " + FormatDouble(asymmetry) + ")");
   }
   // Cholesky by hand (n <= 3), so the failing pivot can be reported.
@@ -55,7 +58,7 @@ Status CheckInformation(const Problem2d& problem, const Eigen::Matrix<double, kS
     double pivot = info(k, k);
     for (int j = 0; j < k; ++j) pivot -= lower(k, j) * lower(k, j);
     if (!(pivot > 0.0)) {
-      return Status::InvalidArgument(prefix + " is not positive definite (" + what +
+      return Status::InvalidArgument(prefix() + " is not positive definite (" + what() +
                                      "; expected all Cholesky pivots > 0, pivot " +
                                      std::to_string(k) + " is " + FormatDouble(pivot) + ")");
     }
@@ -84,21 +87,21 @@ Status CheckConstraints(const Problem2d& problem) {
   for (const RelativePoseConstraint& c : problem.relative_poses) {
     GS_RETURN_IF_ERROR(CheckIndex(problem, c.from, num_poses, c.line, "odometry edge", "pose"));
     GS_RETURN_IF_ERROR(CheckIndex(problem, c.to, num_poses, c.line, "odometry edge", "pose"));
-    GS_RETURN_IF_ERROR(CheckInformation<3>(
-        problem, c.information, c.line,
-        "odometry edge " + PoseName(problem, c.from) + " -> " + PoseName(problem, c.to)));
+    GS_RETURN_IF_ERROR(CheckInformation<3>(problem, c.information, c.line, [&] {
+      return "odometry edge " + PoseName(problem, c.from) + " -> " + PoseName(problem, c.to);
+    }));
   }
   for (const VelocityMotionConstraint& c : problem.motions) {
     GS_RETURN_IF_ERROR(CheckIndex(problem, c.from, num_poses, c.line, "motion", "pose"));
     GS_RETURN_IF_ERROR(CheckIndex(problem, c.to, num_poses, c.line, "motion", "pose"));
-    GS_RETURN_IF_ERROR(CheckInformation<3>(
-        problem, c.information, c.line,
-        "velocity motion " + PoseName(problem, c.from) + " -> " + PoseName(problem, c.to)));
+    GS_RETURN_IF_ERROR(CheckInformation<3>(problem, c.information, c.line, [&] {
+      return "velocity motion " + PoseName(problem, c.from) + " -> " + PoseName(problem, c.to);
+    }));
   }
   for (const GpsConstraint& c : problem.gps) {
     GS_RETURN_IF_ERROR(CheckIndex(problem, c.pose, num_poses, c.line, "GPS fix", "pose"));
-    GS_RETURN_IF_ERROR(CheckInformation<2>(problem, c.information, c.line,
-                                           "GPS fix of " + PoseName(problem, c.pose)));
+    GS_RETURN_IF_ERROR(CheckInformation<2>(
+        problem, c.information, c.line, [&] { return "GPS fix of " + PoseName(problem, c.pose); }));
   }
   for (const PoseRangeBearingConstraint& c : problem.pose_range_bearings) {
     GS_RETURN_IF_ERROR(CheckIndex(problem, c.from, num_poses, c.line, "robot sighting", "pose"));
@@ -106,9 +109,9 @@ Status CheckConstraints(const Problem2d& problem) {
     if (c.interpolated())
       GS_RETURN_IF_ERROR(
           CheckIndex(problem, c.to_next, num_poses, c.line, "robot sighting", "pose"));
-    GS_RETURN_IF_ERROR(CheckInformation<2>(
-        problem, c.information, c.line,
-        "robot sighting " + PoseName(problem, c.from) + " -> " + PoseName(problem, c.to)));
+    GS_RETURN_IF_ERROR(CheckInformation<2>(problem, c.information, c.line, [&] {
+      return "robot sighting " + PoseName(problem, c.from) + " -> " + PoseName(problem, c.to);
+    }));
   }
   for (const Observation& c : problem.observations)
     GS_RETURN_IF_ERROR(CheckObservation(problem, c));
@@ -331,10 +334,10 @@ Status CheckObservation(const Problem2d& problem, const Observation& c) {
       CheckIndex(problem, c.pose, problem.num_poses(), c.line, "observation", "pose"));
   GS_RETURN_IF_ERROR(
       CheckIndex(problem, c.feature, problem.num_features(), c.line, "observation", "feature"));
-  return CheckInformation<2>(problem, c.information, c.line,
-                             "observation of feature " +
-                                 std::to_string(problem.feature_ids[c.feature]) + " from " +
-                                 PoseName(problem, c.pose));
+  return CheckInformation<2>(problem, c.information, c.line, [&] {
+    return "observation of feature " + std::to_string(problem.feature_ids[c.feature]) + " from " +
+           PoseName(problem, c.pose);
+  });
 }
 
 void PlaceFeature(Problem2d* problem, const Observation& observation) {

@@ -44,7 +44,8 @@ void AddSolverOptions(CLI::App* solve, SolveCommandOptions* options) {
       ->check(Integer(0, std::numeric_limits<int>::max()))
       ->capture_default_str();
   solve->add_option("--function-tolerance", options->function_tolerance,
-                    "stop when the relative chi2 decrease of a step is below this")
+                    "stop when the relative chi2 decrease of a step (or the next one's, "
+                    "extrapolated) is below this")
       ->check(Real(0.0, 1.0, Bounds::kOpenUpper))
       ->capture_default_str();
   solve->add_option("--initial-trust-region", options->initial_trust_region_radius,

@@ -115,6 +115,8 @@ class LineReader {
   bool ReadLine();
   Status FieldError(size_t index, std::string_view what, std::string_view expected) const;
   Status LineTooLong(int32_t line) const;
+  // Double's value without a Status: false where Double gives an error.
+  bool ValidDouble(size_t index, Magnitude magnitude, double* value) const;
 
   std::string name_;
   std::string path_;

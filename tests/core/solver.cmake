@@ -1,6 +1,7 @@
 graphslam_test(core/chunk_passes)
 graphslam_test(core/feature_linearizer)
 graphslam_test(core/graphslam_solver)
+graphslam_test(core/levenberg_marquardt)
 graphslam_test(core/anderson_acceleration)
 graphslam_test(core/robust_kernel)
 graphslam_test(core/pose_factors)

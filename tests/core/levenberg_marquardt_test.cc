@@ -1,0 +1,158 @@
+// The trust region update of core/levenberg_marquardt.h: the radius grows
+// kFitRadiusGrowth times per step while the model has fit every step, and
+// follows Nielsen's rule once a step fits less or is rejected.
+#include "core/levenberg_marquardt.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+#include <string>
+
+#include "core/graphslam_solver.h"
+#include "partition/ingest/in_memory_chunk_source.h"
+#include "storage/g2o_reader.h"
+#include "tests/testing/datasets.h"
+#include "tests/testing/random_problem.h"
+
+namespace graphslam::core {
+namespace {
+
+TEST(LevenbergMarquardt, RadiusGrowsTenfoldOnlyWhileTheModelFits) {
+  SolverOptions options;
+  options.max_trust_region_radius = 1e16;
+  EXPECT_EQ(RadiusAfterAcceptedStep(1e8, 1.0, true, options), 1e9);
+  EXPECT_EQ(RadiusAfterAcceptedStep(1e8, kSpeculationRho, true, options), 1e9);
+  // Nielsen: radius / max(1/3, 1 - (2 rho - 1)^3).
+  EXPECT_EQ(RadiusAfterAcceptedStep(1e8, 1.0, false, options), 1e8 / (1.0 / 3.0));
+  EXPECT_DOUBLE_EQ(RadiusAfterAcceptedStep(1e8, 0.5, true, options), 1e8);
+  EXPECT_DOUBLE_EQ(RadiusAfterAcceptedStep(1e8, 0.75, true, options), 1e8 / 0.875);
+  EXPECT_EQ(RadiusAfterAcceptedStep(1e16, 1.0, true, options), 1e16);  // capped
+  // The speculated radius (rho = 1) is the one every rho >= kSpeculationRho gives.
+  for (bool fit : {true, false}) {
+    EXPECT_EQ(RadiusAfterAcceptedStep(3e5, 0.95, fit, options),
+              RadiusAfterAcceptedStep(3e5, 1.0, fit, options));
+    EXPECT_EQ(RadiusAfterAcceptedStep(3e5, 1.7, fit, options),
+              RadiusAfterAcceptedStep(3e5, 1.0, fit, options));
+  }
+}
+
+TEST(LevenbergMarquardt, ResumeRecognizesARadiusGrownAtEveryStep) {
+  SolverOptions options;
+  options.initial_trust_region_radius = 1e8;
+  options.max_trust_region_radius = 1e16;
+  EXPECT_TRUE(ModelFitEveryStep(0, 1e8, options));
+  double radius = 1e8;
+  for (int k = 1; k <= 12; ++k) {
+    radius = RadiusAfterAcceptedStep(radius, 1.0, true, options);
+    EXPECT_TRUE(ModelFitEveryStep(k, radius, options)) << k;
+  }
+  EXPECT_EQ(radius, 1e16);
+  EXPECT_FALSE(ModelFitEveryStep(2, 1e8 * 3.0 * 3.0, options));
+  EXPECT_FALSE(ModelFitEveryStep(1, 1e8 / 2.0, options));  // a rejected first step
+}
+
+// intel from the file's own guess with CHOLMOD at the default start; a
+// checkpoint callback (that writes nothing) when asked.
+SolverSummary SolveIntel(bool checkpoints) {
+  SolverSummary summary;
+  StatusOr<Problem2d> problem =
+      storage::ReadG2o(graphslam::testing::DatasetPath("freiburg_course_g2o/intel.g2o"));
+  EXPECT_TRUE(problem.ok()) << problem.status().ToString();
+  if (!problem.ok()) return summary;
+  partition::InMemoryChunkSource chunks(*problem, partition::ChunkingOptions());
+  SolverOptions options;
+  options.linear_solver = LinearSolverType::kCholmod;
+  options.initial_trust_region_radius = kDirectInitialTrustRegion;
+  if (checkpoints)
+    options.checkpoint_callback = [](const SolverCheckpoint&) { return Status::Ok(); };
+  const Status status = SolveGraphSlam(options, chunks, &*problem, &summary);
+  EXPECT_TRUE(status.ok()) << status.ToString();
+  return summary;
+}
+
+// intel: every step fits (rho >= kSpeculationRho), so lambda falls 10x per
+// iteration; the optimum is the reference one.
+TEST(LevenbergMarquardt, IntelDampingFallsTenfoldPerFittingStep) {
+  GS_REQUIRE_DATASET("freiburg_course_g2o/intel.g2o");
+  const SolverSummary summary = SolveIntel(false);
+  EXPECT_TRUE(summary.converged) << summary.termination;
+  EXPECT_NEAR(summary.final_chi2, 359.996112, 1e-6 * 359.996112);
+  const std::vector<IterationSummary>& its = summary.per_iteration;
+  ASSERT_GE(its.size(), 3u);
+  double radius = kDirectInitialTrustRegion;
+  for (const IterationSummary& it : its) {
+    EXPECT_EQ(it.lambda, 1.0 / radius) << "iteration " << it.iteration;
+    ASSERT_TRUE(it.accepted);
+    ASSERT_GE(it.relative_decrease, kSpeculationRho) << "iteration " << it.iteration;
+    radius *= kFitRadiusGrowth;
+  }
+}
+
+TEST(LevenbergMarquardt, ExtrapolatesOnlyASuperlinearContraction) {
+  // Decreases 100, 5, 0.01 at chi2 1000: next ~2e-5 < 1e-6 x 1000.
+  EXPECT_TRUE(ExtrapolatedDecreaseBelow(100.0, 5.0, 0.01, 1000.0, 1e-6));
+  EXPECT_FALSE(ExtrapolatedDecreaseBelow(100.0, 5.0, 0.01, 1000.0, 1e-8));
+  EXPECT_FALSE(ExtrapolatedDecreaseBelow(100.0, 20.0, 0.01, 1000.0, 1e-6));  // 0.2 contraction
+  EXPECT_FALSE(ExtrapolatedDecreaseBelow(100.0, 5.0, 0.6, 1000.0, 1e-2));    // 0.12 contraction
+  EXPECT_FALSE(ExtrapolatedDecreaseBelow(0.0, 5.0, 0.01, 1000.0, 1e-6));     // unqualified step
+  EXPECT_FALSE(ExtrapolatedDecreaseBelow(100.0, 0.0, 0.0, 1000.0, 1e-6));
+  EXPECT_FALSE(ExtrapolatedDecreaseBelow(100.0, 5.0, 0.01, 1000.0, 0.0));  // tolerance off
+}
+
+// intel converges quadratically: the extrapolated test stops it one
+// iteration before the plain test would (a checkpoint callback turns the
+// extrapolation off), at a chi2 above that one's by less than the tolerance.
+TEST(LevenbergMarquardt, IntelStopsOneConfirmingIterationEarly) {
+  GS_REQUIRE_DATASET("freiburg_course_g2o/intel.g2o");
+  const SolverSummary extrapolated = SolveIntel(false);
+  const SolverSummary plain = SolveIntel(true);
+  ASSERT_FALSE(plain.per_iteration.empty());
+  EXPECT_TRUE(extrapolated.converged);
+  EXPECT_EQ(extrapolated.termination, "function_tolerance");
+  EXPECT_EQ(extrapolated.iterations + 1, plain.iterations);
+  const double last_decrease = plain.per_iteration.back().start_chi2 - plain.final_chi2;
+  EXPECT_GE(last_decrease, 0.0);
+  EXPECT_LT(last_decrease, 1e-6 * plain.final_chi2);
+  EXPECT_NEAR(extrapolated.final_chi2, plain.final_chi2, 1e-6 * plain.final_chi2);
+  EXPECT_NEAR(extrapolated.final_chi2, 359.996112, 1e-8 * 359.996112);
+}
+
+// Headings off by up to 2.5 rad: some step is rejected or fits poorly;
+// from then on the radius grows at most 3x per step (Nielsen).
+TEST(LevenbergMarquardt, NielsenAfterAStepThatDidNotFit) {
+  int checked = 0;
+  for (uint32_t seed = 1; seed <= 4; ++seed) {
+    testing::RandomProblemOptions random;
+    random.num_poses = 40;
+    random.num_features = 15;
+    random.seed = seed;
+    Problem2d problem = testing::MakeRandomProblem(random).problem;
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> heading(-2.5, 2.5);
+    for (int p = 1; p < problem.num_poses(); ++p) problem.poses[p].z() += heading(rng);
+    partition::InMemoryChunkSource chunks(problem, partition::ChunkingOptions());
+    SolverOptions options;
+    options.linear_solver = LinearSolverType::kCholmod;
+    options.function_tolerance = 1e-12;
+    options.max_iterations = 30;
+    SolverSummary summary;
+    ASSERT_TRUE(SolveGraphSlam(options, chunks, &problem, &summary).ok());
+    const std::vector<IterationSummary>& its = summary.per_iteration;
+    bool fit_so_far = true;
+    for (size_t k = 0; k + 1 < its.size(); ++k) {
+      fit_so_far = fit_so_far && its[k].accepted && its[k].relative_decrease >= kSpeculationRho;
+      const double growth = its[k].lambda / its[k + 1].lambda;
+      if (1.0 / its[k + 1].lambda >= 0.5 * options.max_trust_region_radius) continue;  // capped
+      if (fit_so_far) {
+        EXPECT_DOUBLE_EQ(growth, kFitRadiusGrowth) << "seed " << seed << " iteration " << k + 1;
+      } else {
+        EXPECT_LE(growth, 3.0 * (1.0 + 1e-12)) << "seed " << seed << " iteration " << k + 1;
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GT(checked, 10);
+}
+
+}  // namespace
+}  // namespace graphslam::core
