@@ -253,25 +253,10 @@ void DriveRun(const CampusSimulatorOptions& options, const Grid& grid, int run,
               int64_t run_poses, Random* random_out, SimulatedCampus* campus) {
   Random& random = *random_out;
   core::Problem2d& problem = campus->problem;
-  // A random intersection and a street leaving it.
-  const int start_x = static_cast<int>(random.UniformInt(grid.columns));
-  const int start_y = static_cast<int>(random.UniformInt(grid.rows));
-  int directions[4];
-  int count = 0;
-  for (int d = 0; d < 4; ++d) {
-    if (grid.Contains(start_x + kStepX[d], start_y + kStepY[d])) directions[count++] = d;
-  }
-  const int direction = directions[random.UniformInt(count)];
-  StreetPath path(grid, options, start_x, start_y, direction, &random);
-
-  core::Pose2 truth(start_x * grid.block_size, start_y * grid.block_size,
-                    core::WrapAngle(DirectionAngle(direction)));
-  core::Pose2 guess = truth;
-  if (run > 0) {
-    guess.x() += random.Normal(options.initial_position_sigma);
-    guess.y() += random.Normal(options.initial_position_sigma);
-    guess.z() = core::WrapAngle(guess.z() + random.Normal(options.initial_heading_sigma));
-  }
+  const internal::RunStart start = internal::DrawRunStart(grid, &random);
+  StreetPath path(grid, options, start.x, start.y, start.direction, &random);
+  core::Pose2 truth = start.truth;
+  core::Pose2 guess = internal::RunStartGuess(options, run, truth, &random);
   double s = 0.0;
   for (int64_t k = 0; k < run_poses; ++k) {
     const int32_t index = problem.AddPose(problem.num_poses(), guess, /*initialized=*/k == 0,

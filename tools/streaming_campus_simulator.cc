@@ -256,22 +256,10 @@ class StreamingSimulation {
     Random random(SplitMix64(SplitMix64(options_.seed) ^ (0x5851f42d4c957f2dULL * (run + 1))));
     const int64_t run_poses =
         options_.poses / options_.runs + (run < options_.poses % options_.runs ? 1 : 0);
-    const int start_x = static_cast<int>(random.UniformInt(grid_.columns));
-    const int start_y = static_cast<int>(random.UniformInt(grid_.rows));
-    int directions[4];
-    int count = 0;
-    for (int d = 0; d < 4; ++d)
-      if (grid_.Contains(start_x + kStepX[d], start_y + kStepY[d])) directions[count++] = d;
-    const int direction = directions[random.UniformInt(count)];
-    StreetPath path(grid_, options_, start_x, start_y, direction, &random);
-    core::Pose2 truth(start_x * grid_.block_size, start_y * grid_.block_size,
-                      core::WrapAngle(DirectionAngle(direction)));
-    core::Pose2 guess = truth;
-    if (run > 0) {
-      guess.x() += random.Normal(options_.initial_position_sigma);
-      guess.y() += random.Normal(options_.initial_position_sigma);
-      guess.z() = core::WrapAngle(guess.z() + random.Normal(options_.initial_heading_sigma));
-    }
+    const internal::RunStart start = internal::DrawRunStart(grid_, &random);
+    StreetPath path(grid_, options_, start.x, start.y, start.direction, &random);
+    core::Pose2 truth = start.truth;
+    core::Pose2 guess = internal::RunStartGuess(options_, run, truth, &random);
     double s = 0.0;
     core::VelocityControl control;
     Eigen::Matrix3d motion_information;

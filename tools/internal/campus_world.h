@@ -15,6 +15,7 @@
 #include <random>
 #include <vector>
 
+#include "core/angle.h"
 #include "core/check.h"
 #include "core/se2.h"
 #include "tools/campus_simulator.h"
@@ -77,6 +78,41 @@ struct Grid {
     return static_cast<int64_t>(columns) * (rows - 1) + static_cast<int64_t>(rows) * (columns - 1);
   }
 };
+
+// Where a run starts: a random intersection and a street leaving it, and the
+// true pose there (heading along the street).
+struct RunStart {
+  int x = 0;
+  int y = 0;
+  int direction = 0;
+  core::Pose2 truth;
+};
+inline RunStart DrawRunStart(const Grid& grid, Random* random) {
+  RunStart start;
+  start.x = static_cast<int>(random->UniformInt(grid.columns));
+  start.y = static_cast<int>(random->UniformInt(grid.rows));
+  int directions[4];
+  int count = 0;
+  for (int d = 0; d < 4; ++d)
+    if (grid.Contains(start.x + kStepX[d], start.y + kStepY[d])) directions[count++] = d;
+  start.direction = directions[random->UniformInt(count)];
+  start.truth = core::Pose2(start.x * grid.block_size, start.y * grid.block_size,
+                            core::WrapAngle(DirectionAngle(start.direction)));
+  return start;
+}
+
+// The guess of a run's first pose: the truth for the first run (it fixes the
+// frame), off by the initial sigmas for later runs (they start unaligned).
+inline core::Pose2 RunStartGuess(const CampusSimulatorOptions& options, int run,
+                                 const core::Pose2& truth, Random* random) {
+  core::Pose2 guess = truth;
+  if (run > 0) {
+    guess.x() += random->Normal(options.initial_position_sigma);
+    guess.y() += random->Normal(options.initial_position_sigma);
+    guess.z() = core::WrapAngle(guess.z() + random->Normal(options.initial_heading_sigma));
+  }
+  return guess;
+}
 
 inline double ExpectedLandmarksPerSegment(const CampusSimulatorOptions& options) {
   const double usable = options.block_size - options.street_width;
