@@ -183,6 +183,105 @@ Status MaybeAccelerate(Space* space, double* candidate_chi2, IterationSummary* i
   return Status::Ok();
 }
 
+// The controller's state between iterations (what a checkpoint keeps, plus
+// the history the radius rule and the extrapolated stop look at).
+struct LevenbergMarquardtState {
+  double chi2 = 0.0;
+  double radius = 0.0;
+  double decrease_factor = 2.0;
+  bool fit_so_far = true;  // every step accepted with rho >= kSpeculationRho
+  // The chi2 decreases of the last two steps, each 0 unless it was a plain
+  // step accepted with rho >= kSpeculationRho (the last one first).
+  double decrease_1 = 0.0;
+  double decrease_2 = 0.0;
+};
+
+// Takes over an interrupted solve's controller state. The checkpoint's chi2,
+// not a recomputation: acceptance decisions must see the very number the
+// interrupted solve saw.
+template <class Checkpoint>
+void RestoreFromCheckpoint(const Checkpoint& resume, const SolverOptions& options,
+                           LevenbergMarquardtState* state, SolverSummary* summary) {
+  state->chi2 = resume.chi2;
+  summary->final_chi2 = resume.chi2;
+  summary->initial_chi2 = resume.initial_chi2;
+  state->radius = resume.trust_region_radius;
+  state->decrease_factor = resume.decrease_factor;
+  state->fit_so_far = ModelFitEveryStep(resume.iterations, state->radius, options);
+  summary->iterations = resume.iterations;
+  summary->resumed_from_iteration = resume.iterations;
+  if (resume.converged) {
+    summary->converged = true;
+    summary->termination = resume.termination;
+  }
+}
+
+// Step 4 once the space has taken an accepted step (candidate_chi2 its chi2):
+// the trust region grows, and the tests of convergence. Returns whether the
+// solve has converged (summary->termination says by which test).
+inline bool UpdateAfterAcceptedStep(const SolverOptions& options, bool extrapolate,
+                                    const TrialStep& trial, double candidate_chi2,
+                                    const IterationSummary& it, LevenbergMarquardtState* state,
+                                    SolverSummary* summary) {
+  const double relative_change = (state->chi2 - candidate_chi2) / std::max(state->chi2, 1e-300);
+  state->chi2 = candidate_chi2;
+  state->radius =
+      RadiusAfterAcceptedStep(state->radius, it.relative_decrease, state->fit_so_far, options);
+  state->fit_so_far = state->fit_so_far && it.relative_decrease >= kSpeculationRho;
+  state->decrease_factor = 2.0;
+  bool converged = false;
+  if (relative_change < options.function_tolerance) {
+    summary->termination = "function_tolerance";
+    converged = true;
+  } else if (it.step_norm <= options.parameter_tolerance *
+                                 (std::sqrt(trial.state_norm_squared) +
+                                  options.parameter_tolerance)) {
+    summary->termination = "parameter_tolerance";
+    converged = true;
+  }
+  const double decrease = it.relative_decrease >= kSpeculationRho && !it.accelerated
+                              ? it.start_chi2 - state->chi2
+                              : 0.0;
+  if (!converged && extrapolate && decrease > 0.0 &&
+      ExtrapolatedDecreaseBelow(state->decrease_2, state->decrease_1, decrease, state->chi2,
+                                options.function_tolerance)) {
+    summary->termination = "function_tolerance";
+    converged = true;
+  }
+  state->decrease_2 = state->decrease_1;
+  state->decrease_1 = decrease;
+  return converged;
+}
+
+// Step 4 after a rejected step: the trust region shrinks, faster each time.
+inline void UpdateAfterRejectedStep(LevenbergMarquardtState* state) {
+  state->decrease_2 = state->decrease_1 = 0.0;
+  state->fit_so_far = false;
+  state->radius /= state->decrease_factor;
+  state->decrease_factor *= 2.0;
+}
+
+// Hands the state after `iteration` to the checkpoint callback; the space
+// lends its state for the write and gets it back even when the write fails.
+template <class Space>
+Status WriteLevenbergMarquardtCheckpoint(
+    const std::function<Status(const typename Space::Checkpoint&)>& checkpoint_callback,
+    int iteration, const LevenbergMarquardtState& state, bool converged,
+    const SolverSummary& summary, Space* space) {
+  typename Space::Checkpoint checkpoint;
+  checkpoint.iterations = iteration;
+  checkpoint.trust_region_radius = state.radius;
+  checkpoint.decrease_factor = state.decrease_factor;
+  checkpoint.initial_chi2 = summary.initial_chi2;
+  checkpoint.chi2 = state.chi2;
+  checkpoint.converged = converged;
+  checkpoint.termination = converged ? summary.termination : "";
+  space->LendState(&checkpoint);
+  const Status written = checkpoint_callback(checkpoint);
+  space->ReturnState(&checkpoint);  // before any return: the state must survive an error
+  return written;
+}
+
 // Runs the iterations from the space's current state, whose chi2 is
 // `initial_chi2` (or from `resume`, whose state the space has already taken
 // over). Fills the control fields of *summary (chi2, iterations,
@@ -192,40 +291,25 @@ Status RunLevenbergMarquardt(
     const SolverOptions& options, double initial_chi2, const typename Space::Checkpoint* resume,
     const std::function<Status(const typename Space::Checkpoint&)>& checkpoint_callback,
     SolverClock::time_point start, Space* space, SolverSummary* summary) {
-  double chi2 = initial_chi2;
-  summary->initial_chi2 = chi2;
-  summary->final_chi2 = chi2;
-  if (!std::isfinite(chi2)) {
-    return Status::Numerical("initial chi2 is not finite (" + std::to_string(chi2) +
+  LevenbergMarquardtState state;
+  state.chi2 = initial_chi2;
+  summary->initial_chi2 = initial_chi2;
+  summary->final_chi2 = initial_chi2;
+  if (!std::isfinite(initial_chi2)) {
+    return Status::Numerical("initial chi2 is not finite (" + std::to_string(initial_chi2) +
                              "); check the initial guess and information matrices");
   }
-  double radius = options.initial_trust_region_radius;
-  double decrease_factor = 2.0;
-  bool fit_so_far = true;  // every step accepted with rho >= kSpeculationRho
+  state.radius = options.initial_trust_region_radius;
   // Pose graphs without checkpoints: the spaces that accelerate steps.
   const bool extrapolate = resume == nullptr && !checkpoint_callback && space->AcceleratesSteps();
-  // The chi2 decreases of the last two steps, each 0 unless it was
-  // a plain step accepted with rho >= kSpeculationRho (the last one first).
-  double decrease_1 = 0.0, decrease_2 = 0.0;
   int first_iteration = 1;
   // Whether this iteration's step is likely to give rho >= kSpeculationRho:
   // optimistic at the start (and after a resume), then the last rho.
   bool speculate = true;
   if (resume != nullptr) {
-    // The checkpoint's chi2, not a recomputation: acceptance decisions must
-    // see the very number the interrupted solve saw.
-    chi2 = resume->chi2;
-    summary->final_chi2 = chi2;
-    summary->initial_chi2 = resume->initial_chi2;
-    radius = resume->trust_region_radius;
-    decrease_factor = resume->decrease_factor;
-    fit_so_far = ModelFitEveryStep(resume->iterations, radius, options);
+    RestoreFromCheckpoint(*resume, options, &state, summary);
     first_iteration = resume->iterations + 1;
-    summary->iterations = resume->iterations;
-    summary->resumed_from_iteration = resume->iterations;
     if (resume->converged) {
-      summary->converged = true;
-      summary->termination = resume->termination;
       summary->seconds = SecondsSince(start);
       return Status::Ok();
     }
@@ -236,8 +320,8 @@ Status RunLevenbergMarquardt(
     const SolverClock::time_point iteration_start = SolverClock::now();
     IterationSummary it;
     it.iteration = iteration;
-    it.lambda = 1.0 / radius;
-    it.start_chi2 = chi2;
+    it.lambda = 1.0 / state.radius;
+    it.start_chi2 = state.chi2;
 
     // 1. Linearize and reduce.
     bool usable = true;
@@ -253,14 +337,14 @@ Status RunLevenbergMarquardt(
     TrialStep trial;
     const double speculative_lambda =
         speculate && iteration < options.max_iterations
-            ? 1.0 / RadiusAfterAcceptedStep(radius, 1.0, fit_so_far, options)
+            ? 1.0 / RadiusAfterAcceptedStep(state.radius, 1.0, state.fit_so_far, options)
             : 0.0;
     GS_RETURN_IF_ERROR(space->TryStep(it.lambda, speculative_lambda, usable, &it, &trial));
     double candidate_chi2 = trial.ok ? trial.candidate_chi2
                                            : std::numeric_limits<double>::infinity();
     it.candidate_chi2 = candidate_chi2;
     it.relative_decrease =
-        trial.model_decrease > 0.0 ? (chi2 - candidate_chi2) / trial.model_decrease : -1.0;
+        trial.model_decrease > 0.0 ? (state.chi2 - candidate_chi2) / trial.model_decrease : -1.0;
     it.accepted = trial.ok && std::isfinite(candidate_chi2) &&
                   it.relative_decrease > options.min_relative_decrease;
     if (trial.ok) space->StepResult(it.accepted);
@@ -271,45 +355,19 @@ Status RunLevenbergMarquardt(
     GS_RETURN_IF_ERROR(MaybeAccelerate(space, &candidate_chi2, &it));
     bool converged = false;
     if (it.accepted) {
-      const double relative_change = (chi2 - candidate_chi2) / std::max(chi2, 1e-300);
       GS_RETURN_IF_ERROR(space->Accept());
-      chi2 = candidate_chi2;
-      radius = RadiusAfterAcceptedStep(radius, it.relative_decrease, fit_so_far, options);
-      fit_so_far = fit_so_far && it.relative_decrease >= kSpeculationRho;
-      decrease_factor = 2.0;
-      if (relative_change < options.function_tolerance) {
-        summary->termination = "function_tolerance";
-        converged = true;
-      } else if (it.step_norm <= options.parameter_tolerance *
-                                     (std::sqrt(trial.state_norm_squared) +
-                                      options.parameter_tolerance)) {
-        summary->termination = "parameter_tolerance";
-        converged = true;
-      }
-      const double decrease = it.relative_decrease >= kSpeculationRho && !it.accelerated
-                                  ? it.start_chi2 - chi2
-                                  : 0.0;
-      if (!converged && extrapolate && decrease > 0.0 &&
-          ExtrapolatedDecreaseBelow(decrease_2, decrease_1, decrease, chi2,
-                                    options.function_tolerance)) {
-        summary->termination = "function_tolerance";
-        converged = true;
-      }
-      decrease_2 = decrease_1;
-      decrease_1 = decrease;
+      converged = UpdateAfterAcceptedStep(options, extrapolate, trial, candidate_chi2, it, &state,
+                                          summary);
     } else {
-      decrease_2 = decrease_1 = 0.0;
-      fit_so_far = false;
-      radius /= decrease_factor;
-      decrease_factor *= 2.0;
+      UpdateAfterRejectedStep(&state);
     }
-    it.chi2 = chi2;
+    it.chi2 = state.chi2;
     it.seconds = SecondsSince(iteration_start);
     summary->per_iteration.push_back(it);
     summary->iterations = iteration;
-    summary->final_chi2 = chi2;
+    summary->final_chi2 = state.chi2;
     GS_VLOG(1, "%siteration %d: chi2 %.9g candidate %.9g rho %.3g lambda %.3g |step| %.3g cg %d %s%s",
-            Space::kName, iteration, chi2, candidate_chi2, it.relative_decrease, it.lambda,
+            Space::kName, iteration, state.chi2, candidate_chi2, it.relative_decrease, it.lambda,
             it.step_norm, it.linear_iterations, it.accepted ? "accepted" : "rejected",
             it.accelerated ? " (accelerated)" : "");
     if (options.iteration_callback) options.iteration_callback(it);
@@ -317,7 +375,7 @@ Status RunLevenbergMarquardt(
     // An iteration callback already shows every iteration.
     if (options.progress && !options.iteration_callback)
       options.progress("optimize", iteration, 0);
-    if (!converged && radius < options.min_trust_region_radius) {
+    if (!converged && state.radius < options.min_trust_region_radius) {
       summary->termination = "min_trust_region_radius";
       converged = true;  // no further decrease possible: a (local) minimum
     }
@@ -328,18 +386,8 @@ Status RunLevenbergMarquardt(
                            trial.model_decrease > 1e-3 * it.start_chi2;
     if (abandoned) summary->termination = "abandoned";
     if (checkpoint_callback) {
-      typename Space::Checkpoint checkpoint;
-      checkpoint.iterations = iteration;
-      checkpoint.trust_region_radius = radius;
-      checkpoint.decrease_factor = decrease_factor;
-      checkpoint.initial_chi2 = summary->initial_chi2;
-      checkpoint.chi2 = chi2;
-      checkpoint.converged = converged;
-      checkpoint.termination = converged ? summary->termination : "";
-      space->LendState(&checkpoint);
-      const Status written = checkpoint_callback(checkpoint);
-      space->ReturnState(&checkpoint);  // before any return: the state must survive an error
-      GS_RETURN_IF_ERROR(written);
+      GS_RETURN_IF_ERROR(WriteLevenbergMarquardtCheckpoint(checkpoint_callback, iteration, state,
+                                                           converged, *summary, space));
     }
     if (converged) {
       summary->converged = true;
