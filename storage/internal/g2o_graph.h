@@ -50,7 +50,8 @@ struct G2oTypes {
   static Pose UnknownPose() { return core::IdentityPose<Pose>(); }
 };
 
-// EDGE_SE2, EDGE_SE2_XY, EDGE_PRIOR_SE2_XY, VERTEX_SE2 / VERTEX_XY.
+// EDGE_SE2, EDGE_SE2_XY, EDGE_PRIOR_SE2_XY, VERTEX_SE2 / VERTEX_XY. The
+// traits serve the writers too (internal/g2o_record_writer.h: AppendPose).
 struct G2o2d : G2oTypes<core::Problem2d> {
   static constexpr const char* kEdgeTags[4] = {"EDGE_SE2", "EDGE_SE2_XY", "EDGE_PRIOR_SE2_XY",
                                                "FIX"};
@@ -67,6 +68,11 @@ struct G2o2d : G2oTypes<core::Problem2d> {
     return Pose(v[0], v[1], v[2]);
   }
   static void SetKind(PointObservation* o) { o->kind = core::ObservationKind::kPointXY; }
+  static constexpr size_t kPointEdgeExtraFields = 0;
+  // The fields ReadPose reads (internal/g2o_record_writer.h).
+  static void AppendPose(std::string* line, const Pose& pose) {
+    for (int k = 0; k < kPoseFields; ++k) AppendField(line, pose[k]);
+  }
 };
 
 // EDGE_SE3:QUAT, EDGE_SE3_TRACKXYZ, EDGE_SE3_XYZPRIOR, VERTEX_SE3:QUAT /
@@ -98,6 +104,19 @@ struct G2o3d : G2oTypes<core::Problem3d> {
     return pose;
   }
   static void SetKind(PointObservation*) {}  // one 3-D observation model
+  // EDGE_SE3_TRACKXYZ carries the id of its sensor offset (PARAMS_SE3OFFSET)
+  // between the ids and the measurement.
+  static constexpr size_t kPointEdgeExtraFields = 1;
+  // The fields ReadPose reads, the quaternion normalized with qw >= 0.
+  static void AppendPose(std::string* line, const Pose& pose) {
+    Eigen::Quaterniond q = pose.q.normalized();
+    if (q.w() < 0.0) q.coeffs() = -q.coeffs();
+    for (int k = 0; k < 3; ++k) AppendField(line, pose.t[k]);
+    AppendField(line, q.x());
+    AppendField(line, q.y());
+    AppendField(line, q.z());
+    AppendField(line, q.w());
+  }
 };
 
 template <class Graph>
