@@ -557,16 +557,15 @@ Status IncrementalInitializationOptions::Validate() const {
 Status InitializeIncrementally(const IncrementalInitializationOptions& options,
                                const core::SolverOptions& base, core::Problem2d* problem,
                                IncrementalSummary* summary) {
-  *summary = IncrementalSummary();
-  GS_RETURN_IF_ERROR(options.Validate());
-  GS_RETURN_IF_ERROR(base.Validate());
-  if (!options.enabled) return Status::Ok();
-  GS_RETURN_IF_ERROR(internal::CheckPerElementArrays(*problem));
-  GS_RETURN_IF_ERROR(core::ValidateProblem(*problem));  // indices in range
+  GS_ASSIGN_OR_RETURN(const bool has_stages,
+                      BeginPrefixStages(options, base, *problem, summary,
+                                        [](const core::Problem2d& p) -> Status {
+                                          GS_RETURN_IF_ERROR(internal::CheckPerElementArrays(p));
+                                          return core::ValidateProblem(p);  // indices in range
+                                        }));
+  if (!has_stages) return Status::Ok();
   const Clock::time_point start = Clock::now();
-  summary->ran = true;
   const int32_t n = problem->num_poses();
-  if (n == 0) return Status::Ok();
 
   IncrementalStages stages(options, base, *problem);
   int64_t allowed = options.max_new_poses;

@@ -136,15 +136,11 @@ Status ProgressiveInitializationOptions::Validate() const {
 Status InitializeProgressively(const ProgressiveInitializationOptions& options,
                                const core::SolverOptions& base, core::Problem2d* problem,
                                ProgressiveSummary* summary) {
-  *summary = ProgressiveSummary();
-  GS_RETURN_IF_ERROR(options.Validate());
-  GS_RETURN_IF_ERROR(base.Validate());
-  if (!options.enabled) return Status::Ok();
-  GS_RETURN_IF_ERROR(CheckIndices(*problem));
+  GS_ASSIGN_OR_RETURN(const bool has_stages,
+                      BeginPrefixStages(options, base, *problem, summary, CheckIndices));
+  if (!has_stages) return Status::Ok();
   const Clock::time_point start = Clock::now();
-  summary->ran = true;
   const int32_t n = problem->num_poses();
-  if (n == 0) return Status::Ok();
 
   // Working copies: *problem changes only at the end, when every stage succeeded.
   std::vector<Pose2> poses = problem->poses;
