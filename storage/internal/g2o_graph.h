@@ -10,8 +10,9 @@
 //     resolved into the problem in file order.
 // The vertex and edge records both dimensions share are parsed in
 // internal/g2o_records.h from the sizes, pose reader and message forms of the
-// traits. Each reader keeps what only it has: its tag dispatch, 2-D
-// DATA_FEATURE_POINTXY, 3-D PARAMS_SE3OFFSET.
+// traits, dispatched by tag in internal/g2o_parser.h, and written back by
+// internal/g2o_record_writer.h. Each reader keeps what only it has (its
+// Dialect): 2-D DATA_FEATURE_POINTXY, 3-D PARAMS_SE3OFFSET.
 //
 // THREAD SAFETY: one graph per reader. ALLOCATION: one entry per edge until
 // Finish.
