@@ -22,14 +22,9 @@
 namespace graphslam::partition {
 namespace {
 
-using Clock = std::chrono::steady_clock;
 using core::Point2;
 using core::Pose2;
 
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 // Compressed rows: the items of row r are items[offsets[r] .. offsets[r + 1]).
 struct Rows {
@@ -564,7 +559,7 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
                                           return core::ValidateProblem(p);  // indices in range
                                         }));
   if (!has_stages) return Status::Ok();
-  const Clock::time_point start = Clock::now();
+  const StageClock::time_point start = StageClock::now();
   const int32_t n = problem->num_poses();
 
   IncrementalStages stages(options, base, *problem);
@@ -582,7 +577,7 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
     if (!t_chosen) t = internal::NextStageSize(options.growth, allowed, previous, n);
     t = stages.CapNewPoses(previous, t);
     t_chosen = false;
-    const Clock::time_point stage_start = Clock::now();
+    const StageClock::time_point stage_start = StageClock::now();
     stages.Place(previous, t);
     const int32_t new_begin = previous;
     // A full stage with fewer than a quarter of its prefix still to come is
@@ -592,7 +587,7 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
     StageSolve stage;
     GS_RETURN_IF_ERROR(
         stages.Solve(attempt, new_begin, t, full, summary->stages.size(), &stage));
-    stage.summary.seconds = SecondsSince(stage_start);
+    stage.summary.seconds = StageSecondsSince(stage_start);
     if (IsFarStart(options, stage.solver, t - new_begin, floor_new_poses)) {
       allowed = std::max<int64_t>(floor_new_poses, (t - new_begin) / 2);
       GS_VLOG(1, "incremental initialization: %d poses not converged in %d iterations "
@@ -623,7 +618,7 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
     redone = false;
   }
   stages.Finish(problem);
-  summary->seconds = SecondsSince(start);
+  summary->seconds = StageSecondsSince(start);
   return Status::Ok();
 }
 

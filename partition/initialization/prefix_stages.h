@@ -6,12 +6,13 @@
 //   backing off towards min_new_poses after unsettled stages,
 // solve each stage for at most max_iterations_per_stage LM iterations on
 // chunks of max_observations_per_chunk observations, and open their run
-// alike (BeginPrefixStages). Each initializer's options derive from
+// alike (BeginPrefixStages) and time their stages on one clock. Each initializer's options derive from
 // PrefixStageOptions, add its own and validate them all.
 //
 // THREAD SAFETY: pure. ALLOCATION: none.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 
 #include "core/graphslam_solver.h"
@@ -37,6 +38,12 @@ struct PrefixStageOptions {
   // Chunking of each stage's observations.
   int64_t max_observations_per_chunk = 4096;
 };
+
+// The clock of the summaries' stage and run times.
+using StageClock = std::chrono::steady_clock;
+inline double StageSecondsSince(StageClock::time_point start) {
+  return std::chrono::duration<double>(StageClock::now() - start).count();
+}
 
 // The opening of a run: *summary reset, `options` (its Validate) and `base`
 // valid, then, when enabled, `check_problem(problem)` and summary->ran set.
