@@ -25,7 +25,6 @@ namespace {
 using core::Point2;
 using core::Pose2;
 
-
 // Compressed rows: the items of row r are items[offsets[r] .. offsets[r + 1]).
 struct Rows {
   std::vector<int64_t> offsets;
