@@ -1,7 +1,7 @@
 // The part of reading a g2o graph that does not depend on the dimension,
 // shared by the 2-D (storage/g2o_reader.cc) and the 3-D
 // (storage/g2o_3d_reader.cc) readers as one template over a Graph traits
-// struct (G2o2d, G2o3d below):
+// struct (G2oFormat<Space>: G2o2d, G2o3d below):
 //   - the read loop: every line to the reader's own ParseLine, then the
 //     "has no vertices or edges" check;
 //   - the pending edges: relative poses, point observations, position priors
@@ -29,6 +29,7 @@
 #include "core/information_repair.h"
 #include "core/problem.h"
 #include "core/problem_3d.h"
+#include "core/problem_space.h"
 #include "core/status.h"
 #include "storage/internal/g2o_vertices.h"
 #include "storage/internal/text_reader.h"
@@ -37,10 +38,11 @@ namespace graphslam::storage::internal {
 
 enum class G2oEdgeKind { kRelativePose, kPointObservation, kPositionPrior, kFix };
 
-// The types of a graph's traits, from its problem (core/problem_unknowns.h).
-template <class ProblemT>
+// The types of a graph's traits, from the problem of its space
+// (core/problem_space.h: Space::Problem; core/problem_unknowns.h).
+template <class Space>
 struct G2oTypes {
-  using Problem = ProblemT;
+  using Problem = typename Space::Problem;
   using Pose = typename Problem::Pose;
   using Point = typename Problem::Point;
   using RelativePose = typename decltype(Problem::relative_poses)::value_type;
@@ -51,9 +53,16 @@ struct G2oTypes {
   static Pose UnknownPose() { return core::IdentityPose<Pose>(); }
 };
 
-// EDGE_SE2, EDGE_SE2_XY, EDGE_PRIOR_SE2_XY, VERTEX_SE2 / VERTEX_XY. The
-// traits serve the writers too (internal/g2o_record_writer.h: AppendPose).
-struct G2o2d : G2oTypes<core::Problem2d> {
+// The g2o records of a problem space, as small specializations: the tags,
+// the pose fields and the message forms. The readers and the writers are
+// templates over these (internal/g2o_records.h, internal/g2o_parser.h,
+// internal/g2o_record_writer.h), as the solver is over the Space.
+template <class Space>
+struct G2oFormat;
+
+// EDGE_SE2, EDGE_SE2_XY, EDGE_PRIOR_SE2_XY, VERTEX_SE2 / VERTEX_XY.
+template <>
+struct G2oFormat<core::Space2d> : G2oTypes<core::Space2d> {
   static constexpr const char* kEdgeTags[4] = {"EDGE_SE2", "EDGE_SE2_XY", "EDGE_PRIOR_SE2_XY",
                                                "FIX"};
   static constexpr const char* kPoseVertexTag = "VERTEX_SE2";
@@ -78,7 +87,8 @@ struct G2o2d : G2oTypes<core::Problem2d> {
 
 // EDGE_SE3:QUAT, EDGE_SE3_TRACKXYZ, EDGE_SE3_XYZPRIOR, VERTEX_SE3:QUAT /
 // VERTEX_TRACKXYZ.
-struct G2o3d : G2oTypes<core::Problem3d> {
+template <>
+struct G2oFormat<core::Space3d> : G2oTypes<core::Space3d> {
   static constexpr const char* kEdgeTags[4] = {"EDGE_SE3:QUAT", "EDGE_SE3_TRACKXYZ",
                                                "EDGE_SE3_XYZPRIOR", "FIX"};
   static constexpr const char* kPoseVertexTag = "VERTEX_SE3:QUAT";
@@ -119,6 +129,9 @@ struct G2o3d : G2oTypes<core::Problem3d> {
     AppendField(line, q.w());
   }
 };
+
+using G2o2d = G2oFormat<core::Space2d>;
+using G2o3d = G2oFormat<core::Space3d>;
 
 template <class Graph>
 class G2oGraph {
