@@ -136,16 +136,17 @@ using GpsFactor = PoseFactor<GpsConstraint, 2, 3, Gps>;
 }  // namespace
 
 template <>
-struct internal::PoseFactorList<Problem2d> {
-  template <class Visit>
-  static void ForEach(const Problem2d& problem, const PoseFactorKernels& kernels, Visit&& visit) {
-    visit(RelativePoseFactor{}, problem.relative_poses, kernels.relative_pose);
-    visit(VelocityMotionFactor{}, problem.motions, kernels.motion);
-    visit(GpsFactor{}, problem.gps, kernels.gps);
-    visit(PoseRangeBearingFactor{}, problem.pose_range_bearings, kernels.robot);
-    visit(InterpolatedPoseRangeBearingFactor{}, problem.pose_range_bearings, kernels.robot);
-  }
-};
+struct internal::PoseFactorList<Problem2d>
+    : internal::PoseFactorTable<
+          internal::PoseFactorEntry<RelativePoseFactor, &Problem2d::relative_poses,
+                                    &PoseFactorKernels::relative_pose>,
+          internal::PoseFactorEntry<VelocityMotionFactor, &Problem2d::motions,
+                                    &PoseFactorKernels::motion>,
+          internal::PoseFactorEntry<GpsFactor, &Problem2d::gps, &PoseFactorKernels::gps>,
+          internal::PoseFactorEntry<PoseRangeBearingFactor, &Problem2d::pose_range_bearings,
+                                    &PoseFactorKernels::robot>,
+          internal::PoseFactorEntry<InterpolatedPoseRangeBearingFactor,
+                                    &Problem2d::pose_range_bearings, &PoseFactorKernels::robot>> {};
 
 GS_INSTANTIATE_POSE_FACTORS(Problem2d);
 

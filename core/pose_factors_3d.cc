@@ -67,13 +67,11 @@ using Gps3Factor = PoseFactor<Gps3Constraint, 3, 6, Gps3>;
 }  // namespace
 
 template <>
-struct internal::PoseFactorList<Problem3d> {
-  template <class Visit>
-  static void ForEach(const Problem3d& problem, const PoseFactorKernels& kernels, Visit&& visit) {
-    visit(RelativePose3Factor{}, problem.relative_poses, kernels.relative_pose);
-    visit(Gps3Factor{}, problem.gps, kernels.gps);
-  }
-};
+struct internal::PoseFactorList<Problem3d>
+    : internal::PoseFactorTable<
+          internal::PoseFactorEntry<RelativePose3Factor, &Problem3d::relative_poses,
+                                    &PoseFactorKernels::relative_pose>,
+          internal::PoseFactorEntry<Gps3Factor, &Problem3d::gps, &PoseFactorKernels::gps>> {};
 
 GS_INSTANTIATE_POSE_FACTORS(Problem3d);
 

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "storage/internal/g2o_graph.h"
+#include "storage/internal/g2o_parser.h"
 #include "storage/internal/g2o_records.h"
 #include "storage/internal/text_reader.h"
 
@@ -13,50 +14,38 @@ namespace graphslam::storage {
 namespace {
 
 using internal::LineReader;
-using Graph = internal::G2oGraph<internal::G2o3d>;
-using internal::G2oEdgeKind;
+using Graph3d = internal::G2oGraph<internal::G2o3d>;
 
 constexpr const char* kKnownTags =
     "VERTEX_SE3:QUAT, VERTEX_TRACKXYZ, EDGE_SE3:QUAT, EDGE_SE3_TRACKXYZ, EDGE_SE3_XYZPRIOR, "
     "PARAMS_SE3OFFSET or FIX";
 
-class G2o3dParser {
+// What only the 3-D reader has (internal/g2o_parser.h: the Dialect): the
+// sensor offsets (PARAMS_SE3OFFSET) that EDGE_SE3_TRACKXYZ names.
+class G2o3dDialect {
  public:
-  explicit G2o3dParser(core::InformationRepairs* repairs) : graph_(repairs) {}
+  using Graph = internal::G2o3d;
 
-  StatusOr<core::Problem3d> Parse(const std::string& path) {
-    return graph_.Read(path, [this](const LineReader& reader) { return ParseLine(reader); });
+  void OnPoseVertex(int32_t) {}
+
+  // EDGE_SE3_TRACKXYZ pose point param x y z Omega(6): param must name an
+  // identity PARAMS_SE3OFFSET (or none).
+  Status CheckPointEdgeExtra(const LineReader& line) const {
+    GS_ASSIGN_OR_RETURN(const int64_t param, line.Id(3, "offset parameter id"));
+    if (const auto it = offsets_.find(param); it != offsets_.end() && !it->second) {
+      return line.Unsupported("EDGE_SE3_TRACKXYZ uses PARAMS_SE3OFFSET " + std::to_string(param) +
+                              ", which is not the identity; expected an identity offset");
+    }
+    return Status::Ok();
   }
 
- private:
-  Status ParseLine(const LineReader& reader) {
-    const std::string_view tag = reader.fields()[0];
-    if (tag == "VERTEX_SE3:QUAT") return internal::ParseG2oPoseVertex(reader, &graph_).status();
-    if (tag == "VERTEX_TRACKXYZ") return internal::ParseG2oPointVertex(reader, &graph_);
-    if (tag == "EDGE_SE3:QUAT") return internal::ParseG2oRelativePose(reader, &graph_);
-    if (tag == "EDGE_SE3_TRACKXYZ") return ParsePointEdge(reader, G2oEdgeKind::kPointObservation);
-    if (tag == "EDGE_SE3_XYZPRIOR") return ParsePointEdge(reader, G2oEdgeKind::kPositionPrior);
+  Status ParseOther(const LineReader& reader, std::string_view tag, Graph3d*) {
     if (tag == "PARAMS_SE3OFFSET") return ParseOffset(reader);
-    if (tag == "FIX") return graph_.AddFix(reader);
     return reader.Unsupported("unknown tag '" + std::string(tag) + "' in a 3-D graph; expected " +
                               kKnownTags);
   }
 
-  // EDGE_SE3_TRACKXYZ pose point param x y z Omega(6), EDGE_SE3_XYZPRIOR pose
-  // x y z Omega(6); param must name an identity PARAMS_SE3OFFSET (or none).
-  Status ParsePointEdge(const LineReader& reader, G2oEdgeKind kind) {
-    return internal::ParseG2oPointEdge(
-        reader, kind, /*extra_fields=*/1, &graph_, [this](const LineReader& line) -> Status {
-          GS_ASSIGN_OR_RETURN(const int64_t param, line.Id(3, "offset parameter id"));
-          if (const auto it = offsets_.find(param); it != offsets_.end() && !it->second) {
-            return line.Unsupported("EDGE_SE3_TRACKXYZ uses PARAMS_SE3OFFSET " +
-                                    std::to_string(param) +
-                                    ", which is not the identity; expected an identity offset");
-          }
-          return Status::Ok();
-        });
-  }
-
+ private:
   Status ParseOffset(const LineReader& reader) {
     GS_RETURN_IF_ERROR(reader.ExpectFieldCount(9));
     GS_ASSIGN_OR_RETURN(const int64_t id, reader.Id(1, "parameter id"));
@@ -66,7 +55,6 @@ class G2o3dParser {
     return Status::Ok();
   }
 
-  Graph graph_;
   std::unordered_map<int64_t, bool> offsets_;  // id -> is identity
 };
 
@@ -74,7 +62,7 @@ class G2o3dParser {
 
 StatusOr<core::Problem3d> ReadG2o3d(const std::string& path,
                                     core::InformationRepairs* repairs) {
-  return G2o3dParser(repairs).Parse(path);
+  return internal::G2oParser<G2o3dDialect>(repairs).Parse(path);
 }
 
 }  // namespace graphslam::storage

@@ -8,6 +8,7 @@
 #include "core/se2.h"
 #include "core/velocity_motion_model.h"
 #include "storage/atomic_file.h"
+#include "storage/internal/g2o_record_writer.h"
 #include "storage/internal/problem_validation.h"
 #include "storage/internal/text_reader.h"
 
@@ -39,14 +40,6 @@ void MotionToRelative(const core::Problem2d& problem, const core::VelocityMotion
   *information = 0.5 * (*information + information->transpose());
 }
 
-// Ends the line in *line, appends it to `file` and clears it.
-Status FlushLine(WritableFile* file, std::string* line) {
-  line->push_back('\n');
-  Status status = file->Append(*line);
-  line->clear();
-  return status;
-}
-
 // Only range-bearing and point-xy observations have a g2o edge (EDGE_SE2_XY),
 // and a range-bearing one converts only at a positive range.
 Status CheckObservationsWritable(const core::Problem2d& problem, const std::string& context) {
@@ -69,87 +62,39 @@ Status CheckObservationsWritable(const core::Problem2d& problem, const std::stri
   return Status::Ok();
 }
 
-// The renumbering comment, VERTEX_SE2, VERTEX_XY (ids + offset) and FIX.
-Status AppendVertices(WritableFile* file, const core::Problem2d& problem, int64_t offset) {
-  using internal::AppendField;
-  std::string line;
-  if (offset != 0) {
-    AppendField(&line, "# graphslam: feature ids renumbered: VERTEX_XY id = feature id +");
-    AppendField(&line, offset);
-    GS_RETURN_IF_ERROR(FlushLine(file, &line));
-  }
-  for (int32_t i = 0; i < problem.num_poses(); ++i) {
-    AppendField(&line, "VERTEX_SE2");
-    AppendField(&line, problem.pose_ids[i]);
-    for (int k = 0; k < 3; ++k) AppendField(&line, problem.poses[i][k]);
-    GS_RETURN_IF_ERROR(FlushLine(file, &line));
-  }
-  for (int32_t i = 0; i < problem.num_features(); ++i) {
-    AppendField(&line, "VERTEX_XY");
-    AppendField(&line, problem.feature_ids[i] + offset);
-    AppendField(&line, problem.features[i].x());
-    AppendField(&line, problem.features[i].y());
-    GS_RETURN_IF_ERROR(FlushLine(file, &line));
-  }
-  for (int32_t i = 0; i < problem.num_poses(); ++i) {
-    if (!problem.pose_fixed[i]) continue;
-    AppendField(&line, "FIX");
-    AppendField(&line, problem.pose_ids[i]);
-    GS_RETURN_IF_ERROR(FlushLine(file, &line));
-  }
-  return Status::Ok();
-}
+using RecordWriter = internal::G2oRecordWriter<internal::G2o2d>;
 
-Status AppendPoseEdge(WritableFile* file, const core::Problem2d& problem, int32_t from,
-                      int32_t to, const core::Pose2& z, const Eigen::Matrix3d& information) {
-  std::string line;
-  internal::AppendField(&line, "EDGE_SE2");
-  internal::AppendField(&line, problem.pose_ids[from]);
-  internal::AppendField(&line, problem.pose_ids[to]);
-  for (int k = 0; k < 3; ++k) internal::AppendField(&line, z[k]);
-  internal::AppendUpperTriangle(&line, information);
-  return FlushLine(file, &line);
+// The renumbering comment, VERTEX_SE2, VERTEX_XY (ids + offset) and FIX.
+Status AppendVertices(RecordWriter* out, int64_t offset) {
+  if (offset != 0) {
+    std::string line;
+    internal::AppendField(&line, "# graphslam: feature ids renumbered: VERTEX_XY id = feature id +");
+    internal::AppendField(&line, offset);
+    GS_RETURN_IF_ERROR(out->Line(line));
+  }
+  return out->Vertices();
 }
 
 // EDGE_SE2 (relative poses, then motions as relative poses), EDGE_SE2_XY
 // (observations as points in the pose frame), EDGE_PRIOR_SE2_XY (GPS).
-Status AppendEdges(WritableFile* file, const core::Problem2d& problem, int64_t offset) {
-  using internal::AppendField;
-  using internal::AppendUpperTriangle;
-  for (const auto& constraint : problem.relative_poses) {
-    GS_RETURN_IF_ERROR(AppendPoseEdge(file, problem, constraint.from, constraint.to, constraint.z,
-                                      constraint.information));
-  }
+Status AppendEdges(RecordWriter* out, const core::Problem2d& problem) {
+  GS_RETURN_IF_ERROR(out->RelativePoses());
   for (const auto& motion : problem.motions) {
     core::Pose2 z;
     Eigen::Matrix3d information;
     MotionToRelative(problem, motion, &z, &information);
-    GS_RETURN_IF_ERROR(AppendPoseEdge(file, problem, motion.from, motion.to, z, information));
+    GS_RETURN_IF_ERROR(out->RelativePose(motion.from, motion.to, z, information));
   }
-  std::string line;
   for (const auto& observation : problem.observations) {
     Eigen::Vector2d point = observation.z;
     Eigen::Matrix2d information = observation.information;
     if (observation.kind == core::ObservationKind::kRangeBearing) {
       RangeBearingToPoint(observation, &point, &information);
     }
-    AppendField(&line, "EDGE_SE2_XY");
-    AppendField(&line, problem.pose_ids[observation.pose]);
-    AppendField(&line, problem.feature_ids[observation.feature] + offset);
-    AppendField(&line, point.x());
-    AppendField(&line, point.y());
-    AppendUpperTriangle(&line, information);
-    GS_RETURN_IF_ERROR(FlushLine(file, &line));
+    GS_RETURN_IF_ERROR(
+        out->PointObservation(observation.pose, observation.feature, point, information));
   }
-  for (const auto& gps : problem.gps) {
-    AppendField(&line, "EDGE_PRIOR_SE2_XY");
-    AppendField(&line, problem.pose_ids[gps.pose]);
-    AppendField(&line, gps.z.x());
-    AppendField(&line, gps.z.y());
-    AppendUpperTriangle(&line, gps.information);
-    GS_RETURN_IF_ERROR(FlushLine(file, &line));
-  }
-  return Status::Ok();
+  return out->PositionPriors();
 }
 
 }  // namespace
@@ -191,8 +136,9 @@ Status WriteG2o(const core::Problem2d& problem, const std::string& path, Env* en
   GS_RETURN_IF_ERROR(CheckObservationsWritable(problem, context));
   if (env == nullptr) env = Env::Default();
   return WriteFileAtomically(env, path, [&problem, offset](WritableFile* file) -> Status {
-    GS_RETURN_IF_ERROR(AppendVertices(file, problem, offset));
-    return AppendEdges(file, problem, offset);
+    RecordWriter out(file, problem, offset);
+    GS_RETURN_IF_ERROR(AppendVertices(&out, offset));
+    return AppendEdges(&out, problem);
   });
 }
 

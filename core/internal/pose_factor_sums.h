@@ -1,7 +1,8 @@
 // The definitions of the templates PoseFactorsChi2, LinearizePoseFactors and
 // AppendPoseFactorPattern (core/pose_factors.h), written once for both spaces.
 // A space's .cc file lists its pose-only factors in a specialization of
-// internal::PoseFactorList<Problem> and instantiates the three functions for
+// internal::PoseFactorList<Problem> (a PoseFactorTable of PoseFactorEntry
+// lines) and instantiates the three functions for
 // its Problem: core/pose_factors.cc (planar), core/pose_factors_3d.cc (3-D).
 //
 // A factor is a PoseFactor<Constraint, k, pose dimension, Model> with
@@ -49,9 +50,29 @@ namespace internal {
 
 // Specialized per problem type: a static
 //   template <class Visit> void ForEach(const Problem&, const PoseFactorKernels&, Visit&& visit)
-// calling visit(F{}, constraints, kernel) for each factor type F in turn.
+// calling visit(F{}, constraints, kernel) for each factor type F in turn,
+// usually by deriving from PoseFactorTable below.
 template <class Problem>
 struct PoseFactorList;
+
+// One line of a factor list: factor F over the constraints problem.*kConstraints,
+// robustified by kernels.*kKernel.
+template <class F, auto kConstraints, auto kKernel>
+struct PoseFactorEntry {
+  template <class Problem, class Visit>
+  static void Apply(const Problem& problem, const PoseFactorKernels& kernels, Visit&& visit) {
+    visit(F{}, problem.*kConstraints, kernels.*kKernel);
+  }
+};
+
+// A PoseFactorList's ForEach from its entries, visited in the order given.
+template <class... Entries>
+struct PoseFactorTable {
+  template <class Problem, class Visit>
+  static void ForEach(const Problem& problem, const PoseFactorKernels& kernels, Visit&& visit) {
+    (Entries::Apply(problem, kernels, visit), ...);
+  }
+};
 
 template <class C, int kResidual, int kPoseDim, auto Model>
 struct PoseFactor {

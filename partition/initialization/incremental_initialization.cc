@@ -22,14 +22,8 @@
 namespace graphslam::partition {
 namespace {
 
-using Clock = std::chrono::steady_clock;
 using core::Point2;
 using core::Pose2;
-
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 // Compressed rows: the items of row r are items[offsets[r] .. offsets[r + 1]).
 struct Rows {
@@ -557,16 +551,15 @@ Status IncrementalInitializationOptions::Validate() const {
 Status InitializeIncrementally(const IncrementalInitializationOptions& options,
                                const core::SolverOptions& base, core::Problem2d* problem,
                                IncrementalSummary* summary) {
-  *summary = IncrementalSummary();
-  GS_RETURN_IF_ERROR(options.Validate());
-  GS_RETURN_IF_ERROR(base.Validate());
-  if (!options.enabled) return Status::Ok();
-  GS_RETURN_IF_ERROR(internal::CheckPerElementArrays(*problem));
-  GS_RETURN_IF_ERROR(core::ValidateProblem(*problem));  // indices in range
-  const Clock::time_point start = Clock::now();
-  summary->ran = true;
+  GS_ASSIGN_OR_RETURN(const bool has_stages,
+                      BeginPrefixStages(options, base, *problem, summary,
+                                        [](const core::Problem2d& p) -> Status {
+                                          GS_RETURN_IF_ERROR(internal::CheckPerElementArrays(p));
+                                          return core::ValidateProblem(p);  // indices in range
+                                        }));
+  if (!has_stages) return Status::Ok();
+  const StageClock::time_point start = StageClock::now();
   const int32_t n = problem->num_poses();
-  if (n == 0) return Status::Ok();
 
   IncrementalStages stages(options, base, *problem);
   int64_t allowed = options.max_new_poses;
@@ -583,7 +576,7 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
     if (!t_chosen) t = internal::NextStageSize(options.growth, allowed, previous, n);
     t = stages.CapNewPoses(previous, t);
     t_chosen = false;
-    const Clock::time_point stage_start = Clock::now();
+    const StageClock::time_point stage_start = StageClock::now();
     stages.Place(previous, t);
     const int32_t new_begin = previous;
     // A full stage with fewer than a quarter of its prefix still to come is
@@ -593,7 +586,7 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
     StageSolve stage;
     GS_RETURN_IF_ERROR(
         stages.Solve(attempt, new_begin, t, full, summary->stages.size(), &stage));
-    stage.summary.seconds = SecondsSince(stage_start);
+    stage.summary.seconds = StageSecondsSince(stage_start);
     if (IsFarStart(options, stage.solver, t - new_begin, floor_new_poses)) {
       allowed = std::max<int64_t>(floor_new_poses, (t - new_begin) / 2);
       GS_VLOG(1, "incremental initialization: %d poses not converged in %d iterations "
@@ -624,7 +617,7 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
     redone = false;
   }
   stages.Finish(problem);
-  summary->seconds = SecondsSince(start);
+  summary->seconds = StageSecondsSince(start);
   return Status::Ok();
 }
 

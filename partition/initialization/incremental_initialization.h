@@ -99,19 +99,15 @@
 #include "core/graphslam_solver.h"
 #include "core/problem.h"
 #include "core/status.h"
+#include "partition/initialization/prefix_stages.h"
 
 namespace graphslam::partition {
 
-struct IncrementalInitializationOptions {
-  bool enabled = true;
-  // Poses of the first stage (T_0), solved whole.
-  int64_t first_poses = 100;
-  // Prefix growth factor between stages (> 1), capped by max_new_poses.
-  double growth = 2.0;
-  // At most this many new poses per stage (> 0).
-  int64_t max_new_poses = 500;
-  // The fewest new poses a stage adds after stages that did not converge.
-  int64_t min_new_poses = 25;
+// The schedule (first_poses, solved whole; growth, capped by max_new_poses,
+// which must be > 0 here; min_new_poses; max_iterations_per_stage;
+// max_observations_per_chunk) is PrefixStageOptions'; the window is this
+// initializer's own.
+struct IncrementalInitializationOptions : PrefixStageOptions {
   // The most recent poses re-solved by each stage (new poses included);
   // at least max_new_poses.
   int64_t window_poses = 2000;
@@ -132,10 +128,6 @@ struct IncrementalInitializationOptions {
   // Full stages: the first stage whose prefix reaches first_poses * g^j
   // (j = 1, 2, ...) solves the whole prefix (0: never).
   double full_stage_growth = 2.0;
-  // LM iterations per stage.
-  int max_iterations_per_stage = 10;
-  // Chunking of each stage's observations.
-  int64_t max_observations_per_chunk = 4096;
 
   Status Validate() const;
 };

@@ -19,14 +19,8 @@
 namespace graphslam::partition {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
 using core::Point2;
 using core::Pose2;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 std::string Prefix(const core::Problem2d& problem) {
   return (problem.source.empty() ? std::string("<input>") : problem.source) + ": ";
@@ -136,15 +130,11 @@ Status ProgressiveInitializationOptions::Validate() const {
 Status InitializeProgressively(const ProgressiveInitializationOptions& options,
                                const core::SolverOptions& base, core::Problem2d* problem,
                                ProgressiveSummary* summary) {
-  *summary = ProgressiveSummary();
-  GS_RETURN_IF_ERROR(options.Validate());
-  GS_RETURN_IF_ERROR(base.Validate());
-  if (!options.enabled) return Status::Ok();
-  GS_RETURN_IF_ERROR(CheckIndices(*problem));
-  const Clock::time_point start = Clock::now();
-  summary->ran = true;
+  GS_ASSIGN_OR_RETURN(const bool has_stages,
+                      BeginPrefixStages(options, base, *problem, summary, CheckIndices));
+  if (!has_stages) return Status::Ok();
+  const StageClock::time_point start = StageClock::now();
   const int32_t n = problem->num_poses();
-  if (n == 0) return Status::Ok();
 
   // Working copies: *problem changes only at the end, when every stage succeeded.
   std::vector<Pose2> poses = problem->poses;
@@ -175,7 +165,7 @@ Status InitializeProgressively(const ProgressiveInitializationOptions& options,
   int32_t t = static_cast<int32_t>(std::min<int64_t>(options.first_poses, n));
   for (size_t stage = 0;; ++stage) {
     if (stage > 0) t = internal::NextStageSize(options.growth, allowed, previous, n);
-    const Clock::time_point stage_start = Clock::now();
+    const StageClock::time_point stage_start = StageClock::now();
     if (stage == 0) {
       for (int32_t p = 0; p < t; ++p) placed[p] = 1;  // the input guess
     } else {
@@ -209,7 +199,7 @@ Status InitializeProgressively(const ProgressiveInitializationOptions& options,
     std::copy(sub.poses.begin(), sub.poses.end(), poses.begin());
     for (size_t f = 0; f < local_feature.size(); ++f)
       if (local_feature[f] >= 0) features[f] = sub.features[local_feature[f]];
-    stage_summary.seconds = SecondsSince(stage_start);
+    stage_summary.seconds = StageSecondsSince(stage_start);
     GS_VLOG(1, "progressive initialization: stage %zu, %d poses, %lld features, chi2 %.6g -> %.6g "
                "in %d iterations (%s), %.3f s",
             stage, t, static_cast<long long>(stage_summary.features), stage_summary.initial_chi2,
@@ -231,7 +221,7 @@ Status InitializeProgressively(const ProgressiveInitializationOptions& options,
   problem->features = std::move(features);
   for (size_t f = 0; f < first_sight.size(); ++f)
     if (first_sight[f] >= 0) problem->feature_initialized[f] = 1;
-  summary->seconds = SecondsSince(start);
+  summary->seconds = StageSecondsSince(start);
   return Status::Ok();
 }
 

@@ -69,27 +69,15 @@
 #include "core/graphslam_solver.h"
 #include "core/problem.h"
 #include "core/status.h"
+#include "partition/initialization/prefix_stages.h"
 
 namespace graphslam::partition {
 
-struct ProgressiveInitializationOptions {
-  bool enabled = true;
-  // Poses of the first stage (T_0).
-  int64_t first_poses = 100;
-  // Prefix growth factor between stages (> 1).
-  double growth = 2.0;
-  // At most this many new poses per stage (0: no cap). Odometry drift grows
-  // with the length of the chained segment, so late stages must stay short.
-  int64_t max_new_poses = 500;
-  // The fewest new poses a stage adds after stages that did not converge.
-  int64_t min_new_poses = 25;
-  // LM iterations per stage (each sub-problem solve).
-  int max_iterations_per_stage = 10;
+// The schedule is PrefixStageOptions' (max_new_poses 0: no cap).
+struct ProgressiveInitializationOptions : PrefixStageOptions {
   // Solve the last stage (all poses) too. By default the last stage only
   // places the remaining poses and features: the caller's full solve follows.
   bool solve_last_stage = false;
-  // Chunking of each stage's observations.
-  int64_t max_observations_per_chunk = 4096;
 
   Status Validate() const;
 };

@@ -1,7 +1,7 @@
 // The part of reading a g2o graph that does not depend on the dimension,
 // shared by the 2-D (storage/g2o_reader.cc) and the 3-D
 // (storage/g2o_3d_reader.cc) readers as one template over a Graph traits
-// struct (G2o2d, G2o3d below):
+// struct (G2oFormat<Space>: G2o2d, G2o3d below):
 //   - the read loop: every line to the reader's own ParseLine, then the
 //     "has no vertices or edges" check;
 //   - the pending edges: relative poses, point observations, position priors
@@ -10,8 +10,9 @@
 //     resolved into the problem in file order.
 // The vertex and edge records both dimensions share are parsed in
 // internal/g2o_records.h from the sizes, pose reader and message forms of the
-// traits. Each reader keeps what only it has: its tag dispatch, 2-D
-// DATA_FEATURE_POINTXY, 3-D PARAMS_SE3OFFSET.
+// traits, dispatched by tag in internal/g2o_parser.h, and written back by
+// internal/g2o_record_writer.h. Each reader keeps what only it has (its
+// Dialect): 2-D DATA_FEATURE_POINTXY, 3-D PARAMS_SE3OFFSET.
 //
 // THREAD SAFETY: one graph per reader. ALLOCATION: one entry per edge until
 // Finish.
@@ -28,6 +29,7 @@
 #include "core/information_repair.h"
 #include "core/problem.h"
 #include "core/problem_3d.h"
+#include "core/problem_space.h"
 #include "core/status.h"
 #include "storage/internal/g2o_vertices.h"
 #include "storage/internal/text_reader.h"
@@ -36,10 +38,11 @@ namespace graphslam::storage::internal {
 
 enum class G2oEdgeKind { kRelativePose, kPointObservation, kPositionPrior, kFix };
 
-// The types of a graph's traits, from its problem (core/problem_unknowns.h).
-template <class ProblemT>
+// The types of a graph's traits, from the problem of its space
+// (core/problem_space.h: Space::Problem; core/problem_unknowns.h).
+template <class Space>
 struct G2oTypes {
-  using Problem = ProblemT;
+  using Problem = typename Space::Problem;
   using Pose = typename Problem::Pose;
   using Point = typename Problem::Point;
   using RelativePose = typename decltype(Problem::relative_poses)::value_type;
@@ -50,8 +53,16 @@ struct G2oTypes {
   static Pose UnknownPose() { return core::IdentityPose<Pose>(); }
 };
 
+// The g2o records of a problem space, as small specializations: the tags,
+// the pose fields and the message forms. The readers and the writers are
+// templates over these (internal/g2o_records.h, internal/g2o_parser.h,
+// internal/g2o_record_writer.h), as the solver is over the Space.
+template <class Space>
+struct G2oFormat;
+
 // EDGE_SE2, EDGE_SE2_XY, EDGE_PRIOR_SE2_XY, VERTEX_SE2 / VERTEX_XY.
-struct G2o2d : G2oTypes<core::Problem2d> {
+template <>
+struct G2oFormat<core::Space2d> : G2oTypes<core::Space2d> {
   static constexpr const char* kEdgeTags[4] = {"EDGE_SE2", "EDGE_SE2_XY", "EDGE_PRIOR_SE2_XY",
                                                "FIX"};
   static constexpr const char* kPoseVertexTag = "VERTEX_SE2";
@@ -67,11 +78,17 @@ struct G2o2d : G2oTypes<core::Problem2d> {
     return Pose(v[0], v[1], v[2]);
   }
   static void SetKind(PointObservation* o) { o->kind = core::ObservationKind::kPointXY; }
+  static constexpr size_t kPointEdgeExtraFields = 0;
+  // The fields ReadPose reads (internal/g2o_record_writer.h).
+  static void AppendPose(std::string* line, const Pose& pose) {
+    for (int k = 0; k < kPoseFields; ++k) AppendField(line, pose[k]);
+  }
 };
 
 // EDGE_SE3:QUAT, EDGE_SE3_TRACKXYZ, EDGE_SE3_XYZPRIOR, VERTEX_SE3:QUAT /
 // VERTEX_TRACKXYZ.
-struct G2o3d : G2oTypes<core::Problem3d> {
+template <>
+struct G2oFormat<core::Space3d> : G2oTypes<core::Space3d> {
   static constexpr const char* kEdgeTags[4] = {"EDGE_SE3:QUAT", "EDGE_SE3_TRACKXYZ",
                                                "EDGE_SE3_XYZPRIOR", "FIX"};
   static constexpr const char* kPoseVertexTag = "VERTEX_SE3:QUAT";
@@ -98,7 +115,23 @@ struct G2o3d : G2oTypes<core::Problem3d> {
     return pose;
   }
   static void SetKind(PointObservation*) {}  // one 3-D observation model
+  // EDGE_SE3_TRACKXYZ carries the id of its sensor offset (PARAMS_SE3OFFSET)
+  // between the ids and the measurement.
+  static constexpr size_t kPointEdgeExtraFields = 1;
+  // The fields ReadPose reads, the quaternion normalized with qw >= 0.
+  static void AppendPose(std::string* line, const Pose& pose) {
+    Eigen::Quaterniond q = pose.q.normalized();
+    if (q.w() < 0.0) q.coeffs() = -q.coeffs();
+    for (int k = 0; k < 3; ++k) AppendField(line, pose.t[k]);
+    AppendField(line, q.x());
+    AppendField(line, q.y());
+    AppendField(line, q.z());
+    AppendField(line, q.w());
+  }
 };
+
+using G2o2d = G2oFormat<core::Space2d>;
+using G2o3d = G2oFormat<core::Space3d>;
 
 template <class Graph>
 class G2oGraph {

@@ -116,6 +116,74 @@ bool TextBlockCutter::Next(TextBlock* block, Status* status) {
   return true;
 }
 
+namespace {
+
+// Splits [position, line_end) at white space into parsed's fields; false if
+// the line is dropped (a comment, or a tag not in `only_tags`).
+inline bool SplitFields(const char* position, const char* line_end,
+                        const std::vector<std::string_view>& only_tags, TokenizedLine* parsed) {
+  for (const char* p = position; p < line_end;) {
+    while (p < line_end && kSpace[static_cast<unsigned char>(*p)]) ++p;
+    if (p >= line_end) break;
+    const char* token = p;
+    while (p < line_end && !kSpace[static_cast<unsigned char>(*p)]) ++p;
+    const std::string_view field(token, static_cast<size_t>(p - token));
+    if (parsed->num_fields == 0) {
+      if (field[0] == '#') return false;  // a comment
+      if (!only_tags.empty() &&
+          std::find(only_tags.begin(), only_tags.end(), field) == only_tags.end())
+        return false;
+    }
+    if (parsed->num_fields < TokenizedLine::kMaxFields) {
+      parsed->fields[parsed->num_fields] = field;
+    } else {
+      parsed->overflow.push_back(field);
+    }
+    ++parsed->num_fields;
+  }
+  return true;
+}
+
+// The previous kept line's conversions, per field: records of a log repeat
+// most fields (the information, often the pose), and equal bytes convert
+// to the same double, so a repeated token is not converted again.
+struct ConversionMemo {
+  std::string_view token[TokenizedLine::kMaxConverted];
+  double value[TokenizedLine::kMaxConverted];
+  bool converted[TokenizedLine::kMaxConverted] = {};
+};
+
+// Converts the fields after the tag that look like numbers into
+// parsed->values, setting their bits in parsed->converted.
+inline void ConvertFields(TokenizedLine* parsed, ConversionMemo* memo) {
+  const int convertible = std::min(parsed->num_fields, TokenizedLine::kMaxConverted);
+  for (int i = 1; i < convertible; ++i) {
+    const std::string_view field = parsed->fields[i];
+    // Only what looks like a number is tried (ids and tags are cheap to skip).
+    const char c = field[0];
+    if (!((c >= '0' && c <= '9') || c == '-' || c == '+' || c == '.')) continue;
+    if (SameBytes(field, memo->token[i])) {
+      if (memo->converted[i]) {
+        parsed->values[i] = memo->value[i];
+        parsed->converted |= 1u << i;
+      }
+      continue;
+    }
+    double value = 0.0;
+    const bool converted =
+        (ParseSmallInteger(field, &value) || ParseDouble(field, &value)) && std::isfinite(value);
+    memo->token[i] = field;
+    memo->converted[i] = converted;
+    memo->value[i] = value;
+    if (converted) {
+      parsed->values[i] = value;
+      parsed->converted |= 1u << i;
+    }
+  }
+}
+
+}  // namespace
+
 void TokenizeBlock(TextBlock* block, const std::vector<std::string_view>& only_tags) {
   block->lines.clear();
   // At most one entry per line of the block: no growth, no copies.
@@ -124,12 +192,7 @@ void TokenizeBlock(TextBlock* block, const std::vector<std::string_view>& only_t
   const char* position = block->text.data();
   const char* const end = position + block->text.size();
   int32_t line = block->start_line;
-  // The previous kept line's conversions, per field: records of a log repeat
-  // most fields (the information, often the pose), and equal bytes convert
-  // to the same double, so a repeated token is not converted again.
-  std::string_view previous_token[TokenizedLine::kMaxConverted];
-  double previous_value[TokenizedLine::kMaxConverted];
-  bool previous_converted[TokenizedLine::kMaxConverted] = {};
+  ConversionMemo memo;
   bool reuse_last = false;  // block->lines.back() holds a dropped line: overwrite it
   while (position < end) {
     const auto* newline = static_cast<const char*>(std::memchr(position, '\n', end - position));
@@ -142,57 +205,10 @@ void TokenizeBlock(TextBlock* block, const std::vector<std::string_view>& only_t
     parsed.converted = 0;
     parsed.overflow.clear();
     reuse_last = true;
-    bool keep = true;
-    for (const char* p = position; p < line_end;) {
-      while (p < line_end && kSpace[static_cast<unsigned char>(*p)]) ++p;
-      if (p >= line_end) break;
-      const char* token = p;
-      while (p < line_end && !kSpace[static_cast<unsigned char>(*p)]) ++p;
-      const std::string_view field(token, static_cast<size_t>(p - token));
-      if (parsed.num_fields == 0) {
-        if (field[0] == '#') {
-          keep = false;  // a comment
-          break;
-        }
-        if (!only_tags.empty() &&
-            std::find(only_tags.begin(), only_tags.end(), field) == only_tags.end()) {
-          keep = false;
-          break;
-        }
-      }
-      if (parsed.num_fields < TokenizedLine::kMaxFields) {
-        parsed.fields[parsed.num_fields] = field;
-      } else {
-        parsed.overflow.push_back(field);
-      }
-      ++parsed.num_fields;
-    }
+    const bool keep = SplitFields(position, line_end, only_tags, &parsed);
     position = line_end + 1;
     if (!keep || parsed.num_fields == 0) continue;
-    const int convertible = std::min(parsed.num_fields, TokenizedLine::kMaxConverted);
-    for (int i = 1; i < convertible; ++i) {
-      const std::string_view field = parsed.fields[i];
-      // Only what looks like a number is tried (ids and tags are cheap to skip).
-      const char c = field[0];
-      if (!((c >= '0' && c <= '9') || c == '-' || c == '+' || c == '.')) continue;
-      if (SameBytes(field, previous_token[i])) {
-        if (previous_converted[i]) {
-          parsed.values[i] = previous_value[i];
-          parsed.converted |= 1u << i;
-        }
-        continue;
-      }
-      double value = 0.0;
-      const bool converted =
-          (ParseSmallInteger(field, &value) || ParseDouble(field, &value)) && std::isfinite(value);
-      previous_token[i] = field;
-      previous_converted[i] = converted;
-      previous_value[i] = value;
-      if (converted) {
-        parsed.values[i] = value;
-        parsed.converted |= 1u << i;
-      }
-    }
+    ConvertFields(&parsed, &memo);
     parsed.line = line;
     reuse_last = false;
   }

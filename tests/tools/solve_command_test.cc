@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -462,7 +463,6 @@ TEST_F(SolveCommandTest, RepairInformationCoversThreeDimensionalFiles) {
                   "EDGE_SE3:QUAT 1 2 1 0 0 0 0 0 1 " + identity,
                   "EDGE_SE3:QUAT 0 2 2 0 0 0 0 0 1 1 0 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 -1"});
   SolveCommandOptions options = AllOutputs(input);
-  options.features_csv.clear();  // 2-D only
   const auto [code, message] = RunCapturingStderr(options);
   EXPECT_EQ(code, kExitBadInput) << message;
   EXPECT_THAT(message, HasSubstr("in3.g2o:7: EDGE_SE3:QUAT information"));
@@ -478,6 +478,48 @@ TEST_F(SolveCommandTest, RepairInformationCoversThreeDimensionalFiles) {
   ASSERT_EQ(RunSolveCommand(options), kExitOk);
   EXPECT_THAT(::testing::internal::GetCapturedStdout(),
               HasSubstr("information        1 matrices were not positive definite: repaired"));
+}
+
+// 3-D --features-csv: noise-free point observations from a chain of three
+// poses (x_i = (i, 0, 0), no rotation, pose 0 fixed); the points start up to
+// 0.4 m off and the CSV holds them at the optimum, their true positions.
+TEST_F(SolveCommandTest, ThreeDimensionalFeaturesCsvHoldsTheSolvedPoints) {
+  const std::string pose_information = " 100 0 0 0 0 0 100 0 0 0 0 100 0 0 0 100 0 0 100 0 100";
+  const std::string point_information = " 10 0 0 10 0 10";
+  std::vector<std::string> lines = {
+      "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1", "VERTEX_SE3:QUAT 1 1 0 0 0 0 0 1",
+      "VERTEX_SE3:QUAT 2 2 0 0 0 0 0 1", "VERTEX_TRACKXYZ 10 1.3 2.4 0.1",
+      "VERTEX_TRACKXYZ 11 2.4 -1.2 1.4", "FIX 0", "PARAMS_SE3OFFSET 0 0 0 0 0 0 0 1",
+      "EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1" + pose_information,
+      "EDGE_SE3:QUAT 1 2 1 0 0 0 0 0 1" + pose_information};
+  const double points[2][3] = {{1, 2, 0.5}, {2, -1, 1}};
+  for (int k = 0; k < 2; ++k)
+    for (int i = 0; i < 3; ++i)
+      lines.push_back("EDGE_SE3_TRACKXYZ " + std::to_string(i) + " " + std::to_string(10 + k) +
+                      " 0 " + std::to_string(points[k][0] - i) + " " +
+                      std::to_string(points[k][1]) + " " + std::to_string(points[k][2]) +
+                      point_information);
+  const SolveCommandOptions options = AllOutputs(WriteLines("points3.g2o", lines));
+  const auto [code, message] = RunCapturingStderr(options);
+  ASSERT_EQ(code, kExitOk) << message;
+  std::ifstream csv(options.features_csv);
+  std::string line;
+  ASSERT_TRUE(std::getline(csv, line));
+  EXPECT_EQ(line, "id,x,y,z,observations,excluded");
+  for (int k = 0; k < 2; ++k) {
+    ASSERT_TRUE(std::getline(csv, line));
+    long long id = 0, observations = 0, excluded = 1;
+    double x[3];
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lld,%lf,%lf,%lf,%lld,%lld", &id, &x[0], &x[1], &x[2],
+                          &observations, &excluded),
+              6)
+        << line;
+    EXPECT_EQ(id, 10 + k);
+    for (int d = 0; d < 3; ++d) EXPECT_NEAR(x[d], points[k][d], 1e-6) << line;
+    EXPECT_EQ(observations, 3);
+    EXPECT_EQ(excluded, 0);
+  }
+  EXPECT_FALSE(std::getline(csv, line));
 }
 
 }  // namespace

@@ -408,8 +408,131 @@ void RecordIterations(const std::vector<core::IterationSummary>& iterations, jso
   }
 }
 
-// Solves every component of `data`; with `checkpoints`, each one continues
+// The runs of component c: their names (a JSON list and one line) and GPS fixes.
+struct ComponentRuns {
+  json names = json::array();
+  std::string line;
+  int64_t gps_fixes = 0;
+};
+ComponentRuns RunsOfComponent(const JobData& data, int32_t c) {
+  ComponentRuns runs;
+  for (const RunInfo& run : data.runs) {
+    if (run.component != c) continue;
+    runs.names.push_back(run.name);
+    runs.gps_fixes += run.gps_fixes;
+    runs.line += (runs.line.empty() ? "" : ", ") + run.name;
+  }
+  return runs;
+}
+
+// One component's checkpoint, its chi2 history beside it, and the input
+// name the checkpoint is bound to.
+struct ComponentFiles {
+  std::string checkpoint;
+  std::string history;
+  std::string input;
+};
+ComponentFiles FilesOfComponent(const Context& ctx, int32_t c) {
+  // Not "c" + std::to_string(c): a GCC 12 -Wrestrict false positive here.
+  const std::string tag = std::string("c").append(std::to_string(c));
+  return {ctx.Work("optimize_" + tag + ".checkpoint.json"),
+          ctx.Work("optimize_" + tag + ".history.json"),
+          ctx.spec.path + "#component" + std::to_string(c)};
+}
+
+// With a checkpoint of component c: *resume_state from it, and the history
+// up to its iteration (the history is written before the checkpoint).
+Status ResumeComponent(Context& ctx, int32_t c, const ComponentFiles& files,
+                       core::SolverCheckpoint* resume_state, json* history) {
+  StatusOr<core::SolverCheckpoint> read =
+      storage::ReadSolverCheckpoint(files.checkpoint, files.input);
+  if (!read.ok()) return read.status();
+  *resume_state = std::move(read).value();
+  json stored;
+  if (ReadJson(files.history, &stored).ok() && stored.is_array()) {
+    for (const json& h : stored)
+      if (h.value("iteration", 0) <= resume_state->iterations) history->push_back(h);
+  }
+  ctx.Info("optimize", "component " + std::to_string(c) + ": resuming after iteration " +
+                           std::to_string(resume_state->iterations),
+           {{"component", c}, {"resumed_from_iteration", resume_state->iterations}});
+  return Status::Ok();
+}
+
+// optimize.json's entry of one solved component.
+json ComponentReport(int32_t c, const ComponentRuns& runs, const core::Problem2d& sub,
+                     const core::SolverSummary& summary, const json& history) {
+  return {{"component", c},
+          {"runs", runs.names},
+          {"poses", sub.num_poses()},
+          {"features", sub.num_features()},
+          {"gps_fixes", runs.gps_fixes},
+          {"iterations", summary.iterations},
+          {"initial_chi2", summary.initial_chi2},
+          {"final_chi2", summary.final_chi2},
+          {"converged", summary.converged},
+          {"termination", summary.termination},
+          {"linear_solver", core::LinearSolverName(summary.linear_solver_used)},
+          {"excluded_features", summary.excluded_features},
+          {"history", history}};
+}
+
+// Solves component c of *data in place; with `checkpoints`, it continues
 // from / writes .job/optimize_c<k>.checkpoint.json and its chi2 history.
+// Returns its entry of optimize.json; its features' excluded flags go into
+// *excluded.
+StatusOr<json> SolveComponent(Context& ctx, bool checkpoints, int32_t c,
+                              const core::SolverOptions& base, JobData* data,
+                              std::vector<uint8_t>* excluded) {
+  std::vector<int32_t> pose_map, feature_map;
+  core::Problem2d sub = ExtractComponent(*data, c, &pose_map, &feature_map);
+  partition::ChunkingOptions chunking;
+  partition::InMemoryChunkSource chunks(sub, chunking);
+  const ComponentRuns runs = RunsOfComponent(*data, c);
+  core::SolverOptions options = base;
+  if (ctx.display) {
+    // Names which solve runs: a job solves each component, and again
+    // without GPS when asked.
+    ctx.display->SetContext("optimize " + runs.line +
+                            (data->problem.gps.empty() ? " (no GPS)" : " (with GPS)"));
+    options.progress = ctx.display->AsCallback();
+    options.iteration_callback = ctx.display->AsIterationCallback();
+  }
+  const ComponentFiles files = FilesOfComponent(ctx, c);
+  core::SolverCheckpoint resume_state;
+  json history = json::array();
+  if (checkpoints && Exists(files.checkpoint)) {
+    GS_RETURN_IF_ERROR(ResumeComponent(ctx, c, files, &resume_state, &history));
+    options.resume_from = &resume_state;
+  }
+  if (checkpoints) {
+    options.checkpoint_callback = [&](const core::SolverCheckpoint& checkpoint) -> Status {
+      history.push_back({{"iteration", checkpoint.iterations}, {"chi2", checkpoint.chi2}});
+      GS_RETURN_IF_ERROR(WriteJson(files.history, history));
+      return storage::WriteSolverCheckpoint(storage::Env::Default(), files.checkpoint,
+                                            files.input, checkpoint);
+    };
+  }
+  core::SolverSummary summary;
+  GS_RETURN_IF_ERROR(core::SolveGraphSlam(options, chunks, &sub, &summary));
+  if (ctx.display) {
+    ctx.display->Finish();
+    ctx.display->SetContext("");
+  }
+  ScatterComponent(sub, pose_map, feature_map, &data->problem);
+  for (size_t f = 0; f < feature_map.size(); ++f)
+    (*excluded)[static_cast<size_t>(feature_map[f])] = summary.excluded[f];
+  RecordIterations(summary.per_iteration, &history);
+  ctx.Info("optimize",
+           "component " + std::to_string(c) + ": " + std::to_string(summary.iterations) +
+               " iterations, chi2 " + std::to_string(summary.initial_chi2) + " -> " +
+               std::to_string(summary.final_chi2) + " (" + summary.termination + ")",
+           {{"component", c}, {"final_chi2", summary.final_chi2}});
+  return ComponentReport(c, runs, sub, summary, history);
+}
+
+// Solves every component of `data` (SolveComponent), their entries into
+// *components.
 Status SolveComponents(Context& ctx, bool checkpoints, JobData* data, json* components,
                        std::vector<uint8_t>* excluded) {
   StatusOr<core::SolverOptions> base = SolverOptionsFor(ctx.spec, data->problem);
@@ -417,86 +540,8 @@ Status SolveComponents(Context& ctx, bool checkpoints, JobData* data, json* comp
   excluded->assign(static_cast<size_t>(data->problem.num_features()), 1);  // unobserved: 1
   *components = json::array();
   for (int32_t c = 0; c < data->num_components; ++c) {
-    std::vector<int32_t> pose_map, feature_map;
-    core::Problem2d sub = ExtractComponent(*data, c, &pose_map, &feature_map);
-    partition::ChunkingOptions chunking;
-    partition::InMemoryChunkSource chunks(sub, chunking);
-    json runs = json::array();
-    int64_t gps_fixes = 0;
-    std::string run_names;
-    for (const RunInfo& run : data->runs) {
-      if (run.component != c) continue;
-      runs.push_back(run.name);
-      gps_fixes += run.gps_fixes;
-      run_names += (run_names.empty() ? "" : ", ") + run.name;
-    }
-    core::SolverOptions options = *base;
-    if (ctx.display) {
-      // Names which solve runs: a job solves each component, and again
-      // without GPS when asked.
-      ctx.display->SetContext("optimize " + run_names +
-                              (data->problem.gps.empty() ? " (no GPS)" : " (with GPS)"));
-      options.progress = ctx.display->AsCallback();
-      options.iteration_callback = ctx.display->AsIterationCallback();
-    }
-    // Not "c" + std::to_string(c): a GCC 12 -Wrestrict false positive here.
-    const std::string tag = std::string("c").append(std::to_string(c));
-    const std::string checkpoint_path = ctx.Work("optimize_" + tag + ".checkpoint.json");
-    const std::string history_path = ctx.Work("optimize_" + tag + ".history.json");
-    const std::string input = ctx.spec.path + "#component" + std::to_string(c);
-    core::SolverCheckpoint resume_state;
-    json history = json::array();
-    if (checkpoints && Exists(checkpoint_path)) {
-      StatusOr<core::SolverCheckpoint> read = storage::ReadSolverCheckpoint(checkpoint_path, input);
-      if (!read.ok()) return read.status();
-      resume_state = std::move(read).value();
-      options.resume_from = &resume_state;
-      json stored;
-      if (ReadJson(history_path, &stored).ok() && stored.is_array()) {
-        // The history is written before the checkpoint: drop what is newer.
-        for (const json& h : stored)
-          if (h.value("iteration", 0) <= resume_state.iterations) history.push_back(h);
-      }
-      ctx.Info("optimize", "component " + std::to_string(c) + ": resuming after iteration " +
-                               std::to_string(resume_state.iterations),
-               {{"component", c}, {"resumed_from_iteration", resume_state.iterations}});
-    }
-    if (checkpoints) {
-      options.checkpoint_callback = [&](const core::SolverCheckpoint& checkpoint) -> Status {
-        history.push_back({{"iteration", checkpoint.iterations}, {"chi2", checkpoint.chi2}});
-        GS_RETURN_IF_ERROR(WriteJson(history_path, history));
-        return storage::WriteSolverCheckpoint(storage::Env::Default(), checkpoint_path, input,
-                                              checkpoint);
-      };
-    }
-    core::SolverSummary summary;
-    GS_RETURN_IF_ERROR(core::SolveGraphSlam(options, chunks, &sub, &summary));
-    if (ctx.display) {
-      ctx.display->Finish();
-      ctx.display->SetContext("");
-    }
-    ScatterComponent(sub, pose_map, feature_map, &data->problem);
-    for (size_t f = 0; f < feature_map.size(); ++f)
-      (*excluded)[static_cast<size_t>(feature_map[f])] = summary.excluded[f];
-    RecordIterations(summary.per_iteration, &history);
-    components->push_back({{"component", c},
-                           {"runs", runs},
-                           {"poses", sub.num_poses()},
-                           {"features", sub.num_features()},
-                           {"gps_fixes", gps_fixes},
-                           {"iterations", summary.iterations},
-                           {"initial_chi2", summary.initial_chi2},
-                           {"final_chi2", summary.final_chi2},
-                           {"converged", summary.converged},
-                           {"termination", summary.termination},
-                           {"linear_solver", core::LinearSolverName(summary.linear_solver_used)},
-                           {"excluded_features", summary.excluded_features},
-                           {"history", history}});
-    ctx.Info("optimize",
-             "component " + std::to_string(c) + ": " + std::to_string(summary.iterations) +
-                 " iterations, chi2 " + std::to_string(summary.initial_chi2) + " -> " +
-                 std::to_string(summary.final_chi2) + " (" + summary.termination + ")",
-             {{"component", c}, {"final_chi2", summary.final_chi2}});
+    GS_ASSIGN_OR_RETURN(json entry, SolveComponent(ctx, checkpoints, c, *base, data, excluded));
+    components->push_back(std::move(entry));
   }
   return Status::Ok();
 }
@@ -759,29 +804,30 @@ Status CheckMemoryLimit(Context& ctx, bool after_ingest) {
   return Status::Ok();
 }
 
-}  // namespace
-
-Status RunJob(const RunJobOptions& options) {
-  SetLogVerbosity(options.verbosity);
-  SetQuietLogging(options.quiet);
+// The job file (spec, fingerprint) and its output folder (-o wins over the
+// file's `output`), into *ctx.
+Status LoadJob(const RunJobOptions& options, Context* ctx) {
   StatusOr<JobSpec> spec = ReadJobSpec(options.job_path);
   if (!spec.ok()) return spec.status();
-  Context ctx;
-  ctx.spec = std::move(spec).value();
+  ctx->spec = std::move(spec).value();
   if (!options.output.empty())
-    ctx.spec.output = fs::absolute(options.output).lexically_normal().string();
-  if (ctx.spec.output.empty())
+    ctx->spec.output = fs::absolute(options.output).lexically_normal().string();
+  if (ctx->spec.output.empty())
     return Status::InvalidArgument(options.job_path +
                                    ": no 'output' and no -o; expected output: <folder> in the job "
                                    "file or graphslam run -o DIR");
-  ctx.quiet = options.quiet;
+  ctx->quiet = options.quiet;
   GS_ASSIGN_OR_RETURN(const std::string job_text,
                       storage::ReadFileToString(storage::Env::Default(), options.job_path));
-  ctx.fingerprint = Fingerprint(job_text);
-  ctx.work = (fs::path(ctx.spec.output) / ".job").string();
-  // Stages need their predecessors' results: ingest -> initialize -> optimize
-  // -> export form a chain, so a later one pulls in the earlier ones;
-  // associate and map run only when chosen.
+  ctx->fingerprint = Fingerprint(job_text);
+  ctx->work = (fs::path(ctx->spec.output) / ".job").string();
+  return Status::Ok();
+}
+
+// The stages to run, in order. Stages need their predecessors' results:
+// ingest -> initialize -> optimize -> export form a chain, so a later one
+// pulls in the earlier ones; associate and map run only when chosen.
+std::vector<Stage> StagesToRun(const JobSpec& spec) {
   auto core_rank = [](Stage s) {
     switch (s) {
       case Stage::kIngest: return 0;
@@ -792,11 +838,81 @@ Status RunJob(const RunJobOptions& options) {
     }
   };
   int last_core = -1;
-  for (Stage s : ctx.spec.stages) last_core = std::max(last_core, core_rank(s));
+  for (Stage s : spec.stages) last_core = std::max(last_core, core_rank(s));
   std::vector<Stage> stages;
   for (Stage stage : kAllStages)
-    if (ctx.spec.HasStage(stage) || (core_rank(stage) >= 0 && core_rank(stage) <= last_core))
+    if (spec.HasStage(stage) || (core_rank(stage) >= 0 && core_rank(stage) <= last_core))
       stages.push_back(stage);
+  return stages;
+}
+
+// Under the output folder's lock: with `resuming`, the state of the job that
+// ran before (same job file, its stage results intact), else a fresh .job/.
+Status OpenJobState(const RunJobOptions& options, bool resuming, const std::string& state_path,
+                    Context* ctx) {
+  if (resuming) {
+    StatusOr<JobState> state = ReadJobState(state_path);
+    if (!state.ok()) return state.status();
+    if (state->job_fingerprint != ctx->fingerprint)
+      return Status::InvalidArgument(
+          options.job_path + ": the job file changed since " + state_path +
+          " was written; run without --resume to start over");
+    // The completed stages' results must be the bytes they wrote.
+    GS_RETURN_IF_ERROR(VerifyJobFiles(ctx->work, *state));
+    ctx->state = std::move(state).value();
+    GS_RETURN_IF_ERROR(CheckMemoryLimit(*ctx, ctx->state.IsCompleted("ingest")));
+  } else {
+    // A fresh start: stage results of an earlier job go, its final outputs stay
+    // until this job's export replaces them.
+    GS_RETURN_IF_ERROR(storage::Env::Default()->RemoveTree(ctx->work));
+    ctx->state.job_fingerprint = ctx->fingerprint;
+  }
+  GS_RETURN_IF_ERROR(storage::Env::Default()->CreateDir(ctx->work));
+  return WriteJobState(state_path, ctx->state);
+}
+
+// Runs `stage` (the done + 1-th of total) and records it as completed, with
+// the digests of the stage results, in state.json; logs start, failure, end.
+Status RunAndRecordStage(Context& ctx, Stage stage, int64_t done, int64_t total,
+                         const std::string& state_path) {
+  const std::string name = StageName(stage);
+  ctx.log.Write({{"event", "stage_start"}, {"stage", name}, {"done", done}, {"total", total}});
+  storage::StopPointForTests("job_stage_start " + name);
+  if (!ctx.quiet)
+    ctx.Info(name, "stage " + std::to_string(done + 1) + "/" + std::to_string(total) + " started");
+  const Clock::time_point start = Clock::now();
+  if (Status status = RunStage(ctx, stage, start); !status.ok()) {
+    ctx.log.Write({{"event", "stage_failed"}, {"stage", name}, {"error", status.ToString()}});
+    return status;
+  }
+  CompletedStage completed;
+  completed.stage = name;
+  completed.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  completed.peak_rss_bytes = PeakRssBytes();
+  ctx.state.completed.push_back(completed);
+  StatusOr<std::map<std::string, FileDigest>> files = DigestJobFiles(ctx.work);
+  if (!files.ok()) return files.status();
+  ctx.state.files = std::move(files).value();
+  GS_RETURN_IF_ERROR(WriteJobState(state_path, ctx.state));
+  storage::StopPointForTests("job_stage_done " + name);
+  ctx.display->Update("job", done + 1, total);
+  ctx.log.Write({{"event", "stage_done"},
+                 {"stage", name},
+                 {"seconds", completed.seconds},
+                 {"peak_rss_bytes", completed.peak_rss_bytes},
+                 {"done", done + 1},
+                 {"total", total}});
+  return Status::Ok();
+}
+
+}  // namespace
+
+Status RunJob(const RunJobOptions& options) {
+  SetLogVerbosity(options.verbosity);
+  SetQuietLogging(options.quiet);
+  Context ctx;
+  GS_RETURN_IF_ERROR(LoadJob(options, &ctx));
+  const std::vector<Stage> stages = StagesToRun(ctx.spec);
   ctx.spec.stages = stages;
   const std::string state_path = ctx.Work("state.json");
   const bool resuming = options.resume && Exists(state_path);
@@ -810,25 +926,7 @@ Status RunJob(const RunJobOptions& options) {
                                                       storage::DirectoryLock::Mode::kExclusive));
   // Under the lock, temporaries of our own files are those a killed job left.
   GS_RETURN_IF_ERROR(RemoveStaleJobTemporaries(ctx.spec.output, ctx.work));
-  if (resuming) {
-    StatusOr<JobState> state = ReadJobState(state_path);
-    if (!state.ok()) return state.status();
-    if (state->job_fingerprint != ctx.fingerprint)
-      return Status::InvalidArgument(
-          options.job_path + ": the job file changed since " + state_path +
-          " was written; run without --resume to start over");
-    // The completed stages' results must be the bytes they wrote.
-    GS_RETURN_IF_ERROR(VerifyJobFiles(ctx.work, *state));
-    ctx.state = std::move(state).value();
-    GS_RETURN_IF_ERROR(CheckMemoryLimit(ctx, ctx.state.IsCompleted("ingest")));
-  } else {
-    // A fresh start: stage results of an earlier job go, its final outputs stay
-    // until this job's export replaces them.
-    GS_RETURN_IF_ERROR(storage::Env::Default()->RemoveTree(ctx.work));
-    ctx.state.job_fingerprint = ctx.fingerprint;
-  }
-  GS_RETURN_IF_ERROR(storage::Env::Default()->CreateDir(ctx.work));
-  GS_RETURN_IF_ERROR(WriteJobState(state_path, ctx.state));
+  GS_RETURN_IF_ERROR(OpenJobState(options, resuming, state_path, &ctx));
   GS_RETURN_IF_ERROR(ctx.log.Open(ctx.Output("log.jsonl")));
   ctx.display = std::make_unique<ProgressDisplay>(!options.quiet);
 
@@ -840,42 +938,16 @@ Status RunJob(const RunJobOptions& options) {
                  {"job", ctx.spec.path},
                  {"resume", options.resume},
                  {"stages", static_cast<int>(stages.size())}});
+  const auto total = static_cast<int64_t>(stages.size());
   int64_t done = 0;
   for (Stage stage : stages) {
     const std::string name = StageName(stage);
     if (ctx.state.IsCompleted(name)) {
       ctx.Info(name, "already completed: skipped (--resume)");
-      ++done;
-      continue;
+    } else {
+      GS_RETURN_IF_ERROR(RunAndRecordStage(ctx, stage, done, total, state_path));
     }
-    ctx.log.Write({{"event", "stage_start"}, {"stage", name}, {"done", done},
-                   {"total", static_cast<int64_t>(stages.size())}});
-    storage::StopPointForTests("job_stage_start " + name);
-    if (!options.quiet) ctx.Info(name, "stage " + std::to_string(done + 1) + "/" +
-                                           std::to_string(stages.size()) + " started");
-    const Clock::time_point start = Clock::now();
-    if (Status status = RunStage(ctx, stage, start); !status.ok()) {
-      ctx.log.Write({{"event", "stage_failed"}, {"stage", name}, {"error", status.ToString()}});
-      return status;
-    }
-    CompletedStage completed;
-    completed.stage = name;
-    completed.seconds = std::chrono::duration<double>(Clock::now() - start).count();
-    completed.peak_rss_bytes = PeakRssBytes();
-    ctx.state.completed.push_back(completed);
-    StatusOr<std::map<std::string, FileDigest>> files = DigestJobFiles(ctx.work);
-    if (!files.ok()) return files.status();
-    ctx.state.files = std::move(files).value();
-    GS_RETURN_IF_ERROR(WriteJobState(state_path, ctx.state));
-    storage::StopPointForTests("job_stage_done " + name);
     ++done;
-    ctx.display->Update("job", done, static_cast<int64_t>(stages.size()));
-    ctx.log.Write({{"event", "stage_done"},
-                   {"stage", name},
-                   {"seconds", completed.seconds},
-                   {"peak_rss_bytes", completed.peak_rss_bytes},
-                   {"done", done},
-                   {"total", static_cast<int64_t>(stages.size())}});
   }
   ctx.display->Finish();
   ctx.log.Write({{"event", "job_done"}});

@@ -3,8 +3,9 @@
 // (core/initialization_3d.h), SolveGraphSlam3d on in-memory chunks with
 // --checkpoint / --resume (docs/formats/solver_checkpoint.md, 3-D poses).
 // Everything else is the shared path: the same outputs (-o in the 3-D g2o
-// records, --tum, --report with the same keys plus "dimension": 3) and the
-// same summary. --features-csv and --initialization apply to 2-D only.
+// records, --tum, --features-csv with a z column, --report with the same
+// keys plus "dimension": 3) and the same summary. --initialization applies
+// to 2-D only.
 #include <memory>
 #include <string>
 
@@ -15,6 +16,7 @@
 #include "core/logging.h"
 #include "partition/ingest/in_memory_chunk_source.h"
 #include "storage/env.h"
+#include "storage/features_csv_writer.h"
 #include "storage/g2o_3d_writer.h"
 #include "storage/solver_checkpoint.h"
 #include "tools/pipeline/solve_path.h"
@@ -87,8 +89,9 @@ struct Hooks3d {
   static Status WriteTrajectory(const Solve3d& s, const std::string& path) {
     return storage::WriteTum3d(s.problem, path);
   }
-  // No 3-D features CSV: RunSolve3d warned that it is ignored.
-  static Status WriteFeatures(const Solve3d&, const std::string&) { return Status::Ok(); }
+  static Status WriteFeatures(const Solve3d& s, const std::string& path) {
+    return storage::WriteFeaturesCsv(s.problem, path, &s.summary.excluded);
+  }
   // The chain of relative poses (core/initialization_3d.h) is the only start.
   static void AddReport(const SolveRun&, const Solve3d&, nlohmann::json* report) {
     (*report)["initialization"] = "odometry";
@@ -103,8 +106,6 @@ struct Hooks3d {
 }  // namespace
 
 int RunSolve3d(SolveRun& run, const DetectedInput& file) {
-  if (!run.options.features_csv.empty())
-    GS_LOG(WARNING, "--features-csv is ignored for 3-D inputs");
   return RunSolvePath<Hooks3d>(run, &file);
 }
 
