@@ -55,8 +55,9 @@ StatusOr<InputFormat> DetectInputFormat(const std::string& path) {
   }
   const std::string_view token = reader->fields()[0];
   if (token == kNativeLogMagic) return InputFormat::kNative;
+  // A 3-D graph with points, as `solve -o` writes it, opens with PARAMS_SE3OFFSET.
   if (StartsWith(token, "VERTEX_") || StartsWith(token, "EDGE_") || token == "FIX" ||
-      StartsWith(token, "DATA_")) {
+      StartsWith(token, "DATA_") || StartsWith(token, "PARAMS_")) {
     return InputFormat::kG2o;
   }
   if (token == "ODOMETRY" || token == "EDGE2" || token == "EDGE3" || token == "LANDMARK" ||
@@ -68,7 +69,7 @@ StatusOr<InputFormat> DetectInputFormat(const std::string& path) {
   return Status::NotSupported(
       reader->name() + ":" + std::to_string(reader->line_number()) + ": first record '" +
       std::string(token) +
-      "' matches no known format; expected VERTEX_*/EDGE_*/FIX (g2o), ODOMETRY/EDGE2/LANDMARK "
+      "' matches no known format; expected VERTEX_*/EDGE_*/PARAMS_*/FIX (g2o), ODOMETRY/EDGE2/LANDMARK "
       "(iSAM), VERTEX2/VERTEX3 (TORO .graph) or " + kNativeLogMagic + " (native log)");
 }
 

@@ -41,12 +41,14 @@ TEST(FormatDetection, SmallFilesAndComments) {
   EXPECT_EQ(*DetectInputFormat(WriteTemp("a.log", "# c\n\nGRAPHSLAM_LOG 1\n")),
             InputFormat::kNative);
   EXPECT_EQ(*DetectInputFormat(WriteTemp("a.g2o", "# c\nFIX 0\n")), InputFormat::kG2o);
+  EXPECT_EQ(*DetectInputFormat(WriteTemp("p.g2o", "PARAMS_SE3OFFSET 0 0 0 0 0 0 0 1\n")),
+            InputFormat::kG2o);
   EXPECT_EQ(*DetectInputFormat(WriteTemp("b.txt", "LANDMARK 0 1 1 1 1 0 1\n")),
             InputFormat::kIsam);
   const auto unknown = DetectInputFormat(WriteTemp("c.txt", "# c\nHELLO world\n"));
   ASSERT_TRUE(unknown.status().IsNotSupported());
   EXPECT_EQ(unknown.status().message(),
-            "c.txt:2: first record 'HELLO' matches no known format; expected VERTEX_*/EDGE_*/FIX "
+            "c.txt:2: first record 'HELLO' matches no known format; expected VERTEX_*/EDGE_*/PARAMS_*/FIX "
             "(g2o), ODOMETRY/EDGE2/LANDMARK (iSAM), VERTEX2/VERTEX3 (TORO .graph) or GRAPHSLAM_LOG "
             "(native log)");
   EXPECT_TRUE(DetectInputFormat(WriteTemp("d.txt", "# only\n")).status().IsCorruption());

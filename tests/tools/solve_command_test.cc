@@ -520,6 +520,18 @@ TEST_F(SolveCommandTest, ThreeDimensionalFeaturesCsvHoldsTheSolvedPoints) {
     EXPECT_EQ(excluded, 0);
   }
   EXPECT_FALSE(std::getline(csv, line));
+
+  // The written graph opens with PARAMS_SE3OFFSET; solve must read it back
+  // and find it already at the optimum.
+  SolveCommandOptions again;
+  again.input = options.output_g2o;
+  again.report = Path("report_again.json");
+  again.quiet = true;
+  const auto [code_again, message_again] = RunCapturingStderr(again);
+  ASSERT_EQ(code_again, kExitOk) << message_again;
+  const nlohmann::json report = ReadJson(again.report);
+  EXPECT_EQ(report["dimension"].get<int>(), 3);
+  EXPECT_LT(report["final_chi2"].get<double>(), 1e-9);
 }
 
 }  // namespace
