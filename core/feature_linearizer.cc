@@ -61,8 +61,8 @@ void LinearizeFeature(const BasicObservationChunk<typename Space::Observation>& 
     while (slot < used && blocks.poses[slot] != unknown) ++slot;
     if (slot == used) {
       blocks.poses.push_back(unknown);
-      if (blocks.pose_feature.size() <= used) blocks.pose_feature.emplace_back();
-      blocks.pose_feature[slot].setZero(P, D);
+      if (out->pose_feature_sums.size() <= used) out->pose_feature_sums.emplace_back();
+      out->pose_feature_sums[slot].setZero();
       if (pose_terms) {
         if (out->pose_hessian.size() <= used) {
           out->pose_hessian.emplace_back();
@@ -74,7 +74,7 @@ void LinearizeFeature(const BasicObservationChunk<typename Space::Observation>& 
       ++used;
     }
     const Eigen::Matrix<double, P, D> aw = jacobian_pose.transpose() * w;
-    blocks.pose_feature[slot] += aw * jacobian_feature;
+    out->pose_feature_sums[slot] += aw * jacobian_feature;
     if (!pose_terms) continue;
     out->pose_hessian[slot] += aw * jacobian_pose;
     out->pose_gradient[slot] += aw * residual;
@@ -83,6 +83,7 @@ void LinearizeFeature(const BasicObservationChunk<typename Space::Observation>& 
   blocks.feature_gradient = gradient;
   // Slots past `used` are stale entries of an earlier feature.
   blocks.pose_feature.resize(used);
+  for (size_t slot = 0; slot < used; ++slot) blocks.pose_feature[slot] = out->pose_feature_sums[slot];
 }
 
 template <class Space>
