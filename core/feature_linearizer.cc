@@ -18,6 +18,10 @@ void LinearizeFeature(const BasicObservationChunk<typename Space::Observation>& 
   const bool needs_residual = coupling || kernel.type != RobustKernel::Type::kNone;
   FeatureBlocks& blocks = out->blocks;
   // Summed in fixed-size matrices (unrolled), copied into the blocks at the end.
+  // The products are added with noalias(): each coefficient's sum goes
+  // straight into the destination, where a temporary written as scalars and
+  // read back as packets stalled on store forwarding (perf: ~40 % of this
+  // function's samples on three such loads); the same operations.
   FeatureMatrix information = FeatureMatrix::Zero();
   FeatureVector gradient = FeatureVector::Zero();
   blocks.poses.clear();
@@ -52,9 +56,9 @@ void LinearizeFeature(const BasicObservationChunk<typename Space::Observation>& 
       w = kernel.Weight(squared) * observation.information;
     }
     const FeatureMatrix fw = jacobian_feature.transpose() * w;
-    information += fw * jacobian_feature;
+    information.noalias() += fw * jacobian_feature;
     if (!coupling) continue;
-    gradient += fw * residual;
+    gradient.noalias() += fw * residual;
 
     if (unknown < 0) continue;
     size_t slot = 0;
@@ -74,10 +78,10 @@ void LinearizeFeature(const BasicObservationChunk<typename Space::Observation>& 
       ++used;
     }
     const Eigen::Matrix<double, P, D> aw = jacobian_pose.transpose() * w;
-    out->pose_feature_sums[slot] += aw * jacobian_feature;
+    out->pose_feature_sums[slot].noalias() += aw * jacobian_feature;
     if (!pose_terms) continue;
-    out->pose_hessian[slot] += aw * jacobian_pose;
-    out->pose_gradient[slot] += aw * residual;
+    out->pose_hessian[slot].noalias() += aw * jacobian_pose;
+    out->pose_gradient[slot].noalias() += aw * residual;
   }
   blocks.feature_information = information;
   blocks.feature_gradient = gradient;
