@@ -48,6 +48,9 @@ struct BasicLinearizedFeature {
   FeatureBlocks blocks;  // C (undamped), g_m, poses (unknown indices), H_pm
   std::vector<PoseMatrix> pose_hessian;  // direct H_pp per slot of blocks.poses
   std::vector<PoseVector> pose_gradient;  // direct g_p per slot
+  // H_pm per slot while the observations are summed: fixed-size, so each
+  // addition unrolls (the dynamic blocks.pose_feature is filled at the end).
+  std::vector<Eigen::Matrix<double, Space::kPoseDim, Space::kFeatureDim>> pose_feature_sums;
   double chi2 = 0.0;
   int32_t degenerate_observations = 0;  // range-bearing with the feature on the robot
 };

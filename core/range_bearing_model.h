@@ -14,6 +14,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 
 #include "core/se2.h"
 
@@ -21,10 +22,34 @@ namespace graphslam::core {
 
 // Returns false (and leaves outputs untouched) when the feature coincides with
 // the robot position (q below 1e-18), where the bearing is undefined.
-bool EvaluateRangeBearing(const Pose2& pose, const Point2& feature,
-                          const Eigen::Vector2d& measurement, Eigen::Vector2d* residual,
-                          Eigen::Matrix<double, 2, 3>* jacobian_pose,
-                          Eigen::Matrix2d* jacobian_feature);
+// Inline: a streaming pass evaluates every observation up to three times,
+// and inlined the unused outputs (nullptr) are not computed.
+inline bool EvaluateRangeBearing(const Pose2& pose, const Point2& feature,
+                                 const Eigen::Vector2d& measurement, Eigen::Vector2d* residual,
+                                 Eigen::Matrix<double, 2, 3>* jacobian_pose,
+                                 Eigen::Matrix2d* jacobian_feature) {
+  // Below this squared distance the bearing is undefined.
+  constexpr double kMinSquaredRange = 1e-18;
+  const Eigen::Vector2d delta = feature - pose.head<2>();
+  const double q = delta.squaredNorm();
+  if (!(q >= kMinSquaredRange)) return false;  // also rejects NaN
+  const double range = std::sqrt(q);
+  if (residual != nullptr) {
+    (*residual)(0) = range - measurement(0);
+    (*residual)(1) = WrapAngle(std::atan2(delta.y(), delta.x()) - pose.z() - measurement(1));
+  }
+  // Table 2 l.17 with the corrected rows (errata: docs/design.md).
+  const double dx = delta.x(), dy = delta.y();
+  if (jacobian_pose != nullptr) {
+    *jacobian_pose << -dx / range, -dy / range, 0.0,  //
+        dy / q, -dx / q, -1.0;
+  }
+  if (jacobian_feature != nullptr) {
+    *jacobian_feature << dx / range, dy / range,  //
+        -dy / q, dx / q;
+  }
+  return true;
+}
 
 // The feature position that would produce `measurement` from `pose`
 // (initialization from first sight, Table 1):

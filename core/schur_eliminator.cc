@@ -21,6 +21,33 @@ using FeatureVector =
 // Relative eigenvalue floor below which C counts as singular.
 constexpr double kMinRelativeEigenvalue = 1e-12;
 
+// C = L L^T: L's lower triangle into l (row-major, stride kMaxFeatureDim);
+// false when C is not positive definite. The planar case is written out
+// with the very operations of Eigen's unblocked LLT (l10 = c10 / l00,
+// l11 = sqrt(c11 - l10^2)), so the factor has the same bits; it skips the
+// LLT object's copy and its L1 norm, which no caller reads.
+bool CholeskyFactor(const FeatureMatrix& c, double* l) {
+  constexpr int kStride = kMaxFeatureDim;
+  if (c.rows() == 2) {
+    const double c00 = c(0, 0);
+    if (c00 <= 0.0) return false;  // Eigen's test: NaN goes on, as there
+    const double l00 = std::sqrt(c00);
+    const double l10 = c(1, 0) / l00;
+    const double x = c(1, 1) - l10 * l10;
+    if (x <= 0.0) return false;
+    l[0] = l00;
+    l[kStride] = l10;
+    l[kStride + 1] = std::sqrt(x);
+    return true;
+  }
+  const Eigen::LLT<FeatureMatrix> llt(c);
+  if (llt.info() != Eigen::Success) return false;
+  const FeatureMatrix& factor = llt.matrixLLT();  // L in the lower triangle
+  for (int r = 0; r < c.rows(); ++r)
+    for (int col = 0; col <= r; ++col) l[r * kStride + col] = factor(r, col);
+  return true;
+}
+
 // The feature's terms into *out, given L (C = L L^T, lower triangle of `l`,
 // row-major with stride kMaxFeatureDim). kB, kD: the block sizes when known
 // at compile time (then the loops below unroll), 0 for run-time sizes.
@@ -30,7 +57,7 @@ constexpr double kMinRelativeEigenvalue = 1e-12;
 // so every block lands at its upper-triangle position (i <= k) as it is.
 template <int kB, int kD>
 void AddFeatureTerms(const FeatureBlocks& f, const double* l, int b_runtime, int d_runtime,
-                     ReducedContribution* out) {
+                     const FeatureSlots& slots, ReducedContribution* out) {
   const int b = kB > 0 ? kB : b_runtime;
   const int d = kD > 0 ? kD : d_runtime;
   constexpr int kStride = kMaxFeatureDim;
@@ -53,7 +80,7 @@ void AddFeatureTerms(const FeatureBlocks& f, const double* l, int b_runtime, int
         y[r * d + c] = v / l[c * kStride + c];
       }
     }
-    double* rhs = out->Rhs(f.poses[p]);
+    double* rhs = slots.rhs != nullptr ? out->RhsAt(slots.rhs[p]) : out->Rhs(f.poses[p]);
     for (int r = 0; r < b; ++r) {
       double v = 0.0;
       for (int m = 0; m < d; ++m) v += y[r * d + m] * w[m];
@@ -77,7 +104,8 @@ void AddFeatureTerms(const FeatureBlocks& f, const double* l, int b_runtime, int
     for (int c = a; c < num_poses; ++c) {
       const int q = order[c];
       const double* yq = whitened.data() + static_cast<size_t>(q) * b * d;
-      double* block = out->Block(f.poses[p], f.poses[q]);
+      double* block = c == a && slots.diagonal != nullptr ? out->BlockAt(slots.diagonal[p])
+                                                          : out->Block(f.poses[p], f.poses[q]);
       for (int r = 0; r < b; ++r) {
         for (int col = 0; col < b; ++col) {
           double v = 0.0;
@@ -87,6 +115,40 @@ void AddFeatureTerms(const FeatureBlocks& f, const double* l, int b_runtime, int
       }
     }
   }
+}
+
+// RecoverFeature for d = 2 in scalars: v = g_m + sum_p H_pm^T dx_p (each
+// entry summed over the block's rows in order), then the two triangular
+// solves with CholeskyFactor's L. The generic path's small dynamic products
+// and LLT were ~6 % of a streaming solve's instructions.
+Eigen::VectorXd RecoverPlanarFeature(const FeatureBlocks& f, const Eigen::VectorXd& pose_delta) {
+  double l[kMaxFeatureDim * kMaxFeatureDim];
+  GS_CHECK(CholeskyFactor(FeatureMatrix(f.feature_information), l));
+  double v0 = f.feature_gradient[0];
+  double v1 = f.feature_gradient[1];
+  for (size_t p = 0; p < f.poses.size(); ++p) {
+    const Eigen::MatrixXd& h = f.pose_feature[p];
+    const Eigen::Index b = h.rows();
+    GS_CHECK((static_cast<Eigen::Index>(f.poses[p]) + 1) * b <= pose_delta.size());
+    const double* x = pose_delta.data() + f.poses[p] * b;
+    const double* h0 = h.data();      // column 0 (column-major b x 2)
+    const double* h1 = h.data() + b;  // column 1
+    double s0 = h0[0] * x[0];
+    double s1 = h1[0] * x[0];
+    for (Eigen::Index r = 1; r < b; ++r) {
+      s0 += h0[r] * x[r];
+      s1 += h1[r] * x[r];
+    }
+    v0 += s0;
+    v1 += s1;
+  }
+  // L y = v, then L^T z = y; dm = -z.
+  const double l00 = l[0], l10 = l[kMaxFeatureDim], l11 = l[kMaxFeatureDim + 1];
+  const double y0 = v0 / l00;
+  const double y1 = (v1 - l10 * y0) / l11;
+  const double z1 = y1 / l11;
+  const double z0 = (y0 - l10 * z1) / l00;
+  return Eigen::Vector2d(-z0, -z1);
 }
 
 }  // namespace
@@ -107,7 +169,7 @@ void ReducedContribution::SetBlockSize(int b) {
   block_size_ = b;
 }
 
-double* ReducedContribution::Block(int i, int k) {
+int32_t ReducedContribution::BlockSlot(int i, int k) {
   GS_DCHECK(block_size_ > 0 && 0 <= i && i <= k);
   const size_t bb = static_cast<size_t>(block_size_) * block_size_;
   bool inserted = false;
@@ -116,10 +178,10 @@ double* ReducedContribution::Block(int i, int k) {
     positions_.emplace_back(i, k);
     values_.resize(values_.size() + bb, 0.0);
   }
-  return values_.data() + slot * bb;
+  return slot;
 }
 
-double* ReducedContribution::Rhs(int i) {
+int32_t ReducedContribution::RhsSlot(int i) {
   GS_DCHECK(block_size_ > 0 && i >= 0);
   bool inserted = false;
   const int32_t slot = rhs_slots_.Find(static_cast<uint64_t>(i), &inserted);
@@ -127,10 +189,11 @@ double* ReducedContribution::Rhs(int i) {
     rhs_rows_.push_back(i);
     rhs_values_.resize(rhs_values_.size() + block_size_, 0.0);
   }
-  return rhs_values_.data() + static_cast<size_t>(slot) * block_size_;
+  return slot;
 }
 
-Status EliminateFeature(const FeatureBlocks& f, ReducedContribution* out) {
+Status EliminateFeature(const FeatureBlocks& f, ReducedContribution* out,
+                        const FeatureSlots& slots) {
   const int d = static_cast<int>(f.feature_information.rows());
   GS_CHECK(d >= 1 && d <= kMaxFeatureDim);
   GS_CHECK(f.feature_information.cols() == d);
@@ -175,26 +238,22 @@ Status EliminateFeature(const FeatureBlocks& f, ReducedContribution* out) {
         "feature information is not positive definite: min eigenvalue {:g}, max eigenvalue {:g}",
         min_eigenvalue, max_eigenvalue));
   }
-  const Eigen::LLT<FeatureMatrix> llt(c);
-  if (llt.info() != Eigen::Success) {
+  double l[kMaxFeatureDim * kMaxFeatureDim];
+  if (!CholeskyFactor(c, l)) {
     return Status::Numerical(fmt::format(
         "feature information is not positive definite: min eigenvalue {:g} (LLT failed)",
         min_eigenvalue));
   }
   if (f.poses.empty()) return Status::Ok();
   out->SetBlockSize(b);
-  double l[kMaxFeatureDim * kMaxFeatureDim];
-  const FeatureMatrix& factor = llt.matrixLLT();  // L in the lower triangle
-  for (int r = 0; r < d; ++r)
-    for (int col = 0; col <= r; ++col) l[r * kMaxFeatureDim + col] = factor(r, col);
   if (b == 3 && d == 2) {
-    AddFeatureTerms<3, 2>(f, l, b, d, out);
+    AddFeatureTerms<3, 2>(f, l, b, d, slots, out);
   } else if (b == 6 && d == 3) {
-    AddFeatureTerms<6, 3>(f, l, b, d, out);
+    AddFeatureTerms<6, 3>(f, l, b, d, slots, out);
   } else if (b == 3 && d == 3) {
-    AddFeatureTerms<3, 3>(f, l, b, d, out);
+    AddFeatureTerms<3, 3>(f, l, b, d, slots, out);
   } else {
-    AddFeatureTerms<0, 0>(f, l, b, d, out);
+    AddFeatureTerms<0, 0>(f, l, b, d, slots, out);
   }
   return Status::Ok();
 }
@@ -203,6 +262,7 @@ Eigen::VectorXd RecoverFeature(const FeatureBlocks& f, const Eigen::VectorXd& po
   const int d = static_cast<int>(f.feature_information.rows());
   GS_CHECK(d >= 1 && d <= kMaxFeatureDim);
   GS_CHECK(f.poses.size() == f.pose_feature.size());
+  if (d == 2) return RecoverPlanarFeature(f, pose_delta);
   const Eigen::LLT<FeatureMatrix> llt(FeatureMatrix(f.feature_information));
   GS_CHECK(llt.info() == Eigen::Success);
   FeatureVector v = f.feature_gradient;

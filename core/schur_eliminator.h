@@ -87,10 +87,20 @@ class ReducedContribution {
 
   // The running sum of S's stored block (i, k), 0 <= i <= k: b x b, row-major,
   // zero when new. Valid until the next call of Block.
-  double* Block(int i, int k);
+  double* Block(int i, int k) { return BlockAt(BlockSlot(i, k)); }
   // The running sum of rhs block row i (b entries), zero when new. Valid
   // until the next call of Rhs.
-  double* Rhs(int i);
+  double* Rhs(int i) { return RhsAt(RhsSlot(i)); }
+  // The same by slot: BlockSlot / RhsSlot number the positions / rows in
+  // order of first use and stay valid until Clear, so that a caller adding
+  // to one position twice (the direct and the Schur term of a pose) looks
+  // it up once. BlockAt / RhsAt are valid until the next new position / row.
+  int32_t BlockSlot(int i, int k);
+  int32_t RhsSlot(int i);
+  double* BlockAt(int32_t slot) {
+    return values_.data() + static_cast<size_t>(slot) * block_size_ * block_size_;
+  }
+  double* RhsAt(int32_t slot) { return rhs_values_.data() + static_cast<size_t>(slot) * block_size_; }
 
   // The positions, in order of first use, and their sums.
   size_t num_blocks() const { return positions_.size(); }
@@ -124,7 +134,16 @@ class ReducedContribution {
 // eigenvalue, or non-finite entries) returns Status::Numerical and leaves *out
 // unchanged. Requires 1 <= d <= kMaxFeatureDim, every H_pm of size b x d with
 // 1 <= b <= kMaxPoseBlockSize, and b == out->block_size if that is set.
-[[nodiscard]] Status EliminateFeature(const FeatureBlocks& f, ReducedContribution* out);
+//
+// slots (optional): per entry p of f.poses, the BlockSlot of (poses[p],
+// poses[p]) and the RhsSlot of poses[p] in *out, when the caller has them
+// already; the very same sums, with fewer lookups.
+struct FeatureSlots {
+  const int32_t* diagonal = nullptr;
+  const int32_t* rhs = nullptr;
+};
+[[nodiscard]] Status EliminateFeature(const FeatureBlocks& f, ReducedContribution* out,
+                                      const FeatureSlots& slots = {});
 
 // dm = -C^{-1} (g_m + sum_p H_pm^T dx_p), where dx_p is the segment
 // [b*p, b*p + b) of `pose_delta`. C must be positive definite (a feature

@@ -11,6 +11,7 @@
 #include <cinttypes>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <utility>
 
 #include "core/logging.h"
@@ -282,8 +283,13 @@ class ChunkParser {
                                   " exceeds the largest block (" +
                                   std::to_string(format::kMaxRecordLength) + " bytes)");
       }
-      uncompressed_.resize(length);
-      const size_t got = ZSTD_decompress(uncompressed_.data(), length, payload.data() + 4,
+      // Not zero-filled first (std::string::resize would write each byte of
+      // a whole chunk once more): zstd writes all `length` bytes or fails.
+      if (uncompressed_capacity_ < length) {
+        uncompressed_ = std::make_unique_for_overwrite<char[]>(length);
+        uncompressed_capacity_ = length;
+      }
+      const size_t got = ZSTD_decompress(uncompressed_.get(), length, payload.data() + 4,
                                          payload.size() - 4);
       if (ZSTD_isError(got)) {
         return Status::Corruption(where + "zstd: " + ZSTD_getErrorName(got));
@@ -292,7 +298,7 @@ class ChunkParser {
         return Status::Corruption(where + "zstd frame holds " + std::to_string(got) +
                                   " bytes, expected " + std::to_string(length));
       }
-      payload = uncompressed_;
+      payload = std::string_view(uncompressed_.get(), length);
     }
     const size_t features_before = result_->features.size();
     const size_t observations_before = result_->observations.size();
@@ -400,7 +406,8 @@ class ChunkParser {
   uint32_t blocks_ = 0;           // feature blocks accepted
   uint32_t chain_ = 0;            // CRC32C over the header's and accepted blocks' stored CRCs
   bool dropped_any_ = false;
-  std::string uncompressed_;      // the current block, decompressed
+  std::unique_ptr<char[]> uncompressed_;  // the current block, decompressed
+  size_t uncompressed_capacity_ = 0;
 };
 
 }  // namespace

@@ -28,23 +28,32 @@ void AddTo(const Eigen::Matrix<double, P, P>& m, double* stored) {
     for (int c = 0; c < P; ++c) stored[r * P + c] += m(r, c);
 }
 
-// The direct gradient and diagonal of `row`, summed in out's per-row lists.
+// The direct gradient and diagonal of `row`, summed in out's per-row lists
+// (indexed by the row's rhs slot, which is returned).
 template <class Space>
-void AddDirectGradient(int row, const typename ReduceOutput<Space>::Vector& gradient,
-                       const typename ReduceOutput<Space>::Vector& diagonal,
-                       ReduceOutput<Space>* out) {
-  bool inserted = false;
-  const int32_t slot = out->gradient_slots.Find(static_cast<uint64_t>(row), &inserted);
-  if (inserted) {
+int32_t AddDirectGradient(int row, const typename ReduceOutput<Space>::Vector& gradient,
+                          const typename ReduceOutput<Space>::Vector& diagonal,
+                          ReduceOutput<Space>* out) {
+  using Vector = typename ReduceOutput<Space>::Vector;
+  const int32_t slot = out->contribution.RhsSlot(row);
+  const auto index = static_cast<size_t>(slot);
+  if (index == out->gradients.size()) {
     out->gradient_rows.push_back(row);
     out->gradients.push_back(gradient);
     out->diagonals.push_back(diagonal);
   } else {
-    out->gradients[slot] += gradient;
-    out->diagonals[slot] += diagonal;
+    // Rows a Schur term opened first (none today) start at zero.
+    while (out->gradients.size() <= index) {
+      out->gradient_rows.push_back(out->contribution.rhs_row(out->gradients.size()));
+      out->gradients.push_back(Vector::Zero());
+      out->diagonals.push_back(Vector::Zero());
+    }
+    out->gradients[index] += gradient;
+    out->diagonals[index] += diagonal;
   }
-  double* rhs = out->contribution.Rhs(row);
+  double* rhs = out->contribution.RhsAt(slot);
   for (int r = 0; r < Space::kPoseDim; ++r) rhs[r] -= gradient[r];
+  return slot;
 }
 
 }  // namespace
@@ -62,7 +71,6 @@ Status ReduceChunk(const BasicPassContext<Space>& context,
   using Vector = typename ReduceOutput<Space>::Vector;
   out->contribution.Clear();
   out->contribution.SetBlockSize(P);
-  out->gradient_slots.Clear();
   out->gradient_rows.clear();
   out->gradients.clear();
   out->diagonals.clear();
@@ -74,10 +82,15 @@ Status ReduceChunk(const BasicPassContext<Space>& context,
     LinearizeFeature<Space>(chunk, k, poses, features(k, g), *context.layout, context.kernel,
                             &f, LinearizeWhat::kAll, frames);
     out->chi2 += f.chi2;
-    for (size_t slot = 0; slot < f.blocks.poses.size(); ++slot) {
+    const size_t num_poses = f.blocks.poses.size();
+    out->diagonal_slots.resize(num_poses);
+    out->rhs_slots.resize(num_poses);
+    for (size_t slot = 0; slot < num_poses; ++slot) {
       const int u = f.blocks.poses[slot];
-      AddTo<P>(f.pose_hessian[slot], out->contribution.Block(u, u));
-      AddDirectGradient<Space>(u, f.pose_gradient[slot], f.pose_hessian[slot].diagonal(), out);
+      out->diagonal_slots[slot] = out->contribution.BlockSlot(u, u);
+      AddTo<P>(f.pose_hessian[slot], out->contribution.BlockAt(out->diagonal_slots[slot]));
+      out->rhs_slots[slot] =
+          AddDirectGradient<Space>(u, f.pose_gradient[slot], f.pose_hessian[slot].diagonal(), out);
     }
     if (context.layout->IsKept(g)) {
       // Padded to the pose block size: components past D decoupled.
@@ -100,7 +113,8 @@ Status ReduceChunk(const BasicPassContext<Space>& context,
     }
     const Eigen::Matrix<double, D, 1> damping = DampingDiagonal<D>(f.blocks.feature_information);
     f.blocks.feature_information.diagonal() += lambda * damping;
-    Status status = EliminateFeature(f.blocks, &out->contribution);
+    Status status = EliminateFeature(f.blocks, &out->contribution,
+                                     {out->diagonal_slots.data(), out->rhs_slots.data()});
     if (!status.ok()) {
       return status.WithContext("chunk " + std::to_string(chunk.index) + ", feature " +
                                 std::to_string(g));

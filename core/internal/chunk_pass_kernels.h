@@ -47,12 +47,17 @@ struct ReduceOutput {
   // block of a kept feature (C, H_pm, -g_m), in feature order.
   ReducedContribution contribution;
   // The direct gradient g_p and diag(H_pp) (kept features: g_m, diag C)
-  // summed per row, rows in order of first use.
-  SlotMap gradient_slots;
+  // summed per row, indexed by the row's RhsSlot in `contribution` (every
+  // row gets its direct terms before any Schur term, so the slots are
+  // dense): rows in order of first use.
   std::vector<int> gradient_rows;
   std::vector<Vector> gradients;
   std::vector<Vector> diagonals;
   double chi2 = 0.0;
+  // Per observing pose of the current feature: its diagonal block's and
+  // rhs row's slots in `contribution` (EliminateFeature's FeatureSlots).
+  std::vector<int32_t> diagonal_slots;
+  std::vector<int32_t> rhs_slots;
 };
 
 // The feature estimates a kernel reads: either the solve's array (indexed by

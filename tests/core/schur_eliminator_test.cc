@@ -169,7 +169,8 @@ TEST_P(SchurEliminatorTest, ReducedSystemAndRecoveryMatchDenseSchurComplement) {
 }
 
 INSTANTIATE_TEST_SUITE_P(PoseAndFeatureSizes, SchurEliminatorTest,
-                         testing::Values(Sizes{3, 2}, Sizes{6, 3}, Sizes{3, 3}),
+                         testing::Values(Sizes{3, 2}, Sizes{6, 3}, Sizes{3, 3}, Sizes{6, 2},
+                                         Sizes{1, 2}),
                          [](const testing::TestParamInfo<Sizes>& info) {
                            std::string name = "b";
                            name += std::to_string(info.param.b);
@@ -276,6 +277,39 @@ TEST(SchurEliminator, NonPositiveDefiniteFeatureIsReportedAndLeavesOutputUnchang
   f.feature_information = Eigen::Vector2d(1.0, 1e-9).asDiagonal();  // weak but accepted
   EXPECT_TRUE(EliminateFeature(f, &out).ok());
   EXPECT_EQ(out.block_size(), 3);
+}
+
+// Planar features take a scalar path (2 x 2 Cholesky, the products per
+// pose written out): with the planar pose block (b = 3) it gives the numbers
+// of Eigen's LLT on the generic expression to the bit; other b only to
+// rounding (Eigen's product sums a longer row in another order).
+TEST(SchurEliminator, PlanarRecoveryEqualsEigensLltBitForBit) {
+  for (const int b : {1, 3, 6}) {
+    for (uint32_t seed = 1; seed <= 4; ++seed) {
+      SCOPED_TRACE(testing::Message() << "b " << b << ", seed " << seed);
+      const RandomSystem sys = MakeRandomSystem(20 + seed, b, 2, 7, 25);
+      std::mt19937 rng(seed);
+      std::uniform_real_distribution<double> value(-3.0, 3.0);
+      Eigen::VectorXd dx(sys.PoseRows());
+      for (Eigen::Index i = 0; i < dx.size(); ++i) dx[i] = value(rng);
+      for (int m = 0; m < sys.num_features; ++m) {
+        const FeatureBlocks f = sys.Feature(m);
+        Eigen::Vector2d v = f.feature_gradient;
+        for (size_t p = 0; p < f.poses.size(); ++p)
+          v.noalias() += f.pose_feature[p].transpose() * dx.segment(f.poses[p] * b, b);
+        const Eigen::Vector2d expected =
+            -Eigen::LLT<Eigen::Matrix2d>(Eigen::Matrix2d(f.feature_information)).solve(v);
+        const Eigen::VectorXd actual = RecoverFeature(f, dx);
+        ASSERT_EQ(actual.size(), 2);
+        if (b == 3) {
+          EXPECT_EQ(actual[0], expected[0]) << "feature " << m;
+          EXPECT_EQ(actual[1], expected[1]) << "feature " << m;
+        } else {
+          EXPECT_LE((actual - expected).norm(), 1e-14 * expected.norm()) << "feature " << m;
+        }
+      }
+    }
+  }
 }
 
 TEST(SchurEliminator, FeatureWithoutFreePosesContributesNothing) {
