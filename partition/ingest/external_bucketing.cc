@@ -456,6 +456,10 @@ Status BucketChunkSource::LoadBucket(int64_t bucket) const {
                                                read.data() + frames.firsts[f]);
   });
   for (const Status& status : statuses) GS_RETURN_IF_ERROR(status);
+  // No load after the last bucket: its bytes go before the sorted copy is
+  // made, as the only bucket of a small input's did when they never stayed.
+  const int64_t end_bucket = spill_end_bucket_ < 0 ? NumBuckets() : spill_end_bucket_;
+  if (bucket + 1 >= end_bucket) raw = std::vector<char>();
   // Grouped by (chunk, feature) = by feature slot within the bucket: a
   // counting sort, stable, so each feature keeps its input order.
   const int64_t first_chunk = bucket_first_chunk_[bucket];
