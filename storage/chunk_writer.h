@@ -43,7 +43,7 @@ enum class ChunkCompression : uint8_t {
 struct ChunkWriteOptions {
   ChunkCompression compression = ChunkCompression::kNone;
   // zstd level, in [ZSTD_minCLevel(), ZSTD_maxCLevel()] (negative = faster).
-  // 2: on feature blocks the same size as level 3 (within 0.1 %) and decoded
+  // 2: on feature blocks about the size of level 3 (~1 % larger) and decoded
   // as fast, for ~1/4 less compression time; level 1 is faster again but
   // ~10 % larger, which every streaming pass of a solve would read.
   int zstd_level = 2;
