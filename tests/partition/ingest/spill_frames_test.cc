@@ -24,6 +24,22 @@ namespace {
 using graphslam::testing::ExpectBitwiseEqual;
 using graphslam::testing::RandomObservations;
 
+// What a bucket run of the simulator looks like: constant information and
+// kind, poses and lines rising, features and measurements varied.
+std::vector<core::Observation> SimulatorRun(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  std::vector<core::Observation> run(20000);
+  for (size_t i = 0; i < run.size(); ++i) {
+    run[i].pose = static_cast<int32_t>(i / 40);
+    run[i].feature = static_cast<int32_t>(rng() % 50000);
+    run[i].z = {8.0 + uniform(rng), uniform(rng)};
+    run[i].information << 99.999999999999986, 0, 0, 2500;
+    run[i].line = static_cast<int32_t>(3 + i + i / 40);
+  }
+  return run;
+}
+
 class SpillFramesTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -89,18 +105,7 @@ TEST_F(SpillFramesTest, ObservationsRoundTripBitForBit) {
 }
 
 TEST_F(SpillFramesTest, TheSimulatorsObservationsShrinkAboutThreefold) {
-  // What a bucket run of the simulator looks like: constant information and
-  // kind, poses and lines rising, features and measurements varied.
-  std::mt19937 rng(2);
-  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-  std::vector<core::Observation> run(20000);
-  for (size_t i = 0; i < run.size(); ++i) {
-    run[i].pose = static_cast<int32_t>(i / 40);
-    run[i].feature = static_cast<int32_t>(rng() % 50000);
-    run[i].z = {8.0 + uniform(rng), uniform(rng)};
-    run[i].information << 99.999999999999986, 0, 0, 2500;
-    run[i].line = static_cast<int32_t>(3 + i + i / 40);
-  }
+  const std::vector<core::Observation> run = SimulatorRun(2);
   std::vector<char> frame;
   SpillFrameEncoder encoder(1);
   ASSERT_TRUE(encoder.Encode(run.data(), run.size(), &frame).ok());
@@ -133,16 +138,7 @@ TEST_F(SpillFramesTest, FramesOfAnyLevelReadBackBitForBitFromOneFile) {
 TEST_F(SpillFramesTest, TheDefaultLevelStillShrinksTheSimulatorsRunsTwofold) {
   // kSpillFrameZstdLevel trades some size for speed; the columns (constant
   // information and kind, slowly rising poses and lines) still compress.
-  std::mt19937 rng(4);
-  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-  std::vector<core::Observation> run(20000);
-  for (size_t i = 0; i < run.size(); ++i) {
-    run[i].pose = static_cast<int32_t>(i / 40);
-    run[i].feature = static_cast<int32_t>(rng() % 50000);
-    run[i].z = {8.0 + uniform(rng), uniform(rng)};
-    run[i].information << 99.999999999999986, 0, 0, 2500;
-    run[i].line = static_cast<int32_t>(3 + i + i / 40);
-  }
+  const std::vector<core::Observation> run = SimulatorRun(4);
   std::vector<char> frame;
   SpillFrameEncoder encoder(kSpillFrameZstdLevel);
   ASSERT_TRUE(encoder.Encode(run.data(), run.size(), &frame).ok());
