@@ -415,14 +415,16 @@ std::string BucketChunkSource::BucketPath(int64_t bucket) const {
 Status BucketChunkSource::LoadBucket(int64_t bucket) const {
   const std::string path = BucketPath(bucket);
   const int64_t n = bucket_observations_[bucket];
-  // The whole file (~16 B per observation) into raw_, its frames found from
+  // The whole file (~19 B per observation) into raw_, its frames found from
   // the headers and decoded in parallel (a decoder per thread) into read_,
   // then sorted into bucket_. All three keep their pages from bucket to
   // bucket: fresh pages cost a fault and zeroing each, and a fresh read_ per
   // bucket zeroed 72 B per observation of the input. The peak (inside this
   // call) is the same raw_ + read_ + bucket_ as when raw_ and read_ were
   // freed after each load; between loads they stay resident.
-  if (bucket_.capacity() < static_cast<size_t>(n) || read_.capacity() < static_cast<size_t>(n)) {
+  const bool grows =
+      bucket_.capacity() < static_cast<size_t>(n) || read_.capacity() < static_cast<size_t>(n);
+  if (grows) {
     // Would be reallocated below while the others live: freed first instead.
     bucket_ = std::vector<core::Observation>();
     read_ = std::vector<core::Observation>();
@@ -458,8 +460,10 @@ Status BucketChunkSource::LoadBucket(int64_t bucket) const {
   for (const Status& status : statuses) GS_RETURN_IF_ERROR(status);
   // No load after the last bucket: its bytes go before the sorted copy is
   // made, as the only bucket of a small input's did when they never stayed.
+  // Nor while bucket_ grows: raw_ is never resident with a new, larger
+  // bucket_ (the peak stays raw + decoded + sorted of a bucket that fits).
   const int64_t end_bucket = spill_end_bucket_ < 0 ? NumBuckets() : spill_end_bucket_;
-  if (bucket + 1 >= end_bucket) raw = std::vector<char>();
+  if (grows || bucket + 1 >= end_bucket) raw = std::vector<char>();
   // Grouped by (chunk, feature) = by feature slot within the bucket: a
   // counting sort, stable, so each feature keeps its input order.
   const int64_t first_chunk = bucket_first_chunk_[bucket];
