@@ -242,6 +242,9 @@ Status ValidateObservationChunk(const core::ObservationChunk& chunk) {
           std::to_string(chunk_format::kMaxRecordLength) + " bytes)");
     }
     for (int64_t o = begin; o < end; ++o) {
+      // The predicate first: the message is built only for a bad observation.
+      if (chunk_format::IsValidObservation(chunk.observations[static_cast<size_t>(o)], feature))
+        continue;
       const std::string problem = chunk_format::DescribeInvalidObservation(
           chunk.observations[static_cast<size_t>(o)], feature);
       if (!problem.empty()) {

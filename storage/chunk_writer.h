@@ -43,7 +43,10 @@ enum class ChunkCompression : uint8_t {
 struct ChunkWriteOptions {
   ChunkCompression compression = ChunkCompression::kNone;
   // zstd level, in [ZSTD_minCLevel(), ZSTD_maxCLevel()] (negative = faster).
-  int zstd_level = 3;
+  // 2: on feature blocks about the size of level 3 (~1 % larger) and decoded
+  // as fast, for ~1/4 less compression time; level 1 is faster again but
+  // ~10 % larger, which every streaming pass of a solve would read.
+  int zstd_level = 2;
   // Uncompressed size a block grows to before a new one starts; a block always
   // holds at least one feature. In [1, chunk_format::kMaxRecordLength].
   int64_t target_record_bytes = int64_t{1} << 20;

@@ -91,7 +91,10 @@ inline constexpr int64_t kIngestPass1BytesPerFeatureUnknownIds = 72;
 // The plan (chunk, slot and chunk lists: 12 B) while it is made from the
 // index read back (8 B) and the features' order (4 B, its sort's buffer 2 B).
 inline constexpr int64_t kIngestPass2BytesPerFeature = 26;
-inline constexpr int64_t kIngestBytesPerBufferedObservation = 160;
+// Per buffered observation: the buffer and its sort's copy (72 B each), the
+// spill frames of one spill or one bucket's file bytes (~19 B at the frames'
+// zstd level -1, partition/ingest/spill_frames.h).
+inline constexpr int64_t kIngestBytesPerBufferedObservation = 164;
 inline constexpr int64_t kReadWholeBytesPerInputByte = 4;
 // Native log proportions (uncompressed bytes) and zstd's ratio on it.
 inline constexpr int64_t kLogBytesPerObservation = 80;

@@ -415,22 +415,26 @@ std::string BucketChunkSource::BucketPath(int64_t bucket) const {
 Status BucketChunkSource::LoadBucket(int64_t bucket) const {
   const std::string path = BucketPath(bucket);
   const int64_t n = bucket_observations_[bucket];
-  // The whole file (~16 B per observation), its frames found from the
-  // headers and decoded in parallel (a decoder per thread) into `read`.
-  // bucket_ keeps its pages from bucket to bucket (fresh pages cost a fault
-  // and zeroing each); `raw` and `read` are freed on return, so between two
-  // loads only bucket_ is held (the peak, inside this call, is raw + read +
-  // bucket_, ~2.2 K observations' worth).
-  std::vector<char> raw;
-  if (bucket_.capacity() < static_cast<size_t>(n)) {
-    // Would be reallocated below while `read` lives: freed first instead.
-    bucket_.clear();
-    bucket_.shrink_to_fit();
+  // The whole file (~19 B per observation) into raw_, its frames found from
+  // the headers and decoded in parallel (a decoder per thread) into read_,
+  // then sorted into bucket_. All three keep their pages from bucket to
+  // bucket: fresh pages cost a fault and zeroing each, and a fresh read_ per
+  // bucket zeroed 72 B per observation of the input. The peak (inside this
+  // call) is the same raw_ + read_ + bucket_ as when raw_ and read_ were
+  // freed after each load; between loads they stay resident.
+  const bool grows =
+      bucket_.capacity() < static_cast<size_t>(n) || read_.capacity() < static_cast<size_t>(n);
+  if (grows) {
+    // Would be reallocated below while the others live: freed first instead.
+    bucket_ = std::vector<core::Observation>();
+    read_ = std::vector<core::Observation>();
   }
+  std::vector<char>& raw = raw_;
   {
     GS_ASSIGN_OR_RETURN(std::unique_ptr<storage::ReadableFile> file,
                         storage::Env::Default()->NewReadableFile(path));
     GS_ASSIGN_OR_RETURN(const uint64_t size, file->Size());
+    if (raw.capacity() < size) raw = std::vector<char>();  // not copied when it grows
     raw.resize(static_cast<size_t>(size));
     GS_ASSIGN_OR_RETURN(const size_t got, file->Read(raw.size(), raw.data()));
     if (got != raw.size())
@@ -443,7 +447,8 @@ Status BucketChunkSource::LoadBucket(int64_t bucket) const {
     return Status::Corruption(path + ": " + std::to_string(frames.observations) +
                               " observations in its frames; " + std::to_string(n) +
                               " were spilled into it");
-  std::vector<core::Observation> read(static_cast<size_t>(n));
+  std::vector<core::Observation>& read = read_;
+  read.resize(static_cast<size_t>(n));
   std::vector<Status> statuses(frames.offsets.size());
   tbb::enumerable_thread_specific<SpillFrameDecoder> decoders;
   tbb::parallel_for(size_t{0}, frames.offsets.size(), [&](size_t f) {
@@ -453,7 +458,12 @@ Status BucketChunkSource::LoadBucket(int64_t bucket) const {
                                                read.data() + frames.firsts[f]);
   });
   for (const Status& status : statuses) GS_RETURN_IF_ERROR(status);
-  raw = std::vector<char>();
+  // No load after the last bucket: its bytes go before the sorted copy is
+  // made, as the only bucket of a small input's did when they never stayed.
+  // Nor while bucket_ grows: raw_ is never resident with a new, larger
+  // bucket_ (the peak stays raw + decoded + sorted of a bucket that fits).
+  const int64_t end_bucket = spill_end_bucket_ < 0 ? NumBuckets() : spill_end_bucket_;
+  if (grows || bucket + 1 >= end_bucket) raw = std::vector<char>();
   // Grouped by (chunk, feature) = by feature slot within the bucket: a
   // counting sort, stable, so each feature keeps its input order.
   const int64_t first_chunk = bucket_first_chunk_[bucket];

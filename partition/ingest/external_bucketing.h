@@ -57,6 +57,7 @@
 #include "core/chunk_source.h"
 #include "core/problem.h"
 #include "core/status.h"
+#include "partition/ingest/spill_frames.h"
 #include "storage/native_log_reader.h"
 
 namespace graphslam::partition {
@@ -70,7 +71,7 @@ struct ExternalBucketingOptions {
   int64_t buffer_observations = 1 << 20;      // K, >= B
   std::string work_dir;                       // must exist
   // zstd level of the bucket files' frames (partition/ingest/spill_frames.h).
-  int spill_zstd_level = 1;
+  int spill_zstd_level = kSpillFrameZstdLevel;
 
   [[nodiscard]] Status Validate() const;
 };
@@ -218,6 +219,10 @@ class BucketChunkSource : public core::ChunkSource {
   // sequential cursor over the buckets behind the const ChunkSource interface.
   mutable int64_t loaded_bucket_ = -1;
   mutable std::vector<core::Observation> bucket_;
+  // LoadBucket's file bytes and decoded observations (input order), kept
+  // between loads so that their pages are reused.
+  mutable std::vector<char> raw_;
+  mutable std::vector<core::Observation> read_;
   mutable BucketingStats stats_;
 };
 

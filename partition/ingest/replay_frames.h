@@ -50,7 +50,10 @@ namespace graphslam::partition {
 struct ReplayFrameOptions {
   int64_t frame_observations = 65536;  // F (<= kMaxSpillFrameObservations)
   int64_t frames_per_segment = 16;     // S / F: ~1 M observations, ~20 MB a segment
-  int zstd_level = 1;
+  // zstd level of the frames (scratch: read back once). Negative levels keep
+  // the literals raw, so decoding is several times faster than at level 1
+  // (kSpillFrameZstdLevel, spill_frames.h).
+  int zstd_level = kSpillFrameZstdLevel;
 
   int64_t segment_observations() const { return frame_observations * frames_per_segment; }
   [[nodiscard]] Status Validate() const;

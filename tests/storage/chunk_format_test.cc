@@ -337,6 +337,28 @@ TEST_P(ChunkRoundTripTest, LargeChunkWithOneHundredThousandObservations) {
   ExpectBitExact(chunk, read);
 }
 
+TEST_F(ChunkFormatTest, EveryZstdLevelReadsBackTheSameChunk) {
+  // The level is the writer's choice (ChunkWriteOptions::zstd_level, 2 by
+  // default): the reader needs none, and every level gives the same chunk.
+  const core::ObservationChunk chunk = MakeChunk(5, 3000, 6, 4);
+  for (const int level : {ChunkWriteOptions().zstd_level, -1, 1, 3}) {
+    SCOPED_TRACE("level " + std::to_string(level));
+    ChunkWriteOptions options;
+    options.compression = ChunkCompression::kZstd;
+    options.zstd_level = level;
+    ASSERT_TRUE(WriteObservationChunk(Env::Default(), path_, chunk, options).ok());
+    const std::string data = Slurp(path_);
+    bool compressed = false;
+    for (const Frame& frame : Frames(data))
+      compressed = compressed || (frame.type & format::kCompressedBit) != 0;
+    EXPECT_TRUE(compressed) << "no block stored compressed";
+    core::ObservationChunk read;
+    const Status status = Read(&read);
+    ASSERT_TRUE(status.ok()) << status.ToString();
+    ExpectBitExact(chunk, read);
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Compression, ChunkRoundTripTest,
                          ::testing::Values(ChunkCompression::kNone, ChunkCompression::kZstd),
                          [](const auto& info) {
