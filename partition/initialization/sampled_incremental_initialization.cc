@@ -8,6 +8,7 @@
 
 #include "core/internal/ordered_chunk_pipeline.h"
 #include "partition/ingest/in_memory_chunk_source.h"
+#include "partition/initialization/internal/stage_setup.h"
 #include "partition/initialization/pose_graph_initialization.h"
 
 namespace graphslam::partition {
@@ -29,17 +30,6 @@ core::Problem2d PoseSubProblem(const core::Problem2d& problem) {
   sub.gps = problem.gps;
   sub.pose_range_bearings = problem.pose_range_bearings;
   return sub;
-}
-
-core::SolverOptions QuietOptions(const core::SolverOptions& solver) {
-  core::SolverOptions options = solver;
-  options.checkpoint_callback = nullptr;
-  options.resume_from = nullptr;
-  options.candidate_store = nullptr;
-  options.progress = nullptr;
-  options.iteration_callback = nullptr;
-  options.cholmod_factor_check = nullptr;
-  return options;
 }
 
 }  // namespace
@@ -121,16 +111,13 @@ Status InitializeFromSampledFeatures(const SampledInitializationOptions& options
   summary->sampled_observations = static_cast<int64_t>(sub.observations.size());
 
   // Step 3: incremental initialization of the sample, then its solve.
-  const core::SolverOptions quiet = QuietOptions(solver);
-  // The stages report their progress as in memory (the start can take
-  // minutes); the sample's solve does not pose as the whole problem's.
-  core::SolverOptions staged = quiet;
-  staged.progress = solver.progress;
-  GS_RETURN_IF_ERROR(InitializeIncrementally(options.incremental, staged, &sub,
+  // The stages report their progress (the start can take minutes), as in
+  // memory; the sample's solve does not pose as the whole problem's.
+  GS_RETURN_IF_ERROR(InitializeIncrementally(options.incremental, solver, &sub,
                                              &summary->incremental));
   if (options.sub_solve_iterations > 0 && !sub.observations.empty()) {
-    core::SolverOptions sub_options = quiet;
-    sub_options.max_iterations = options.sub_solve_iterations;
+    const core::SolverOptions sub_options =
+        internal::StageSolverOptions(solver, options.sub_solve_iterations);
     ChunkingOptions chunking;
     chunking.max_observations_per_chunk = options.incremental.max_observations_per_chunk;
     const InMemoryChunkSource sub_chunks(sub, chunking);

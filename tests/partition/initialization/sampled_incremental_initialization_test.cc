@@ -12,9 +12,7 @@
 
 #include "core/graphslam_solver.h"
 #include "storage/chunk_store.h"
-#include "tools/exit_codes.h"
-#include "tools/ingest_command.h"
-#include "tools/simulate_command.h"
+#include "tests/testing/dense_campus_store.h"
 
 namespace graphslam::partition {
 namespace {
@@ -45,28 +43,14 @@ TEST(SampledIncrementalInitialization, SampledStartThenSolveReachesTheOptimum) {
                         ("graphslam_sampled_init_" + std::to_string(getpid()));
   fs::remove_all(root);
   fs::create_directories(root);
-  tools::SimulateCommandOptions simulate;
-  simulate.output_dir = (root / "sim").string();
-  simulate.streaming = true;
-  simulate.simulator.features = 1000000;
-  simulate.simulator.poses = 1000;
-  simulate.simulator.runs = 2;
-  simulate.simulator.gps_every = 50;
-  simulate.simulator.speed = 8.0;
-  simulate.simulator.sensor_range = 8.0;
-  simulate.landmark_spacing = {0.015, 0.025};
-  simulate.quiet = true;
-  ASSERT_EQ(tools::RunSimulateCommand(simulate), tools::kExitOk);
-  tools::IngestCommandOptions ingest;
-  ingest.input = (root / "sim" / "log.graphslam").string();
-  ingest.output_dir = (root / "store").string();
-  ingest.quiet = true;
-  ASSERT_EQ(tools::RunIngestCommand(ingest), tools::kExitOk);
+  const std::string store =
+      testing::SimulateDenseCampusStore(root.string(), "", 1000, 2, 1000000);
+  ASSERT_FALSE(store.empty());
 
   StatusOr<std::unique_ptr<storage::DiskChunkSource>> chunks =
-      storage::DiskChunkSource::Open(ingest.output_dir);
+      storage::DiskChunkSource::Open(store);
   ASSERT_TRUE(chunks.ok()) << chunks.status().ToString();
-  StatusOr<core::Problem2d> problem = storage::ReadChunkStoreProblem(ingest.output_dir);
+  StatusOr<core::Problem2d> problem = storage::ReadChunkStoreProblem(store);
   ASSERT_TRUE(problem.ok()) << problem.status().ToString();
   const int64_t observations = (*chunks)->total_observations();
   ASSERT_GT(observations, 300000);
