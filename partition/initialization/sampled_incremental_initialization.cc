@@ -72,6 +72,9 @@ Status InitializeFromSampledFeatures(const SampledInitializationOptions& options
   // ascending within a chunk, each one's observations in input order).
   core::Problem2d sub = PoseSubProblem(*problem);
   std::vector<int32_t> sampled;  // sub feature -> feature of *problem
+  // Reserved, not grown by doubling: the sample is about B observations.
+  sub.observations.reserve(static_cast<size_t>(
+      std::min(total_observations, budget + budget / 8)));
   const auto pick = [&](const core::ObservationChunk& chunk,
                         std::vector<core::Observation>* kept) -> Status {
     kept->clear();
