@@ -52,7 +52,7 @@ namespace graphslam::partition {
 
 struct SampledInitializationOptions {
   // The sample's observation budget B (above): per pose, and at least.
-  int64_t observations_per_pose = 12;
+  int64_t observations_per_pose = 24;
   int64_t min_observations = 1'000'000;
   // And at most this many (a memory limit's share; -1: no cap).
   int64_t max_observations = -1;
