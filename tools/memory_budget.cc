@@ -226,6 +226,9 @@ StatusOr<SolveBudget> BudgetSolve(int64_t limit_bytes, const SolveSize& size,
   budget.chunks_in_flight =
       static_cast<int>(std::clamp<int64_t>((limit_bytes - rest) / chunk, 1, default_in_flight));
   budget.factor_bytes = limit_bytes - rest - budget.chunks_in_flight * chunk;
+  // The start's sample is freed before the solve's passes.
+  if (size.streaming)
+    budget.sample_observations = (limit_bytes - rest - chunk) / kBytesPerObservationInMemory;
   return budget;
 }
 

@@ -43,6 +43,10 @@
 //   need      = max(read, solve at one chunk in flight)
 //   in_flight = clamp((limit - the rest at 0 in flight) / (B_max
 //               observation_in_flight), 1, default)
+//   sample    = (limit - streaming at one chunk in flight, no factor)
+//               / observation_in_memory: the most observations the
+//               streaming start's feature sample may hold (it is freed
+//               before the passes of the solve)
 // and `--solver auto` takes CHOLMOD only if its factor (8 lnz, from the
 // symbolic analysis) fits in what the chunks leave; otherwise PCG, whose
 // vectors are in pose_system. `--solver cholmod` gets what the chunks leave
@@ -166,6 +170,11 @@ struct SolveBudget {
   int64_t need_bytes = 0;       // the smallest limit that works (one chunk in flight)
   int chunks_in_flight = 0;
   int64_t factor_bytes = 0;     // left for a CHOLMOD factor (auto), 0 without a limit
+  // Streaming: the most observations the start's feature sample may hold
+  // (partition/initialization/sampled_incremental_initialization.h) at
+  // observation_in_memory each, in what one chunk in flight leaves; -1
+  // without a limit (its own default).
+  int64_t sample_observations = -1;
 };
 
 // The budget of a solve under `limit_bytes` (<= 0: no limit, default_in_flight).

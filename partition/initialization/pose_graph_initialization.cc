@@ -21,29 +21,11 @@ class EmptyChunkSource : public core::ChunkSource {
 
 }  // namespace
 
-Status InitializeFromPoseGraph(const core::SolverOptions& solver, int max_iterations,
-                               const core::ChunkSource& chunks, core::Problem2d* problem,
-                               PoseGraphInitializationSummary* summary) {
-  GS_CHECK(problem != nullptr && summary != nullptr);
-  *summary = PoseGraphInitializationSummary();
-  core::SolverOptions options = solver;
-  options.max_iterations = max_iterations;
-  options.checkpoint_callback = nullptr;
-  options.resume_from = nullptr;
-  options.progress = nullptr;
-  // Step 1 on the poses; the features are restored (they have no
-  // observations here and must not be touched).
-  const std::vector<core::Point2> features = problem->features;
-  core::SolverSummary pose_summary;
-  const Status solved = core::SolveGraphSlam(options, EmptyChunkSource(), problem, &pose_summary);
-  problem->features = features;
-  // Not converging within the budget is fine for an initial guess.
-  if (!solved.ok() && !solved.IsNumerical()) return solved;
-  summary->iterations = pose_summary.iterations;
-  summary->initial_chi2 = pose_summary.initial_chi2;
-  summary->final_chi2 = pose_summary.final_chi2;
-
-  // Step 2: features from first sight with the new poses. Chunks are
+Status PlaceFeaturesFromFirstSight(int max_chunks_in_flight, const core::ChunkSource& chunks,
+                                   core::Problem2d* problem, int64_t* placed_features) {
+  GS_CHECK(problem != nullptr && placed_features != nullptr);
+  *placed_features = 0;
+  // Features from first sight with the current poses. Chunks are
   // feature-complete (docs/formats/observation_chunk.md), so chunks write
   // disjoint features and run in parallel (loading -- read, CRC, zstd,
   // decode -- is most of this pass), as many in flight as the solve allows; a
@@ -68,11 +50,37 @@ Status InitializeFromPoseGraph(const core::SolverOptions& solver, int max_iterat
     return Status::Ok();
   };
   GS_RETURN_IF_ERROR(core::internal::RunOrderedChunkPipeline<int64_t>(
-      chunks, solver.max_chunks_in_flight, place,
+      chunks, max_chunks_in_flight, place,
       [&](const core::ObservationChunk&, int64_t placed_here) {
-        summary->placed_features += placed_here;
+        *placed_features += placed_here;
       }));
   return Status::Ok();
+}
+
+Status InitializeFromPoseGraph(const core::SolverOptions& solver, int max_iterations,
+                               const core::ChunkSource& chunks, core::Problem2d* problem,
+                               PoseGraphInitializationSummary* summary) {
+  GS_CHECK(problem != nullptr && summary != nullptr);
+  *summary = PoseGraphInitializationSummary();
+  core::SolverOptions options = solver;
+  options.max_iterations = max_iterations;
+  options.checkpoint_callback = nullptr;
+  options.resume_from = nullptr;
+  options.progress = nullptr;
+  // Step 1 on the poses; the features are restored (they have no
+  // observations here and must not be touched).
+  const std::vector<core::Point2> features = problem->features;
+  core::SolverSummary pose_summary;
+  const Status solved = core::SolveGraphSlam(options, EmptyChunkSource(), problem, &pose_summary);
+  problem->features = features;
+  // Not converging within the budget is fine for an initial guess.
+  if (!solved.ok() && !solved.IsNumerical()) return solved;
+  summary->iterations = pose_summary.iterations;
+  summary->initial_chi2 = pose_summary.initial_chi2;
+  summary->final_chi2 = pose_summary.final_chi2;
+
+  return PlaceFeaturesFromFirstSight(solver.max_chunks_in_flight, chunks, problem,
+                                      &summary->placed_features);
 }
 
 }  // namespace graphslam::partition

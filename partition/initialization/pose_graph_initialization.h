@@ -39,4 +39,11 @@ struct PoseGraphInitializationSummary {
                                              core::Problem2d* problem,
                                              PoseGraphInitializationSummary* summary);
 
+// Step 2 alone: every feature with an observation in `chunks` placed from its
+// first observation with problem->poses; *placed_features counts them.
+[[nodiscard]] Status PlaceFeaturesFromFirstSight(int max_chunks_in_flight,
+                                                 const core::ChunkSource& chunks,
+                                                 core::Problem2d* problem,
+                                                 int64_t* placed_features);
+
 }  // namespace graphslam::partition

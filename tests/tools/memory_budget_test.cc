@@ -66,6 +66,13 @@ TEST(BudgetSolve, InMemoryCountsTheObservationsAndNamesTheStreamingNeed) {
       << refused.status().ToString();
   size.streaming = true;
   EXPECT_EQ(BudgetSolve(streaming, size, 8)->chunks_in_flight, 1);
+  // The streaming start's feature sample gets what one chunk in flight
+  // leaves, at an in-memory observation's cost; no limit, no cap.
+  EXPECT_EQ(BudgetSolve(streaming, size, 8)->sample_observations, 0);
+  EXPECT_EQ(BudgetSolve(streaming + 1000 * kBytesPerObservationInMemory + 1, size, 8)
+                ->sample_observations,
+            1000);
+  EXPECT_EQ(BudgetSolve(0, size, 8)->sample_observations, -1);
 }
 
 // The 10^8-feature store (10^6 poses, 4.375*10^7 observed features, chunks

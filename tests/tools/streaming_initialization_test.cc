@@ -1,5 +1,6 @@
-// Streaming mode's default initializer (partition/initialization/pose_graph_initialization.h,
-// after partition/initialization/gps_segment_alignment.h) end to end: on 2-run GPS campuses,
+// Streaming mode's pose-graph initializer (--initialization pose-graph;
+// partition/initialization/pose_graph_initialization.h, after
+// partition/initialization/gps_segment_alignment.h) end to end: on 2-run GPS campuses,
 // Table 1 alone (--initialization odometry) left LM at chi2/dof 76 (6000
 // poses, seed 2, GPS every 50; docs/out_of_core.md); the pose-graph
 // initializer reaches the noise floor.
@@ -20,7 +21,7 @@ using graphslam::testing::GraphslamBinary;
 using graphslam::testing::RunGraphslam;
 
 // Simulates a 2-run campus of `poses` poses (GPS every 50, seed 2), solves it
-// in streaming mode with the default start and returns the report.
+// in streaming mode from the pose-graph start and returns the report.
 nlohmann::json SolveStreamingCampus(int poses) {
   const fs::path dir = fs::temp_directory_path() / ("graphslam_stream_init_" +
                                                     std::to_string(poses) + "_" +
@@ -32,7 +33,8 @@ nlohmann::json SolveStreamingCampus(int poses) {
                           "2", "-q"}),
             0);
   EXPECT_EQ(RunGraphslam({"solve", (dir / "sim" / "log.graphslam").string(), "--workdir",
-                          (dir / "store").string(), "--streaming-poses", "0", "--report",
+                          (dir / "store").string(), "--streaming-poses", "0", "--initialization",
+                          "pose-graph", "--report",
                           (dir / "report.json").string(), "-q"}),
             0);
   nlohmann::json report;

@@ -32,6 +32,7 @@
 #include "partition/initialization/incremental_initialization.h"
 #include "partition/initialization/pose_graph_initialization.h"
 #include "partition/initialization/progressive_initialization.h"
+#include "partition/initialization/sampled_incremental_initialization.h"
 #include "storage/candidate_file.h"
 #include "storage/chunk_store.h"
 #include "storage/directory_lock.h"
@@ -77,6 +78,8 @@ struct Solve2d : SolveState<core::Space2d> {
   // --initialization auto's solve from odometry.
   bool probe = false, probe_solved = false;
   nlohmann::json probe_report;
+  nlohmann::json sampled_report;  // the streaming start (StartFromSampledFeatures)
+  int64_t sample_observations = -1;  // its cap under --memory-limit (-1: none)
   double probe_seconds = 0, probe_cpu_seconds = 0;
 
   partition::AssociationOptions association;
@@ -215,7 +218,7 @@ Status ReadStore(const SolveRun& run, Solve2d& s) {
   s.streaming = streams(s.problem.num_poses());
   if (s.streaming) {
     GS_LOG(INFO, "streaming mode: %d poses, %lld observations stay on disk; initial guess "
-           "from the ingest (Table 1), no progressive initialization",
+           "from a feature sample",
            s.problem.num_poses(), static_cast<long long>(s.num_observations));
     return Status::Ok();
   }
@@ -290,6 +293,7 @@ Status ConfigureChunks(const SolveRun& run, Solve2d& s) {
   GS_ASSIGN_OR_RETURN(const SolveBudget budget,
                       BudgetSolve(run.request.memory_limit_bytes, size, default_in_flight));
   s.solver.max_chunks_in_flight = budget.chunks_in_flight;
+  s.sample_observations = budget.sample_observations;
   // The factor's values (8 lnz, what the choice counts) come with its
   // indices, the CSC copy of S it is made from and CHOLMOD's workspace.
   if (run.request.memory_limit_bytes > 0)
@@ -364,8 +368,8 @@ Status TryOdometry(const SolveRun& run, Solve2d& s) {
   return Status::Ok();
 }
 
-// The pose-graph initializer (streaming mode: no in-memory sub-problems;
-// --initialization pose-graph asks for it in memory too). It first puts the
+// The pose-graph initializer (--initialization pose-graph, in memory or
+// streaming). It first puts the
 // dead reckoning onto the GPS fixes, segment by segment: far from them the
 // pose-only LM creeps (docs/benchmarks.md). Without GPS nothing moves.
 Status StartFromPoseGraph(const Solve2d& s, core::Problem2d* problem) {
@@ -382,10 +386,40 @@ Status StartFromPoseGraph(const Solve2d& s, core::Problem2d* problem) {
   return Status::Ok();
 }
 
+// The streaming start (observations on disk): incremental initialization of
+// a feature sample whose observations are bounded by the poses
+// (partition/initialization/sampled_incremental_initialization.h); a store
+// within that bound is sampled whole.
+Status StartFromSampledFeatures(const SolveRun& run, Solve2d& s) {
+  partition::SampledInitializationOptions sampled;
+  sampled.incremental.max_observations_per_chunk = run.options.chunk_observations;
+  sampled.max_observations = s.sample_observations;
+  partition::SampledInitializationSummary summary;
+  GS_RETURN_IF_ERROR(partition::InitializeFromSampledFeatures(
+      sampled, InitializerOptions(s.solver), *s.chunks, s.num_observations, &s.problem, &summary));
+  GS_LOG(INFO, "sampled incremental initialization: %lld of %lld observations (rate %.4g, %lld "
+         "features), %zu stages (%lld redone), sample solve %d iterations chi2 %.6g -> %.6g, "
+         "%.1f s", static_cast<long long>(summary.sampled_observations),
+         static_cast<long long>(s.num_observations), summary.rate,
+         static_cast<long long>(summary.sampled_features), summary.incremental.stages.size(),
+         static_cast<long long>(summary.incremental.redone_stages), summary.sub_solve_iterations,
+         summary.sub_solve_initial_chi2, summary.sub_solve_final_chi2, summary.seconds);
+  s.sampled_report = {{"rate", summary.rate},
+                      {"sampled_features", summary.sampled_features},
+                      {"sampled_observations", summary.sampled_observations},
+                      {"stages", static_cast<int64_t>(summary.incremental.stages.size())},
+                      {"redone_stages", summary.incremental.redone_stages},
+                      {"sample_solve_iterations", summary.sub_solve_iterations},
+                      {"sample_solve_final_chi2", summary.sub_solve_final_chi2},
+                      {"seconds", summary.seconds}};
+  return Status::Ok();
+}
+
 // The initializers that improve the Table 1 guess: incremental (the default's
 // restart: stages re-solving a bounded window of recent poses, linear in
-// poses), progressive (growing prefixes, each solved briefly) or, for a
-// streaming solve and --initialization pose-graph, the pose-graph initializer.
+// poses), progressive (growing prefixes, each solved briefly), for a
+// streaming solve the sampled incremental start, and for --initialization
+// pose-graph the pose-graph initializer.
 Status ImproveGuess(const SolveRun& run, Solve2d& s) {
   const SolveClock::time_point progressive_start = SolveClock::now();
   const double initialization_cpu_start = ProcessCpuSeconds();
@@ -408,8 +442,10 @@ Status ImproveGuess(const SolveRun& run, Solve2d& s) {
   const bool streaming_start =
       s.streaming && (init == Initialization::kProgressive || init == Initialization::kAuto ||
                       init == Initialization::kIncremental);
-  if (!s.resuming && run.root && (streaming_start || init == Initialization::kPoseGraph))
+  if (!s.resuming && run.root && init == Initialization::kPoseGraph)
     GS_RETURN_IF_ERROR(StartFromPoseGraph(s, &s.problem));
+  else if (!s.resuming && run.root && streaming_start)
+    GS_RETURN_IF_ERROR(StartFromSampledFeatures(run, s));
   s.progressive_seconds = SecondsSince(progressive_start);
   s.initialization_cpu_seconds = ProcessCpuSeconds() - initialization_cpu_start;
   return Status::Ok();
@@ -494,7 +530,7 @@ void AddReport(const SolveRun& run, const Solve2d& s, nlohmann::json* report_out
   // What --initialization auto did: the solve from odometry (the final one
   // when it converged), or incremental initialization after it.
   report["initialization_used"] = options.initialization != "auto" ? options.initialization
-                                  : s.streaming                    ? "pose-graph"
+                                  : s.streaming                    ? "sampled-incremental"
                                   : s.probe_solved                 ? "odometry"
                                                                    : "incremental";
   if (s.incremental_summary.ran) {
@@ -507,6 +543,7 @@ void AddReport(const SolveRun& run, const Solve2d& s, nlohmann::json* report_out
         {"redone_stages", s.incremental_summary.redone_stages},
         {"seconds", s.incremental_summary.seconds}};
   }
+  if (!s.sampled_report.is_null()) report["sampled_incremental_initialization"] = s.sampled_report;
   if (s.probe) {
     report["odometry_attempt"] = s.probe_report;
     report["stage_seconds"]["odometry_attempt"] = s.probe_seconds;

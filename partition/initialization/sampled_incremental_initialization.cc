@@ -1,0 +1,148 @@
+#include "partition/initialization/sampled_incremental_initialization.h"
+
+#include <algorithm>
+#include <chrono>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/internal/ordered_chunk_pipeline.h"
+#include "partition/ingest/in_memory_chunk_source.h"
+#include "partition/initialization/internal/stage_setup.h"
+#include "partition/initialization/pose_graph_initialization.h"
+
+namespace graphslam::partition {
+namespace {
+
+// The sub-problem: every pose and pose constraint of `problem`, no feature
+// yet (the pass adds the sampled ones).
+core::Problem2d PoseSubProblem(const core::Problem2d& problem) {
+  core::Problem2d sub;
+  sub.source = problem.source;
+  sub.poses = problem.poses;
+  sub.pose_ids = problem.pose_ids;
+  sub.pose_fixed = problem.pose_fixed;
+  sub.pose_initialized = problem.pose_initialized;
+  sub.pose_lines = problem.pose_lines;
+  sub.pose_stamps = problem.pose_stamps;
+  sub.relative_poses = problem.relative_poses;
+  sub.motions = problem.motions;
+  sub.gps = problem.gps;
+  sub.pose_range_bearings = problem.pose_range_bearings;
+  return sub;
+}
+
+}  // namespace
+
+double FeatureSampleKey(int32_t feature) {
+  // SplitMix64's finalizer: consecutive indices (features first seen from
+  // the same poses) get independent keys.
+  uint64_t z = static_cast<uint64_t>(static_cast<uint32_t>(feature)) + 0x9E3779B97F4A7C15ULL;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  z ^= z >> 31;
+  return static_cast<double>(z >> 11) * 0x1.0p-53;
+}
+
+Status InitializeFromSampledFeatures(const SampledInitializationOptions& options,
+                                     const core::SolverOptions& solver,
+                                     const core::ChunkSource& chunks, int64_t total_observations,
+                                     core::Problem2d* problem,
+                                     SampledInitializationSummary* summary) {
+  GS_CHECK(problem != nullptr && summary != nullptr);
+  *summary = SampledInitializationSummary();
+  const auto start = std::chrono::steady_clock::now();
+  if (options.observations_per_pose < 1 || options.min_observations < 0 ||
+      options.sub_solve_iterations < 0)
+    return Status::InvalidArgument(
+        "sampled initialization: expected observations_per_pose >= 1, min_observations >= 0 and "
+        "sub_solve_iterations >= 0, got " + std::to_string(options.observations_per_pose) + ", " +
+        std::to_string(options.min_observations) + ", " +
+        std::to_string(options.sub_solve_iterations));
+  int64_t budget = std::max(options.min_observations,
+                            options.observations_per_pose * problem->num_poses());
+  if (options.max_observations >= 0) budget = std::min(budget, options.max_observations);
+  const double rate =
+      total_observations <= budget
+          ? 1.0
+          : static_cast<double>(budget) / static_cast<double>(total_observations);
+  summary->rate = rate;
+
+  // Step 2: the sampled features' observations, in chunk order (features
+  // ascending within a chunk, each one's observations in input order).
+  core::Problem2d sub = PoseSubProblem(*problem);
+  std::vector<int32_t> sampled;  // sub feature -> feature of *problem
+  // Reserved, not grown by doubling: the sample is about B observations.
+  sub.observations.reserve(static_cast<size_t>(
+      std::min(total_observations, budget + budget / 8)));
+  const auto pick = [&](const core::ObservationChunk& chunk,
+                        std::vector<core::Observation>* kept) -> Status {
+    kept->clear();
+    for (size_t slot = 0; slot < chunk.features.size(); ++slot) {
+      if (rate < 1.0 && FeatureSampleKey(chunk.features[slot]) >= rate) continue;
+      kept->insert(kept->end(), chunk.observations.begin() + chunk.feature_begin[slot],
+                   chunk.observations.begin() + chunk.feature_begin[slot + 1]);
+    }
+    return Status::Ok();
+  };
+  Status merged;
+  GS_RETURN_IF_ERROR(core::internal::RunOrderedChunkPipeline<std::vector<core::Observation>>(
+      chunks, solver.max_chunks_in_flight, pick,
+      [&](const core::ObservationChunk& chunk, const std::vector<core::Observation>& kept) {
+        for (core::Observation o : kept) {
+          if (o.feature < 0 || o.feature >= problem->num_features() || o.pose < 0 ||
+              o.pose >= problem->num_poses()) {
+            if (merged.ok())
+              merged = Status::Corruption(
+                  "chunk " + std::to_string(chunk.index) + ": observation of feature " +
+                  std::to_string(o.feature) + " from pose " + std::to_string(o.pose) +
+                  ", expected a feature below " + std::to_string(problem->num_features()) +
+                  " and a pose below " + std::to_string(problem->num_poses()));
+            return;
+          }
+          if (sampled.empty() || sampled.back() != o.feature) {
+            sampled.push_back(o.feature);
+            sub.AddFeature(problem->feature_ids[o.feature], problem->features[o.feature],
+                           problem->feature_initialized[o.feature] != 0);
+          }
+          o.feature = sub.num_features() - 1;
+          sub.observations.push_back(o);
+        }
+      }));
+  GS_RETURN_IF_ERROR(merged);
+  summary->sampled_features = sub.num_features();
+  summary->sampled_observations = static_cast<int64_t>(sub.observations.size());
+
+  // Step 3: incremental initialization of the sample, then its solve.
+  // The stages report their progress (the start can take minutes), as in
+  // memory; the sample's solve does not pose as the whole problem's.
+  GS_RETURN_IF_ERROR(InitializeIncrementally(options.incremental, solver, &sub,
+                                             &summary->incremental));
+  if (options.sub_solve_iterations > 0 && !sub.observations.empty()) {
+    const core::SolverOptions sub_options =
+        internal::StageSolverOptions(solver, options.sub_solve_iterations);
+    ChunkingOptions chunking;
+    chunking.max_observations_per_chunk = options.incremental.max_observations_per_chunk;
+    const InMemoryChunkSource sub_chunks(sub, chunking);
+    core::SolverSummary solved;
+    const Status status = core::SolveGraphSlam(sub_options, sub_chunks, &sub, &solved);
+    // Unconverged, or stopped by a numerical failure at its last accepted
+    // estimate: still a start for the whole problem's solve.
+    if (!status.ok() && !status.IsNumerical()) return status;
+    summary->sub_solve_iterations = solved.iterations;
+    summary->sub_solve_initial_chi2 = solved.initial_chi2;
+    summary->sub_solve_final_chi2 = solved.final_chi2;
+  }
+
+  // Step 4: the poses back, every feature from first sight, the sampled ones
+  // where the sub-problem put them.
+  problem->poses = std::move(sub.poses);
+  GS_RETURN_IF_ERROR(PlaceFeaturesFromFirstSight(solver.max_chunks_in_flight, chunks, problem,
+                                                 &summary->placed_features));
+  for (size_t k = 0; k < sampled.size(); ++k) problem->features[sampled[k]] = sub.features[k];
+  summary->seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return Status::Ok();
+}
+
+}  // namespace graphslam::partition

@@ -1,0 +1,92 @@
+// InitializeFromSampledFeatures: the start of a streaming solve (observations
+// stay on disk in feature-complete chunks) in the basin of the optimum, by
+// incremental initialization (incremental_initialization.h, the in-memory
+// default) of the problem restricted to a sample of its features.
+//
+//   1. Budget: B = max(min_observations, observations_per_pose * poses)
+//      observations, at most max_observations (a memory limit's share);
+//      sampling rate r = min(1, B / M) for M observations.
+//   2. One streaming pass over the chunks keeps every feature f with
+//      u(f) < r, u(f) in [0, 1) a fixed hash of its index (SplitMix64), with
+//      all its observations (chunks are feature-complete). A pose that sees
+//      n features keeps about r n of them, spread over its field of view, so
+//      dense sensing (hundreds of features per pose) still gives every pose
+//      tens of features: enough to localize it (feature_localization.h) and
+//      to tie it to its neighbours as the whole set does. With r = 1 (M <= B)
+//      the sub-problem is the whole problem.
+//   3. The sub-problem -- every pose and pose constraint (odometry, motion,
+//      GPS, robot sightings), the sampled features and their observations --
+//      gets incremental initialization, then Levenberg-Marquardt in memory
+//      (at most sub_solve_iterations): its poses end at the sample's optimum,
+//      which differs from the whole problem's by the information the other
+//      features add, well inside its basin.
+//   4. The poses are copied back; one more streaming pass places every
+//      feature from its first observation with them (Table 1 inverted,
+//      pose_graph_initialization.h PlaceFeaturesFromFirstSight), and the
+//      sampled ones then take their solved positions.
+//
+// Why not the pose-graph start (pose_graph_initialization.h) for streaming:
+// with weak odometry (0.03 rad per pose) and GPS every 50 poses the poses
+// between fixes drift, the features placed from them carry that drift, and
+// Levenberg-Marquardt from there stalls in a local minimum (a few poses turned
+// by ~pi: chi2/dof 1.088 on a 10^6-feature campus) or crawls (1.57 after 30
+// iterations at 10^7). Features localize a pose far better than such
+// odometry; the sample keeps that at a memory cost bounded by B.
+//
+// Memory: O(poses + B) for the sub-problem and its solves (B proportional to
+// the poses), one chunk per pass in flight, and a byte per feature for the
+// placement pass; never the whole problem's observations.
+// THREAD SAFETY: one call per problem (it runs TBB tasks itself); the result
+// does not depend on the thread count (chunks merged in order).
+#pragma once
+
+#include <cstdint>
+
+#include "core/chunk_source.h"
+#include "core/graphslam_solver.h"
+#include "core/problem.h"
+#include "core/status.h"
+#include "partition/initialization/incremental_initialization.h"
+
+namespace graphslam::partition {
+
+struct SampledInitializationOptions {
+  // The sample's observation budget B (above): per pose, and at least.
+  int64_t observations_per_pose = 24;
+  int64_t min_observations = 1'000'000;
+  // And at most this many (a memory limit's share; -1: no cap).
+  int64_t max_observations = -1;
+  // Levenberg-Marquardt iterations on the sampled sub-problem after its
+  // incremental initialization (0: none).
+  int sub_solve_iterations = 30;
+  IncrementalInitializationOptions incremental;
+};
+
+struct SampledInitializationSummary {
+  double rate = 1.0;  // r above
+  int64_t sampled_features = 0;
+  int64_t sampled_observations = 0;
+  IncrementalSummary incremental;
+  int sub_solve_iterations = 0;
+  double sub_solve_initial_chi2 = 0.0;
+  double sub_solve_final_chi2 = 0.0;
+  int64_t placed_features = 0;
+  double seconds = 0.0;
+};
+
+// The feature's hash u(f) in [0, 1) of step 2.
+double FeatureSampleKey(int32_t feature);
+
+// Replaces problem->poses and problem->features (through Table 1 already:
+// the ingest's guess) by the start described above. `problem` holds no
+// observations (they are `chunks`, `total_observations` of them). `solver`
+// gives the linear solver etc.; its callbacks, checkpoint and candidate store
+// are not used.
+[[nodiscard]] Status InitializeFromSampledFeatures(const SampledInitializationOptions& options,
+                                                   const core::SolverOptions& solver,
+                                                   const core::ChunkSource& chunks,
+                                                   int64_t total_observations,
+                                                   core::Problem2d* problem,
+                                                   SampledInitializationSummary* summary);
+
+}  // namespace graphslam::partition
