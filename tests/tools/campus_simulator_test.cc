@@ -40,7 +40,7 @@ Chi2 TrueChi2(const SimulatedCampus& campus) {
     chi2.motion_dimension += 3;
   }
   for (const core::Observation& observation : problem.observations) {
-    Eigen::Vector2d residual;
+    Eigen::Vector2d residual = Eigen::Vector2d::Zero();  // unset when the model fails
     EXPECT_TRUE(core::EvaluateRangeBearing(campus.true_poses[observation.pose],
                                            campus.true_features[observation.feature],
                                            observation.z, &residual, nullptr, nullptr));
