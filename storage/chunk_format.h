@@ -15,9 +15,23 @@
 //              uncompressed_length:u32 zstd_frame):
 //              first_feature_slot:i64 first_observation:i64 feature_count:u32
 //              { feature:i32 observation_count:u32 } * feature_count
-//              observation * (sum of observation_count)
-//   observation := pose:i32 feature:i32 kind:u8 z[2]:f64
-//                  information[4]:f64 (column-major) line:i32  (61 bytes)
+//              then, N = sum(observation_count):
+//     version 1: observation * N, each
+//                pose:i32 feature:i32 kind:u8 z[2]:f64
+//                information[4]:f64 (column-major) line:i32  (61 bytes)
+//     version 2: columns, the feature implied by the table:
+//                information_count:u32 I, information[4]:f64 * I (the table)
+//                pose_delta:i32 * N   kind:u8 * N   z0:f64 * N   z1:f64 * N
+//                information_index * N (u8 if 1 < I <= 256 and I != N,
+//                u16 if 256 < I <= 65536 and I != N, absent otherwise)
+//                line_delta:i32 * N                       (25-27 bytes each)
+//              Deltas are against the block's previous observation (the
+//              first against 0), in wrapping 32-bit arithmetic, so every i32
+//              round-trips; the per-feature runs of poses and source lines are
+//              ascending, and small deltas compress far better than values.
+//              Without an index column observation i uses entry 0 (I == 1) or
+//              entry i (I == N: every observation its own entry, the fallback
+//              when informations mostly differ).
 //              kind: a model of core/observation_models.h, which says how
 //              that model fills z and the information.
 //   footer payload (type 2, never compressed, last record of the file):
@@ -47,7 +61,9 @@ namespace graphslam::storage::chunk_format {
 // 7-bit transfers, CR LF / LF catch newline translation, 0x1A stops a DOS
 // `type` (the PNG signature trick).
 inline constexpr uint64_t kMagic = 0x0A1A0A0D43534789ull;
-inline constexpr uint32_t kFormatVersion = 1;
+// What writers write; readers read every version from 1 to this one.
+inline constexpr uint32_t kFormatVersion = 2;
+inline constexpr uint32_t kColumnarVersion = 2;  // the first with columnar blocks
 
 // Header flags. A reader rejects unknown bits (NotSupported).
 inline constexpr uint32_t kFlagZstd = 1u << 0;  // blocks may be zstd-compressed
@@ -64,8 +80,31 @@ inline constexpr uint8_t kCompressedBit = 0x80;  // only on kFeatureBlock
 
 inline constexpr size_t kBlockHeaderSize = 20;   // first slot, first obs, count
 inline constexpr size_t kFeatureEntrySize = 8;   // feature i32, count u32
-inline constexpr size_t kObservationSize = 61;
+inline constexpr size_t kObservationSize = 61;   // version 1, per observation
 inline constexpr size_t kFooterSize = 24;
+
+// Version 2: the information table's count, one table entry, and the columns
+// of one observation without its information index (pose, kind, z, line).
+inline constexpr size_t kInformationCountSize = 4;
+inline constexpr size_t kInformationSize = 32;
+inline constexpr size_t kColumnsSize = 25;
+// The most table entries an index column addresses (u16); above it a writer
+// falls back to one entry per observation.
+inline constexpr size_t kMaxIndexedInformations = 65536;
+
+// Version 2: bytes of one observation's information index for a block with
+// `informations` table entries and `observations` observations (0: no
+// column), or -1 when no writer makes that table (more entries than
+// observations, none for a non-empty block, or too many to index and not one
+// per observation).
+inline int InformationIndexWidth(uint64_t informations, uint64_t observations) {
+  if (informations > observations) return -1;
+  if (informations == 0) return observations == 0 ? 0 : -1;
+  if (informations == 1 || informations == observations) return 0;
+  if (informations <= 256) return 1;
+  if (informations <= kMaxIndexedInformations) return 2;
+  return -1;
+}
 
 // Largest payload (and largest uncompressed feature block) a writer emits or a
 // reader accepts: bounds what a corrupt length can make a reader allocate.

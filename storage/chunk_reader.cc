@@ -13,6 +13,7 @@
 #include <cstring>
 #include <memory>
 #include <utility>
+#include <vector>
 
 #include "core/logging.h"
 #include "storage/chunk_format.h"
@@ -120,6 +121,7 @@ class ChunkParser {
       return Status::Corruption(path_ + ": header at byte 8: format version 0 is invalid (expected 1 to " +
                                 std::to_string(format::kFormatVersion) + ")");
     }
+    version_ = version;
     flags_ = format::DecodeFixed32(p + 12);
     if ((flags_ & ~format::kKnownFlags) != 0) {
       return Status::NotSupported(path_ + ": header at byte 12: unknown flags " + Hex32(flags_) +
@@ -345,16 +347,129 @@ class ChunkParser {
     for (uint32_t k = 0; k < count; ++k) {
       block_observations += format::DecodeFixed32(p + format::kBlockHeaderSize + 8 * k + 4);
     }
-    const uint64_t expected_size = table_end + format::kObservationSize * block_observations;
-    if (expected_size != payload.size()) {
-      return Status::Corruption(where + "feature block is " + std::to_string(payload.size()) +
-                                " bytes, expected " + std::to_string(expected_size) + " for " +
-                                std::to_string(count) + " features and " +
-                                std::to_string(block_observations) + " observations");
+    if (version_ < format::kColumnarVersion) {
+      const uint64_t expected_size = table_end + format::kObservationSize * block_observations;
+      if (expected_size != payload.size()) return SizeMismatch(where, payload.size(), expected_size,
+                                                               count, block_observations);
+      RowDecoder rows{p + table_end};
+      return DecodeFeatures(where, p, first_slot, first_observation, count, rows);
     }
+    // Version 2: the information table, then the columns.
+    if (table_end + format::kInformationCountSize > payload.size()) {
+      return SizeMismatch(where, payload.size(), table_end + format::kInformationCountSize,
+                          count, block_observations);
+    }
+    const uint32_t entries = format::DecodeFixed32(p + table_end);
+    const int width = format::InformationIndexWidth(entries, block_observations);
+    if (width < 0) {
+      return Status::Corruption(where + "information table of " + std::to_string(entries) +
+                                " entries for " + std::to_string(block_observations) +
+                                " observations (expected 1 entry, one per observation, or at "
+                                "most " + std::to_string(format::kMaxIndexedInformations) +
+                                " and no more than the observations)");
+    }
+    const uint64_t table_at = table_end + format::kInformationCountSize;
+    const uint64_t columns_at = table_at + uint64_t{format::kInformationSize} * entries;
+    const uint64_t expected_size =
+        columns_at + (format::kColumnsSize + static_cast<uint64_t>(width)) * block_observations;
+    if (expected_size != payload.size()) {
+      return SizeMismatch(where, payload.size(), expected_size, count, block_observations);
+    }
+    informations_.resize(entries);
+    for (uint32_t e = 0; e < entries; ++e) {
+      for (int j = 0; j < 4; ++j) {
+        informations_[e].data()[j] =
+            format::DecodeDouble(p + table_at + format::kInformationSize * e + 8 * j);
+      }
+    }
+    const char* columns = p + columns_at;
+    const size_t n = block_observations;
+    ColumnDecoder decoder;
+    decoder.poses = columns;
+    decoder.kinds = decoder.poses + 4 * n;
+    decoder.z0 = decoder.kinds + n;
+    decoder.z1 = decoder.z0 + 8 * n;
+    decoder.indices = decoder.z1 + 8 * n;
+    decoder.lines = decoder.indices + static_cast<size_t>(width) * n;
+    decoder.informations = informations_.data();
+    decoder.entries = entries;
+    decoder.width = width;
+    decoder.one_each = entries == n;
+    return DecodeFeatures(where, p, first_slot, first_observation, count, decoder);
+  }
 
-    const char* observation_bytes = p + table_end;
+  static Status SizeMismatch(const std::string& where, size_t size, uint64_t expected,
+                             uint32_t count, uint64_t observations) {
+    return Status::Corruption(where + "feature block is " + std::to_string(size) +
+                              " bytes, expected " + std::to_string(expected) + " for " +
+                              std::to_string(count) + " features and " +
+                              std::to_string(observations) + " observations");
+  }
+
+  // Version 1: one 61-byte record per observation.
+  struct RowDecoder {
+    const char* next;
+    // Always true: a version 1 record has no field beyond
+    // DescribeInvalidObservation's rules, so Problem is never asked.
+    bool Decode(size_t, core::Observation* observation) {
+      format::DecodeObservation(next, observation);
+      next += format::kObservationSize;
+      return true;
+    }
+    std::string Problem(size_t) const { return ""; }
+  };
+
+  // Version 2: observation i of the block from its columns; the deltas run
+  // over the whole block, so observations are decoded in order.
+  struct ColumnDecoder {
+    const char* poses;
+    const char* kinds;
+    const char* z0;
+    const char* z1;
+    const char* indices;
+    const char* lines;
+    const Eigen::Matrix2d* informations;
+    uint32_t entries = 0;
+    int width = 0;
+    bool one_each = false;
+    uint32_t pose = 0;
+    uint32_t line = 0;
+    // False when observation i's information index is out of the table
+    // (Problem says so); the other fields are decoded either way.
+    bool Decode(size_t i, core::Observation* observation) {
+      pose += format::DecodeFixed32(poses + 4 * i);
+      line += format::DecodeFixed32(lines + 4 * i);
+      observation->pose = static_cast<int32_t>(pose);
+      observation->line = static_cast<int32_t>(line);
+      observation->kind = static_cast<core::ObservationKind>(static_cast<uint8_t>(kinds[i]));
+      observation->z[0] = format::DecodeDouble(z0 + 8 * i);
+      observation->z[1] = format::DecodeDouble(z1 + 8 * i);
+      const uint32_t index = Index(i);
+      if (index >= entries) return false;
+      observation->information = informations[index];
+      return true;
+    }
+    uint32_t Index(size_t i) const {
+      if (width == 1) return static_cast<uint8_t>(indices[i]);
+      if (width == 2) {
+        return static_cast<uint32_t>(static_cast<uint8_t>(indices[2 * i])) |
+               (static_cast<uint32_t>(static_cast<uint8_t>(indices[2 * i + 1])) << 8);
+      }
+      return one_each ? static_cast<uint32_t>(i) : 0u;
+    }
+    std::string Problem(size_t i) const {
+      return "information index " + std::to_string(Index(i)) + " is not below the " +
+             std::to_string(entries) + " entries of the block's table";
+    }
+  };
+
+  // The features of a block whose sizes were checked, their observations
+  // taken from `decoder` in order.
+  template <class Decoder>
+  Status DecodeFeatures(const std::string& where, const char* p, int64_t first_slot,
+                        int64_t first_observation, uint32_t count, Decoder& decoder) {
     int64_t observation = first_observation;  // numbering of the file, for messages
+    size_t in_block = 0;
     core::Observation decoded;
     for (uint32_t k = 0; k < count; ++k) {
       const char* entry = p + format::kBlockHeaderSize + format::kFeatureEntrySize * k;
@@ -373,13 +488,14 @@ class ChunkParser {
                                   std::to_string(result_->features.back()) +
                                   " (features must be strictly ascending)");
       }
-      for (uint32_t i = 0; i < feature_observations; ++i, ++observation) {
-        format::DecodeObservation(observation_bytes, &decoded);
-        observation_bytes += format::kObservationSize;
-        if (!format::IsValidObservation(decoded, feature)) {
+      decoded.feature = feature;  // version 2 does not repeat it; version 1 overwrites it
+      for (uint32_t i = 0; i < feature_observations; ++i, ++observation, ++in_block) {
+        const bool indexed = decoder.Decode(in_block, &decoded);
+        if (!indexed || !format::IsValidObservation(decoded, feature)) {
           return Status::Corruption(where + "observation " + std::to_string(observation) +
                                     " (" + slot_name() + "): " +
-                                    format::DescribeInvalidObservation(decoded, feature));
+                                    (indexed ? format::DescribeInvalidObservation(decoded, feature)
+                                             : decoder.Problem(in_block)));
         }
         result_->observations.push_back(decoded);
       }
@@ -396,6 +512,7 @@ class ChunkParser {
   const ChunkReadOptions& options_;
   core::ObservationChunk* result_ = nullptr;
 
+  uint32_t version_ = 0;
   uint32_t flags_ = 0;
   int64_t index_ = 0;
   int64_t num_features_ = 0;
@@ -406,6 +523,7 @@ class ChunkParser {
   uint32_t blocks_ = 0;           // feature blocks accepted
   uint32_t chain_ = 0;            // CRC32C over the header's and accepted blocks' stored CRCs
   bool dropped_any_ = false;
+  std::vector<Eigen::Matrix2d> informations_;  // version 2: the block's table
   std::unique_ptr<char[]> uncompressed_;  // the current block, decompressed
   size_t uncompressed_capacity_ = 0;
 };

@@ -1,6 +1,8 @@
 // ReadObservationChunk: loads one chunk file written by chunk_writer.h
 // (format: docs/formats/observation_chunk.md, layout: storage/chunk_format.h)
-// and checks everything the format promises before the solver sees it.
+// and checks everything the format promises before the solver sees it. Reads
+// both format versions: 1 (one record per observation) and 2 (columnar
+// blocks with an information table); they decode to the same chunk.
 //
 // Checks, in file order: the magic number; the version (a newer one is
 // NotSupported, not Corruption); the header CRC, flags and counts; for every
@@ -8,7 +10,8 @@
 // zstd frame; for every feature block that it continues where the previous one
 // ended (feature slot and observation offset), that features are strictly
 // ascending and non-negative, that each observation's feature is its slot's
-// feature, pose >= 0, kind valid, z and information finite; at the end a footer
+// feature, pose >= 0, kind valid, z and information finite (version 2: the
+// information table fits the block and every index is inside it); at the end a footer
 // whose counts and chained CRC match what was read, and nothing after it.
 //
 // Every error names the file, the record (0-based, counted from the first

@@ -3,8 +3,11 @@
 
 #include <zstd.h>
 
+#include <cstring>
 #include <memory>
 #include <string_view>
+#include <unordered_map>
+#include <vector>
 
 #include "storage/atomic_file.h"
 #include "storage/chunk_format.h"
@@ -20,11 +23,11 @@ std::string SlotName(int64_t slot, int32_t feature) {
 }
 
 // "Header": 48 bytes, the CRC over the first 44.
-std::string EncodeHeader(const core::ObservationChunk& chunk, uint32_t flags) {
+std::string EncodeHeader(const core::ObservationChunk& chunk, uint32_t version, uint32_t flags) {
   std::string header;
   header.reserve(format::kHeaderSize);
   format::PutFixed64(&header, format::kMagic);
-  format::PutFixed32(&header, format::kFormatVersion);
+  format::PutFixed32(&header, version);
   format::PutFixed32(&header, flags);
   format::PutFixed64(&header, static_cast<uint64_t>(chunk.index));
   format::PutFixed64(&header, static_cast<uint64_t>(chunk.features.size()));
@@ -47,9 +50,37 @@ uint32_t EncodeRecordHeader(uint8_t type, std::string_view payload, std::string*
   return crc;
 }
 
-size_t BlockBytes(size_t num_features, int64_t num_observations) {
-  return format::kBlockHeaderSize + format::kFeatureEntrySize * num_features +
-         format::kObservationSize * static_cast<size_t>(num_observations);
+// "Feature block": the uncompressed size of a block of `num_features`
+// features, exact for version 1; for version 2 the largest it can be (each
+// observation with a table entry of its own and no index column: the writer
+// never picks an index that costs more than that).
+size_t BlockBytes(uint32_t version, size_t num_features, int64_t num_observations) {
+  const size_t per_observation = version >= format::kColumnarVersion
+                                     ? format::kColumnsSize + format::kInformationSize
+                                     : format::kObservationSize;
+  const size_t table = version >= format::kColumnarVersion ? format::kInformationCountSize : 0;
+  return format::kBlockHeaderSize + format::kFeatureEntrySize * num_features + table +
+         per_observation * static_cast<size_t>(num_observations);
+}
+
+// An information matrix as its four bit patterns: equal bits, equal entry
+// (-0.0 and 0.0 stay distinct, so decoding is bit-exact).
+struct InformationBits {
+  uint64_t word[4];
+  bool operator==(const InformationBits&) const = default;
+};
+struct InformationBitsHash {
+  size_t operator()(const InformationBits& bits) const {
+    uint64_t h = 0x9E3779B97F4A7C15ull;
+    for (const uint64_t w : bits.word) h = (h ^ w) * 0xBF58476D1CE4E5B9ull;
+    return static_cast<size_t>(h ^ (h >> 31));
+  }
+};
+InformationBits BitsOf(const core::Observation& observation) {
+  static_assert(sizeof(InformationBits) == format::kInformationSize);
+  InformationBits bits;
+  std::memcpy(bits.word, observation.information.data(), sizeof(bits.word));
+  return bits;
 }
 
 // Streams header, blocks and footer into `file`.
@@ -61,7 +92,7 @@ class ChunkEncoder {
   Status Write(WritableFile* file) {
     const uint32_t flags =
         options_.compression == ChunkCompression::kZstd ? format::kFlagZstd : 0u;
-    const std::string header = EncodeHeader(chunk_, flags);
+    const std::string header = EncodeHeader(chunk_, options_.format_version, flags);
     GS_RETURN_IF_ERROR(file->Append(header));
     // "Footer": chain_crc covers the stored header CRC, then each block's.
     uint32_t chain = crc32c::Value(header.data() + format::kHeaderCrcOffset, 4);
@@ -101,7 +132,8 @@ class ChunkEncoder {
     const int64_t num_features = chunk_.num_features();
     int64_t end = begin + 1;
     while (end < num_features &&
-           BlockBytes(static_cast<size_t>(end + 1 - begin), Begin(end + 1) - Begin(begin)) <=
+           BlockBytes(options_.format_version, static_cast<size_t>(end + 1 - begin),
+                      Begin(end + 1) - Begin(begin)) <=
                static_cast<size_t>(options_.target_record_bytes)) {
       ++end;
     }
@@ -112,7 +144,8 @@ class ChunkEncoder {
     const int64_t first_observation = Begin(begin);
     const int64_t last_observation = Begin(end);
     raw_.clear();
-    raw_.reserve(BlockBytes(static_cast<size_t>(end - begin), last_observation - first_observation));
+    raw_.reserve(BlockBytes(options_.format_version, static_cast<size_t>(end - begin),
+                            last_observation - first_observation));
     format::PutFixed64(&raw_, static_cast<uint64_t>(begin));
     format::PutFixed64(&raw_, static_cast<uint64_t>(first_observation));
     format::PutFixed32(&raw_, static_cast<uint32_t>(end - begin));
@@ -120,8 +153,12 @@ class ChunkEncoder {
       format::PutFixed32(&raw_, static_cast<uint32_t>(chunk_.features[static_cast<size_t>(k)]));
       format::PutFixed32(&raw_, static_cast<uint32_t>(Begin(k + 1) - Begin(k)));
     }
-    for (int64_t o = first_observation; o < last_observation; ++o) {
-      format::PutObservation(&raw_, chunk_.observations[static_cast<size_t>(o)]);
+    if (options_.format_version >= format::kColumnarVersion) {
+      AppendColumns(first_observation, last_observation);
+    } else {
+      for (int64_t o = first_observation; o < last_observation; ++o) {
+        format::PutObservation(&raw_, chunk_.observations[static_cast<size_t>(o)]);
+      }
     }
     GS_CHECK(raw_.size() <= format::kMaxRecordLength);  // ValidateObservationChunk bounds it
 
@@ -153,8 +190,87 @@ class ChunkEncoder {
     return file->Append(payload);
   }
 
+  // Version 2: the information table in order of first use, and each
+  // observation's entry; one entry per observation when the table would not
+  // be smaller than that (informations mostly distinct).
+  void BuildInformationTable(const core::Observation* observations, size_t n) {
+    table_.clear();
+    lookup_.clear();
+    indices_.resize(n);
+    bool overflow = false;
+    uint32_t last = 0;
+    for (size_t i = 0; i < n && !overflow; ++i) {
+      const InformationBits bits = BitsOf(observations[i]);
+      // One sensor's observations share one matrix: compare with the last
+      // entry used before hashing.
+      if (!table_.empty() && bits == table_[last]) {
+        indices_[i] = last;
+        continue;
+      }
+      const auto [it, inserted] = lookup_.try_emplace(bits, static_cast<uint32_t>(table_.size()));
+      if (inserted) {
+        table_.push_back(bits);
+        overflow = table_.size() > format::kMaxIndexedInformations;
+      }
+      last = it->second;
+      indices_[i] = last;
+    }
+    const size_t entries = table_.size();
+    const int width = overflow ? -1 : format::InformationIndexWidth(entries, n);
+    if (width < 0 || (entries != n && format::kInformationSize * entries +
+                                              static_cast<size_t>(width) * n >=
+                                          format::kInformationSize * n)) {
+      table_.clear();
+      for (size_t i = 0; i < n; ++i) table_.push_back(BitsOf(observations[i]));
+    }
+  }
+
+  // "Feature block", version 2: the table, then one column per field.
+  void AppendColumns(int64_t first_observation, int64_t last_observation) {
+    const auto n = static_cast<size_t>(last_observation - first_observation);
+    const core::Observation* o = chunk_.observations.data() + first_observation;
+    BuildInformationTable(o, n);
+    const size_t entries = table_.size();
+    const int width = format::InformationIndexWidth(entries, n);
+    GS_CHECK(width >= 0);
+    const size_t at = raw_.size();
+    raw_.resize(at + format::kInformationCountSize + format::kInformationSize * entries +
+                (format::kColumnsSize + static_cast<size_t>(width)) * n);
+    char* p = format::EncodeFixed32(raw_.data() + at, static_cast<uint32_t>(entries));
+    for (const InformationBits& bits : table_) {
+      for (const uint64_t w : bits.word) p = format::EncodeFixed64(p, w);
+    }
+    uint32_t previous = 0;
+    for (size_t i = 0; i < n; ++i) {
+      const auto pose = static_cast<uint32_t>(o[i].pose);
+      p = format::EncodeFixed32(p, pose - previous);  // wraps: exact for every i32
+      previous = pose;
+    }
+    for (size_t i = 0; i < n; ++i) *p++ = static_cast<char>(o[i].kind);
+    for (size_t i = 0; i < n; ++i) p = format::EncodeFixed64(p, std::bit_cast<uint64_t>(o[i].z[0]));
+    for (size_t i = 0; i < n; ++i) p = format::EncodeFixed64(p, std::bit_cast<uint64_t>(o[i].z[1]));
+    if (width == 1) {
+      for (size_t i = 0; i < n; ++i) *p++ = static_cast<char>(indices_[i]);
+    } else if (width == 2) {
+      for (size_t i = 0; i < n; ++i) {
+        *p++ = static_cast<char>(indices_[i] & 0xFFu);
+        *p++ = static_cast<char>(indices_[i] >> 8);
+      }
+    }
+    previous = 0;
+    for (size_t i = 0; i < n; ++i) {
+      const auto line = static_cast<uint32_t>(o[i].line);
+      p = format::EncodeFixed32(p, line - previous);
+      previous = line;
+    }
+    GS_CHECK(p == raw_.data() + raw_.size());
+  }
+
   const core::ObservationChunk& chunk_;
   const ChunkWriteOptions& options_;
+  std::vector<InformationBits> table_;  // version 2: the current block's table
+  std::unordered_map<InformationBits, uint32_t, InformationBitsHash> lookup_;
+  std::vector<uint32_t> indices_;       // table entry of each observation
   std::string raw_;         // the current block, uncompressed
   std::string compressed_;  // its zstd form, behind a 4-byte length
   std::string frame_;       // the current record header
@@ -178,6 +294,11 @@ Status ChunkWriteOptions::Validate() const {
                                    std::to_string(zstd_level) + ", expected a level in [" +
                                    std::to_string(ZSTD_minCLevel()) + ", " +
                                    std::to_string(ZSTD_maxCLevel()) + "]");
+  }
+  if (format_version < 1 || format_version > chunk_format::kFormatVersion) {
+    return Status::InvalidArgument("ChunkWriteOptions::format_version is " +
+                                   std::to_string(format_version) + ", expected 1 to " +
+                                   std::to_string(chunk_format::kFormatVersion));
   }
   if (target_record_bytes < 1 ||
       target_record_bytes > static_cast<int64_t>(chunk_format::kMaxRecordLength)) {
@@ -235,7 +356,8 @@ Status ValidateObservationChunk(const core::ObservationChunk& chunk) {
                                      ": feature_begin decreases from " + std::to_string(begin) +
                                      " to " + std::to_string(end));
     }
-    if (BlockBytes(1, end - begin) > chunk_format::kMaxRecordLength) {
+    // Version 1's size, the larger: a chunk either version can hold.
+    if (BlockBytes(1, 1, end - begin) > chunk_format::kMaxRecordLength) {
       return Status::InvalidArgument(
           SlotName(static_cast<int64_t>(k), feature) + ": " + std::to_string(end - begin) +
           " observations exceed the largest feature block (" +

@@ -2,7 +2,7 @@
 // (format: docs/formats/observation_chunk.md, layout: storage/chunk_format.h).
 //
 // The chunk's features are cut into feature blocks of whole features, each
-// about `target_record_bytes` before compression, each one framed record
+// at most about `target_record_bytes` before compression, each one framed record
 //
 //   [length u32][type u8][masked crc32c u32][payload]
 //
@@ -31,6 +31,7 @@
 
 #include "core/observation_chunk.h"
 #include "core/status.h"
+#include "storage/chunk_format.h"
 #include "storage/env.h"
 
 namespace graphslam::storage {
@@ -50,6 +51,10 @@ struct ChunkWriteOptions {
   // Uncompressed size a block grows to before a new one starts; a block always
   // holds at least one feature. In [1, chunk_format::kMaxRecordLength].
   int64_t target_record_bytes = int64_t{1} << 20;
+  // The format version written: chunk_format::kFormatVersion (columnar
+  // blocks), or 1 (one 61-byte record per observation) for readers built
+  // before version 2.
+  uint32_t format_version = chunk_format::kFormatVersion;
 
   // InvalidArgument naming the offending option and its allowed range.
   [[nodiscard]] Status Validate() const;

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <functional>
 #include <limits>
+#include <map>
 #include <random>
 #include <sstream>
 #include <utility>
@@ -196,9 +197,11 @@ class ChunkFormatTest : public ::testing::Test {
 
   // Writes `chunk` with small records (several blocks) and returns the bytes.
   std::string WriteSmallRecords(const core::ObservationChunk& chunk,
-                                ChunkCompression compression = ChunkCompression::kNone) {
+                                ChunkCompression compression = ChunkCompression::kNone,
+                                uint32_t version = format::kFormatVersion) {
     ChunkWriteOptions options;
     options.compression = compression;
+    options.format_version = version;
     options.target_record_bytes = 400;
     const Status status = WriteObservationChunk(Env::Default(), path_, chunk, options);
     EXPECT_TRUE(status.ok()) << status.ToString();
@@ -323,13 +326,13 @@ TEST_P(ChunkRoundTripTest, LargeChunkWithOneHundredThousandObservations) {
   options.compression = GetParam();
   ASSERT_TRUE(WriteObservationChunk(Env::Default(), path_, chunk, options).ok());
   const std::string data = Slurp(path_);
-  const size_t raw = format::kHeaderSize + 100000 * format::kObservationSize;
   if (GetParam() == ChunkCompression::kNone) {
-    EXPECT_GT(data.size(), raw);
+    EXPECT_GT(data.size(), format::kHeaderSize + 100000 * format::kColumnsSize);
   }
   if (GetParam() == ChunkCompression::kZstd) {
     EXPECT_EQ(format::DecodeFixed32(data.data() + 12), format::kFlagZstd);
-    EXPECT_LT(data.size(), raw);  // the repeated feature compresses
+    // The repeated feature compresses: below one version 1 record each.
+    EXPECT_LT(data.size(), format::kHeaderSize + 100000 * format::kObservationSize);
   }
   core::ObservationChunk read;
   const Status status = Read(&read);
@@ -399,14 +402,14 @@ TEST_F(ChunkFormatTest, FlippedMagicByteSaysNotAnObservationChunk) {
 
 TEST_F(ChunkFormatTest, NewerVersionIsNotSupported) {
   std::string data = WriteSmallRecords(MakeChunk(42, 5, 4, 4));
-  PutFixed32At(&data, 8, 2);
+  PutFixed32At(&data, 8, 3);
   PutFixed32At(&data, 44, crc32c::Mask(crc32c::Value(data.data(), 44)));
   Spit(path_, data);
   core::ObservationChunk read;
   const Status status = Read(&read);
   EXPECT_TRUE(status.IsNotSupported());
   EXPECT_EQ(status.message(),
-            path_ + ": header at byte 8: format version 2 is newer than this reader (1)");
+            path_ + ": header at byte 8: format version 3 is newer than this reader (2)");
 }
 
 TEST_F(ChunkFormatTest, UnknownFlagIsNotSupported) {
@@ -424,12 +427,18 @@ TEST_F(ChunkFormatTest, UnknownFlagIsNotSupported) {
 
 // ---------------------------------------------------------------- record damage
 
+struct DamageCase {
+  ChunkCompression compression;
+  uint32_t version;
+};
+
 class ChunkRecordDamageTest : public ChunkFormatTest,
-                              public ::testing::WithParamInterface<ChunkCompression> {};
+                              public ::testing::WithParamInterface<DamageCase> {};
 
 TEST_P(ChunkRecordDamageTest, FlippedPayloadByteNamesRecordOffsetAndBothCrcs) {
   const core::ObservationChunk chunk = MakeChunk(42, 120, 5, 5);
-  std::string data = WriteSmallRecords(chunk, GetParam());
+  std::string data = WriteSmallRecords(chunk, GetParam().compression, GetParam().version);
+  ASSERT_EQ(format::DecodeFixed32(data.data() + 8), GetParam().version);
   const std::vector<Frame> frames = Frames(data);
   ASSERT_GE(frames.size(), 5u);
   const Frame& damaged = frames[3];
@@ -458,18 +467,21 @@ TEST_P(ChunkRecordDamageTest, FlippedPayloadByteNamesRecordOffsetAndBothCrcs) {
   while (begin < read.num_features() && read.features[begin] == chunk.features[begin]) ++begin;
   const int64_t end = begin + chunk.num_features() - read.num_features();
   EXPECT_GT(end, begin);
-  if (GetParam() == ChunkCompression::kNone) {  // raw blocks: their headers say which run
+  if (GetParam().compression == ChunkCompression::kNone) {  // raw blocks: their headers say which run
     EXPECT_EQ(begin, BlockSlots(data, frames[2]).second);
     EXPECT_EQ(end, BlockSlots(data, frames[4]).first);
   }
   ExpectBitExact(WithoutSlots(chunk, begin, end), read);
 }
 
-INSTANTIATE_TEST_SUITE_P(Compression, ChunkRecordDamageTest,
-                         ::testing::Values(ChunkCompression::kNone, ChunkCompression::kZstd),
-                         [](const auto& info) {
-                           return info.param == ChunkCompression::kNone ? "None" : "Zstd";
-                         });
+INSTANTIATE_TEST_SUITE_P(
+    CompressionAndVersion, ChunkRecordDamageTest,
+    ::testing::Values(DamageCase{ChunkCompression::kNone, 1}, DamageCase{ChunkCompression::kZstd, 1},
+                      DamageCase{ChunkCompression::kNone, 2}, DamageCase{ChunkCompression::kZstd, 2}),
+    [](const auto& info) {
+      return std::string(info.param.compression == ChunkCompression::kNone ? "None" : "Zstd") +
+             "V" + std::to_string(info.param.version);
+    });
 
 TEST_F(ChunkFormatTest, FlippedCrcByteIsACrcMismatch) {
   const core::ObservationChunk chunk = MakeChunk(42, 60, 5, 6);
@@ -673,9 +685,9 @@ TEST_F(ChunkFormatTest, BytesAfterTheFooterAreCorruption) {
 
 // ---------------------------------------------------------------- valid CRC, bad content
 
-TEST_F(ChunkFormatTest, InvalidObservationUnderAValidCrcNamesObservationAndSlot) {
+TEST_F(ChunkFormatTest, InvalidVersion1ObservationUnderAValidCrcNamesObservationAndSlot) {
   const core::ObservationChunk chunk = MakeChunk(42, 10, 3, 12);
-  const std::string original = WriteSmallRecords(chunk);
+  const std::string original = WriteSmallRecords(chunk, ChunkCompression::kNone, 1);
   const Frame first = Frames(original).front();
   const size_t observations_at = first.offset + format::kRecordHeaderSize +
                                  format::kBlockHeaderSize +
@@ -713,6 +725,295 @@ TEST_F(ChunkFormatTest, InvalidObservationUnderAValidCrcNamesObservationAndSlot)
     EXPECT_TRUE(status.IsCorruption());
     EXPECT_EQ(status.message(), where + edit.problem);
   }
+}
+
+// Version 2 keeps the feature implied by its slot and the information in a
+// table: damage there is named like any other bad field.
+TEST_F(ChunkFormatTest, InvalidVersion2ObservationUnderAValidCrcNamesObservationAndSlot) {
+  core::ObservationChunk chunk = MakeChunk(42, 10, 3, 12);
+  for (size_t i = 0; i < chunk.observations.size(); ++i) {  // three distinct: a u8 index
+    chunk.observations[i].information = Eigen::Vector2d(1.0 + static_cast<double>(i % 3), 2.0).asDiagonal();
+  }
+  ASSERT_TRUE(WriteObservationChunk(Env::Default(), path_, chunk).ok());
+  const std::string original = Slurp(path_);
+  const Frame first = Frames(original).front();
+  const size_t n = chunk.observations.size();
+  ASSERT_EQ(BlockSlots(original, first).second, 10);  // one block holds the chunk
+  ASSERT_EQ(first.length, format::kBlockHeaderSize + format::kFeatureEntrySize * 10 +
+                              format::kInformationCountSize + 3 * format::kInformationSize +
+                              (format::kColumnsSize + 1) * n);
+  const size_t table_end =
+      first.offset + format::kRecordHeaderSize + format::kBlockHeaderSize + format::kFeatureEntrySize * 10;
+  const size_t table_at = table_end + format::kInformationCountSize;
+  const size_t columns_at = table_at + 3 * format::kInformationSize;
+  const std::string record = path_ + ": record 0 at byte 48: ";
+  const std::string where = record + "observation 1 (feature slot 0 (feature " +
+                            std::to_string(chunk.features[0]) + ")): ";
+  ASSERT_GE(chunk.feature_begin[1], 2);  // observation 1 belongs to slot 0
+  const uint32_t pose0 = static_cast<uint32_t>(chunk.observations[0].pose);
+  struct Edit {
+    size_t at;
+    uint64_t value;
+    int bytes;
+    std::string message;
+  };
+  const std::vector<Edit> edits = {
+      {columns_at + 4 * n + 1, 7, 1,
+       where + "kind 7 is not an ObservationKind (expected " + core::ObservationKindRange() + ")"},
+      {columns_at + 4, 0xFFFFFFFFu - pose0, 4, where + "pose -1 is negative"},  // a delta
+      {columns_at + 13 * n + 8, std::bit_cast<uint64_t>(std::numeric_limits<double>::quiet_NaN()), 8,
+       where + "z[1] is not finite"},
+      {table_at + format::kInformationSize + 8,
+       std::bit_cast<uint64_t>(std::numeric_limits<double>::infinity()), 8,
+       where + "information(1,0) is not finite"},  // entry 1, used by observation 1
+      {columns_at + 21 * n + 1, 3, 1,
+       where + "information index 3 is not below the 3 entries of the block's table"},
+      {table_end, n + 1, 4,
+       record + "information table of " + std::to_string(n + 1) + " entries for " +
+           std::to_string(n) + " observations (expected 1 entry, one per observation, or at "
+           "most 65536 and no more than the observations)"},
+  };
+  for (const Edit& edit : edits) {
+    SCOPED_TRACE(edit.message);
+    std::string data = original;
+    for (int i = 0; i < edit.bytes; ++i) {
+      data[edit.at + i] = static_cast<char>((edit.value >> (8 * i)) & 0xFF);
+    }
+    FixCrc(&data, first);
+    Spit(path_, data);
+    core::ObservationChunk read;
+    const Status status = Read(&read);
+    EXPECT_TRUE(status.IsCorruption());
+    EXPECT_EQ(status.message(), edit.message);
+    // Non-paranoid: the block is skipped, as any damaged block.
+    RecordingReporter reporter;
+    ASSERT_TRUE(Read(&read, false, &reporter).ok());
+    EXPECT_EQ(reporter.dropped_bytes, static_cast<int64_t>(format::kRecordHeaderSize + first.length));
+    EXPECT_EQ(read.num_features(), 0);
+  }
+}
+
+// ---------------------------------------------------------------- version 2 layout
+
+// `observations` observations over features of four each, kinds cycling
+// through every model, informations drawn from `distinct` matrices
+// (observation i uses matrix i % distinct; matrices 0 and 1 differ only in
+// the sign of a zero), poses and lines spanning the whole i32 range so that
+// the wrapping deltas are exercised.
+core::ObservationChunk ChunkWithInformations(int observations, int distinct, uint32_t seed) {
+  std::mt19937 random(seed);
+  std::normal_distribution<double> normal(0.0, 10.0);
+  const core::ObservationKind kinds[] = {core::ObservationKind::kRangeBearing,
+                                         core::ObservationKind::kPointXY,
+                                         core::ObservationKind::kBearing};
+  core::ObservationChunk chunk;
+  chunk.index = 4;
+  chunk.feature_begin.push_back(0);
+  for (int i = 0; i < observations; ++i) {
+    if (i % 4 == 0) {
+      if (i > 0) chunk.feature_begin.push_back(i);
+      chunk.features.push_back(3 * (i / 4) + 1);
+    }
+    core::Observation o;
+    o.feature = chunk.features.back();
+    o.kind = kinds[i % 3];
+    o.pose = i % 5 == 0 ? std::numeric_limits<int32_t>::max() - i
+                        : static_cast<int32_t>(random() % 100000);
+    o.line = i % 7 == 0 ? std::numeric_limits<int32_t>::min() + i
+                        : static_cast<int32_t>(random() % 2000000) - 1000000;
+    o.z = {normal(random), normal(random)};
+    const int m = i % distinct;
+    o.information << 1.0 + m, (m == 0 ? -0.0 : 0.0), 0.0, 2.0 + 0.5 * m;
+    chunk.observations.push_back(o);
+  }
+  chunk.feature_begin.push_back(observations);
+  return chunk;
+}
+
+TEST_F(ChunkFormatTest, Version2RoundTripsMixedKindsAndInformationsInOneBlock) {
+  struct Case {
+    int observations;
+    int distinct;
+    size_t entries;  // expected in the table
+    size_t width;    // expected bytes of index per observation
+  };
+  const std::vector<Case> cases = {
+      {1000, 1, 1, 0},        {1000, 2, 2, 1},        {1000, 256, 256, 1},
+      {1000, 257, 257, 2},    {3000, 300, 300, 2},    {100, 100, 100, 0},  // all differ
+      {100, 99, 100, 0},      // an index would not save space: one entry each
+      {70000, 65537, 70000, 0},  // too many to index
+  };
+  for (const Case& c : cases) {
+    const core::ObservationChunk chunk = ChunkWithInformations(c.observations, c.distinct, 21);
+    for (const ChunkCompression compression : {ChunkCompression::kNone, ChunkCompression::kZstd}) {
+      SCOPED_TRACE(std::to_string(c.observations) + " observations, " +
+                   std::to_string(c.distinct) + " informations, compression " +
+                   std::to_string(static_cast<int>(compression)));
+      ChunkWriteOptions options;
+      options.compression = compression;
+      options.target_record_bytes = static_cast<int64_t>(format::kMaxRecordLength);
+      ASSERT_TRUE(WriteObservationChunk(Env::Default(), path_, chunk, options).ok());
+      const std::string data = Slurp(path_);
+      EXPECT_EQ(format::DecodeFixed32(data.data() + 8), 2u);
+      const std::vector<Frame> frames = Frames(data);
+      ASSERT_EQ(frames.size(), 2u);  // one block, the footer
+      if (compression == ChunkCompression::kNone) {
+        const char* payload = data.data() + frames[0].offset + format::kRecordHeaderSize;
+        const size_t features = chunk.features.size();
+        const size_t table_end = format::kBlockHeaderSize + format::kFeatureEntrySize * features;
+        EXPECT_EQ(format::DecodeFixed32(payload + table_end), c.entries);
+        EXPECT_EQ(frames[0].length, table_end + format::kInformationCountSize +
+                                        format::kInformationSize * c.entries +
+                                        (format::kColumnsSize + c.width) * c.observations);
+      }
+      core::ObservationChunk read;
+      const Status status = Read(&read);
+      ASSERT_TRUE(status.ok()) << status.ToString();
+      ExpectBitExact(chunk, read);
+    }
+  }
+}
+
+TEST_F(ChunkFormatTest, Version1FilesWrittenOnRequestReadBackTheSame) {
+  const core::ObservationChunk chunk = MakeChunk(42, 200, 6, 31);
+  for (const ChunkCompression compression : {ChunkCompression::kNone, ChunkCompression::kZstd}) {
+    const std::string data = WriteSmallRecords(chunk, compression, 1);
+    EXPECT_EQ(format::DecodeFixed32(data.data() + 8), 1u);
+    core::ObservationChunk read;
+    const Status status = Read(&read);
+    ASSERT_TRUE(status.ok()) << status.ToString();
+    ExpectBitExact(chunk, read);
+  }
+}
+
+// A version 1 file put together byte by byte from the specification, not by
+// the writer: the reader keeps reading what earlier builds wrote.
+TEST_F(ChunkFormatTest, HandEncodedVersion1FileReads) {
+  std::string header;
+  format::PutFixed64(&header, format::kMagic);
+  format::PutFixed32(&header, 1);   // version
+  format::PutFixed32(&header, 0);   // flags
+  format::PutFixed64(&header, 9);   // chunk index
+  format::PutFixed64(&header, 1);   // features
+  format::PutFixed64(&header, 2);   // observations
+  format::PutFixed32(&header, 0);   // reserved
+  format::PutFixed32(&header, crc32c::Mask(crc32c::Value(header)));
+  std::string block;
+  format::PutFixed64(&block, 0);  // first slot
+  format::PutFixed64(&block, 0);  // first observation
+  format::PutFixed32(&block, 1);  // feature count
+  format::PutFixed32(&block, 5);  // feature 5 ...
+  format::PutFixed32(&block, 2);  // ... with 2 observations
+  const double z[2][2] = {{3.5, -0.25}, {-0.0, 7.0}};
+  const double information[2][4] = {{100, 0, 0, 2500}, {1, 0.5, 0.25, 2}};
+  for (int i = 0; i < 2; ++i) {
+    format::PutFixed32(&block, static_cast<uint32_t>(11 + i));  // pose
+    format::PutFixed32(&block, 5);                              // feature
+    block.push_back(static_cast<char>(i));                      // kind 0, 1
+    for (const double v : z[i]) format::PutDouble(&block, v);
+    for (const double v : information[i]) format::PutDouble(&block, v);
+    format::PutFixed32(&block, static_cast<uint32_t>(-3 + 100 * i));  // line
+  }
+  ASSERT_EQ(block.size(), 20 + 8 + 2 * 61u);
+  const auto frame = [](uint8_t type, const std::string& payload) {
+    const char type_byte = static_cast<char>(type);
+    const uint32_t crc = crc32c::Mask(
+        crc32c::Extend(crc32c::Value(&type_byte, 1), payload.data(), payload.size()));
+    std::string out;
+    format::PutFixed32(&out, static_cast<uint32_t>(payload.size()));
+    out.push_back(type_byte);
+    format::PutFixed32(&out, crc);
+    return std::make_pair(out + payload, crc);
+  };
+  const auto [block_record, block_crc] = frame(format::kFeatureBlock, block);
+  std::string chain_bytes = header.substr(44, 4);
+  format::PutFixed32(&chain_bytes, block_crc);
+  std::string footer;
+  format::PutFixed64(&footer, 1);
+  format::PutFixed64(&footer, 2);
+  format::PutFixed32(&footer, 1);
+  format::PutFixed32(&footer, crc32c::Mask(crc32c::Value(chain_bytes)));
+  Spit(path_, header + block_record + frame(format::kFooter, footer).first);
+
+  core::ObservationChunk read;
+  const Status status = Read(&read);
+  ASSERT_TRUE(status.ok()) << status.ToString();
+  core::ObservationChunk expected;
+  expected.index = 9;
+  expected.features = {5};
+  expected.feature_begin = {0, 2};
+  for (int i = 0; i < 2; ++i) {
+    core::Observation o;
+    o.pose = 11 + i;
+    o.feature = 5;
+    o.kind = static_cast<core::ObservationKind>(i);
+    o.z = {z[i][0], z[i][1]};
+    for (int j = 0; j < 4; ++j) o.information.data()[j] = information[i][j];
+    o.line = -3 + 100 * i;
+    expected.observations.push_back(o);
+  }
+  ExpectBitExact(expected, read);
+}
+
+// What the simulator and the native log make: one sensor (one kind, one
+// information), features seen from runs of consecutive poses.
+TEST_F(ChunkFormatTest, Version2ShrinksATypicalBlock) {
+  std::mt19937 random(5);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  core::ObservationChunk chunk;
+  chunk.index = 1;
+  chunk.feature_begin.push_back(0);
+  for (int k = 0; k < 500; ++k) {
+    chunk.features.push_back(1000000 + k);
+    for (int i = 0; i < 8; ++i) {
+      core::Observation o;
+      o.pose = k / 4 + i;
+      o.feature = chunk.features.back();
+      o.z = {7.5 + normal(random), 1.3 + 0.1 * normal(random)};
+      o.information = Eigen::Vector2d(100.0, 2500.0).asDiagonal();
+      o.line = 3 + 40 * (k / 4 + i) + k % 4;
+      chunk.observations.push_back(o);
+    }
+    chunk.feature_begin.push_back(static_cast<int64_t>(chunk.observations.size()));
+  }
+  const size_t n = chunk.observations.size();
+  std::map<std::pair<uint32_t, ChunkCompression>, size_t> sizes;
+  for (const uint32_t version : {1u, 2u}) {
+    for (const ChunkCompression compression : {ChunkCompression::kNone, ChunkCompression::kZstd}) {
+      ChunkWriteOptions options;
+      options.compression = compression;
+      options.format_version = version;
+      ASSERT_TRUE(WriteObservationChunk(Env::Default(), path_, chunk, options).ok());
+      sizes[{version, compression}] = Slurp(path_).size();
+      core::ObservationChunk read;
+      ASSERT_TRUE(Read(&read).ok());
+      ExpectBitExact(chunk, read);
+    }
+  }
+  const size_t frame_bytes = format::kHeaderSize + 2 * format::kRecordHeaderSize + format::kFooterSize;
+  const size_t table_bytes = format::kBlockHeaderSize + format::kFeatureEntrySize * 500;
+  const size_t v1_raw = sizes[{1u, ChunkCompression::kNone}];
+  const size_t v2_raw = sizes[{2u, ChunkCompression::kNone}];
+  const size_t v1_zstd = sizes[{1u, ChunkCompression::kZstd}];
+  const size_t v2_zstd = sizes[{2u, ChunkCompression::kZstd}];
+  EXPECT_EQ(v1_raw,
+            frame_bytes + table_bytes + format::kObservationSize * n);
+  // One table entry, no index column: 25 bytes an observation instead of 61.
+  EXPECT_EQ(v2_raw,
+            frame_bytes + table_bytes + format::kInformationCountSize + format::kInformationSize +
+                format::kColumnsSize * n);
+  // Compressed, the columns are smaller too (z is noise and dominates both).
+  EXPECT_LT(v2_zstd, v1_zstd);
+}
+
+TEST_F(ChunkFormatTest, UnknownFormatVersionToWriteIsInvalidArgument) {
+  ChunkWriteOptions options;
+  options.format_version = 3;
+  const Status status = WriteObservationChunk(Env::Default(), path_, MakeChunk(42, 3, 2, 1), options);
+  EXPECT_TRUE(status.IsInvalidArgument());
+  EXPECT_EQ(status.message(),
+            "writing " + path_ + ": ChunkWriteOptions::format_version is 3, expected 1 to 2");
+  EXPECT_TRUE(Files().empty());
 }
 
 TEST_F(ChunkFormatTest, SwappedRecordsBreakContinuity) {
