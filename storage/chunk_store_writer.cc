@@ -7,7 +7,6 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
-#include <mutex>
 #include <nlohmann/json.hpp>
 #include <system_error>
 #include <thread>
@@ -21,6 +20,7 @@
 #include "storage/crc32c.h"
 #include "storage/directory_lock.h"
 #include "storage/file_checksum.h"
+#include "storage/internal/text_blocks.h"
 #include "storage/native_log_reader.h"
 #include "storage/scan_store.h"
 #include "storage/store_directory.h"
@@ -249,8 +249,7 @@ Status ChunkStoreWriter::WriteRange(const core::ChunkSource& chunks, int64_t fir
   // Items go back from the last stage to the first: a chunk's observations
   // and bytes reuse the pages of an earlier one (fresh ones cost a fault and
   // a zero-fill each: ~1/4 of the ingest's page faults were these).
-  std::vector<std::unique_ptr<Item>> pool;
-  std::mutex pool_mutex;
+  internal::BlockPool<Item> pool;
   PendingChunkGroup group(env_, chunk_dir);
   int64_t next = first;
   // Stage 3, in chunk order: the file, its entry, and every
@@ -274,15 +273,7 @@ Status ChunkStoreWriter::WriteRange(const core::ChunkSource& chunks, int64_t fir
               control.stop();
               return nullptr;
             }
-            std::unique_ptr<Item> item;
-            {
-              std::lock_guard<std::mutex> lock(pool_mutex);
-              if (!pool.empty()) {
-                item = std::move(pool.back());
-                pool.pop_back();
-              }
-            }
-            if (!item) item = std::make_unique<Item>();
+            std::unique_ptr<Item> item = pool.Take();
             item->index = next++;
             item->status = LoadChunkAt(chunks, item->index, &item->chunk);
             if (!item->status.ok()) failed = true;
@@ -305,8 +296,7 @@ Status ChunkStoreWriter::WriteRange(const core::ChunkSource& chunks, int64_t fir
               failure = store(*item);
               if (!failure.ok()) failed = true;
             }
-            std::lock_guard<std::mutex> lock(pool_mutex);
-            pool.push_back(std::move(item));
+            pool.Give(std::move(item));
           }));
   if (!failure.ok()) return failure;  // the group's temporaries go with it
   GS_CHECK(group.size() == 0);

@@ -10,7 +10,6 @@
 #include <functional>
 #include <limits>
 #include <memory>
-#include <mutex>
 #include <numeric>
 #include <string_view>
 #include <type_traits>
@@ -22,6 +21,7 @@
 
 #include "partition/ingest/spill_frames.h"
 #include "storage/env.h"
+#include "storage/internal/text_blocks.h"
 #include "storage/stop_point.h"
 
 namespace graphslam::partition {
@@ -226,10 +226,9 @@ class BucketWriter {
     return paths;
   }
 
-  // Frees the frames and the compressors and hands over the sort's scratch
-  // (after Wait).
+  // Frees the compressors and hands over the sort's scratch (after Wait;
+  // the few frames go with the writer).
   std::vector<core::Observation> Release() {
-    frames_.clear();
     encoders_.clear();
     return std::move(scratch_);
   }
@@ -293,7 +292,7 @@ class BucketWriter {
                 control.stop();
                 return nullptr;
               }
-              std::unique_ptr<Frame> frame = TakeFrame();
+              std::unique_ptr<Frame> frame = frames_.Take();
               frame->piece = next++;
               return frame.release();
             }) &
@@ -312,7 +311,7 @@ class BucketWriter {
                 failure = append(*frame);
                 if (!failure.ok()) failed = true;
               }
-              GiveFrame(std::move(frame));
+              frames_.Give(std::move(frame));
             }));
     if (failure.ok()) failure = close();
     file.reset();  // after an error: the rest of this spill is scratch past the checkpoint
@@ -323,24 +322,18 @@ class BucketWriter {
     return Status::Ok();
   }
 
-  std::unique_ptr<Frame> TakeFrame() {
-    std::lock_guard<std::mutex> lock(frames_mutex_);
-    if (frames_.empty()) return std::make_unique<Frame>();
-    std::unique_ptr<Frame> frame = std::move(frames_.back());
-    frames_.pop_back();
-    return frame;
-  }
-  void GiveFrame(std::unique_ptr<Frame> frame) {
-    std::lock_guard<std::mutex> lock(frames_mutex_);
-    frames_.push_back(std::move(frame));
-  }
-
   // Counting sort of `buffer` by bucket into scratch_; run_[b] .. run_[b + 1]
   // is bucket b's run.
   void SortByBucket(const std::vector<core::Observation>& buffer) {
     std::fill(run_.begin(), run_.end(), 0);
     for (const core::Observation& o : buffer) ++run_[static_cast<size_t>(bucket_of_(o)) + 1];
     for (size_t b = 1; b < run_.size(); ++b) run_[b] += run_[b - 1];
+    // Room for a full buffer at once (it becomes the bucket loads' sorted
+    // array, bucket_, when the spill is over).
+    if (scratch_.capacity() < buffer.capacity()) {
+      scratch_ = std::vector<core::Observation>();
+      scratch_.reserve(buffer.capacity());
+    }
     scratch_.resize(buffer.size());
     std::vector<int64_t> next(run_.begin(), run_.end() - 1);
     for (const core::Observation& o : buffer) scratch_[next[bucket_of_(o)]++] = o;
@@ -363,8 +356,7 @@ class BucketWriter {
   std::vector<core::Observation> scratch_;
   std::vector<int64_t> run_;
   std::vector<char> touched_;
-  std::mutex frames_mutex_;
-  std::vector<std::unique_ptr<Frame>> frames_;  // guarded by frames_mutex_
+  storage::internal::BlockPool<Frame> frames_;
   std::thread job_;
   Status job_status_;  // the job's result, read after the join
 };
@@ -528,9 +520,19 @@ Status BucketChunkSource::LoadBucket(int64_t bucket) const {
   const bool grows =
       bucket_.capacity() < static_cast<size_t>(n) || read_.capacity() < static_cast<size_t>(n);
   if (grows) {
-    // Would be reallocated below while the others live: freed first instead.
-    bucket_ = std::vector<core::Observation>();
-    read_ = std::vector<core::Observation>();
+    // Would be reallocated below while the others live: freed first instead,
+    // and made room for the largest bucket of the range at once (reserved
+    // pages are resident only once written), so that they grow once, not at
+    // every bucket larger than those before.
+    const int64_t end = spill_end_bucket_ < 0 ? NumBuckets() : spill_end_bucket_;
+    int64_t largest = n;
+    for (int64_t b = spill_first_bucket_; b < end; ++b)
+      largest = std::max(largest, bucket_observations_[b]);
+    for (std::vector<core::Observation>* array : {&bucket_, &read_}) {
+      if (array->capacity() >= static_cast<size_t>(n)) continue;
+      *array = std::vector<core::Observation>();
+      array->reserve(static_cast<size_t>(largest));
+    }
   }
   std::vector<char>& raw = raw_;
   {
