@@ -77,13 +77,16 @@ class ChunkStoreWriter {
   // Commit (which lists the shards in the manifest).
   void SetEntries(std::vector<ChunkStoreEntry> entries, std::vector<ChunkStoreShard> shards);
   [[nodiscard]] Status Commit();
+  // The input's identity for the manifest, when it is known only after the
+  // writer was made (the ingest checksums the input beside its first pass).
+  void SetInput(const FileChecksum& input) { options_.input = input; }
 
   const std::vector<ChunkStoreEntry>& entries() const { return entries_; }
 
  private:
   Env* const env_;
   const std::string dir_;
-  const ChunkStoreWriteOptions options_;
+  ChunkStoreWriteOptions options_;
   // Chunks [first, end) of `chunks`, appended to entries_.
   [[nodiscard]] Status WriteRange(const core::ChunkSource& chunks, int64_t first, int64_t end,
                                   const std::function<Status(int64_t)>& on_durable);

@@ -17,9 +17,11 @@
 
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_pipeline.h>
 
 #include "partition/ingest/spill_frames.h"
 #include "storage/env.h"
+#include "storage/internal/text_blocks.h"
 #include "storage/stop_point.h"
 
 namespace graphslam::partition {
@@ -167,9 +169,21 @@ Status TruncateToProgress(const std::vector<std::string>& bucket_paths,
   return Status::Ok();
 }
 
+// Frames of a spill between its encoders and its files at once.
+constexpr size_t kSpillFramesInFlight = 8;
+
 // Appends buffered observations to the bucket files: sorted by bucket
 // (stable, so each run keeps input order), each bucket's run as frames of at
 // most kMaxSpillFrameObservations, compressed in parallel, appended in order.
+//
+// The sort runs in the caller's thread; the encoding and the appends of the
+// sorted copy run in a background job while the caller refills the buffer
+// (the replay's decoding and the spill's writes overlap). One job at a time:
+// the next Spill waits for the previous job before it sorts into the same
+// scratch, so the files get the spills in order, and memory stays the
+// buffer + the sorted copy + kSpillFramesInFlight frames (when the spill
+// was synchronous: every frame of a spill). What the job updates (the
+// progress, the spill stats, the touched files) is read only after Wait.
 class BucketWriter {
  public:
   using BucketOf = std::function<int64_t(const core::Observation&)>;
@@ -179,26 +193,28 @@ class BucketWriter {
       : paths_(paths), bucket_of_(std::move(bucket_of)),
         encoders_([zstd_level] { return zstd_level; }), stats_(*stats), progress_(*progress),
         run_(paths.size() + 1, 0), touched_(paths.size(), 0) {}
+  ~BucketWriter() { static_cast<void>(Wait()); }  // an error was reported or is moot
+  BucketWriter(const BucketWriter&) = delete;
+  BucketWriter& operator=(const BucketWriter&) = delete;
 
-  // Spills and empties *buffer.
+  // Sorts and empties *buffer, then encodes and appends the sorted copy in
+  // the background. Returns the previous job's error, if any.
   Status Spill(std::vector<core::Observation>* buffer) {
     if (buffer->empty()) return Status::Ok();
+    GS_RETURN_IF_ERROR(Wait());  // scratch_ is free again
     SortByBucket(*buffer);
-    const std::vector<Piece> pieces = Pieces();
-    std::vector<std::vector<char>> frames(pieces.size());
-    std::vector<Status> statuses(pieces.size());
-    tbb::parallel_for(size_t{0}, pieces.size(), [&](size_t p) {
-      statuses[p] = encoders_.local().Encode(scratch_.data() + pieces[p].begin,
-                                             static_cast<size_t>(pieces[p].end - pieces[p].begin),
-                                             &frames[p]);
-    });
-    for (const Status& status : statuses) GS_RETURN_IF_ERROR(status);
-    GS_RETURN_IF_ERROR(Append(pieces, &frames));
-    progress_.observations += static_cast<int64_t>(buffer->size());
-    ++stats_.spills;
+    const auto observations = static_cast<int64_t>(buffer->size());
     buffer->clear();
-    storage::StopPointAtCountForTests("ingest_spill", stats_.spills);
+    job_ = std::thread([this, observations] { job_status_ = EncodeAndAppend(observations); });
     return Status::Ok();
+  }
+
+  // Waits for the background job; its error, if any.
+  Status Wait() {
+    if (job_.joinable()) job_.join();
+    Status status = std::move(job_status_);
+    job_status_ = Status::Ok();
+    return status;
   }
 
   // The bucket files appended to since the last call.
@@ -210,10 +226,11 @@ class BucketWriter {
     return paths;
   }
 
-  // Frees the sort buffer and the compressors.
-  void Release() {
-    scratch_ = std::vector<core::Observation>();
+  // Frees the compressors and hands over the sort's scratch (after Wait;
+  // the few frames go with the writer).
+  std::vector<core::Observation> Release() {
     encoders_.clear();
+    return std::move(scratch_);
   }
 
  private:
@@ -222,12 +239,101 @@ class BucketWriter {
     int64_t begin, end;  // in scratch_
   };
 
+  // A piece's frame on its way from the encoder to its file.
+  struct Frame {
+    size_t piece = 0;
+    std::vector<char> bytes;  // kept from piece to piece: no fresh pages per frame
+    Status status;
+  };
+
+  // The background job: scratch_'s runs as frames, appended to their files
+  // in a bounded pipeline -- pieces in order (serial), encoded (parallel, an
+  // encoder per thread), appended in order (serial; a bucket's file is open
+  // while its pieces arrive) -- so the writes overlap the encoding and at
+  // most kSpillFramesInFlight frames are held, their buffers reused.
+  Status EncodeAndAppend(int64_t observations) {
+    const std::vector<Piece> pieces = Pieces();
+    size_t next = 0;                  // first stage only
+    Status failure;                   // last stage only
+    std::atomic<bool> failed{false};  // read by the first stage
+    std::unique_ptr<storage::WritableFile> file;  // last stage only
+    int64_t open_bucket = -1;
+    // Closes the open bucket's file; its run is then counted as spilled.
+    const auto close = [&]() -> Status {
+      if (open_bucket < 0) return Status::Ok();
+      const int64_t b = open_bucket;
+      open_bucket = -1;
+      GS_RETURN_IF_ERROR(file->Close());
+      file.reset();
+      const int64_t n = run_[b + 1] - run_[b];
+      stats_.spilled_raw_bytes += n * static_cast<int64_t>(sizeof(core::Observation));
+      progress_.bucket_observations[b] += n;
+      touched_[b] = 1;
+      return Status::Ok();
+    };
+    const auto append = [&](const Frame& frame) -> Status {
+      GS_RETURN_IF_ERROR(frame.status);
+      const int64_t b = pieces[frame.piece].bucket;
+      if (b != open_bucket) {
+        GS_RETURN_IF_ERROR(close());
+        GS_ASSIGN_OR_RETURN(file, storage::Env::Default()->NewAppendableFile(paths_[b]));
+        open_bucket = b;
+      }
+      GS_RETURN_IF_ERROR(file->Append(std::string_view(frame.bytes.data(), frame.bytes.size())));
+      stats_.spilled_bytes += static_cast<int64_t>(frame.bytes.size());
+      return Status::Ok();
+    };
+    tbb::parallel_pipeline(
+        kSpillFramesInFlight,
+        tbb::make_filter<void, Frame*>(
+            tbb::filter_mode::serial_in_order,
+            [&](tbb::flow_control& control) -> Frame* {
+              if (next >= pieces.size() || failed) {
+                control.stop();
+                return nullptr;
+              }
+              std::unique_ptr<Frame> frame = frames_.Take();
+              frame->piece = next++;
+              return frame.release();
+            }) &
+            tbb::make_filter<Frame*, Frame*>(
+                tbb::filter_mode::parallel,
+                [&](Frame* frame) -> Frame* {
+                  const Piece& piece = pieces[frame->piece];
+                  frame->status = encoders_.local().Encode(
+                      scratch_.data() + piece.begin, static_cast<size_t>(piece.end - piece.begin),
+                      &frame->bytes);
+                  return frame;
+                }) &
+            tbb::make_filter<Frame*, void>(tbb::filter_mode::serial_in_order, [&](Frame* raw) {
+              std::unique_ptr<Frame> frame(raw);
+              if (failure.ok()) {
+                failure = append(*frame);
+                if (!failure.ok()) failed = true;
+              }
+              frames_.Give(std::move(frame));
+            }));
+    if (failure.ok()) failure = close();
+    file.reset();  // after an error: the rest of this spill is scratch past the checkpoint
+    GS_RETURN_IF_ERROR(failure);
+    progress_.observations += observations;
+    ++stats_.spills;
+    storage::StopPointAtCountForTests("ingest_spill", stats_.spills);
+    return Status::Ok();
+  }
+
   // Counting sort of `buffer` by bucket into scratch_; run_[b] .. run_[b + 1]
   // is bucket b's run.
   void SortByBucket(const std::vector<core::Observation>& buffer) {
     std::fill(run_.begin(), run_.end(), 0);
     for (const core::Observation& o : buffer) ++run_[static_cast<size_t>(bucket_of_(o)) + 1];
     for (size_t b = 1; b < run_.size(); ++b) run_[b] += run_[b - 1];
+    // Room for a full buffer at once (it becomes the bucket loads' sorted
+    // array, bucket_, when the spill is over).
+    if (scratch_.capacity() < buffer.capacity()) {
+      scratch_ = std::vector<core::Observation>();
+      scratch_.reserve(buffer.capacity());
+    }
     scratch_.resize(buffer.size());
     std::vector<int64_t> next(run_.begin(), run_.end() - 1);
     for (const core::Observation& o : buffer) scratch_[next[bucket_of_(o)]++] = o;
@@ -242,27 +348,6 @@ class BucketWriter {
     return pieces;
   }
 
-  // Appends each bucket's frames to its file (one open per bucket).
-  Status Append(const std::vector<Piece>& pieces, std::vector<std::vector<char>>* frames) {
-    for (size_t p = 0; p < pieces.size();) {
-      const int64_t b = pieces[p].bucket;
-      GS_ASSIGN_OR_RETURN(std::unique_ptr<storage::WritableFile> file,
-                          storage::Env::Default()->NewAppendableFile(paths_[b]));
-      for (; p < pieces.size() && pieces[p].bucket == b; ++p) {
-        std::vector<char>& frame = (*frames)[p];
-        GS_RETURN_IF_ERROR(file->Append(std::string_view(frame.data(), frame.size())));
-        stats_.spilled_bytes += static_cast<int64_t>(frame.size());
-        frame = std::vector<char>();
-      }
-      GS_RETURN_IF_ERROR(file->Close());
-      const int64_t n = run_[b + 1] - run_[b];
-      stats_.spilled_raw_bytes += n * static_cast<int64_t>(sizeof(core::Observation));
-      progress_.bucket_observations[b] += n;
-      touched_[b] = 1;
-    }
-    return Status::Ok();
-  }
-
   const std::vector<std::string>& paths_;
   const BucketOf bucket_of_;
   tbb::enumerable_thread_specific<SpillFrameEncoder> encoders_;
@@ -271,6 +356,9 @@ class BucketWriter {
   std::vector<core::Observation> scratch_;
   std::vector<int64_t> run_;
   std::vector<char> touched_;
+  storage::internal::BlockPool<Frame> frames_;
+  std::thread job_;
+  Status job_status_;  // the job's result, read after the join
 };
 
 // Corruption unless every observation of `block` is of a feature pass 1 saw.
@@ -333,6 +421,7 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
       const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() -
                                                            last_checkpoint).count();
       if (checkpoint && resumable_offset >= 0 && elapsed >= checkpoint_seconds) {
+        GS_RETURN_IF_ERROR(writer.Wait());  // the spill is in the files
         progress->replay_position = resumable_offset;
         GS_RETURN_IF_ERROR(take_checkpoint());
       }
@@ -354,8 +443,14 @@ Status BucketChunkSource::Spill(const ObservationBlockReplay& replay, SpillProgr
     return Status::Ok();
   }));
   GS_RETURN_IF_ERROR(writer.Spill(&buffer));
-  buffer = std::vector<core::Observation>();
-  writer.Release();
+  GS_RETURN_IF_ERROR(writer.Wait());
+  // The buffer and the sort's scratch (<= K observations each) become the
+  // bucket loads' decoded and sorted arrays (<= K each): their pages are
+  // resident already, where fresh ones cost a fault and a zero-fill each.
+  buffer.clear();
+  read_ = std::move(buffer);
+  bucket_ = writer.Release();
+  loaded_bucket_ = -1;
   for (int64_t b = first_bucket; b < end_bucket; ++b)
     if (progress->bucket_observations[b] != bucket_observations_[b])
       return Status::Corruption(paths[b] + ": " +
@@ -425,9 +520,19 @@ Status BucketChunkSource::LoadBucket(int64_t bucket) const {
   const bool grows =
       bucket_.capacity() < static_cast<size_t>(n) || read_.capacity() < static_cast<size_t>(n);
   if (grows) {
-    // Would be reallocated below while the others live: freed first instead.
-    bucket_ = std::vector<core::Observation>();
-    read_ = std::vector<core::Observation>();
+    // Would be reallocated below while the others live: freed first instead,
+    // and made room for the largest bucket of the range at once (reserved
+    // pages are resident only once written), so that they grow once, not at
+    // every bucket larger than those before.
+    const int64_t end = spill_end_bucket_ < 0 ? NumBuckets() : spill_end_bucket_;
+    int64_t largest = n;
+    for (int64_t b = spill_first_bucket_; b < end; ++b)
+      largest = std::max(largest, bucket_observations_[b]);
+    for (std::vector<core::Observation>* array : {&bucket_, &read_}) {
+      if (array->capacity() >= static_cast<size_t>(n)) continue;
+      *array = std::vector<core::Observation>();
+      array->reserve(static_cast<size_t>(largest));
+    }
   }
   std::vector<char>& raw = raw_;
   {
@@ -464,30 +569,92 @@ Status BucketChunkSource::LoadBucket(int64_t bucket) const {
   // bucket_ (the peak stays raw + decoded + sorted of a bucket that fits).
   const int64_t end_bucket = spill_end_bucket_ < 0 ? NumBuckets() : spill_end_bucket_;
   if (grows || bucket + 1 >= end_bucket) raw = std::vector<char>();
-  // Grouped by (chunk, feature) = by feature slot within the bucket: a
-  // counting sort, stable, so each feature keeps its input order.
+  GS_RETURN_IF_ERROR(GroupByChunkAndFeature(path, bucket));
+  loaded_bucket_ = bucket;
+  return Status::Ok();
+}
+
+// read_ grouped by (chunk, feature) into bucket_: the order of one stable
+// counting sort by feature slot within the bucket, done as two stable ones
+// that run in parallel. First by chunk: the decoded observations are cut
+// into ranges, each range counts its observations per chunk (in parallel),
+// the counts give every (range, chunk) its place -- chunk k's run starts at
+// chunk_offset_[k], ranges in input order -- and the ranges scatter (in
+// parallel). Then each chunk's run by feature slot (chunks in parallel).
+// Both sorts keep input order among equal keys, so each feature keeps its
+// observations' input order and the result is the single sort's, whatever
+// the threads.
+Status BucketChunkSource::GroupByChunkAndFeature(const std::string& path, int64_t bucket) const {
+  const std::vector<core::Observation>& read = read_;
+  const auto n = static_cast<int64_t>(read.size());
   const int64_t first_chunk = bucket_first_chunk_[bucket];
   const int64_t last_chunk =
       bucket + 1 < NumBuckets() ? bucket_first_chunk_[bucket + 1] : NumChunks();
-  const int64_t slots = chunk_slot_[last_chunk - 1] +
-                        static_cast<int64_t>(chunk_features_[last_chunk - 1].size());
-  const auto slot_of = [&](const core::Observation& o) {
-    return chunk_slot_[feature_chunk_[o.feature]] + feature_slot_[o.feature];
-  };
-  std::vector<int64_t> next(static_cast<size_t>(slots) + 1, 0);
-  for (const core::Observation& o : read) {
-    const int32_t chunk = feature_chunk_[o.feature];
-    if (chunk < first_chunk || chunk >= last_chunk)
-      return Status::Corruption(path + ": an observation of feature " + std::to_string(o.feature) +
-                                " (chunk " + std::to_string(chunk) + ") in bucket " +
-                                std::to_string(bucket) + "; expected chunks " +
-                                std::to_string(first_chunk) + ".." + std::to_string(last_chunk - 1));
-    ++next[static_cast<size_t>(slot_of(o)) + 1];
+  const int64_t num_chunks = last_chunk - first_chunk;
+  // Few ranges (the counts are ranges x chunks), enough for the threads.
+  constexpr int64_t kMaxRanges = 16;
+  constexpr int64_t kLeastRange = 16384;
+  const int64_t ranges = std::clamp<int64_t>((n + kLeastRange - 1) / kLeastRange, 1, kMaxRanges);
+  const auto range_begin = [&](int64_t r) { return n * r / ranges; };
+  // place[r * num_chunks + c]: range r's count of chunk first_chunk + c, then
+  // where its next observation of that chunk goes.
+  std::vector<int64_t> place(static_cast<size_t>(ranges * num_chunks), 0);
+  std::vector<Status> statuses(static_cast<size_t>(ranges));
+  tbb::parallel_for(int64_t{0}, ranges, [&](int64_t r) {
+    int64_t* count = place.data() + r * num_chunks;
+    for (int64_t i = range_begin(r); i < range_begin(r + 1); ++i) {
+      const core::Observation& o = read[static_cast<size_t>(i)];
+      const int32_t chunk = feature_chunk_[o.feature];
+      if (chunk < first_chunk || chunk >= last_chunk) {
+        statuses[static_cast<size_t>(r)] = Status::Corruption(
+            path + ": an observation of feature " + std::to_string(o.feature) + " (chunk " +
+            std::to_string(chunk) + ") in bucket " + std::to_string(bucket) +
+            "; expected chunks " + std::to_string(first_chunk) + ".." +
+            std::to_string(last_chunk - 1));
+        return;
+      }
+      ++count[chunk - first_chunk];
+    }
+  });
+  for (const Status& status : statuses) GS_RETURN_IF_ERROR(status);
+  for (int64_t c = 0; c < num_chunks; ++c) {
+    const int64_t k = first_chunk + c;
+    int64_t next = chunk_offset_[k];
+    for (int64_t r = 0; r < ranges; ++r) {
+      int64_t& slot = place[static_cast<size_t>(r * num_chunks + c)];
+      const int64_t count = slot;
+      slot = next;
+      next += count;
+    }
+    if (next != chunk_offset_[k] + chunk_observations_[k])
+      return Status::Corruption(path + ": chunk " + std::to_string(k) + " has " +
+                                std::to_string(next - chunk_offset_[k]) +
+                                " observations in bucket " + std::to_string(bucket) +
+                                "; the first pass counted " +
+                                std::to_string(chunk_observations_[k]));
   }
-  for (size_t s = 1; s < next.size(); ++s) next[s] += next[s - 1];
   bucket_.resize(static_cast<size_t>(n));
-  for (const core::Observation& o : read) bucket_[next[slot_of(o)]++] = o;
-  loaded_bucket_ = bucket;
+  tbb::parallel_for(int64_t{0}, ranges, [&](int64_t r) {
+    int64_t* next = place.data() + r * num_chunks;
+    for (int64_t i = range_begin(r); i < range_begin(r + 1); ++i) {
+      const core::Observation& o = read[static_cast<size_t>(i)];
+      bucket_[static_cast<size_t>(next[feature_chunk_[o.feature] - first_chunk]++)] = o;
+    }
+  });
+  // Within each chunk by feature slot (a copy of the run, scattered back).
+  tbb::enumerable_thread_specific<std::vector<core::Observation>> runs;
+  tbb::parallel_for(first_chunk, last_chunk, [&](int64_t k) {
+    const auto begin = static_cast<size_t>(chunk_offset_[k]);
+    const auto size = static_cast<size_t>(chunk_observations_[k]);
+    std::vector<core::Observation>& run = runs.local();
+    run.assign(bucket_.begin() + static_cast<std::ptrdiff_t>(begin),
+               bucket_.begin() + static_cast<std::ptrdiff_t>(begin + size));
+    std::vector<size_t> next(chunk_features_[k].size() + 1, 0);
+    for (const core::Observation& o : run) ++next[static_cast<size_t>(feature_slot_[o.feature]) + 1];
+    for (size_t s = 1; s < next.size(); ++s) next[s] += next[s - 1];
+    for (const core::Observation& o : run)
+      bucket_[begin + next[static_cast<size_t>(feature_slot_[o.feature])]++] = o;
+  });
   return Status::Ok();
 }
 

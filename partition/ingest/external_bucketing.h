@@ -20,14 +20,16 @@
 //     stable, O(K)) and each bucket's run is appended to
 //     WORK/bucket_NNNNNN.bin as one spill frame (partition/ingest/spill_frames.h:
 //     61-byte columns, zstd, CRC32C; ~3x less I/O than the 72-byte structs;
-//     the runs are compressed in parallel). Files are opened for the
-//     duration of one append only, so any number of buckets works. Where the
-//     buffer is cut does not matter: a bucket file is its bucket's
-//     observations in input order.
+//     the runs are compressed in parallel and appended by a background job
+//     while the buffer fills again; the next spill waits for it). Files are
+//     opened for the duration of one append only, so any number of buckets
+//     works. Where the buffer is cut does not matter: a bucket file is its
+//     bucket's observations in input order.
 //   emit (BucketChunkSource::Load, chunks in order): bucket b is read back
-//     whole (<= K observations), grouped by (chunk, feature) -- a counting
-//     sort over the bucket's feature slots, stable, so each feature's
-//     observations keep their input order -- and chunk k is cut from it.
+//     whole (<= K observations), grouped by (chunk, feature) -- stable
+//     counting sorts, by chunk and then each chunk's run by feature slot,
+//     in parallel, so each feature's observations keep their input order
+//     whatever the threads -- and chunk k is cut from it.
 //
 // The chunks are therefore identical, record for record, to those of
 // InMemoryChunkSource on the same observations (tested), and memory is
@@ -200,6 +202,7 @@ class BucketChunkSource : public core::ChunkSource {
   BucketChunkSource() = default;
   std::string BucketPath(int64_t bucket) const;
   Status LoadBucket(int64_t bucket) const;
+  Status GroupByChunkAndFeature(const std::string& path, int64_t bucket) const;
 
   ExternalBucketingOptions options_;
   std::vector<std::vector<int32_t>> chunk_features_;  // per chunk: features, ascending

@@ -107,9 +107,10 @@ Status SpillFrameEncoder::Encode(const core::Observation* observations, size_t n
                            ZSTD_getErrorName(size));
   if (size > std::numeric_limits<uint32_t>::max())
     return Status::InvalidArgument("spill frame: payload of " + std::to_string(size) + " bytes");
-  // Exactly the frame's bytes: the caller's vector holds no compressBound slack.
+  // The frame's bytes (no compressBound slack). The capacity is kept: the
+  // callers reuse a few frame buffers, whose pages are then not fresh (a
+  // fault and a zero-fill each) for every frame.
   frame->resize(kSpillFrameHeaderBytes + size);
-  frame->shrink_to_fit();
   std::memcpy(frame->data() + kSpillFrameHeaderBytes, compressed_.data(), size);
   char* header = frame->data();
   PutU32(header, kSpillFrameMagic);

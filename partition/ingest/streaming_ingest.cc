@@ -1,6 +1,7 @@
 #include "partition/ingest/streaming_ingest.h"
 
 #include <filesystem>
+#include <future>
 #include <memory>
 #include <system_error>
 #include <utility>
@@ -149,7 +150,21 @@ struct IngestRun {
   IngestProgress progress;
   Pass1Record pass1;
   bool resuming = false;
+  // A fresh ingest's input identity, computed beside pass 1 (set until
+  // AwaitInputIdentity took it).
+  std::future<StatusOr<storage::FileChecksum>> identity;
 };
+
+// The input's identity, once the checksum beside pass 1 is done: into the
+// progress records and the writer's manifest.
+Status AwaitInputIdentity(storage::ChunkStoreWriter* writer, IngestRun* run) {
+  if (!run->identity.valid()) return Status::Ok();
+  GS_ASSIGN_OR_RETURN(const storage::FileChecksum input, run->identity.get());
+  run->progress.input_bytes = input.bytes;
+  run->progress.input_crc32c = input.crc32c;
+  writer->SetInput(input);
+  return Status::Ok();
+}
 
 // A resumable record of this very ingest, or a fresh start (WORK emptied).
 Status FindResumePoint(const storage::ChunkStoreWriteOptions& store_options, IngestRun* run) {
@@ -192,6 +207,7 @@ Status PassOne(storage::ChunkStoreWriter* writer, IngestRun* run, FeatureIndex* 
   GS_ASSIGN_OR_RETURN(FirstPass first,
                       RunFirstPass(run->env, run->input, run->work, run->pass1_path, run->options,
                                    &run->summary->replay_bytes_written));
+  GS_RETURN_IF_ERROR(AwaitInputIdentity(writer, run));  // before the first progress record
   if (run->native && run->options.copy_scans && run->root)
     GS_RETURN_IF_ERROR(
         SaveScanRecords(run->env, run->input, run->work, first.scans, first.scan_poses));
@@ -343,8 +359,20 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
   if (run.root) GS_RETURN_IF_ERROR(storage::ClaimStoreDirectory(env, store_dir));
   // The input's identity (size, CRC32C) goes into the manifest, and a resume
   // checks it: a replaced input is ingested afresh even if its mtime is kept.
+  // Only a resume needs it before pass 1; a fresh ingest checksums the input
+  // in a thread beside pass 1 (a second read of the input, on the core pass
+  // 1's serial stages leave idle) and takes it before the first progress
+  // record (AwaitInputIdentity).
   storage::ChunkStoreWriteOptions store_options = options.store;
-  GS_ASSIGN_OR_RETURN(store_options.input, storage::IdentifyInput(input));
+  std::future<StatusOr<storage::FileChecksum>> identity;
+  if (options.resume) {
+    GS_ASSIGN_OR_RETURN(store_options.input, storage::IdentifyInput(input));
+  } else {
+    // A missing input is refused now, as before anything is written.
+    std::error_code missing;
+    if (!std::filesystem::exists(input, missing)) return storage::IdentifyInput(input).status();
+    identity = std::async(std::launch::async, [input] { return storage::IdentifyInput(input); });
+  }
 
   // 1. Un-commit before reading anything: a kill from here on leaves a
   // directory without MANIFEST.json, i.e. an incomplete store.
@@ -357,6 +385,7 @@ Status IngestToStore(storage::Env* env, const std::string& input, const std::str
   // exists, no stale temporaries left to remove under them).
   if (ranks.size > 1) ranks.barrier();
   GS_RETURN_IF_ERROR(FindResumePoint(store_options, &run));
+  run.identity = std::move(identity);
 
   // 2.-3. Pass 1, the initialization and the problem file.
   FeatureIndex index;

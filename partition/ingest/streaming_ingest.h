@@ -5,7 +5,9 @@
 //      empty the scratch folder STORE/work/ (unless resuming). From here until
 //      step 5 ends the directory is an incomplete store that every reader
 //      rejects, whatever kills the process (kill -9 included).
-//   2. pass 1 over the input: the pose-only problem (poses, features, odometry,
+//   2. pass 1 over the input (beside it, in a thread, the input's size and
+//      CRC32C for the progress records and the manifest; a resume computes
+//      them first, to compare): the pose-only problem (poses, features, odometry,
 //      motion, GPS, FIX), the FeatureIndex, and the FirstSightInitialization
 //      (partition/initialization/first_sight_initialization.h: each feature's first sight
 //      appended to work/first_sight.bin, the <= poses - 1 joining observations

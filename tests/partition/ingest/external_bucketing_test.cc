@@ -6,6 +6,7 @@
 #include "partition/ingest/external_bucketing.h"
 
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -14,6 +15,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <string>
@@ -606,6 +608,89 @@ TEST_F(ExternalBucketingTest, RunsLongerThanOneFrameReadBackInInputOrder) {
       }
     }
     seen += static_cast<int64_t>(chunk.observations.size());
+  }
+  EXPECT_EQ(seen, total);
+}
+
+// Many spills, each overlapping the next buffer's fill (the spill's frames
+// are encoded and appended in the background), into buckets of many frames,
+// grouped in parallel: every chunk holds exactly its features'
+// observations, feature by feature in the chunk's order and each feature's
+// in input order (against the input itself), and the chunks are the same
+// with one thread as with the pool.
+TEST_F(ExternalBucketingTest, OverlappedSpillsAndParallelGroupingKeepInputOrder) {
+  const int64_t total = 300000;
+  const int32_t features = 5000;
+  std::vector<core::Observation> input(static_cast<size_t>(total));
+  std::vector<std::vector<int64_t>> of_feature(features);  // input positions per feature
+  std::mt19937 rng(47);
+  FeatureIndex index;
+  for (int64_t i = 0; i < total; ++i) {
+    core::Observation& o = input[static_cast<size_t>(i)];
+    o.pose = static_cast<int32_t>(i / 60);
+    // Skewed and local: features near the pose's, a few far ones.
+    o.feature = static_cast<int32_t>((i / 60 + rng() % (rng() % 8 == 0 ? features : 40)) %
+                                     features);
+    o.z = {std::ldexp(static_cast<double>(rng()), -9), static_cast<double>(i)};
+    o.line = static_cast<int32_t>(i + 1);
+    of_feature[static_cast<size_t>(o.feature)].push_back(i);
+    index.Add(o);
+  }
+  const ObservationReplay replay = [&](const storage::ObservationSink& sink) -> Status {
+    for (const core::Observation& o : input) GS_RETURN_IF_ERROR(sink(o));
+    return Status::Ok();
+  };
+  // The chunks of a source built with `threads` threads (0: the pool).
+  const auto build = [&](const std::string& work, int threads) {
+    std::unique_ptr<tbb::global_control> limit;
+    if (threads > 0)
+      limit = std::make_unique<tbb::global_control>(
+          tbb::global_control::max_allowed_parallelism, static_cast<size_t>(threads));
+    ExternalBucketingOptions options;
+    options.max_observations_per_chunk = 3000;
+    options.buffer_observations = 20000;  // ~15 spills, ~15 buckets of ~15 frames
+    options.work_dir = Path(work);
+    std::filesystem::create_directories(options.work_dir);
+    StatusOr<std::unique_ptr<BucketChunkSource>> source =
+        BucketChunkSource::Build(index, replay, options);
+    EXPECT_TRUE(source.ok()) << source.status().ToString();
+    std::vector<core::ObservationChunk> chunks;
+    if (!source.ok()) return chunks;
+    EXPECT_GE((*source)->stats().spills, 14);
+    EXPECT_GE((*source)->NumBuckets(), 10);
+    for (int64_t k = 0; k < (*source)->NumChunks(); ++k) {
+      chunks.emplace_back();
+      EXPECT_TRUE((*source)->Load(k, &chunks.back()).ok());
+    }
+    return chunks;
+  };
+  const std::vector<core::ObservationChunk> pool = build("work_pool", 0);
+  const std::vector<core::ObservationChunk> serial = build("work_serial", 1);
+  ASSERT_EQ(pool.size(), serial.size());
+  ASSERT_GT(pool.size(), 50u);
+  std::vector<int> chunk_of(features, -1);
+  int64_t seen = 0;
+  for (size_t k = 0; k < pool.size(); ++k) {
+    const core::ObservationChunk& chunk = pool[k];
+    // The plan's feature order, each feature's observations in input order.
+    std::vector<int64_t> expected;
+    for (const int32_t f : chunk.features) {
+      ASSERT_EQ(chunk_of[static_cast<size_t>(f)], -1) << "feature " << f << " in two chunks";
+      chunk_of[static_cast<size_t>(f)] = static_cast<int>(k);
+      const std::vector<int64_t>& positions = of_feature[static_cast<size_t>(f)];
+      expected.insert(expected.end(), positions.begin(), positions.end());
+    }
+    ASSERT_EQ(chunk.observations.size(), expected.size()) << "chunk " << k;
+    ASSERT_EQ(serial[k].features, chunk.features) << "chunk " << k;
+    ASSERT_EQ(serial[k].feature_begin, chunk.feature_begin) << "chunk " << k;
+    ASSERT_EQ(serial[k].observations.size(), expected.size()) << "chunk " << k;
+    for (size_t i = 0; i < expected.size(); ++i) {
+      const core::Observation& original = input[static_cast<size_t>(expected[i])];
+      ASSERT_EQ(chunk.observations[i].line, original.line) << "chunk " << k << " at " << i;
+      ExpectSameObservation(chunk.observations[i], original);
+      ExpectSameObservation(serial[k].observations[i], original);
+    }
+    seen += static_cast<int64_t>(expected.size());
   }
   EXPECT_EQ(seen, total);
 }
