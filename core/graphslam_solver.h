@@ -35,7 +35,8 @@
 // plain step wins and nothing changes.
 // Convergence (Ceres' criteria): relative chi2 decrease below
 // function_tolerance, |dx| below parameter_tolerance (|x| + tol), or
-// max |g| below gradient_tolerance.
+// max |g| below gradient_tolerance; also a rejected step whose model
+// decrease is below function_tolerance x chi2 (core/levenberg_marquardt.h).
 // D is diag(H) clamped to [1e-6, 1e32]. Solving for increments (H d = -g) and
 // removing the anchor from the unknowns keep the system well conditioned.
 //

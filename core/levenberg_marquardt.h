@@ -19,7 +19,9 @@
 //                      |d| <= parameter_tolerance (|state| + parameter_tolerance),
 //                      or mu < min_trust_region_radius (no further decrease),
 //                      or the next step's decrease extrapolated below
-//                      function_tolerance (kMaxExtrapolatedContraction)
+//                      function_tolerance (kMaxExtrapolatedContraction),
+//                      or a rejected step whose model decrease is below
+//                      function_tolerance x chi2 (ModelDecreaseBelowTolerance)
 //   acceleration       (a space that AcceleratesSteps, a pose graph) after an
 //                      accepted step: its Anderson extrapolation replaces it
 //                      when that lowers chi2 further (the safeguard); rho and
@@ -261,6 +263,31 @@ inline void UpdateAfterRejectedStep(LevenbergMarquardtState* state) {
   state->decrease_factor *= 2.0;
 }
 
+// The function tolerance on the model, after a rejected step (sets the
+// termination and returns true when it fires). The model decrease
+// m(lambda) = -g^T d + lambda d^T D d of the Levenberg-Marquardt step falls
+// as lambda grows, and lambda only grows until the next accepted step, whose
+// decrease is m there (rho = 1 where the model holds): with m below
+// function_tolerance x chi2 already, that step would stop the solve by the
+// function tolerance; the solve stops now instead of spending the passes.
+// It matters where the cost jumps: a velocity motion's heading residual
+// wraps at +-pi while its information couples heading and position
+// (core/velocity_motion_model.h), so a pose turned half round by the start
+// can sit on a minimum at the jump, where every step that crosses it is
+// rejected whatever its length (rho -> -infinity as the step shrinks); the
+// trust region would otherwise halve, quarter, ... down to
+// min_trust_region_radius, one pass over the observations per try.
+inline bool ModelDecreaseBelowTolerance(const SolverOptions& options, const TrialStep& trial,
+                                        double chi2, SolverSummary* summary) {
+  // A step the model does not expect to lower chi2 at all (m <= 0, an
+  // inexact linear solve) says nothing about convergence.
+  if (!trial.ok || !(trial.model_decrease > 0.0) ||
+      !(trial.model_decrease < options.function_tolerance * chi2))
+    return false;
+  summary->termination = "function_tolerance";
+  return true;
+}
+
 // Hands the state after `iteration` to the checkpoint callback; the space
 // lends its state for the write and gets it back even when the write fails.
 template <class Space>
@@ -360,6 +387,7 @@ Status RunLevenbergMarquardt(
                                           summary);
     } else {
       UpdateAfterRejectedStep(&state);
+      converged = ModelDecreaseBelowTolerance(options, trial, state.chi2, summary);
     }
     it.chi2 = state.chi2;
     it.seconds = SecondsSince(iteration_start);

@@ -1,14 +1,17 @@
 // The trust region update of core/levenberg_marquardt.h: the radius grows
 // kFitRadiusGrowth times per step while the model has fit every step, and
-// follows Nielsen's rule once a step fits less or is rejected.
+// follows Nielsen's rule once a step fits less or is rejected; and the
+// stopping tests.
 #include "core/levenberg_marquardt.h"
 
 #include <gtest/gtest.h>
 
+#include <numbers>
 #include <random>
 #include <string>
 
 #include "core/graphslam_solver.h"
+#include "core/pose_factors.h"
 #include "partition/ingest/in_memory_chunk_source.h"
 #include "storage/g2o_reader.h"
 #include "tests/testing/datasets.h"
@@ -152,6 +155,71 @@ TEST(LevenbergMarquardt, NielsenAfterAStepThatDidNotFit) {
     }
   }
   EXPECT_GT(checked, 10);
+}
+
+// The stall of a velocity motion whose heading residual sits at +pi while its
+// information couples heading and position (a pose turned half round by the
+// start, as the pose-graph start leaves one on graphslam benchmark's
+// campuses). Pose 0 is fixed at the origin and predicts pose 1 at (1, 0, 0);
+// a GPS fix holds pose 1 at x = -2.5. With
+//   W = [4 0 2; 0 4 0; 2 0 2]
+// the cost in the heading residual t is 2 t^2 + 4 t e_x + ..., whose vertex
+// -e_x ~ 3.43 lies beyond pi: the wrapped cost is least at t = pi itself,
+// and pose 1 starts there, its position at the best one for t = pi. Every
+// step turns it past pi, where t wraps to -pi and the cost jumps by
+// -8 pi e_x ~ 86, however short the step: all are rejected. The solve must
+// stop there by the function tolerance (the model's decrease below it), not
+// halve the trust region down to min_trust_region_radius.
+TEST(LevenbergMarquardt, MinimumOnAHeadingJumpStopsByTheFunctionTolerance) {
+  const double pi = std::numbers::pi;
+  Problem2d problem;
+  problem.AddPose(0, Pose2(0.0, 0.0, 0.0), true, 0);
+  problem.pose_fixed[0] = 1;
+  Eigen::Matrix3d w;
+  w << 4, 0, 2, 0, 4, 0, 2, 0, 2;
+  const Eigen::Matrix2d gps_information = 100.0 * Eigen::Matrix2d::Identity();
+  const Eigen::Vector2d predicted(1.0, 0.0);
+  const Eigen::Vector2d fix(-2.5, 0.0);
+  // The position that minimizes the cost with t = pi:
+  // (W_rr + G) e_r = G (fix - predicted) - pi W_rt.
+  const Eigen::Vector2d e_r =
+      (w.topLeftCorner<2, 2>() + gps_information)
+          .ldlt()
+          .solve(gps_information * (fix - predicted) - pi * w.topRightCorner<2, 1>());
+  ASSERT_GT(-w(2, 0) * e_r.x() / w(2, 2), pi) << "the vertex must lie beyond pi";
+  const Eigen::Vector2d start = predicted + e_r;
+  problem.AddPose(1, Pose2(start.x(), start.y(), pi), true, 0);
+  VelocityMotionConstraint motion;
+  motion.from = 0;
+  motion.to = 1;
+  motion.control = {1.0, 0.0, 1.0};
+  motion.information = w;
+  problem.motions.push_back(motion);
+  GpsConstraint gps;
+  gps.pose = 1;
+  gps.z = fix;
+  gps.information = gps_information;
+  problem.gps.push_back(gps);
+  const Eigen::Vector3d e(e_r.x(), e_r.y(), pi);
+  const double edge_chi2 = e.dot(w * e) + (start - fix).dot(gps_information * (start - fix));
+  ASSERT_NEAR(PoseFactorsChi2(problem, problem.poses), edge_chi2, 1e-12 * edge_chi2);
+  // q(-pi) - q(pi) with W_tr e_r = W_tx e_x.
+  const double jump = -4.0 * pi * w(2, 0) * e_r.x();
+
+  partition::InMemoryChunkSource chunks(problem, partition::ChunkingOptions());
+  SolverOptions options;
+  options.linear_solver = LinearSolverType::kCholmod;
+  SolverSummary summary;
+  ASSERT_TRUE(SolveGraphSlam(options, chunks, &problem, &summary).ok());
+  EXPECT_TRUE(summary.converged);
+  EXPECT_EQ(summary.termination, "function_tolerance");
+  for (const IterationSummary& it : summary.per_iteration) {
+    EXPECT_FALSE(it.accepted) << "iteration " << it.iteration;
+    EXPECT_GT(it.candidate_chi2 - it.start_chi2, 0.8 * jump) << "iteration " << it.iteration;
+  }
+  EXPECT_EQ(summary.final_chi2, summary.initial_chi2);
+  EXPECT_NEAR(summary.final_chi2, edge_chi2, 1e-12 * edge_chi2);
+  EXPECT_EQ(problem.poses[1], Pose2(start.x(), start.y(), pi));
 }
 
 }  // namespace
