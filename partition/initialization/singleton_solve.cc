@@ -39,13 +39,8 @@ Status SolveWithoutSingletons(const core::SolverOptions& options, const Chunking
   // SolveGraphSlam reads observations only through the chunk source: the
   // singletons' features are then unobserved there, excluded and untouched.
   {
-    core::Problem2d solved_part;
-    solved_part.features.resize(problem->features.size());
-    solved_part.observations.reserve(problem->observations.size() - left_out_count);
-    for (const core::Observation& o : problem->observations)
-      if (!left_out[o.feature]) solved_part.observations.push_back(o);
-    InMemoryChunkSource chunks(solved_part, chunking);
-    solved_part = core::Problem2d();
+    InMemoryChunkSource chunks(problem->observations, problem->num_features(), chunking,
+                               left_out);
     GS_RETURN_IF_ERROR(core::SolveGraphSlam(options, chunks, problem, summary));
   }
   for (size_t f = 0; f < only.size(); ++f) {

@@ -70,6 +70,8 @@ TEST(SampledIncrementalInitialization, SampledStartThenSolveReachesTheOptimum) {
   EXPECT_GT(summary.sampled_observations, 0.8 * budget);
   EXPECT_LT(summary.sampled_observations, 1.2 * budget);
   EXPECT_EQ(summary.placed_features, (*chunks)->total_features());
+  EXPECT_EQ(summary.budget_observations, 40 * problem->num_poses());
+  EXPECT_FALSE(summary.capped);
 
   core::SolverSummary solved;
   ASSERT_TRUE(core::SolveGraphSlam(solver, **chunks, &*problem, &solved).ok());
@@ -85,6 +87,45 @@ TEST(SampledIncrementalInitialization, SampledStartThenSolveReachesTheOptimum) {
     if (!problem->pose_fixed[p]) dof -= 3.0;
   ASSERT_GT(dof, 100000.0);
   EXPECT_NEAR(solved.final_chi2 / dof, 1.0, 0.01);
+  fs::remove_all(root);
+}
+
+// B given outright, and a cap below it (a memory limit's share): the cap
+// wins and bounds what the sample holds.
+TEST(SampledIncrementalInitialization, BudgetGivenOrCapped) {
+  const fs::path root = fs::temp_directory_path() /
+                        ("graphslam_sampled_budget_" + std::to_string(getpid()));
+  fs::remove_all(root);
+  fs::create_directories(root);
+  const std::string store = testing::SimulateDenseCampusStore(root.string(), "", 300, 2, 100000);
+  ASSERT_FALSE(store.empty());
+  StatusOr<std::unique_ptr<storage::DiskChunkSource>> chunks =
+      storage::DiskChunkSource::Open(store);
+  ASSERT_TRUE(chunks.ok()) << chunks.status().ToString();
+  StatusOr<core::Problem2d> problem = storage::ReadChunkStoreProblem(store);
+  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+  const int64_t observations = (*chunks)->total_observations();
+  ASSERT_GT(observations, 50000);
+
+  for (const int64_t cap : {int64_t{-1}, int64_t{8000}}) {
+    SCOPED_TRACE("cap " + std::to_string(cap));
+    core::Problem2d copy = *problem;
+    SampledInitializationOptions options;
+    options.budget_observations = 20000;
+    options.max_observations = cap;
+    options.sub_solve_iterations = 2;
+    SampledInitializationSummary summary;
+    ASSERT_TRUE(InitializeFromSampledFeatures(options, core::SolverOptions(), **chunks,
+                                              observations, &copy, &summary)
+                    .ok());
+    const int64_t budget = cap < 0 ? 20000 : cap;
+    EXPECT_EQ(summary.budget_observations, budget);
+    EXPECT_EQ(summary.capped, cap >= 0);
+    EXPECT_NEAR(summary.rate, static_cast<double>(budget) / static_cast<double>(observations),
+                1e-12);
+    EXPECT_GT(summary.sampled_observations, 0.7 * static_cast<double>(budget));
+    EXPECT_LT(summary.sampled_observations, 1.3 * static_cast<double>(budget));
+  }
   fs::remove_all(root);
 }
 
