@@ -117,6 +117,11 @@ void AddInitializationAndOutOfCoreOptions(CLI::App* solve, SolveCommandOptions* 
                     "stores with more observations are solved without loading them (streaming mode)")
       ->check(Integer(0))
       ->capture_default_str();
+  solve->add_option("--sample-observations", options->sample_observations,
+                    "streaming mode: observations of the feature sample the start solves "
+                    "(0: max(1e6, 24 x poses); at most what --memory-limit leaves)")
+      ->check(Integer(0))
+      ->capture_default_str();
 }
 
 // Unknown correspondence (docs/association.md).

@@ -51,6 +51,9 @@ struct SolveCommandOptions {
   std::string petsc_options;  // --petsc-options: under mpirun, PETSc options ("-ksp_type cg")
   int64_t streaming_poses = 100'000;            // stores above: streaming initialization
   int64_t streaming_observations = 10'000'000;  // stores above: streaming initialization
+  // --sample-observations: the streaming start's sample budget B (0: the
+  // rule max(10^6, 24 x poses); partition/initialization/sampled_incremental_initialization.h).
+  int64_t sample_observations = 0;
   // Data association (unknown correspondence, docs/association.md).
   bool associate = false;           // --associate
   double chi = 1e-3;                // --chi: accept pi_{j=k} > chi

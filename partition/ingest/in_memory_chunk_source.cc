@@ -10,21 +10,24 @@ namespace graphslam::partition {
 template <class ObservationT>
 BasicInMemoryChunkSource<ObservationT>::BasicInMemoryChunkSource(
     const std::vector<ObservationT>& observations, int32_t num_features,
-    const ChunkingOptions& options) {
+    const ChunkingOptions& options, std::span<const uint8_t> excluded) {
+  GS_CHECK(excluded.empty() || excluded.size() == static_cast<size_t>(num_features));
+  const auto kept = [&](int32_t f) { return excluded.empty() || excluded[f] == 0; };
   per_feature_.assign(num_features, 0);
   std::vector<int32_t> first_pose(num_features, std::numeric_limits<int32_t>::max());
   for (const ObservationT& observation : observations) {
     GS_CHECK(observation.feature >= 0 && observation.feature < num_features);
+    if (!kept(observation.feature)) continue;
     ++per_feature_[observation.feature];
     first_pose[observation.feature] = std::min(first_pose[observation.feature], observation.pose);
   }
   // Observations grouped by feature, input order kept within a feature.
   std::vector<int64_t> feature_start(num_features + 1, 0);
   for (int32_t f = 0; f < num_features; ++f) feature_start[f + 1] = feature_start[f] + per_feature_[f];
-  std::vector<int64_t> by_feature(observations.size());
+  std::vector<int64_t> by_feature(static_cast<size_t>(feature_start[num_features]));
   std::vector<int64_t> cursor(feature_start.begin(), feature_start.end() - 1);
   for (int64_t i = 0; i < static_cast<int64_t>(observations.size()); ++i)
-    by_feature[cursor[observations[i].feature]++] = i;
+    if (kept(observations[i].feature)) by_feature[cursor[observations[i].feature]++] = i;
 
   // Temporal locality: order observed features by the first pose that sees them.
   std::vector<int32_t> order;

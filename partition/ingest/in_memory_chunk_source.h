@@ -16,6 +16,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "core/chunk_source.h"
@@ -33,9 +34,12 @@ class BasicInMemoryChunkSource : public core::BasicChunkSource<ObservationT> {
  public:
   using Chunk = core::BasicObservationChunk<ObservationT>;
   // Copies `observations` (feature indices in [0, num_features)); they need
-  // not outlive this.
+  // not outlive this. A feature f with excluded[f] != 0 (when `excluded` is
+  // not empty: one flag per feature) is left out as if unobserved, without
+  // a filtered copy of the observations first.
   BasicInMemoryChunkSource(const std::vector<ObservationT>& observations, int32_t num_features,
-                           const ChunkingOptions& options);
+                           const ChunkingOptions& options,
+                           std::span<const uint8_t> excluded = {});
   // The observations of a Problem2d or Problem3d.
   template <class Problem>
   BasicInMemoryChunkSource(const Problem& problem, const ChunkingOptions& options)

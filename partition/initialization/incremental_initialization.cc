@@ -429,7 +429,9 @@ class IncrementalStages {
     summary.fixed_poses = builder_.fixed_poses();
     summary.features = out->sub.num_features();
     summary.observations = static_cast<int64_t>(out->sub.observations.size());
-    Status status = SolveWithoutSingletons(stage_options_, chunking_, &out->sub, &out->solver);
+    // The stage's observations are needed no more once cut into chunks.
+    Status status = SolveWithoutSingletons(stage_options_, chunking_, &out->sub, &out->solver,
+                                           nullptr, /*release_observations=*/true);
     if (!status.ok())
       return status.WithContext("incremental initialization stage " + std::to_string(stage) +
                                 " (" + std::to_string(t) + " poses)");

@@ -2,35 +2,106 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "core/internal/ordered_chunk_pipeline.h"
-#include "partition/ingest/in_memory_chunk_source.h"
 #include "partition/initialization/internal/stage_setup.h"
 #include "partition/initialization/pose_graph_initialization.h"
 
 namespace graphslam::partition {
 namespace {
 
-// The sub-problem: every pose and pose constraint of `problem`, no feature
-// yet (the pass adds the sampled ones).
+// The sub-problem: every pose of `problem` (copied: the sub-problem's
+// estimates replace them only at the end), no constraint (PoseConstraintLoan
+// lends them) and no feature yet (the pass adds the sampled ones).
 core::Problem2d PoseSubProblem(const core::Problem2d& problem) {
   core::Problem2d sub;
   sub.source = problem.source;
   sub.poses = problem.poses;
-  sub.pose_ids = problem.pose_ids;
   sub.pose_fixed = problem.pose_fixed;
   sub.pose_initialized = problem.pose_initialized;
-  sub.pose_lines = problem.pose_lines;
-  sub.pose_stamps = problem.pose_stamps;
-  sub.relative_poses = problem.relative_poses;
-  sub.motions = problem.motions;
-  sub.gps = problem.gps;
-  sub.pose_range_bearings = problem.pose_range_bearings;
   return sub;
 }
+
+// Lends `problem`'s pose constraints and per-pose ids, lines and stamps to
+// the sub-problem for its lifetime, moved rather than copied (10^6 poses'
+// motions alone are ~110 MB); the sub-problem's solves only read them.
+class PoseConstraintLoan {
+ public:
+  PoseConstraintLoan(core::Problem2d* problem, core::Problem2d* sub)
+      : problem_(problem), sub_(sub) {
+    Swap();
+  }
+  ~PoseConstraintLoan() { Swap(); }
+  PoseConstraintLoan(const PoseConstraintLoan&) = delete;
+  PoseConstraintLoan& operator=(const PoseConstraintLoan&) = delete;
+
+ private:
+  void Swap() {
+    std::swap(problem_->pose_ids, sub_->pose_ids);
+    std::swap(problem_->pose_lines, sub_->pose_lines);
+    std::swap(problem_->pose_stamps, sub_->pose_stamps);
+    std::swap(problem_->relative_poses, sub_->relative_poses);
+    std::swap(problem_->motions, sub_->motions);
+    std::swap(problem_->gps, sub_->gps);
+    std::swap(problem_->pose_range_bearings, sub_->pose_range_bearings);
+  }
+  core::Problem2d* problem_;
+  core::Problem2d* sub_;
+};
+
+// The sample's observations as chunks for its own solve, read in place:
+// they are grouped by feature, features ascending (the order the pass
+// gathered them in), so a chunk is a run of consecutive features holding at
+// most max_observations_per_chunk observations (a larger feature alone).
+// A copy cut by InMemoryChunkSource would double the sample's largest part.
+class SampleChunkSource : public core::ChunkSource {
+ public:
+  SampleChunkSource(const std::vector<core::Observation>& observations, int64_t per_chunk)
+      : observations_(observations) {
+    const int64_t m = static_cast<int64_t>(observations.size());
+    starts_.push_back(0);
+    int64_t feature_start = 0;  // of the feature being added
+    for (int64_t i = 1; i <= m; ++i) {
+      if (i < m && observations[i].feature == observations[i - 1].feature) continue;
+      // Its observations are [feature_start, i): it opens a new chunk when
+      // the current one holds others and would exceed the budget with it.
+      if (feature_start > starts_.back() && i - starts_.back() > per_chunk)
+        starts_.push_back(feature_start);
+      feature_start = i;
+    }
+    if (m > 0) starts_.push_back(m);
+  }
+
+  int64_t NumChunks() const override { return static_cast<int64_t>(starts_.size()) - 1; }
+
+  Status Load(int64_t index, core::ObservationChunk* chunk) const override {
+    if (index < 0 || index >= NumChunks())
+      return Status::InvalidArgument("sample chunk " + std::to_string(index) +
+                                     " out of range; expected 0.." +
+                                     std::to_string(NumChunks() - 1));
+    chunk->Clear();
+    chunk->index = index;
+    chunk->observations.assign(observations_.begin() + starts_[index],
+                               observations_.begin() + starts_[index + 1]);
+    for (size_t i = 0; i < chunk->observations.size(); ++i) {
+      const int32_t f = chunk->observations[i].feature;
+      if (chunk->features.empty() || chunk->features.back() != f) {
+        chunk->features.push_back(f);
+        chunk->feature_begin.push_back(static_cast<int64_t>(i));
+      }
+    }
+    chunk->feature_begin.push_back(static_cast<int64_t>(chunk->observations.size()));
+    return Status::Ok();
+  }
+
+ private:
+  const std::vector<core::Observation>& observations_;
+  std::vector<int64_t> starts_;  // chunk k: observations [starts_[k], starts_[k + 1])
+};
 
 }  // namespace
 
@@ -53,15 +124,23 @@ Status InitializeFromSampledFeatures(const SampledInitializationOptions& options
   *summary = SampledInitializationSummary();
   const auto start = std::chrono::steady_clock::now();
   if (options.observations_per_pose < 1 || options.min_observations < 0 ||
-      options.sub_solve_iterations < 0)
+      options.budget_observations < 0 || options.sub_solve_iterations < 0)
     return Status::InvalidArgument(
-        "sampled initialization: expected observations_per_pose >= 1, min_observations >= 0 and "
-        "sub_solve_iterations >= 0, got " + std::to_string(options.observations_per_pose) + ", " +
+        "sampled initialization: expected observations_per_pose >= 1, min_observations >= 0, "
+        "budget_observations >= 0 and sub_solve_iterations >= 0, got " +
+        std::to_string(options.observations_per_pose) + ", " +
         std::to_string(options.min_observations) + ", " +
+        std::to_string(options.budget_observations) + ", " +
         std::to_string(options.sub_solve_iterations));
-  int64_t budget = std::max(options.min_observations,
-                            options.observations_per_pose * problem->num_poses());
-  if (options.max_observations >= 0) budget = std::min(budget, options.max_observations);
+  int64_t budget = options.budget_observations > 0
+                       ? options.budget_observations
+                       : std::max(options.min_observations,
+                                  options.observations_per_pose * problem->num_poses());
+  if (options.max_observations >= 0 && budget > options.max_observations) {
+    budget = options.max_observations;
+    summary->capped = true;
+  }
+  summary->budget_observations = budget;
   const double rate =
       total_observations <= budget
           ? 1.0
@@ -71,6 +150,7 @@ Status InitializeFromSampledFeatures(const SampledInitializationOptions& options
   // Step 2: the sampled features' observations, in chunk order (features
   // ascending within a chunk, each one's observations in input order).
   core::Problem2d sub = PoseSubProblem(*problem);
+  std::optional<PoseConstraintLoan> loan(std::in_place, problem, &sub);
   std::vector<int32_t> sampled;  // sub feature -> feature of *problem
   // Reserved, not grown by doubling: the sample is about B observations.
   sub.observations.reserve(static_cast<size_t>(
@@ -121,9 +201,8 @@ Status InitializeFromSampledFeatures(const SampledInitializationOptions& options
   if (options.sub_solve_iterations > 0 && !sub.observations.empty()) {
     const core::SolverOptions sub_options =
         internal::StageSolverOptions(solver, options.sub_solve_iterations);
-    ChunkingOptions chunking;
-    chunking.max_observations_per_chunk = options.incremental.max_observations_per_chunk;
-    const InMemoryChunkSource sub_chunks(sub, chunking);
+    const SampleChunkSource sub_chunks(sub.observations,
+                                       options.incremental.max_observations_per_chunk);
     core::SolverSummary solved;
     const Status status = core::SolveGraphSlam(sub_options, sub_chunks, &sub, &solved);
     // Unconverged, or stopped by a numerical failure at its last accepted
@@ -135,7 +214,9 @@ Status InitializeFromSampledFeatures(const SampledInitializationOptions& options
   }
 
   // Step 4: the poses back, every feature from first sight, the sampled ones
-  // where the sub-problem put them.
+  // where the sub-problem put them. The sample's observations are done with.
+  std::vector<core::Observation>().swap(sub.observations);
+  loan.reset();
   problem->poses = std::move(sub.poses);
   GS_RETURN_IF_ERROR(PlaceFeaturesFromFirstSight(solver.max_chunks_in_flight, chunks, problem,
                                                  &summary->placed_features));

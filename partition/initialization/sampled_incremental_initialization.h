@@ -54,6 +54,8 @@ struct SampledInitializationOptions {
   // The sample's observation budget B (above): per pose, and at least.
   int64_t observations_per_pose = 24;
   int64_t min_observations = 1'000'000;
+  // > 0: B itself, in place of the rule above (--sample-observations).
+  int64_t budget_observations = 0;
   // And at most this many (a memory limit's share; -1: no cap).
   int64_t max_observations = -1;
   // Levenberg-Marquardt iterations on the sampled sub-problem after its
@@ -63,6 +65,8 @@ struct SampledInitializationOptions {
 };
 
 struct SampledInitializationSummary {
+  int64_t budget_observations = 0;  // B above, after the cap
+  bool capped = false;              // B lowered to max_observations
   double rate = 1.0;  // r above
   int64_t sampled_features = 0;
   int64_t sampled_observations = 0;

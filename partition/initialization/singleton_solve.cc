@@ -8,7 +8,7 @@ namespace graphslam::partition {
 
 Status SolveWithoutSingletons(const core::SolverOptions& options, const ChunkingOptions& chunking,
                               core::Problem2d* problem, core::SolverSummary* summary,
-                              int64_t* singletons) {
+                              int64_t* singletons, bool release_observations) {
   // The only observation of each feature seen once (-1: none or several).
   std::vector<int64_t> only(problem->features.size(), -1);
   std::vector<int32_t> count(problem->features.size(), 0);
@@ -33,27 +33,25 @@ Status SolveWithoutSingletons(const core::SolverOptions& options, const Chunking
   if (singletons != nullptr) *singletons = left_out_count;
   if (left_out_count == 0) {
     InMemoryChunkSource chunks(*problem, chunking);
+    if (release_observations) std::vector<core::Observation>().swap(problem->observations);
     return core::SolveGraphSlam(options, chunks, problem, summary);
   }
 
+  // Each singleton's observation, kept for placing it after the solve.
+  std::vector<core::Observation> single;
+  single.reserve(static_cast<size_t>(left_out_count));
+  for (size_t f = 0; f < only.size(); ++f)
+    if (left_out[f]) single.push_back(problem->observations[only[f]]);
   // SolveGraphSlam reads observations only through the chunk source: the
   // singletons' features are then unobserved there, excluded and untouched.
   {
-    core::Problem2d solved_part;
-    solved_part.features.resize(problem->features.size());
-    solved_part.observations.reserve(problem->observations.size() - left_out_count);
-    for (const core::Observation& o : problem->observations)
-      if (!left_out[o.feature]) solved_part.observations.push_back(o);
-    InMemoryChunkSource chunks(solved_part, chunking);
-    solved_part = core::Problem2d();
+    InMemoryChunkSource chunks(problem->observations, problem->num_features(), chunking,
+                               left_out);
+    if (release_observations) std::vector<core::Observation>().swap(problem->observations);
     GS_RETURN_IF_ERROR(core::SolveGraphSlam(options, chunks, problem, summary));
   }
-  for (size_t f = 0; f < only.size(); ++f) {
-    if (!left_out[f]) continue;
-    const core::Observation& o = problem->observations[only[f]];
-    const core::Pose2& pose = problem->poses[o.pose];
-    problem->features[f] = core::InvertObservation(o.kind, pose, o.z);
-  }
+  for (const core::Observation& o : single)
+    problem->features[o.feature] = core::InvertObservation(o.kind, problem->poses[o.pose], o.z);
   return Status::Ok();
 }
 

@@ -43,8 +43,11 @@ namespace graphslam::partition {
 // the solve and then placed at h^{-1}(x_p, z) from the solved pose; their chi2
 // is then 0, so summary->final_chi2 is the chi2 of the whole problem.
 // *singletons (optional) receives how many features were placed that way.
+// With release_observations (a caller that needs them no more, e.g. a
+// stage's sub-problem) problem->observations are freed once cut into chunks,
+// before the solve allocates its own: the chunks are then the only copy.
 Status SolveWithoutSingletons(const core::SolverOptions& options, const ChunkingOptions& chunking,
                               core::Problem2d* problem, core::SolverSummary* summary,
-                              int64_t* singletons = nullptr);
+                              int64_t* singletons = nullptr, bool release_observations = false);
 
 }  // namespace graphslam::partition

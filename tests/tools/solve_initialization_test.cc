@@ -275,5 +275,48 @@ TEST_F(SolveInitializationTest, StreamingDefaultsReachTheOptimumOfADenseCampusSt
   EXPECT_NEAR(report["final_chi2"].get<double>() / dof, 1.0, 0.01);
 }
 
+// --sample-observations sets the start's sample budget B; --memory-limit caps
+// it at what one chunk in flight leaves (300 B per observation), and the
+// report says so. Only the start is looked at (--max-iterations 0).
+TEST_F(SolveInitializationTest, SampleBudgetFollowsTheOptionAndTheMemoryLimit) {
+  const std::string store = testing::SimulateDenseCampusStore(Path(""), "", 1000, 2, 1000000);
+  ASSERT_FALSE(store.empty());
+  const auto start = [&](const std::string& name, int64_t sample, const std::string& limit) {
+    SolveCommandOptions options;
+    options.input = store;
+    options.report = Path(name + ".json");
+    options.streaming_poses = 0;
+    options.max_iterations = 0;
+    options.sample_observations = sample;
+    options.memory_limit = limit;
+    options.quiet = true;
+    // No iteration: "not converged" (exit 4), the report written.
+    EXPECT_EQ(RunSolveCommand(options), kExitNotConverged);
+    return ReadJson(options.report)["sampled_incremental_initialization"];
+  };
+  const nlohmann::json rule = start("rule", 0, "");
+  // The rule: max(10^6, 24 x 2 000 poses), more than this store holds.
+  EXPECT_EQ(rule["budget_observations"].get<int64_t>(), 1000000);
+  EXPECT_EQ(rule["rate"].get<double>(), 1.0);
+  const int64_t observations = rule["sampled_observations"].get<int64_t>();
+  ASSERT_GT(observations, 300000);
+
+  const nlohmann::json option = start("option", 100000, "");
+  EXPECT_EQ(option["budget_observations"].get<int64_t>(), 100000);
+  EXPECT_FALSE(option["capped_by_memory_limit"].get<bool>());
+  EXPECT_NEAR(option["rate"].get<double>(), 100000.0 / static_cast<double>(observations), 1e-12);
+  EXPECT_GT(option["sampled_observations"].get<int64_t>(), 80000);
+  EXPECT_LT(option["sampled_observations"].get<int64_t>(), 120000);
+
+  const int64_t limit = int64_t{96} << 20;
+  const nlohmann::json capped = start("capped", 0, "96M");
+  EXPECT_TRUE(capped["capped_by_memory_limit"].get<bool>());
+  const int64_t budget = capped["budget_observations"].get<int64_t>();
+  EXPECT_GT(budget, 0);
+  EXPECT_LT(budget * 300, limit);
+  EXPECT_LT(budget, observations);
+  EXPECT_LT(capped["sampled_observations"].get<int64_t>(), 1.2 * static_cast<double>(budget));
+}
+
 }  // namespace
 }  // namespace graphslam::tools

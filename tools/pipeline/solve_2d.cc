@@ -393,10 +393,16 @@ Status StartFromPoseGraph(const Solve2d& s, core::Problem2d* problem) {
 Status StartFromSampledFeatures(const SolveRun& run, Solve2d& s) {
   partition::SampledInitializationOptions sampled;
   sampled.incremental.max_observations_per_chunk = run.options.chunk_observations;
+  sampled.budget_observations = run.options.sample_observations;
   sampled.max_observations = s.sample_observations;
   partition::SampledInitializationSummary summary;
   GS_RETURN_IF_ERROR(partition::InitializeFromSampledFeatures(
       sampled, InitializerOptions(s.solver), *s.chunks, s.num_observations, &s.problem, &summary));
+  if (summary.capped)
+    GS_LOG(WARNING, "sampled incremental initialization: sample budget capped at %lld "
+           "observations by --memory-limit (what one chunk in flight leaves at %lld B each)",
+           static_cast<long long>(summary.budget_observations),
+           static_cast<long long>(kBytesPerObservationInMemory));
   GS_LOG(INFO, "sampled incremental initialization: %lld of %lld observations (rate %.4g, %lld "
          "features), %zu stages (%lld redone), sample solve %d iterations chi2 %.6g -> %.6g, "
          "%.1f s", static_cast<long long>(summary.sampled_observations),
@@ -404,7 +410,9 @@ Status StartFromSampledFeatures(const SolveRun& run, Solve2d& s) {
          static_cast<long long>(summary.sampled_features), summary.incremental.stages.size(),
          static_cast<long long>(summary.incremental.redone_stages), summary.sub_solve_iterations,
          summary.sub_solve_initial_chi2, summary.sub_solve_final_chi2, summary.seconds);
-  s.sampled_report = {{"rate", summary.rate},
+  s.sampled_report = {{"budget_observations", summary.budget_observations},
+                      {"capped_by_memory_limit", summary.capped},
+                      {"rate", summary.rate},
                       {"sampled_features", summary.sampled_features},
                       {"sampled_observations", summary.sampled_observations},
                       {"stages", static_cast<int64_t>(summary.incremental.stages.size())},

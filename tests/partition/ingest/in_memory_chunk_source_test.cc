@@ -4,6 +4,7 @@
 
 #include <map>
 #include <set>
+#include <vector>
 
 #include "tests/testing/random_problem.h"
 
@@ -68,6 +69,42 @@ TEST(InMemoryChunkSource, ChunksFollowFirstSightForLocality) {
     for (const core::Observation& o : chunk.observations) first = std::min(first, o.pose);
     EXPECT_GE(first, previous);
     previous = first;
+  }
+}
+
+// Excluded features are left out exactly as if their observations had been
+// filtered out first (the same chunks, observation for observation).
+TEST(InMemoryChunkSource, ExcludedFeaturesMatchAFilteredCopy) {
+  testing::RandomProblemOptions options;
+  options.num_poses = 80;
+  options.num_features = 40;
+  const core::Problem2d problem = testing::MakeRandomProblem(options).problem;
+  std::vector<uint8_t> excluded(problem.features.size(), 0);
+  for (size_t f = 0; f < excluded.size(); f += 3) excluded[f] = 1;
+  std::vector<core::Observation> filtered;
+  for (const core::Observation& o : problem.observations)
+    if (!excluded[o.feature]) filtered.push_back(o);
+  ASSERT_LT(filtered.size(), problem.observations.size());
+  ChunkingOptions chunking;
+  chunking.max_observations_per_chunk = 30;
+  const InMemoryChunkSource direct(problem.observations, problem.num_features(), chunking,
+                                   excluded);
+  const InMemoryChunkSource copied(filtered, problem.num_features(), chunking);
+  ASSERT_EQ(direct.NumChunks(), copied.NumChunks());
+  EXPECT_EQ(direct.observations_per_feature(), copied.observations_per_feature());
+  for (int64_t c = 0; c < direct.NumChunks(); ++c) {
+    core::ObservationChunk a, b;
+    ASSERT_TRUE(direct.Load(c, &a).ok());
+    ASSERT_TRUE(copied.Load(c, &b).ok());
+    EXPECT_EQ(a.features, b.features);
+    EXPECT_EQ(a.feature_begin, b.feature_begin);
+    ASSERT_EQ(a.observations.size(), b.observations.size());
+    for (size_t i = 0; i < a.observations.size(); ++i) {
+      EXPECT_EQ(a.observations[i].feature, b.observations[i].feature);
+      EXPECT_EQ(a.observations[i].pose, b.observations[i].pose);
+      EXPECT_EQ(a.observations[i].z, b.observations[i].z);
+    }
+    for (int32_t f : a.features) EXPECT_EQ(excluded[f], 0);
   }
 }
 

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <utility>
 
 #include "core/graphslam_solver.h"
 #include "storage/chunk_store.h"
@@ -18,6 +19,32 @@ namespace graphslam::partition {
 namespace {
 
 namespace fs = std::filesystem;
+
+// A simulated dense campus store (2 runs) in a fresh temporary folder,
+// opened; the folder goes with it.
+struct CampusStore {
+  fs::path root;
+  std::unique_ptr<storage::DiskChunkSource> chunks;
+  core::Problem2d problem;
+  ~CampusStore() { fs::remove_all(root); }
+};
+
+void OpenCampusStore(const std::string& tag, int64_t poses, int64_t features, CampusStore* out) {
+  out->root = fs::temp_directory_path() /
+              ("graphslam_sampled_" + tag + "_" + std::to_string(getpid()));
+  fs::remove_all(out->root);
+  fs::create_directories(out->root);
+  const std::string store =
+      testing::SimulateDenseCampusStore(out->root.string(), "", poses, 2, features);
+  ASSERT_FALSE(store.empty());
+  StatusOr<std::unique_ptr<storage::DiskChunkSource>> chunks =
+      storage::DiskChunkSource::Open(store);
+  ASSERT_TRUE(chunks.ok()) << chunks.status().ToString();
+  out->chunks = std::move(*chunks);
+  StatusOr<core::Problem2d> problem = storage::ReadChunkStoreProblem(store);
+  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+  out->problem = std::move(*problem);
+}
 
 TEST(SampledIncrementalInitialization, FeatureKeysAreUniform) {
   int below_quarter = 0;
@@ -39,20 +66,11 @@ TEST(SampledIncrementalInitialization, FeatureKeysAreUniform) {
 // sqrt(2 / dof) = 0.002 of it). From the pose-graph start the same solve
 // is still at chi2/dof 3.0 after 100 iterations.
 TEST(SampledIncrementalInitialization, SampledStartThenSolveReachesTheOptimum) {
-  const fs::path root = fs::temp_directory_path() /
-                        ("graphslam_sampled_init_" + std::to_string(getpid()));
-  fs::remove_all(root);
-  fs::create_directories(root);
-  const std::string store =
-      testing::SimulateDenseCampusStore(root.string(), "", 1000, 2, 1000000);
-  ASSERT_FALSE(store.empty());
-
-  StatusOr<std::unique_ptr<storage::DiskChunkSource>> chunks =
-      storage::DiskChunkSource::Open(store);
-  ASSERT_TRUE(chunks.ok()) << chunks.status().ToString();
-  StatusOr<core::Problem2d> problem = storage::ReadChunkStoreProblem(store);
-  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
-  const int64_t observations = (*chunks)->total_observations();
+  CampusStore campus;
+  ASSERT_NO_FATAL_FAILURE(OpenCampusStore("init", 1000, 1000000, &campus));
+  const std::unique_ptr<storage::DiskChunkSource>& chunks = campus.chunks;
+  core::Problem2d* problem = &campus.problem;
+  const int64_t observations = chunks->total_observations();
   ASSERT_GT(observations, 300000);
 
   SampledInitializationOptions options;
@@ -60,7 +78,7 @@ TEST(SampledIncrementalInitialization, SampledStartThenSolveReachesTheOptimum) {
   options.observations_per_pose = 40;
   SampledInitializationSummary summary;
   const core::SolverOptions solver;
-  ASSERT_TRUE(InitializeFromSampledFeatures(options, solver, **chunks, observations, &*problem,
+  ASSERT_TRUE(InitializeFromSampledFeatures(options, solver, *chunks, observations, problem,
                                             &summary)
                   .ok());
   const double budget = 40.0 * problem->num_poses();
@@ -69,10 +87,12 @@ TEST(SampledIncrementalInitialization, SampledStartThenSolveReachesTheOptimum) {
   // The sample holds about the budget (a feature's observations come whole).
   EXPECT_GT(summary.sampled_observations, 0.8 * budget);
   EXPECT_LT(summary.sampled_observations, 1.2 * budget);
-  EXPECT_EQ(summary.placed_features, (*chunks)->total_features());
+  EXPECT_EQ(summary.placed_features, chunks->total_features());
+  EXPECT_EQ(summary.budget_observations, 40 * problem->num_poses());
+  EXPECT_FALSE(summary.capped);
 
   core::SolverSummary solved;
-  ASSERT_TRUE(core::SolveGraphSlam(solver, **chunks, &*problem, &solved).ok());
+  ASSERT_TRUE(core::SolveGraphSlam(solver, *chunks, problem, &solved).ok());
   EXPECT_TRUE(solved.converged) << solved.termination;
   // Residual dimension minus unknowns: 2 per observation and GPS fix, 3 per
   // odometry edge; 3 per pose but the fixed ones, 2 per observed feature.
@@ -85,7 +105,35 @@ TEST(SampledIncrementalInitialization, SampledStartThenSolveReachesTheOptimum) {
     if (!problem->pose_fixed[p]) dof -= 3.0;
   ASSERT_GT(dof, 100000.0);
   EXPECT_NEAR(solved.final_chi2 / dof, 1.0, 0.01);
-  fs::remove_all(root);
+}
+
+// B given outright, and a cap below it (a memory limit's share): the cap
+// wins and bounds what the sample holds.
+TEST(SampledIncrementalInitialization, BudgetGivenOrCapped) {
+  CampusStore campus;
+  ASSERT_NO_FATAL_FAILURE(OpenCampusStore("budget", 300, 100000, &campus));
+  const int64_t observations = campus.chunks->total_observations();
+  ASSERT_GT(observations, 50000);
+
+  for (const int64_t cap : {int64_t{-1}, int64_t{8000}}) {
+    SCOPED_TRACE("cap " + std::to_string(cap));
+    core::Problem2d copy = campus.problem;
+    SampledInitializationOptions options;
+    options.budget_observations = 20000;
+    options.max_observations = cap;
+    options.sub_solve_iterations = 2;
+    SampledInitializationSummary summary;
+    ASSERT_TRUE(InitializeFromSampledFeatures(options, core::SolverOptions(), *campus.chunks,
+                                              observations, &copy, &summary)
+                    .ok());
+    const int64_t budget = cap < 0 ? 20000 : cap;
+    EXPECT_EQ(summary.budget_observations, budget);
+    EXPECT_EQ(summary.capped, cap >= 0);
+    EXPECT_NEAR(summary.rate, static_cast<double>(budget) / static_cast<double>(observations),
+                1e-12);
+    EXPECT_GT(summary.sampled_observations, 0.7 * static_cast<double>(budget));
+    EXPECT_LT(summary.sampled_observations, 1.3 * static_cast<double>(budget));
+  }
 }
 
 }  // namespace

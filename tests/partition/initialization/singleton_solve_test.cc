@@ -70,6 +70,19 @@ TEST(SingletonSolve, ReachesTheOptimumOfTheFullSolveAndPlacesSingletonsExactly) 
                                              o.z, &e, nullptr, nullptr));
       EXPECT_LT(e.norm(), 1e-12);
     }
+
+    // Releasing the observations once chunked changes nothing but them.
+    core::Problem2d released = random.problem;
+    MakeSingletons(3, &released);
+    ASSERT_TRUE(core::InitializeProblem(&released).ok());
+    core::SolverSummary released_summary;
+    ASSERT_TRUE(SolveWithoutSingletons(TightOptions(), ChunkingOptions(), &released,
+                                       &released_summary, nullptr, true)
+                    .ok());
+    EXPECT_TRUE(released.observations.empty());
+    EXPECT_EQ(released_summary.final_chi2, summary.final_chi2);
+    EXPECT_EQ(released.poses, problem.poses);
+    EXPECT_EQ(released.features, problem.features);
   }
 }
 
