@@ -19,6 +19,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
 
+#include "core/chunk_feature_runs.h"
 #include "partition/ingest/spill_frames.h"
 #include "storage/env.h"
 #include "storage/internal/text_blocks.h"
@@ -690,15 +691,11 @@ Status BucketChunkSource::Load(int64_t index, core::ObservationChunk* chunk) con
   GS_CHECK(feature_chunk_[bucket_[begin].feature] == index);
   chunk->Clear();
   chunk->index = index;
-  chunk->features = chunk_features_[index];
   chunk->observations.assign(bucket_.begin() + static_cast<std::ptrdiff_t>(begin),
                              bucket_.begin() + static_cast<std::ptrdiff_t>(begin + n));
-  chunk->feature_begin.reserve(chunk->features.size() + 1);
-  for (size_t i = 0; i < chunk->observations.size(); ++i)
-    if (i == 0 || chunk->observations[i].feature != chunk->observations[i - 1].feature)
-      chunk->feature_begin.push_back(static_cast<int64_t>(i));
-  chunk->feature_begin.push_back(static_cast<int64_t>(chunk->observations.size()));
-  GS_CHECK(chunk->feature_begin.size() == chunk->features.size() + 1);
+  // LoadBucket ordered the chunk's observations by its feature slots.
+  core::IndexFeatureRuns(chunk);
+  GS_CHECK(chunk->features == chunk_features_[index]);
   stats_.peak_observations_in_memory = std::max(
       stats_.peak_observations_in_memory, static_cast<int64_t>(bucket_.size() + n));
   return Status::Ok();

@@ -12,7 +12,9 @@
 // observations keep their input order.
 //
 // THREAD SAFETY: Load() is const and may run concurrently.
-// ALLOCATION: O(observations) once at construction; Load() copies one chunk.
+// ALLOCATION: O(observations) once at construction (the observations held
+// once, in chunk order, plus 8 bytes each while they are reordered); Load()
+// copies one chunk.
 #pragma once
 
 #include <cstdint>
@@ -40,6 +42,12 @@ class BasicInMemoryChunkSource : public core::BasicChunkSource<ObservationT> {
   BasicInMemoryChunkSource(const std::vector<ObservationT>& observations, int32_t num_features,
                            const ChunkingOptions& options,
                            std::span<const uint8_t> excluded = {});
+  // The same chunks from `observations` taken over and reordered in place:
+  // the caller's copy is not needed, and the observations are held once
+  // (a copy would double the largest part while the chunks are cut).
+  BasicInMemoryChunkSource(std::vector<ObservationT>&& observations, int32_t num_features,
+                           const ChunkingOptions& options,
+                           std::span<const uint8_t> excluded = {});
   // The observations of a Problem2d or Problem3d.
   template <class Problem>
   BasicInMemoryChunkSource(const Problem& problem, const ChunkingOptions& options)
@@ -52,6 +60,11 @@ class BasicInMemoryChunkSource : public core::BasicChunkSource<ObservationT> {
   const std::vector<int64_t>& observations_per_feature() const { return per_feature_; }
 
  private:
+  // Every kept observation in chunk order: chunk k's are
+  // observations_[chunk_begin_[k] .. chunk_begin_[k + 1]); chunks_ hold the
+  // features and their run starts, without observations.
+  std::vector<ObservationT> observations_;
+  std::vector<int64_t> chunk_begin_;
   std::vector<Chunk> chunks_;
   std::vector<int64_t> per_feature_;
 };

@@ -24,11 +24,11 @@ bool PlacesAPoint(ObservationKind kind) {
 
 // Observation chi2 of the used observations at `pose`; infinite when a model
 // is degenerate there (a feature on the pose).
-double Chi2(const core::Problem2d& problem, const std::vector<int32_t>& used,
+double Chi2(std::span<const core::Observation> observations, const std::vector<int32_t>& used,
             const std::vector<Point2>& features, const Pose2& pose) {
   double chi2 = 0.0;
   for (int32_t k : used) {
-    const core::Observation& o = problem.observations[k];
+    const core::Observation& o = observations[k];
     Eigen::Vector2d e;
     if (!core::EvaluateObservation(o.kind, pose, features[o.feature], o.z, &e, nullptr, nullptr))
       return HUGE_VAL;
@@ -39,13 +39,13 @@ double Chi2(const core::Problem2d& problem, const std::vector<int32_t>& used,
 
 // The pose's information H = sum_i J_i^T W_i J_i from the used observations
 // at `pose`; false when a model is degenerate there.
-bool Information(const core::Problem2d& problem, const std::vector<int32_t>& used,
+bool Information(std::span<const core::Observation> observations, const std::vector<int32_t>& used,
                  const std::vector<Point2>& features, const Pose2& pose, Eigen::Matrix3d* h,
                  Eigen::Vector3d* b) {
   h->setZero();
   b->setZero();
   for (int32_t k : used) {
-    const core::Observation& o = problem.observations[k];
+    const core::Observation& o = observations[k];
     Eigen::Vector2d e;
     Eigen::Matrix<double, 2, 3> j;
     if (!core::EvaluateObservation(o.kind, pose, features[o.feature], o.z, &e, &j, nullptr))
@@ -93,8 +93,7 @@ Pose2 AlignPoints2d(const std::vector<Point2>& local, const std::vector<Point2>&
 }
 
 FeatureLocalization LocalizeFromFeatures(const FeatureLocalizationOptions& options,
-                                         const core::Problem2d& problem,
-                                         std::span<const int32_t> observations,
+                                         std::span<const core::Observation> observations,
                                          const std::vector<Point2>& features,
                                          const std::vector<uint8_t>& placed, const Pose2& guess,
                                          Pose2* pose) {
@@ -103,8 +102,8 @@ FeatureLocalization LocalizeFromFeatures(const FeatureLocalizationOptions& optio
   std::vector<int32_t> used;
   std::vector<Point2> local, global;
   const Pose2 origin = Pose2::Zero();
-  for (int32_t k : observations) {
-    const core::Observation& o = problem.observations[k];
+  for (int32_t k = 0; k < static_cast<int32_t>(observations.size()); ++k) {
+    const core::Observation& o = observations[k];
     if (placed[o.feature] < options.placed_at_least || placed[o.feature] == 0 ||
         !PlacesAPoint(o.kind))
       continue;
@@ -114,30 +113,30 @@ FeatureLocalization LocalizeFromFeatures(const FeatureLocalizationOptions& optio
   }
   // Distinct features: a feature observed twice from one pose counts once.
   std::vector<int32_t> distinct;
-  for (int32_t k : used) distinct.push_back(problem.observations[k].feature);
+  for (int32_t k : used) distinct.push_back(observations[k].feature);
   std::sort(distinct.begin(), distinct.end());
   result.features =
       static_cast<int>(std::unique(distinct.begin(), distinct.end()) - distinct.begin());
   if (result.features < options.min_features) return result;
   result.localized = true;
 
-  result.guess_chi2 = Chi2(problem, used, features, guess);
+  result.guess_chi2 = Chi2(observations, used, features, guess);
   const Pose2 aligned = AlignPoints2d(local, global);
-  const double aligned_chi2 = Chi2(problem, used, features, aligned);
+  const double aligned_chi2 = Chi2(observations, used, features, aligned);
   result.closed_form_chosen = aligned_chi2 < result.guess_chi2;
   Pose2 x = result.closed_form_chosen ? aligned : guess;
   double chi2 = std::min(aligned_chi2, result.guess_chi2);
   for (int iteration = 0; iteration < options.max_iterations && std::isfinite(chi2); ++iteration) {
     Eigen::Matrix3d h;
     Eigen::Vector3d b;
-    if (!Information(problem, used, features, x, &h, &b)) break;
+    if (!Information(observations, used, features, x, &h, &b)) break;
     const Eigen::LDLT<Eigen::Matrix3d> ldlt(h);
     if (ldlt.info() != Eigen::Success) break;
     const Eigen::Vector3d step = ldlt.solve(-b);
     if (!step.allFinite()) break;
     Pose2 next = x + step;
     next.z() = core::WrapAngle(next.z());
-    const double next_chi2 = Chi2(problem, used, features, next);
+    const double next_chi2 = Chi2(observations, used, features, next);
     if (!(next_chi2 < chi2)) break;
     const bool small = chi2 - next_chi2 < 1e-9 * chi2;
     x = next;
@@ -148,7 +147,7 @@ FeatureLocalization LocalizeFromFeatures(const FeatureLocalizationOptions& optio
   Eigen::Matrix3d h;
   Eigen::Vector3d b;
   std::tie(result.heading_sigma, result.position_sigma) =
-      Information(problem, used, features, x, &h, &b) ? MarginalSigmas(h)
+      Information(observations, used, features, x, &h, &b) ? MarginalSigmas(h)
                                                       : std::pair(HUGE_VAL, HUGE_VAL);
   if (!(chi2 <= options.max_chi2_per_observation * static_cast<double>(used.size())) ||
       !(result.heading_sigma <= options.max_heading_sigma) ||

@@ -86,13 +86,11 @@ struct FeatureLocalization {
 core::Pose2 AlignPoints2d(const std::vector<core::Point2>& local,
                           const std::vector<core::Point2>& global);
 
-// Localizes a pose from `observations` (indices into problem.observations,
-// all of the pose) of the features with placed[f] >= options.placed_at_least
-// at features[f],
-// starting from `guess`, as described above.
+// Localizes a pose from `observations` (all of the pose's; their poses are
+// not read) of the features with placed[f] >= options.placed_at_least at
+// features[f], starting from `guess`, as described above.
 FeatureLocalization LocalizeFromFeatures(const FeatureLocalizationOptions& options,
-                                         const core::Problem2d& problem,
-                                         std::span<const int32_t> observations,
+                                         std::span<const core::Observation> observations,
                                          const std::vector<core::Point2>& features,
                                          const std::vector<uint8_t>& placed,
                                          const core::Pose2& guess, core::Pose2* pose);

@@ -54,6 +54,21 @@ struct PoseLink {
   int32_t other;
 };
 
+// The pose and feature of observation k of a list: core::Observation's or
+// the sampled start's compact ones (which would expand the whole record).
+int32_t PoseOf(const std::vector<core::Observation>& observations, int64_t k) {
+  return observations[k].pose;
+}
+int32_t PoseOf(const CompactObservations& observations, int64_t k) {
+  return observations.pose(k);
+}
+int32_t FeatureOf(const std::vector<core::Observation>& observations, int64_t k) {
+  return observations[k].feature;
+}
+int32_t FeatureOf(const CompactObservations& observations, int64_t k) {
+  return observations.feature(k);
+}
+
 // The per-pose and per-feature indices every stage reads, built once.
 struct Indices {
   std::vector<std::vector<PoseLink>> links;  // per pose
@@ -62,7 +77,8 @@ struct Indices {
   Rows observations_of_feature;  // increasing pose, then input order
 };
 
-Indices BuildIndices(const core::Problem2d& problem) {
+template <class Observations>
+Indices BuildIndices(const core::Problem2d& problem, const Observations& observations) {
   Indices index;
   const int32_t n = problem.num_poses();
   index.links.resize(n);
@@ -86,14 +102,14 @@ Indices BuildIndices(const core::Problem2d& problem) {
       emit(problem.gps[k].pose, static_cast<int32_t>(k));
   });
   index.observations_of_pose = BuildRows(n, [&](auto emit) {
-    for (size_t k = 0; k < problem.observations.size(); ++k)
-      emit(problem.observations[k].pose, static_cast<int32_t>(k));
+    for (size_t k = 0; k < observations.size(); ++k)
+      emit(PoseOf(observations, k), static_cast<int32_t>(k));
   });
   const Rows& by_pose = index.observations_of_pose;
   index.observations_of_feature = BuildRows(problem.num_features(), [&](auto emit) {
     for (int32_t p = 0; p < n; ++p)
       for (int64_t i = by_pose.begin(p); i < by_pose.end(p); ++i)
-        emit(problem.observations[by_pose.items[i]].feature, by_pose.items[i]);
+        emit(FeatureOf(observations, by_pose.items[i]), by_pose.items[i]);
   });
   return index;
 }
@@ -105,17 +121,22 @@ Indices BuildIndices(const core::Problem2d& problem) {
 constexpr double kFarStartChi2Ratio = 10.0;
 
 // One stage's sub-problem W_k (header) and where its unknowns came from.
+// `Observations` are those of the problem (its own, or a compact list when
+// the problem holds none).
+template <class Observations>
 class StageBuilder {
  public:
-  StageBuilder(const core::Problem2d& problem, const Indices& index)
+  StageBuilder(const core::Problem2d& problem, const Observations& observations,
+               const Indices& index)
       : problem_(problem),
+        observations_(observations),
         index_(index),
         local_pose_(problem.poses.size(), -1),
         local_feature_(problem.features.size(), -1),
         used_relative_(problem.relative_poses.size(), -1),
         used_motion_(problem.motions.size(), -1),
         used_sighting_(problem.pose_range_bearings.size(), -1),
-        used_observation_(problem.observations.size(), -1) {}
+        used_observation_(observations.size(), -1) {}
 
   // Builds W_k for the unknown poses `unknown` (ascending, all < t) from the
   // current estimates; `window_begin` is the first pose of the window.
@@ -179,7 +200,7 @@ class StageBuilder {
       const auto first = rows.items.begin() + rows.begin(f);
       const auto last = std::partition_point(
           first, rows.items.begin() + rows.end(f),
-          [&](int32_t k) { return problem_.observations[k].pose < window_begin; });
+          [&](int32_t k) { return PoseOf(observations_, k) < window_begin; });
       const int64_t below = last - first;
       const int64_t take = std::min(below, max_prior);
       for (int64_t i = 0; i < take; ++i) {
@@ -216,7 +237,7 @@ class StageBuilder {
                       const std::vector<Point2>& features, core::Problem2d* sub) {
     if (used_observation_[k] == stage) return;
     used_observation_[k] = stage;
-    core::Observation o = problem_.observations[k];
+    core::Observation o = observations_[k];
     if (local_pose_[o.pose] < 0) AddPose(o.pose, poses, true, sub);
     if (local_feature_[o.feature] < 0) {
       local_feature_[o.feature] =
@@ -229,6 +250,7 @@ class StageBuilder {
   }
 
   const core::Problem2d& problem_;
+  const Observations& observations_;
   const Indices& index_;
   std::vector<int32_t> local_pose_, local_feature_;
   // Per constraint: the last stage that took it (each is taken once per stage).
@@ -315,17 +337,21 @@ constexpr uint8_t kFeatureSolved = 2;
 // placed features it sees (partition/initialization/feature_localization.h;
 // it keeps its chained guess when it sees too few), those solved by earlier
 // stages first.
-void PlaceNewFeatures(const core::Problem2d& problem, const Indices& index, int32_t begin,
-                      int32_t end, std::vector<Pose2>* poses,
+template <class Observations>
+void PlaceNewFeatures(const core::Problem2d& problem, const Observations& observations,
+                      const Indices& index, int32_t begin, int32_t end, std::vector<Pose2>* poses,
                       std::vector<uint8_t>* feature_placed, std::vector<Point2>* features,
                       std::vector<int32_t>* new_features) {
   new_features->clear();
-  const std::span<const int32_t> items(index.observations_of_pose.items);
+  std::vector<core::Observation> own;  // of pose p
   Pose2 chained_before = Pose2::Zero();  // pose p - 1 as chained, before localization
   for (int32_t p = begin; p < end; ++p) {
     const Pose2 chained = (*poses)[p];
+    own.clear();
+    for (int64_t i = index.observations_of_pose.begin(p); i < index.observations_of_pose.end(p);
+         ++i)
+      own.push_back(observations[index.observations_of_pose.items[i]]);
     if (problem.pose_fixed[p] == 0) {
-      const int64_t first = index.observations_of_pose.begin(p);
       // The chained step from p - 1 taken from where p - 1 ended up: a pose
       // that sees too few placed features follows its localized predecessor.
       const Pose2 guess =
@@ -335,20 +361,15 @@ void PlaceNewFeatures(const core::Problem2d& problem, const Indices& index, int3
       // Features an earlier stage solved first: the ones placed from this
       // stage's new poses carry their chained error (a pose re-entering a
       // street seen before, after a stretch chained by weak odometry).
-      const std::span<const int32_t> own =
-          items.subspan(first, index.observations_of_pose.end(p) - first);
       FeatureLocalizationOptions solved;
       solved.placed_at_least = kFeatureSolved;
-      if (!LocalizeFromFeatures(solved, problem, own, *features, *feature_placed, guess,
-                                &(*poses)[p])
+      if (!LocalizeFromFeatures(solved, own, *features, *feature_placed, guess, &(*poses)[p])
                .localized)
-        LocalizeFromFeatures(FeatureLocalizationOptions(), problem, own, *features,
-                             *feature_placed, guess, &(*poses)[p]);
+        LocalizeFromFeatures(FeatureLocalizationOptions(), own, *features, *feature_placed, guess,
+                             &(*poses)[p]);
     }
     chained_before = chained;
-    for (int64_t i = index.observations_of_pose.begin(p); i < index.observations_of_pose.end(p);
-         ++i) {
-      const core::Observation& o = problem.observations[index.observations_of_pose.items[i]];
+    for (const core::Observation& o : own) {
       if ((*feature_placed)[o.feature]) continue;
       (*feature_placed)[o.feature] = kFeaturePlaced;
       new_features->push_back(o.feature);
@@ -378,15 +399,18 @@ struct StageSolve {
 
 // The stages of InitializeIncrementally over a working copy of the estimate:
 // *problem changes only in Finish, when every stage succeeded.
+template <class Observations>
 class IncrementalStages {
  public:
   IncrementalStages(const IncrementalInitializationOptions& options,
-                    const core::SolverOptions& base, const core::Problem2d& problem)
+                    const core::SolverOptions& base, const core::Problem2d& problem,
+                    const Observations& observations)
       : options_(options),
         problem_(problem),
-        index_(BuildIndices(problem)),
+        observations_(observations),
+        index_(BuildIndices(problem, observations)),
         adjacency_(internal::OdometryAdjacency(problem)),
-        builder_(problem, index_),
+        builder_(problem, observations, index_),
         stage_options_(internal::StageSolverOptions(base, options.max_iterations_per_stage)),
         poses_(problem.poses),
         features_(problem.features),
@@ -408,8 +432,8 @@ class IncrementalStages {
       internal::PlacePoses(problem_, adjacency_, previous, t, &poses_, &placed_);
     }
     AlignNewPosesToGps(problem_, index_, previous, t, &poses_);
-    PlaceNewFeatures(problem_, index_, previous, t, &poses_, &feature_placed_, &features_,
-                     &new_features_);
+    PlaceNewFeatures(problem_, observations_, index_, previous, t, &poses_, &feature_placed_,
+                     &features_, &new_features_);
   }
 
   // Builds and solves the stage W_k of the poses [0, t) whose new ones start
@@ -491,9 +515,10 @@ class IncrementalStages {
  private:
   const IncrementalInitializationOptions& options_;
   const core::Problem2d& problem_;
+  const Observations& observations_;
   const Indices index_;
   const std::vector<std::vector<internal::PoseEdge>> adjacency_;
-  StageBuilder builder_;
+  StageBuilder<Observations> builder_;
   const core::SolverOptions stage_options_;
   ChunkingOptions chunking_;
   std::vector<Pose2> poses_;
@@ -550,20 +575,18 @@ Status IncrementalInitializationOptions::Validate() const {
   return Status::Ok();
 }
 
-Status InitializeIncrementally(const IncrementalInitializationOptions& options,
-                               const core::SolverOptions& base, core::Problem2d* problem,
-                               IncrementalSummary* summary) {
-  GS_ASSIGN_OR_RETURN(const bool has_stages,
-                      BeginPrefixStages(options, base, *problem, summary,
-                                        [](const core::Problem2d& p) -> Status {
-                                          GS_RETURN_IF_ERROR(internal::CheckPerElementArrays(p));
-                                          return core::ValidateProblem(p);  // indices in range
-                                        }));
-  if (!has_stages) return Status::Ok();
+namespace {
+
+// InitializeIncrementally (header) with the problem's observations in
+// `observations`, checked by the caller.
+template <class Observations>
+Status RunStages(const IncrementalInitializationOptions& options, const core::SolverOptions& base,
+                 const Observations& observations, core::Problem2d* problem,
+                 IncrementalSummary* summary) {
   const StageClock::time_point start = StageClock::now();
   const int32_t n = problem->num_poses();
 
-  IncrementalStages stages(options, base, *problem);
+  IncrementalStages<Observations> stages(options, base, *problem, observations);
   int64_t allowed = options.max_new_poses;
   // The next prefix length solved whole (header: full stages).
   double next_full = options.full_stage_growth > 0.0
@@ -621,6 +644,54 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
   stages.Finish(problem);
   summary->seconds = StageSecondsSince(start);
   return Status::Ok();
+}
+
+}  // namespace
+
+Status InitializeIncrementally(const IncrementalInitializationOptions& options,
+                               const core::SolverOptions& base, core::Problem2d* problem,
+                               IncrementalSummary* summary) {
+  GS_ASSIGN_OR_RETURN(const bool has_stages,
+                      BeginPrefixStages(options, base, *problem, summary,
+                                        [](const core::Problem2d& p) -> Status {
+                                          GS_RETURN_IF_ERROR(internal::CheckPerElementArrays(p));
+                                          return core::ValidateProblem(p);  // indices in range
+                                        }));
+  if (!has_stages) return Status::Ok();
+  return RunStages(options, base, problem->observations, problem, summary);
+}
+
+Status InitializeIncrementally(const IncrementalInitializationOptions& options,
+                               const core::SolverOptions& base,
+                               const CompactObservations& observations, core::Problem2d* problem,
+                               IncrementalSummary* summary) {
+  GS_ASSIGN_OR_RETURN(
+      const bool has_stages,
+      BeginPrefixStages(options, base, *problem, summary,
+                        [&](const core::Problem2d& p) -> Status {
+                          GS_RETURN_IF_ERROR(internal::CheckPerElementArrays(p));
+                          if (!p.observations.empty())
+                            return Status::InvalidArgument(
+                                "incremental initialization: expected the observations in the "
+                                "compact list only, got " +
+                                std::to_string(p.observations.size()) + " in the problem too");
+                          GS_RETURN_IF_ERROR(core::ValidateProblem(p));
+                          for (size_t k = 0; k < observations.size(); ++k)
+                            if (observations.pose(k) < 0 || observations.pose(k) >= p.num_poses() ||
+                                observations.feature(k) < 0 ||
+                                observations.feature(k) >= p.num_features())
+                              return Status::InvalidArgument(
+                                  "incremental initialization: compact observation " +
+                                  std::to_string(k) + " of feature " +
+                                  std::to_string(observations.feature(k)) + " from pose " +
+                                  std::to_string(observations.pose(k)) +
+                                  ", expected a feature below " +
+                                  std::to_string(p.num_features()) + " and a pose below " +
+                                  std::to_string(p.num_poses()));
+                          return Status::Ok();
+                        }));
+  if (!has_stages) return Status::Ok();
+  return RunStages(options, base, observations, problem, summary);
 }
 
 }  // namespace graphslam::partition

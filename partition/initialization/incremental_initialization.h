@@ -99,6 +99,7 @@
 #include "core/graphslam_solver.h"
 #include "core/problem.h"
 #include "core/status.h"
+#include "partition/initialization/compact_observations.h"
 #include "partition/initialization/prefix_stages.h"
 
 namespace graphslam::partition {
@@ -163,6 +164,15 @@ struct IncrementalSummary {
 // the stages done so far.
 Status InitializeIncrementally(const IncrementalInitializationOptions& options,
                                const core::SolverOptions& base, core::Problem2d* problem,
+                               IncrementalSummary* summary);
+
+// The same with the problem's observations held in `observations` (indices
+// into *problem's poses and features) and none in problem->observations:
+// the sampled start's sample (compact_observations.h), the stages the same
+// as from the core::Observation list it compacts.
+Status InitializeIncrementally(const IncrementalInitializationOptions& options,
+                               const core::SolverOptions& base,
+                               const CompactObservations& observations, core::Problem2d* problem,
                                IncrementalSummary* summary);
 
 }  // namespace graphslam::partition

@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/chunk_feature_runs.h"
 #include "core/internal/ordered_chunk_pipeline.h"
 #include "partition/initialization/internal/stage_setup.h"
 #include "partition/initialization/pose_graph_initialization.h"
@@ -60,13 +61,13 @@ class PoseConstraintLoan {
 // A copy cut by InMemoryChunkSource would double the sample's largest part.
 class SampleChunkSource : public core::ChunkSource {
  public:
-  SampleChunkSource(const std::vector<core::Observation>& observations, int64_t per_chunk)
+  SampleChunkSource(const CompactObservations& observations, int64_t per_chunk)
       : observations_(observations) {
     const int64_t m = static_cast<int64_t>(observations.size());
     starts_.push_back(0);
     int64_t feature_start = 0;  // of the feature being added
     for (int64_t i = 1; i <= m; ++i) {
-      if (i < m && observations[i].feature == observations[i - 1].feature) continue;
+      if (i < m && observations.feature(i) == observations.feature(i - 1)) continue;
       // Its observations are [feature_start, i): it opens a new chunk when
       // the current one holds others and would exceed the budget with it.
       if (feature_start > starts_.back() && i - starts_.back() > per_chunk)
@@ -85,21 +86,15 @@ class SampleChunkSource : public core::ChunkSource {
                                      std::to_string(NumChunks() - 1));
     chunk->Clear();
     chunk->index = index;
-    chunk->observations.assign(observations_.begin() + starts_[index],
-                               observations_.begin() + starts_[index + 1]);
-    for (size_t i = 0; i < chunk->observations.size(); ++i) {
-      const int32_t f = chunk->observations[i].feature;
-      if (chunk->features.empty() || chunk->features.back() != f) {
-        chunk->features.push_back(f);
-        chunk->feature_begin.push_back(static_cast<int64_t>(i));
-      }
-    }
-    chunk->feature_begin.push_back(static_cast<int64_t>(chunk->observations.size()));
+    chunk->observations.reserve(static_cast<size_t>(starts_[index + 1] - starts_[index]));
+    for (int64_t k = starts_[index]; k < starts_[index + 1]; ++k)
+      chunk->observations.push_back(observations_[k]);
+    core::IndexFeatureRuns(chunk);
     return Status::Ok();
   }
 
  private:
-  const std::vector<core::Observation>& observations_;
+  const CompactObservations& observations_;
   std::vector<int64_t> starts_;  // chunk k: observations [starts_[k], starts_[k + 1])
 };
 
@@ -152,9 +147,10 @@ Status InitializeFromSampledFeatures(const SampledInitializationOptions& options
   core::Problem2d sub = PoseSubProblem(*problem);
   std::optional<PoseConstraintLoan> loan(std::in_place, problem, &sub);
   std::vector<int32_t> sampled;  // sub feature -> feature of *problem
+  // The sample, 32 bytes an observation (sub.observations stays empty).
   // Reserved, not grown by doubling: the sample is about B observations.
-  sub.observations.reserve(static_cast<size_t>(
-      std::min(total_observations, budget + budget / 8)));
+  CompactObservations sample;
+  sample.reserve(static_cast<size_t>(std::min(total_observations, budget + budget / 8)));
   const auto pick = [&](const core::ObservationChunk& chunk,
                         std::vector<core::Observation>* kept) -> Status {
     kept->clear();
@@ -186,23 +182,22 @@ Status InitializeFromSampledFeatures(const SampledInitializationOptions& options
                            problem->feature_initialized[o.feature] != 0);
           }
           o.feature = sub.num_features() - 1;
-          sub.observations.push_back(o);
+          sample.push_back(o);
         }
       }));
   GS_RETURN_IF_ERROR(merged);
   summary->sampled_features = sub.num_features();
-  summary->sampled_observations = static_cast<int64_t>(sub.observations.size());
+  summary->sampled_observations = static_cast<int64_t>(sample.size());
 
   // Step 3: incremental initialization of the sample, then its solve.
   // The stages report their progress (the start can take minutes), as in
   // memory; the sample's solve does not pose as the whole problem's.
-  GS_RETURN_IF_ERROR(InitializeIncrementally(options.incremental, solver, &sub,
+  GS_RETURN_IF_ERROR(InitializeIncrementally(options.incremental, solver, sample, &sub,
                                              &summary->incremental));
-  if (options.sub_solve_iterations > 0 && !sub.observations.empty()) {
+  if (options.sub_solve_iterations > 0 && !sample.empty()) {
     const core::SolverOptions sub_options =
         internal::StageSolverOptions(solver, options.sub_solve_iterations);
-    const SampleChunkSource sub_chunks(sub.observations,
-                                       options.incremental.max_observations_per_chunk);
+    const SampleChunkSource sub_chunks(sample, options.incremental.max_observations_per_chunk);
     core::SolverSummary solved;
     const Status status = core::SolveGraphSlam(sub_options, sub_chunks, &sub, &solved);
     // Unconverged, or stopped by a numerical failure at its last accepted
@@ -215,7 +210,7 @@ Status InitializeFromSampledFeatures(const SampledInitializationOptions& options
 
   // Step 4: the poses back, every feature from first sight, the sampled ones
   // where the sub-problem put them. The sample's observations are done with.
-  std::vector<core::Observation>().swap(sub.observations);
+  sample.Release();
   loan.reset();
   problem->poses = std::move(sub.poses);
   GS_RETURN_IF_ERROR(PlaceFeaturesFromFirstSight(solver.max_chunks_in_flight, chunks, problem,

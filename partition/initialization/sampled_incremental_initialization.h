@@ -34,8 +34,9 @@
 // odometry; the sample keeps that at a memory cost bounded by B.
 //
 // Memory: O(poses + B) for the sub-problem and its solves (B proportional to
-// the poses), one chunk per pass in flight, and a byte per feature for the
-// placement pass; never the whole problem's observations.
+// the poses; the sample held as 32-byte records, compact_observations.h), one
+// chunk per pass in flight, and a byte per feature for the placement pass;
+// never the whole problem's observations.
 // THREAD SAFETY: one call per problem (it runs TBB tasks itself); the result
 // does not depend on the thread count (chunks merged in order).
 #pragma once

@@ -1,5 +1,6 @@
 #include "partition/initialization/singleton_solve.h"
 
+#include <utility>
 #include <vector>
 
 #include "core/observation_models.h"
@@ -32,8 +33,13 @@ Status SolveWithoutSingletons(const core::SolverOptions& options, const Chunking
   }
   if (singletons != nullptr) *singletons = left_out_count;
   if (left_out_count == 0) {
-    InMemoryChunkSource chunks(*problem, chunking);
-    if (release_observations) std::vector<core::Observation>().swap(problem->observations);
+    if (!release_observations) {
+      const InMemoryChunkSource chunks(*problem, chunking);
+      return core::SolveGraphSlam(options, chunks, problem, summary);
+    }
+    const InMemoryChunkSource chunks(std::move(problem->observations), problem->num_features(),
+                                     chunking);
+    std::vector<core::Observation>().swap(problem->observations);
     return core::SolveGraphSlam(options, chunks, problem, summary);
   }
 
@@ -45,8 +51,11 @@ Status SolveWithoutSingletons(const core::SolverOptions& options, const Chunking
   // SolveGraphSlam reads observations only through the chunk source: the
   // singletons' features are then unobserved there, excluded and untouched.
   {
-    InMemoryChunkSource chunks(problem->observations, problem->num_features(), chunking,
-                               left_out);
+    const int32_t n = problem->num_features();
+    const InMemoryChunkSource chunks =
+        release_observations
+            ? InMemoryChunkSource(std::move(problem->observations), n, chunking, left_out)
+            : InMemoryChunkSource(problem->observations, n, chunking, left_out);
     if (release_observations) std::vector<core::Observation>().swap(problem->observations);
     GS_RETURN_IF_ERROR(core::SolveGraphSlam(options, chunks, problem, summary));
   }

@@ -44,8 +44,9 @@ namespace graphslam::partition {
 // is then 0, so summary->final_chi2 is the chi2 of the whole problem.
 // *singletons (optional) receives how many features were placed that way.
 // With release_observations (a caller that needs them no more, e.g. a
-// stage's sub-problem) problem->observations are freed once cut into chunks,
-// before the solve allocates its own: the chunks are then the only copy.
+// stage's sub-problem) problem->observations are taken over by the chunk
+// source, which reorders them in place into chunks: they are held once, not
+// once as the problem's and once as the chunks' while those are cut.
 Status SolveWithoutSingletons(const core::SolverOptions& options, const ChunkingOptions& chunking,
                               core::Problem2d* problem, core::SolverSummary* summary,
                               int64_t* singletons = nullptr, bool release_observations = false);

@@ -4,6 +4,7 @@
 
 #include <map>
 #include <set>
+#include <utility>
 #include <vector>
 
 #include "tests/testing/random_problem.h"
@@ -105,6 +106,60 @@ TEST(InMemoryChunkSource, ExcludedFeaturesMatchAFilteredCopy) {
       EXPECT_EQ(a.observations[i].z, b.observations[i].z);
     }
     for (int32_t f : a.features) EXPECT_EQ(excluded[f], 0);
+  }
+}
+
+// The observations taken over (reordered in place) give the chunks of the
+// copying constructor, and each feature's run in a chunk is its input
+// observations in input order (lines number them), with or without
+// excluded features.
+TEST(InMemoryChunkSource, TakenOverObservationsKeepInputOrderPerFeature) {
+  testing::RandomProblemOptions options;
+  options.num_poses = 90;
+  options.num_features = 50;
+  core::Problem2d problem = testing::MakeRandomProblem(options).problem;
+  for (size_t k = 0; k < problem.observations.size(); ++k)
+    problem.observations[k].line = static_cast<int32_t>(k) + 1;
+  std::vector<uint8_t> none, some(problem.features.size(), 0);
+  for (size_t f = 1; f < some.size(); f += 4) some[f] = 1;
+  for (const std::vector<uint8_t>& excluded : {none, some}) {
+    std::map<int32_t, std::vector<int32_t>> lines;  // feature -> input lines
+    for (const core::Observation& o : problem.observations)
+      if (excluded.empty() || !excluded[o.feature]) lines[o.feature].push_back(o.line);
+    ChunkingOptions chunking;
+    chunking.max_observations_per_chunk = 25;
+    const InMemoryChunkSource copied(problem.observations, problem.num_features(), chunking,
+                                     excluded);
+    std::vector<core::Observation> taken = problem.observations;
+    const InMemoryChunkSource moved(std::move(taken), problem.num_features(), chunking,
+                                    excluded);
+    ASSERT_EQ(moved.NumChunks(), copied.NumChunks());
+    EXPECT_EQ(moved.observations_per_feature(), copied.observations_per_feature());
+    size_t features = 0;
+    for (int64_t c = 0; c < moved.NumChunks(); ++c) {
+      core::ObservationChunk a, b;
+      ASSERT_TRUE(moved.Load(c, &a).ok());
+      ASSERT_TRUE(copied.Load(c, &b).ok());
+      EXPECT_EQ(a.index, c);
+      EXPECT_EQ(a.features, b.features);
+      EXPECT_EQ(a.feature_begin, b.feature_begin);
+      ASSERT_EQ(a.observations.size(), b.observations.size());
+      for (size_t k = 0; k < a.features.size(); ++k) {
+        std::vector<int32_t> run;
+        for (int64_t i = a.feature_begin[k]; i < a.feature_begin[k + 1]; ++i) {
+          EXPECT_EQ(a.observations[i].feature, a.features[k]);
+          EXPECT_EQ(a.observations[i].line, b.observations[i].line);
+          EXPECT_EQ(a.observations[i].z, b.observations[i].z);
+          const core::Observation& input = problem.observations[a.observations[i].line - 1];
+          EXPECT_EQ(a.observations[i].pose, input.pose);
+          EXPECT_EQ(a.observations[i].z, input.z);
+          run.push_back(a.observations[i].line);
+        }
+        EXPECT_EQ(run, lines[a.features[k]]) << "feature " << a.features[k];
+        ++features;
+      }
+    }
+    EXPECT_EQ(features, lines.size());
   }
 }
 

@@ -45,7 +45,6 @@ TEST(AlignPoints2d, RecoversARigidMotionExactly) {
 // positions, by range-bearing observations with the given noise.
 struct Scene {
   core::Problem2d problem;
-  std::vector<int32_t> observations;
   std::vector<uint8_t> placed;
 };
 
@@ -74,7 +73,6 @@ Scene MakeScene(const Pose2& truth, int n, uint32_t seed,
                         .asDiagonal();
     if (kind == core::ObservationKind::kBearing)
       o.information = Eigen::Vector2d(1.0 / (sigma_bearing * sigma_bearing), 1.0).asDiagonal();
-    s.observations.push_back(static_cast<int32_t>(s.problem.observations.size()));
     s.problem.observations.push_back(o);
     s.placed.push_back(1);
   }
@@ -89,7 +87,7 @@ TEST(LocalizeFromFeatures, PutsAFarGuessOntoTheTruth) {
     const Pose2 guess(125.0, -32.0, -0.5);
     Pose2 pose;
     const FeatureLocalization result =
-        LocalizeFromFeatures(FeatureLocalizationOptions(), s.problem, s.observations,
+        LocalizeFromFeatures(FeatureLocalizationOptions(), s.problem.observations,
                              s.problem.features, s.placed, guess, &pose);
     EXPECT_TRUE(result.localized);
     EXPECT_TRUE(result.closed_form_chosen);
@@ -110,13 +108,13 @@ TEST(LocalizeFromFeatures, KeepsTheGuessWithTooFewPlacedFeatures) {
   for (int i = 0; i < 13; ++i) s.placed[i] = 0;
   Pose2 pose;
   FeatureLocalization result = LocalizeFromFeatures(
-      FeatureLocalizationOptions(), s.problem, s.observations, s.problem.features, s.placed,
+      FeatureLocalizationOptions(), s.problem.observations, s.problem.features, s.placed,
       guess, &pose);
   EXPECT_FALSE(result.localized);
   EXPECT_EQ(result.features, 7);
   EXPECT_EQ(pose, guess);
   s.placed[0] = 1;  // 8: localized
-  result = LocalizeFromFeatures(FeatureLocalizationOptions(), s.problem, s.observations,
+  result = LocalizeFromFeatures(FeatureLocalizationOptions(), s.problem.observations,
                                 s.problem.features, s.placed, guess, &pose);
   EXPECT_TRUE(result.localized);
   EXPECT_LT((pose.head<2>() - truth.head<2>()).norm(), 0.2);
@@ -130,7 +128,7 @@ TEST(LocalizeFromFeatures, KeepsTheGuessWhenPlacedFeaturesDisagree) {
   for (int j = 0; j < 20; ++j) s.problem.features[j] += Point2(6.0, 0.0);
   Pose2 pose;
   const FeatureLocalization result = LocalizeFromFeatures(
-      FeatureLocalizationOptions(), s.problem, s.observations, s.problem.features, s.placed,
+      FeatureLocalizationOptions(), s.problem.observations, s.problem.features, s.placed,
       guess, &pose);
   EXPECT_FALSE(result.localized);
   EXPECT_EQ(pose, guess);
@@ -157,7 +155,7 @@ TEST(LocalizeFromFeatures, KeepsTheGuessWhenBunchedFeaturesLeaveItFree) {
     }
     Pose2 pose;
     const FeatureLocalization result = LocalizeFromFeatures(
-        FeatureLocalizationOptions(), s.problem, s.observations, s.problem.features, s.placed,
+        FeatureLocalizationOptions(), s.problem.observations, s.problem.features, s.placed,
         guess, &pose);
     EXPECT_FALSE(result.localized) << "seed " << seed;
     EXPECT_EQ(pose, guess) << "seed " << seed;
@@ -168,7 +166,7 @@ TEST(LocalizeFromFeatures, KeepsTheGuessWhenBunchedFeaturesLeaveItFree) {
   const Scene s = MakeScene(truth, 15, 3);
   Pose2 pose;
   const FeatureLocalization result = LocalizeFromFeatures(
-      FeatureLocalizationOptions(), s.problem, s.observations, s.problem.features, s.placed,
+      FeatureLocalizationOptions(), s.problem.observations, s.problem.features, s.placed,
       guess, &pose);
   EXPECT_TRUE(result.localized);
   EXPECT_LT(result.heading_sigma, 0.01);
@@ -180,7 +178,7 @@ TEST(LocalizeFromFeatures, IgnoresBearingOnlyObservations) {
   const Scene s = MakeScene(truth, 30, 3, core::ObservationKind::kBearing);
   Pose2 pose;
   const FeatureLocalization result = LocalizeFromFeatures(
-      FeatureLocalizationOptions(), s.problem, s.observations, s.problem.features, s.placed,
+      FeatureLocalizationOptions(), s.problem.observations, s.problem.features, s.placed,
       guess, &pose);
   EXPECT_FALSE(result.localized);
   EXPECT_EQ(result.features, 0);

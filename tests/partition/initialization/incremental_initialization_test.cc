@@ -213,6 +213,49 @@ TEST(IncrementalInitialization, NewStretchesArePutOntoTheirGpsFixes) {
   EXPECT_LT(worst, 2.5);  // chained without the alignment: beyond 5 m
 }
 
+// The observations as a compact list (the sampled start's sample) give the
+// same stages and the same estimate, bit for bit, as the problem's own; a
+// problem holding observations besides the list, or a list indexing past
+// the problem, is refused.
+TEST(IncrementalInitialization, CompactObservationsGiveTheSameStart) {
+  for (const auto& [range_bearing, velocity] : {std::pair{true, false}, std::pair{true, true}}) {
+    const testing::RandomProblem random =
+        testing::BadlyInitializedProblem(5, 48, range_bearing, velocity);
+    core::Problem2d own = random.problem;
+    core::Problem2d compacted = random.problem;
+    CompactObservations list;
+    for (const core::Observation& o : compacted.observations) list.push_back(o);
+    compacted.observations.clear();
+    core::SolverOptions solver;
+    IncrementalSummary a, b;
+    ASSERT_TRUE(InitializeIncrementally(SmallWindows(), solver, &own, &a).ok());
+    ASSERT_TRUE(InitializeIncrementally(SmallWindows(), solver, list, &compacted, &b).ok());
+    ASSERT_EQ(a.stages.size(), b.stages.size());
+    for (size_t k = 0; k < a.stages.size(); ++k) {
+      EXPECT_EQ(a.stages[k].poses, b.stages[k].poses);
+      EXPECT_EQ(a.stages[k].observations, b.stages[k].observations);
+      EXPECT_EQ(a.stages[k].final_chi2, b.stages[k].final_chi2);
+    }
+    EXPECT_EQ(a.redone_stages, b.redone_stages);
+    ASSERT_EQ(own.poses.size(), compacted.poses.size());
+    for (size_t p = 0; p < own.poses.size(); ++p) EXPECT_EQ(own.poses[p], compacted.poses[p]);
+    for (size_t f = 0; f < own.features.size(); ++f)
+      EXPECT_EQ(own.features[f], compacted.features[f]);
+    EXPECT_EQ(own.feature_initialized, compacted.feature_initialized);
+
+    core::Problem2d both = random.problem;  // observations in both places
+    EXPECT_TRUE(InitializeIncrementally(SmallWindows(), solver, list, &both, &b)
+                    .IsInvalidArgument());
+    core::Problem2d fewer = random.problem;  // the list sees features it lacks
+    fewer.observations.clear();
+    fewer.features.pop_back();
+    fewer.feature_ids.pop_back();
+    fewer.feature_initialized.pop_back();
+    EXPECT_TRUE(InitializeIncrementally(SmallWindows(), solver, list, &fewer, &b)
+                    .IsInvalidArgument());
+  }
+}
+
 TEST(IncrementalInitialization, RejectsBadOptions) {
   IncrementalInitializationOptions options;
   options.window_poses = options.max_new_poses - 1;
