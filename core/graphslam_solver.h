@@ -87,6 +87,9 @@ struct IterationSummary {
   double relative_decrease = 0.0; // rho
   bool accepted = false;
   bool accelerated = false;       // the Anderson step was taken instead
+  // > 0: the full step was rejected and x (+) t d, t this, was accepted
+  // (core/levenberg_marquardt.h, line search).
+  double line_search_fraction = 0.0;
   double seconds = 0.0;
   double reduce_seconds = 0.0;   // linearize + eliminate (one pass over the chunks)
   double solve_seconds = 0.0;    // reduced system solve

@@ -28,6 +28,15 @@
 //                      the radius stay those of the plain step, the chi2
 //                      decrease of the convergence test is the one taken;
 //                      a rejected step forgets the history
+//   line search        a rejected step (finite chi2', model decrease above
+//                      function_tolerance x chi2): chi2 is evaluated at
+//                      x (+) t d, t the minimizer of the quadratic through
+//                      chi2(0), its slope 2 g^T d and chi2(1), kept in
+//                      [kMinLineStep, kMaxLineStep]; accepted when
+//                      (chi2 - chi2(t)) / m(t) > min_relative_decrease,
+//                      m(t) = -2 t g^T d + t^2 (2 g^T d + m(1)) the model
+//                      decrease along the step; the radius shrinks as for
+//                      the rejected step (see LineSearchFraction)
 //   abandon            rho < abandon_below_rho (if > 0) on a step whose model
 //                      decrease is > 1e-3 chi2                          -> stop,
 //                      termination "abandoned", not converged (the probe of
@@ -56,6 +65,10 @@
 //   Status TryStep(double lambda, double speculative_lambda, bool usable,
 //                  IterationSummary* it, TrialStep* trial);   // it->start_chi2 is set
 //   void StepResult(bool accepted);          // after every computed step
+//   // After a rejected step: chi2 at x (+) t d; *computed = false when the
+//   // space cannot evaluate it. When computed, that state is the candidate
+//   // Accept() takes.
+//   Status ScaledStepChi2(double t, bool* computed, double* chi2);
 //   bool AcceleratesSteps() const;
 //   // After an accepted step (before Accept): chi2 of the extrapolated state;
 //   // *computed = false when there is none. TakeAcceleratedStep makes it the
@@ -154,6 +167,7 @@ struct TrialStep {
   bool ok = false;  // a step was computed (else more damping)
   double candidate_chi2 = std::numeric_limits<double>::infinity();
   double model_decrease = 0.0;      // -g^T d + lambda d^T D d
+  double gradient_dot_step = 0.0;   // g^T d: chi2's slope along d is 2 g^T d
   double state_norm_squared = 0.0;  // |state|^2 at the linearization point
 };
 
@@ -263,6 +277,20 @@ inline void UpdateAfterRejectedStep(LevenbergMarquardtState* state) {
   state->decrease_factor *= 2.0;
 }
 
+// A line step accepted after the full step was rejected (the radius has
+// already shrunk as for that step, UpdateAfterRejectedStep): the state
+// moves; the next rejection halves the radius again. Returns whether the
+// solve has converged by the function tolerance.
+inline bool UpdateAfterLineStep(const SolverOptions& options, double line_chi2,
+                                LevenbergMarquardtState* state, SolverSummary* summary) {
+  const double relative_change = (state->chi2 - line_chi2) / std::max(state->chi2, 1e-300);
+  state->chi2 = line_chi2;
+  state->decrease_factor = 2.0;
+  if (relative_change >= options.function_tolerance) return false;
+  summary->termination = "function_tolerance";
+  return true;
+}
+
 // The function tolerance on the model, after a rejected step (sets the
 // termination and returns true when it fires). The model decrease
 // m(lambda) = -g^T d + lambda d^T D d of the Levenberg-Marquardt step falls
@@ -286,6 +314,44 @@ inline bool ModelDecreaseBelowTolerance(const SolverOptions& options, const Tria
     return false;
   summary->termination = "function_tolerance";
   return true;
+}
+
+// The line search on a rejected step. Along the step d the cost is
+// chi2(t) = chi2 + 2 t g^T d + t^2 d^T H d + (higher orders); the linear
+// term is exact (the model's gradient is the cost's), so a step the model
+// mispredicts is one whose higher orders dominate at t = 1: far from the
+// optimum, where the linearized rotation of a pose chain moves its far end
+// off the arc (a heading correction theta over a chain of length L moves it
+// by L theta^2 / 2), or along a weakly determined mode whose step is long.
+// There the Levenberg-Marquardt steps shrink only once lambda D reaches the
+// mode's curvature, several rejected steps (two passes over the chunks
+// each) later; one evaluation at a fraction of the step (one pass) usually
+// decreases chi2 as the model predicts.
+inline constexpr double kMinLineStep = 0.1;
+inline constexpr double kMaxLineStep = 0.5;
+
+// t minimizing the quadratic through chi2(0) = chi2, chi2'(0) = 2 g^T d and
+// chi2(1) = candidate_chi2, in [kMinLineStep, kMaxLineStep].
+inline double LineSearchFraction(double chi2, double gradient_dot_step, double candidate_chi2) {
+  const double curvature = candidate_chi2 - chi2 - 2.0 * gradient_dot_step;
+  if (!(curvature > 0.0)) return kMaxLineStep;
+  return std::clamp(-gradient_dot_step / curvature, kMinLineStep, kMaxLineStep);
+}
+
+// The model decrease of the step t d: -2 t g^T d - t^2 d^T H d with
+// d^T H d = -2 g^T d - m(1) (m(1) = trial.model_decrease).
+inline double ModelDecreaseAt(double t, const TrialStep& trial) {
+  return -2.0 * t * trial.gradient_dot_step +
+         t * t * (2.0 * trial.gradient_dot_step + trial.model_decrease);
+}
+
+// Whether a rejected step gets a line search.
+template <class Space>
+bool SearchesLine(const SolverOptions& options, const TrialStep& trial, double chi2,
+                  const Space& space) {
+  return trial.ok && std::isfinite(trial.candidate_chi2) && trial.gradient_dot_step < 0.0 &&
+         trial.model_decrease >= options.function_tolerance * chi2 &&
+         options.abandon_below_rho <= 0.0 && !space.AcceleratesSteps();
 }
 
 // Hands the state after `iteration` to the checkpoint callback; the space
@@ -385,6 +451,28 @@ Status RunLevenbergMarquardt(
       GS_RETURN_IF_ERROR(space->Accept());
       converged = UpdateAfterAcceptedStep(options, extrapolate, trial, candidate_chi2, it, &state,
                                           summary);
+    } else if (SearchesLine(options, trial, state.chi2, *space)) {
+      const double t = LineSearchFraction(state.chi2, trial.gradient_dot_step, candidate_chi2);
+      bool computed = false;
+      double line_chi2 = 0.0;
+      GS_RETURN_IF_ERROR(space->ScaledStepChi2(t, &computed, &line_chi2));
+      const double line_model = ModelDecreaseAt(t, trial);
+      const double line_rho = (state.chi2 - line_chi2) / line_model;
+      UpdateAfterRejectedStep(&state);
+      ++it.chunk_passes;
+      if (computed && line_model > 0.0 && line_rho > options.min_relative_decrease) {
+        GS_VLOG(1, "%siteration %d: line search t %.3g: chi2 %.9g rho %.3g accepted",
+                Space::kName, iteration, t, line_chi2, line_rho);
+        it.line_search_fraction = t;
+        it.accepted = true;
+        it.candidate_chi2 = line_chi2;
+        it.step_norm *= t;
+        space->StepResult(true);
+        GS_RETURN_IF_ERROR(space->Accept());
+        converged = UpdateAfterLineStep(options, line_chi2, &state, summary);
+      } else {
+        converged = ModelDecreaseBelowTolerance(options, trial, state.chi2, summary);
+      }
     } else {
       UpdateAfterRejectedStep(&state);
       converged = ModelDecreaseBelowTolerance(options, trial, state.chi2, summary);

@@ -133,6 +133,32 @@ class ChunkedSpace {
     taken_accelerated_ = true;
   }
 
+  // After a rejected TryStep: *chi2 at x (+) t d, d the whole step (poses
+  // and features, the features moved along their straight line to the
+  // candidate); that state becomes the candidate Accept() takes. One pass
+  // over the chunks. *computed = false (nothing changed) with a candidate
+  // store, whose candidates would take a pass of their own to scale, and
+  // for a space that accelerates steps (a pose graph: no pass to save).
+  Status ScaledStepChi2(double t, bool* computed, double* chi2) {
+    *computed = false;
+    if (candidate_store_ != nullptr || accelerates_) return Status::Ok();
+    const std::vector<Point>& features = problem_.features;
+    for (size_t g = 0; g < features.size(); ++g) {
+      if (!excluded_[g])
+        candidate_features_[g] = features[g] + t * (candidate_features_[g] - features[g]);
+    }
+    pose_step_ *= t;
+    candidate_poses_ = ApplyPoseStep<Space>(problem_.poses, layout_, pose_step_);
+    speculation_built_ = false;
+    double observations_chi2 = 0.0;
+    GS_RETURN_IF_ERROR(ranks_.Agree(
+        ObservationsChi2(context_, candidate_poses_, candidate_features_, &observations_chi2)));
+    ranks_.SumChi2(&observations_chi2);
+    *chi2 = PoseFactorsChi2(problem_, candidate_poses_, pose_kernels_) + observations_chi2;
+    *computed = std::isfinite(*chi2);
+    return Status::Ok();
+  }
+
   // A rejected step: the damping changes, and with it the iteration map.
   void ForgetAcceleration() {
     anderson_.Reset();
@@ -231,7 +257,8 @@ class ChunkedSpace {
       if (!candidate_pose_chi2.has_value())
         candidate_pose_chi2 = PoseFactorsChi2(problem_, candidate_poses_, pose_kernels_);
       trial->candidate_chi2 = *candidate_pose_chi2 + recovery.candidate_chi2;
-      trial->model_decrease = -(step_gradient_.dot(pose_step_) + recovery.gradient_dot_step) +
+      trial->gradient_dot_step = step_gradient_.dot(pose_step_) + recovery.gradient_dot_step;
+      trial->model_decrease = -trial->gradient_dot_step +
                               lambda * (pose_step_.dot(damping_.cwiseProduct(pose_step_)) +
                                         recovery.damped_step_norm);
       it->step_norm = std::sqrt(pose_step_.squaredNorm() + recovery.step_squared_norm);

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <numbers>
 #include <random>
 #include <string>
@@ -220,6 +222,67 @@ TEST(LevenbergMarquardt, MinimumOnAHeadingJumpStopsByTheFunctionTolerance) {
   EXPECT_EQ(summary.final_chi2, summary.initial_chi2);
   EXPECT_NEAR(summary.final_chi2, edge_chi2, 1e-12 * edge_chi2);
   EXPECT_EQ(problem.poses[1], Pose2(start.x(), start.y(), pi));
+}
+
+
+// The line search's fraction and model along a step, against a quadratic
+// chi2(t) = a + b t + c t^2 whose model is exact: g^T d = b / 2 and
+// m(1) = -(b + c) (the Levenberg-Marquardt model decrease with d^T H d = c).
+TEST(LevenbergMarquardt, LineSearchModelIsTheQuadraticAlongTheStep) {
+  const double a = 100.0;
+  for (double b : {-3.0, -40.0}) {
+    for (double c : {0.5, 4.0, 200.0}) {
+      TrialStep trial;
+      trial.gradient_dot_step = b / 2.0;
+      trial.model_decrease = -(b + c);
+      const double chi2_1 = a + b + c;
+      const double t = LineSearchFraction(a, trial.gradient_dot_step, chi2_1);
+      EXPECT_DOUBLE_EQ(t, std::clamp(-b / (2.0 * c), kMinLineStep, kMaxLineStep))
+          << "b " << b << " c " << c;
+      for (double s : {0.1, 0.3, 1.0}) {
+        EXPECT_NEAR(ModelDecreaseAt(s, trial), -(b * s + c * s * s), 1e-12 * std::abs(b))
+            << "b " << b << " c " << c << " t " << s;
+      }
+    }
+  }
+  // No curvature seen (chi2(1) below the tangent): the longest fraction.
+  EXPECT_EQ(LineSearchFraction(10.0, -1.0, 7.0), kMaxLineStep);
+}
+
+// Headings perturbed by up to 2.5 rad: the first full steps overshoot (the
+// linearized rotation of the chain), and the line search takes a fraction
+// of a rejected step instead of the next, more damped one. Every step so
+// taken lowers chi2 and is reported as the accepted candidate.
+TEST(LevenbergMarquardt, LineSearchTakesAFractionOfARejectedStep) {
+  int line_steps = 0;
+  for (uint32_t seed = 1; seed <= 4; ++seed) {
+    testing::RandomProblemOptions random;
+    random.num_poses = 40;
+    random.num_features = 15;
+    random.seed = seed;
+    Problem2d problem = testing::MakeRandomProblem(random).problem;
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> heading(-2.5, 2.5);
+    for (int p = 1; p < problem.num_poses(); ++p) problem.poses[p].z() += heading(rng);
+    partition::InMemoryChunkSource chunks(problem, partition::ChunkingOptions());
+    SolverOptions options;
+    options.linear_solver = LinearSolverType::kCholmod;
+    options.function_tolerance = 1e-12;
+    options.max_iterations = 60;
+    SolverSummary summary;
+    ASSERT_TRUE(SolveGraphSlam(options, chunks, &problem, &summary).ok());
+    EXPECT_TRUE(summary.converged) << "seed " << seed;
+    for (const IterationSummary& it : summary.per_iteration) {
+      if (it.line_search_fraction == 0.0) continue;
+      ++line_steps;
+      EXPECT_TRUE(it.accepted);
+      EXPECT_GE(it.line_search_fraction, kMinLineStep);
+      EXPECT_LE(it.line_search_fraction, kMaxLineStep);
+      EXPECT_LT(it.chi2, it.start_chi2) << "seed " << seed << " iteration " << it.iteration;
+      EXPECT_EQ(it.chi2, it.candidate_chi2);
+    }
+  }
+  EXPECT_GT(line_steps, 0);
 }
 
 }  // namespace
