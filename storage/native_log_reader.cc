@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string_view>
 #include <unordered_map>
@@ -304,8 +305,14 @@ class NativeLogParser {
     GS_RETURN_IF_ERROR(reader.Doubles(first, 3, "information", upper,
                                        internal::Magnitude::kInformation));
     Eigen::Matrix2d information = internal::SymmetricFromUpper2(upper);
-    if (!internal::IsPositiveDefinite(information) &&
-        !core::RepairAndCount(repairs_, reader.line_number(), &information)) {
+    // Records repeat their information: the bits of the last definite one
+    // need no second factorization.
+    if (std::memcmp(upper, last_definite2_, sizeof(upper)) == 0) return information;
+    if (internal::IsPositiveDefinite(information)) {
+      std::memcpy(last_definite2_, upper, sizeof(upper));
+      return information;
+    }
+    if (!core::RepairAndCount(repairs_, reader.line_number(), &information)) {
       return reader.Error(std::string(reader.fields()[0]) + " information " +
                           internal::UpperTriangleString(upper, 3) +
                           " is not positive definite; expected a symmetric positive definite "
@@ -516,6 +523,9 @@ class NativeLogParser {
   // Per feature, for the FEATURE-record rules and their messages:
   internal::MonotoneLines feature_lines_;  // declaration or first use (file order)
   std::vector<bool> feature_declared_;     // by a FEATURE record
+  // Information2's last positive definite upper triangle (NaN: none yet;
+  // its bits never equal a parsed, finite number's).
+  double last_definite2_[3] = {std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0};
   bool guesses_held_ = false;              // NewFeature
   bool size_guesses_ = true;
 };

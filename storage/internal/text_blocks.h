@@ -12,7 +12,8 @@
 //                           first kMaxConverted fields to doubles where they
 //                           are numbers (LineReader::Double uses them), with
 //                           the bits of std::from_chars: [-]digits of <= 15
-//                           digits directly, and a token byte-equal to the
+//                           digits directly (and marked as integers, for
+//                           the ids), and a token byte-equal to the
 //                           previous line's in that field by reuse
 //   BlockPool               blocks recycled from a pipeline's last stage to
 //                           its first
@@ -45,6 +46,10 @@ struct TokenizedLine {
   int32_t line = 0;       // 1-based line number
   int32_t num_fields = 0;  // all fields (views beyond kMaxFields in `overflow`)
   uint32_t converted = 0;  // bit i: values[i] holds field i as a finite double
+  // bit i (a subset of `converted`): field i is [-]digits, at most 15 of
+  // them, so values[i] is that integer exactly and LineReader::Id takes it
+  // from there instead of converting the field again in the serial stage.
+  uint32_t integer = 0;
   std::string_view fields[kMaxFields];
   double values[kMaxConverted];
   std::vector<std::string_view> overflow;  // fields kMaxFields.. of long lines

@@ -224,6 +224,11 @@ StatusOr<double> LineReader::Double(size_t index, std::string_view what,
 
 StatusOr<int64_t> LineReader::Id(size_t index, std::string_view what) const {
   GS_CHECK(index < fields_.size());
+  // [-]digits of <= 15 digits, converted exactly by TokenizeBlock: the
+  // integer from_chars would give.
+  if (adopted_ != nullptr && index < static_cast<size_t>(TokenizedLine::kMaxConverted) &&
+      ((adopted_->integer >> index) & 1u) != 0)
+    return static_cast<int64_t>(adopted_->values[index]);
   int64_t value = 0;
   if (!ParseInt64(fields_[index], &value)) return FieldError(index, what, "an integer id");
   return value;

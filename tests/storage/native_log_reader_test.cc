@@ -30,8 +30,8 @@ std::string WriteTemp(const std::string& name, const std::string& contents) {
   return path;
 }
 
-Status ReadError(const std::string& contents) {
-  const auto problem = ReadNativeLog(WriteTemp("bad.log", contents));
+Status ReadError(const std::string& contents, const std::string& name = "bad.log") {
+  const auto problem = ReadNativeLog(WriteTemp(name, contents));
   EXPECT_FALSE(problem.ok());
   return problem.ok() ? Status::Ok() : problem.status();
 }
@@ -453,6 +453,91 @@ TEST(NativeLogReader, RepairsNonPositiveDefiniteInformationOnlyWhenAsked) {
   EXPECT_LT((xy - expected).cwiseAbs().maxCoeff(), 1e-12) << xy;
   EXPECT_NEAR((xy - original).norm(), 1.0 + 3e-6, 1e-12);
   EXPECT_NEAR(problem->observations[1].information(0, 0), 2e-6, 1e-18);
+}
+
+// The parallel tokenizer's shortcuts (integers converted while tokenizing and
+// taken by the ids, repeated tokens reused, a repeated information not
+// factorized again) give what std::from_chars and a factorization per record
+// give: exponents, -0, the magnitude bounds, ids of 1..19 digits with signs and
+// leading zeros, CRLF, trailing blanks, a last line without '\n'.
+TEST(NativeLogReader, NumbersAndIdsReadAsFromCharsWhateverTheirSpelling) {
+  const std::string path = WriteTemp(
+      "numbers.log",
+      "GRAPHSLAM_LOG 1\r\n"
+      "POSE 0 0 0 0 0 \t\r\n"
+      "POSE -7 1\r\n"
+      "POSE 1234567890123456789 2\n"
+      "POSE 000042 3\n"
+      "FIX 0\n"
+      "RB -7 5 2.5E+2 -0 1e2 0 4e2\n"
+      "RB -7 +5 1e-300 -0.0 1e2 0 4e2   \n"
+      "RB 1234567890123456789 999999999999999 1e9 3.25e-1 1e2 0 4e2\n"
+      "XY 42 9007199254740993 -1e9 0.5 1e15 -0 1e-3\n"
+      "XY -0 -0 1 2 1e15 -0 1e-3");
+  StatusOr<core::Problem2d> problem = ReadNativeLog(path);
+  ASSERT_TRUE(problem.ok()) << problem.status().ToString();
+  EXPECT_EQ(problem->pose_ids, (std::vector<int64_t>{0, -7, 1234567890123456789, 42}));
+  EXPECT_EQ(problem->feature_ids,
+            (std::vector<int64_t>{5, 999999999999999, 9007199254740993, 0}));
+  ASSERT_EQ(problem->observations.size(), 5u);
+  const auto& o = problem->observations;
+  EXPECT_EQ(o[0].pose, 1);
+  EXPECT_EQ(o[0].feature, 0);
+  EXPECT_EQ(o[1].feature, 0);  // +5 is 5
+  EXPECT_EQ(o[2].pose, 2);
+  EXPECT_EQ(o[3].pose, 3);
+  EXPECT_EQ(o[3].feature, 2);
+  EXPECT_EQ(o[4].pose, 0);  // -0 is pose 0
+  EXPECT_EQ(o[4].feature, 3);  // -0 is feature 0
+  EXPECT_EQ(o[0].z.x(), 250.0);
+  EXPECT_TRUE(o[0].z.y() == 0.0 && std::signbit(o[0].z.y()));
+  EXPECT_EQ(o[1].z.x(), 1e-300);
+  EXPECT_TRUE(std::signbit(o[1].z.y()));
+  EXPECT_EQ(o[2].z.x(), 1e9);
+  EXPECT_EQ(o[2].z.y(), 0.325);
+  EXPECT_EQ(o[3].z.x(), -1e9);
+  EXPECT_EQ(o[3].information(0, 0), 1e15);
+  EXPECT_EQ(o[3].information(1, 1), 1e-3);
+  EXPECT_EQ(o[2].information(1, 1), 400.0);
+}
+
+TEST(NativeLogReader, TokenizerShortcutsKeepTheErrorsOfEveryRecord) {
+  const std::string header = "GRAPHSLAM_LOG 1\r\nPOSE 0 0 0 0 0\r\nPOSE 1 1\r\n";
+  const std::string rb = "RB 1 4 1 0 1 0 1\r\n";
+  // An integer beyond int64, a fraction, an exponent where an id goes.
+  EXPECT_EQ(ReadError(header + "RB 1 99999999999999999999 1 0 1 0 1\n").message(),
+            "bad.log:4: RB field 3 (feature id) is '99999999999999999999'; expected an "
+            "integer id");
+  EXPECT_EQ(ReadError(header + rb + "RB 1 4.0 1 0 1 0 1\n").message(),
+            "bad.log:5: RB field 3 (feature id) is '4.0'; expected an integer id");
+  EXPECT_EQ(ReadError(header + rb + "RB 1e0 4 1 0 1 0 1\n").message(),
+            "bad.log:5: RB field 2 (pose id) is '1e0'; expected an integer id");
+  EXPECT_EQ(ReadError(header + rb + "RB - 4 1 0 1 0 1\n").message(),
+            "bad.log:5: RB field 2 (pose id) is '-'; expected an integer id");
+  // Just beyond the bounds, and beyond double.
+  EXPECT_EQ(ReadError(header + rb + "RB 1 4 1.0000001e9 0 1 0 1\n").message(),
+            "bad.log:5: RB field 4 (measurement) is '1.0000001e9'; expected |x| <= 1e9 "
+            "(the bound on coordinates, angles and measurements)");
+  EXPECT_EQ(ReadError(header + rb + "RB 1 4 1 0 1e16 0 1\n").message(),
+            "bad.log:5: RB field 6 (information) is '1e16'; expected |x| <= 1e15 (the "
+            "bound on information entries)");
+  EXPECT_EQ(ReadError(header + rb + "RB 1 4 1 1e400 1 0 1\n").message(),
+            "bad.log:5: RB field 5 (measurement) is '1e400'; expected a number");
+  EXPECT_EQ(ReadError(header + rb + "RB 1 4 1 0x1 1 0 1\n").message(),
+            "bad.log:5: RB field 5 (measurement) is '0x1'; expected a number");
+  // A repeated definite information, then an indefinite one, then the
+  // definite one again: the indefinite one is caught at its line.
+  EXPECT_EQ(ReadError(header + rb + rb + "RB 1 4 1 0 1 2 1\r\n" + rb).message(),
+            "bad.log:6: RB information [1 2 1] is not positive definite; expected a "
+            "symmetric positive definite matrix (i11 i12 i22)");
+  EXPECT_EQ(ReadError(header + rb + "RB 1 4 1 0 -0 0 1\n").message(),
+            "bad.log:5: RB information [-0 0 1] is not positive definite; expected a "
+            "symmetric positive definite matrix (i11 i12 i22)");
+  // A last line cut short, without '\n'.
+  EXPECT_EQ(ReadError(header + rb + "RB 1 4 1 0").message(),
+            "bad.log:5: RB has 5 fields; expected 8");
+  EXPECT_EQ(ReadError(header + rb + "RB 1 4 1 0 1 0 1 \t\r\nRB 1 4 1 0 1 0 ").message(),
+            "bad.log:6: RB has 7 fields; expected 8");
 }
 
 }  // namespace

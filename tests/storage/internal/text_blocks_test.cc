@@ -11,6 +11,10 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <unistd.h>
+#include <algorithm>
 #include <random>
 #include <sstream>
 #include <string>
@@ -103,6 +107,18 @@ TEST(TextBlocks, TokenizeBlockEqualsASplitAndFromCharsOnRandomRecords) {
       if (converts) {
         ASSERT_EQ(Bits(line.values[f]), Bits(expected)) << "'" << fields[f] << "'";
       }
+      // Marked an integer exactly when it is [-]digits of <= 15 digits;
+      // then the value is the integer from_chars reads (LineReader::Id).
+      const std::string& token = fields[f];
+      const size_t sign = token[0] == '-' ? 1 : 0;
+      const bool integer = token.size() > sign && token.size() - sign <= 15 &&
+                           token.find_first_not_of("0123456789", sign) == std::string::npos;
+      ASSERT_EQ(((line.integer >> f) & 1u) != 0, integer) << "'" << token << "'";
+      if (integer) {
+        int64_t id = 0;
+        ASSERT_TRUE(ParseInt64(token, &id)) << token;
+        ASSERT_EQ(static_cast<int64_t>(line.values[f]), id) << token;
+      }
     }
   }
   EXPECT_EQ(kept, block.lines.size());
@@ -118,6 +134,55 @@ TEST(TextBlocks, TokenizeBlockKeepsOnlyTheGivenTags) {
   EXPECT_EQ(block.lines[1].line, 4);
   EXPECT_EQ(block.lines[1].fields[0], "XY");
   EXPECT_EQ(block.lines[1].values[5], 100.0);
+}
+
+// The cutter's line counts (the numbers in every message) on text with runs
+// of empty lines longer than 255 x 16 bytes, long lines, '\r\n', and a last
+// line without '\n', cut into blocks of several sizes.
+TEST(TextBlocks, CutterCountsEveryLineWhateverTheBlockSize) {
+  std::mt19937_64 random(7);
+  std::string text;
+  int32_t lines = 0;
+  for (int i = 0; i < 600; ++i) {
+    const int kind = random() % 10 == 0 ? 0 : 1 + static_cast<int>(random() % 3);
+    const int length = kind == 0 ? 0 : kind == 1 ? static_cast<int>(random() % 40)
+                                                 : static_cast<int>(random() % 9000);
+    const int repeat = kind == 0 ? static_cast<int>(random() % 6000) : 1;
+    for (int r = 0; r < repeat; ++r) {
+      for (int c = 0; c < length; ++c) text.push_back(static_cast<char>('a' + random() % 26));
+      text += random() % 3 == 0 ? "\r\n" : "\n";
+      ++lines;
+    }
+  }
+  text += "last line";
+  ++lines;
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("graphslam_text_blocks_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / "lines.txt").string();
+  std::ofstream(path, std::ios::binary) << text;
+  for (const int64_t block_bytes :
+       {int64_t{64}, int64_t{4093}, int64_t{1} << 16, int64_t{1} << 20}) {
+    StatusOr<std::unique_ptr<TextBlockCutter>> cutter =
+        TextBlockCutter::Open(path, 0, 0, block_bytes);
+    ASSERT_TRUE(cutter.ok()) << cutter.status().ToString();
+    TextBlock block;
+    Status status;
+    int32_t counted = 0;
+    int64_t bytes = 0;
+    while ((*cutter)->Next(&block, &status)) {
+      ASSERT_EQ(block.start_line, counted);
+      counted += static_cast<int32_t>(std::count(block.text.begin(), block.text.end(), '\n')) +
+                 (block.text.back() != '\n' ? 1 : 0);
+      bytes += static_cast<int64_t>(block.text.size());
+      ASSERT_EQ(block.end_line, counted) << block_bytes;
+      ASSERT_EQ(block.end_offset, bytes);
+    }
+    ASSERT_TRUE(status.ok()) << status.ToString();
+    EXPECT_EQ(counted, lines) << block_bytes;
+    EXPECT_EQ(bytes, static_cast<int64_t>(text.size()));
+  }
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
