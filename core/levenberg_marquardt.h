@@ -28,8 +28,11 @@
 //                      the radius stay those of the plain step, the chi2
 //                      decrease of the convergence test is the one taken;
 //                      a rejected step forgets the history
-//   line search        a rejected step (finite chi2', model decrease above
-//                      function_tolerance x chi2): chi2 is evaluated at
+//   line search        a rejected step of a space that SearchesLines (a
+//                      problem with observations, where it saves passes
+//                      over the chunks; not pose graphs) with finite chi2'
+//                      and model decrease above function_tolerance x chi2:
+//                      chi2 is evaluated at
 //                      x (+) t d, t the minimizer of the quadratic through
 //                      chi2(0), its slope 2 g^T d and chi2(1), kept in
 //                      [kMinLineStep, kMaxLineStep]; accepted when
@@ -67,7 +70,8 @@
 //   void StepResult(bool accepted);          // after every computed step
 //   // After a rejected step: chi2 at x (+) t d; *computed = false when the
 //   // space cannot evaluate it. When computed, that state is the candidate
-//   // Accept() takes.
+//   // Accept() takes. Asked only when SearchesLines().
+//   bool SearchesLines() const;
 //   Status ScaledStepChi2(double t, bool* computed, double* chi2);
 //   bool AcceleratesSteps() const;
 //   // After an accepted step (before Accept): chi2 of the extrapolated state;
@@ -351,7 +355,7 @@ bool SearchesLine(const SolverOptions& options, const TrialStep& trial, double c
                   const Space& space) {
   return trial.ok && std::isfinite(trial.candidate_chi2) && trial.gradient_dot_step < 0.0 &&
          trial.model_decrease >= options.function_tolerance * chi2 &&
-         options.abandon_below_rho <= 0.0 && !space.AcceleratesSteps();
+         options.abandon_below_rho <= 0.0 && space.SearchesLines();
 }
 
 // Hands the state after `iteration` to the checkpoint callback; the space

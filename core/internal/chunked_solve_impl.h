@@ -90,13 +90,19 @@ class ChunkedSpace {
                std::vector<uint8_t>* kept, const PoseFactorKernels& pose_kernels,
                typename Space::Problem* problem, ReducedSystem* system,
                typename Ranks::LinearSolver* solver, std::vector<uint8_t>* excluded, bool fused,
-               BasicCandidateStore<Point>* candidate_store, Ranks* ranks, int anderson_depth)
+               BasicCandidateStore<Point>* candidate_store, Ranks* ranks, int anderson_depth,
+               bool pose_graph)
       : context_(context), layout_(layout), kept_(*kept), pose_kernels_(pose_kernels),
         problem_(*problem), system_(*system), solver_(*solver), excluded_(*excluded),
         fused_(fused), candidate_store_(candidate_store), ranks_(*ranks),
-        anderson_(anderson_depth), accelerates_(anderson_depth > 0) {}
+        anderson_(anderson_depth), accelerates_(anderson_depth > 0), pose_graph_(pose_graph) {}
 
   bool AcceleratesSteps() const { return accelerates_; }
+  // A rejected step's line search costs one pass over the chunks and saves
+  // the passes of further rejections; a pose graph has no such pass to save
+  // (and its steps are accelerated instead), and a candidate store's
+  // candidates would need a pass of their own to scale.
+  bool SearchesLines() const { return !pose_graph_ && candidate_store_ == nullptr; }
 
   // After an accepted TryStep: *chi2 at x (+) v, v the Anderson extrapolation
   // of its pose step; *computed = false (chi2 untouched) without a history,
@@ -136,12 +142,11 @@ class ChunkedSpace {
   // After a rejected TryStep: *chi2 at x (+) t d, d the whole step (poses
   // and features, the features moved along their straight line to the
   // candidate); that state becomes the candidate Accept() takes. One pass
-  // over the chunks. *computed = false (nothing changed) with a candidate
-  // store, whose candidates would take a pass of their own to scale, and
-  // for a space that accelerates steps (a pose graph: no pass to save).
+  // over the chunks. *computed = false (nothing changed) unless
+  // SearchesLines().
   Status ScaledStepChi2(double t, bool* computed, double* chi2) {
     *computed = false;
-    if (candidate_store_ != nullptr || accelerates_) return Status::Ok();
+    if (!SearchesLines()) return Status::Ok();
     const std::vector<Point>& features = problem_.features;
     for (size_t g = 0; g < features.size(); ++g) {
       if (!excluded_[g])
@@ -368,6 +373,7 @@ class ChunkedSpace {
   static constexpr double kAndersonStepRatio = 0.25;
   AndersonAcceleration anderson_;
   const bool accelerates_;
+  const bool pose_graph_;
   double last_step_norm_ = 0.0;  // of the last accepted plain step (0: none)
   bool taken_accelerated_ = false;
   Eigen::VectorXd accelerated_step_;
@@ -589,7 +595,7 @@ Status SolveChunkedWith(
   detail::ChunkedSpace<Space, Ranks> space(context, layout, &screening.kept, options.pose_kernels,
                                            problem, &system, solver->get(), &summary->excluded,
                                            options.fused_chunk_pass, candidate_store, ranks,
-                                           anderson_depth);
+                                           anderson_depth, pose_graph);
   const SolverOptions resolved = detail::ResolvedOptions(options, summary->linear_solver_used);
   const double first_radius = resume != nullptr ? resume->trust_region_radius
                                                 : resolved.initial_trust_region_radius;
