@@ -122,19 +122,26 @@ TEST(LevenbergMarquardt, IntelStopsOneConfirmingIterationEarly) {
   EXPECT_NEAR(extrapolated.final_chi2, 359.996112, 1e-8 * 359.996112);
 }
 
+// A random 40-pose, 15-feature problem whose headings (all but the first
+// pose's) are off by up to 2.5 rad: the first full steps overshoot.
+Problem2d HeadingPerturbedProblem(uint32_t seed) {
+  testing::RandomProblemOptions random;
+  random.num_poses = 40;
+  random.num_features = 15;
+  random.seed = seed;
+  Problem2d problem = testing::MakeRandomProblem(random).problem;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> heading(-2.5, 2.5);
+  for (int p = 1; p < problem.num_poses(); ++p) problem.poses[p].z() += heading(rng);
+  return problem;
+}
+
 // Headings off by up to 2.5 rad: some step is rejected or fits poorly;
 // from then on the radius grows at most 3x per step (Nielsen).
 TEST(LevenbergMarquardt, NielsenAfterAStepThatDidNotFit) {
   int checked = 0;
   for (uint32_t seed = 1; seed <= 4; ++seed) {
-    testing::RandomProblemOptions random;
-    random.num_poses = 40;
-    random.num_features = 15;
-    random.seed = seed;
-    Problem2d problem = testing::MakeRandomProblem(random).problem;
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<double> heading(-2.5, 2.5);
-    for (int p = 1; p < problem.num_poses(); ++p) problem.poses[p].z() += heading(rng);
+    Problem2d problem = HeadingPerturbedProblem(seed);
     partition::InMemoryChunkSource chunks(problem, partition::ChunkingOptions());
     SolverOptions options;
     options.linear_solver = LinearSolverType::kCholmod;
@@ -256,14 +263,7 @@ TEST(LevenbergMarquardt, LineSearchModelIsTheQuadraticAlongTheStep) {
 TEST(LevenbergMarquardt, LineSearchTakesAFractionOfARejectedStep) {
   int line_steps = 0;
   for (uint32_t seed = 1; seed <= 4; ++seed) {
-    testing::RandomProblemOptions random;
-    random.num_poses = 40;
-    random.num_features = 15;
-    random.seed = seed;
-    Problem2d problem = testing::MakeRandomProblem(random).problem;
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<double> heading(-2.5, 2.5);
-    for (int p = 1; p < problem.num_poses(); ++p) problem.poses[p].z() += heading(rng);
+    Problem2d problem = HeadingPerturbedProblem(seed);
     partition::InMemoryChunkSource chunks(problem, partition::ChunkingOptions());
     SolverOptions options;
     options.linear_solver = LinearSolverType::kCholmod;
