@@ -24,31 +24,19 @@
 #include "core/preconditioned_conjugate_gradient.h"
 #include "core/relative_pose_model.h"
 #include "core/se2.h"
+#include "tests/testing/dense_operator.h"
 #include "tests/testing/loop_closing_pose_graph.h"
 #include "tests/testing/random_linear_system.h"
 
 namespace graphslam::core {
 namespace {
 
+using graphslam::testing::DenseMatrixOf;
 using graphslam::testing::LinearizedPoseGraph;
 using graphslam::testing::MakeLoopClosingPoseGraph;
 using graphslam::testing::RandomSpdMatrix;
 using graphslam::testing::RandomVector;
 using graphslam::testing::RelativeError;
-
-
-// Dense M^{-1}, one column per unit vector.
-Eigen::MatrixXd DenseInverse(const LinearOperator& m) {
-  const int n = m.num_rows();
-  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(n, n);
-  Eigen::VectorXd unit = Eigen::VectorXd::Zero(n);
-  for (int c = 0; c < n; ++c) {
-    unit[c] = 1.0;
-    m.RightMultiplyAndAccumulate(unit.data(), dense.col(c).data());
-    unit[c] = 0.0;
-  }
-  return dense;
-}
 
 TEST(IncompleteCholeskyPreconditioner, PcgSolveEqualsDenseSolve) {
   for (int b : {1, 3, 6}) {
@@ -114,7 +102,7 @@ TEST(IncompleteCholeskyPreconditioner, ProductEqualsEigenSolveAndIsSymmetricPosi
       options.fill_levels = fill_levels;
       IncompleteCholeskyPreconditioner with_fill(options);
       ASSERT_TRUE(with_fill.Update(a).ok());
-      const Eigen::MatrixXd inverse = DenseInverse(with_fill);
+      const Eigen::MatrixXd inverse = DenseMatrixOf(with_fill);
       // Relative 1e-12: the two triangular solves are transposes of each
       // other, so asymmetry is rounding only.
       EXPECT_LE((inverse - inverse.transpose()).norm(), 1e-12 * inverse.norm());
@@ -149,7 +137,7 @@ TEST(IncompleteCholeskyPreconditioner, IsExactOnABlockTridiagonalMatrix) {
     options.fill_levels = fill_levels;
     IncompleteCholeskyPreconditioner incomplete_cholesky(options);
     ASSERT_TRUE(incomplete_cholesky.Update(a).ok());
-    const Eigen::MatrixXd inverse = DenseInverse(incomplete_cholesky);
+    const Eigen::MatrixXd inverse = DenseMatrixOf(incomplete_cholesky);
     const Eigen::MatrixXd expected = a.ToDense().inverse();
     // Relative 1e-10 (A is diagonally dominant, condition < 10).
     EXPECT_LE((inverse - expected).norm(), 1e-10 * expected.norm());
@@ -188,7 +176,7 @@ TEST(IncompleteCholeskyPreconditioner, FailuresNameTheQuantityAndKeepTheState) {
   IncompleteCholeskyPreconditioner incomplete_cholesky;
   ASSERT_TRUE(incomplete_cholesky.Update(good).ok());
   const Eigen::VectorXd x = RandomVector(9, good.num_rows());
-  const Eigen::MatrixXd before = DenseInverse(incomplete_cholesky);
+  const Eigen::MatrixXd before = DenseMatrixOf(incomplete_cholesky);
 
   // Non-positive diagonal: rejected before Eigen would shift it away.
   BlockSparseMatrix bad = RandomSpdMatrix(5, 3, 6);
@@ -242,7 +230,7 @@ TEST(IncompleteCholeskyPreconditioner, FailuresNameTheQuantityAndKeepTheState) {
 
   // Every failure above left the first factor in place, bit for bit.
   EXPECT_EQ(incomplete_cholesky.num_rows(), good.num_rows());
-  EXPECT_EQ((DenseInverse(incomplete_cholesky) - before).norm(), 0.0);
+  EXPECT_EQ((DenseMatrixOf(incomplete_cholesky) - before).norm(), 0.0);
 
   // A larger initial shift makes the indefinite matrix factorable (M^{-1} is
   // then SPD, though no longer an approximation of A^{-1}).

@@ -19,29 +19,19 @@
 #include "core/block_jacobi_preconditioner.h"
 #include "core/incomplete_cholesky_preconditioner.h"
 #include "core/preconditioned_conjugate_gradient.h"
+#include "tests/testing/dense_operator.h"
 #include "tests/testing/loop_closing_pose_graph.h"
 #include "tests/testing/random_linear_system.h"
 
 namespace graphslam::core {
 namespace {
 
+using graphslam::testing::DenseMatrixOf;
 using graphslam::testing::LinearizedPoseGraph;
 using graphslam::testing::MakeLoopClosingPoseGraph;
 using graphslam::testing::RandomSpdMatrix;
 using graphslam::testing::RandomVector;
 using graphslam::testing::RelativeError;
-
-Eigen::MatrixXd DenseInverse(const LinearOperator& m) {
-  const int n = m.num_rows();
-  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(n, n);
-  Eigen::VectorXd unit = Eigen::VectorXd::Zero(n);
-  for (int c = 0; c < n; ++c) {
-    unit[c] = 1.0;
-    m.RightMultiplyAndAccumulate(unit.data(), dense.col(c).data());
-    unit[c] = 0.0;
-  }
-  return dense;
-}
 
 TEST(SubgraphPreconditioner, PcgSolveEqualsDenseSolve) {
   for (int b : {1, 3, 6}) {
@@ -94,7 +84,7 @@ TEST(SubgraphPreconditioner, IsTheExactInverseOnAForest) {
     ASSERT_TRUE(subgraph.Update(a).ok());
     EXPECT_EQ(subgraph.num_tree_edges(), static_cast<int>(pairs.size()));
     EXPECT_FALSE(subgraph.compensated());
-    const Eigen::MatrixXd inverse = DenseInverse(subgraph);
+    const Eigen::MatrixXd inverse = DenseMatrixOf(subgraph);
     const Eigen::MatrixXd expected = a.ToDense().inverse();
     EXPECT_LE((inverse - expected).norm(), 1e-12 * expected.norm());
   }
@@ -114,7 +104,7 @@ TEST(SubgraphPreconditioner, CompensatesWhenTheTreeAloneIsIndefinite) {
   SubgraphPreconditioner subgraph;
   ASSERT_TRUE(subgraph.Update(a).ok());
   EXPECT_TRUE(subgraph.compensated());
-  const Eigen::MatrixXd inverse = DenseInverse(subgraph);
+  const Eigen::MatrixXd inverse = DenseMatrixOf(subgraph);
   EXPECT_LE((inverse - inverse.transpose()).norm(), 1e-12 * inverse.norm());
   EXPECT_GT(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(inverse).eigenvalues().minCoeff(), 0.0);
   // M = A + compensation >= A, so M^{-1} <= A^{-1}: A^{-1} - M^{-1} is PSD.
@@ -132,13 +122,13 @@ TEST(SubgraphPreconditioner, RejectsNonFiniteAndKeepsTheState) {
   const BlockSparseMatrix good = RandomSpdMatrix(5, 3, 6);
   SubgraphPreconditioner subgraph;
   ASSERT_TRUE(subgraph.Update(good).ok());
-  const Eigen::MatrixXd before = DenseInverse(subgraph);
+  const Eigen::MatrixXd before = DenseMatrixOf(subgraph);
   BlockSparseMatrix bad = RandomSpdMatrix(5, 3, 6);
   bad.MutableBlock(2, 2)[0] = std::nan("");
   const Status status = subgraph.Update(bad);
   EXPECT_TRUE(status.IsNumerical()) << status.ToString();
   EXPECT_NE(status.message().find("block row 2"), std::string::npos) << status.ToString();
-  EXPECT_EQ((DenseInverse(subgraph) - before).norm(), 0.0);
+  EXPECT_EQ((DenseMatrixOf(subgraph) - before).norm(), 0.0);
 }
 
 TEST(SubgraphPreconditioner, EmptyMatrixIsANoOp) {

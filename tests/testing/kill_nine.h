@@ -35,6 +35,27 @@ inline bool SpawnAndKillAtStopPoint(const std::vector<std::string>& args,
   return WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL;
 }
 
+// Runs `graphslam solve input -o DIR/resumed.g2o --checkpoint checkpoint`
+// (plus `solve_options`) and kills it with SIGKILL right after its
+// checkpoint number `iteration`; expects that it was killed there, that the
+// checkpoint records that iteration and that no output was left; the
+// checkpoint's JSON goes to *at_kill. Call it under ASSERT_NO_FATAL_FAILURE.
+inline void KillSolveAtCheckpoint(const std::string& input, const std::filesystem::path& dir,
+                                  const std::filesystem::path& checkpoint, int iteration,
+                                  const std::vector<std::string>& solve_options,
+                                  nlohmann::json* at_kill) {
+  std::vector<std::string> args = {"solve", input, "-o", (dir / "resumed.g2o").string(),
+                                   "--checkpoint", checkpoint.string(), "-q"};
+  args.insert(args.end(), solve_options.begin(), solve_options.end());
+  const std::string point = "solver_checkpoint " + std::to_string(iteration);
+  ASSERT_TRUE(SpawnAndKillAtStopPoint(args, point)) << "the solve ended before its " << point;
+  ASSERT_TRUE(std::filesystem::exists(checkpoint)) << "no checkpoint was written";
+  *at_kill = nlohmann::json::parse(ReadWholeFile(checkpoint));
+  ASSERT_EQ((*at_kill)["iterations"].get<int>(), iteration);
+  EXPECT_FALSE(std::filesystem::exists(dir / "resumed.g2o"))
+      << "a killed solve must not leave its output";
+}
+
 // Resumes `graphslam solve input` from `checkpoint` into DIR/resumed.g2o and
 // DIR/resumed.json, and expects what the uninterrupted run wrote to
 // DIR/full.g2o and DIR/full.json: the same final chi2 and iteration count

@@ -19,6 +19,7 @@
 #include "storage/g2o_3d_reader.h"
 #include "storage/isam_3d_reader.h"
 #include "tests/testing/datasets.h"
+#include "tests/testing/g2o_edge_se3_chi2.h"
 #include "tools/exit_codes.h"
 #include "tools/pipeline/solve_pipeline.h"
 #include "tools/solve_command.h"
@@ -36,29 +37,6 @@ std::string TempPath(const std::string& name) {
   return (std::filesystem::temp_directory_path() /
           ("graphslam_3d_" + std::to_string(::getpid()) + "_" + name))
       .string();
-}
-
-// chi2 of a 3-D g2o graph without the project's SE(3) code: E = Z^-1 Xi^-1 Xj
-// as 4x4 matrices, e = [t; vec(q)] with q from E's rotation matrix, w >= 0
-// (g2o's EdgeSE3 error).
-double IndependentChi2(const core::Problem3d& p) {
-  auto matrix = [](const core::Pose3& pose) {
-    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-    m.topLeftCorner<3, 3>() = pose.q.toRotationMatrix();
-    m.topRightCorner<3, 1>() = pose.t;
-    return m;
-  };
-  double chi2 = 0.0;
-  for (const auto& c : p.relative_poses) {
-    const Eigen::Matrix4d e =
-        matrix(c.z).inverse() * matrix(p.poses[c.from]).inverse() * matrix(p.poses[c.to]);
-    Eigen::Quaterniond q(Eigen::Matrix3d(e.topLeftCorner<3, 3>()));
-    if (q.w() < 0) q.coeffs() = -q.coeffs();
-    Eigen::Matrix<double, 6, 1> r;
-    r << e.topRightCorner<3, 1>(), q.vec();
-    chi2 += r.dot(c.information * r);
-  }
-  return chi2;
 }
 
 struct Solved {
@@ -87,7 +65,7 @@ Solved SolveWithDefaults(const std::string& relative) {
   }
   StatusOr<core::Problem3d> written = storage::ReadG2o3d(options.output_g2o);
   EXPECT_TRUE(written.ok()) << written.status().ToString();
-  if (written.ok()) out.written_chi2 = IndependentChi2(*written);
+  if (written.ok()) out.written_chi2 = graphslam::testing::G2oEdgeSe3Chi2(*written);
   std::filesystem::remove(options.report);
   std::filesystem::remove(options.output_g2o);
   return out;

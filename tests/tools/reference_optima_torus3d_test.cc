@@ -15,32 +15,12 @@
 
 #include "storage/g2o_3d_reader.h"
 #include "tests/testing/datasets.h"
+#include "tests/testing/g2o_edge_se3_chi2.h"
 #include "tools/exit_codes.h"
 #include "tools/solve_command.h"
 
 namespace graphslam::tools {
 namespace {
-
-// g2o's chi2 from 4x4 matrices, without the project's SE(3) code.
-double IndependentChi2(const core::Problem3d& p) {
-  auto matrix = [](const core::Pose3& pose) {
-    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-    m.topLeftCorner<3, 3>() = pose.q.toRotationMatrix();
-    m.topRightCorner<3, 1>() = pose.t;
-    return m;
-  };
-  double chi2 = 0.0;
-  for (const auto& c : p.relative_poses) {
-    const Eigen::Matrix4d e =
-        matrix(c.z).inverse() * matrix(p.poses[c.from]).inverse() * matrix(p.poses[c.to]);
-    Eigen::Quaterniond q(Eigen::Matrix3d(e.topLeftCorner<3, 3>()));
-    if (q.w() < 0) q.coeffs() = -q.coeffs();
-    Eigen::Matrix<double, 6, 1> r;
-    r << e.topRightCorner<3, 1>(), q.vec();
-    chi2 += r.dot(c.information * r);
-  }
-  return chi2;
-}
 
 TEST(ReferenceOptimaTorus3d, ReachesG2oOptimumOrLower) {
   GS_REQUIRE_DATASET("sesync_posegraphs/torus3D.g2o");
@@ -63,7 +43,7 @@ TEST(ReferenceOptimaTorus3d, ReachesG2oOptimumOrLower) {
   EXPECT_LE(chi2, 23008.92 * 1.001);
   StatusOr<core::Problem3d> written = storage::ReadG2o3d(options.output_g2o);
   ASSERT_TRUE(written.ok()) << written.status().ToString();
-  EXPECT_NEAR(IndependentChi2(*written), chi2, 1e-6 * chi2);
+  EXPECT_NEAR(graphslam::testing::G2oEdgeSe3Chi2(*written), chi2, 1e-6 * chi2);
   std::filesystem::remove(options.report);
   std::filesystem::remove(options.output_g2o);
 }

@@ -29,6 +29,7 @@ namespace fs = std::filesystem;
 
 const std::string kGraphslam = graphslam::testing::GraphslamBinary();
 using graphslam::testing::ExpectResumeEqualsUninterrupted;
+using graphslam::testing::KillSolveAtCheckpoint;
 using graphslam::testing::ReadWholeFile;
 using graphslam::testing::RunGraphslam;
 
@@ -50,15 +51,8 @@ TEST(SolveResume, KillNineMidSolveThenResumeEqualsUninterruptedRun) {
 
   // Killed as soon as the first checkpoint exists.
   const fs::path checkpoint = dir / "checkpoint.json";
-  const bool signaled = graphslam::testing::SpawnAndKillAtStopPoint(
-      {"solve", input, "-o", (dir / "resumed.g2o").string(), "--checkpoint", checkpoint.string(),
-       "-q"},
-      "solver_checkpoint 1");
-  ASSERT_TRUE(signaled) << "the solve ended before its checkpoint 1";
-  ASSERT_TRUE(fs::exists(checkpoint)) << "no checkpoint was written";
-  const nlohmann::json at_kill = nlohmann::json::parse(ReadWholeFile(checkpoint));
-  ASSERT_EQ(at_kill["iterations"].get<int>(), 1);
-  EXPECT_FALSE(fs::exists(dir / "resumed.g2o")) << "a killed solve must not leave its output";
+  nlohmann::json at_kill;
+  ASSERT_NO_FATAL_FAILURE(KillSolveAtCheckpoint(input, dir, checkpoint, 1, {}, &at_kill));
 
   ExpectResumeEqualsUninterrupted(input, dir, checkpoint, at_kill["iterations"].get<int>());
   fs::remove_all(dir);
@@ -96,14 +90,8 @@ TEST(SolveResume, KillNineMidPcgSolveThenResumeEqualsUninterruptedRun) {
   ASSERT_GE(full["iterations"].get<int>(), 4);
 
   const fs::path checkpoint = dir / "checkpoint.json";
-  const bool signaled = graphslam::testing::SpawnAndKillAtStopPoint(
-      with_pcg({"solve", input, "-o", (dir / "resumed.g2o").string(), "--checkpoint",
-                checkpoint.string(), "-q"}),
-      "solver_checkpoint 2");
-  ASSERT_TRUE(signaled) << "the solve ended before its checkpoint 2";
-  ASSERT_TRUE(fs::exists(checkpoint)) << "no checkpoint was written";
-  const nlohmann::json at_kill = nlohmann::json::parse(ReadWholeFile(checkpoint));
-  ASSERT_EQ(at_kill["iterations"].get<int>(), 2);
+  nlohmann::json at_kill;
+  ASSERT_NO_FATAL_FAILURE(KillSolveAtCheckpoint(input, dir, checkpoint, 2, pcg, &at_kill));
   ASSERT_TRUE(at_kill.contains("pcg"));
   EXPECT_EQ(at_kill["version"].get<int>(), 2);
   EXPECT_FALSE(at_kill["pcg"]["forest_order"].empty());
