@@ -26,17 +26,21 @@ inline int32_t NextStageSize(double growth, int64_t allowed, int32_t t, int32_t 
   return static_cast<int32_t>(std::min<int64_t>(n, std::max<int64_t>(t + 1, next)));
 }
 
+// Whether a stage's solve is unsettled (header): not converged, and its last
+// iteration still lowered chi2 by more than 1 % of its final chi2.
+inline bool IsUnsettled(const core::SolverSummary& stage) {
+  const auto& iterations = stage.per_iteration;
+  if (stage.converged || iterations.empty()) return false;
+  const double last_before =
+      iterations.size() == 1 ? stage.initial_chi2 : iterations[iterations.size() - 2].chi2;
+  return last_before - stage.final_chi2 > 1e-2 * stage.final_chi2;
+}
+
 // A_{k+1} from A_k = allowed and stage k's solve.
 inline int64_t NextAllowedNewPoses(const core::SolverSummary& stage, int64_t allowed,
                                    int64_t min_new_poses, int64_t max_new_poses) {
-  const auto& iterations = stage.per_iteration;
-  const double last_before = iterations.empty()       ? 0.0
-                             : iterations.size() == 1 ? stage.initial_chi2
-                                                      : iterations[iterations.size() - 2].chi2;
-  const bool unsettled = !stage.converged && !iterations.empty() &&
-                         last_before - stage.final_chi2 > 1e-2 * stage.final_chi2;
   const int64_t floor = std::min(min_new_poses, max_new_poses);
-  return unsettled ? std::max(floor, allowed / 2) : std::min(max_new_poses, 2 * allowed);
+  return IsUnsettled(stage) ? std::max(floor, allowed / 2) : std::min(max_new_poses, 2 * allowed);
 }
 
 }  // namespace graphslam::partition::internal
