@@ -149,6 +149,11 @@ using CandidateSink =
 // What a recovery starts from: the linearization point (poses, features),
 // the damping `lambda` of the solved system, its solution `step` and the
 // candidate poses x + dx. The references must outlive the pass.
+// step_fraction t != 1 (a line search along a rejected step, whose
+// candidates were not kept): each candidate m + dm becomes m + t ((m + dm) - m)
+// before its chi2 is summed and it is handed to the sink, the very
+// arithmetic of the in-memory line search; candidate_poses are then the
+// poses at x (+) t dx, and the model sums stay those of the whole step.
 template <class Space>
 struct BasicRecoveryInput {
   const std::vector<typename Space::Pose>& poses;
@@ -156,6 +161,7 @@ struct BasicRecoveryInput {
   double lambda;
   const Eigen::VectorXd& step;
   const std::vector<typename Space::Pose>& candidate_poses;
+  double step_fraction = 1.0;
 };
 
 template <class Space>

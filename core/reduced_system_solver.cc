@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "core/check.h"
+#include "core/logging.h"
 #include "core/preconditioned_conjugate_gradient.h"
 
 namespace graphslam::core {
@@ -256,6 +257,11 @@ Status ReducedSystemSolver::Solve(const BlockSparseMatrix& s, const Eigen::Vecto
   if (chi2 > 0.0 && std::isfinite(chi2)) pcg.energy_tolerance = options_.truncation * chi2;
   const PcgSummary summary = SolvePcg(s, *preconditioner, rhs, pcg, x);
   *iterations = summary.iterations;
+  GS_VLOG(1, "PCG: %d iterations, relative residual %.3g (forcing term %.3g), %s",
+          summary.iterations, summary.relative_residual, pcg.relative_tolerance,
+          summary.converged   ? "converged"
+          : summary.truncated ? "truncated by the chi2 estimate"
+                              : "stopped (iteration cap or breakdown)");
   if (!x->allFinite()) return Status::Numerical("PCG produced a non-finite step");
   // rhs^T dx = dx^T S dx for the LM model decrease (item 4 of the header).
   if (options_.warm_start || options_.forcing_sequence) scale_to_model_minimum(x);

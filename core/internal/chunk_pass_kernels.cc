@@ -161,6 +161,8 @@ void RecoverChunk(const BasicPassContext<Space>& context,
       // Solved in the reduced system; its model terms are in the pose part.
       const int fu = context.layout->feature_unknown_index[g];
       candidate = features[g] + step.template segment<D>(P * fu);
+      if (input.step_fraction != 1.0)
+        candidate = features[g] + input.step_fraction * (candidate - features[g]);
       if (with_candidate_chi2) {
         out->sums.candidate_chi2 +=
             FeatureChi2<Space>(chunk, k, candidate_poses, candidate, context.kernel);
@@ -174,6 +176,8 @@ void RecoverChunk(const BasicPassContext<Space>& context,
     f.blocks.feature_information.diagonal() += lambda * damping;
     const Eigen::Matrix<double, D, 1> feature_step = RecoverFeature(f.blocks, step);
     candidate = features[g] + feature_step;
+    if (input.step_fraction != 1.0)
+      candidate = features[g] + input.step_fraction * (candidate - features[g]);
     if (with_candidate_chi2) {
       out->sums.candidate_chi2 +=
           FeatureChi2<Space>(chunk, k, candidate_poses, candidate, context.kernel);

@@ -100,9 +100,8 @@ class ChunkedSpace {
   bool AcceleratesSteps() const { return accelerates_; }
   // A rejected step's line search costs one pass over the chunks and saves
   // the passes of further rejections; a pose graph has no such pass to save
-  // (and its steps are accelerated instead), and a candidate store's
-  // candidates would need a pass of their own to scale.
-  bool SearchesLines() const { return !pose_graph_ && candidate_store_ == nullptr; }
+  // (and its steps are accelerated instead).
+  bool SearchesLines() const { return !pose_graph_; }
 
   // After an accepted TryStep: *chi2 at x (+) v, v the Anderson extrapolation
   // of its pose step; *computed = false (chi2 untouched) without a history,
@@ -142,22 +141,37 @@ class ChunkedSpace {
   // After a rejected TryStep: *chi2 at x (+) t d, d the whole step (poses
   // and features, the features moved along their straight line to the
   // candidate); that state becomes the candidate Accept() takes. One pass
-  // over the chunks. *computed = false (nothing changed) unless
-  // SearchesLines().
+  // over the chunks: with the candidates in memory a chi2 pass; with a
+  // candidate store, which holds the candidates but not x beside them, a
+  // recovery of the same step that scales each candidate before its chi2
+  // and writes the scaled ones to the store (the same numbers as in memory,
+  // bit for bit). *computed = false (nothing changed) unless SearchesLines().
   Status ScaledStepChi2(double t, bool* computed, double* chi2) {
     *computed = false;
     if (!SearchesLines()) return Status::Ok();
-    const std::vector<Point>& features = problem_.features;
-    for (size_t g = 0; g < features.size(); ++g) {
-      if (!excluded_[g])
-        candidate_features_[g] = features[g] + t * (candidate_features_[g] - features[g]);
-    }
+    const Eigen::VectorXd step = pose_step_;
     pose_step_ *= t;
     candidate_poses_ = ApplyPoseStep<Space>(problem_.poses, layout_, pose_step_);
     speculation_built_ = false;
     double observations_chi2 = 0.0;
-    GS_RETURN_IF_ERROR(ranks_.Agree(
-        ObservationsChi2(context_, candidate_poses_, candidate_features_, &observations_chi2)));
+    if (candidate_store_ != nullptr) {
+      RecoveryResult recovery;
+      const BasicRecoveryInput<Space> input{problem_.poses, problem_.features, step_lambda_,
+                                            step,           candidate_poses_,  t};
+      GS_RETURN_IF_ERROR(candidate_store_->Begin());
+      GS_RETURN_IF_ERROR(ranks_.Agree(
+          RecoverPass<Space>(context_, input, CandidateSinkForThisStep(), &recovery)));
+      GS_RETURN_IF_ERROR(candidate_store_->Finish());
+      observations_chi2 = recovery.candidate_chi2;
+    } else {
+      const std::vector<Point>& features = problem_.features;
+      for (size_t g = 0; g < features.size(); ++g) {
+        if (!excluded_[g])
+          candidate_features_[g] = features[g] + t * (candidate_features_[g] - features[g]);
+      }
+      GS_RETURN_IF_ERROR(ranks_.Agree(ObservationsChi2(context_, candidate_poses_,
+                                                       candidate_features_, &observations_chi2)));
+    }
     ranks_.SumChi2(&observations_chi2);
     *chi2 = PoseFactorsChi2(problem_, candidate_poses_, pose_kernels_) + observations_chi2;
     *computed = std::isfinite(*chi2);
@@ -232,8 +246,9 @@ class ChunkedSpace {
       std::optional<double> candidate_pose_chi2;
       candidate_poses_ = ApplyPoseStep<Space>(poses, layout_, pose_step_);
       CandidateSink<Space> sink = CandidateSinkForThisStep();
+      step_lambda_ = lambda;
       const BasicRecoveryInput<Space> input{poses, problem_.features, lambda, pose_step_,
-                                            candidate_poses_};
+                                            candidate_poses_, 1.0};
       if (candidate_store_ != nullptr) GS_RETURN_IF_ERROR(candidate_store_->Begin());
       if (fused_ && speculative_lambda > 0.0) {
         // Once solved, this linearization's matrix and rhs are dead (a
@@ -262,6 +277,12 @@ class ChunkedSpace {
       if (!candidate_pose_chi2.has_value())
         candidate_pose_chi2 = PoseFactorsChi2(problem_, candidate_poses_, pose_kernels_);
       trial->candidate_chi2 = *candidate_pose_chi2 + recovery.candidate_chi2;
+      if (LogVerbosity() >= 2) {
+        const double pose_chi2 = PoseFactorsChi2(problem_, poses, pose_kernels_);
+        GS_VLOG(2, "candidate: pose factors chi2 %.9g -> %.9g, observations %.9g -> %.9g",
+                pose_chi2, *candidate_pose_chi2, it->start_chi2 - pose_chi2,
+                recovery.candidate_chi2);
+      }
       trial->gradient_dot_step = step_gradient_.dot(pose_step_) + recovery.gradient_dot_step;
       trial->model_decrease = -trial->gradient_dot_step +
                               lambda * (pose_step_.dot(damping_.cwiseProduct(pose_step_)) +
@@ -381,6 +402,7 @@ class ChunkedSpace {
   Eigen::VectorXd step_gradient_;  // g_x of the linearization the last step solved
   Eigen::VectorXd damping_;
   Eigen::VectorXd pose_step_;
+  double step_lambda_ = 0.0;  // the damping pose_step_ was solved with
   std::vector<Pose> candidate_poses_;
   std::vector<Point> candidate_features_;
   // Speculation: system_ holds the reduction at the last candidate (built by

@@ -222,7 +222,7 @@ TEST(ChunkPassKernels, CandidateChi2EqualsTheRecoverysSum) {
     std::vector<Pose2> candidate_poses = problem.poses;
     for (Pose2& pose : candidate_poses) pose += Pose2(0.02, -0.01, 0.003);
     const BasicRecoveryInput<Space2d> input{problem.poses, problem.features, 0.1, step,
-                                            candidate_poses};
+                                            candidate_poses, 1.0};
     const std::vector<Space2d::PoseFrame> frames = PoseFrames<Space2d>(problem.poses);
     ObservationChunk chunk;
     internal::RecoverOutput<Space2d> out;

@@ -210,6 +210,53 @@ TEST_F(CandidateFileTest, SolveWithTheFileEqualsTheInMemorySolveBitForBit) {
   }
 }
 
+// Headings off by up to 2.5 rad: full steps overshoot and are rejected, and
+// the line search takes a fraction of them. With the candidates in the file
+// (which holds no x to scale them from) the line search recovers the step
+// again and scales each candidate: the same solve as in memory, bit for bit,
+// line steps included.
+TEST_F(CandidateFileTest, LineSearchWithTheFileEqualsTheInMemoryLineSearch) {
+  int line_steps = 0;
+  for (uint32_t seed = 1; seed <= 4; ++seed) {
+    for (bool fused : {true, false}) {
+      SCOPED_TRACE("seed " + std::to_string(seed) + (fused ? ", fused" : ", two-pass"));
+      testing::RandomProblemOptions random;
+      random.num_poses = 40;
+      random.num_features = 15;
+      random.seed = seed;
+      core::Problem2d start = testing::MakeRandomProblem(random).problem;
+      std::mt19937 rng(seed);
+      std::uniform_real_distribution<double> heading(-2.5, 2.5);
+      for (int p = 1; p < start.num_poses(); ++p) start.poses[p].z() += heading(rng);
+      partition::ChunkingOptions chunking;
+      chunking.max_observations_per_chunk = 40;
+      partition::InMemoryChunkSource chunks(start, chunking);
+      core::SolverOptions options;
+      options.linear_solver = core::LinearSolverType::kCholmod;
+      options.function_tolerance = 1e-12;
+      options.max_iterations = 60;
+      options.fused_chunk_pass = fused;
+      options.max_eliminated_observations = 12;  // some kept features too
+      core::Problem2d in_memory = start;
+      core::SolverSummary in_memory_summary;
+      ASSERT_TRUE(core::SolveGraphSlam(options, chunks, &in_memory, &in_memory_summary).ok());
+      CandidateFile file(Env::Default(), (dir_ / "candidates.bin").string());
+      options.candidate_store = &file;
+      core::Problem2d on_disk = start;
+      core::SolverSummary on_disk_summary;
+      ASSERT_TRUE(core::SolveGraphSlam(options, chunks, &on_disk, &on_disk_summary).ok());
+      ExpectSameSolve(in_memory, in_memory_summary, on_disk, on_disk_summary);
+      for (size_t i = 0; i < on_disk_summary.per_iteration.size(); ++i) {
+        const core::IterationSummary& it = on_disk_summary.per_iteration[i];
+        EXPECT_EQ(it.line_search_fraction,
+                  in_memory_summary.per_iteration[i].line_search_fraction) << i;
+        if (it.line_search_fraction > 0.0) ++line_steps;
+      }
+    }
+  }
+  EXPECT_GT(line_steps, 0);
+}
+
 TEST_F(CandidateFileTest, ResumeFromAFeatureFileCheckpointEqualsTheUninterruptedSolve) {
   const core::Problem2d start = TestProblem();
   partition::ChunkingOptions chunking;
