@@ -174,10 +174,29 @@ void ExpectSameSolve(const core::Problem2d& a, const core::SolverSummary& sa,
   for (size_t i = 0; i < sa.per_iteration.size(); ++i) {
     EXPECT_EQ(sa.per_iteration[i].candidate_chi2, sb.per_iteration[i].candidate_chi2) << i;
     EXPECT_EQ(sa.per_iteration[i].accepted, sb.per_iteration[i].accepted) << i;
+    EXPECT_EQ(sa.per_iteration[i].line_search_fraction, sb.per_iteration[i].line_search_fraction)
+        << i;
   }
   for (int p = 0; p < a.num_poses(); ++p) EXPECT_EQ(a.poses[p], b.poses[p]) << "pose " << p;
   for (int j = 0; j < a.num_features(); ++j)
     EXPECT_EQ(a.features[j], b.features[j]) << "feature " << j;
+}
+
+// Solves `start` in memory, then again with its candidates in a file in
+// `dir`, and expects the same solve bit for bit; the file's summary goes to
+// *on_disk_summary.
+void ExpectFileSolveEqualsInMemorySolve(const fs::path& dir, const core::Problem2d& start,
+                                        const partition::InMemoryChunkSource& chunks,
+                                        core::SolverOptions options,
+                                        core::SolverSummary* on_disk_summary) {
+  core::Problem2d in_memory = start;
+  core::SolverSummary in_memory_summary;
+  ASSERT_TRUE(core::SolveGraphSlam(options, chunks, &in_memory, &in_memory_summary).ok());
+  CandidateFile file(Env::Default(), (dir / "candidates.bin").string());
+  options.candidate_store = &file;
+  core::Problem2d on_disk = start;
+  ASSERT_TRUE(core::SolveGraphSlam(options, chunks, &on_disk, on_disk_summary).ok());
+  ExpectSameSolve(in_memory, in_memory_summary, on_disk, *on_disk_summary);
 }
 
 TEST_F(CandidateFileTest, SolveWithTheFileEqualsTheInMemorySolveBitForBit) {
@@ -195,16 +214,10 @@ TEST_F(CandidateFileTest, SolveWithTheFileEqualsTheInMemorySolveBitForBit) {
         options.max_iterations = 8;
         options.fused_chunk_pass = fused;
         options.max_eliminated_observations = 30;  // some kept features too
-        core::Problem2d in_memory = start;
-        core::SolverSummary in_memory_summary;
-        ASSERT_TRUE(core::SolveGraphSlam(options, chunks, &in_memory, &in_memory_summary).ok());
-        CandidateFile file(Env::Default(), (dir_ / "candidates.bin").string());
-        options.candidate_store = &file;
-        core::Problem2d on_disk = start;
         core::SolverSummary on_disk_summary;
-        ASSERT_TRUE(core::SolveGraphSlam(options, chunks, &on_disk, &on_disk_summary).ok());
+        ASSERT_NO_FATAL_FAILURE(
+            ExpectFileSolveEqualsInMemorySolve(dir_, start, chunks, options, &on_disk_summary));
         EXPECT_GT(on_disk_summary.kept_features, 0);
-        ExpectSameSolve(in_memory, in_memory_summary, on_disk, on_disk_summary);
       }
     }
   }
@@ -237,21 +250,11 @@ TEST_F(CandidateFileTest, LineSearchWithTheFileEqualsTheInMemoryLineSearch) {
       options.max_iterations = 60;
       options.fused_chunk_pass = fused;
       options.max_eliminated_observations = 12;  // some kept features too
-      core::Problem2d in_memory = start;
-      core::SolverSummary in_memory_summary;
-      ASSERT_TRUE(core::SolveGraphSlam(options, chunks, &in_memory, &in_memory_summary).ok());
-      CandidateFile file(Env::Default(), (dir_ / "candidates.bin").string());
-      options.candidate_store = &file;
-      core::Problem2d on_disk = start;
       core::SolverSummary on_disk_summary;
-      ASSERT_TRUE(core::SolveGraphSlam(options, chunks, &on_disk, &on_disk_summary).ok());
-      ExpectSameSolve(in_memory, in_memory_summary, on_disk, on_disk_summary);
-      for (size_t i = 0; i < on_disk_summary.per_iteration.size(); ++i) {
-        const core::IterationSummary& it = on_disk_summary.per_iteration[i];
-        EXPECT_EQ(it.line_search_fraction,
-                  in_memory_summary.per_iteration[i].line_search_fraction) << i;
+      ASSERT_NO_FATAL_FAILURE(
+          ExpectFileSolveEqualsInMemorySolve(dir_, start, chunks, options, &on_disk_summary));
+      for (const core::IterationSummary& it : on_disk_summary.per_iteration)
         if (it.line_search_fraction > 0.0) ++line_steps;
-      }
     }
   }
   EXPECT_GT(line_steps, 0);
