@@ -119,14 +119,17 @@ Status InitializeFromSampledFeatures(const SampledInitializationOptions& options
   *summary = SampledInitializationSummary();
   const auto start = std::chrono::steady_clock::now();
   if (options.observations_per_pose < 1 || options.min_observations < 0 ||
-      options.budget_observations < 0 || options.sub_solve_iterations < 0)
+      options.budget_observations < 0 || options.sub_solve_iterations < 0 ||
+      !(options.sub_solve_function_tolerance >= 0.0))
     return Status::InvalidArgument(
         "sampled initialization: expected observations_per_pose >= 1, min_observations >= 0, "
-        "budget_observations >= 0 and sub_solve_iterations >= 0, got " +
+        "budget_observations >= 0, sub_solve_iterations >= 0 and "
+        "sub_solve_function_tolerance >= 0, got " +
         std::to_string(options.observations_per_pose) + ", " +
         std::to_string(options.min_observations) + ", " +
         std::to_string(options.budget_observations) + ", " +
-        std::to_string(options.sub_solve_iterations));
+        std::to_string(options.sub_solve_iterations) + ", " +
+        std::to_string(options.sub_solve_function_tolerance));
   int64_t budget = options.budget_observations > 0
                        ? options.budget_observations
                        : std::max(options.min_observations,
@@ -195,8 +198,9 @@ Status InitializeFromSampledFeatures(const SampledInitializationOptions& options
   GS_RETURN_IF_ERROR(InitializeIncrementally(options.incremental, solver, sample, &sub,
                                              &summary->incremental));
   if (options.sub_solve_iterations > 0 && !sample.empty()) {
-    const core::SolverOptions sub_options =
+    core::SolverOptions sub_options =
         internal::StageSolverOptions(solver, options.sub_solve_iterations);
+    sub_options.function_tolerance = options.sub_solve_function_tolerance;
     const SampleChunkSource sub_chunks(sample, options.incremental.max_observations_per_chunk);
     core::SolverSummary solved;
     const Status status = core::SolveGraphSlam(sub_options, sub_chunks, &sub, &solved);

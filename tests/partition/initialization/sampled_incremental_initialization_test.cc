@@ -107,6 +107,39 @@ TEST(SampledIncrementalInitialization, SampledStartThenSolveReachesTheOptimum) {
   EXPECT_NEAR(solved.final_chi2 / dof, 1.0, 0.01);
 }
 
+// The sample's solve stops at its own function tolerance: a loose one ends
+// it earlier than a tight one, from the same sampled start, and a negative
+// one is refused.
+TEST(SampledIncrementalInitialization, SampleSolveStopsAtItsOwnFunctionTolerance) {
+  CampusStore campus;
+  ASSERT_NO_FATAL_FAILURE(OpenCampusStore("tolerance", 300, 100000, &campus));
+  const int64_t observations = campus.chunks->total_observations();
+  SampledInitializationSummary tight_summary;
+  SampledInitializationSummary loose_summary;
+  for (const double tolerance : {1e-12, 1e-1}) {
+    core::Problem2d copy = campus.problem;
+    SampledInitializationOptions options;
+    options.budget_observations = 20000;
+    options.sub_solve_function_tolerance = tolerance;
+    SampledInitializationSummary& summary = tolerance < 1e-6 ? tight_summary : loose_summary;
+    ASSERT_TRUE(InitializeFromSampledFeatures(options, core::SolverOptions(), *campus.chunks,
+                                              observations, &copy, &summary)
+                    .ok());
+  }
+  ASSERT_GT(tight_summary.sub_solve_iterations, 1);
+  EXPECT_LT(loose_summary.sub_solve_iterations, tight_summary.sub_solve_iterations);
+  EXPECT_EQ(loose_summary.sub_solve_initial_chi2, tight_summary.sub_solve_initial_chi2);
+  EXPECT_GE(loose_summary.sub_solve_final_chi2, tight_summary.sub_solve_final_chi2);
+
+  core::Problem2d copy = campus.problem;
+  SampledInitializationOptions options;
+  options.sub_solve_function_tolerance = -1.0;
+  SampledInitializationSummary summary;
+  EXPECT_TRUE(InitializeFromSampledFeatures(options, core::SolverOptions(), *campus.chunks,
+                                            observations, &copy, &summary)
+                  .IsInvalidArgument());
+}
+
 // B given outright, and a cap below it (a memory limit's share): the cap
 // wins and bounds what the sample holds.
 TEST(SampledIncrementalInitialization, BudgetGivenOrCapped) {
