@@ -382,12 +382,9 @@ void PlaceNewFeatures(const core::Problem2d& problem, const Observations& observ
 // than kFarStartChi2Ratio-fold on the way (header: redo): its new poses started
 // far outside the basin, so it is discarded and done again with half of them,
 // unless it already has no more than `floor_new_poses`. Also when its last
-// iteration had stopped descending (settled, internal/stage_growth.h): kept,
-// such a stage also lets the schedule double its new poses again (likely why
-// the start got worse), and on the 10^7 campus's sample (two thirds of its
-// redos) the sample's solve then started at chi2 6.89e6 instead of 4.25e6 and
-// stopped after 20 iterations at 3.816e6, where the redone start reaches
-// 3.667e6 in 6.
+// iteration had stopped descending (settled, internal/stage_growth.h): such a
+// stage has settled in a wrong basin, and keeping it leaves the whole sample
+// off its optimum (docs/benchmarks.md, "Redone stages").
 bool IsFarStart(const IncrementalInitializationOptions& options,
                 const core::SolverSummary& solver, int64_t new_poses, int64_t floor_new_poses) {
   return options.max_iterations_per_stage > 0 && !solver.converged &&

@@ -63,8 +63,8 @@ struct SampledInitializationOptions {
   // incremental initialization (0: none).
   int sub_solve_iterations = 30;
   // Its relative chi2 decrease to stop at (the whole solve's default is
-  // 1e-6). Looser: the whole problem's solve moves the poses further than the
-  // sample's last iterations do, since it adds every other feature (below).
+  // 1e-6). Looser: the whole problem's solve, which adds every other
+  // feature, moves the poses further than the sample's last iterations do.
   double sub_solve_function_tolerance = 1e-4;
   IncrementalInitializationOptions incremental;
 };
