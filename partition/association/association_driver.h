@@ -6,7 +6,7 @@
 //     solve the problem with the current correspondences (Table 5 loop)
 //     undo: every earlier merge whose absorbed side's observations no longer
 //       fit the merged feature (chi2 of that side above the chi-square
-//       quantile for 2 n dof, Wilson-Hilferty) is split off again, the pair is
+//       quantile for 2 n dof at undo_z, internal/chi_square.h) is split off again, the pair is
 //       never proposed again, and the problem is re-solved
 //     candidates: feature pairs within `search_radius` of each other (a
 //       uniform grid hash of cell size search_radius), not all pairs; pairs
