@@ -51,7 +51,7 @@ struct AssociationOptions {
   double search_radius = 5.0;              // candidate pairs closer than this [m]
   int max_rounds = 30;
   bool exclusive_per_pose = true;
-  double undo_z = 3.09;  // undo when a side's chi2 exceeds the quantile at this normal z
+  double undo_z = kDefaultGateZ;  // undo when a side's chi2 exceeds the quantile at this normal z
   int marginal_batch = 64;                 // covariance column blocks solved together
   // In rounds 1..mutual_best_rounds a pair merges only if each feature is the
   // other's most probable accepted partner (no chaining of neighbours through

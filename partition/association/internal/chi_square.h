@@ -2,7 +2,7 @@
 //
 // A gate at standard normal z accepts a squared Mahalanobis distance d^2 with
 // k degrees of freedom when
-//   d^2 <= F^{-1}(p; k),   p = Phi(z)   (z = 3.09: p = 0.99900),
+//   d^2 <= F^{-1}(p; k),   p = Phi(z)   (z = 3.0902: p = 0.999),
 // F the chi-square distribution function and Phi the standard normal one.
 // Both come from Boost.Math, exact to double precision: F^{-1}(p; k) =
 // 2 P^{-1}(k/2, p), P^{-1} the inverse of the regularized lower incomplete
