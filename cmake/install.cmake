@@ -8,7 +8,7 @@
 #       its version file, the exported targets graphslam::core,
 #       graphslam::storage, graphslam::partition and FindCHOLMOD.cmake
 # The libraries are static, so their private dependencies (CHOLMOD, spdlog,
-# fmt, zstd, nlohmann-json, OctoMap) are link dependencies of the
+# fmt, zstd, nlohmann-json, OctoMap, Boost's headers) are link dependencies of the
 # consumer too: the config file finds them with find_dependency.
 include(CMakePackageConfigHelpers)
 

@@ -23,6 +23,7 @@
 // GS_INC_RADIUS, GS_INC_Z, GS_INC_CONFIRM, GS_INC_WINDOW, GS_INC_ITERATIONS set
 // the incremental pass's stage_poses, search_radius, joint.z,
 // confirm_observations, provisional_poses and max_iterations_per_stage (partition/association/incremental_association.h);
+// GS_UNDO_Z the undo_z of the pass's stage undo and of the rounds' undo;
 // GS_INC_STAGE_OBS, GS_SPARSE_STAGE_OBS, GS_SCALE_HIGH_RATE, GS_INC_WINDOW_OBS,
 // GS_LOOP_WINDOW_OBS its stage_observations, sparse_stage_observations,
 // scale_high_rate_logs,
@@ -215,6 +216,7 @@ void AssociationOptionsFromEnvironment(gs::partition::AssociationOptions* option
   if (const char* v = std::getenv("GS_INC_STAGE")) inc.stage_poses = std::atoll(v);
   if (const char* v = std::getenv("GS_INC_RADIUS")) inc.search_radius = std::atof(v);
   if (const char* v = std::getenv("GS_INC_Z")) inc.joint.z = std::atof(v);
+  if (const char* v = std::getenv("GS_UNDO_Z")) options->undo_z = inc.undo_z = std::atof(v);
   if (const char* v = std::getenv("GS_INC_CONFIRM")) inc.confirm_observations = std::atoi(v);
   if (const char* v = std::getenv("GS_INC_WINDOW")) inc.provisional_poses = std::atoll(v);
   if (const char* v = std::getenv("GS_INC_STAGE_OBS")) inc.stage_observations = std::atoll(v);

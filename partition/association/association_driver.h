@@ -6,7 +6,7 @@
 //     solve the problem with the current correspondences (Table 5 loop)
 //     undo: every earlier merge whose absorbed side's observations no longer
 //       fit the merged feature (chi2 of that side above the chi-square
-//       quantile for 2 n dof, Wilson-Hilferty) is split off again, the pair is
+//       quantile for 2 n dof at undo_z, internal/chi_square.h) is split off again, the pair is
 //       never proposed again, and the problem is re-solved
 //     candidates: feature pairs within `search_radius` of each other (a
 //       uniform grid hash of cell size search_radius), not all pairs; pairs
@@ -51,7 +51,7 @@ struct AssociationOptions {
   double search_radius = 5.0;              // candidate pairs closer than this [m]
   int max_rounds = 30;
   bool exclusive_per_pose = true;
-  double undo_z = 3.09;  // undo when a side's chi2 exceeds the quantile at this normal z
+  double undo_z = kDefaultGateZ;  // undo when a side's chi2 exceeds the quantile at this normal z
   int marginal_batch = 64;                 // covariance column blocks solved together
   // In rounds 1..mutual_best_rounds a pair merges only if each feature is the
   // other's most probable accepted partner (no chaining of neighbours through

@@ -142,7 +142,7 @@ struct IncrementalAssociationOptions {
   // observations to a feature of their own; the stage is solved again (at
   // most max_stage_undo_passes times).
   bool undo_stage_pairings = true;
-  double undo_z = 3.09;
+  double undo_z = kDefaultGateZ;
   int max_stage_undo_passes = 2;
   // Loop closure by matching the local map against the older map.
   bool close_loops = true;

@@ -42,11 +42,15 @@ class Search {
   Search(const ScanAssociationInput& input, const JointCompatibilityOptions& options)
       : input_(input), options_(options), used_(input.targets, 0) {
     const int n = input.observations;
+    // The quantile is an iterative inverse (microseconds): once per pairing
+    // count, not once per search node.
+    gates_.resize(n + 1);
+    for (int k = 1; k <= n; ++k)
+      gates_[k] = internal::ChiSquareQuantile(2.0 * static_cast<double>(k), options.z);
     compatible_.resize(n);
-    const double gate = internal::ChiSquareQuantile(2.0, options.z);
     for (int i = 0; i < n; ++i) {
       for (int a = 0; a < input.targets; ++a) {
-        if (PairsMahalanobisSquared(input, {i}, {a}) <= gate) compatible_[i].push_back(a);
+        if (PairsMahalanobisSquared(input, {i}, {a}) <= gates_[1]) compatible_[i].push_back(a);
       }
     }
     best_.target.assign(n, -1);
@@ -80,8 +84,7 @@ class Search {
     const int pairings = static_cast<int>(observations_.size());
     // Pair observation i: every pairing left still possible.
     if (CanBeat(pairings + (n - i), d2)) {
-      const double gate =
-          internal::ChiSquareQuantile(2.0 * static_cast<double>(pairings + 1), options_.z);
+      const double gate = gates_[pairings + 1];
       for (int a : compatible_[i]) {
         if (used_[a]) continue;
         observations_.push_back(i);
@@ -111,6 +114,7 @@ class Search {
 
   const ScanAssociationInput& input_;
   const JointCompatibilityOptions& options_;
+  std::vector<double> gates_;  // [k]: the joint gate of k pairings (2k dof)
   std::vector<std::vector<int32_t>> compatible_;
   std::vector<uint8_t> used_;
   std::vector<int32_t> observations_, targets_, current_;

@@ -5,7 +5,7 @@ set -euo pipefail
 packages=(
   build-essential cmake
   libeigen3-dev libsuitesparse-dev libtbb-dev
-  libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev libyaml-cpp-dev libzstd-dev
+  libboost-dev libspdlog-dev libfmt-dev libcli11-dev nlohmann-json3-dev libyaml-cpp-dev libzstd-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   liboctomap-dev libpcl-dev libgeographiclib-dev libplplot-dev plplot-driver-cairo pkg-config
   clang libclang-rt-14-dev
