@@ -306,19 +306,19 @@ inline double ModelStopTolerance(const SolverOptions& options) {
 // returns true when it fires). The model decrease
 // m(lambda) = -g^T d + lambda d^T D d of the Levenberg-Marquardt step is the
 // quadratic model's estimate of the chi2 still to gain: at lambda = 0 it is
-// g^T H^-1 g, chi2 - chi2(optimum) to second order (the Newton decrement),
-// and damping only lowers it. It says more than an accepted step's decrease
-// where the iteration converges slowly: along a weakly determined mode
-// whose cost the model underestimates at full length, every full step is
-// rejected and the line step gains a small share of m, so the decreases
-// shrink slowly and the function tolerance, which looks at one decrease,
-// spends many iterations (two passes over the observations each) on what
-// m already estimates. Below model_tolerance x chi2 (1e-4: the precision
-// the reference optima are held to; for chi2 near dof it is below chi2's
-// statistical spread sqrt(2 / dof) while dof < 2e8) the solve stops,
-// converged, termination
-// "model_tolerance", without the line step. Only rejected steps are tested:
-// an accepted step moves on (pose graphs accept steps whose model
+// g^T H^-1 g, chi2 - chi2(optimum) to second order (the Newton decrement);
+// damping only lowers it, so a heavily damped step's m understates what is
+// left. It says more than an accepted step's decrease where the iteration
+// converges slowly: along a weakly determined mode whose cost the model
+// underestimates at full length, every full step is rejected and the line
+// step gains a small share of m, so the decreases shrink slowly and the
+// function tolerance, which looks at one decrease, spends many iterations
+// (two passes over the observations each) on what m already estimates.
+// Below model_tolerance x chi2 (1e-4: the precision the reference optima
+// are held to; for chi2 near dof it is below chi2's statistical spread
+// sqrt(2 / dof) while dof < 2e8) the solve stops, converged, termination
+// "model_tolerance", without the line step. Only rejected steps are
+// tested: an accepted step moves on (pose graphs accept steps whose model
 // underestimates the decrease, rho up to 1.9, all the way to the optimum).
 // Below function_tolerance x chi2 the stop holds whatever m estimates
 // (termination "function_tolerance"): lambda only grows until the next
