@@ -46,6 +46,9 @@ Status SolverOptions::Validate() const {
                                    std::to_string(max_iterations));
   if (!(function_tolerance >= 0) || !(gradient_tolerance >= 0) || !(parameter_tolerance >= 0))
     return Status::InvalidArgument("tolerances must be non-negative");
+  if (!(model_tolerance >= 0.0) || !(model_tolerance < 1.0))
+    return Status::InvalidArgument("model_tolerance must be in [0, 1), got " +
+                                   std::to_string(model_tolerance));
   if (!(initial_trust_region_radius >= 0) ||
       !(max_trust_region_radius >= initial_trust_region_radius))
     return Status::InvalidArgument(

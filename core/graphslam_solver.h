@@ -36,7 +36,8 @@
 // Convergence (Ceres' criteria): relative chi2 decrease below
 // function_tolerance, |dx| below parameter_tolerance (|x| + tol), or
 // max |g| below gradient_tolerance; also a rejected step whose model
-// decrease is below function_tolerance x chi2 (core/levenberg_marquardt.h).
+// decrease is below model_tolerance (or function_tolerance) x chi2
+// (core/levenberg_marquardt.h).
 // D is diag(H) clamped to [1e-6, 1e32]. Solving for increments (H d = -g) and
 // removing the anchor from the unknowns keep the system well conditioned.
 //
@@ -134,6 +135,12 @@ struct SolverOptions {
   LinearSolverType linear_solver = LinearSolverType::kAuto;
   int max_iterations = 100;
   double function_tolerance = 1e-6;
+  // A rejected step whose model decrease (-g^T d + lambda d^T D d, the
+  // quadratic model's estimate of the chi2 still to gain) is below
+  // max(model_tolerance, function_tolerance) x chi2 ends the solve, converged
+  // (core/levenberg_marquardt.h, ModelDecreaseBelowTolerance). 0: only the
+  // function tolerance.
+  double model_tolerance = 1e-4;
   double gradient_tolerance = 1e-10;
   double parameter_tolerance = 1e-8;
   // > 0: the radius (1 / initial lambda); 0: by the linear solver chosen

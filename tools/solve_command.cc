@@ -48,6 +48,11 @@ void AddSolverOptions(CLI::App* solve, SolveCommandOptions* options) {
                     "extrapolated) is below this")
       ->check(Real(0.0, 1.0, Bounds::kOpenUpper))
       ->capture_default_str();
+  solve->add_option("--model-tolerance", options->model_tolerance,
+                    "stop when a rejected step's model decrease (the chi2 the quadratic model "
+                    "still expects to gain) is below this x chi2; 0: only --function-tolerance")
+      ->check(Real(0.0, 1.0, Bounds::kOpenUpper))
+      ->capture_default_str();
   solve->add_option("--initial-trust-region", options->initial_trust_region_radius,
                     "initial trust region radius (1 / initial damping; default: 1e8 with "
                     "CHOLMOD, 1e4 with PCG)")

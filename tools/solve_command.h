@@ -30,7 +30,9 @@ struct SolveCommandOptions {
   // PCG truncation, a fraction of --function-tolerance (SolverOptions).
   double pcg_truncation = core::SolverOptions().pcg_truncation;
   int max_iterations = 100;
-  double function_tolerance = 1e-6;
+  double function_tolerance = core::SolverOptions().function_tolerance;
+  // A rejected step's model decrease, relative to chi2 (SolverOptions).
+  double model_tolerance = core::SolverOptions().model_tolerance;
   double initial_trust_region_radius = 0;  // 0: by the linear solver (1e8 / 1e4)
   int threads = 0;                  // 0: all cores
   int robot = 1;                    // MRCLAM robot number

@@ -226,6 +226,7 @@ StatusOr<core::SolverOptions> SolverOptionsFor(const JobSpec& spec,
   settings.robust_kernel = spec.solver.robust_kernel;
   settings.max_iterations = spec.solver.max_iterations;
   settings.function_tolerance = spec.solver.function_tolerance;
+  settings.model_tolerance = spec.solver.model_tolerance;
   StatusOr<core::SolverOptions> options = MakeSolverOptions(
       settings, {"solver.linear_solver", "solver.preconditioner", "solver.robust_kernel"});
   if (!options.ok()) return options.status().WithContext(spec.path);

@@ -374,7 +374,8 @@ Status ParseMap(const Reader& r, const YAML::Node& node, MapSpec* map) {
 
 Status ParseSolver(const Reader& r, const YAML::Node& node, SolverSpec* solver) {
   GS_RETURN_IF_ERROR(r.ExpectMap(node, "solver",
-                                 {"max_iterations", "function_tolerance", "robust_kernel",
+                                 {"max_iterations", "function_tolerance", "model_tolerance",
+                                  "robust_kernel",
                                   "initialization", "linear_solver", "repair_information"}));
   if (node["max_iterations"])
     GS_RETURN_IF_ERROR(
@@ -382,6 +383,9 @@ Status ParseSolver(const Reader& r, const YAML::Node& node, SolverSpec* solver) 
   if (node["function_tolerance"])
     GS_RETURN_IF_ERROR(
         r.Double(node["function_tolerance"], "function_tolerance", &solver->function_tolerance));
+  if (node["model_tolerance"])
+    GS_RETURN_IF_ERROR(
+        r.Double(node["model_tolerance"], "model_tolerance", &solver->model_tolerance));
   if (node["robust_kernel"])
     GS_RETURN_IF_ERROR(r.String(node["robust_kernel"], "robust_kernel", &solver->robust_kernel));
   if (node["linear_solver"])

@@ -93,6 +93,7 @@ struct RunSpec {
 struct SolverSpec {
   int max_iterations = 100;
   double function_tolerance = 1e-6;
+  double model_tolerance = 1e-4;  // core::SolverOptions::model_tolerance
   std::string robust_kernel = "none";
   // auto (= incremental: the job's solve is checkpointed, so no odometry
   // probe as in `graphslam solve`), incremental, progressive, odometry.

@@ -106,6 +106,7 @@ StatusOr<core::SolverOptions> MakeSolverOptions(const SolverSettings& settings,
   options.pcg_truncation = settings.pcg_truncation;
   options.max_iterations = settings.max_iterations;
   options.function_tolerance = settings.function_tolerance;
+  options.model_tolerance = settings.model_tolerance;
   options.initial_trust_region_radius = settings.initial_trust_region_radius;
   options.max_eliminated_observations = settings.max_eliminated_observations;
   options.fused_chunk_pass = !settings.two_pass;
@@ -119,6 +120,7 @@ SolverSettings SolverSettingsFrom(const SolveCommandOptions& options) {
   settings.robust_kernel = options.robust_kernel;
   settings.max_iterations = options.max_iterations;
   settings.function_tolerance = options.function_tolerance;
+  settings.model_tolerance = options.model_tolerance;
   settings.initial_trust_region_radius = options.initial_trust_region_radius;
   settings.pcg_eta_min = options.pcg_eta_min;
   settings.pcg_eta_max = options.pcg_eta_max;

@@ -38,6 +38,7 @@ struct SolverSettings {
   std::string robust_kernel = "none";
   int max_iterations = core::SolverOptions().max_iterations;
   double function_tolerance = core::SolverOptions().function_tolerance;
+  double model_tolerance = core::SolverOptions().model_tolerance;
   // > 0: the radius; 0: by the linear solver (core/graphslam_solver.h).
   double initial_trust_region_radius = core::SolverOptions().initial_trust_region_radius;
   double pcg_eta_min = core::SolverOptions().pcg_relative_tolerance;

@@ -1,5 +1,6 @@
 # Batch jobs (tools/job, `graphslam run`).
 graphslam_test(tools/job/job_spec)
+graphslam_test(tools/job/job_model_tolerance)
 graphslam_test(tools/job/job_state)
 graphslam_test(tools/job/report_html)
 graphslam_test(tools/job/job_end_to_end)
