@@ -29,7 +29,7 @@ struct SolveCommandOptions {
   int pcg_deflation = core::SolverOptions().pcg_deflation_poses;
   // PCG truncation, a fraction of --function-tolerance (SolverOptions).
   double pcg_truncation = core::SolverOptions().pcg_truncation;
-  int max_iterations = 100;
+  int max_iterations = core::SolverOptions().max_iterations;
   double function_tolerance = core::SolverOptions().function_tolerance;
   // A rejected step's model decrease, relative to chi2 (SolverOptions).
   double model_tolerance = core::SolverOptions().model_tolerance;

@@ -35,6 +35,8 @@ TEST(ModelToleranceOption, DefaultAndValueReachTheSolverOptions) {
   StatusOr<core::SolverOptions> from_default = MakeSolverOptions(SolverSettingsFrom(defaults));
   ASSERT_TRUE(from_default.ok()) << from_default.status().ToString();
   EXPECT_EQ(from_default->model_tolerance, core::SolverOptions().model_tolerance);
+  EXPECT_EQ(from_default->max_iterations, core::SolverOptions().max_iterations);
+  EXPECT_EQ(from_default->function_tolerance, core::SolverOptions().function_tolerance);
 
   SolveCommandOptions given;
   ASSERT_TRUE(ParseSolve({"--model-tolerance", "0"}, &given));

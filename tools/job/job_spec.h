@@ -29,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "core/graphslam_solver.h"
 #include "core/status.h"
 #include "tools/campus_simulator.h"
 
@@ -91,9 +92,11 @@ struct RunSpec {
 };
 
 struct SolverSpec {
-  int max_iterations = 100;
-  double function_tolerance = 1e-6;
-  double model_tolerance = 1e-4;  // core::SolverOptions::model_tolerance
+  // The solver's own defaults (core::SolverOptions), so a job and
+  // `graphslam solve` can never drift apart.
+  int max_iterations = core::SolverOptions().max_iterations;
+  double function_tolerance = core::SolverOptions().function_tolerance;
+  double model_tolerance = core::SolverOptions().model_tolerance;
   std::string robust_kernel = "none";
   // auto (= incremental: the job's solve is checkpointed, so no odometry
   // probe as in `graphslam solve`), incremental, progressive, odometry.

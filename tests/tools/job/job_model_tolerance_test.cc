@@ -1,5 +1,5 @@
-// The job file's solver.model_tolerance: its default is the solver's, and a
-// value given is read.
+// The job file's solver.model_tolerance: its default is the solver's (as are
+// the other stopping rules'), and a value given is read.
 #include <gtest/gtest.h>
 
 #include <string>
@@ -20,6 +20,7 @@ TEST(JobModelTolerance, DefaultIsTheSolversDefault) {
   ASSERT_TRUE(job.ok()) << job.status().ToString();
   EXPECT_EQ(job->solver.model_tolerance, core::SolverOptions().model_tolerance);
   EXPECT_EQ(job->solver.function_tolerance, core::SolverOptions().function_tolerance);
+  EXPECT_EQ(job->solver.max_iterations, core::SolverOptions().max_iterations);
 }
 
 TEST(JobModelTolerance, AGivenValueIsRead) {
