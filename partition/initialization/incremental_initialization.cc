@@ -14,6 +14,7 @@
 #include "partition/initialization/feature_localization.h"
 #include "partition/initialization/gps_segment_alignment.h"
 #include "partition/ingest/in_memory_chunk_source.h"
+#include "partition/initialization/internal/broken_odometry.h"
 #include "partition/initialization/internal/odometry_chain.h"
 #include "partition/initialization/internal/stage_growth.h"
 #include "partition/initialization/internal/stage_setup.h"
@@ -499,6 +500,17 @@ class IncrementalStages {
     for (int32_t f : new_features_) feature_placed_[f] = 0;
   }
 
+  // The worst chi2 of one odometry or motion step touching the new poses
+  // [new_begin, t) at the stage's solution (internal/broken_odometry.h).
+  double WorstNewOdometryChi2(const StageSolve& stage, int32_t new_begin, int32_t t) {
+    touched_.assign(stage.sub.poses.size(), 0);
+    for (int32_t p = new_begin; p < t; ++p) {
+      const int32_t local = builder_.local_pose(p);
+      if (local >= 0) touched_[local] = 1;
+    }
+    return internal::WorstOdometryChi2(stage.sub, touched_);
+  }
+
   // Keeps a stage: its solved poses and features become the estimate.
   void Keep(const StageSolve& stage) {
     for (int32_t p : stage.unknown) poses_[p] = stage.sub.poses[builder_.local_pose(p)];
@@ -530,6 +542,7 @@ class IncrementalStages {
   std::vector<uint8_t> feature_placed_;
   std::vector<int32_t> new_features_;  // placed by the last Place
   std::vector<uint8_t> mark_;          // UnknownPoses' scratch
+  std::vector<uint8_t> touched_;       // WorstNewOdometryChi2's scratch
 };
 
 void LogStage(size_t stage, const IncrementalStageSummary& s) {
@@ -570,6 +583,9 @@ Status IncrementalInitializationOptions::Validate() const {
   if (full_stage_growth != 0.0 && (!(full_stage_growth > 1.0) || !std::isfinite(full_stage_growth)))
     return fail("full_stage_growth must be 0 (off) or finite and > 1",
                 std::to_string(full_stage_growth));
+  if (!(broken_odometry_chi2 >= 0.0) || !std::isfinite(broken_odometry_chi2))
+    return fail("broken_odometry_chi2 must be finite and >= 0 (0: off)",
+                std::to_string(broken_odometry_chi2));
   if (max_iterations_per_stage < 0)
     return fail("max_iterations_per_stage must be >= 0", std::to_string(max_iterations_per_stage));
   if (max_observations_per_chunk < 1)
@@ -615,12 +631,26 @@ Status RunStages(const IncrementalInitializationOptions& options, const core::So
     GS_RETURN_IF_ERROR(
         stages.Solve(attempt, new_begin, t, full, summary->stages.size(), &stage));
     stage.summary.seconds = StageSecondsSince(stage_start);
-    if (IsFarStart(options, stage.solver, t - new_begin, floor_new_poses)) {
+    const bool far = IsFarStart(options, stage.solver, t - new_begin, floor_new_poses);
+    const double worst_odometry =
+        !far && options.broken_odometry_chi2 > 0.0 && options.max_iterations_per_stage > 0 &&
+                t - new_begin > floor_new_poses
+            ? stages.WorstNewOdometryChi2(stage, new_begin, t)
+            : 0.0;
+    const bool broken = worst_odometry > options.broken_odometry_chi2;
+    if (far || broken) {
       allowed = std::max<int64_t>(floor_new_poses, (t - new_begin) / 2);
-      GS_VLOG(1, "incremental initialization: %d poses not converged in %d iterations "
-                 "(chi2 %.6g -> %.6g): redone with %lld new poses",
-              t, stage.summary.iterations, stage.summary.initial_chi2, stage.summary.final_chi2,
-              static_cast<long long>(allowed));
+      if (far) {
+        GS_VLOG(1, "incremental initialization: %d poses not converged in %d iterations "
+                   "(chi2 %.6g -> %.6g): redone with %lld new poses",
+                t, stage.summary.iterations, stage.summary.initial_chi2,
+                stage.summary.final_chi2, static_cast<long long>(allowed));
+      } else {
+        GS_VLOG(1, "incremental initialization: %d poses leave an odometry step at chi2 %.6g "
+                   "(above %.6g): redone with %lld new poses",
+                t, worst_odometry, options.broken_odometry_chi2, static_cast<long long>(allowed));
+        ++summary->broken_odometry_redos;
+      }
       stages.Undo(new_begin, t);
       t = static_cast<int32_t>(new_begin + allowed);
       t_chosen = true;

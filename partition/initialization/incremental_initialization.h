@@ -129,6 +129,12 @@ struct IncrementalInitializationOptions : PrefixStageOptions {
   // Full stages: the first stage whose prefix reaches first_poses * g^j
   // (j = 1, 2, ...) solves the whole prefix (0: never).
   double full_stage_growth = 2.0;
+  // A stage whose solution leaves one odometry or motion step touching its
+  // new poses at a chi2 above this is redone with half its new poses, as a
+  // stage started far outside the basin is (internal/broken_odometry.h: a
+  // stretch folded over in a local minimum); 0: off. Only solved stages
+  // (max_iterations_per_stage > 0) are judged.
+  double broken_odometry_chi2 = 1000.0;
 
   Status Validate() const;
 };
@@ -152,6 +158,8 @@ struct IncrementalSummary {
   bool ran = false;  // false when options.enabled is false
   std::vector<IncrementalStageSummary> stages;  // the stages kept
   int64_t redone_stages = 0;  // stages discarded and done again with fewer new poses
+  // Of those, the ones redone for a broken odometry step (broken_odometry_chi2).
+  int64_t broken_odometry_redos = 0;
   double seconds = 0.0;
 };
 

@@ -417,6 +417,7 @@ Status StartFromSampledFeatures(const SolveRun& run, Solve2d& s) {
                       {"sampled_observations", summary.sampled_observations},
                       {"stages", static_cast<int64_t>(summary.incremental.stages.size())},
                       {"redone_stages", summary.incremental.redone_stages},
+                      {"broken_odometry_redos", summary.incremental.broken_odometry_redos},
                       {"sample_solve_iterations", summary.sub_solve_iterations},
                       {"sample_solve_final_chi2", summary.sub_solve_final_chi2},
                       {"seconds", summary.seconds}};
@@ -549,6 +550,7 @@ void AddReport(const SolveRun& run, const Solve2d& s, nlohmann::json* report_out
         {"stages", static_cast<int64_t>(s.incremental_summary.stages.size())},
         {"most_poses_solved_in_a_stage", most_solved},
         {"redone_stages", s.incremental_summary.redone_stages},
+        {"broken_odometry_redos", s.incremental_summary.broken_odometry_redos},
         {"seconds", s.incremental_summary.seconds}};
   }
   if (!s.sampled_report.is_null()) report["sampled_incremental_initialization"] = s.sampled_report;

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 
 #include "core/initialization.h"
 #include "storage/g2o_reader.h"
@@ -256,6 +257,37 @@ TEST(IncrementalInitialization, CompactObservationsGiveTheSameStart) {
   }
 }
 
+// The broken-odometry bound: with a bound below every step's chi2 each stage
+// with more new poses than the floor is redone until it has the floor's (and
+// counted as such), with the bound off none is; the full solve reaches the
+// dense optimum either way.
+TEST(IncrementalInitialization, BrokenOdometryBoundRedoesStagesToTheFloor) {
+  const testing::RandomProblem random = testing::BadlyInitializedProblem(2, 48, true, false);
+  const double optimum = testing::DenseOptimum(random);
+  core::SolverOptions solver;
+  solver.function_tolerance = 1e-12;
+  for (const double bound : {0.0, 1e-12}) {
+    IncrementalInitializationOptions options = SmallWindows();
+    options.broken_odometry_chi2 = bound;
+    core::Problem2d problem = random.problem;
+    IncrementalSummary incremental;
+    ASSERT_TRUE(InitializeIncrementally(options, solver, &problem, &incremental).ok());
+    ASSERT_GE(incremental.stages.size(), 2u);
+    if (bound == 0.0) {
+      EXPECT_EQ(incremental.broken_odometry_redos, 0);
+    } else {
+      EXPECT_GT(incremental.broken_odometry_redos, 0);
+      EXPECT_LE(incremental.broken_odometry_redos, incremental.redone_stages);
+      for (size_t k = 1; k < incremental.stages.size(); ++k)
+        EXPECT_LE(incremental.stages[k].poses - incremental.stages[k - 1].poses,
+                  options.min_new_poses)
+            << "stage " << k;
+    }
+    const core::SolverSummary summary = FullSolve(&problem, solver);
+    EXPECT_NEAR(summary.final_chi2, optimum, 1e-6 * optimum) << "bound " << bound;
+  }
+}
+
 TEST(IncrementalInitialization, RejectsBadOptions) {
   IncrementalInitializationOptions options;
   options.window_poses = options.max_new_poses - 1;
@@ -271,6 +303,11 @@ TEST(IncrementalInitialization, RejectsBadOptions) {
   EXPECT_FALSE(options.Validate().ok());
   options = IncrementalInitializationOptions();
   options.max_window_observations = options.max_new_observations - 1;
+  EXPECT_FALSE(options.Validate().ok());
+  options = IncrementalInitializationOptions();
+  options.broken_odometry_chi2 = -1.0;
+  EXPECT_FALSE(options.Validate().ok());
+  options.broken_odometry_chi2 = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(options.Validate().ok());
   EXPECT_TRUE(IncrementalInitializationOptions().Validate().ok());
 }
