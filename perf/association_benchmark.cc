@@ -28,7 +28,7 @@
 // GS_LOOP_WINDOW_OBS its stage_observations, sparse_stage_observations,
 // scale_high_rate_logs,
 // provisional_observations, local_observations; GS_SECONDS=S reads only the first
-// S seconds of MRCLAM; GS_MRCLAM_SIGMA=R,PHI its range and bearing sigmas; GS_POSES_OUT=FILE writes each observation's pose; GS_INCREMENTAL=0 skips
+// S seconds of MRCLAM; GS_MRCLAM_SIGMA=R,PHI its range and bearing sigmas; GS_MRCLAM_ALPHA=K multiplies its motion noise variances (alpha) by K; GS_POSES_OUT=FILE writes each observation's pose; GS_INCREMENTAL=0 skips
 // it (the batch rounds alone; on by default); GS_LOOP=0/1, GS_LOOP_MIN, GS_LOOP_MARGIN, GS_LOOP_TOL,
 // GS_FIXES_FIRST=0/1 its solve_fixes_first, GS_STAGE_UNDO=0/1 its undo_stage_pairings;
 // GS_LOOP_ROT, GS_LOOP_RADIUS, GS_LOOP_WINDOW set its loop closure
@@ -154,6 +154,9 @@ gs::Status LoadMrclam(const std::string& datasets, Benchmark* b) {
     if (std::sscanf(v, "%lf,%lf", &range, &bearing) == 2)
       mrclam.measurement_information =
           Eigen::Vector2d(1.0 / (range * range), 1.0 / (bearing * bearing)).asDiagonal();
+  }
+  if (const char* v = std::getenv("GS_MRCLAM_ALPHA")) {  // factor on the motion noise variances
+    for (double& a : mrclam.noise.alpha) a *= std::atof(v);
   }
   auto known = gs::storage::ReadMrclam(datasets + "/mrclam_dataset1_sampled50hz", mrclam);
   GS_RETURN_IF_ERROR(known.status());

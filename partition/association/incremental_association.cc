@@ -785,6 +785,20 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
       GS_RETURN_IF_ERROR(SolveFixesFirst(begin, end, &run));
       GS_RETURN_IF_ERROR(PairStage(begin, end, &run));
       GS_RETURN_IF_ERROR(SolveStage(end, cluster_before, &run));
+      // Diagnosis: the stage's poses as solved then, and where its
+      // observations went (what later stages and closures did not yet change).
+      if (LogVerbosity() >= 3) {
+        for (int32_t p = begin; p < end; ++p) {
+          if (run.observations_of_pose[p].empty()) continue;
+          const double stamp =
+              static_cast<size_t>(p) < problem->pose_stamps.size() ? problem->pose_stamps[p] : 0.0;
+          GS_VLOG(3, "trace pose %d %.3f %.4f %.4f %.5f", p, stamp, run.poses[p].x(),
+                  run.poses[p].y(), run.poses[p].z());
+          for (int32_t o : run.observations_of_pose[p])
+            GS_VLOG(3, "trace obs %d %d %.4f %.5f", o, run.cluster_of[o],
+                    problem->observations[o].z.x(), problem->observations[o].z.y());
+        }
+      }
     }
 
     // Provisional features not seen for a while are clutter.
