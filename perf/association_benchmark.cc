@@ -28,9 +28,9 @@
 // GS_LOOP_WINDOW_OBS its stage_observations, sparse_stage_observations,
 // scale_high_rate_logs,
 // provisional_observations, local_observations; GS_SECONDS=S reads only the first
-// S seconds of MRCLAM; GS_MRCLAM_SIGMA=R,PHI its range and bearing sigmas; GS_POSES_OUT=FILE writes each observation's pose; GS_INCREMENTAL=0 skips
+// S seconds of MRCLAM; GS_MRCLAM_SIGMA=R,PHI its range and bearing sigmas; GS_MRCLAM_ALPHA=K multiplies its motion noise variances (alpha) by K; GS_POSES_OUT=FILE writes each observation's pose; GS_INCREMENTAL=0 skips
 // it (the batch rounds alone; on by default); GS_LOOP=0/1, GS_LOOP_MIN, GS_LOOP_MARGIN, GS_LOOP_TOL,
-// GS_FIXES_FIRST=0/1 its solve_fixes_first, GS_STAGE_UNDO=0/1 its undo_stage_pairings;
+// GS_FIXES_FIRST=0/1 its solve_fixes_first, GS_MERGE_DUPLICATES=0/1 its merge_duplicates, GS_STAGE_UNDO=0/1 its undo_stage_pairings;
 // GS_LOOP_ROT, GS_LOOP_RADIUS, GS_LOOP_WINDOW set its loop closure
 // (close_loops, loop.min_inliers, .ambiguity_margin, .tolerance,
 // .max_rotation, .search_radius, local_window); GS_KEY_OUT=FILE writes the key,
@@ -155,6 +155,9 @@ gs::Status LoadMrclam(const std::string& datasets, Benchmark* b) {
       mrclam.measurement_information =
           Eigen::Vector2d(1.0 / (range * range), 1.0 / (bearing * bearing)).asDiagonal();
   }
+  if (const char* v = std::getenv("GS_MRCLAM_ALPHA")) {  // factor on the motion noise variances
+    for (double& a : mrclam.noise.alpha) a *= std::atof(v);
+  }
   auto known = gs::storage::ReadMrclam(datasets + "/mrclam_dataset1_sampled50hz", mrclam);
   GS_RETURN_IF_ERROR(known.status());
   mrclam.ignore_barcodes = true;
@@ -226,6 +229,7 @@ void AssociationOptionsFromEnvironment(gs::partition::AssociationOptions* option
   if (const char* v = std::getenv("GS_LOOP_WINDOW_OBS")) inc.local_observations = std::atoll(v);
   if (const char* v = std::getenv("GS_INC_ITERATIONS")) inc.max_iterations_per_stage = std::atoi(v);
   if (const char* v = std::getenv("GS_LOOP")) inc.close_loops = std::atoi(v) != 0;
+  if (const char* v = std::getenv("GS_MERGE_DUPLICATES")) inc.merge_duplicates = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_LOOP_MIN")) inc.loop.min_inliers = std::atoi(v);
   if (const char* v = std::getenv("GS_LOOP_MARGIN")) inc.loop.ambiguity_margin = std::atoi(v);
   if (const char* v = std::getenv("GS_LOOP_TOL")) inc.loop.tolerance = std::atof(v);
@@ -284,7 +288,7 @@ void PrintIncremental(const gs::partition::AssociationSummary& summary) {
   const auto& inc = summary.incremental;
   if (!inc.ran) return;
   std::printf("incremental: %lld stages, %lld scans, %lld paired, %lld features, %lld provisional "
-              "dropped (%lld observations), %lld JCBB capped, %lld loop closures (%lld pairs), %lld stage pairings undone, chi2 %.6f, s^2 %.4g; solve %.2f s, "
+              "dropped (%lld observations), %lld JCBB capped, %lld loop closures (%lld pairs), %lld duplicates merged, %lld stage pairings undone, chi2 %.6f, s^2 %.4g; solve %.2f s, "
               "covariances %.2f s, assignment %.2f s, total %.2f s\n",
               static_cast<long long>(inc.stages), static_cast<long long>(inc.scans),
               static_cast<long long>(inc.paired), static_cast<long long>(inc.features),
@@ -292,6 +296,7 @@ void PrintIncremental(const gs::partition::AssociationSummary& summary) {
               static_cast<long long>(inc.clutter_observations),
               static_cast<long long>(inc.exhausted_scans),
               static_cast<long long>(inc.loop_closures), static_cast<long long>(inc.loop_pairs),
+              static_cast<long long>(inc.duplicates_merged),
               static_cast<long long>(inc.stage_undone),
               inc.chi2, inc.variance_factor,
               inc.solve_seconds,

@@ -14,6 +14,7 @@
 #include "core/pose_marginals.h"
 #include "core/range_bearing_model.h"
 #include "core/unidentified_features.h"
+#include "partition/association/duplicate_features.h"
 #include "partition/association/feature_covariances.h"
 #include "partition/ingest/in_memory_chunk_source.h"
 #include "partition/association/internal/chi_square.h"
@@ -167,6 +168,38 @@ int64_t CellKey(const core::Point2& p, double cell) {
 }
 
 
+// Whether some pose saw both clusters (then they are two landmarks).
+bool SharePose(const core::Problem2d& problem, const Cluster& a, const Cluster& b) {
+  auto poses_of = [&](const Cluster& c) {
+    std::vector<int32_t> poses;
+    for (int32_t o : c.members) poses.push_back(problem.observations[o].pose);
+    std::sort(poses.begin(), poses.end());
+    return poses;
+  };
+  const std::vector<int32_t> x = poses_of(a), y = poses_of(b);
+  for (size_t i = 0, j = 0; i < x.size() && j < y.size();) {
+    if (x[i] == y[j]) return true;
+    (x[i] < y[j] ? i : j) += 1;
+  }
+  return false;
+}
+
+// Cluster `from`'s observations go to `to`; `from` is left absorbed.
+void JoinCluster(int32_t from_index, int32_t to_index, std::vector<Cluster>* clusters,
+                 std::vector<int32_t>* cluster_of) {
+  Cluster& from = (*clusters)[from_index];
+  Cluster& to = (*clusters)[to_index];
+  for (int32_t o : from.members) {
+    to.members.push_back(o);
+    (*cluster_of)[o] = to_index;
+  }
+  std::sort(to.members.begin(), to.members.end());
+  to.last_pose = std::max(to.last_pose, from.last_pose);
+  from.members.clear();
+  from.absorbed = true;
+  from.representative = -1;
+}
+
 // Loop closure of one stage: the local map (clusters seen from pose
 // first_local on) against the older confirmed clusters, matched as a rigid
 // whole (partition/association/submap_matching.h). Each inlier pair is joined: the local
@@ -189,20 +222,9 @@ int64_t CloseLoop(const IncrementalAssociationOptions& options, const core::Prob
       map.push_back(cluster.position);
     }
   }
-  auto poses_of = [&](int32_t c) {
-    std::vector<int32_t> poses;
-    for (int32_t o : (*clusters)[c].members) poses.push_back(problem.observations[o].pose);
-    std::sort(poses.begin(), poses.end());
-    return poses;
-  };
   // One scan never sees one landmark twice: clusters sharing a pose stay apart.
   auto allowed = [&](int32_t l, int32_t a) {
-    const std::vector<int32_t> x = poses_of(local_ids[l]), y = poses_of(map_ids[a]);
-    for (size_t i = 0, j = 0; i < x.size() && j < y.size();) {
-      if (x[i] == y[j]) return false;
-      (x[i] < y[j] ? i : j) += 1;
-    }
-    return true;
+    return !SharePose(problem, (*clusters)[local_ids[l]], (*clusters)[map_ids[a]]);
   };
   const SubmapMatch match = MatchSubmap(local, map, options.loop, allowed);
   if (!match.accepted) {
@@ -230,16 +252,7 @@ int64_t CloseLoop(const IncrementalAssociationOptions& options, const core::Prob
       for (int32_t o : (*clusters)[map_ids[a]].members) text.append(" ").append(std::to_string(o));
       GS_VLOG(2, "incremental association: loop pair: observations%s", text.c_str());
     }
-    Cluster& from = (*clusters)[local_ids[l]];
-    Cluster& to = (*clusters)[map_ids[a]];
-    for (int32_t o : from.members) {
-      to.members.push_back(o);
-      (*cluster_of)[o] = map_ids[a];
-    }
-    std::sort(to.members.begin(), to.members.end());
-    to.last_pose = std::max(to.last_pose, from.last_pose);
-    from.members.clear();
-    from.absorbed = true;
+    JoinCluster(local_ids[l], map_ids[a], clusters, cluster_of);
   }
   return static_cast<int64_t>(match.pairs.size());
 }
@@ -523,6 +536,63 @@ Status ObservationVarianceFactor(const StageView& view, const core::PoseMarginal
   return Status::Ok();
 }
 
+// Splits healed at the stage's start: each cluster of the local map (seen
+// from pose first_local on) against every cluster within search_radius that
+// no pose saw with it, by the feature-to-feature test of
+// partition/association/duplicate_features.h with the stage's covariances.
+// The later cluster of a merged pair joins the earlier one.
+Status MergeDuplicateClusters(int64_t first_local, StageView* view, IncrementalRun* run) {
+  std::vector<Cluster>& clusters = run->clusters;
+  std::vector<int32_t> usable;
+  for (size_t c = 0; c < clusters.size(); ++c) {
+    const Cluster& cluster = clusters[c];
+    if (!cluster.dropped && !cluster.absorbed && !cluster.members.empty() &&
+        cluster.representative >= 0 && view->states[cluster.representative].usable)
+      usable.push_back(static_cast<int32_t>(c));
+  }
+  std::vector<int32_t> tested;  // clusters in the test's order
+  std::unordered_map<int32_t, int32_t> slot;
+  auto slot_of = [&](int32_t c) {
+    const auto [it, inserted] = slot.emplace(c, static_cast<int32_t>(tested.size()));
+    if (inserted) tested.push_back(c);
+    return it->second;
+  };
+  DuplicateTestInput input;
+  for (int32_t l : usable) {
+    if (clusters[l].last_pose < first_local) continue;
+    for (int32_t a : usable) {
+      if (a == l || (clusters[a].last_pose >= first_local && a < l)) continue;  // local pairs once
+      if ((clusters[l].position - clusters[a].position).squaredNorm() > run->radius_squared ||
+          SharePose(*run->problem, clusters[l], clusters[a]))
+        continue;
+      input.candidates.emplace_back(slot_of(l), slot_of(a));
+    }
+  }
+  if (input.candidates.empty()) return Status::Ok();
+  std::vector<int32_t> features;
+  for (int32_t c : tested) features.push_back(clusters[c].representative);
+  GS_RETURN_IF_ERROR(view->cache->Ensure(features));
+  const int k = static_cast<int>(features.size());
+  input.covariance.resize(2 * k, 2 * k);
+  for (int a = 0; a < k; ++a) {
+    input.means.push_back(clusters[tested[a]].position);
+    for (int b = 0; b <= a; ++b) {
+      const Eigen::Matrix2d block = run->scale * view->cache->Covariance(features[a], features[b]);
+      input.covariance.block<2, 2>(2 * a, 2 * b) = block;
+      input.covariance.block<2, 2>(2 * b, 2 * a) = block.transpose();
+    }
+  }
+  const DuplicateTestResult result = FindDuplicateFeatures(input, run->options.joint.z);
+  for (const auto& [a, b] : result.merges) {
+    const int32_t x = tested[a], y = tested[b];
+    GS_VLOG(2, "incremental association: duplicate features %d (%zu observations) and %d (%zu)",
+            x, clusters[x].members.size(), y, clusters[y].members.size());
+    JoinCluster(std::max(x, y), std::min(x, y), &clusters, &run->cluster_of);
+  }
+  run->summary->duplicates_merged += static_cast<int64_t>(result.merges.size());
+  return Status::Ok();
+}
+
 // Pairs the observations of poses [begin, end) with the clusters, scan by
 // scan, then closes loops.
 Status PairStage(int32_t begin, int32_t end, IncrementalRun* run) {
@@ -549,8 +619,13 @@ Status PairStage(int32_t begin, int32_t end, IncrementalRun* run) {
   for (size_t c = 0; c < run->clusters.size(); ++c) {
     Cluster& cluster = run->clusters[c];
     cluster.representative = view.stage.cluster_feature[c];
-    if (cluster.dropped || cluster.representative < 0) continue;
-    cluster.representative_position = cluster.position;
+    if (cluster.representative >= 0) cluster.representative_position = cluster.position;
+  }
+  if (run->options.merge_duplicates)
+    GS_RETURN_IF_ERROR(MergeDuplicateClusters(LocalWindowStart(*run, begin), &view, run));
+  for (size_t c = 0; c < run->clusters.size(); ++c) {
+    const Cluster& cluster = run->clusters[c];
+    if (cluster.dropped || cluster.absorbed || cluster.representative < 0) continue;
     view.grid[CellKey(cluster.position, run->options.search_radius)].push_back(
         static_cast<int32_t>(c));
   }
@@ -785,6 +860,20 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
       GS_RETURN_IF_ERROR(SolveFixesFirst(begin, end, &run));
       GS_RETURN_IF_ERROR(PairStage(begin, end, &run));
       GS_RETURN_IF_ERROR(SolveStage(end, cluster_before, &run));
+      // Diagnosis: the stage's poses as solved then, and where its
+      // observations went (what later stages and closures did not yet change).
+      if (LogVerbosity() >= 3) {
+        for (int32_t p = begin; p < end; ++p) {
+          if (run.observations_of_pose[p].empty()) continue;
+          const double stamp =
+              static_cast<size_t>(p) < problem->pose_stamps.size() ? problem->pose_stamps[p] : 0.0;
+          GS_VLOG(3, "trace pose %d %.3f %.4f %.4f %.5f", p, stamp, run.poses[p].x(),
+                  run.poses[p].y(), run.poses[p].z());
+          for (int32_t o : run.observations_of_pose[p])
+            GS_VLOG(3, "trace obs %d %d %.4f %.5f", o, run.cluster_of[o],
+                    problem->observations[o].z.x(), problem->observations[o].z.y());
+        }
+      }
     }
 
     // Provisional features not seen for a while are clutter.

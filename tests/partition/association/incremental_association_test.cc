@@ -2,7 +2,8 @@
 // and of AssociateAndSolve with it: on easy data it ends with the same
 // correspondences as the batch search alone (and the true ones), a
 // misdetection seen once ends as clutter, and two landmarks seen in one scan
-// never become one feature even when they lie closer than the sensor noise.
+// never become one feature even when they lie closer than the sensor noise,
+// also with the duplicate merge at each stage's start.
 #include "partition/association/incremental_association.h"
 
 #include <gtest/gtest.h>
@@ -12,6 +13,7 @@
 #include <map>
 #include <random>
 #include <set>
+#include <utility>
 
 #include "core/initialization.h"
 #include "core/unidentified_features.h"
@@ -78,13 +80,16 @@ TEST(IncrementalAssociation, EasyDataEndsWithTheBatchCorrespondences) {
     const std::vector<int64_t> batch_labels =
         InputObservationLabels(batch, batch_summary, key.size());
 
-    for (int64_t stage_poses : {8, 50}) {
-      SCOPED_TRACE("stage_poses " + std::to_string(stage_poses));
+    for (const auto& [stage_poses, merge_duplicates] :
+         {std::pair<int64_t, bool>{8, false}, {50, false}, {8, true}, {50, true}}) {
+      SCOPED_TRACE("stage_poses " + std::to_string(stage_poses) + ", merge_duplicates " +
+                   std::to_string(merge_duplicates));
       core::Problem2d incremental = input;
       AssociationOptions options;
       options.search_radius = 2.0;
       options.incremental.enabled = true;
       options.incremental.stage_poses = stage_poses;
+      options.incremental.merge_duplicates = merge_duplicates;
       AssociationSummary summary;
       ASSERT_TRUE(
           AssociateAndSolve(options, testing::TightCholmodSolverOptions(), &incremental, &summary)
@@ -214,12 +219,15 @@ TEST(IncrementalAssociation, TwoLandmarksOfOneScanNeverMerge) {
     }
   }
   ASSERT_TRUE(core::InitializeProblem(&problem).ok());
-  for (int64_t stage_poses : {5, 50}) {
-    SCOPED_TRACE("stage_poses " + std::to_string(stage_poses));
+  for (const auto& [stage_poses, merge_duplicates] :
+       {std::pair<int64_t, bool>{5, false}, {50, false}, {5, true}, {50, true}}) {
+    SCOPED_TRACE("stage_poses " + std::to_string(stage_poses) + ", merge_duplicates " +
+                 std::to_string(merge_duplicates));
     core::Problem2d associated = problem;
     AssociationOptions options;
     options.incremental.enabled = true;
     options.incremental.stage_poses = stage_poses;
+    options.incremental.merge_duplicates = merge_duplicates;
     AssociationSummary summary;
     ASSERT_TRUE(
         AssociateAndSolve(options, testing::TightCholmodSolverOptions(), &associated, &summary)
