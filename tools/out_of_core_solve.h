@@ -5,14 +5,13 @@
 //                     logs) and solved from there; DIR is kept (checkpoints
 //                     land in DIR/checkpoint.json, so --resume works). Without
 //                     --workdir a FILE is solved in memory, as before.
-//   streaming mode    a chunk store with more than streaming_poses poses or
-//                     streaming_observations observations is solved without
-//                     loading its observations: the initial guess is the
-//                     ingest's Table 1 guess (odometry chaining, features from
-//                     first sight; the ingest already checked connectivity with
-//                     every observation) instead of the progressive
-//                     initialization, whose stages are in-memory sub-problems
-//                     (O(poses^2 / 500) work; fine to ~1e5 poses).
+//   streaming mode    a chunk store with more than streaming_poses poses,
+//                     streaming_observations observations or observations
+//                     than the sampled start's budget B is solved without
+//                     loading its observations, from the sampled incremental
+//                     start (partition/initialization/
+//                     sampled_incremental_initialization.h) instead of the
+//                     in-memory one on every observation.
 //   --memory-limit    the budget of the ingest and the solve
 //                     (tools/memory_budget.h): a limit below the estimated
 //                     need is refused before anything is read.

@@ -110,6 +110,12 @@ double FeatureSampleKey(int32_t feature) {
   return static_cast<double>(z >> 11) * 0x1.0p-53;
 }
 
+int64_t SampleBudget(const SampledInitializationOptions& options, int64_t poses) {
+  return options.budget_observations > 0
+             ? options.budget_observations
+             : std::max(options.min_observations, options.observations_per_pose * poses);
+}
+
 Status InitializeFromSampledFeatures(const SampledInitializationOptions& options,
                                      const core::SolverOptions& solver,
                                      const core::ChunkSource& chunks, int64_t total_observations,
@@ -130,10 +136,7 @@ Status InitializeFromSampledFeatures(const SampledInitializationOptions& options
         std::to_string(options.budget_observations) + ", " +
         std::to_string(options.sub_solve_iterations) + ", " +
         std::to_string(options.sub_solve_function_tolerance));
-  int64_t budget = options.budget_observations > 0
-                       ? options.budget_observations
-                       : std::max(options.min_observations,
-                                  options.observations_per_pose * problem->num_poses());
+  int64_t budget = SampleBudget(options, problem->num_poses());
   if (options.max_observations >= 0 && budget > options.max_observations) {
     budget = options.max_observations;
     summary->capped = true;

@@ -86,6 +86,11 @@ struct SampledInitializationSummary {
 // The feature's hash u(f) in [0, 1) of step 2.
 double FeatureSampleKey(int32_t feature);
 
+// B of step 1 for a problem of `poses` poses, before the max_observations
+// cap: budget_observations if set, else max(min_observations,
+// observations_per_pose * poses).
+int64_t SampleBudget(const SampledInitializationOptions& options, int64_t poses);
+
 // Replaces problem->poses and problem->features (through Table 1 already:
 // the ingest's guess) by the start described above. `problem` holds no
 // observations (they are `chunks`, `total_observations` of them). `solver`

@@ -275,6 +275,41 @@ TEST_F(SolveInitializationTest, StreamingDefaultsReachTheOptimumOfADenseCampusSt
   EXPECT_NEAR(report["final_chi2"].get<double>() / dof, 1.0, 0.01);
 }
 
+// A store below the streaming thresholds but above the sample budget B is
+// solved in streaming mode from the sampled start (there the sample is a
+// part of the observations, where the in-memory start would take them
+// all); within B its observations are loaded into memory. B is set here by
+// --sample-observations (by default max(10^6, 24 x poses)).
+TEST_F(SolveInitializationTest, StoreAboveTheSampleBudgetStreams) {
+  const std::string store = testing::SimulateDenseCampusStore(Path(""), "", 200, 2, 100000);
+  ASSERT_FALSE(store.empty());
+  const auto solve = [&](const std::string& name, int64_t sample) {
+    SolveCommandOptions options;
+    options.input = store;
+    options.report = Path(name + ".json");
+    options.max_iterations = 0;
+    options.sample_observations = sample;
+    options.quiet = true;
+    // No iteration: "not converged" (exit 4), the report written.
+    EXPECT_EQ(RunSolveCommand(options), kExitNotConverged);
+    return ReadJson(options.report);
+  };
+  const nlohmann::json whole = solve("whole", 0);
+  const int64_t observations = whole["observations"].get<int64_t>();
+  ASSERT_GT(observations, 1000);
+  ASSERT_LT(observations, 1000000);  // within the default B: in memory
+  EXPECT_FALSE(whole["streaming"].get<bool>());
+  EXPECT_EQ(whole["initialization_used"].get<std::string>(), "incremental");
+
+  const nlohmann::json at_budget = solve("at_budget", observations);
+  EXPECT_FALSE(at_budget["streaming"].get<bool>());
+
+  const nlohmann::json above = solve("above", observations - 1);
+  EXPECT_TRUE(above["streaming"].get<bool>());
+  EXPECT_EQ(above["initialization_used"].get<std::string>(), "sampled-incremental");
+  EXPECT_LT(above["sampled_incremental_initialization"]["rate"].get<double>(), 1.0);
+}
+
 // --sample-observations sets the start's sample budget B; --memory-limit caps
 // it at what one chunk in flight leaves (300 B per observation), and the
 // report says so. Only the start is looked at (--max-iterations 0).
