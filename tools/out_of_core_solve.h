@@ -5,9 +5,9 @@
 //                     logs) and solved from there; DIR is kept (checkpoints
 //                     land in DIR/checkpoint.json, so --resume works). Without
 //                     --workdir a FILE is solved in memory, as before.
-//   streaming mode    a chunk store with more than streaming_poses poses,
-//                     streaming_observations observations or observations
-//                     than the sampled start's budget B is solved without
+//   streaming mode    a chunk store with more poses than streaming_poses,
+//                     or more observations than streaming_observations or
+//                     than the sampled start's budget B, is solved without
 //                     loading its observations, from the sampled incremental
 //                     start (partition/initialization/
 //                     sampled_incremental_initialization.h) instead of the

@@ -151,11 +151,11 @@ struct IncrementalAssociationOptions {
   // duplicate_features.h): a pair compatible at joint.z, with no other
   // compatible partner on either side, is one landmark mapped twice and is
   // joined; the stage undo checks the join after the solve. Off by default:
-  // on MRCLAM robot 1 without barcodes it trades precision for recall
-  // (0.924 / 0.361 to 0.899 / 0.431) and lowers the first 300 s from
-  // 0.9989 / 0.922 to 0.9988 / 0.842: most splits there are revisits after
-  // more drift than the motion model's covariance allows, which the same
-  // covariance keeps apart feature to feature too (docs/association.md).
+  // on MRCLAM it trades precision for recall and loses recall early in the
+  // log, because most splits there are revisits after more drift than the
+  // motion model's covariance allows, and the same covariance keeps the two
+  // fragments apart feature to feature too (docs/association.md, "the first
+  // failures").
   bool merge_duplicates = false;
   // Loop closure by matching the local map against the older map.
   bool close_loops = true;
