@@ -584,6 +584,12 @@ Status AssociationOptions::Validate() const {
                                    std::to_string(search_radius) + "; expected > 0");
   if (!(max_mahalanobis_squared > 0.0))
     return Status::InvalidArgument("association: max_mahalanobis_squared must be > 0");
+  // A NaN z would make every undo test false (nothing ever split again) and
+  // an infinite one the same by an infinite quantile: refused, as the
+  // incremental pass refuses its own undo_z.
+  if (!std::isfinite(undo_z))
+    return Status::InvalidArgument("association: undo_z is " + std::to_string(undo_z) +
+                                   "; expected a finite normal quantile z");
   if (max_rounds < 1) return Status::InvalidArgument("association: max_rounds must be >= 1");
   if (marginal_batch < 1) return Status::InvalidArgument("association: marginal_batch must be >= 1");
   if (mutual_best_rounds < 0)

@@ -9,6 +9,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
 
@@ -272,6 +273,13 @@ TEST(AssociationDriver, OptionsAreValidated) {
   options = AssociationOptions();
   options.chi = -1.0;
   EXPECT_TRUE(options.Validate().IsInvalidArgument());
+  for (const double z : {std::numeric_limits<double>::quiet_NaN(),
+                         std::numeric_limits<double>::infinity()}) {
+    options = AssociationOptions();
+    options.undo_z = z;
+    EXPECT_TRUE(options.Validate().IsInvalidArgument()) << z;
+  }
+  EXPECT_TRUE(AssociationOptions().Validate().ok());
 }
 
 }  // namespace
