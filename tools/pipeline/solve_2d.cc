@@ -189,11 +189,9 @@ Status LockStore(const SolveRun& run, Solve2d& s) {
 // streams its chunks from disk. Its observations are also loaded back into
 // the problem, for the in-memory initialization and the report, unless the
 // store is large enough to stream: above the streaming thresholds, or above
-// the streaming start's sample budget B (then the sampled start solves a
-// part of the observations where the in-memory one would solve them all:
-// the 10^6-feature campus of 10^4 poses, 3.6 M observations, B = 10^6,
-// reaches the same chi2 in the same 4 LM iterations at about half the CPU,
-// docs/benchmarks.md).
+// the streaming start's sample budget B, where the sampled start solves a
+// part of the observations and the in-memory one would solve them all for
+// the same optimum (docs/out_of_core.md, "Solving").
 Status ReadStore(const SolveRun& run, Solve2d& s) {
   const SolveCommandOptions& options = run.options;
   GS_ASSIGN_OR_RETURN(s.store, storage::DiskChunkSource::Open(s.store_path));
