@@ -420,7 +420,8 @@ class IncrementalStages {
         features_(problem.features),
         placed_(problem.poses.size(), 0),
         feature_placed_(problem.features.size(), 0),
-        mark_(problem.poses.size(), 0) {
+        mark_(problem.poses.size(), 0),
+        mark_feature_(problem.features.size(), 0) {
     // Anchors stay put.
     for (size_t p = 0; p < placed_.size(); ++p) placed_[p] = problem.pose_fixed[p] != 0;
     chunking_.max_observations_per_chunk = options.max_observations_per_chunk;
@@ -520,6 +521,33 @@ class IncrementalStages {
     for (int32_t f : new_features_) feature_placed_[f] = kFeatureSolved;
   }
 
+  // The repair after the last stage (header: repair): each stretch of
+  // broken odometry steps, re-chained from its first pose and re-solved in a
+  // window of `margin` poses on either side, kept when that beats the fold.
+  // `*id` numbers the sub-problems after the stages'.
+  Status Repair(int64_t margin, int32_t* id, IncrementalSummary* summary) {
+    const std::vector<internal::BrokenStep> broken =
+        internal::BrokenOdometrySteps(problem_, poses_, options_.broken_odometry_chi2);
+    const int32_t n = problem_.num_poses();
+    for (size_t i = 0; i < broken.size();) {
+      // A stretch: steps no more than `margin` poses apart. It joins poses
+      // [lo, hi], the first and last broken steps at lo and hi - 1.
+      const int32_t lo = broken[i].pose;
+      int32_t hi = lo + 1;
+      for (; i < broken.size() && broken[i].pose <= hi + margin; ++i)
+        hi = std::max(hi, broken[i].pose + 1);
+      const int32_t begin = static_cast<int32_t>(std::max<int64_t>(0, lo - margin));
+      const int32_t end = static_cast<int32_t>(std::min<int64_t>(n, hi + margin + 1));
+      ++summary->broken_odometry_stretches;
+      GS_ASSIGN_OR_RETURN(const bool kept, RepairStretch(lo, hi, begin, end, id));
+      if (kept) ++summary->broken_odometry_repairs;
+    }
+    return Status::Ok();
+  }
+
+  // Every pose counts as placed: the repair alone on a finished estimate.
+  void MarkAllPlaced() { std::fill(placed_.begin(), placed_.end(), 1); }
+
   void Finish(core::Problem2d* problem) {
     problem->poses = std::move(poses_);
     problem->features = std::move(features_);
@@ -528,6 +556,71 @@ class IncrementalStages {
   }
 
  private:
+  // One stretch of Repair: the window [begin, end) as it is (evaluated, not
+  // solved) against the window solved after the poses (lo, hi] are chained
+  // along the odometry from lo and every feature they see is placed from
+  // its first sighting among them. Keeps the second when its chi2 is lower
+  // and it leaves no step touching the window above the bound; else puts
+  // everything back. True when kept.
+  StatusOr<bool> RepairStretch(int32_t lo, int32_t hi, int32_t begin, int32_t end, int32_t* id) {
+    std::vector<int32_t> window;
+    for (int32_t p = begin; p < end; ++p) window.push_back(p);
+    const int32_t n = problem_.num_poses();
+    core::SolverOptions evaluate = stage_options_;
+    evaluate.max_iterations = 0;
+    StageSolve before;
+    before.unknown = window;
+    before.sub = builder_.Build((*id)++, window, begin, n,
+                                options_.max_prior_observations_per_feature, poses_, features_,
+                                &before.summary.constraints);
+    GS_RETURN_IF_ERROR(SolveWithoutSingletons(evaluate, chunking_, &before.sub, &before.solver,
+                                              nullptr, /*release_observations=*/true));
+
+    const std::vector<Pose2> saved_poses(poses_.begin() + lo + 1, poses_.begin() + hi + 1);
+    std::vector<std::pair<int32_t, Point2>> saved_features;
+    for (int32_t p = lo + 1; p <= hi; ++p) placed_[p] = problem_.pose_fixed[p] != 0;
+    internal::PlacePoses(problem_, adjacency_, lo + 1, hi + 1, &poses_, &placed_);
+    for (int32_t p = lo + 1; p <= hi; ++p) {
+      for (int64_t i = index_.observations_of_pose.begin(p);
+           i < index_.observations_of_pose.end(p); ++i) {
+        const core::Observation o = observations_[index_.observations_of_pose.items[i]];
+        if (mark_feature_[o.feature]) continue;
+        mark_feature_[o.feature] = 1;
+        saved_features.emplace_back(o.feature, features_[o.feature]);
+        features_[o.feature] = core::InvertObservation(o.kind, poses_[p], o.z);
+      }
+    }
+    for (const auto& [f, _] : saved_features) mark_feature_[f] = 0;
+
+    StageSolve after;
+    after.unknown = window;
+    after.sub = builder_.Build((*id)++, window, begin, n,
+                               options_.max_prior_observations_per_feature, poses_, features_,
+                               &after.summary.constraints);
+    GS_RETURN_IF_ERROR(SolveWithoutSingletons(stage_options_, chunking_, &after.sub,
+                                              &after.solver, nullptr,
+                                              /*release_observations=*/true));
+    touched_.assign(after.sub.poses.size(), 0);
+    for (int32_t p : window) touched_[builder_.local_pose(p)] = 1;
+    const double worst = internal::WorstOdometryChi2(after.sub, touched_);
+    const bool keep = after.solver.final_chi2 < before.solver.initial_chi2 &&
+                      worst <= options_.broken_odometry_chi2;
+    GS_VLOG(1, "incremental initialization: broken odometry at poses %d-%d, window %d-%d: "
+               "chi2 %.6g as it was, %.6g re-chained (worst step %.6g): %s",
+            lo, hi, begin, end - 1, before.solver.initial_chi2, after.solver.final_chi2, worst,
+            keep ? "repaired" : "left");
+    if (keep) {
+      for (int32_t p : window) poses_[p] = after.sub.poses[builder_.local_pose(p)];
+      const std::vector<int32_t>& sub_features = builder_.sub_features();
+      for (size_t j = 0; j < sub_features.size(); ++j)
+        features_[sub_features[j]] = after.sub.features[j];
+      return true;
+    }
+    std::copy(saved_poses.begin(), saved_poses.end(), poses_.begin() + lo + 1);
+    for (const auto& [f, position] : saved_features) features_[f] = position;
+    return false;
+  }
+
   const IncrementalInitializationOptions& options_;
   const core::Problem2d& problem_;
   const Observations& observations_;
@@ -543,6 +636,7 @@ class IncrementalStages {
   std::vector<int32_t> new_features_;  // placed by the last Place
   std::vector<uint8_t> mark_;          // UnknownPoses' scratch
   std::vector<uint8_t> touched_;       // WorstNewOdometryChi2's scratch
+  std::vector<uint8_t> mark_feature_;  // RepairStretch's scratch
 };
 
 void LogStage(size_t stage, const IncrementalStageSummary& s) {
@@ -586,6 +680,9 @@ Status IncrementalInitializationOptions::Validate() const {
   if (!(broken_odometry_chi2 >= 0.0) || !std::isfinite(broken_odometry_chi2))
     return fail("broken_odometry_chi2 must be finite and >= 0 (0: off)",
                 std::to_string(broken_odometry_chi2));
+  if (broken_odometry_repair_poses < 0)
+    return fail("broken_odometry_repair_poses must be >= 0 (0: off)",
+                std::to_string(broken_odometry_repair_poses));
   if (max_iterations_per_stage < 0)
     return fail("max_iterations_per_stage must be >= 0", std::to_string(max_iterations_per_stage));
   if (max_observations_per_chunk < 1)
@@ -616,7 +713,9 @@ Status RunStages(const IncrementalInitializationOptions& options, const core::So
   int32_t t = static_cast<int32_t>(std::min<int64_t>(options.first_poses, n));
   bool t_chosen = true;  // t set by the first stage or by a redo
   bool redone = false;   // the stage kept last was a redo
-  for (int32_t attempt = 0;; ++attempt) {
+  int32_t id = 0;  // numbers the sub-problems
+  for (;; ++id) {
+    const int32_t attempt = id;
     if (!t_chosen) t = internal::NextStageSize(options.growth, allowed, previous, n);
     t = stages.CapNewPoses(previous, t);
     t_chosen = false;
@@ -674,6 +773,11 @@ Status RunStages(const IncrementalInitializationOptions& options, const core::So
     }
     redone = false;
   }
+  if (options.broken_odometry_chi2 > 0.0 && options.max_iterations_per_stage > 0 &&
+      options.broken_odometry_repair_poses > 0) {
+    ++id;  // past the last stage's
+    GS_RETURN_IF_ERROR(stages.Repair(options.broken_odometry_repair_poses, &id, summary));
+  }
   stages.Finish(problem);
   summary->seconds = StageSecondsSince(start);
   return Status::Ok();
@@ -692,6 +796,24 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
                                         }));
   if (!has_stages) return Status::Ok();
   return RunStages(options, base, problem->observations, problem, summary);
+}
+
+Status RepairBrokenOdometry(const IncrementalInitializationOptions& options,
+                            const core::SolverOptions& base, core::Problem2d* problem,
+                            IncrementalSummary* summary) {
+  GS_RETURN_IF_ERROR(options.Validate());
+  GS_RETURN_IF_ERROR(internal::CheckPerElementArrays(*problem));
+  GS_RETURN_IF_ERROR(core::ValidateProblem(*problem));
+  if (options.broken_odometry_chi2 <= 0.0 || options.max_iterations_per_stage <= 0 ||
+      options.broken_odometry_repair_poses <= 0)
+    return Status::Ok();
+  IncrementalStages<std::vector<core::Observation>> stages(options, base, *problem,
+                                                           problem->observations);
+  stages.MarkAllPlaced();
+  int32_t id = 0;
+  GS_RETURN_IF_ERROR(stages.Repair(options.broken_odometry_repair_poses, &id, summary));
+  stages.Finish(problem);
+  return Status::Ok();
 }
 
 Status InitializeIncrementally(const IncrementalInitializationOptions& options,

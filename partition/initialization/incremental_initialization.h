@@ -86,6 +86,23 @@
 // result is written to problem->poses / problem->features (features marked
 // initialized).
 //
+// Repair. A stage at the floor of min_new_poses is kept even when it leaves
+// an odometry step broken (broken_odometry_chi2), and a later window can
+// break a step it re-solves; such a fold (internal/broken_odometry.h) is its
+// own basin, which the full solve does not leave. So after the last stage
+// every odometry step between consecutive poses is checked once more
+// (O(N)); the broken ones, grouped into stretches (steps at most
+// M = broken_odometry_repair_poses poses apart, first at pose lo, last
+// joining pose hi), are each re-solved in the window [lo - M, hi + M]:
+// the poses (lo, hi] are chained along the odometry from lo, the features
+// they see are placed from their first sighting among them, and the window
+// is solved as a stage is (its outer neighbours fixed, at most
+// max_prior_observations_per_feature earlier sightings per feature). The
+// result replaces the fold when its chi2 is below the window's chi2 as it
+// was and no step touching the window is left above broken_odometry_chi2;
+// else the fold stays. Each stretch costs two bounded sub-problems (one
+// only evaluated), so the repair adds O(stretches) stage solves.
+//
 // THREAD SAFETY: one call at a time per problem; each stage solve is
 // internally parallel (TBB) like SolveGraphSlam and results do not depend on
 // the thread count. ALLOCATION: O(poses + features + constraints) for the
@@ -135,6 +152,11 @@ struct IncrementalInitializationOptions : PrefixStageOptions {
   // stretch folded over in a local minimum); 0: off. Only solved stages
   // (max_iterations_per_stage > 0) are judged.
   double broken_odometry_chi2 = 1000.0;
+  // After the last stage, each stretch of odometry steps still above
+  // broken_odometry_chi2 (steps at most this many poses apart) is re-chained
+  // and re-solved in a window of this many poses on either side, and kept
+  // when that beats the fold (header: repair); 0: off.
+  int64_t broken_odometry_repair_poses = 50;
 
   Status Validate() const;
 };
@@ -160,6 +182,10 @@ struct IncrementalSummary {
   int64_t redone_stages = 0;  // stages discarded and done again with fewer new poses
   // Of those, the ones redone for a broken odometry step (broken_odometry_chi2).
   int64_t broken_odometry_redos = 0;
+  // Stretches of broken odometry the repair found after the last stage, and
+  // those it repaired.
+  int64_t broken_odometry_stretches = 0;
+  int64_t broken_odometry_repairs = 0;
   double seconds = 0.0;
 };
 
@@ -173,6 +199,15 @@ struct IncrementalSummary {
 Status InitializeIncrementally(const IncrementalInitializationOptions& options,
                                const core::SolverOptions& base, core::Problem2d* problem,
                                IncrementalSummary* summary);
+
+// The repair alone (header: repair) on *problem's current estimate, every
+// pose and feature of which counts as placed; nothing happens when
+// broken_odometry_chi2, broken_odometry_repair_poses or
+// max_iterations_per_stage is 0. Counts go to summary's
+// broken_odometry_stretches / broken_odometry_repairs.
+Status RepairBrokenOdometry(const IncrementalInitializationOptions& options,
+                            const core::SolverOptions& base, core::Problem2d* problem,
+                            IncrementalSummary* summary);
 
 // The same with the problem's observations held in `observations` (indices
 // into *problem's poses and features) and none in problem->observations:

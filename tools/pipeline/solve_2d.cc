@@ -424,6 +424,8 @@ Status StartFromSampledFeatures(const SolveRun& run, Solve2d& s) {
                       {"stages", static_cast<int64_t>(summary.incremental.stages.size())},
                       {"redone_stages", summary.incremental.redone_stages},
                       {"broken_odometry_redos", summary.incremental.broken_odometry_redos},
+                      {"broken_odometry_stretches", summary.incremental.broken_odometry_stretches},
+                      {"broken_odometry_repairs", summary.incremental.broken_odometry_repairs},
                       {"sample_solve_iterations", summary.sub_solve_iterations},
                       {"sample_solve_final_chi2", summary.sub_solve_final_chi2},
                       {"seconds", summary.seconds}};
@@ -557,6 +559,8 @@ void AddReport(const SolveRun& run, const Solve2d& s, nlohmann::json* report_out
         {"most_poses_solved_in_a_stage", most_solved},
         {"redone_stages", s.incremental_summary.redone_stages},
         {"broken_odometry_redos", s.incremental_summary.broken_odometry_redos},
+        {"broken_odometry_stretches", s.incremental_summary.broken_odometry_stretches},
+        {"broken_odometry_repairs", s.incremental_summary.broken_odometry_repairs},
         {"seconds", s.incremental_summary.seconds}};
   }
   if (!s.sampled_report.is_null()) report["sampled_incremental_initialization"] = s.sampled_report;

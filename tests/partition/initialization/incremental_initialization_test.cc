@@ -8,8 +8,10 @@
 
 #include <algorithm>
 #include <limits>
+#include <numbers>
 
 #include "core/initialization.h"
+#include "partition/initialization/internal/broken_odometry.h"
 #include "storage/g2o_reader.h"
 #include "tests/testing/datasets.h"
 #include "tests/testing/initialization_setup.h"
@@ -288,6 +290,73 @@ TEST(IncrementalInitialization, BrokenOdometryBoundRedoesStagesToTheFloor) {
   }
 }
 
+// The repair: a stretch of poses of the optimum folded over (each turned by
+// pi about the stretch's centre, so the odometry steps at its ends and
+// inside it are off by radians) is found, re-chained and re-solved back to
+// the optimum; with the repair off, or with a bound above every step, it
+// stays folded. Steps that fit are never touched: at the optimum itself
+// nothing is found.
+TEST(IncrementalInitialization, RepairUnfoldsAFoldedStretch) {
+  for (const bool velocity : {false, true}) {
+    testing::RandomProblemOptions random_options;
+    random_options.num_poses = 120;
+    random_options.num_features = 30;
+    random_options.velocity_motion = velocity;
+    random_options.seed = 5;
+    const testing::RandomProblem random = testing::MakeRandomProblem(random_options);
+    core::Problem2d optimum = random.problem;
+    optimum.poses = random.true_poses;
+    optimum.features = random.true_features;
+    core::SolverOptions solver;
+    solver.function_tolerance = 1e-12;
+    FullSolve(&optimum, solver);
+
+    IncrementalInitializationOptions options;
+    options.broken_odometry_repair_poses = 10;
+    IncrementalSummary at_optimum;
+    core::Problem2d untouched = optimum;
+    ASSERT_TRUE(RepairBrokenOdometry(options, solver, &untouched, &at_optimum).ok());
+    EXPECT_EQ(at_optimum.broken_odometry_stretches, 0);
+    EXPECT_EQ(untouched.poses, optimum.poses);
+
+    core::Problem2d folded = optimum;
+    const int32_t first = 60, last = 64;
+    Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+    for (int32_t p = first; p <= last; ++p) centre += optimum.poses[p].head<2>();
+    centre /= last - first + 1;
+    for (int32_t p = first; p <= last; ++p) {
+      folded.poses[p].head<2>() = 2.0 * centre - optimum.poses[p].head<2>();
+      folded.poses[p].z() = core::WrapAngle(optimum.poses[p].z() + std::numbers::pi);
+    }
+    for (const int64_t margin : {int64_t{0}, int64_t{10}}) {
+      for (const double bound : {1000.0, 1e12}) {
+        options.broken_odometry_repair_poses = margin;
+        options.broken_odometry_chi2 = bound;
+        core::Problem2d problem = folded;
+        IncrementalSummary summary;
+        ASSERT_TRUE(RepairBrokenOdometry(options, solver, &problem, &summary).ok());
+        double worst_error = 0.0;
+        for (int32_t p = first; p <= last; ++p)
+          worst_error = std::max(
+              worst_error, (problem.poses[p].head<2>() - optimum.poses[p].head<2>()).norm());
+        const bool repairs = margin > 0 && bound == 1000.0;
+        SCOPED_TRACE(::testing::Message() << "velocity " << velocity << " margin " << margin
+                                          << " bound " << bound);
+        if (repairs) {
+          EXPECT_EQ(summary.broken_odometry_stretches, 1);
+          EXPECT_EQ(summary.broken_odometry_repairs, 1);
+          EXPECT_LT(worst_error, 0.05);
+          std::vector<uint8_t> all(problem.poses.size(), 1);
+          EXPECT_LT(internal::WorstOdometryChi2(problem, all), bound);
+        } else {
+          EXPECT_EQ(summary.broken_odometry_repairs, 0);
+          EXPECT_GT(worst_error, 1.0);
+        }
+      }
+    }
+  }
+}
+
 TEST(IncrementalInitialization, RejectsBadOptions) {
   IncrementalInitializationOptions options;
   options.window_poses = options.max_new_poses - 1;
@@ -308,6 +377,9 @@ TEST(IncrementalInitialization, RejectsBadOptions) {
   options.broken_odometry_chi2 = -1.0;
   EXPECT_FALSE(options.Validate().ok());
   options.broken_odometry_chi2 = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(options.Validate().ok());
+  options = IncrementalInitializationOptions();
+  options.broken_odometry_repair_poses = -1;
   EXPECT_FALSE(options.Validate().ok());
   EXPECT_TRUE(IncrementalInitializationOptions().Validate().ok());
 }
