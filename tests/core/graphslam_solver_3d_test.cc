@@ -294,25 +294,31 @@ void ExpectResumeIsBitIdentical(LinearSolverType type) {
   };
   ASSERT_TRUE(Solve3d(options, &full, &full_summary, record).ok());
   ASSERT_GE(full_summary.iterations, 4);
-  ASSERT_EQ(static_cast<int>(checkpoints.size()), full_summary.iterations);
-  EXPECT_EQ(checkpoints[1].pcg.present, type == LinearSolverType::kPcg);
+  // The start (iteration 0), then one per iteration.
+  ASSERT_EQ(static_cast<int>(checkpoints.size()), full_summary.iterations + 1);
+  for (size_t k = 0; k < checkpoints.size(); ++k) EXPECT_EQ(checkpoints[k].iterations, k);
+  EXPECT_EQ(checkpoints[2].pcg.present, type == LinearSolverType::kPcg);
   EXPECT_TRUE(checkpoints.back().converged);
 
-  Problem3d resumed = input;
-  SolverSummary resumed_summary;
+  // From the start's checkpoint and from one in the middle.
   Checkpointing3d resume;
-  resume.resume_from = &checkpoints[1];
-  ASSERT_TRUE(Solve3d(options, &resumed, &resumed_summary, resume).ok());
-  EXPECT_EQ(resumed_summary.resumed_from_iteration, 2);
-  EXPECT_EQ(resumed_summary.iterations, full_summary.iterations);
-  EXPECT_EQ(resumed_summary.final_chi2, full_summary.final_chi2);
-  EXPECT_EQ(resumed_summary.initial_chi2, full_summary.initial_chi2);
-  EXPECT_EQ(resumed_summary.termination, full_summary.termination);
-  for (int i = 0; i < full.num_poses(); ++i) {
-    EXPECT_EQ(resumed.poses[i].t, full.poses[i].t) << i;
-    EXPECT_EQ(resumed.poses[i].q.coeffs(), full.poses[i].q.coeffs()) << i;
+  for (const int from : {0, 2}) {
+    Problem3d resumed = input;
+    SolverSummary resumed_summary;
+    resume.resume_from = &checkpoints[static_cast<size_t>(from)];
+    ASSERT_TRUE(Solve3d(options, &resumed, &resumed_summary, resume).ok());
+    EXPECT_EQ(resumed_summary.resumed_from_iteration, from);
+    EXPECT_EQ(resumed_summary.iterations, full_summary.iterations);
+    EXPECT_EQ(resumed_summary.final_chi2, full_summary.final_chi2);
+    EXPECT_EQ(resumed_summary.initial_chi2, full_summary.initial_chi2);
+    EXPECT_EQ(resumed_summary.termination, full_summary.termination);
+    for (int i = 0; i < full.num_poses(); ++i) {
+      EXPECT_EQ(resumed.poses[i].t, full.poses[i].t) << i;
+      EXPECT_EQ(resumed.poses[i].q.coeffs(), full.poses[i].q.coeffs()) << i;
+    }
+    for (int f = 0; f < full.num_features(); ++f)
+      EXPECT_EQ(resumed.features[f], full.features[f]);
   }
-  for (int f = 0; f < full.num_features(); ++f) EXPECT_EQ(resumed.features[f], full.features[f]);
 
   // A checkpoint of another problem is refused.
   Problem3d other = RandomProblem(10, 6, false, 23);

@@ -203,7 +203,12 @@ TEST(GraphSlamSolver, CheckpointCallbackSeesTheStateAndTheSolveKeepsIt) {
   Problem2d checkpointed = random.problem;
   SolverSummary summary;
   ASSERT_TRUE(SolveGraphSlam(solver_options, chunks, &checkpointed, &summary).ok());
-  ASSERT_EQ(static_cast<int>(seen.size()), summary.iterations);
+  // One per iteration, and the start itself first (iteration 0).
+  ASSERT_EQ(static_cast<int>(seen.size()), summary.iterations + 1);
+  EXPECT_EQ(seen.front().iterations, 0);
+  EXPECT_EQ(seen.front().chi2, summary.initial_chi2);
+  EXPECT_FALSE(seen.front().converged);
+  EXPECT_EQ(seen.front().poses, random.problem.poses);
   EXPECT_EQ(summary.final_chi2, plain_summary.final_chi2);
   for (const SolverCheckpoint& c : seen) {
     ASSERT_EQ(c.poses.size(), random.problem.poses.size());
@@ -212,7 +217,7 @@ TEST(GraphSlamSolver, CheckpointCallbackSeesTheStateAndTheSolveKeepsIt) {
   for (int j = 0; j < checkpointed.num_features(); ++j)
     EXPECT_EQ(checkpointed.features[j], plain.features[j]) << "feature " << j;
 
-  // A failing callback at iteration 2: the error is returned and the problem
+  // A failing callback at iteration 1: the error is returned and the problem
   // holds exactly the state that checkpoint was given.
   int calls = 0;
   SolverCheckpoint at_error;

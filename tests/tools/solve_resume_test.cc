@@ -49,12 +49,24 @@ TEST(SolveResume, KillNineMidSolveThenResumeEqualsUninterruptedRun) {
                  "-q"}),
             0);
 
-  // Killed as soon as the first checkpoint exists.
-  const fs::path checkpoint = dir / "checkpoint.json";
-  nlohmann::json at_kill;
-  ASSERT_NO_FATAL_FAILURE(KillSolveAtCheckpoint(input, dir, checkpoint, 1, {}, &at_kill));
-
-  ExpectResumeEqualsUninterrupted(input, dir, checkpoint, at_kill["iterations"].get<int>());
+  // Killed at the start's checkpoint (iteration 0: the initialized start,
+  // written before the first iteration) and at the first iteration's.
+  for (const int iteration : {0, 1}) {
+    SCOPED_TRACE("killed at the checkpoint of iteration " + std::to_string(iteration));
+    const fs::path checkpoint = dir / ("checkpoint" + std::to_string(iteration) + ".json");
+    fs::remove(dir / "resumed.g2o");
+    fs::remove(dir / "resumed.json");
+    nlohmann::json at_kill;
+    ASSERT_NO_FATAL_FAILURE(
+        KillSolveAtCheckpoint(input, dir, checkpoint, iteration, {}, &at_kill));
+    ExpectResumeEqualsUninterrupted(input, dir, checkpoint, at_kill["iterations"].get<int>());
+    // The resumed solve starts from the checkpoint's estimate: it does not
+    // initialize again.
+    const nlohmann::json full = nlohmann::json::parse(ReadWholeFile(dir / "full.json"));
+    const nlohmann::json resumed = nlohmann::json::parse(ReadWholeFile(dir / "resumed.json"));
+    EXPECT_TRUE(full.contains("incremental_initialization"));
+    EXPECT_FALSE(resumed.contains("incremental_initialization"));
+  }
   fs::remove_all(dir);
 }
 
