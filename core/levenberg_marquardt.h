@@ -47,7 +47,8 @@
 //                      termination "abandoned", not converged (the probe of
 //                      --initialization auto: the start is not in the basin)
 //   after every iteration: summary, iteration callback, progress, and the
-//   checkpoint (control state + the space's state) for a bit-identical resume.
+//   checkpoint (control state + the space's state) for a bit-identical resume;
+//   before the first, the start's checkpoint (iteration 0).
 //
 // A Space provides:
 //   using Checkpoint = BasicSolverCheckpoint<Pose, Point>;

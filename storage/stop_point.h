@@ -8,6 +8,7 @@
 //
 // Points (docs/guarantees.md lists them):
 //   "solver_checkpoint N"   after the checkpoint of iteration N is durable
+//                           (0: the initialized start)
 //   "job_stage_start S"     after a job logged the start of stage S
 //   "job_stage_done S"      after a job recorded stage S as completed
 //   "map_batch N"           after the N-th batch of scans was fused
