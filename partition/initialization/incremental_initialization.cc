@@ -327,6 +327,11 @@ void AlignNewPosesToGps(const core::Problem2d& problem, const Indices& index, in
   for (int32_t p = begin; p < end; ++p) (*poses)[p] = stretch.poses[p - begin];
 }
 
+// Rounds of the repair after the last stage (header: repair): a stretch
+// whose re-solved window still leaves a step broken is tried again from the
+// improved estimate, at most this many times in all.
+constexpr int kRepairRounds = 3;
+
 // Values of the per-feature placed flags: placed from a new pose of the
 // current stage, or solved by a stage kept.
 constexpr uint8_t kFeaturePlaced = 1;
@@ -526,9 +531,20 @@ class IncrementalStages {
   // window of `margin` poses on either side, kept when that beats the fold.
   // `*id` numbers the sub-problems after the stages'.
   Status Repair(int64_t margin, int32_t* id, IncrementalSummary* summary) {
+    for (int round = 0; round < kRepairRounds; ++round) {
+      GS_ASSIGN_OR_RETURN(const int64_t kept, RepairRound(margin, id, summary));
+      if (kept == 0) break;
+    }
+    return Status::Ok();
+  }
+
+  // One round of Repair over the steps broken now; how many stretches it
+  // replaced.
+  StatusOr<int64_t> RepairRound(int64_t margin, int32_t* id, IncrementalSummary* summary) {
     const std::vector<internal::BrokenStep> broken =
         internal::BrokenOdometrySteps(problem_, poses_, options_.broken_odometry_chi2);
     const int32_t n = problem_.num_poses();
+    int64_t replaced = 0;
     for (size_t i = 0; i < broken.size();) {
       // A stretch: steps no more than `margin` poses apart. It joins poses
       // [lo, hi], the first and last broken steps at lo and hi - 1.
@@ -538,11 +554,15 @@ class IncrementalStages {
         hi = std::max(hi, broken[i].pose + 1);
       const int32_t begin = static_cast<int32_t>(std::max<int64_t>(0, lo - margin));
       const int32_t end = static_cast<int32_t>(std::min<int64_t>(n, hi + margin + 1));
-      ++summary->broken_odometry_stretches;
+      if (round_ == 0) ++summary->broken_odometry_stretches;
       GS_ASSIGN_OR_RETURN(const bool kept, RepairStretch(lo, hi, begin, end, id));
-      if (kept) ++summary->broken_odometry_repairs;
+      if (kept) {
+        ++summary->broken_odometry_repairs;
+        ++replaced;
+      }
     }
-    return Status::Ok();
+    ++round_;
+    return replaced;
   }
 
   // Every pose counts as placed: the repair alone on a finished estimate.
@@ -560,8 +580,8 @@ class IncrementalStages {
   // solved) against the window solved after the poses (lo, hi] are chained
   // along the odometry from lo and every feature they see is placed from
   // its first sighting among them. Keeps the second when its chi2 is lower
-  // and it leaves no step touching the window above the bound; else puts
-  // everything back. True when kept.
+  // (a step it still leaves broken is taken up by the next round); else
+  // puts everything back. True when kept.
   StatusOr<bool> RepairStretch(int32_t lo, int32_t hi, int32_t begin, int32_t end, int32_t* id) {
     std::vector<int32_t> window;
     for (int32_t p = begin; p < end; ++p) window.push_back(p);
@@ -603,8 +623,7 @@ class IncrementalStages {
     touched_.assign(after.sub.poses.size(), 0);
     for (int32_t p : window) touched_[builder_.local_pose(p)] = 1;
     const double worst = internal::WorstOdometryChi2(after.sub, touched_);
-    const bool keep = after.solver.final_chi2 < before.solver.initial_chi2 &&
-                      worst <= options_.broken_odometry_chi2;
+    const bool keep = after.solver.final_chi2 < before.solver.initial_chi2;
     GS_VLOG(1, "incremental initialization: broken odometry at poses %d-%d, window %d-%d: "
                "chi2 %.6g as it was, %.6g re-chained (worst step %.6g): %s",
             lo, hi, begin, end - 1, before.solver.initial_chi2, after.solver.final_chi2, worst,
@@ -637,6 +656,7 @@ class IncrementalStages {
   std::vector<uint8_t> mark_;          // UnknownPoses' scratch
   std::vector<uint8_t> touched_;       // WorstNewOdometryChi2's scratch
   std::vector<uint8_t> mark_feature_;  // RepairStretch's scratch
+  int round_ = 0;                      // repair rounds done
 };
 
 void LogStage(size_t stage, const IncrementalStageSummary& s) {

@@ -99,9 +99,10 @@
 // is solved as a stage is (its outer neighbours fixed, at most
 // max_prior_observations_per_feature earlier sightings per feature). The
 // result replaces the fold when its chi2 is below the window's chi2 as it
-// was and no step touching the window is left above broken_odometry_chi2;
-// else the fold stays. Each stretch costs two bounded sub-problems (one
-// only evaluated), so the repair adds O(stretches) stage solves.
+// was; else the fold stays. Steps still broken after a round are tried
+// again from the improved estimate, three rounds at most. Each stretch
+// costs two bounded sub-problems per round (one only evaluated), so the
+// repair adds O(stretches) stage solves.
 //
 // THREAD SAFETY: one call at a time per problem; each stage solve is
 // internally parallel (TBB) like SolveGraphSlam and results do not depend on
