@@ -67,15 +67,17 @@ namespace graphslam::storage {
 
 // core::VelocityNoise's alphas and floor as densities (noise_time_constant
 // tau, core/velocity_motion_model.h), so that the motion covariance does not
-// depend on the 50 Hz logging rate. tau = 0.3 s is fitted to dataset 1: the
-// heading of the commanded velocities drifts from Vicon's by 0.08 rad rms over
-// 4 s windows and 0.18 rad over 16 s (all five robots); the model's variance
-// tau * integral((a3 + a5) v^2 + (a4 + a6) w^2) dt matches those at tau =
-// 0.27 s (4 s) to 0.31 s (16 s). The per-step model (tau = 0) at 50 Hz is the
-// same as tau = 0.02 s: 15 times too certain.
+// depend on the 50 Hz logging rate. In dataset 1 the heading of the commanded
+// velocities drifts from Vicon's by 0.08 rad rms over 4 s windows and 0.18
+// rad over 16 s (all five robots); the model's variance tau * integral((a3 +
+// a5) v^2 + (a4 + a6) w^2) dt matches those at tau = 0.27 s (4 s) to 0.31 s
+// (16 s). tau = 0.2 s stays a little below: at 0.3 s a single robot solved
+// from the odometry guess falls into a local minimum (robot 1: 1.16 m RMSE
+// against Vicon, 0.094 m at 0.2 s). The per-step model (tau = 0) at 50 Hz is
+// the same as tau = 0.02 s: 10 times too certain.
 inline core::VelocityNoise DefaultMrclamNoise() {
   core::VelocityNoise noise;
-  noise.noise_time_constant = 0.3;
+  noise.noise_time_constant = 0.2;
   return noise;
 }
 

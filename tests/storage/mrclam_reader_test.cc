@@ -141,9 +141,9 @@ TEST(MrclamReader, OptionsAreValidated) {
   options.range_sigma_per_meter = -0.1;
   EXPECT_TRUE(options.Validate().IsInvalidArgument());
   options = MrclamOptions();
-  options.noise.noise_time_constant = -0.2;
+  options.noise.noise_time_constant = -0.5;
   EXPECT_EQ(options.Validate().message(),
-            "MrclamOptions.noise.noise_time_constant is -0.2; expected a finite number of "
+            "MrclamOptions.noise.noise_time_constant is -0.5; expected a finite number of "
             "seconds >= 0 (0: per step)");
   options.noise.noise_time_constant = std::nan("");
   EXPECT_TRUE(options.Validate().IsInvalidArgument());
