@@ -1,5 +1,6 @@
 #include "core/velocity_motion_model.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace graphslam::core {
@@ -112,6 +113,25 @@ void EvaluateVelocityMotion(const Pose2& previous, const Pose2& current,
   if (jacobian_current != nullptr) jacobian_current->setIdentity();
 }
 
+namespace {
+
+// The factors on V M V^T and on the floor (header: per step or per unit time).
+struct NoiseScales {
+  double control = 1.0;
+  double floor = 1.0;
+};
+
+NoiseScales StepNoiseScales(double dt, double tau) {
+  if (!(tau > 0.0)) return {};
+  // Below 1e-3 tau the floor stops shrinking, so repeated stamps keep R
+  // definite; V M V^T is ~ dt^2, so tau/dt on it stays finite, and at dt = 0
+  // V is zero and so is its term.
+  const double floor_dt = std::max(std::abs(dt), 1e-3 * tau);
+  return {dt != 0.0 ? tau / std::abs(dt) : 0.0, floor_dt / tau};
+}
+
+}  // namespace
+
 Eigen::Matrix3d VelocityMotionCovariance(const Pose2& previous, const VelocityControl& control,
                                          const VelocityNoise& noise) {
   const double v2 = control.v * control.v;
@@ -120,14 +140,16 @@ Eigen::Matrix3d VelocityMotionCovariance(const Pose2& previous, const VelocityCo
                                          noise.alpha[2] * v2 + noise.alpha[3] * w2,
                                          noise.alpha[4] * v2 + noise.alpha[5] * w2);
   const Eigen::Matrix3d v = VelocityControlJacobian(previous, control);
-  Eigen::Matrix3d covariance = v * control_variance.asDiagonal() * v.transpose();
+  const NoiseScales scales = StepNoiseScales(control.dt, noise.noise_time_constant);
+  Eigen::Matrix3d covariance =
+      scales.control * (v * control_variance.asDiagonal() * v.transpose());
   // Exactly symmetric, whatever the rounding of the product.
   covariance = (0.5 * (covariance + covariance.transpose())).eval();
   // The floor is added (not max'ed) so that R is positive definite even when
   // V M V^T is singular (robot standing still, or dt = 0).
-  covariance(0, 0) += noise.min_sigma_xy * noise.min_sigma_xy;
-  covariance(1, 1) += noise.min_sigma_xy * noise.min_sigma_xy;
-  covariance(2, 2) += noise.min_sigma_theta * noise.min_sigma_theta;
+  covariance(0, 0) += scales.floor * noise.min_sigma_xy * noise.min_sigma_xy;
+  covariance(1, 1) += scales.floor * noise.min_sigma_xy * noise.min_sigma_xy;
+  covariance(2, 2) += scales.floor * noise.min_sigma_theta * noise.min_sigma_theta;
   return covariance;
 }
 

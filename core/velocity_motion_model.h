@@ -24,6 +24,24 @@
 // V = d g / d(v, w, gamma); the floor is added so R stays positive definite
 // when the robot stands still.
 //
+// Per step or per unit time (VelocityNoise::noise_time_constant = tau):
+//   tau = 0 (per step, the book's model): M and the floor as above, whatever
+//     dt. V scales with dt, so one step's covariance is ~ dt^2 M and N = T/dt
+//     steps over a time T accumulate ~ T dt M: the same motion logged at a
+//     higher rate is modelled as more certain, and the floor, which is per
+//     step, accumulates ~ (T/dt) floor^2, the other way.
+//   tau > 0 (rate independent): M is a spectral density, the variance of the
+//     control noise averaged over tau seconds. Held constant over a step of
+//     dt, its variance is then M tau/dt, and the floor a variance per tau:
+//       R_t = (tau/dt) V M V^T + (dt/tau) diag(min_sigma_xy^2, min_sigma_xy^2,
+//                                              min_sigma_theta^2).
+//     V = dt V' with V' finite as dt -> 0, so R_t = dt (tau V' M V'^T +
+//     floor/tau) ~ Q dt: the covariance accumulated over T (Sigma_{k+1} =
+//     G Sigma_k G^T + R_k) tends to the continuous-time one as dt -> 0 and no
+//     longer depends on the rate; at dt = tau the step is the per-step
+//     model's. A step of dt < 1e-3 tau (repeated stamps) gets the floor of
+//     dt = 1e-3 tau so that R stays positive definite.
+//
 // THREAD SAFETY: pure functions. ALLOCATION: none.
 #pragma once
 
@@ -42,9 +60,14 @@ struct VelocityControl {
 struct VelocityNoise {
   // alpha[0..5] = a1..a6 of Probabilistic Robotics Table 5.3.
   double alpha[6] = {0.1, 0.01, 0.01, 0.1, 0.01, 0.1};
-  // Minimum standard deviation per step for x, y [m] and theta [rad].
+  // Minimum standard deviation per step (per noise_time_constant seconds
+  // when that is > 0) for x, y [m] and theta [rad].
   double min_sigma_xy = 1e-3;
   double min_sigma_theta = 1e-3;
+  // tau [s]: 0 puts M and the floor on every step (the book's model); > 0
+  // makes them densities, so the accumulated covariance does not depend on
+  // the step rate and a step of dt = tau gets exactly the per-step values.
+  double noise_time_constant = 0.0;
 };
 
 // g(u, x_{t-1}); theta of the result is wrapped to (-pi, pi].
@@ -70,7 +93,8 @@ void EvaluateVelocityMotion(const Pose2& previous, const Pose2& current,
                             Eigen::Matrix3d* jacobian_previous,
                             Eigen::Matrix3d* jacobian_current);
 
-// R_t = V M V^T (+ floor), the state-space covariance of one motion step.
+// R_t = V M V^T (+ floor), the state-space covariance of one motion step,
+// scaled per noise.noise_time_constant (above).
 Eigen::Matrix3d VelocityMotionCovariance(const Pose2& previous, const VelocityControl& control,
                                          const VelocityNoise& noise);
 

@@ -28,7 +28,7 @@
 // GS_LOOP_WINDOW_OBS its stage_observations, sparse_stage_observations,
 // scale_high_rate_logs,
 // provisional_observations, local_observations; GS_SECONDS=S reads only the first
-// S seconds of MRCLAM; GS_MRCLAM_SIGMA=R,PHI its range and bearing sigmas; GS_MRCLAM_ALPHA=K multiplies its motion noise variances (alpha) by K; GS_POSES_OUT=FILE writes each observation's pose; GS_INCREMENTAL=0 skips
+// S seconds of MRCLAM; GS_MRCLAM_SIGMA=R,PHI its range and bearing sigmas; GS_MRCLAM_ALPHA=K multiplies its motion noise variances (alpha) by K; GS_MRCLAM_TAU=S sets their noise_time_constant (0: per step); GS_POSES_OUT=FILE writes each observation's pose; GS_INCREMENTAL=0 skips
 // it (the batch rounds alone; on by default); GS_LOOP=0/1, GS_LOOP_MIN, GS_LOOP_MARGIN, GS_LOOP_TOL,
 // GS_FIXES_FIRST=0/1 its solve_fixes_first, GS_MERGE_DUPLICATES=0/1 its merge_duplicates, GS_STAGE_UNDO=0/1 its undo_stage_pairings;
 // GS_LOOP_ROT, GS_LOOP_RADIUS, GS_LOOP_WINDOW set its loop closure
@@ -158,6 +158,7 @@ gs::Status LoadMrclam(const std::string& datasets, Benchmark* b) {
   if (const char* v = std::getenv("GS_MRCLAM_ALPHA")) {  // factor on the motion noise variances
     for (double& a : mrclam.noise.alpha) a *= std::atof(v);
   }
+  if (const char* v = std::getenv("GS_MRCLAM_TAU")) mrclam.noise.noise_time_constant = std::atof(v);
   auto known = gs::storage::ReadMrclam(datasets + "/mrclam_dataset1_sampled50hz", mrclam);
   GS_RETURN_IF_ERROR(known.status());
   mrclam.ignore_barcodes = true;

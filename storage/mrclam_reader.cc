@@ -145,6 +145,11 @@ Status MrclamOptions::Validate() const {
                                    internal::FormatDouble(noise.min_sigma_theta) +
                                    "; expected finite values > 0");
   }
+  if (!(noise.noise_time_constant >= 0.0) || !std::isfinite(noise.noise_time_constant)) {
+    return Status::InvalidArgument("MrclamOptions.noise.noise_time_constant is " +
+                                   internal::FormatDouble(noise.noise_time_constant) +
+                                   "; expected a finite number of seconds >= 0 (0: per step)");
+  }
   const Eigen::Matrix2d symmetric =
       0.5 * (measurement_information + measurement_information.transpose());
   if (!internal::IsPositiveDefinite(measurement_information) ||

@@ -222,5 +222,69 @@ TEST(VelocityMotionModel, CovarianceIsVMVtransposePlusFloor) {
   EXPECT_NEAR(covariance(2, 2), (noise.alpha[2] + noise.alpha[4]) * 4.0 * 0.25 + 4e-6, 1e-15);
 }
 
+// The covariance of the pose after `steps` equal steps that drive `control`
+// for a total of `seconds`: Sigma_{k+1} = G Sigma_k G^T + R_k from Sigma_0 = 0.
+Eigen::Matrix3d AccumulatedCovariance(VelocityControl control, double seconds, int steps,
+                                      const VelocityNoise& noise) {
+  control.dt = seconds / steps;
+  Pose2 pose = Pose2::Zero();
+  Eigen::Matrix3d sigma = Eigen::Matrix3d::Zero();
+  for (int k = 0; k < steps; ++k) {
+    const Eigen::Matrix3d g = VelocityMotionJacobian(pose, control);
+    sigma = g * sigma * g.transpose() + VelocityMotionCovariance(pose, control, noise);
+    pose = PredictVelocityMotion(pose, control);
+  }
+  return sigma;
+}
+
+// Largest relative difference of the diagonals (the variances of x, y, theta).
+double RelativeDifference(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return ((a.diagonal() - b.diagonal()).array() / b.diagonal().array()).abs().maxCoeff();
+}
+
+TEST(VelocityMotionModel, RateIndependentNoiseAccumulatesTheSameAtAnyRate) {
+  const VelocityControl control{.v = 0.4, .omega = 0.15, .dt = 0.0};
+  const double seconds = 16.0;
+  // A small floor, so that the per-step model's rate dependence below is the
+  // alphas' (its floor's, growing with the rate, would partly offset it).
+  VelocityNoise per_step;
+  per_step.min_sigma_xy = per_step.min_sigma_theta = 1e-4;
+  VelocityNoise per_time = per_step;
+  per_time.noise_time_constant = 0.2;
+  const Eigen::Matrix3d fine = AccumulatedCovariance(control, seconds, 5000, per_time);
+  for (const int steps : {50, 500}) {
+    EXPECT_LE(RelativeDifference(AccumulatedCovariance(control, seconds, steps, per_time), fine),
+              0.03)
+        << steps << " steps";
+  }
+  // The per-step model at the same three rates: the variances fall with the
+  // rate, far beyond a few percent.
+  const Eigen::Matrix3d per_step_fine = AccumulatedCovariance(control, seconds, 5000, per_step);
+  for (const int steps : {50, 500}) {
+    EXPECT_GE(RelativeDifference(AccumulatedCovariance(control, seconds, steps, per_step),
+                                 per_step_fine),
+              0.5)
+        << steps << " steps";
+  }
+  // At dt = tau each step is the per-step model's.
+  const VelocityControl at_tau{.v = 0.4, .omega = 0.15, .dt = 0.2};
+  ExpectNear(VelocityMotionCovariance(Pose2(1, 2, 0.5), at_tau, per_time),
+             VelocityMotionCovariance(Pose2(1, 2, 0.5), at_tau, per_step), 1e-15);
+}
+
+TEST(VelocityMotionModel, RateIndependentNoiseStaysDefiniteAtRepeatedStamps) {
+  VelocityNoise noise;
+  noise.noise_time_constant = 0.5;
+  for (const double dt : {0.0, 1e-9, 1e-4}) {
+    const Eigen::Matrix3d covariance =
+        VelocityMotionCovariance(Pose2(1, 2, 3), VelocityControl{.v = 1, .omega = 0.5, .dt = dt},
+                                 noise);
+    EXPECT_TRUE(covariance.allFinite()) << dt;
+    EXPECT_EQ(Eigen::LLT<Eigen::Matrix3d>(covariance).info(), Eigen::Success) << dt;
+    // Never below the floor of dt = 1e-3 tau.
+    EXPECT_GE(covariance(0, 0), 1e-3 * 1e-6 * (1.0 - 1e-12)) << dt;
+  }
+}
+
 }  // namespace
 }  // namespace graphslam::core

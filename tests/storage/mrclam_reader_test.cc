@@ -140,6 +140,13 @@ TEST(MrclamReader, OptionsAreValidated) {
   options = MrclamOptions();
   options.range_sigma_per_meter = -0.1;
   EXPECT_TRUE(options.Validate().IsInvalidArgument());
+  options = MrclamOptions();
+  options.noise.noise_time_constant = -0.5;
+  EXPECT_EQ(options.Validate().message(),
+            "MrclamOptions.noise.noise_time_constant is -0.5; expected a finite number of "
+            "seconds >= 0 (0: per step)");
+  options.noise.noise_time_constant = std::nan("");
+  EXPECT_TRUE(options.Validate().IsInvalidArgument());
   EXPECT_TRUE(ReadMrclam("/nonexistent", MrclamOptions()).status().IsNotFound());
 }
 
@@ -182,6 +189,38 @@ TEST_F(MrclamSmallTest, RawIrregularStampsWithoutGroundTruth) {
   EXPECT_EQ(problem->observations[1].pose, 2);
   EXPECT_EQ(problem->feature_ids[problem->observations[1].feature], 7);
   EXPECT_EQ(problem->observations[1].line, 4);
+}
+
+// The summed heading variance of the motion steps over 2 s of one turning
+// control, as the reader's information gives it.
+double HeadingVarianceOver2s(const std::string& dir, int hz, const MrclamOptions& options) {
+  std::ofstream odometry(dir + "/Robot1_Odometry.dat");
+  for (int k = 0; k <= 2 * hz; ++k) odometry << 100.0 + k / static_cast<double>(hz) << " 0.3 0.4\n";
+  odometry.close();
+  const auto problem = ReadMrclam(dir, options);
+  EXPECT_TRUE(problem.ok()) << problem.status().ToString();
+  if (!problem.ok()) return 0.0;
+  double variance = 0.0;
+  for (const core::VelocityMotionConstraint& m : problem->motions) {
+    variance += m.information.inverse()(2, 2);
+  }
+  return variance;
+}
+
+// The same drive logged at 25 Hz and at 250 Hz: with the reader's default
+// noise (per unit time) the heading variance accumulated over the drive is
+// the same; with the per-step model it is ten times smaller at 250 Hz.
+TEST_F(MrclamSmallTest, DefaultMotionNoiseDoesNotDependOnTheLoggingRate) {
+  const MrclamOptions defaults;
+  ASSERT_GT(defaults.noise.noise_time_constant, 0.0);
+  const double slow = HeadingVarianceOver2s(dir_, 25, defaults);
+  const double fast = HeadingVarianceOver2s(dir_, 250, defaults);
+  EXPECT_NEAR(fast / slow, 1.0, 1e-6);
+  MrclamOptions per_step;
+  per_step.noise.noise_time_constant = 0.0;
+  const double ratio = HeadingVarianceOver2s(dir_, 250, per_step) /
+                       HeadingVarianceOver2s(dir_, 25, per_step);
+  EXPECT_LT(ratio, 0.5);
 }
 
 TEST_F(MrclamSmallTest, UnknownBarcodesAreSkippedCountedAndListed) {
