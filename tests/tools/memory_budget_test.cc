@@ -84,6 +84,33 @@ TEST(BudgetSolve, TheHundredMillionFeatureStoreFitsThreeGib) {
   EXPECT_EQ(budget->chunks_in_flight, 8);
 }
 
+// Reading problem.graphslam comes before the passes: with many features per
+// pose its per-feature arrays (kReadBytesPerFeature, the id with the
+// estimate) outweigh the passes' (kBytesPerFeatureStreaming, ids parked),
+// and the need is the read's, named in the refusal; with many poses per
+// feature the passes' pose system is the larger.
+TEST(BudgetSolve, TheNeedIsTheLargerOfTheReadAndThePasses) {
+  const int64_t problem_bytes = int64_t{600} << 20;  // tokenizer blocks at their cap
+  const SolveSize features{1000, 10000000, 40000000, 4096, true, problem_bytes};
+  const int64_t read = kSolveBaseBytes + kReaderBlockBytes + 10000000 * kReadBytesPerFeature +
+                       1000 * kReadBytesPerPose;
+  const int64_t passes = kSolveBaseBytes + 1000 * kPoseSystemBytesPerPose +
+                         10000000 * kBytesPerFeatureStreaming +
+                         4096 * kBytesPerObservationInFlight;
+  ASSERT_GT(read, passes);
+  EXPECT_EQ(BudgetSolve(0, features, 8)->need_bytes, read);
+  const StatusOr<SolveBudget> refused = BudgetSolve(read - 1, features, 8);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().ToString().find("reading the problem file"), std::string::npos)
+      << refused.status().ToString();
+  EXPECT_TRUE(BudgetSolve(read, features, 8).ok());
+
+  const SolveSize poses{1000000, 1000000, 40000000, 4096, true, problem_bytes};
+  EXPECT_EQ(BudgetSolve(0, poses, 8)->need_bytes,
+            kSolveBaseBytes + 1000000 * kPoseSystemBytesPerPose +
+                1000000 * kBytesPerFeatureStreaming + 4096 * kBytesPerObservationInFlight);
+}
+
 // --solver cholmod: the factor (4 x its 8 lnz) must fit in what the chunks
 // leave; else the refusal names the smallest limit whose budget holds it.
 TEST(CheckCholmodFactor, TheFactorFitsWhatTheChunksLeaveOrTheSmallestLimitIsNamed) {
