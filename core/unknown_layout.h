@@ -42,7 +42,7 @@ struct UnknownLayout {
   // With none kept (the usual case) feature_unknown_index stays empty and
   // IsKept is false for every feature: 4 B per feature not held.
   void KeepFeatures(const std::vector<uint8_t>& keep) {
-    feature_unknown_index = {};
+    std::vector<int32_t>().swap(feature_unknown_index);
     num_kept_features = 0;
     if (std::none_of(keep.begin(), keep.end(), [](uint8_t k) { return k != 0; })) return;
     feature_unknown_index.assign(keep.size(), -1);

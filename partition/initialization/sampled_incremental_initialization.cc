@@ -125,7 +125,7 @@ class UnobservedGuesses {
     restored_ = true;
     problem_->features.assign(count_, core::Point2::Zero());
     for (const auto& [f, guess] : guesses_) problem_->features[static_cast<size_t>(f)] = guess;
-    guesses_ = {};
+    std::vector<std::pair<int32_t, core::Point2>>().swap(guesses_);
   }
 
  private:

@@ -111,6 +111,31 @@ TEST(BudgetSolve, TheNeedIsTheLargerOfTheReadAndThePasses) {
                 1000000 * kBytesPerFeatureStreaming + 4096 * kBytesPerObservationInFlight);
 }
 
+// The records are counted in 1 MiB reads: one split between two reads at
+// any point of its keyword is counted once (a FEATURE split past its sixth
+// byte was missed: the solve then refused the very need it had named).
+TEST(CountPoseAndFeatureRecords, RecordsSplitBetweenReadsAreCountedOnce) {
+  const fs::path path = fs::temp_directory_path() /
+                        ("graphslam_count_records_" + std::to_string(::getpid()) + ".log");
+  const size_t block = size_t{1} << 20;
+  for (const std::string record : {"FEATURE", "POSE"}) {
+    for (size_t split = 0; split <= 10; ++split) {
+      SCOPED_TRACE(record + " split " + std::to_string(split));
+      // The newline before the straddling record sits `split` bytes before
+      // the end of the first read.
+      std::string text = "GRAPHSLAM_LOG 1\nPOSE 0 0\nFEATURE 1\n#";
+      text.append(block - split - text.size() - 1, 'x');
+      text += "\n" + record + " 2\nPOSE 3 0\nFEATURE 4\n";
+      std::ofstream(path, std::ios::binary) << text;
+      const StatusOr<RecordCounts> counts = CountPoseAndFeatureRecords(path.string());
+      ASSERT_TRUE(counts.ok()) << counts.status().ToString();
+      EXPECT_EQ(counts->poses, record == "POSE" ? 3 : 2);
+      EXPECT_EQ(counts->features, record == "FEATURE" ? 3 : 2);
+    }
+  }
+  fs::remove(path);
+}
+
 // --solver cholmod: the factor (4 x its 8 lnz) must fit in what the chunks
 // leave; else the refusal names the smallest limit whose budget holds it.
 TEST(CheckCholmodFactor, TheFactorFitsWhatTheChunksLeaveOrTheSmallestLimitIsNamed) {
