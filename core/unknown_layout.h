@@ -12,11 +12,13 @@
 // features stay unknowns of the reduced system, after the poses, as blocks of
 // the pose block size whose components past the feature dimension are a
 // decoupled pad (information 1, gradient 0, so their step is exactly 0).
-// feature_unknown_index[f] is the block of kept feature f, or -1.
+// feature_unknown_index[f] is the block of kept feature f, or -1 (empty when
+// no feature is kept).
 //
 // THREAD SAFETY: a plain value. ALLOCATION: O(poses).
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -37,9 +39,13 @@ struct UnknownLayout {
   int32_t num_blocks() const { return num_unknown_poses + num_kept_features; }
 
   // Makes the features with keep[f] != 0 unknowns of the reduced system.
+  // With none kept (the usual case) feature_unknown_index stays empty and
+  // IsKept is false for every feature: 4 B per feature not held.
   void KeepFeatures(const std::vector<uint8_t>& keep) {
-    feature_unknown_index.assign(keep.size(), -1);
+    std::vector<int32_t>().swap(feature_unknown_index);
     num_kept_features = 0;
+    if (std::none_of(keep.begin(), keep.end(), [](uint8_t k) { return k != 0; })) return;
+    feature_unknown_index.assign(keep.size(), -1);
     for (size_t f = 0; f < keep.size(); ++f)
       if (keep[f]) feature_unknown_index[f] = num_unknown_poses + num_kept_features++;
   }

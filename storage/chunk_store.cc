@@ -121,12 +121,28 @@ StatusOr<core::Problem2d> ReadChunkStoreProblem(const std::string& dir, bool wit
   for (const ChunkStoreFile& file : store->files())
     if (file.path == kChunkStoreProblemName)
       GS_RETURN_IF_ERROR(CheckFileChecksum(path, file.bytes, file.crc32c));
-  GS_ASSIGN_OR_RETURN(core::Problem2d problem,
-                      with_features ? ReadNativeLog(path) : ReadNativeLogWithoutFeatures(path));
-  if (!problem.observations.empty())
-    return Status::Corruption(path + ": a chunk store problem holds no observations; found " +
-                              std::to_string(problem.observations.size()));
-  return problem;
+  if (!with_features) {
+    GS_ASSIGN_OR_RETURN(core::Problem2d problem, ReadNativeLogWithoutFeatures(path));
+    if (!problem.observations.empty())
+      return Status::Corruption(path + ": a chunk store problem holds no observations; found " +
+                                std::to_string(problem.observations.size()));
+    return problem;
+  }
+  // The file is the one the store's writer made (its CRC32C checked above
+  // from manifest version 2 on): its FEATURE records are unique and no
+  // record refers to a feature, so the reader builds no id table, and the
+  // per-feature arrays are reserved to the manifest's count (never grown by
+  // copying). A record referring to a feature is Corruption.
+  ExpectedSizes expected;
+  expected.features = store->total_features();
+  expected.declared_once = true;
+  return ReadNativeLogStreaming(
+      path,
+      [&path](const core::Observation&) {
+        return Status::Corruption(path + ": a chunk store problem holds no observations; "
+                                  "found one");
+      },
+      nullptr, expected);
 }
 
 Status VerifyChunkStoreFiles(const std::string& dir, const std::string& prefix) {

@@ -132,7 +132,9 @@ bool IsChunkStore(const std::string& path);
 // Reads STORE/problem.graphslam (after opening the manifest and checking the
 // file's size and CRC32C against it). The result has no observations;
 // without `with_features`, no features either (ReadNativeLogWithoutFeatures).
-// NotFound / Corruption naming the file.
+// The features are read without an id table, into arrays reserved to the
+// manifest's total_features (ExpectedSizes::declared_once): ~25 B per
+// feature while the file is read. NotFound / Corruption naming the file.
 StatusOr<core::Problem2d> ReadChunkStoreProblem(const std::string& dir,
                                                 bool with_features = true);
 

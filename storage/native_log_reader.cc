@@ -68,11 +68,13 @@ class NativeLogParser {
   // without FEATURE guesses are written after the id table is freed.
   void Reserve(const ExpectedSizes& expected) {
     constexpr int64_t kMost = std::numeric_limits<int32_t>::max();
+    declared_once_ = expected.declared_once;
     if (expected.features <= 0 || expected.features > kMost) return;
     const auto features = static_cast<size_t>(expected.features);
     problem_.features.reserve(features);
     problem_.feature_ids.reserve(features);
     problem_.feature_initialized.reserve(features);
+    if (declared_once_) return;  // no per-feature state of the checks
     feature_lines_.Reserve(expected.features);
     feature_declared_.reserve(features);
     if (expected.feature_id_end > 0 && expected.feature_id_end <= kMost)
@@ -211,6 +213,10 @@ class NativeLogParser {
     const bool initialized = reader.fields().size() == 4;
     double guess[2] = {0.0, 0.0};
     if (initialized) GS_RETURN_IF_ERROR(reader.Doubles(2, 2, "initial guess", guess));
+    if (declared_once_) {
+      NewFeature(id, initialized ? guess : nullptr);
+      return Status::Ok();
+    }
     if (const int32_t known = features_.Find(id); known >= 0) {
       const int32_t line = feature_lines_[known];
       return reader.Error(
@@ -257,6 +263,11 @@ class NativeLogParser {
   }
 
   StatusOr<int32_t> Feature(const LineReader& reader, size_t field) {
+    // Without the id table no reference can be resolved.
+    if (declared_once_)
+      return reader.Error(std::string(reader.fields()[0]) +
+                          " refers to a feature; expected no record that does (a chunk "
+                          "store's problem file holds no observations)");
     if (reader.fields()[field] == "-") {
       // Unknown correspondence: a feature of its own, for data association.
       const int32_t feature = NewFeature(core::kNoFeatureId, nullptr);
@@ -527,6 +538,7 @@ class NativeLogParser {
   // its bits never equal a parsed, finite number's).
   double last_definite2_[3] = {std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0};
   bool guesses_held_ = false;              // NewFeature
+  bool declared_once_ = false;             // ExpectedSizes::declared_once
   bool size_guesses_ = true;
 };
 

@@ -95,6 +95,12 @@ using ObservationSink = std::function<Status(const core::Observation&)>;
 struct ExpectedSizes {
   int64_t features = 0;
   int64_t feature_id_end = -1;
+  // The caller vouches that every FEATURE id is declared once and that no
+  // record refers to a feature (a chunk store's problem file, checked
+  // against its manifest's CRC32C, whose sink refuses observations): the
+  // reader keeps no id table, lines or flags per feature (4 B per id below
+  // the largest, and more, while the file is read).
+  bool declared_once = false;
 };
 //
 // The reader's per-feature state (id table, lines, flags) is freed before

@@ -48,28 +48,30 @@ StatusOr<RecordCounts> CountPoseAndFeatureRecords(const std::string& path) {
   constexpr std::string_view kPose = "\nPOSE ";
   constexpr std::string_view kFeature = "\nFEATURE ";
   constexpr size_t kBlock = size_t{1} << 20;
-  // The file's start is a line start; the last bytes of a block are kept so
-  // that a record split between two reads is still found (once).
+  // The file's start is a line start; the last bytes of a block (one less
+  // than the longer record) are kept so that a record split between two
+  // reads is still found, and counted once: only a match that ends past the
+  // kept bytes is new.
   std::string buffer = "\n";
   buffer.reserve(kBlock + kFeature.size());
   RecordCounts counts;
-  const auto count = [](std::string_view text, std::string_view record) {
+  const auto count = [](std::string_view text, std::string_view record, size_t kept) {
     int64_t n = 0;
     for (size_t at = text.find(record); at != std::string_view::npos;
          at = text.find(record, at + 1))
-      ++n;
+      if (at + record.size() > kept) ++n;
     return n;
   };
-  for (;;) {
-    const size_t kept = buffer.size();
-    buffer.resize(kept + kBlock);
-    GS_ASSIGN_OR_RETURN(const size_t got, (*file)->Read(kBlock, buffer.data() + kept));
-    buffer.resize(kept + got);
-    counts.poses += count(buffer, kPose);
-    counts.features += count(buffer, kFeature);
+  for (size_t kept = 0;;) {
+    const size_t held = buffer.size();
+    buffer.resize(held + kBlock);
+    GS_ASSIGN_OR_RETURN(const size_t got, (*file)->Read(kBlock, buffer.data() + held));
+    buffer.resize(held + got);
+    counts.poses += count(buffer, kPose, kept);
+    counts.features += count(buffer, kFeature, kept);
     if (got < kBlock) break;
-    // Shorter than either record: no match lies wholly inside the kept tail.
-    buffer.erase(0, buffer.size() - (kPose.size() - 1));
+    kept = std::min(buffer.size(), kFeature.size() - 1);
+    buffer.erase(0, buffer.size() - kept);
   }
   return counts;
 }

@@ -112,14 +112,19 @@ inline constexpr int64_t kSolveBaseBytes = int64_t{24} << 20;
 // plus indices), the PCG vectors and the pose arrays.
 inline constexpr int64_t kPoseSystemBytesPerPose = 1450;
 inline constexpr int64_t kBytesPerFeature = 64;
-inline constexpr int64_t kBytesPerFeatureStreaming = 32;
+// Streaming, per feature: the estimate (16 B), the input's initialized flag
+// and the screening's excluded and kept flags (1 B each); the ids are parked
+// on disk and no per-feature unknown index is held unless a feature is kept
+// (19 B, ~20 B measured at 10^7).
+inline constexpr int64_t kBytesPerFeatureStreaming = 24;
 inline constexpr int64_t kBytesPerObservationInMemory = 300;
 inline constexpr int64_t kBytesPerObservationInFlight = 512;
 // Reading problem.graphslam: the tokenizer's blocks in flight (~1.5x a
-// small file, at most this), and per feature / pose the parsed estimates,
-// ids and flags at up to 2x capacity slack plus the id map.
+// small file, at most this), and per feature the estimate, id and flag
+// (25 B, reserved to the manifest's count; no id table: the store's
+// FEATURE records are unique), per pose its arrays and the pose id map.
 inline constexpr int64_t kReaderBlockBytes = int64_t{40} << 20;
-inline constexpr int64_t kReadBytesPerFeature = 64;
+inline constexpr int64_t kReadBytesPerFeature = 28;
 inline constexpr int64_t kReadBytesPerPose = 256;
 
 // What an ingest will read: counts known or estimated from the input.

@@ -147,6 +147,13 @@ class StageBuilder {
     Reset();
     core::Problem2d sub;
     sub.source = problem_.source;
+    // The unknown poses' own observations, reserved: grown by doubling, the
+    // largest stage's (a full stage, which has no earlier sightings to add)
+    // would hold its old and new buffers at once.
+    int64_t own = 0;
+    for (int32_t p : unknown)
+      own += index_.observations_of_pose.end(p) - index_.observations_of_pose.begin(p);
+    sub.observations.reserve(static_cast<size_t>(own));
     for (int32_t p : unknown) AddPose(p, poses, problem_.pose_fixed[p] != 0, &sub);
     *constraints = 0;
     for (int32_t p : unknown) {

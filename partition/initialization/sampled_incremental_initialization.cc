@@ -98,6 +98,43 @@ class SampleChunkSource : public core::ChunkSource {
   std::vector<int64_t> starts_;  // chunk k: observations [starts_[k], starts_[k + 1])
 };
 
+// The whole problem's feature estimates are dead from the sampling pass to
+// step 4, which places every observed feature from first sight: only the
+// unobserved ones' guesses (features of no chunk; none in a store the ingest
+// wrote) must survive. Holding those alone frees 16 bytes per feature for
+// the stages and the sample's solve.
+class UnobservedGuesses {
+ public:
+  // Keeps the guesses of the features not `observed`, then frees
+  // problem->features (num_features() is 0 until Restore).
+  UnobservedGuesses(const std::vector<bool>& observed, core::Problem2d* problem)
+      : problem_(problem), count_(problem->features.size()) {
+    for (size_t f = 0; f < count_; ++f)
+      if (!observed[f]) guesses_.emplace_back(static_cast<int32_t>(f), problem->features[f]);
+    std::vector<core::Point2>().swap(problem->features);
+  }
+  // An error on the way still leaves a problem of the right size.
+  ~UnobservedGuesses() { Restore(); }
+  UnobservedGuesses(const UnobservedGuesses&) = delete;
+  UnobservedGuesses& operator=(const UnobservedGuesses&) = delete;
+
+  // Every feature back (once): the unobserved ones at their guesses, the
+  // others at zero for the placement to overwrite.
+  void Restore() {
+    if (restored_) return;
+    restored_ = true;
+    problem_->features.assign(count_, core::Point2::Zero());
+    for (const auto& [f, guess] : guesses_) problem_->features[static_cast<size_t>(f)] = guess;
+    std::vector<std::pair<int32_t, core::Point2>>().swap(guesses_);
+  }
+
+ private:
+  core::Problem2d* problem_;
+  size_t count_;
+  std::vector<std::pair<int32_t, core::Point2>> guesses_;
+  bool restored_ = false;
+};
+
 }  // namespace
 
 double FeatureSampleKey(int32_t feature) {
@@ -167,10 +204,18 @@ Status InitializeFromSampledFeatures(const SampledInitializationOptions& options
     }
     return Status::Ok();
   };
+  // Which features the chunks observe, a bit each (see UnobservedGuesses).
+  std::vector<bool> observed(problem->features.size(), false);
   Status merged;
   GS_RETURN_IF_ERROR(core::internal::RunOrderedChunkPipeline<std::vector<core::Observation>>(
       chunks, solver.max_chunks_in_flight, pick,
       [&](const core::ObservationChunk& chunk, const std::vector<core::Observation>& kept) {
+        for (size_t slot = 0; slot < chunk.features.size(); ++slot) {
+          const int32_t f = chunk.features[slot];
+          if (chunk.feature_begin[slot] < chunk.feature_begin[slot + 1] && f >= 0 &&
+              f < problem->num_features())
+            observed[static_cast<size_t>(f)] = true;
+        }
         for (core::Observation o : kept) {
           if (o.feature < 0 || o.feature >= problem->num_features() || o.pose < 0 ||
               o.pose >= problem->num_poses()) {
@@ -184,7 +229,10 @@ Status InitializeFromSampledFeatures(const SampledInitializationOptions& options
           }
           if (sampled.empty() || sampled.back() != o.feature) {
             sampled.push_back(o.feature);
-            sub.AddFeature(problem->feature_ids[o.feature], problem->features[o.feature],
+            // Parked ids (the caller's, while the start runs): the index names it.
+            sub.AddFeature(problem->feature_ids.empty() ? int64_t{o.feature}
+                                                        : problem->feature_ids[o.feature],
+                           problem->features[o.feature],
                            problem->feature_initialized[o.feature] != 0);
           }
           o.feature = sub.num_features() - 1;
@@ -194,6 +242,8 @@ Status InitializeFromSampledFeatures(const SampledInitializationOptions& options
   GS_RETURN_IF_ERROR(merged);
   summary->sampled_features = sub.num_features();
   summary->sampled_observations = static_cast<int64_t>(sample.size());
+  UnobservedGuesses unobserved(observed, problem);
+  observed = std::vector<bool>();
 
   // Step 3: incremental initialization of the sample, then its solve.
   // The stages report their progress (the start can take minutes), as in
@@ -220,6 +270,7 @@ Status InitializeFromSampledFeatures(const SampledInitializationOptions& options
   sample.Release();
   loan.reset();
   problem->poses = std::move(sub.poses);
+  unobserved.Restore();
   GS_RETURN_IF_ERROR(PlaceFeaturesFromFirstSight(solver.max_chunks_in_flight, chunks, problem,
                                                  &summary->placed_features));
   for (size_t k = 0; k < sampled.size(); ++k) problem->features[sampled[k]] = sub.features[k];

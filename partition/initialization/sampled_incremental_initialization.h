@@ -36,7 +36,12 @@
 // Memory: O(poses + B) for the sub-problem and its solves (B proportional to
 // the poses; the sample held as 32-byte records, compact_observations.h), one
 // chunk per pass in flight, and a byte per feature for the placement pass;
-// never the whole problem's observations.
+// never the whole problem's observations. The whole problem's feature
+// estimates (16 B each) are freed from the end of the sampling pass to step
+// 4, which places every observed feature anew: only the guesses of features
+// no chunk observes are kept (a bit per feature finds them). The caller may
+// have parked the feature ids (problem->feature_ids empty): the sub-problem
+// then names each sampled feature by its index.
 // THREAD SAFETY: one call per problem (it runs TBB tasks itself); the result
 // does not depend on the thread count (chunks merged in order).
 #pragma once

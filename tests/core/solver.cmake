@@ -1,4 +1,5 @@
 graphslam_test(core/chunk_passes)
+graphslam_test(core/unknown_layout)
 graphslam_test(core/feature_linearizer)
 graphslam_test(core/graphslam_solver)
 graphslam_test(core/levenberg_marquardt)

@@ -246,6 +246,46 @@ TEST(NativeLogReader, WithoutFeaturesKeepsThePosesAndPoseFactorsOnly) {
   EXPECT_FALSE(bad.ok());
 }
 
+// ExpectedSizes::declared_once (a chunk store's problem file): the same
+// problem as the checked read, with features in record order whether or not
+// they carry a guess, and any record that refers to a feature refused (no
+// id table to resolve it), naming its line.
+TEST(NativeLogReader, DeclaredOnceReadsTheSameProblemAndRefusesReferences) {
+  const std::string log =
+      "GRAPHSLAM_LOG 1\n"
+      "POSE 0 0.0 0 0 0\n"
+      "FEATURE 30 5 1\n"
+      "POSE 1 0.5 1 0 0\n"
+      "FEATURE 4\n"
+      "FEATURE 1000000007 -2 3.5\n"
+      "ODOM 0 1 1 0 0.1 100 0 0 100 0 100\n"
+      "GPS 1 1.0 0.1 4 0 4\n";
+  const auto refuse = [](const core::Observation&) { return Status::Corruption("observation"); };
+  ExpectedSizes once;
+  once.declared_once = true;
+  for (const int64_t features : {int64_t{0}, int64_t{3}, int64_t{1000}}) {
+    once.features = features;
+    const auto checked = ReadNativeLog(WriteTemp("once_checked.log", log));
+    const auto read = ReadNativeLogStreaming(WriteTemp("once.log", log), refuse, nullptr, once);
+    ASSERT_TRUE(checked.ok()) << checked.status().ToString();
+    ASSERT_TRUE(read.ok()) << read.status().ToString();
+    EXPECT_EQ(read->feature_ids, checked->feature_ids);
+    EXPECT_EQ(read->feature_initialized, checked->feature_initialized);
+    ASSERT_EQ(read->features.size(), checked->features.size());
+    for (size_t f = 0; f < read->features.size(); ++f)
+      EXPECT_EQ(read->features[f], checked->features[f]);
+    EXPECT_EQ(read->pose_ids, checked->pose_ids);
+    EXPECT_EQ(read->relative_poses.size(), checked->relative_poses.size());
+    EXPECT_EQ(read->gps.size(), checked->gps.size());
+  }
+  const auto referring = ReadNativeLogStreaming(
+      WriteTemp("once_rb.log", log + "RB 1 30 5 0.1 1 0 1\n"), refuse, nullptr, once);
+  ASSERT_FALSE(referring.ok());
+  EXPECT_TRUE(referring.status().IsCorruption()) << referring.status().ToString();
+  EXPECT_NE(referring.status().message().find(":9:"), std::string::npos)
+      << referring.status().ToString();
+}
+
 TEST(NativeLogReader, RoundTripIsExact) {
   const auto original = ReadNativeLog(WriteTemp("original.log", kExample));
   ASSERT_TRUE(original.ok()) << original.status().ToString();

@@ -84,6 +84,58 @@ TEST(BudgetSolve, TheHundredMillionFeatureStoreFitsThreeGib) {
   EXPECT_EQ(budget->chunks_in_flight, 8);
 }
 
+// Reading problem.graphslam comes before the passes: with many features per
+// pose its per-feature arrays (kReadBytesPerFeature, the id with the
+// estimate) outweigh the passes' (kBytesPerFeatureStreaming, ids parked),
+// and the need is the read's, named in the refusal; with many poses per
+// feature the passes' pose system is the larger.
+TEST(BudgetSolve, TheNeedIsTheLargerOfTheReadAndThePasses) {
+  const int64_t problem_bytes = int64_t{600} << 20;  // tokenizer blocks at their cap
+  const SolveSize features{1000, 10000000, 40000000, 4096, true, problem_bytes};
+  const int64_t read = kSolveBaseBytes + kReaderBlockBytes + 10000000 * kReadBytesPerFeature +
+                       1000 * kReadBytesPerPose;
+  const int64_t passes = kSolveBaseBytes + 1000 * kPoseSystemBytesPerPose +
+                         10000000 * kBytesPerFeatureStreaming +
+                         4096 * kBytesPerObservationInFlight;
+  ASSERT_GT(read, passes);
+  EXPECT_EQ(BudgetSolve(0, features, 8)->need_bytes, read);
+  const StatusOr<SolveBudget> refused = BudgetSolve(read - 1, features, 8);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.status().ToString().find("reading the problem file"), std::string::npos)
+      << refused.status().ToString();
+  EXPECT_TRUE(BudgetSolve(read, features, 8).ok());
+
+  const SolveSize poses{1000000, 1000000, 40000000, 4096, true, problem_bytes};
+  EXPECT_EQ(BudgetSolve(0, poses, 8)->need_bytes,
+            kSolveBaseBytes + 1000000 * kPoseSystemBytesPerPose +
+                1000000 * kBytesPerFeatureStreaming + 4096 * kBytesPerObservationInFlight);
+}
+
+// The records are counted in 1 MiB reads: one split between two reads at
+// any point of its keyword is counted once (a FEATURE split past its sixth
+// byte was missed: the solve then refused the very need it had named).
+TEST(CountPoseAndFeatureRecords, RecordsSplitBetweenReadsAreCountedOnce) {
+  const fs::path path = fs::temp_directory_path() /
+                        ("graphslam_count_records_" + std::to_string(::getpid()) + ".log");
+  const size_t block = size_t{1} << 20;
+  for (const std::string record : {"FEATURE", "POSE"}) {
+    for (size_t split = 0; split <= 10; ++split) {
+      SCOPED_TRACE(record + " split " + std::to_string(split));
+      // The newline before the straddling record sits `split` bytes before
+      // the end of the first read.
+      std::string text = "GRAPHSLAM_LOG 1\nPOSE 0 0\nFEATURE 1\n#";
+      text.append(block - split - text.size() - 1, 'x');
+      text += "\n" + record + " 2\nPOSE 3 0\nFEATURE 4\n";
+      std::ofstream(path, std::ios::binary) << text;
+      const StatusOr<RecordCounts> counts = CountPoseAndFeatureRecords(path.string());
+      ASSERT_TRUE(counts.ok()) << counts.status().ToString();
+      EXPECT_EQ(counts->poses, record == "POSE" ? 3 : 2);
+      EXPECT_EQ(counts->features, record == "FEATURE" ? 3 : 2);
+    }
+  }
+  fs::remove(path);
+}
+
 // --solver cholmod: the factor (4 x its 8 lnz) must fit in what the chunks
 // leave; else the refusal names the smallest limit whose budget holds it.
 TEST(CheckCholmodFactor, TheFactorFitsWhatTheChunksLeaveOrTheSmallestLimitIsNamed) {

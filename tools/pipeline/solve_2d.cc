@@ -392,6 +392,18 @@ Status StartFromPoseGraph(const Solve2d& s, core::Problem2d* problem) {
   return Status::Ok();
 }
 
+// Streaming mode parks the feature ids beside the checkpoint from the start
+// on (PrepareCheckpoints below; the sampled start names its features by
+// index), so that their 8 B per feature are not held through the start's
+// stages either. Once per solve; not under mpirun.
+Status ParkFeatureIds(const SolveRun& run, Solve2d& s) {
+  if (!s.streaming || run.distributed || s.checkpoint_path.empty() || s.id_file)
+    return Status::Ok();
+  s.id_file = std::make_unique<storage::FeatureIdFile>(storage::Env::Default(),
+                                                       s.checkpoint_path + ".ids.bin");
+  return s.id_file->Park(&s.problem.feature_ids);
+}
+
 // The streaming start (observations on disk): incremental initialization of
 // a feature sample whose observations are bounded by the poses
 // (partition/initialization/sampled_incremental_initialization.h); a store
@@ -461,8 +473,10 @@ Status ImproveGuess(const SolveRun& run, Solve2d& s) {
                       init == Initialization::kIncremental);
   if (!s.resuming && run.root && init == Initialization::kPoseGraph)
     GS_RETURN_IF_ERROR(StartFromPoseGraph(s, &s.problem));
-  else if (!s.resuming && run.root && streaming_start)
+  else if (!s.resuming && run.root && streaming_start) {
+    GS_RETURN_IF_ERROR(ParkFeatureIds(run, s));
     GS_RETURN_IF_ERROR(StartFromSampledFeatures(run, s));
+  }
   s.progressive_seconds = SecondsSince(progressive_start);
   s.initialization_cpu_seconds = ProcessCpuSeconds() - initialization_cpu_start;
   return Status::Ok();
@@ -471,18 +485,16 @@ Status ImproveGuess(const SolveRun& run, Solve2d& s) {
 // Before the checkpoint writer is attached (not under mpirun: every rank
 // would use the same scratch files): streaming mode keeps no per-feature
 // array of candidates (a scratch file beside the checkpoint,
-// storage/candidate_file.h) and parks the feature ids there while it solves
-// (8 B per feature, the passes' peak included; only the outputs read them,
-// storage/feature_id_file.h); the checkpoint's feature estimates go to a
-// binary file, not JSON arrays.
+// storage/candidate_file.h) and parks the feature ids there while it solves,
+// if the start has not already (8 B per feature, the passes' peak included;
+// only the outputs read them, storage/feature_id_file.h); the checkpoint's
+// feature estimates go to a binary file, not JSON arrays.
 Status PrepareCheckpoints(const SolveRun& run, Solve2d& s) {
   if (!s.streaming || run.distributed) return Status::Ok();
   s.candidate_file = std::make_unique<storage::CandidateFile>(
       storage::Env::Default(), s.checkpoint_path + ".candidates.bin");
   s.solver.candidate_store = s.candidate_file.get();
-  s.id_file = std::make_unique<storage::FeatureIdFile>(storage::Env::Default(),
-                                                       s.checkpoint_path + ".ids.bin");
-  return s.id_file->Park(&s.problem.feature_ids);
+  return ParkFeatureIds(run, s);
 }
 
 Status WriteCheckpoint(const Solve2d& s, const std::string& input,

@@ -169,5 +169,49 @@ TEST(SampledIncrementalInitialization, BudgetGivenOrCapped) {
   }
 }
 
+// The start frees the whole problem's estimates while its stages run and
+// keeps the guesses of features no chunk observes: a feature added to the
+// problem (in no chunk) comes back at its guess, every other estimate is
+// placed as before, and with the ids parked (feature_ids empty, as the
+// streaming solve does) the start is the same to the bit.
+TEST(SampledIncrementalInitialization, UnobservedGuessesKeptAndParkedIdsChangeNothing) {
+  CampusStore campus;
+  ASSERT_NO_FATAL_FAILURE(OpenCampusStore("unobserved", 300, 100000, &campus));
+  const int64_t observations = campus.chunks->total_observations();
+  const core::Point2 guess(7.25, -3.5);
+  campus.problem.AddFeature(int64_t{1} << 40, guess, true);
+  const int32_t unobserved = campus.problem.num_features() - 1;
+  SampledInitializationOptions options;
+  options.budget_observations = 20000;
+  options.sub_solve_iterations = 3;
+  core::Problem2d with_ids = campus.problem;
+  core::Problem2d parked = campus.problem;
+  parked.feature_ids.clear();
+  SampledInitializationSummary with_ids_summary;
+  SampledInitializationSummary parked_summary;
+  ASSERT_TRUE(InitializeFromSampledFeatures(options, core::SolverOptions(), *campus.chunks,
+                                            observations, &with_ids, &with_ids_summary)
+                  .ok());
+  ASSERT_TRUE(InitializeFromSampledFeatures(options, core::SolverOptions(), *campus.chunks,
+                                            observations, &parked, &parked_summary)
+                  .ok());
+  ASSERT_LT(with_ids_summary.rate, 1.0);
+  EXPECT_EQ(with_ids_summary.placed_features, campus.chunks->total_features());
+  ASSERT_EQ(with_ids.num_features(), campus.problem.num_features());
+  EXPECT_EQ(with_ids.features[unobserved], guess);
+  // Observed features were all placed anew (the campus's guesses differ).
+  int64_t moved = 0;
+  for (int32_t f = 0; f < unobserved; ++f)
+    moved += with_ids.features[f] != campus.problem.features[f] ? 1 : 0;
+  EXPECT_GT(moved, unobserved / 2);
+  EXPECT_EQ(with_ids.feature_ids, campus.problem.feature_ids);
+  EXPECT_EQ(parked_summary.sub_solve_final_chi2, with_ids_summary.sub_solve_final_chi2);
+  ASSERT_EQ(parked.num_features(), with_ids.num_features());
+  for (int32_t f = 0; f < parked.num_features(); ++f)
+    ASSERT_EQ(parked.features[f], with_ids.features[f]) << "feature " << f;
+  for (int32_t p = 0; p < parked.num_poses(); ++p)
+    ASSERT_EQ(parked.poses[p], with_ids.poses[p]) << "pose " << p;
+}
+
 }  // namespace
 }  // namespace graphslam::partition
