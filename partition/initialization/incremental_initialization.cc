@@ -825,22 +825,41 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
   return RunStages(options, base, problem->observations, problem, summary);
 }
 
-Status RepairBrokenOdometry(const IncrementalInitializationOptions& options,
-                            const core::SolverOptions& base, core::Problem2d* problem,
-                            IncrementalSummary* summary) {
+namespace {
+
+// RepairBrokenOdometry (header) with the problem's observations in
+// `observations`.
+template <class Observations>
+Status RunRepair(const IncrementalInitializationOptions& options, const core::SolverOptions& base,
+                 const Observations& observations, core::Problem2d* problem,
+                 IncrementalSummary* summary) {
   GS_RETURN_IF_ERROR(options.Validate());
   GS_RETURN_IF_ERROR(internal::CheckPerElementArrays(*problem));
   GS_RETURN_IF_ERROR(core::ValidateProblem(*problem));
   if (options.broken_odometry_chi2 <= 0.0 || options.max_iterations_per_stage <= 0 ||
       options.broken_odometry_repair_poses <= 0)
     return Status::Ok();
-  IncrementalStages<std::vector<core::Observation>> stages(options, base, *problem,
-                                                           problem->observations);
+  IncrementalStages<Observations> stages(options, base, *problem, observations);
   stages.MarkAllPlaced();
   int32_t id = 0;
   GS_RETURN_IF_ERROR(stages.Repair(options.broken_odometry_repair_poses, &id, summary));
   stages.Finish(problem);
   return Status::Ok();
+}
+
+}  // namespace
+
+Status RepairBrokenOdometry(const IncrementalInitializationOptions& options,
+                            const core::SolverOptions& base, core::Problem2d* problem,
+                            IncrementalSummary* summary) {
+  return RunRepair(options, base, problem->observations, problem, summary);
+}
+
+Status RepairBrokenOdometry(const IncrementalInitializationOptions& options,
+                            const core::SolverOptions& base,
+                            const CompactObservations& observations, core::Problem2d* problem,
+                            IncrementalSummary* summary) {
+  return RunRepair(options, base, observations, problem, summary);
 }
 
 Status InitializeIncrementally(const IncrementalInitializationOptions& options,

@@ -209,6 +209,12 @@ Status InitializeIncrementally(const IncrementalInitializationOptions& options,
 Status RepairBrokenOdometry(const IncrementalInitializationOptions& options,
                             const core::SolverOptions& base, core::Problem2d* problem,
                             IncrementalSummary* summary);
+// The same with the observations in a compact list (the sampled start's
+// sample after its solve), none in problem->observations.
+Status RepairBrokenOdometry(const IncrementalInitializationOptions& options,
+                            const core::SolverOptions& base,
+                            const CompactObservations& observations, core::Problem2d* problem,
+                            IncrementalSummary* summary);
 
 // The same with the problem's observations held in `observations` (indices
 // into *problem's poses and features) and none in problem->observations:

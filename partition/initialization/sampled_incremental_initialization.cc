@@ -263,6 +263,11 @@ Status InitializeFromSampledFeatures(const SampledInitializationOptions& options
     summary->sub_solve_iterations = solved.iterations;
     summary->sub_solve_initial_chi2 = solved.initial_chi2;
     summary->sub_solve_final_chi2 = solved.final_chi2;
+    // The solve's long first steps over the whole sample can fold a stretch
+    // over as a stage can (10^8: folds after it that no stage had left), so
+    // the stages' repair runs once more on its result.
+    GS_RETURN_IF_ERROR(RepairBrokenOdometry(options.incremental, solver, sample, &sub,
+                                            &summary->incremental));
   }
 
   // Step 4: the poses back, every feature from first sight, the sampled ones

@@ -19,7 +19,9 @@
 //      gets incremental initialization, then Levenberg-Marquardt in memory
 //      (at most sub_solve_iterations): its poses end at the sample's optimum,
 //      which differs from the whole problem's by the information the other
-//      features add, well inside its basin.
+//      features add, well inside its basin. A stretch that solve folded over
+//      is then repaired as after the last stage (incremental_initialization.h:
+//      RepairBrokenOdometry).
 //   4. The poses are copied back; one more streaming pass places every
 //      feature from its first observation with them (Table 1 inverted,
 //      pose_graph_initialization.h PlaceFeaturesFromFirstSight), and the

@@ -348,6 +348,18 @@ TEST(IncrementalInitialization, RepairUnfoldsAFoldedStretch) {
           EXPECT_LT(worst_error, 0.05);
           std::vector<uint8_t> all(problem.poses.size(), 1);
           EXPECT_LT(internal::WorstOdometryChi2(problem, all), bound);
+          // The sampled start's form (observations in a compact list) gives
+          // the same repair.
+          core::Problem2d compact = folded;
+          CompactObservations list;
+          for (const core::Observation& o : compact.observations) list.push_back(o);
+          compact.observations.clear();
+          IncrementalSummary compact_summary;
+          ASSERT_TRUE(
+              RepairBrokenOdometry(options, solver, list, &compact, &compact_summary).ok());
+          EXPECT_EQ(compact_summary.broken_odometry_repairs, 1);
+          EXPECT_EQ(compact.poses, problem.poses);
+          EXPECT_EQ(compact.features, problem.features);
         } else {
           EXPECT_EQ(summary.broken_odometry_repairs, 0);
           EXPECT_GT(worst_error, 1.0);
