@@ -52,6 +52,15 @@ constexpr const char* kExample =
     "GPS 2 1.0 0.1 4 0 4\n"
     "RB_POSE 1 2 3.5 -0.2 100 0 400\n";
 
+// The per-feature arrays of two reads of one log are equal.
+void ExpectSameFeatures(const core::Problem2d& read, const core::Problem2d& expected) {
+  EXPECT_EQ(read.feature_ids, expected.feature_ids);
+  EXPECT_EQ(read.feature_initialized, expected.feature_initialized);
+  ASSERT_EQ(read.features.size(), expected.features.size());
+  for (size_t f = 0; f < read.features.size(); ++f)
+    EXPECT_EQ(read.features[f], expected.features[f]) << "feature " << f;
+}
+
 TEST(NativeLogReader, ReadsEveryRecordOfTheSpecExample) {
   const auto problem = ReadNativeLog(WriteTemp("example.log", kExample));
   ASSERT_TRUE(problem.ok()) << problem.status().ToString();
@@ -113,11 +122,7 @@ TEST(NativeLogReader, ExpectedSizesChangeNothingButWhatIsReserved) {
     std::vector<core::Observation> seen;
     const auto problem = read(expected, &seen);
     ASSERT_TRUE(problem.ok()) << problem.status().ToString();
-    EXPECT_EQ(problem->feature_ids, plain->feature_ids);
-    EXPECT_EQ(problem->feature_initialized, plain->feature_initialized);
-    ASSERT_EQ(problem->features.size(), plain->features.size());
-    for (size_t f = 0; f < problem->features.size(); ++f)
-      EXPECT_EQ(problem->features[f], plain->features[f]);
+    ExpectSameFeatures(*problem, *plain);
     ASSERT_EQ(seen.size(), plain_seen.size());
     for (size_t i = 0; i < seen.size(); ++i) {
       EXPECT_EQ(seen[i].pose, plain_seen[i].pose);
@@ -269,11 +274,7 @@ TEST(NativeLogReader, DeclaredOnceReadsTheSameProblemAndRefusesReferences) {
     const auto read = ReadNativeLogStreaming(WriteTemp("once.log", log), refuse, nullptr, once);
     ASSERT_TRUE(checked.ok()) << checked.status().ToString();
     ASSERT_TRUE(read.ok()) << read.status().ToString();
-    EXPECT_EQ(read->feature_ids, checked->feature_ids);
-    EXPECT_EQ(read->feature_initialized, checked->feature_initialized);
-    ASSERT_EQ(read->features.size(), checked->features.size());
-    for (size_t f = 0; f < read->features.size(); ++f)
-      EXPECT_EQ(read->features[f], checked->features[f]);
+    ExpectSameFeatures(*read, *checked);
     EXPECT_EQ(read->pose_ids, checked->pose_ids);
     EXPECT_EQ(read->relative_poses.size(), checked->relative_poses.size());
     EXPECT_EQ(read->gps.size(), checked->gps.size());
