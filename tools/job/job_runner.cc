@@ -508,8 +508,12 @@ StatusOr<json> SolveComponent(Context& ctx, bool checkpoints, int32_t c,
   }
   if (checkpoints) {
     options.checkpoint_callback = [&](const core::SolverCheckpoint& checkpoint) -> Status {
-      history.push_back({{"iteration", checkpoint.iterations}, {"chi2", checkpoint.chi2}});
-      GS_RETURN_IF_ERROR(WriteJson(files.history, history));
+      // The history has a row per iteration; the start's checkpoint
+      // (iteration 0) is not one.
+      if (checkpoint.iterations > 0) {
+        history.push_back({{"iteration", checkpoint.iterations}, {"chi2", checkpoint.chi2}});
+        GS_RETURN_IF_ERROR(WriteJson(files.history, history));
+      }
       return storage::WriteSolverCheckpoint(storage::Env::Default(), files.checkpoint,
                                             files.input, checkpoint);
     };
