@@ -539,7 +539,7 @@ class IncrementalStages {
   // `*id` numbers the sub-problems after the stages'.
   Status Repair(int64_t margin, int32_t* id, IncrementalSummary* summary) {
     for (int round = 0; round < kRepairRounds; ++round) {
-      GS_ASSIGN_OR_RETURN(const int64_t kept, RepairRound(margin, id, summary));
+      GS_ASSIGN_OR_RETURN(const int64_t kept, RepairRound(round, margin, id, summary));
       if (kept == 0) break;
     }
     return Status::Ok();
@@ -547,7 +547,8 @@ class IncrementalStages {
 
   // One round of Repair over the steps broken now; how many stretches it
   // replaced.
-  StatusOr<int64_t> RepairRound(int64_t margin, int32_t* id, IncrementalSummary* summary) {
+  StatusOr<int64_t> RepairRound(int round, int64_t margin, int32_t* id,
+                                IncrementalSummary* summary) {
     const std::vector<internal::BrokenStep> broken =
         internal::BrokenOdometrySteps(problem_, poses_, options_.broken_odometry_chi2);
     const int32_t n = problem_.num_poses();
@@ -561,14 +562,13 @@ class IncrementalStages {
         hi = std::max(hi, broken[i].pose + 1);
       const int32_t begin = static_cast<int32_t>(std::max<int64_t>(0, lo - margin));
       const int32_t end = static_cast<int32_t>(std::min<int64_t>(n, hi + margin + 1));
-      if (round_ == 0) ++summary->broken_odometry_stretches;
+      if (round == 0) ++summary->broken_odometry_stretches;
       GS_ASSIGN_OR_RETURN(const bool kept, RepairStretch(lo, hi, begin, end, id));
       if (kept) {
         ++summary->broken_odometry_repairs;
         ++replaced;
       }
     }
-    ++round_;
     return replaced;
   }
 
@@ -663,7 +663,6 @@ class IncrementalStages {
   std::vector<uint8_t> mark_;          // UnknownPoses' scratch
   std::vector<uint8_t> touched_;       // WorstNewOdometryChi2's scratch
   std::vector<uint8_t> mark_feature_;  // RepairStretch's scratch
-  int round_ = 0;                      // repair rounds done
 };
 
 void LogStage(size_t stage, const IncrementalStageSummary& s) {
