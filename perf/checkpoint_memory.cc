@@ -1,5 +1,5 @@
 // checkpoint_memory: the peak-RSS rise of writing one streaming-solve
-// checkpoint with the PCG state of P poses (docs/benchmarks.md, "Checkpoint
+// checkpoint with the PCG state of P poses (docs/history/benchmarks-notebook-2026-11.md, "Checkpoint
 // PCG state and feature ids off the heap"): 3P pose values, the 3P-value
 // warm start and the P-entry forest, no features. Compares the version-4
 // checkpoint (poses and PCG state in a binary state file,

@@ -56,7 +56,7 @@ pose-graph` itself (the pose-only solve uses that run's linear solver, so the
 starts agree to the pose-only solve's tolerance, not bit for bit); the Ceres
 runs are skipped (the peer reads g2o). Recommended, ours only (the runs go one
 after the other: peak RSS ~12 GiB with CHOLMOD, ~4.6 GiB with PCG; ~150 / ~110
-CPU s per LM iteration, docs/benchmarks.md "Problems that observe 10^7
+CPU s per LM iteration, docs/history/benchmarks-notebook-2026-11.md "Problems that observe 10^7
 features"):
 
   nice -n 10 perf/solver_comparison.py --bin build/bin --out /work/scale/e7obs/cmp \

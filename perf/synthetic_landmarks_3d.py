@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """A synthetic 3-D landmark problem in g2o (VERTEX_SE3:QUAT, VERTEX_TRACKXYZ,
 EDGE_SE3:QUAT, EDGE_SE3_TRACKXYZ) for timing the 3-D chunked solve
-(docs/benchmarks.md, "One chunked solve for 2-D and 3-D").
+(docs/history/benchmarks-notebook-2026-11.md, "One chunked solve for 2-D
+and 3-D").
 
 A helix of N = 3000 poses (odometry only, pose 0 fixed), M = 30000 points,
 each seen K = 6 times from poses within 10 of a random centre; noisy

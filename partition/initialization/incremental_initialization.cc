@@ -397,7 +397,7 @@ void PlaceNewFeatures(const core::Problem2d& problem, const Observations& observ
 // unless it already has no more than `floor_new_poses`. Also when its last
 // iteration had stopped descending (settled, internal/stage_growth.h): such a
 // stage has settled in a wrong basin, and keeping it leaves the whole sample
-// off its optimum (docs/benchmarks.md, "Redone stages").
+// off its optimum (docs/design.md, "Redone stages").
 bool IsFarStart(const IncrementalInitializationOptions& options,
                 const core::SolverSummary& solver, int64_t new_poses, int64_t floor_new_poses) {
   return options.max_iterations_per_stage > 0 && !solver.converged &&

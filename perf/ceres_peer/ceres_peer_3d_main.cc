@@ -1,7 +1,7 @@
 // graphslam_ceres_peer_3d: solves a 3-D g2o graph (VERTEX_SE3:QUAT,
 // EDGE_SE3:QUAT, VERTEX_TRACKXYZ, EDGE_SE3_TRACKXYZ, EDGE_SE3_XYZPRIOR) with
 // Ceres Solver, as the converged peer of `graphslam solve` on 3-D inputs
-// (docs/benchmarks.md, "3-D pose graphs").
+// (docs/history/benchmarks-notebook-2026-11.md, "3-D pose graphs").
 //
 //   graphslam_ceres_peer_3d INPUT.g2o [--report R.json] [--max-iterations N]
 //                           [--function-tolerance T] [--gradient-tolerance G]

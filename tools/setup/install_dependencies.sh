@@ -29,7 +29,8 @@ fi
 # CHOLMOD's supernodal factorization runs on the libblas.so.3 / liblapack.so.3
 # alternatives: OpenBLAS, single-threaded (our threads are TBB's; a threaded
 # BLAS under them oversubscribes the cores), not the reference BLAS, which
-# took 3x the CPU time on sphere2500 (docs/benchmarks.md, issue 25).
+# took 3x the CPU time on sphere2500 (docs/history/benchmarks-notebook-2026-11.md,
+# "Everyday pose graphs: initialization and BLAS").
 select_openblas() {
   local dir=/usr/lib/x86_64-linux-gnu/openblas-serial
   update-alternatives --set libblas.so.3-x86_64-linux-gnu "$dir/libblas.so.3"

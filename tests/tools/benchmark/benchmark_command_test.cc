@@ -57,8 +57,8 @@ class BenchmarkCommandTest : public ::testing::Test {
   void TearDown() override { fs::remove_all(dir_); }
   std::vector<std::string> Args(const fs::path& out) const {
     // One run and the pose-graph start: on these small GPS campuses the
-    // default start ends in a local minimum (docs/benchmarks.md, "Scaling
-    // benchmark"), and two runs of 50-100 poses are barely tied.
+    // default start ends in a local minimum (docs/benchmarks.md,
+    // "`graphslam benchmark` with default options"), and two runs of 50-100 poses are barely tied.
     return {"benchmark", "-o", out.string(), "--features", "1e4,2e4", "--runs", "1",
             "--initialization", "pose-graph", "-q"};
   }
