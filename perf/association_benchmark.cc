@@ -38,10 +38,17 @@
 // observations are logged); GS_VCE=0 gives the pass the pooled variance factor instead of the observations' own
 // (variance components); GS_SCALE=0/1 sets the variance-factor scaling of both
 // passes (default: incremental pass on, batch rounds off); GS_SPLITS=1 prints
-// every key landmark split over several features with the pose spans.
+// every key landmark split over several features with the pose spans;
+// GS_PASS_PAIRS=1 runs the incremental pass alone, solves it, and prints its
+// features (majority key landmark, position, pose span) and the first
+// round's correspondence test (distance, d^2, pi, the covariance of the
+// difference, poses seen from both) for every pair within the rounds' search
+// radius or of one key landmark, then stops.
 // Prints one line per round and a summary; the commands and figures are in
 // docs/benchmarks.md.
+#include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <iterator>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -56,6 +63,7 @@
 #include "partition/association/association_driver.h"
 #include "partition/ingest/in_memory_chunk_source.h"
 #include "partition/initialization/progressive_initialization.h"
+#include "partition/initialization/singleton_solve.h"
 #include "storage/g2o_reader.h"
 #include "storage/mrclam_reader.h"
 #include "tools/campus_simulator.h"
@@ -369,6 +377,73 @@ void PrintScore(const Benchmark& b, const gs::partition::AssociationSummary& sum
               seconds);
 }
 
+
+// Diagnosis (GS_PASS_PAIRS=1): the incremental pass alone, solved, then the
+// first round's correspondence test on every pair of its features that is a
+// candidate (within the rounds' search radius) or has the same majority key
+// landmark: distance, d^2, pi, the covariance of the difference and whether
+// a pose saw both. Prints and stops.
+gs::Status PrintPassPairs(const Benchmark& b, gs::core::Problem2d problem) {
+  gs::partition::IncrementalAssociationSummary inc;
+  std::vector<int32_t> input_observation;
+  GS_RETURN_IF_ERROR(gs::partition::AssociateIncrementally(b.options.incremental, b.solver,
+                                                           &problem, &inc, &input_observation));
+  gs::core::SolverSummary solved;
+  GS_RETURN_IF_ERROR(gs::partition::SolveWithoutSingletons(b.solver, gs::partition::ChunkingOptions(),
+                                                           &problem, &solved));
+  const int32_t n = problem.num_features();
+  std::vector<std::map<int64_t, int>> votes(n);
+  std::vector<std::vector<int32_t>> poses(n);
+  for (size_t o = 0; o < problem.observations.size(); ++o) {
+    const auto& obs = problem.observations[o];
+    ++votes[obs.feature][b.key[input_observation[o]]];
+    poses[obs.feature].push_back(obs.pose);
+  }
+  std::vector<int64_t> major(n, -1);
+  std::vector<int> count(n, 0), agree(n, 0);
+  for (int32_t f = 0; f < n; ++f) {
+    for (const auto& [k, c] : votes[f]) {
+      count[f] += c;
+      if (c > agree[f]) { agree[f] = c; major[f] = k; }
+    }
+    std::sort(poses[f].begin(), poses[f].end());
+    const auto& p = problem.features[f];
+    std::printf("feature %d key %lld (%d of %d) at %.3f %.3f poses %d..%d\n", f,
+                static_cast<long long>(major[f]), agree[f], count[f], p.x(), p.y(),
+                poses[f].front(), poses[f].back());
+  }
+  std::vector<gs::partition::CorrespondenceQuery> queries;
+  for (int32_t j = 0; j < n; ++j)
+    for (int32_t k = j + 1; k < n; ++k)
+      if (major[j] == major[k] ||
+          (problem.features[j] - problem.features[k]).norm() <= b.options.search_radius) {
+        gs::partition::CorrespondenceQuery q;
+        q.j = j;
+        q.k = k;
+        queries.push_back(q);
+      }
+  GS_RETURN_IF_ERROR(gs::partition::TestCorrespondences(b.solver, problem, 64, &queries));
+  for (const auto& q : queries) {
+    std::vector<int32_t> common;
+    std::set_intersection(poses[q.j].begin(), poses[q.j].end(), poses[q.k].begin(),
+                          poses[q.k].end(), std::back_inserter(common));
+    const Eigen::Matrix4d& c = q.joint_covariance;
+    const Eigen::Matrix2d d = c.topLeftCorner<2, 2>() + c.bottomRightCorner<2, 2>() -
+                              c.topRightCorner<2, 2>() - c.bottomLeftCorner<2, 2>();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(d);
+    std::printf("pair %d %d %s keys %lld %lld obs %d %d dist %.3f d2 %.3f pi %.3g valid %d "
+                "sigmaD %.3f %.3f common poses %zu\n",
+                q.j, q.k, major[q.j] == major[q.k] ? "SAME" : "diff",
+                static_cast<long long>(major[q.j]), static_cast<long long>(major[q.k]), count[q.j],
+                count[q.k], (problem.features[q.j] - problem.features[q.k]).norm(),
+                q.result.mahalanobis_squared, q.result.probability, q.result.valid ? 1 : 0,
+                std::sqrt(std::max(0.0, eig.eigenvalues()(0))),
+                std::sqrt(std::max(0.0, eig.eigenvalues()(1))), common.size());
+  }
+  std::printf("pass: %lld features, chi2 after solve %.3f\n", static_cast<long long>(n),
+              solved.final_chi2);
+  return gs::Status::Ok();
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -428,6 +503,10 @@ int main(int argc, char** argv) {
   if (!b.true_poses.empty()) PrintInitialGuessError(problem, b.true_poses);
   if (std::getenv("GS_INIT_ONLY") != nullptr) return 0;
   AssociationOptionsFromEnvironment(&options);
+  if (std::getenv("GS_PASS_PAIRS") != nullptr) {
+    const gs::Status status = PrintPassPairs(b, problem);
+    return status.ok() ? 0 : Fail(status);
+  }
   gs::partition::AssociationSummary summary;
   if (gs::Status status = gs::partition::AssociateAndSolve(options, b.solver, &problem, &summary);
       !status.ok())
