@@ -132,8 +132,13 @@ struct IncrementalInitializationOptions : PrefixStageOptions {
   int64_t window_poses = 2000;
   // The most observations a window stage re-solves from its window's own
   // poses: the window is cut to the most recent poses whose observations
-  // total at most this (never below its new poses).
-  int64_t max_window_observations = 50000;
+  // total at most this (never below its new poses). Twice
+  // max_new_observations, so that an observation is re-solved in about two
+  // stages after its own: the stage cost is the linearization of the
+  // window's observations, and older poses, once the later stages have seen
+  // their features again, move too little for a longer window to change
+  // the start.
+  int64_t max_window_observations = 25000;
   // The most observations of a stage's new poses (at least one new pose);
   // at most max_window_observations.
   int64_t max_new_observations = 12500;
