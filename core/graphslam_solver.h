@@ -21,8 +21,8 @@
 // step is accepted and the next lambda is that very number (the common case
 // near the optimum); otherwise (rejected step, 1e-3 < rho < 0.9368) it is
 // dropped and step 1 reduces as usual: two passes on those iterations only.
-// The driver speculates only while steps keep rho >= 0.9368 (a miss costs a
-// reduction, a hit saves a read of the chunks).
+// The driver speculates after every accepted step (a miss costs the
+// eliminations of a reduction, a hit saves a whole pass).
 // Either way every iteration solves the same system as with two passes, bit
 // for bit, so results do not depend on the option.
 // Pose graphs (no observations): an accepted step (at least 1/4 of the

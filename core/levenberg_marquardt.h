@@ -65,9 +65,8 @@
 //   // candidate with it during its recovery (the chunked space's one-pass
 //   // iteration) and reuse that in the next Linearize if Accept() was called
 //   // and the lambda it gets is that very number. It is 0 (do not speculate)
-//   // on the last iteration and when the previous step was rejected or had
-//   // rho < kSpeculationRho: a wasted speculation costs a reduction, a hit
-//   // saves a read of the chunks, and rho tends to stay high once it is.
+//   // on the last iteration and after a rejected step: a wasted speculation
+//   // costs the eliminations of a reduction, a hit saves a pass.
 //   Status TryStep(double lambda, double speculative_lambda, bool usable,
 //                  IterationSummary* it, TrialStep* trial);   // it->start_chi2 is set
 //   void StepResult(bool accepted);          // after every computed step
@@ -425,8 +424,13 @@ Status RunLevenbergMarquardt(
   // Pose graphs without checkpoints: the spaces that accelerate steps.
   const bool extrapolate = resume == nullptr && !checkpoint_callback && space->AcceleratesSteps();
   int first_iteration = 1;
-  // Whether this iteration's step is likely to give rho >= kSpeculationRho:
-  // optimistic at the start (and after a resume), then the last rho.
+  // Whether this iteration's pass reduces ahead at its candidate: at the
+  // start (and after a resume), then after every accepted step. A hit (this
+  // step accepted with rho >= kSpeculationRho) saves the next iteration's
+  // read and linearization of every chunk; a miss costs the Jacobians and
+  // eliminations of one reduction, and no read. The last step's rho is a poor guess of this
+  // one's: an accepted step of mid-range rho is mostly followed by one that
+  // fits.
   bool speculate = true;
   if (resume != nullptr) {
     RestoreFromCheckpoint(*resume, options, &state, summary);
@@ -477,7 +481,7 @@ Status RunLevenbergMarquardt(
     it.accepted = trial.ok && std::isfinite(candidate_chi2) &&
                   it.relative_decrease > options.min_relative_decrease;
     if (trial.ok) space->StepResult(it.accepted);
-    speculate = it.accepted && it.relative_decrease >= kSpeculationRho;
+    speculate = it.accepted;
 
     // 4. Accept (the accelerated step if it is better) or reject; update
     //    the trust region.
