@@ -22,7 +22,9 @@
 // near the optimum); otherwise (rejected step, 1e-3 < rho < 0.9368) it is
 // dropped and step 1 reduces as usual: two passes on those iterations only.
 // The driver speculates after every accepted step (a miss costs the
-// eliminations of a reduction, a hit saves a whole pass).
+// eliminations of a reduction, a hit saves a whole pass). A rejected step's
+// line search reduces ahead at x (+) t d in its pass too, with the lambda
+// the rejection leaves: used when the line step is accepted.
 // Either way every iteration solves the same system as with two passes, bit
 // for bit, so results do not depend on the option.
 // Pose graphs (no observations): an accepted step (at least 1/4 of the

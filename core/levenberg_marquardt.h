@@ -72,9 +72,13 @@
 //   void StepResult(bool accepted);          // after every computed step
 //   // After a rejected step: chi2 at x (+) t d; *computed = false when the
 //   // space cannot evaluate it. When computed, that state is the candidate
-//   // Accept() takes. Asked only when SearchesLines().
+//   // Accept() takes. Asked only when SearchesLines(). next_lambda > 0 is
+//   // the next iteration's lambda (the radius after the rejection, known
+//   // before rho(t)): as with TryStep's speculative_lambda, a space may
+//   // reduce at x (+) t d with it in the same pass and reuse that system if
+//   // the line step is accepted (then the lambda is that very number).
 //   bool SearchesLines() const;
-//   Status ScaledStepChi2(double t, bool* computed, double* chi2);
+//   Status ScaledStepChi2(double t, double next_lambda, bool* computed, double* chi2);
 //   bool AcceleratesSteps() const;
 //   // After an accepted step (before Accept): chi2 of the extrapolated state;
 //   // *computed = false when there is none. TakeAcceleratedStep makes it the
@@ -495,7 +499,12 @@ Status RunLevenbergMarquardt(
       const double t = LineSearchFraction(state.chi2, trial.gradient_dot_step, candidate_chi2);
       bool computed = false;
       double line_chi2 = 0.0;
-      GS_RETURN_IF_ERROR(space->ScaledStepChi2(t, &computed, &line_chi2));
+      // The radius UpdateAfterRejectedStep leaves, which an accepted line
+      // step keeps (UpdateAfterLineStep): the next lambda, bit for bit.
+      const double line_next_lambda =
+          iteration < options.max_iterations ? 1.0 / (state.radius / state.decrease_factor)
+                                             : 0.0;
+      GS_RETURN_IF_ERROR(space->ScaledStepChi2(t, line_next_lambda, &computed, &line_chi2));
       const double line_model = ModelDecreaseAt(t, trial);
       const double line_rho = (state.chi2 - line_chi2) / line_model;
       UpdateAfterRejectedStep(&state);
