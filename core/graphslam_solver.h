@@ -21,8 +21,10 @@
 // step is accepted and the next lambda is that very number (the common case
 // near the optimum); otherwise (rejected step, 1e-3 < rho < 0.9368) it is
 // dropped and step 1 reduces as usual: two passes on those iterations only.
-// The driver speculates only while steps keep rho >= 0.9368 (a miss costs a
-// reduction, a hit saves a read of the chunks).
+// The driver speculates after every accepted step (a miss costs the
+// eliminations of a reduction, a hit saves a whole pass). A rejected step's
+// line search reduces ahead at x (+) t d in its pass too, with the lambda
+// the rejection leaves: used when the line step is accepted.
 // Either way every iteration solves the same system as with two passes, bit
 // for bit, so results do not depend on the option.
 // Pose graphs (no observations): an accepted step (at least 1/4 of the
@@ -126,7 +128,8 @@ using SolverCheckpoint = BasicSolverCheckpoint<Pose2, Point2>;
 // The initial trust region radius that `initial_trust_region_radius = 0`
 // asks for, by the linear solver chosen: nearly undamped for CHOLMOD, where
 // lambda * diag(H) = 1e-4 holds back a long pose chain's smallest eigenmodes
-// (M3500: 26 iterations instead of 6, docs/benchmarks.md, "Against g2o");
+// (M3500: 26 iterations instead of 6;
+// docs/history/benchmarks-notebook-2026-11.md);
 // 1e4 for PCG, whose solves the damping conditions.
 inline constexpr double kDirectInitialTrustRegion = 1e8;
 inline constexpr double kIterativeInitialTrustRegion = 1e4;
@@ -171,7 +174,8 @@ struct SolverOptions {
   // below pcg_truncation * function_tolerance * chi2 (0: off;
   // core/reduced_system_solver.h item 2b). Landmark problems only (features
   // eliminated into S): on the pose graphs intel and M3500 it saved 0.2-3.5 %
-  // of the CG iterations and cost 2-3 LM iterations (docs/benchmarks.md).
+  // of the CG iterations and cost 2-3 LM iterations
+  // (docs/history/benchmarks-notebook-2026-11.md).
   double pcg_truncation = 0.1;
   bool pcg_warm_start = true;
   // PCG: trajectory deflation, poses per aggregate (0: off;

@@ -65,17 +65,20 @@
 //   // candidate with it during its recovery (the chunked space's one-pass
 //   // iteration) and reuse that in the next Linearize if Accept() was called
 //   // and the lambda it gets is that very number. It is 0 (do not speculate)
-//   // on the last iteration and when the previous step was rejected or had
-//   // rho < kSpeculationRho: a wasted speculation costs a reduction, a hit
-//   // saves a read of the chunks, and rho tends to stay high once it is.
+//   // on the last iteration and after a rejected step: a wasted speculation
+//   // costs the eliminations of a reduction, a hit saves a pass.
 //   Status TryStep(double lambda, double speculative_lambda, bool usable,
 //                  IterationSummary* it, TrialStep* trial);   // it->start_chi2 is set
 //   void StepResult(bool accepted);          // after every computed step
 //   // After a rejected step: chi2 at x (+) t d; *computed = false when the
 //   // space cannot evaluate it. When computed, that state is the candidate
-//   // Accept() takes. Asked only when SearchesLines().
+//   // Accept() takes. Asked only when SearchesLines(). next_lambda > 0 is
+//   // the next iteration's lambda (the radius after the rejection, known
+//   // before rho(t)): as with TryStep's speculative_lambda, a space may
+//   // reduce at x (+) t d with it in the same pass and reuse that system if
+//   // the line step is accepted (then the lambda is that very number).
 //   bool SearchesLines() const;
-//   Status ScaledStepChi2(double t, bool* computed, double* chi2);
+//   Status ScaledStepChi2(double t, double next_lambda, bool* computed, double* chi2);
 //   bool AcceleratesSteps() const;
 //   // After an accepted step (before Accept): chi2 of the extrapolated state;
 //   // *computed = false when there is none. TakeAcceleratedStep makes it the
@@ -425,8 +428,13 @@ Status RunLevenbergMarquardt(
   // Pose graphs without checkpoints: the spaces that accelerate steps.
   const bool extrapolate = resume == nullptr && !checkpoint_callback && space->AcceleratesSteps();
   int first_iteration = 1;
-  // Whether this iteration's step is likely to give rho >= kSpeculationRho:
-  // optimistic at the start (and after a resume), then the last rho.
+  // Whether this iteration's pass reduces ahead at its candidate: at the
+  // start (and after a resume), then after every accepted step. A hit (this
+  // step accepted with rho >= kSpeculationRho) saves the next iteration's
+  // read and linearization of every chunk; a miss costs the Jacobians and
+  // eliminations of one reduction, and no read. The last step's rho is a poor guess of this
+  // one's: an accepted step of mid-range rho is mostly followed by one that
+  // fits.
   bool speculate = true;
   if (resume != nullptr) {
     RestoreFromCheckpoint(*resume, options, &state, summary);
@@ -477,7 +485,7 @@ Status RunLevenbergMarquardt(
     it.accepted = trial.ok && std::isfinite(candidate_chi2) &&
                   it.relative_decrease > options.min_relative_decrease;
     if (trial.ok) space->StepResult(it.accepted);
-    speculate = it.accepted && it.relative_decrease >= kSpeculationRho;
+    speculate = it.accepted;
 
     // 4. Accept (the accelerated step if it is better) or reject; update
     //    the trust region.
@@ -491,7 +499,12 @@ Status RunLevenbergMarquardt(
       const double t = LineSearchFraction(state.chi2, trial.gradient_dot_step, candidate_chi2);
       bool computed = false;
       double line_chi2 = 0.0;
-      GS_RETURN_IF_ERROR(space->ScaledStepChi2(t, &computed, &line_chi2));
+      // The radius UpdateAfterRejectedStep leaves, which an accepted line
+      // step keeps (UpdateAfterLineStep): the next lambda, bit for bit.
+      const double line_next_lambda =
+          iteration < options.max_iterations ? 1.0 / (state.radius / state.decrease_factor)
+                                             : 0.0;
+      GS_RETURN_IF_ERROR(space->ScaledStepChi2(t, line_next_lambda, &computed, &line_chi2));
       const double line_model = ModelDecreaseAt(t, trial);
       const double line_rho = (state.chi2 - line_chi2) / line_model;
       UpdateAfterRejectedStep(&state);

@@ -146,21 +146,40 @@ class ChunkedSpace {
   // recovery of the same step that scales each candidate before its chi2
   // and writes the scaled ones to the store (the same numbers as in memory,
   // bit for bit). *computed = false (nothing changed) unless SearchesLines().
-  Status ScaledStepChi2(double t, bool* computed, double* chi2) {
+  // Fused (next_lambda > 0): the same pass also reduces at x (+) t d with
+  // next_lambda into system_, as TryStep's fused pass does at x (+) d
+  // (RecoverAndReducePass; in memory a ReducePass, whose chi2 is the sum
+  // ObservationsChi2 gives, in the same order); the system is dead by now
+  // (the rejected step's was solved). An accepted line step then needs no
+  // reduce pass in the next iteration.
+  Status ScaledStepChi2(double t, double next_lambda, bool* computed, double* chi2) {
     *computed = false;
     if (!SearchesLines()) return Status::Ok();
     const Eigen::VectorXd step = pose_step_;
     pose_step_ *= t;
     candidate_poses_ = ApplyPoseStep<Space>(problem_.poses, layout_, pose_step_);
     speculation_built_ = false;
+    const bool reduce_ahead = fused_ && next_lambda > 0.0;
+    if (reduce_ahead) ResetSystem(candidate_poses_, &system_);
     double observations_chi2 = 0.0;
     if (candidate_store_ != nullptr) {
       RecoveryResult recovery;
       const BasicRecoveryInput<Space> input{problem_.poses, problem_.features, step_lambda_,
                                             step,           candidate_poses_,  t};
       GS_RETURN_IF_ERROR(candidate_store_->Begin());
-      GS_RETURN_IF_ERROR(ranks_.Agree(
-          RecoverPass<Space>(context_, input, CandidateSinkForThisStep(), &recovery)));
+      if (reduce_ahead) {
+        Status next_status;
+        GS_RETURN_IF_ERROR(ranks_.Agree(
+            RecoverAndReducePass<Space>(context_, input, CandidateSinkForThisStep(), &recovery,
+                                        {next_lambda, &system_, &next_status})));
+        next_status = ranks_.Agree(std::move(next_status));
+        if (next_status.ok()) ranks_.SumSystem(&system_);
+        speculation_built_ = next_status.ok();
+        speculative_lambda_ = next_lambda;
+      } else {
+        GS_RETURN_IF_ERROR(ranks_.Agree(
+            RecoverPass<Space>(context_, input, CandidateSinkForThisStep(), &recovery)));
+      }
       GS_RETURN_IF_ERROR(candidate_store_->Finish());
       observations_chi2 = recovery.candidate_chi2;
     } else {
@@ -169,8 +188,21 @@ class ChunkedSpace {
         if (!excluded_[g])
           candidate_features_[g] = features[g] + t * (candidate_features_[g] - features[g]);
       }
-      GS_RETURN_IF_ERROR(ranks_.Agree(ObservationsChi2(context_, candidate_poses_,
-                                                       candidate_features_, &observations_chi2)));
+      // A failed elimination at x (+) t d only loses the reduction: the
+      // chi2 comes from the plain pass then.
+      const Status reduced =
+          reduce_ahead ? ranks_.Agree(ReducePass(context_, candidate_poses_, candidate_features_,
+                                                 next_lambda, &system_))
+                       : Status::Numerical("not reduced ahead");
+      if (reduced.ok()) {
+        observations_chi2 = system_.chi2;  // this process's share, as ObservationsChi2's
+        ranks_.SumSystem(&system_);
+        speculation_built_ = true;
+        speculative_lambda_ = next_lambda;
+      } else {
+        GS_RETURN_IF_ERROR(ranks_.Agree(ObservationsChi2(
+            context_, candidate_poses_, candidate_features_, &observations_chi2)));
+      }
     }
     ranks_.SumChi2(&observations_chi2);
     *chi2 = PoseFactorsChi2(problem_, candidate_poses_, pose_kernels_) + observations_chi2;

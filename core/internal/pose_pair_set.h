@@ -3,7 +3,8 @@
 // appends a pair to the caller's list the first time it is seen. The pattern
 // of the reduced matrix is collected per chunk with it (core/chunk_passes.cc):
 // the sort + unique of every chunk's pair list it replaces was 14 % of the CPU
-// of a one-iteration streaming solve (perf, store1e7, docs/benchmarks.md).
+// of a one-iteration streaming solve (perf, store1e7,
+// docs/history/benchmarks-notebook-2026-11.md).
 //
 // The order of the emitted pairs is the order of first insertion; the set of
 // pairs equals sort + unique of all insertions.

@@ -402,10 +402,9 @@ TEST(GraphSlamSolver, FusedPassReadsTheChunksOncePerWellAcceptedIteration) {
       continue;
     }
     // The previous iteration speculated unless the one before it had a
-    // rejected step or rho < kSpeculationRho (core/levenberg_marquardt.h).
+    // rejected step (core/levenberg_marquardt.h).
     const IterationSummary& previous = its[i - 1];
-    const bool speculated = i == 1 || (its[i - 2].accepted &&
-                                       its[i - 2].relative_decrease >= kSpeculationRho);
+    const bool speculated = i == 1 || its[i - 2].accepted;
     if (speculated && previous.accepted && previous.relative_decrease > kSpeculationRho + 1e-6) {
       EXPECT_EQ(run.loads[i], chunks) << "iteration " << i + 1 << " after rho "
                                       << previous.relative_decrease;
@@ -421,7 +420,7 @@ TEST(GraphSlamSolver, FusedPassReadsTheChunksOncePerWellAcceptedIteration) {
 // Every iteration solves the very system two passes would: the same trace and
 // the same optimum, bit for bit, with rejected steps and mid-range rho too.
 TEST(GraphSlamSolver, FusedPassGivesTheTwoPassResultBitForBit) {
-  int rejected = 0, mid_rho = 0, one_pass = 0;
+  int rejected = 0, mid_rho = 0, one_pass = 0, one_pass_after_mid_rho = 0;
   for (uint32_t seed = 1; seed <= 4; ++seed) {
     for (double radius : {1e4, 1e12}) {
       testing::RandomProblemOptions options;
@@ -461,6 +460,10 @@ TEST(GraphSlamSolver, FusedPassGivesTheTwoPassResultBitForBit) {
         rejected += !a[i].accepted;
         mid_rho += a[i].accepted && a[i].relative_decrease < 0.9;
         one_pass += a[i].chunk_passes == 1;
+        // Iteration i reused the system iteration i - 1 reduced ahead, which
+        // it did after the accepted step of mid-range rho of iteration i - 2.
+        one_pass_after_mid_rho += i >= 2 && a[i].chunk_passes == 1 && a[i - 2].accepted &&
+                                  a[i - 2].relative_decrease < kSpeculationRho;
       }
       EXPECT_EQ(fused.summary.final_chi2, two_pass.summary.final_chi2);
       EXPECT_EQ(fused.summary.termination, two_pass.summary.termination);
@@ -474,6 +477,51 @@ TEST(GraphSlamSolver, FusedPassGivesTheTwoPassResultBitForBit) {
   EXPECT_GT(rejected, 0);
   EXPECT_GT(mid_rho, 0);
   EXPECT_GT(one_pass, 10);
+  // Speculation goes on after a step that fitted poorly (the next one mostly fits).
+  EXPECT_GT(one_pass_after_mid_rho, 0);
+}
+
+// A rejected step's line search reduces ahead at x (+) t d in its own pass:
+// after an accepted line step the next iteration reads the chunks once, and
+// the trace and optimum are those of the two-pass solver, bit for bit.
+TEST(GraphSlamSolver, LineSearchPassReducesAheadBitForBit) {
+  int line_steps = 0, reduced_by_the_line_pass = 0;
+  for (uint32_t seed = 1; seed <= 12; ++seed) {
+    testing::RandomProblemOptions options;
+    options.num_poses = 40;
+    options.num_features = 15;
+    options.seed = seed;
+    Problem2d problem = testing::MakeRandomProblem(options).problem;
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> heading(-2.5, 2.5), offset(-20.0, 20.0);
+    for (int p = 1; p < problem.num_poses(); ++p) problem.poses[p].z() += heading(rng);
+    for (Point2& feature : problem.features) feature += Point2(offset(rng), offset(rng));
+    SolverOptions solver_options;
+    solver_options.function_tolerance = 1e-12;
+    solver_options.max_iterations = 30;
+    const CountedSolve fused = SolveCounting(problem, solver_options, 8);
+    solver_options.fused_chunk_pass = false;
+    const CountedSolve two_pass = SolveCounting(problem, solver_options, 8);
+    const std::vector<IterationSummary>& a = fused.summary.per_iteration;
+    const std::vector<IterationSummary>& b = two_pass.summary.per_iteration;
+    ASSERT_EQ(a.size(), b.size()) << "seed " << seed;
+    for (size_t i = 0; i < a.size(); ++i) {
+      EXPECT_EQ(a[i].chi2, b[i].chi2) << "seed " << seed << " iteration " << i + 1;
+      EXPECT_EQ(a[i].lambda, b[i].lambda);
+      EXPECT_EQ(a[i].line_search_fraction, b[i].line_search_fraction);
+      if (i >= 1 && a[i - 1].accepted && a[i - 1].line_search_fraction > 0.0) {
+        ++line_steps;
+        reduced_by_the_line_pass += a[i].chunk_passes == b[i].chunk_passes - 1;
+      }
+    }
+    EXPECT_EQ(fused.summary.final_chi2, two_pass.summary.final_chi2);
+    for (int p = 0; p < problem.num_poses(); ++p)
+      EXPECT_EQ((fused.problem.poses[p] - two_pass.problem.poses[p]).norm(), 0.0);
+    for (int j = 0; j < problem.num_features(); ++j)
+      EXPECT_EQ((fused.problem.features[j] - two_pass.problem.features[j]).norm(), 0.0);
+  }
+  EXPECT_GT(line_steps, 0);
+  EXPECT_EQ(reduced_by_the_line_pass, line_steps);
 }
 
 }  // namespace

@@ -51,7 +51,7 @@ class ScriptedTailSpace {
   }
   void StepResult(bool) {}
   bool SearchesLines() const { return true; }
-  Status ScaledStepChi2(double, bool* computed, double* chi2_at_t) {
+  Status ScaledStepChi2(double, double, bool* computed, double* chi2_at_t) {
     ++line_evaluations_;
     candidate_remaining_ = remaining_ - kLineShare * kModelShare * remaining_;
     *computed = true;
