@@ -7,7 +7,6 @@
 #include <tbb/global_control.h>
 
 #include <atomic>
-#include <random>
 
 #include "core/levenberg_marquardt.h"
 #include "core/initialization.h"
@@ -15,6 +14,7 @@
 #include "storage/g2o_reader.h"
 #include "tests/testing/datasets.h"
 #include "tests/testing/dense_reference.h"
+#include "tests/testing/heading_perturbed_problem.h"
 #include "tests/testing/random_problem.h"
 
 namespace graphslam::core {
@@ -423,18 +423,13 @@ TEST(GraphSlamSolver, FusedPassGivesTheTwoPassResultBitForBit) {
   int rejected = 0, mid_rho = 0, one_pass = 0, one_pass_after_mid_rho = 0;
   for (uint32_t seed = 1; seed <= 4; ++seed) {
     for (double radius : {1e4, 1e12}) {
-      testing::RandomProblemOptions options;
-      options.num_poses = 40;
-      options.num_features = 15;
-      options.seed = seed;
-      options.gps_every = seed % 2 == 0 ? 5 : 0;
-      Problem2d problem = testing::MakeRandomProblem(options).problem;
       // Headings off by up to 2.5 rad: far from the quadratic regime, so
       // some steps are rejected and some accepted with a modest rho (with
       // 1 rad the only rejections were round-off steps at the optimum).
-      std::mt19937 rng(seed);
-      std::uniform_real_distribution<double> heading(-2.5, 2.5);
-      for (int p = 1; p < problem.num_poses(); ++p) problem.poses[p].z() += heading(rng);
+      testing::HeadingPerturbation perturbation;
+      perturbation.seed = seed;
+      perturbation.gps_every = seed % 2 == 0 ? 5 : 0;
+      Problem2d problem = testing::HeadingPerturbedProblem(perturbation);
       SolverOptions solver_options;
       solver_options.function_tolerance = 1e-12;
       solver_options.max_iterations = 30;
@@ -467,10 +462,7 @@ TEST(GraphSlamSolver, FusedPassGivesTheTwoPassResultBitForBit) {
       }
       EXPECT_EQ(fused.summary.final_chi2, two_pass.summary.final_chi2);
       EXPECT_EQ(fused.summary.termination, two_pass.summary.termination);
-      for (int p = 0; p < problem.num_poses(); ++p)
-        EXPECT_EQ((fused.problem.poses[p] - two_pass.problem.poses[p]).norm(), 0.0);
-      for (int j = 0; j < problem.num_features(); ++j)
-        EXPECT_EQ((fused.problem.features[j] - two_pass.problem.features[j]).norm(), 0.0);
+      testing::ExpectBitIdenticalEstimates(fused.problem, two_pass.problem);
     }
   }
   // Both paths of the speculation were taken.
@@ -487,15 +479,10 @@ TEST(GraphSlamSolver, FusedPassGivesTheTwoPassResultBitForBit) {
 TEST(GraphSlamSolver, LineSearchPassReducesAheadBitForBit) {
   int line_steps = 0, reduced_by_the_line_pass = 0;
   for (uint32_t seed = 1; seed <= 12; ++seed) {
-    testing::RandomProblemOptions options;
-    options.num_poses = 40;
-    options.num_features = 15;
-    options.seed = seed;
-    Problem2d problem = testing::MakeRandomProblem(options).problem;
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<double> heading(-2.5, 2.5), offset(-20.0, 20.0);
-    for (int p = 1; p < problem.num_poses(); ++p) problem.poses[p].z() += heading(rng);
-    for (Point2& feature : problem.features) feature += Point2(offset(rng), offset(rng));
+    testing::HeadingPerturbation perturbation;
+    perturbation.seed = seed;
+    perturbation.feature_offset_m = 20.0;
+    Problem2d problem = testing::HeadingPerturbedProblem(perturbation);
     SolverOptions solver_options;
     solver_options.function_tolerance = 1e-12;
     solver_options.max_iterations = 30;
@@ -515,10 +502,7 @@ TEST(GraphSlamSolver, LineSearchPassReducesAheadBitForBit) {
       }
     }
     EXPECT_EQ(fused.summary.final_chi2, two_pass.summary.final_chi2);
-    for (int p = 0; p < problem.num_poses(); ++p)
-      EXPECT_EQ((fused.problem.poses[p] - two_pass.problem.poses[p]).norm(), 0.0);
-    for (int j = 0; j < problem.num_features(); ++j)
-      EXPECT_EQ((fused.problem.features[j] - two_pass.problem.features[j]).norm(), 0.0);
+    testing::ExpectBitIdenticalEstimates(fused.problem, two_pass.problem);
   }
   EXPECT_GT(line_steps, 0);
   EXPECT_EQ(reduced_by_the_line_pass, line_steps);

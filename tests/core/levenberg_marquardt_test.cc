@@ -9,7 +9,6 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-#include <random>
 #include <string>
 
 #include "core/graphslam_solver.h"
@@ -17,6 +16,7 @@
 #include "partition/ingest/in_memory_chunk_source.h"
 #include "storage/g2o_reader.h"
 #include "tests/testing/datasets.h"
+#include "tests/testing/heading_perturbed_problem.h"
 #include "tests/testing/random_problem.h"
 
 namespace graphslam::core {
@@ -122,18 +122,11 @@ TEST(LevenbergMarquardt, IntelStopsOneConfirmingIterationEarly) {
   EXPECT_NEAR(extrapolated.final_chi2, 359.996112, 1e-8 * 359.996112);
 }
 
-// A random 40-pose, 15-feature problem whose headings (all but the first
-// pose's) are off by up to 2.5 rad: the first full steps overshoot.
+// tests/testing/heading_perturbed_problem.h: the first full steps overshoot.
 Problem2d HeadingPerturbedProblem(uint32_t seed) {
-  testing::RandomProblemOptions random;
-  random.num_poses = 40;
-  random.num_features = 15;
-  random.seed = seed;
-  Problem2d problem = testing::MakeRandomProblem(random).problem;
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> heading(-2.5, 2.5);
-  for (int p = 1; p < problem.num_poses(); ++p) problem.poses[p].z() += heading(rng);
-  return problem;
+  testing::HeadingPerturbation perturbation;
+  perturbation.seed = seed;
+  return testing::HeadingPerturbedProblem(perturbation);
 }
 
 // Headings off by up to 2.5 rad: some step is rejected or fits poorly;
