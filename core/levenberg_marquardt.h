@@ -432,9 +432,9 @@ Status RunLevenbergMarquardt(
   // start (and after a resume), then after every accepted step. A hit (this
   // step accepted with rho >= kSpeculationRho) saves the next iteration's
   // read and linearization of every chunk; a miss costs the Jacobians and
-  // eliminations of one reduction, and no read. The last step's rho is a poor guess of this
-  // one's: an accepted step of mid-range rho is mostly followed by one that
-  // fits.
+  // eliminations of one reduction, and no read. The last step's rho is a
+  // poor guess of this one's: an accepted step of mid-range rho is mostly
+  // followed by one that fits.
   bool speculate = true;
   if (resume != nullptr) {
     RestoreFromCheckpoint(*resume, options, &state, summary);

@@ -48,11 +48,11 @@
 // docs/benchmarks.md.
 #include <Eigen/Eigenvalues>
 #include <algorithm>
-#include <iterator>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <iterator>
 #include <map>
 #include <string>
 #include <tuple>

@@ -36,7 +36,8 @@ inline core::Problem2d HeadingPerturbedProblem(const HeadingPerturbation& pertur
   if (perturbation.feature_offset_m > 0.0) {
     std::uniform_real_distribution<double> offset(-perturbation.feature_offset_m,
                                                   perturbation.feature_offset_m);
-    for (core::Point2& feature : problem.features) feature += core::Point2(offset(rng), offset(rng));
+    for (core::Point2& feature : problem.features)
+      feature += core::Point2(offset(rng), offset(rng));
   }
   return problem;
 }
@@ -45,7 +46,8 @@ inline core::Problem2d HeadingPerturbedProblem(const HeadingPerturbation& pertur
 inline void ExpectBitIdenticalEstimates(const core::Problem2d& a, const core::Problem2d& b) {
   ASSERT_EQ(a.num_poses(), b.num_poses());
   ASSERT_EQ(a.num_features(), b.num_features());
-  for (int p = 0; p < a.num_poses(); ++p) EXPECT_EQ((a.poses[p] - b.poses[p]).norm(), 0.0) << "pose " << p;
+  for (int p = 0; p < a.num_poses(); ++p)
+    EXPECT_EQ((a.poses[p] - b.poses[p]).norm(), 0.0) << "pose " << p;
   for (int j = 0; j < a.num_features(); ++j)
     EXPECT_EQ((a.features[j] - b.features[j]).norm(), 0.0) << "feature " << j;
 }
