@@ -550,7 +550,7 @@ class IncrementalStages {
   StatusOr<int64_t> RepairRound(int round, int64_t margin, int32_t* id,
                                 IncrementalSummary* summary) {
     const std::vector<internal::BrokenStep> broken =
-        internal::BrokenOdometrySteps(problem_, poses_, options_.broken_odometry_chi2);
+        internal::BrokenOdometrySteps(problem_, poses_, options_.RepairChi2());
     const int32_t n = problem_.num_poses();
     int64_t replaced = 0;
     for (size_t i = 0; i < broken.size();) {
@@ -706,6 +706,9 @@ Status IncrementalInitializationOptions::Validate() const {
   if (!(broken_odometry_chi2 >= 0.0) || !std::isfinite(broken_odometry_chi2))
     return fail("broken_odometry_chi2 must be finite and >= 0 (0: off)",
                 std::to_string(broken_odometry_chi2));
+  if (!(broken_odometry_repair_chi2 >= 0.0) || !std::isfinite(broken_odometry_repair_chi2))
+    return fail("broken_odometry_repair_chi2 must be finite and >= 0 (0: broken_odometry_chi2)",
+                std::to_string(broken_odometry_repair_chi2));
   if (broken_odometry_repair_poses < 0)
     return fail("broken_odometry_repair_poses must be >= 0 (0: off)",
                 std::to_string(broken_odometry_repair_poses));

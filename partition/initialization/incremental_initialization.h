@@ -91,7 +91,7 @@
 // break a step it re-solves; such a fold (internal/broken_odometry.h) is its
 // own basin, which the full solve does not leave. So after the last stage
 // every odometry step between consecutive poses is checked once more
-// (O(N)); the broken ones, grouped into stretches (steps at most
+// (O(N)) against broken_odometry_repair_chi2; the broken ones, grouped into stretches (steps at most
 // M = broken_odometry_repair_poses poses apart, first at pose lo, last
 // joining pose hi), are each re-solved in the window [lo - M, hi + M]:
 // the poses (lo, hi] are chained along the odometry from lo, the features
@@ -158,11 +158,24 @@ struct IncrementalInitializationOptions : PrefixStageOptions {
   // stretch folded over in a local minimum); 0: off. Only solved stages
   // (max_iterations_per_stage > 0) are judged.
   double broken_odometry_chi2 = 1000.0;
-  // After the last stage, each stretch of odometry steps still above
-  // broken_odometry_chi2 (steps at most this many poses apart) is re-chained
-  // and re-solved in a window of this many poses on either side, and kept
-  // when that beats the fold (header: repair); 0: off.
+  // After the last stage, each stretch of odometry steps above
+  // broken_odometry_repair_chi2 (steps at most this many poses apart) is
+  // re-chained and re-solved in a window of this many poses on either side,
+  // and kept when that beats the fold (header: repair); 0: off.
   int64_t broken_odometry_repair_poses = 50;
+  // The repair's bound on one step's chi2, lower than the stage test's: a
+  // fold whose end steps carry little information (a robot turning fast,
+  // whose velocity-motion information is weak across its arc) costs the
+  // odometry only hundreds, which the stage test lets pass, while a step of
+  // 3 degrees of freedom that fits exceeds 100 with probability ~1e-20. A
+  // false alarm costs one window solve, since a re-solve is kept only when
+  // it lowers the window's chi2. 0: the stage test's broken_odometry_chi2.
+  double broken_odometry_repair_chi2 = 100.0;
+
+  // The bound the repair applies.
+  double RepairChi2() const {
+    return broken_odometry_repair_chi2 > 0.0 ? broken_odometry_repair_chi2 : broken_odometry_chi2;
+  }
 
   Status Validate() const;
 };

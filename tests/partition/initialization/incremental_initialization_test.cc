@@ -290,26 +290,65 @@ TEST(IncrementalInitialization, BrokenOdometryBoundRedoesStagesToTheFloor) {
   }
 }
 
-// The repair: a stretch of poses of the optimum folded over (each turned by
-// pi about the stretch's centre, so the odometry steps at its ends and
-// inside it are off by radians) is found, re-chained and re-solved back to
-// the optimum; with the repair off, or with a bound above every step, it
-// stays folded. Steps that fit are never touched: at the optimum itself
-// nothing is found.
+// The fold the repair tests use: poses [first, last] of *optimum (solved
+// from the truth of a seed-5 problem of 120 poses whose odometry and motion
+// information is scaled by `information_scale`), each turned by pi about
+// the stretch's centre, so that only the steps into and out of the stretch
+// are off, by radians.
+struct FoldedProblem {
+  core::Problem2d optimum;
+  core::Problem2d folded;
+  static constexpr int32_t first = 60, last = 64;
+};
+FoldedProblem MakeFoldedProblem(bool velocity, double information_scale,
+                                const core::SolverOptions& solver) {
+  testing::RandomProblemOptions random_options;
+  random_options.num_poses = 120;
+  random_options.num_features = 30;
+  random_options.velocity_motion = velocity;
+  random_options.seed = 5;
+  const testing::RandomProblem random = testing::MakeRandomProblem(random_options);
+  FoldedProblem fold;
+  fold.optimum = random.problem;
+  for (core::RelativePoseConstraint& c : fold.optimum.relative_poses)
+    c.information *= information_scale;
+  for (core::VelocityMotionConstraint& c : fold.optimum.motions)
+    c.information *= information_scale;
+  fold.optimum.poses = random.true_poses;
+  fold.optimum.features = random.true_features;
+  FullSolve(&fold.optimum, solver);
+  fold.folded = fold.optimum;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  for (int32_t p = FoldedProblem::first; p <= FoldedProblem::last; ++p)
+    centre += fold.optimum.poses[p].head<2>();
+  centre /= FoldedProblem::last - FoldedProblem::first + 1;
+  for (int32_t p = FoldedProblem::first; p <= FoldedProblem::last; ++p) {
+    fold.folded.poses[p].head<2>() = 2.0 * centre - fold.optimum.poses[p].head<2>();
+    fold.folded.poses[p].z() = core::WrapAngle(fold.optimum.poses[p].z() + std::numbers::pi);
+  }
+  return fold;
+}
+
+// Farthest a pose of the fold's stretch lies from the optimum.
+double WorstFoldError(const FoldedProblem& fold, const core::Problem2d& problem) {
+  double worst = 0.0;
+  for (int32_t p = FoldedProblem::first; p <= FoldedProblem::last; ++p)
+    worst = std::max(worst,
+                     (problem.poses[p].head<2>() - fold.optimum.poses[p].head<2>()).norm());
+  return worst;
+}
+
+// The repair: a stretch of poses of the optimum folded over is found,
+// re-chained and re-solved back to the optimum; with the repair off, or
+// with a bound above every step, it stays folded. Steps that fit are never
+// touched: at the optimum itself nothing is found.
 TEST(IncrementalInitialization, RepairUnfoldsAFoldedStretch) {
   for (const bool velocity : {false, true}) {
-    testing::RandomProblemOptions random_options;
-    random_options.num_poses = 120;
-    random_options.num_features = 30;
-    random_options.velocity_motion = velocity;
-    random_options.seed = 5;
-    const testing::RandomProblem random = testing::MakeRandomProblem(random_options);
-    core::Problem2d optimum = random.problem;
-    optimum.poses = random.true_poses;
-    optimum.features = random.true_features;
     core::SolverOptions solver;
     solver.function_tolerance = 1e-12;
-    FullSolve(&optimum, solver);
+    const FoldedProblem fold = MakeFoldedProblem(velocity, 1.0, solver);
+    const core::Problem2d& optimum = fold.optimum;
+    const core::Problem2d& folded = fold.folded;
 
     IncrementalInitializationOptions options;
     options.broken_odometry_repair_poses = 10;
@@ -319,27 +358,15 @@ TEST(IncrementalInitialization, RepairUnfoldsAFoldedStretch) {
     EXPECT_EQ(at_optimum.broken_odometry_stretches, 0);
     EXPECT_EQ(untouched.poses, optimum.poses);
 
-    core::Problem2d folded = optimum;
-    const int32_t first = 60, last = 64;
-    Eigen::Vector2d centre = Eigen::Vector2d::Zero();
-    for (int32_t p = first; p <= last; ++p) centre += optimum.poses[p].head<2>();
-    centre /= last - first + 1;
-    for (int32_t p = first; p <= last; ++p) {
-      folded.poses[p].head<2>() = 2.0 * centre - optimum.poses[p].head<2>();
-      folded.poses[p].z() = core::WrapAngle(optimum.poses[p].z() + std::numbers::pi);
-    }
     for (const int64_t margin : {int64_t{0}, int64_t{10}}) {
-      for (const double bound : {1000.0, 1e12}) {
+      for (const double bound : {options.broken_odometry_repair_chi2, 1e12}) {
         options.broken_odometry_repair_poses = margin;
-        options.broken_odometry_chi2 = bound;
+        options.broken_odometry_repair_chi2 = bound;
         core::Problem2d problem = folded;
         IncrementalSummary summary;
         ASSERT_TRUE(RepairBrokenOdometry(options, solver, &problem, &summary).ok());
-        double worst_error = 0.0;
-        for (int32_t p = first; p <= last; ++p)
-          worst_error = std::max(
-              worst_error, (problem.poses[p].head<2>() - optimum.poses[p].head<2>()).norm());
-        const bool repairs = margin > 0 && bound == 1000.0;
+        const double worst_error = WorstFoldError(fold, problem);
+        const bool repairs = margin > 0 && bound < 1e12;
         SCOPED_TRACE(::testing::Message() << "velocity " << velocity << " margin " << margin
                                           << " bound " << bound);
         if (repairs) {
@@ -369,6 +396,48 @@ TEST(IncrementalInitialization, RepairUnfoldsAFoldedStretch) {
   }
 }
 
+// A fold whose end steps carry little information (scaled so that its
+// worst step costs the odometry 600, as a fold across a fast turn's weak
+// motion information does) passes the stage test's bound of 1000 and is
+// still repaired, by the repair's own, lower bound; with the repair held to
+// the stage bound it stays folded. The stage bound alone does not move the
+// repair's.
+TEST(IncrementalInitialization, RepairUnfoldsAFoldWithWeakOdometry) {
+  for (const bool velocity : {false, true}) {
+    SCOPED_TRACE(::testing::Message() << "velocity " << velocity);
+    core::SolverOptions solver;
+    solver.function_tolerance = 1e-12;
+    std::vector<uint8_t> all(120, 1);
+    const FoldedProblem unit = MakeFoldedProblem(velocity, 1.0, solver);
+    const double scale = 600.0 / internal::WorstOdometryChi2(unit.folded, all);
+    const FoldedProblem fold = MakeFoldedProblem(velocity, scale, solver);
+    const std::vector<internal::BrokenStep> steps =
+        internal::BrokenOdometrySteps(fold.folded, fold.folded.poses, 100.0);
+    ASSERT_EQ(steps.size(), 2u);  // both ends of the stretch, both in (100, 1000)
+    EXPECT_EQ(steps[0].pose, FoldedProblem::first - 1);
+    EXPECT_EQ(steps[1].pose, FoldedProblem::last);
+    for (const internal::BrokenStep& step : steps) EXPECT_LT(step.chi2, 1000.0);
+
+    IncrementalInitializationOptions options;
+    options.broken_odometry_repair_poses = 10;
+    ASSERT_EQ(options.broken_odometry_chi2, 1000.0);
+    for (const double repair_bound : {options.broken_odometry_repair_chi2, 0.0}) {
+      options.broken_odometry_repair_chi2 = repair_bound;  // 0: the stage bound
+      core::Problem2d problem = fold.folded;
+      IncrementalSummary summary;
+      ASSERT_TRUE(RepairBrokenOdometry(options, solver, &problem, &summary).ok());
+      if (repair_bound > 0.0) {
+        EXPECT_EQ(summary.broken_odometry_stretches, 1);
+        EXPECT_EQ(summary.broken_odometry_repairs, 1);
+        EXPECT_LT(WorstFoldError(fold, problem), 0.05);
+      } else {
+        EXPECT_EQ(summary.broken_odometry_stretches, 0);
+        EXPECT_GT(WorstFoldError(fold, problem), 0.5);  // the stretch spans ~1 m
+      }
+    }
+  }
+}
+
 TEST(IncrementalInitialization, RejectsBadOptions) {
   IncrementalInitializationOptions options;
   options.window_poses = options.max_new_poses - 1;
@@ -389,6 +458,11 @@ TEST(IncrementalInitialization, RejectsBadOptions) {
   options.broken_odometry_chi2 = -1.0;
   EXPECT_FALSE(options.Validate().ok());
   options.broken_odometry_chi2 = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(options.Validate().ok());
+  options = IncrementalInitializationOptions();
+  options.broken_odometry_repair_chi2 = -1.0;
+  EXPECT_FALSE(options.Validate().ok());
+  options.broken_odometry_repair_chi2 = std::numeric_limits<double>::infinity();
   EXPECT_FALSE(options.Validate().ok());
   options = IncrementalInitializationOptions();
   options.broken_odometry_repair_poses = -1;
