@@ -1,5 +1,6 @@
 #include "tools/cli_errors.h"
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 
 namespace graphslam::tools {

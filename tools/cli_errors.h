@@ -16,7 +16,7 @@
 #include <string_view>
 #include <vector>
 
-#include <CLI/CLI.hpp>
+#include "tools/cli_fwd.h"
 
 namespace graphslam::tools {
 

@@ -1,5 +1,6 @@
 #include "tools/evaluate_command.h"
 
+#include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
 #include <map>

@@ -22,7 +22,7 @@
 #include <cstdint>
 #include <string>
 
-#include <CLI/CLI.hpp>
+#include "tools/cli_fwd.h"
 
 namespace graphslam::tools {
 

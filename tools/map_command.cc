@@ -1,5 +1,6 @@
 #include "tools/map_command.h"
 
+#include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
 #include <sstream>

@@ -16,12 +16,11 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
-
 #include "core/se3.h"
 #include "core/status.h"
-#include "tools/map_builder.h"
 #include "storage/scan_store.h"
+#include "tools/cli_fwd.h"
+#include "tools/map_builder.h"
 
 namespace graphslam::tools {
 

@@ -1,5 +1,6 @@
 #include "tools/run_command.h"
 
+#include <CLI/CLI.hpp>
 #include <cstdio>
 
 #include "tools/exit_codes.h"

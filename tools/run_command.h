@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include <CLI/CLI.hpp>
+#include "tools/cli_fwd.h"
 
 namespace graphslam::tools {
 

@@ -1,5 +1,6 @@
 #include "tools/simulate_3d_command.h"
 
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include <cinttypes>

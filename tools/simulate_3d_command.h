@@ -13,9 +13,8 @@
 
 #include <string>
 
-#include <CLI/CLI.hpp>
-
 #include "tools/campus_3d.h"
+#include "tools/cli_fwd.h"
 
 namespace graphslam::tools {
 

@@ -1,5 +1,6 @@
 #include "tools/simulate_command.h"
 
+#include <CLI/CLI.hpp>
 #include <Eigen/Dense>
 #include <cstdio>
 #include <filesystem>

@@ -17,9 +17,8 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
-
 #include "tools/campus_simulator.h"
+#include "tools/cli_fwd.h"
 #include "tools/simulate_3d_command.h"
 
 namespace graphslam::tools {

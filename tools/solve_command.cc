@@ -1,5 +1,6 @@
 #include "tools/solve_command.h"
 
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <limits>
 

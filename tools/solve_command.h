@@ -7,9 +7,8 @@
 #include <cstdint>
 #include <string>
 
-#include <CLI/CLI.hpp>
-
 #include "core/graphslam_solver.h"
+#include "tools/cli_fwd.h"
 
 namespace graphslam::tools {
 

@@ -2,6 +2,7 @@
 // reaches core::SolverOptions, and values outside [0, 1) are refused.
 #include <gtest/gtest.h>
 
+#include <CLI/CLI.hpp>
 #include <string>
 #include <vector>
 

@@ -12,8 +12,7 @@ add_dependencies(streaming_initialization_test graphslam)
 # kill -9 during an ingest that copies .pcd scans into STORE/scans/, then --resume.
 graphslam_test(tools/ingest_scans_kill)
 add_dependencies(ingest_scans_kill_test graphslam)
-target_include_directories(ingest_scans_kill_test SYSTEM PRIVATE ${PCL_INCLUDE_DIRS})
-target_link_libraries(ingest_scans_kill_test PRIVATE ${PCL_LIBRARIES})
+graphslam_test_with_pcl(ingest_scans_kill_test)
 # Issue 22: locks, integrity, foreign folders, stale inputs and temporaries,
 # adversarially, against the binary.
 graphslam_test(tools/adversarial_store)

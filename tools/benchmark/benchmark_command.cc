@@ -1,5 +1,6 @@
 #include "tools/benchmark/benchmark_command.h"
 
+#include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
