@@ -238,6 +238,9 @@ void AssociationOptionsFromEnvironment(gs::partition::AssociationOptions* option
   if (const char* v = std::getenv("GS_LOOP_WINDOW_OBS")) inc.local_observations = std::atoll(v);
   if (const char* v = std::getenv("GS_INC_ITERATIONS")) inc.max_iterations_per_stage = std::atoi(v);
   if (const char* v = std::getenv("GS_LOOP")) inc.close_loops = std::atoi(v) != 0;
+  if (const char* v = std::getenv("GS_GAP")) inc.close_after_gaps = std::atoi(v) != 0;
+  if (const char* v = std::getenv("GS_GAP_OBS")) inc.gap_observations = std::atof(v);
+  if (const char* v = std::getenv("GS_GAP_ROT")) inc.gap_max_rotation = std::atof(v);
   if (const char* v = std::getenv("GS_MERGE_DUPLICATES")) inc.merge_duplicates = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_LOOP_MIN")) inc.loop.min_inliers = std::atoi(v);
   if (const char* v = std::getenv("GS_LOOP_MARGIN")) inc.loop.ambiguity_margin = std::atoi(v);
@@ -297,7 +300,7 @@ void PrintIncremental(const gs::partition::AssociationSummary& summary) {
   const auto& inc = summary.incremental;
   if (!inc.ran) return;
   std::printf("incremental: %lld stages, %lld scans, %lld paired, %lld features, %lld provisional "
-              "dropped (%lld observations), %lld JCBB capped, %lld loop closures (%lld pairs), %lld duplicates merged, %lld stage pairings undone, chi2 %.6f, s^2 %.4g; solve %.2f s, "
+              "dropped (%lld observations), %lld JCBB capped, %lld loop closures (%lld pairs), %lld gap closures (%lld pairs), %lld duplicates merged, %lld stage pairings undone, chi2 %.6f, s^2 %.4g; solve %.2f s, "
               "covariances %.2f s, assignment %.2f s, total %.2f s\n",
               static_cast<long long>(inc.stages), static_cast<long long>(inc.scans),
               static_cast<long long>(inc.paired), static_cast<long long>(inc.features),
@@ -305,6 +308,7 @@ void PrintIncremental(const gs::partition::AssociationSummary& summary) {
               static_cast<long long>(inc.clutter_observations),
               static_cast<long long>(inc.exhausted_scans),
               static_cast<long long>(inc.loop_closures), static_cast<long long>(inc.loop_pairs),
+              static_cast<long long>(inc.gap_closures), static_cast<long long>(inc.gap_pairs),
               static_cast<long long>(inc.duplicates_merged),
               static_cast<long long>(inc.stage_undone),
               inc.chi2, inc.variance_factor,

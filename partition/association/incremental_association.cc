@@ -40,6 +40,7 @@ core::Point2 FirstSight(const core::Observation& o, const core::Pose2& pose) {
 struct Cluster {
   core::Point2 position = core::Point2::Zero();  // estimate after the last stage solve
   std::vector<int32_t> members;                   // input observations
+  int32_t first_pose = -1;
   int32_t last_pose = -1;
   bool dropped = false;
   bool absorbed = false;  // joined to an older feature by a loop closure (no members left)
@@ -195,6 +196,7 @@ void JoinCluster(int32_t from_index, int32_t to_index, std::vector<Cluster>* clu
   }
   std::sort(to.members.begin(), to.members.end());
   to.last_pose = std::max(to.last_pose, from.last_pose);
+  to.first_pose = std::min(to.first_pose, from.first_pose);
   from.members.clear();
   from.absorbed = true;
   from.representative = -1;
@@ -295,10 +297,12 @@ int64_t UndoStagePairings(const IncrementalAssociationOptions& options,
     if (fits(old_side) && fits(new_side)) continue;
     ++undone;
     Cluster split;
+    split.first_pose = problem.observations[new_side.front()].pose;
     core::Point2 sum = core::Point2::Zero();
     for (int32_t o : new_side) {
       const core::Observation& obs = problem.observations[o];
       sum += FirstSight(obs, poses[obs.pose]);
+      split.first_pose = std::min(split.first_pose, obs.pose);
       split.last_pose = std::max(split.last_pose, obs.pose);
       (*cluster_of)[o] = static_cast<int32_t>(clusters->size());
     }
@@ -306,8 +310,11 @@ int64_t UndoStagePairings(const IncrementalAssociationOptions& options,
     split.members = new_side;
     cluster.members = old_side;
     cluster.last_pose = -1;
-    for (int32_t o : old_side)
+    cluster.first_pose = problem.observations[old_side.front()].pose;
+    for (int32_t o : old_side) {
       cluster.last_pose = std::max(cluster.last_pose, problem.observations[o].pose);
+      cluster.first_pose = std::min(cluster.first_pose, problem.observations[o].pose);
+    }
     GS_VLOG(2, "incremental association: stage undo splits %zu observations off a feature of %zu",
             new_side.size(), old_side.size());
     clusters->push_back(std::move(split));  // invalidates `cluster`
@@ -353,6 +360,14 @@ struct IncrementalRun {
   double scale = 1.0;  // variance factor of the gates and the stage undo
   int64_t stage_observations = 0;  // options.stage_observations, or the high-rate one
   bool scale_gates = true;          // scale_by_variance_factor, unless a high-rate log
+  // Gaps: a stretch of more than gap_poses poses without observations. The
+  // young map is the features started from pose young_since (the first
+  // sighting after the last gap, which began at gap_begin); -1: none open.
+  double gap_poses = 0.0;
+  int32_t last_seen = -1;
+  int32_t gap_begin = -1;
+  int32_t young_since = -1;
+  bool gap_closed = false;  // the current stage closed a gap
 };
 
 // The stage's view of the clusters met so far: the linearization at its
@@ -467,6 +482,7 @@ Status AssociateScan(int32_t p, StageView* view, IncrementalRun* run, Clock::tim
       c = static_cast<int32_t>(clusters.size());
       clusters.emplace_back();
       clusters.back().position = view->stage.sub.features[singles[i]];
+      clusters.back().first_pose = p;
       view->is_touched.push_back(0);
     }
     Cluster& cluster = clusters[c];
@@ -593,6 +609,103 @@ Status MergeDuplicateClusters(int64_t first_local, StageView* view, IncrementalR
   return Status::Ok();
 }
 
+// Moves the poses from the gap on (p < end) and the young map by `move`,
+// the map frame after the gap onto the map before it; the gap's poses by a
+// growing share of it, so that its odometry takes the change gradually.
+void MoveYoungMap(const core::Pose2& move, int32_t end, IncrementalRun* run) {
+  auto moved = [&](const core::Point2& point, double share) {
+    const double theta = share * move.z(), c = std::cos(theta), s = std::sin(theta);
+    return core::Point2(c * point.x() - s * point.y() + share * move.x(),
+                        s * point.x() + c * point.y() + share * move.y());
+  };
+  const int32_t gap = run->young_since - run->gap_begin;
+  for (int32_t p = run->gap_begin; p < end; ++p) {
+    const double share =
+        p >= run->young_since ? 1.0 : static_cast<double>(p - run->gap_begin + 1) / (gap + 1);
+    core::Pose2& pose = run->poses[p];
+    const core::Point2 xy = moved(pose.head<2>(), share);
+    pose = core::Pose2(xy.x(), xy.y(), core::WrapAngle(pose.z() + share * move.z()));
+  }
+  for (Cluster& cluster : run->clusters) {
+    if (cluster.absorbed || cluster.first_pose < run->young_since) continue;
+    cluster.position = moved(cluster.position, 1.0);
+    cluster.representative_position = moved(cluster.representative_position, 1.0);
+  }
+}
+
+// Loop closure after a gap: the young map (confirmed clusters started from
+// young_since on) matched as a rigid whole against the confirmed clusters
+// started before it. When accepted, the young map is moved onto the older
+// one and each inlier pair joined; the stage's solve and undo then check
+// every feature seen on both sides of the gap (gap_closed).
+void CloseGap(int32_t begin, int32_t end, const std::vector<uint8_t>& solved_before,
+              IncrementalRun* run) {
+  std::vector<Cluster>& clusters = run->clusters;
+  std::vector<int32_t> young_ids, old_ids;
+  std::vector<core::Point2> young, old;
+  for (size_t c = 0; c < clusters.size(); ++c) {
+    const Cluster& cluster = clusters[c];
+    if (cluster.dropped || cluster.absorbed ||
+        static_cast<int64_t>(cluster.members.size()) < run->options.confirm_observations)
+      continue;
+    if (cluster.first_pose >= run->young_since) {
+      young_ids.push_back(static_cast<int32_t>(c));
+      young.push_back(c < solved_before.size() && solved_before[c]
+                          ? cluster.position
+                          : cluster.representative_position);
+    } else {
+      old_ids.push_back(static_cast<int32_t>(c));
+      old.push_back(cluster.position);
+    }
+  }
+  auto allowed = [&](int32_t y, int32_t a) {
+    return !SharePose(*run->problem, clusters[young_ids[y]], clusters[old_ids[a]]);
+  };
+  SubmapMatchOptions match_options = run->options.loop;
+  match_options.max_rotation = run->options.gap_max_rotation;
+  match_options.distinct_by_pairs = true;
+  const SubmapMatch match = MatchSubmap(young, old, match_options, allowed);
+  if (!match.accepted) {
+    if (match.best_inliers >= 3)
+      GS_VLOG(2, "incremental association: gap at poses %d..%d not closed at pose %d: best %d "
+              "inliers, runner-up %d, %zu young, %zu older", run->gap_begin, run->young_since - 1,
+              begin, match.best_inliers, match.runner_up_inliers, young.size(), old.size());
+    return;
+  }
+  GS_VLOG(1, "incremental association: gap at poses %d..%d closed at pose %d: %d pairs "
+          "(runner-up %d), %zu young, %zu older, %.3f rad", run->gap_begin, run->young_since - 1,
+          begin, match.best_inliers, match.runner_up_inliers, young.size(), old.size(),
+          match.transform.z());
+  MoveYoungMap(match.transform, end, run);
+  for (const auto& [y, a] : match.pairs)
+    JoinCluster(young_ids[y], old_ids[a], &clusters, &run->cluster_of);
+  ++run->summary->gap_closures;
+  run->summary->gap_pairs += static_cast<int64_t>(match.pairs.size());
+  run->gap_closed = true;
+}
+
+// Whether the map before the gap is being tracked again: more older clusters
+// took observations after the gap than young clusters were confirmed, and at
+// least as many as a closure would need. A gap with little drift ends so;
+// after one with more drift than the gates allow, the young map grows.
+bool YoungMapIsTracked(const IncrementalRun& run, int32_t end) {
+  std::vector<uint8_t> counted(run.clusters.size(), 0);
+  int64_t older = 0, young = 0;
+  for (int32_t p = run.young_since; p < end; ++p) {
+    for (int32_t o : run.observations_of_pose[p]) {
+      const int32_t c = run.cluster_of[o];
+      if (c < 0 || counted[c]) continue;
+      counted[c] = 1;
+      const Cluster& cluster = run.clusters[c];
+      if (cluster.first_pose < run.young_since)
+        ++older;
+      else if (static_cast<int64_t>(cluster.members.size()) >= run.options.confirm_observations)
+        ++young;
+    }
+  }
+  return older > young && older >= run.options.loop.min_inliers;
+}
+
 // Pairs the observations of poses [begin, end) with the clusters, scan by
 // scan, then closes loops.
 Status PairStage(int32_t begin, int32_t end, IncrementalRun* run) {
@@ -645,6 +758,8 @@ Status PairStage(int32_t begin, int32_t end, IncrementalRun* run) {
       summary->loop_pairs += joined;
     }
   }
+  if (run->options.close_after_gaps && run->young_since >= 0)
+    CloseGap(begin, end, solved_before, run);
   summary->assignment_seconds += SecondsSince(t0);
   return Status::Ok();
 }
@@ -791,6 +906,12 @@ Status IncrementalAssociationOptions::Validate() const {
         std::to_string(stage_observations) + ", " + std::to_string(provisional_observations) +
         ", " + std::to_string(sparse_stage_observations) + " and " +
         std::to_string(sparse_observations_per_pose));
+  if (!(gap_observations >= 0.0) || !std::isfinite(gap_observations) ||
+      !(gap_max_rotation > 0.0) || !std::isfinite(gap_max_rotation))
+    return Status::InvalidArgument(
+        "incremental association: gap_observations must be finite and >= 0 and "
+        "gap_max_rotation finite and > 0, got " + std::to_string(gap_observations) + " and " +
+        std::to_string(gap_max_rotation));
   return loop.Validate();
 }
 
@@ -839,6 +960,8 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
   run.radius_squared = options.search_radius * options.search_radius;
   run.stage_observations = options.stage_observations;
   run.scale_gates = options.scale_by_variance_factor;
+  run.gap_poses = m > 0 ? options.gap_observations * static_cast<double>(n) / static_cast<double>(m)
+                        : 0.0;
   if (static_cast<double>(m) < options.sparse_observations_per_pose * n) {
     run.stage_observations = std::max(run.stage_observations, options.sparse_stage_observations);
     run.scale_gates = run.scale_gates && options.scale_high_rate_logs;
@@ -856,10 +979,34 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
     if (any_new) {
       // Cluster of every observation before this stage's pairings (the undo
       // tells the pairings made in the stage from the older members).
-      const std::vector<int32_t> cluster_before = run.cluster_of;
+      std::vector<int32_t> cluster_before = run.cluster_of;
+      for (int32_t p = begin; p < end; ++p) {
+        if (run.observations_of_pose[p].empty()) continue;
+        if (run.young_since < 0 && run.last_seen >= 0 &&
+            static_cast<double>(p - run.last_seen - 1) > run.gap_poses) {
+          run.gap_begin = run.last_seen + 1;
+          run.young_since = p;
+          GS_VLOG(1, "incremental association: no observation in poses %d..%d: young map from %d",
+                  run.gap_begin, p - 1, p);
+        }
+        run.last_seen = p;
+      }
       GS_RETURN_IF_ERROR(SolveFixesFirst(begin, end, &run));
+      run.gap_closed = false;
       GS_RETURN_IF_ERROR(PairStage(begin, end, &run));
+      if (run.gap_closed) {
+        // Every observation after the gap is checked against the older ones
+        // of its feature, as the stage's own pairings are.
+        for (size_t o = 0; o < cluster_before.size(); ++o)
+          if (problem->observations[o].pose >= run.gap_begin) cluster_before[o] = -1;
+        run.young_since = -1;
+      }
       GS_RETURN_IF_ERROR(SolveStage(end, cluster_before, &run));
+      if (run.young_since >= 0 && YoungMapIsTracked(run, end)) {
+        GS_VLOG(1, "incremental association: the map before the gap is tracked again by pose %d",
+                end - 1);
+        run.young_since = -1;
+      }
       // Diagnosis: the stage's poses as solved then, and where its
       // observations went (what later stages and closures did not yet change).
       if (LogVerbosity() >= 3) {

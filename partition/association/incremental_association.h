@@ -38,6 +38,13 @@
 //       the older features (partition/association/submap_matching.h); each inlier pair
 //       becomes one feature. This finds revisits after drift larger than
 //       any single feature's gate
+//     loop closure after a gap (a stretch without observations): the
+//       features started after it (the young map) matched as a whole against
+//       those started before it, with a larger rotation; when accepted the
+//       young map is moved onto the older one, each inlier pair becomes one
+//       feature, and the stage undo checks every feature seen on both sides
+//       of the gap. Tried at every stage until accepted or until the older
+//       features are tracked again
 //     solve the sub-problem with those correspondences (at most
 //       max_iterations_per_stage Levenberg-Marquardt iterations, singletons
 //       left out: partition/initialization/singleton_solve.h)
@@ -164,6 +171,20 @@ struct IncrementalAssociationOptions {
   int64_t local_window = 100;
   int64_t local_observations = 50;
   SubmapMatchOptions loop;
+  // Loop closure after a gap: once no observation has come for a stretch in
+  // which gap_observations would have come at the input's mean rate, the
+  // features started after the gap (the young map) are matched as a whole
+  // against the features started before it (submap matching with rotations
+  // up to gap_max_rotation: the heading a gap without landmarks lets drift).
+  // When accepted, the young map's poses and features are moved by the match
+  // (the gap's poses by a share of it), each inlier pair becomes one feature,
+  // and every feature holding observations from both sides of the gap is
+  // checked as the stage undo checks a stage's pairings: the wrong pairings
+  // made at the gap's end are split off after the re-solve. Tried at every
+  // stage until the next gap.
+  bool close_after_gaps = true;
+  double gap_observations = 20.0;
+  double gap_max_rotation = 1.0;
   int64_t chunk_observations = 4096;
 
   [[nodiscard]] Status Validate() const;
@@ -180,6 +201,8 @@ struct IncrementalAssociationSummary {
   int64_t exhausted_scans = 0;       // JCBB stopped at max_nodes
   int64_t loop_closures = 0;         // stages whose local map matched the older map
   int64_t loop_pairs = 0;            // local features joined to older ones by them
+  int64_t gap_closures = 0;          // young maps matched to the map before a gap
+  int64_t gap_pairs = 0;             // young features joined to older ones by them
   int64_t duplicates_merged = 0;     // features joined by the duplicate test
   int64_t stage_undone = 0;          // stage pairings undone after a stage solve
   double chi2 = 0.0;                 // after the last stage solve

@@ -158,8 +158,17 @@ SubmapMatch MatchSubmap(const std::vector<core::Point2>& local,
   // more than the tolerance (another explanation, e.g. one tree spacing
   // along a row, not a variant of the winner).
   int runner_up = 0;
+  std::vector<std::pair<int32_t, int32_t>> winner_pairs = winner.pairs;
+  std::sort(winner_pairs.begin(), winner_pairs.end());
   for (const Scored& h : hypotheses) {
     if (h.inliers <= runner_up) continue;
+    if (options.distinct_by_pairs) {
+      int shared = 0;
+      for (const auto& pair : h.pairs)
+        shared += std::binary_search(winner_pairs.begin(), winner_pairs.end(), pair) ? 1 : 0;
+      if (2 * shared < winner.inliers) runner_up = h.inliers;
+      continue;
+    }
     for (const auto& [k, a] : winner.pairs)
       if ((h.transform.Apply(local[k]) - winner.transform.Apply(local[k])).norm() >
           options.tolerance) {

@@ -23,7 +23,8 @@
 // Answer: the hypothesis with the most inliers (ties: the smallest sum of
 // squared residuals), accepted only when it has at least min_inliers and no
 // distinct hypothesis (one that moves some inlier of the best by more than
-// tolerance) comes within ambiguity_margin inliers of it: a row of evenly
+// tolerance, or with distinct_by_pairs one sharing fewer than half of its
+// pairs) comes within ambiguity_margin inliers of it: a row of evenly
 // spaced trees fits one spacing along as well, and then nothing is matched.
 // Every pair of points is tried, so the result is deterministic.
 //
@@ -49,6 +50,12 @@ struct SubmapMatchOptions {
   int ambiguity_margin = 2;      // a distinct runner-up this close: no closure
   double max_rotation = 0.5;     // largest heading drift [rad]
   double min_pair_distance = 2.0;  // hypothesis pairs at least this far apart [m]
+  // What makes a hypothesis distinct from the best: false, moving some inlier
+  // of the best by more than tolerance; true, sharing fewer than half of the
+  // best's pairs. A large map rotated a little moves its far points by more
+  // than the tolerance yet pairs them as the best does: with many points
+  // only a different pairing is another explanation.
+  bool distinct_by_pairs = false;
 
   [[nodiscard]] Status Validate() const;
 };

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <random>
 #include <set>
@@ -242,6 +243,57 @@ TEST(IncrementalAssociation, TwoLandmarksOfOneScanNeverMerge) {
   }
 }
 
+// 60 trees 3 m or more apart in a ring 12-28 m from the centre of a park.
+std::vector<core::Point2> ParkTrees(std::mt19937* rng) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::vector<core::Point2> trees;
+  while (trees.size() < 60) {
+    const double r = 12.0 + 16.0 * unit(*rng), a = 2.0 * M_PI * unit(*rng);
+    const core::Point2 p(r * std::cos(a), r * std::sin(a));
+    bool apart = true;
+    for (const core::Point2& q : trees) apart = apart && (p - q).norm() >= 3.0;
+    if (apart) trees.push_back(p);
+  }
+  return trees;
+}
+
+// Point observations (sigma 0.1 m) of the trees within 8 m of each true pose
+// for which `sees` holds, with the tree's index as the key.
+void ObserveTrees(const std::vector<core::Pose2>& truth, const std::vector<core::Point2>& trees,
+                  const std::function<bool(int)>& sees, std::mt19937* rng,
+                  std::normal_distribution<double>* noise, core::Problem2d* problem,
+                  std::vector<int64_t>* key) {
+  for (int p = 0; p < static_cast<int>(truth.size()); ++p) {
+    if (!sees(p)) continue;
+    for (size_t l = 0; l < trees.size(); ++l) {
+      const core::Point2 local =
+          core::Between(truth[p], core::Pose2(trees[l].x(), trees[l].y(), 0.0)).head<2>();
+      if (local.norm() > 8.0) continue;
+      core::Observation o;
+      o.pose = p;
+      o.kind = core::ObservationKind::kPointXY;
+      o.z = local + 0.1 * core::Point2((*noise)(*rng), (*noise)(*rng));
+      o.information = 100.0 * Eigen::Matrix2d::Identity();
+      o.feature = problem->AddFeature(core::kNoFeatureId, core::Point2::Zero(), false);
+      problem->observations.push_back(o);
+      key->push_back(static_cast<int64_t>(l));
+    }
+  }
+}
+
+// Poses on a circle of radius 20 m around the park's centre, 260 a lap.
+std::vector<core::Pose2> CircleDrive(int poses, core::Problem2d* problem) {
+  const double turn = 2.0 * M_PI / 260;
+  std::vector<core::Pose2> truth;
+  for (int p = 0; p < poses; ++p) {
+    const double a = p * turn;
+    truth.emplace_back(20.0 * std::cos(a), 20.0 * std::sin(a), a + M_PI / 2);
+    problem->AddPose(p, truth.back(), true, 0, p);
+  }
+  problem->pose_fixed[0] = 1;
+  return truth;
+}
+
 // A drive of 1.4 laps around a park whose odometry turns 1 mrad per step too
 // much (0.26 rad after a lap) while claiming 0.5 mrad of noise: without the
 // loop closure the revisited trees become new features (recall < 0.7 is
@@ -250,48 +302,18 @@ core::Problem2d DriftingLoop(std::vector<int64_t>* key) {
   core::Problem2d problem;
   std::mt19937 rng(21);
   std::normal_distribution<double> noise(0.0, 1.0);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  std::vector<core::Point2> trees;
-  while (trees.size() < 60) {
-    const double r = 12.0 + 16.0 * unit(rng), a = 2.0 * M_PI * unit(rng);
-    const core::Point2 p(r * std::cos(a), r * std::sin(a));
-    bool apart = true;
-    for (const core::Point2& q : trees) apart = apart && (p - q).norm() >= 3.0;
-    if (apart) trees.push_back(p);
-  }
-  const int per_lap = 260, poses = 364;
-  const double turn = 2.0 * M_PI / per_lap;
-  std::vector<core::Pose2> truth;
-  for (int p = 0; p < poses; ++p) {
-    const double a = p * turn;
-    truth.emplace_back(20.0 * std::cos(a), 20.0 * std::sin(a), a + M_PI / 2);
-    problem.AddPose(p, truth.back(), true, 0, p);
-  }
-  problem.pose_fixed[0] = 1;
-  for (int p = 0; p + 1 < poses; ++p) {
+  const std::vector<core::Point2> trees = ParkTrees(&rng);
+  const std::vector<core::Pose2> truth = CircleDrive(364, &problem);
+  for (size_t p = 0; p + 1 < truth.size(); ++p) {
     core::RelativePoseConstraint c;
-    c.from = p;
-    c.to = p + 1;
+    c.from = static_cast<int32_t>(p);
+    c.to = static_cast<int32_t>(p + 1);
     c.z = core::Between(truth[p], truth[p + 1]) +
           core::Pose2(0.01 * noise(rng), 0.01 * noise(rng), 0.001 + 0.0005 * noise(rng));
     c.information = Eigen::Vector3d(1e4, 1e4, 4e6).asDiagonal();
     problem.relative_poses.push_back(c);
   }
-  for (int p = 0; p < poses; ++p) {
-    for (size_t l = 0; l < trees.size(); ++l) {
-      const core::Point2 local =
-          core::Between(truth[p], core::Pose2(trees[l].x(), trees[l].y(), 0.0)).head<2>();
-      if (local.norm() > 8.0) continue;
-      core::Observation o;
-      o.pose = p;
-      o.kind = core::ObservationKind::kPointXY;
-      o.z = local + 0.1 * core::Point2(noise(rng), noise(rng));
-      o.information = 100.0 * Eigen::Matrix2d::Identity();
-      o.feature = problem.AddFeature(core::kNoFeatureId, core::Point2::Zero(), false);
-      problem.observations.push_back(o);
-      key->push_back(static_cast<int64_t>(l));
-    }
-  }
+  ObserveTrees(truth, trees, [](int) { return true; }, &rng, &noise, &problem, key);
   return problem;
 }
 
@@ -316,6 +338,64 @@ TEST(IncrementalAssociation, RevisitAfterDriftLargerThanTheLocalGateIsAssociated
       // The revisited trees start new features: the drift is beyond the gates.
       EXPECT_EQ(summary.loop_closures, 0);
       EXPECT_LT(score.recall(), 0.7);
+    }
+  }
+}
+
+// 1.5 laps around the park with accurate odometry, except for a stretch of
+// 40 poses in the second lap in which nothing is seen and the heading drifts
+// `gap_drift` rad while the odometry claims 0.01 rad per step (0.06 rad over
+// the gap): after it the trees of the first lap come back rotated far
+// beyond their gates, as MRCLAM's tubes after a 34 s gap.
+core::Problem2d GapLoop(double gap_drift, std::vector<int64_t>* key) {
+  core::Problem2d problem;
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  const std::vector<core::Point2> trees = ParkTrees(&rng);
+  const std::vector<core::Pose2> truth = CircleDrive(390, &problem);
+  const int gap_begin = 290, gap_end = 330;
+  auto in_gap = [&](int p) { return p >= gap_begin && p < gap_end; };
+  for (int p = 0; p + 1 < static_cast<int>(truth.size()); ++p) {
+    core::RelativePoseConstraint c;
+    c.from = p;
+    c.to = p + 1;
+    const double bias = in_gap(p) ? gap_drift / (gap_end - gap_begin) : 0.0;
+    c.z = core::Between(truth[p], truth[p + 1]) +
+          core::Pose2(0.01 * noise(rng), 0.01 * noise(rng), bias + 0.0005 * noise(rng));
+    c.information = Eigen::Vector3d(1e4, 1e4, in_gap(p) ? 1e4 : 4e6).asDiagonal();
+    problem.relative_poses.push_back(c);
+  }
+  ObserveTrees(truth, trees, [&](int p) { return !in_gap(p); }, &rng, &noise, &problem, key);
+  return problem;
+}
+
+// After the gap the local gates and the local map's closure (0.5 rad at
+// most) cannot find the first lap's trees, and the pass maps them again;
+// the young map's match against the map before the gap joins them.
+TEST(IncrementalAssociation, GapWithHeadingDriftEndsWithTheOriginalFeatures) {
+  std::vector<int64_t> key;
+  core::Problem2d input = GapLoop(0.7, &key);
+  ASSERT_TRUE(core::InitializeProblem(&input).ok());
+  const std::set<int64_t> landmarks(key.begin(), key.end());
+  for (bool close_after_gaps : {false, true}) {
+    SCOPED_TRACE(close_after_gaps ? "with the gap closure" : "without the gap closure");
+    core::Problem2d problem = input;
+    IncrementalAssociationOptions options;
+    options.enabled = true;
+    options.close_after_gaps = close_after_gaps;
+    IncrementalAssociationSummary summary;
+    PairwiseScore score;
+    ASSERT_TRUE(RunPass(options, key, &problem, &summary, &score).ok());
+    if (close_after_gaps) {
+      EXPECT_GE(summary.gap_closures, 1);
+      EXPECT_GE(score.precision(), 0.99);
+      EXPECT_GE(score.recall(), 0.9);
+      // A few trees seen only after the gap and outside the match stay apart.
+      EXPECT_LE(problem.num_features(), static_cast<int32_t>(landmarks.size()) + 10);
+    } else {
+      EXPECT_EQ(summary.gap_closures, 0);
+      EXPECT_LT(score.recall(), 0.8);
+      EXPECT_GE(problem.num_features(), static_cast<int32_t>(landmarks.size()) + 15);
     }
   }
 }
