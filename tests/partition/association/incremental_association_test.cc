@@ -282,7 +282,8 @@ core::Problem2d DriftingLoop(std::vector<int64_t>* key, const LoopPark& park = L
     c.from = p;
     c.to = p + 1;
     c.z = core::Between(truth[p], truth[p + 1]) +
-          core::Pose2(0.01 * noise(rng), 0.01 * noise(rng), park.heading_bias + 0.0005 * noise(rng));
+          core::Pose2(0.01 * noise(rng), 0.01 * noise(rng),
+                      park.heading_bias + 0.0005 * noise(rng));
     c.information = Eigen::Vector3d(1e4, 1e4, 4e6).asDiagonal();
     problem.relative_poses.push_back(c);
   }

@@ -48,14 +48,16 @@ TEST(ProvisionalRescue, GatesTheSumOfTheSightingsChi2) {
     // Candidates: the tree moved by growing offsets.
     std::vector<core::Point2> features;
     for (double d : {0.0, 0.1, 0.2, 0.4, 0.8}) features.push_back(tree + core::Point2(d, -d));
+    auto both = [&](const core::Point2& m) {
+      return Chi2(seen[0], poses[0], m) + Chi2(seen[1], poses[1], m);
+    };
     for (size_t f = 0; f < features.size(); ++f) {
-      const double chi2 = Chi2(seen[0], poses[0], features[f]) + Chi2(seen[1], poses[1], features[f]);
+      const double chi2 = both(features[f]);
       // A gate just above this candidate's chi2 and below every other's
       // accepts it alone; just below, it is not accepted.
       bool alone = true;
       for (size_t g = 0; g < features.size(); ++g) {
-        const double other = Chi2(seen[0], poses[0], features[g]) + Chi2(seen[1], poses[1], features[g]);
-        if (g != f && other <= chi2 * 1.001) alone = false;
+        if (g != f && both(features[g]) <= chi2 * 1.001) alone = false;
       }
       const std::vector<core::Point2> one = {features[f]};
       EXPECT_EQ(UniqueCompatibleFeature(sightings, poses, one, chi2 * 1.001), 0);
