@@ -30,7 +30,7 @@
 // provisional_observations, local_observations; GS_SECONDS=S reads only the first
 // S seconds of MRCLAM; GS_MRCLAM_SIGMA=R,PHI its range and bearing sigmas; GS_MRCLAM_ALPHA=K multiplies its motion noise variances (alpha) by K; GS_MRCLAM_TAU=S sets their noise_time_constant (0: per step); GS_POSES_OUT=FILE writes each observation's pose; GS_INCREMENTAL=0 skips
 // it (the batch rounds alone; on by default); GS_LOOP=0/1, GS_LOOP_MIN, GS_LOOP_MARGIN, GS_LOOP_TOL,
-// GS_FIXES_FIRST=0/1 its solve_fixes_first, GS_MERGE_DUPLICATES=0/1 its merge_duplicates, GS_STAGE_UNDO=0/1 its undo_stage_pairings;
+// GS_FIXES_FIRST=0/1 its solve_fixes_first, GS_MERGE_DUPLICATES=0/1 its merge_duplicates, GS_STAGE_UNDO=0/1 its undo_stage_pairings, GS_RESCUE=0/1 its rescue_provisional;
 // GS_LOOP_ROT, GS_LOOP_RADIUS, GS_LOOP_WINDOW set its loop closure
 // (close_loops, loop.min_inliers, .ambiguity_margin, .tolerance,
 // .max_rotation, .search_radius, local_window); GS_KEY_OUT=FILE writes the key,
@@ -249,6 +249,7 @@ void AssociationOptionsFromEnvironment(gs::partition::AssociationOptions* option
   if (const char* v = std::getenv("GS_LOOP_RADIUS")) inc.loop.search_radius = std::atof(v);
   if (const char* v = std::getenv("GS_LOOP_WINDOW")) inc.local_window = std::atoll(v);
   if (const char* v = std::getenv("GS_STAGE_UNDO")) inc.undo_stage_pairings = std::atoi(v) != 0;
+  if (const char* v = std::getenv("GS_RESCUE")) inc.rescue_provisional = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_FIXES_FIRST")) inc.solve_fixes_first = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_INCREMENTAL")) inc.enabled = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_VCE")) inc.variance_components = std::atoi(v) != 0;
@@ -300,12 +301,13 @@ void PrintIncremental(const gs::partition::AssociationSummary& summary) {
   const auto& inc = summary.incremental;
   if (!inc.ran) return;
   std::printf("incremental: %lld stages, %lld scans, %lld paired, %lld features, %lld provisional "
-              "dropped (%lld observations), %lld JCBB capped, %lld loop closures (%lld pairs), %lld gap closures (%lld pairs), %lld duplicates merged, %lld stage pairings undone, chi2 %.6f, s^2 %.4g; solve %.2f s, "
+              "dropped (%lld observations), %lld provisional rescued, %lld JCBB capped, %lld loop closures (%lld pairs), %lld gap closures (%lld pairs), %lld duplicates merged, %lld stage pairings undone, chi2 %.6f, s^2 %.4g; solve %.2f s, "
               "covariances %.2f s, assignment %.2f s, total %.2f s\n",
               static_cast<long long>(inc.stages), static_cast<long long>(inc.scans),
               static_cast<long long>(inc.paired), static_cast<long long>(inc.features),
               static_cast<long long>(inc.provisional_dropped),
               static_cast<long long>(inc.clutter_observations),
+              static_cast<long long>(inc.provisional_rescued),
               static_cast<long long>(inc.exhausted_scans),
               static_cast<long long>(inc.loop_closures), static_cast<long long>(inc.loop_pairs),
               static_cast<long long>(inc.gap_closures), static_cast<long long>(inc.gap_pairs),

@@ -35,6 +35,8 @@ nlohmann::json BuildAssociationReport(const partition::AssociationOptions& optio
                         {"features", inc.features},
                         {"provisional_dropped", inc.provisional_dropped},
                         {"clutter_observations", inc.clutter_observations},
+                        {"rescue_provisional", options.incremental.rescue_provisional},
+                        {"provisional_rescued", inc.provisional_rescued},
                         {"exhausted_scans", inc.exhausted_scans},
                         {"close_loops", options.incremental.close_loops},
                         {"loop_closures", inc.loop_closures},

@@ -16,6 +16,7 @@
 #include "core/unidentified_features.h"
 #include "partition/association/duplicate_features.h"
 #include "partition/association/feature_covariances.h"
+#include "partition/association/provisional_rescue.h"
 #include "partition/ingest/in_memory_chunk_source.h"
 #include "partition/association/internal/chi_square.h"
 #include "partition/association/internal/observation_chi2.h"
@@ -822,6 +823,64 @@ Status SolveStage(int32_t end, const std::vector<int32_t>& cluster_before, Incre
   }
 }
 
+// Provisional clusters (dropped by the window, or still provisional at the
+// end) whose sightings fit exactly one confirmed cluster within search_radius
+// at the final estimate join it (partition/association/provisional_rescue.h):
+// a first sighting whose next one came after the provisional window is not
+// clutter. A cluster that a pose saw together with the provisional one is not
+// a candidate. Returns the clusters joined.
+int64_t RescueProvisional(IncrementalRun* run) {
+  const IncrementalAssociationOptions& options = run->options;
+  const core::Problem2d& problem = *run->problem;
+  std::vector<Cluster>& clusters = run->clusters;
+  const auto confirmed = [&](const Cluster& c) {
+    return !c.dropped && !c.absorbed &&
+           static_cast<int64_t>(c.members.size()) >= options.confirm_observations;
+  };
+  const double radius = options.search_radius;
+  std::unordered_map<int64_t, std::vector<int32_t>> grid;
+  for (size_t c = 0; c < clusters.size(); ++c)
+    if (confirmed(clusters[c]))
+      grid[CellKey(clusters[c].position, radius)].push_back(static_cast<int32_t>(c));
+  int64_t rescued = 0;
+  for (size_t p = 0; p < clusters.size(); ++p) {
+    const Cluster& cluster = clusters[p];
+    if (cluster.absorbed || cluster.members.empty() ||
+        static_cast<int64_t>(cluster.members.size()) >= options.confirm_observations)
+      continue;
+    std::vector<const core::Observation*> sightings;
+    for (int32_t o : cluster.members) sightings.push_back(&problem.observations[o]);
+    const core::Point2 seen = FirstSight(*sightings.front(), run->poses[sightings.front()->pose]);
+    std::vector<int32_t> ids;
+    std::vector<core::Point2> positions;
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        const auto it = grid.find(CellKey(seen + core::Point2(dx * radius, dy * radius), radius));
+        if (it == grid.end()) continue;
+        for (int32_t c : it->second) {
+          if ((clusters[c].position - seen).squaredNorm() > run->radius_squared ||
+              SharePose(problem, cluster, clusters[c]))
+            continue;
+          ids.push_back(c);
+          positions.push_back(clusters[c].position);
+        }
+      }
+    }
+    const double gate =
+        run->scale * internal::ChiSquareQuantile(2.0 * static_cast<double>(sightings.size()),
+                                                 options.joint.z);
+    const int32_t k = UniqueCompatibleFeature(sightings, run->poses, positions, gate);
+    if (k < 0) continue;
+    GS_VLOG(2, "incremental association: provisional feature of %zu observations (pose %d) "
+            "joins a confirmed one of %zu", cluster.members.size(), sightings.front()->pose,
+            clusters[ids[k]].members.size());
+    clusters[p].dropped = false;
+    JoinCluster(static_cast<int32_t>(p), ids[k], &clusters, &run->cluster_of);
+    ++rescued;
+  }
+  return rescued;
+}
+
 // The map: confirmed features and their observations, input order kept.
 void WriteMap(IncrementalRun* run, std::vector<int32_t>* input_observation) {
   core::Problem2d* problem = run->problem;
@@ -1039,6 +1098,7 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
             static_cast<long long>(summary->paired), summary->chi2, run.scale);
     begin = end;
   }
+  if (options.rescue_provisional) summary->provisional_rescued = RescueProvisional(&run);
   WriteMap(&run, input_observation);
   summary->features = problem->num_features();
   summary->seconds = SecondsSince(start);

@@ -312,11 +312,12 @@ TEST_F(SolveAssociateTest, VictoriaParkSliceIsAssociatedWithDefaults) {
     }
     return partition::ScorePairwise(labels, key);
   };
-  // Measured 0.956 / 0.983 (incremental) and 0.821 / 0.494 (batch); the
+  // Measured 0.956 / 0.992 (incremental; 0.983 before provisional features
+  // were re-tested against the final map) and 0.821 / 0.494 (batch); the
   // precision lost is mostly the key's own doubled trees (docs/association.md).
   const partition::PairwiseScore incremental = score("incremental");
   EXPECT_GE(incremental.precision(), 0.94);
-  EXPECT_GE(incremental.recall(), 0.95);
+  EXPECT_GE(incremental.recall(), 0.985);
   const partition::PairwiseScore batch = score("batch");
   EXPECT_LT(batch.recall(), 0.7);
 }

@@ -601,9 +601,10 @@ void PrintAssociation(std::FILE* out, const partition::AssociationSummary& a) {
   const partition::IncrementalAssociationSummary& inc = a.incremental;
   if (!inc.ran) return;
   std::fprintf(out, "  incremental pass   %lld stages, %lld features found, %lld provisional "
-               "dropped as clutter (%lld observations); solve %.2f s, covariances %.2f s, "
-               "assignment %.2f s\n",
+               "joined at the end, %lld dropped as clutter (%lld observations); solve %.2f s, "
+               "covariances %.2f s, assignment %.2f s\n",
                static_cast<long long>(inc.stages), static_cast<long long>(inc.features),
+               static_cast<long long>(inc.provisional_rescued),
                static_cast<long long>(inc.provisional_dropped),
                static_cast<long long>(inc.clutter_observations), inc.solve_seconds,
                inc.covariance_seconds, inc.assignment_seconds);
