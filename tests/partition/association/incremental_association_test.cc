@@ -47,7 +47,8 @@ std::vector<int64_t> ForgetIds(core::Problem2d* problem) {
 // get labels of their own).
 Status RunPass(const IncrementalAssociationOptions& options, const std::vector<int64_t>& key,
                core::Problem2d* problem, IncrementalAssociationSummary* summary,
-               PairwiseScore* score) {
+               PairwiseScore* score, std::vector<int64_t>* labels_out = nullptr,
+               std::vector<int32_t>* input_observation_out = nullptr) {
   std::vector<int32_t> input_observation;
   GS_RETURN_IF_ERROR(AssociateIncrementally(options, testing::TightCholmodSolverOptions(),
                                             problem, summary, &input_observation));
@@ -56,7 +57,29 @@ Status RunPass(const IncrementalAssociationOptions& options, const std::vector<i
   for (size_t o = 0; o < problem->observations.size(); ++o)
     labels[input_observation[o]] = problem->observations[o].feature;
   *score = ScorePairwise(labels, key);
+  if (labels_out) *labels_out = std::move(labels);
+  if (input_observation_out) *input_observation_out = std::move(input_observation);
   return Status::Ok();
+}
+
+// RunPass on a copy of `input`: the pass's problem and summary, the
+// feature of each input observation (labels; -1 - i for one dropped as
+// clutter), where each kept observation came from, and the score.
+struct PassOutcome {
+  core::Problem2d problem;
+  IncrementalAssociationSummary summary;
+  PairwiseScore score;
+  std::vector<int64_t> labels;
+  std::vector<int32_t> input_observation;
+};
+PassOutcome PassOn(const core::Problem2d& input, const IncrementalAssociationOptions& options,
+                   const std::vector<int64_t>& key) {
+  PassOutcome out;
+  out.problem = input;
+  const Status status = RunPass(options, key, &out.problem, &out.summary, &out.score,
+                                &out.labels, &out.input_observation);
+  EXPECT_TRUE(status.ok()) << status.ToString();
+  return out;
 }
 
 TEST(IncrementalAssociation, EasyDataEndsWithTheBatchCorrespondences) {
@@ -429,23 +452,21 @@ TEST(IncrementalAssociation, GapWithHeadingDriftEndsWithTheOriginalFeatures) {
   const std::set<int64_t> landmarks(key.begin(), key.end());
   for (bool close_after_gaps : {false, true}) {
     SCOPED_TRACE(close_after_gaps ? "with the gap closure" : "without the gap closure");
-    core::Problem2d problem = input;
     IncrementalAssociationOptions options;
     options.enabled = true;
     options.close_after_gaps = close_after_gaps;
-    IncrementalAssociationSummary summary;
-    PairwiseScore score;
-    ASSERT_TRUE(RunPass(options, key, &problem, &summary, &score).ok());
+    const PassOutcome pass = PassOn(input, options, key);
+    const int32_t features = pass.problem.num_features();
     if (close_after_gaps) {
-      EXPECT_GE(summary.gap_closures, 1);
-      EXPECT_GE(score.precision(), 0.99);
-      EXPECT_GE(score.recall(), 0.9);
+      EXPECT_GE(pass.summary.gap_closures, 1);
+      EXPECT_GE(pass.score.precision(), 0.99);
+      EXPECT_GE(pass.score.recall(), 0.9);
       // A few trees seen only after the gap and outside the match stay apart.
-      EXPECT_LE(problem.num_features(), static_cast<int32_t>(landmarks.size()) + 10);
+      EXPECT_LE(features, static_cast<int32_t>(landmarks.size()) + 10);
     } else {
-      EXPECT_EQ(summary.gap_closures, 0);
-      EXPECT_LT(score.recall(), 0.8);
-      EXPECT_GE(problem.num_features(), static_cast<int32_t>(landmarks.size()) + 15);
+      EXPECT_EQ(pass.summary.gap_closures, 0);
+      EXPECT_LT(pass.score.recall(), 0.8);
+      EXPECT_GE(features, static_cast<int32_t>(landmarks.size()) + 15);
     }
   }
 }
@@ -471,18 +492,12 @@ TEST(IncrementalAssociation, TreeSeenOnceBeforeALongGapIsKeptAndAMisdetectionIsN
   ASSERT_GE(std::count(key.begin(), key.end(), once), 3);
   for (bool rescue : {false, true}) {
     SCOPED_TRACE(rescue ? "with the rescue" : "without the rescue");
-    core::Problem2d problem = input;
     IncrementalAssociationOptions options;
     options.rescue_provisional = rescue;
-    IncrementalAssociationSummary summary;
-    std::vector<int32_t> input_observation;
-    ASSERT_TRUE(AssociateIncrementally(options, testing::TightCholmodSolverOptions(), &problem,
-                                       &summary, &input_observation)
-                    .ok());
-    std::vector<int64_t> labels(key.size());
-    for (size_t i = 0; i < labels.size(); ++i) labels[i] = -1 - static_cast<int64_t>(i);
-    for (size_t o = 0; o < problem.observations.size(); ++o)
-      labels[input_observation[o]] = problem.observations[o].feature;
+    const PassOutcome pass = PassOn(input, options, key);
+    const IncrementalAssociationSummary& summary = pass.summary;
+    const std::vector<int32_t>& input_observation = pass.input_observation;
+    const std::vector<int64_t>& labels = pass.labels;
     EXPECT_EQ(std::count(input_observation.begin(), input_observation.end(), ghost), 0);
     const bool kept = std::count(input_observation.begin(), input_observation.end(), first) == 1;
     if (rescue) {
