@@ -5,12 +5,15 @@
 namespace graphslam::tools {
 
 std::string VersionText() {
-  std::string text = std::string("graphslam ") + kBuildVersion + " (commit " + kBuildCommit +
-                     " at configure time)\n";
-  text += std::string("built with Eigen ") + kBuildEigenVersion + ", SuiteSparse " +
-          kBuildSuiteSparseVersion + " (CHOLMOD " + kBuildCholmodVersion + "), TBB " +
-          kBuildTbbVersion + ", PCL " + kBuildPclVersion + ", OctoMap " + kBuildOctomapVersion +
-          "\n";
+  // Appended piece by piece: GCC 12 warns falsely (-Warray-bounds) on long
+  // chains of operator+ on temporaries once <string> comes precompiled.
+  std::string text = "graphslam ";
+  for (const char* piece :
+       {kBuildVersion, " (commit ", kBuildCommit, " at configure time)\nbuilt with Eigen ",
+        kBuildEigenVersion, ", SuiteSparse ", kBuildSuiteSparseVersion, " (CHOLMOD ",
+        kBuildCholmodVersion, "), TBB ", kBuildTbbVersion, ", PCL ", kBuildPclVersion,
+        ", OctoMap ", kBuildOctomapVersion, "\n"})
+    text += piece;
   return text;
 }
 

@@ -54,10 +54,9 @@ TEST(JobSpecChecks, RunNameTooLongForAFileNameIsRejectedWhenRead) {
                         "trajectories/<name>.tum)"));
   EXPECT_LT(job.status().message().size(), 300u);  // the name is not echoed whole
   // 128 bytes: a file name.
-  EXPECT_TRUE(ParseJobSpec("output: a\nruns:\n  - {format: g2o, path: x.g2o, name: " +
-                               std::string(128, 'b') + "}\n",
-                           "/j/job.yaml")
-                  .ok());
+  std::string longest_name = "output: a\nruns:\n  - {format: g2o, path: x.g2o, name: ";
+  longest_name.append(128, 'b').append("}\n");
+  EXPECT_TRUE(ParseJobSpec(longest_name, "/j/job.yaml").ok());
   StatusOr<JobSpec> slash =
       ParseJobSpec("output: a\nruns:\n  - {format: g2o, path: x.g2o, name: a/b}\n", "/j/job.yaml");
   ASSERT_FALSE(slash.ok());
