@@ -13,6 +13,7 @@
 #include "core/point_observation_model.h"
 #include "core/pose_marginals.h"
 #include "core/range_bearing_model.h"
+#include "core/se2.h"
 #include "core/unidentified_features.h"
 #include "partition/association/duplicate_features.h"
 #include "partition/association/feature_covariances.h"
@@ -167,6 +168,19 @@ int64_t CellKey(const core::Point2& p, double cell) {
   const int64_t x = static_cast<int64_t>(std::floor(p.x() / cell));
   const int64_t y = static_cast<int64_t>(std::floor(p.y() / cell));
   return (x << 32) ^ (y & 0xffffffffLL);
+}
+
+// Calls visit(c) for every cluster id in the 3 x 3 cells of `grid` (cells of
+// side `cell`, CellKey) around q: every cluster within `cell` of q, and more.
+template <class Grid, class Visit>
+void ForEachInNearbyCells(const Grid& grid, const core::Point2& q, double cell, Visit visit) {
+  for (int dx = -1; dx <= 1; ++dx) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      const auto it = grid.find(CellKey(q + core::Point2(dx * cell, dy * cell), cell));
+      if (it == grid.end()) continue;
+      for (int32_t c : it->second) visit(c);
+    }
+  }
 }
 
 
@@ -405,16 +419,9 @@ std::vector<int32_t> ScanTargets(const IncrementalRun& run, const StageView& vie
     }
   };
   for (int32_t s : singles) {
-    const core::Point2& q = view.stage.sub.features[s];
-    for (int dx = -1; dx <= 1; ++dx) {
-      for (int dy = -1; dy <= 1; ++dy) {
-        const core::Point2 probe = q + core::Point2(dx * radius, dy * radius);
-        const auto it = view.grid.find(CellKey(probe, radius));
-        if (it == view.grid.end()) continue;
-        for (int32_t c : it->second)
-          if (!view.is_touched[c]) consider(c);
-      }
-    }
+    ForEachInNearbyCells(view.grid, view.stage.sub.features[s], radius, [&](int32_t c) {
+      if (!view.is_touched[c]) consider(c);
+    });
   }
   for (int32_t c : view.touched) consider(c);
   std::sort(targets.begin(), targets.end());
@@ -615,9 +622,8 @@ Status MergeDuplicateClusters(int64_t first_local, StageView* view, IncrementalR
 // growing share of it, so that its odometry takes the change gradually.
 void MoveYoungMap(const core::Pose2& move, int32_t end, IncrementalRun* run) {
   auto moved = [&](const core::Point2& point, double share) {
-    const double theta = share * move.z(), c = std::cos(theta), s = std::sin(theta);
-    return core::Point2(c * point.x() - s * point.y() + share * move.x(),
-                        s * point.x() + c * point.y() + share * move.y());
+    return core::TransformPoint(core::Pose2(share * move.x(), share * move.y(), share * move.z()),
+                                point);
   };
   const int32_t gap = run->young_since - run->gap_begin;
   for (int32_t p = run->gap_begin; p < end; ++p) {
@@ -853,19 +859,13 @@ int64_t RescueProvisional(IncrementalRun* run) {
     const core::Point2 seen = FirstSight(*sightings.front(), run->poses[sightings.front()->pose]);
     std::vector<int32_t> ids;
     std::vector<core::Point2> positions;
-    for (int dx = -1; dx <= 1; ++dx) {
-      for (int dy = -1; dy <= 1; ++dy) {
-        const auto it = grid.find(CellKey(seen + core::Point2(dx * radius, dy * radius), radius));
-        if (it == grid.end()) continue;
-        for (int32_t c : it->second) {
-          if ((clusters[c].position - seen).squaredNorm() > run->radius_squared ||
-              SharePose(problem, cluster, clusters[c]))
-            continue;
-          ids.push_back(c);
-          positions.push_back(clusters[c].position);
-        }
-      }
-    }
+    ForEachInNearbyCells(grid, seen, radius, [&](int32_t c) {
+      if ((clusters[c].position - seen).squaredNorm() > run->radius_squared ||
+          SharePose(problem, cluster, clusters[c]))
+        return;
+      ids.push_back(c);
+      positions.push_back(clusters[c].position);
+    });
     const double gate =
         run->scale * internal::ChiSquareQuantile(2.0 * static_cast<double>(sightings.size()),
                                                  options.joint.z);
