@@ -10,12 +10,14 @@
 #include <filesystem>
 #include <string>
 
+#include "tests/testing/build_paths.h"
+
 namespace graphslam::testing {
 
 // Appended in place: GCC 12 reports a false -Warray-bounds on
 // std::string(literal) + "/" + relative when it inlines the operators.
 inline std::string DatasetPath(const std::string& relative) {
-  std::string path = GRAPHSLAM_DATASETS_DIR;
+  std::string path = DatasetsDir();
   path += '/';
   path += relative;
   return path;

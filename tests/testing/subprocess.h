@@ -1,6 +1,5 @@
 // Runs the graphslam binary of this build as a child process, for end-to-end
 // tests that need a real process (exit codes, kill -9).
-// GRAPHSLAM_BINARY_DIR comes from tests/CMakeLists.txt.
 #pragma once
 
 #include <fcntl.h>
@@ -13,10 +12,12 @@
 #include <utility>
 #include <vector>
 
+#include "tests/testing/build_paths.h"
+
 namespace graphslam::testing {
 
 inline const std::string& GraphslamBinary() {
-  static const std::string path = std::string(GRAPHSLAM_BINARY_DIR) + "/bin/graphslam";
+  static const std::string path = BinaryDir() + "/bin/graphslam";
   return path;
 }
 

@@ -162,7 +162,7 @@ TEST_F(MapCommandTest, ThreeDtkScansFuseThroughTheBinary) {
   GS_REQUIRE_DATASET("3dtk_uos_scans/scan000.3d");
   const std::string bt = (root_ / "uos.bt").string(), pcd = (root_ / "uos.pcd").string();
   fs::create_directories(root_);
-  const std::string command = std::string(GRAPHSLAM_BINARY_DIR) + "/bin/graphslam map " +
+  const std::string command = ::graphslam::testing::BinaryDir() + "/bin/graphslam map " +
                               testing::DatasetPath("3dtk_uos_scans") + " --bt " + bt + " --pcd " +
                               pcd + " --resolution 0.2 --max-range 12 -q";
   ASSERT_EQ(std::system(command.c_str()), 0) << command;

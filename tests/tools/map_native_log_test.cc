@@ -118,7 +118,7 @@ TEST_F(MapNativeLogTest, PcdScansOfTheLogFuseIntoTheWall) {
 
   // Through the binary, read back with OctoMap's and PCL's readers.
   const std::string bt = (root_ / "wall.bt").string(), pcd = (root_ / "wall.pcd").string();
-  const std::string command = std::string(GRAPHSLAM_BINARY_DIR) + "/bin/graphslam map " +
+  const std::string command = ::graphslam::testing::BinaryDir() + "/bin/graphslam map " +
                               log_.string() + " --bt " + bt + " --pcd " + pcd +
                               " --resolution 0.1 -q";
   ASSERT_EQ(std::system(command.c_str()), 0) << command;
@@ -171,7 +171,7 @@ TEST_F(MapNativeLogTest, MissingPcdIsAnErrorNamingTheLogLine) {
       << source.status().ToString();
   // The binary exits non-zero without writing the map.
   const std::string bt = (root_ / "none.bt").string();
-  const std::string command = std::string(GRAPHSLAM_BINARY_DIR) + "/bin/graphslam map " +
+  const std::string command = ::graphslam::testing::BinaryDir() + "/bin/graphslam map " +
                               log_.string() + " --bt " + bt + " -q 2>/dev/null";
   EXPECT_NE(std::system(command.c_str()), 0);
   EXPECT_FALSE(fs::exists(bt));
