@@ -405,6 +405,16 @@ bool IsFarStart(const IncrementalInitializationOptions& options,
          new_poses > floor_new_poses;
 }
 
+// A full stage's solver options: a window stage's, with
+// full_stage_function_tolerance in place of the caller's when set.
+core::SolverOptions FullStageOptions(const IncrementalInitializationOptions& options,
+                                     const core::SolverOptions& stage) {
+  core::SolverOptions full = stage;
+  if (options.full_stage_function_tolerance > 0.0)
+    full.function_tolerance = options.full_stage_function_tolerance;
+  return full;
+}
+
 // One stage's sub-problem, its unknown poses and what its solve did.
 struct StageSolve {
   std::vector<int32_t> unknown;
@@ -428,6 +438,7 @@ class IncrementalStages {
         adjacency_(internal::OdometryAdjacency(problem)),
         builder_(problem, observations, index_),
         stage_options_(internal::StageSolverOptions(base, options.max_iterations_per_stage)),
+        full_stage_options_(FullStageOptions(options, stage_options_)),
         poses_(problem.poses),
         features_(problem.features),
         placed_(problem.poses.size(), 0),
@@ -471,8 +482,9 @@ class IncrementalStages {
     summary.features = out->sub.num_features();
     summary.observations = static_cast<int64_t>(out->sub.observations.size());
     // The stage's observations are needed no more once cut into chunks.
-    Status status = SolveWithoutSingletons(stage_options_, chunking_, &out->sub, &out->solver,
-                                           nullptr, /*release_observations=*/true);
+    Status status = SolveWithoutSingletons(full ? full_stage_options_ : stage_options_,
+                                           chunking_, &out->sub, &out->solver, nullptr,
+                                           /*release_observations=*/true);
     if (!status.ok())
       return status.WithContext("incremental initialization stage " + std::to_string(stage) +
                                 " (" + std::to_string(t) + " poses)");
@@ -495,12 +507,19 @@ class IncrementalStages {
 
   // The first pose of a window stage's window ending at t (header: the most
   // recent window_poses poses holding at most max_window_observations
-  // observations), never above new_begin.
+  // observations, and at most window_observations_per_new times the new
+  // poses' when set), never above new_begin.
   int32_t WindowBegin(int32_t new_begin, int32_t t) const {
     const std::vector<int64_t>& before = index_.observations_of_pose.offsets;
     const int32_t by_poses = static_cast<int32_t>(std::max<int64_t>(0, t - options_.window_poses));
-    const auto first = std::lower_bound(before.begin() + by_poses, before.begin() + t,
-                                        before[t] - options_.max_window_observations);
+    const double new_observations = static_cast<double>(before[t] - before[new_begin]);
+    int64_t budget = options_.max_window_observations;
+    if (options_.window_observations_per_new > 0.0)
+      budget = std::min<int64_t>(budget, static_cast<int64_t>(std::ceil(
+                                             options_.window_observations_per_new *
+                                             new_observations)));
+    const auto first =
+        std::lower_bound(before.begin() + by_poses, before.begin() + t, before[t] - budget);
     return std::min(new_begin, static_cast<int32_t>(first - before.begin()));
   }
 
@@ -654,6 +673,7 @@ class IncrementalStages {
   const std::vector<std::vector<internal::PoseEdge>> adjacency_;
   StageBuilder<Observations> builder_;
   const core::SolverOptions stage_options_;
+  const core::SolverOptions full_stage_options_;  // header: full_stage_function_tolerance
   ChunkingOptions chunking_;
   std::vector<Pose2> poses_;
   std::vector<Point2> features_;
@@ -687,6 +707,12 @@ Status IncrementalInitializationOptions::Validate() const {
   if (window_poses < max_new_poses)
     return fail("window_poses must be >= max_new_poses (" + std::to_string(max_new_poses) + ")",
                 std::to_string(window_poses));
+  if (!(window_observations_per_new >= 0.0) || !std::isfinite(window_observations_per_new))
+    return fail("window_observations_per_new must be finite and >= 0 (0: off)",
+                std::to_string(window_observations_per_new));
+  if (!(full_stage_function_tolerance >= 0.0) || !std::isfinite(full_stage_function_tolerance))
+    return fail("full_stage_function_tolerance must be finite and >= 0 (0: the solver's)",
+                std::to_string(full_stage_function_tolerance));
   if (max_new_observations < 1)
     return fail("max_new_observations must be >= 1", std::to_string(max_new_observations));
   if (max_window_observations < max_new_observations)

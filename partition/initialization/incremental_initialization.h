@@ -35,8 +35,9 @@
 // hold it fixed, never leave). Stage k then solves the sub-problem W_k:
 //   unknown poses  the window [B_k, T_k): the most recent window_poses
 //                  poses, cut further to those whose own observations total
-//                  at most max_window_observations (never cutting into the
-//                  new poses), plus for
+//                  at most max_window_observations, and at most
+//                  window_observations_per_new times those of the new
+//                  poses when set (never cutting into the new poses), plus for
 //                  every relative pose or robot sighting from a new pose to a
 //                  pose q below the window (a loop closure) the
 //                  2 loop_closure_poses + 1 poses centred on q, at most
@@ -139,6 +140,14 @@ struct IncrementalInitializationOptions : PrefixStageOptions {
   // their features again, move too little for a longer window to change
   // the start.
   int64_t max_window_observations = 25000;
+  // > 0: a window stage also re-solves at most this many times its new
+  // poses' observations (never below its new poses), so that a stage redone
+  // with fewer new poses re-solves a window of the same proportion, not one
+  // of max_window_observations: with sparse sensing (the sampled start's 24
+  // observations per pose) a redo with 62 new poses otherwise re-solves the
+  // same ~1 000 poses as the 500-pose attempt it replaces. 0: off (only
+  // max_window_observations bounds the window).
+  double window_observations_per_new = 0.0;
   // The most observations of a stage's new poses (at least one new pose);
   // at most max_window_observations.
   int64_t max_new_observations = 12500;
@@ -152,6 +161,13 @@ struct IncrementalInitializationOptions : PrefixStageOptions {
   // Full stages: the first stage whose prefix reaches first_poses * g^j
   // (j = 1, 2, ...) solves the whole prefix (0: never).
   double full_stage_growth = 2.0;
+  // > 0: a full stage's relative chi2 decrease to stop at, in place of the
+  // caller's function_tolerance (0). Looser suits a start whose whole
+  // problem is solved next anyway (the sampled start's sample solve, which
+  // stops at 1e-4 itself): a full stage of tens of thousands of poses
+  // otherwise spends its last, costliest iterations on decreases below
+  // 1e-4 that the next solve makes in passing.
+  double full_stage_function_tolerance = 0.0;
   // A stage whose solution leaves one odometry or motion step touching its
   // new poses at a chi2 above this is redone with half its new poses, as a
   // stage started far outside the basin is (internal/broken_odometry.h: a

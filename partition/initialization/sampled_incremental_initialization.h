@@ -73,7 +73,22 @@ struct SampledInitializationOptions {
   // 1e-6). Looser: the whole problem's solve, which adds every other
   // feature, moves the poses further than the sample's last iterations do.
   double sub_solve_function_tolerance = 1e-4;
-  IncrementalInitializationOptions incremental;
+  // The stages' options: the in-memory defaults, but
+  //  - windows in proportion to their new poses (window_observations_per_new
+  //    2, what max_window_observations = 2 max_new_observations gives a
+  //    full-size stage already): with the sample's sparse sensing (~24
+  //    observations per pose) over a quarter of the stage attempts are
+  //    redone with fewer new poses, and a redo's window then shrinks too;
+  //  - full stages stopping at sub_solve_function_tolerance's 1e-4: the
+  //    sample's solve follows them and makes their last decreases anyway.
+  IncrementalInitializationOptions incremental = SampledStageOptions();
+
+  static IncrementalInitializationOptions SampledStageOptions() {
+    IncrementalInitializationOptions stages;
+    stages.window_observations_per_new = 2.0;
+    stages.full_stage_function_tolerance = 1e-4;
+    return stages;
+  }
 };
 
 struct SampledInitializationSummary {

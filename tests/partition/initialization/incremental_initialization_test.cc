@@ -158,6 +158,83 @@ TEST(IncrementalInitialization, ObservationBoundsCutWindowsAndNewPoses) {
   }
 }
 
+// Windows in proportion to their new poses (window_observations_per_new):
+// with max_window_observations out of reach, a window stage re-solves at
+// most twice its new poses' observations (never cutting into its new
+// poses), so the stages that add few poses (the first ones, growing from
+// first_poses, and the redone ones) re-solve short windows; the full solve
+// after it still reaches the dense optimum.
+TEST(IncrementalInitialization, WindowsInProportionToTheirNewPoses) {
+  IncrementalInitializationOptions options;
+  options.first_poses = 8;
+  options.max_window_observations = 100000;
+  options.max_new_observations = 40;
+  options.window_observations_per_new = 2.0;
+  options.full_stage_growth = 0.0;  // window stages only
+  options.loop_closure_poses = 2;
+  options.max_prior_observations_per_feature = 6;
+  for (uint32_t seed = 1; seed <= 3; ++seed) {
+    const testing::RandomProblem random = testing::BadlyInitializedProblem(seed, 48, true, false);
+    const double optimum = testing::DenseOptimum(random);
+    std::vector<int64_t> before(random.problem.num_poses() + 1, 0);
+    for (const core::Observation& o : random.problem.observations) ++before[o.pose + 1];
+    for (size_t p = 1; p < before.size(); ++p) before[p] += before[p - 1];
+    core::Problem2d problem = random.problem;
+    core::SolverOptions solver;
+    solver.function_tolerance = 1e-12;
+    IncrementalSummary incremental;
+    ASSERT_TRUE(InitializeIncrementally(options, solver, &problem, &incremental).ok());
+    ASSERT_GE(incremental.stages.size(), 4u);
+    int64_t previous = 0;
+    int windows_cut = 0;
+    for (const IncrementalStageSummary& stage : incremental.stages) {
+      const int64_t new_observations = before[stage.poses] - before[previous];
+      if (!stage.full && previous > 0) {
+        // No loop closures: the unknown poses are the window itself.
+        const int64_t window = before[stage.poses] - before[stage.poses - stage.solved_poses];
+        EXPECT_LE(window, 2 * new_observations) << "stage up to " << stage.poses;
+        EXPECT_GE(stage.solved_poses, stage.poses - previous) << "stage up to " << stage.poses;
+        windows_cut += stage.solved_poses < stage.poses ? 1 : 0;
+      }
+      previous = stage.poses;
+    }
+    EXPECT_GE(windows_cut, 2) << "seed " << seed;
+    const core::SolverSummary summary = FullSolve(&problem, solver);
+    EXPECT_NEAR(summary.final_chi2, optimum, 1e-6 * optimum) << "seed " << seed;
+  }
+}
+
+// A full stage stops at its own function tolerance: from the same stages
+// before it, the first full stage with a loose one (1e-2) ends earlier, at
+// that tolerance, than with the solver's tight one, and the full solve after
+// the whole start still reaches the dense optimum.
+TEST(IncrementalInitialization, FullStagesStopAtTheirOwnFunctionTolerance) {
+  for (uint32_t seed = 1; seed <= 3; ++seed) {
+    const testing::RandomProblem random = testing::BadlyInitializedProblem(seed, 48, true, false);
+    const double optimum = testing::DenseOptimum(random);
+    core::SolverOptions solver;
+    solver.function_tolerance = 1e-12;
+    std::vector<IncrementalStageSummary> first_full;
+    for (const double tolerance : {0.0, 1e-2}) {
+      IncrementalInitializationOptions options = SmallWindows();
+      options.full_stage_function_tolerance = tolerance;
+      core::Problem2d problem = random.problem;
+      IncrementalSummary incremental;
+      ASSERT_TRUE(InitializeIncrementally(options, solver, &problem, &incremental).ok());
+      const auto full = std::find_if(incremental.stages.begin(), incremental.stages.end(),
+                                     [](const IncrementalStageSummary& s) { return s.full; });
+      ASSERT_NE(full, incremental.stages.end()) << "seed " << seed;
+      first_full.push_back(*full);
+      const core::SolverSummary summary = FullSolve(&problem, solver);
+      EXPECT_NEAR(summary.final_chi2, optimum, 1e-6 * optimum) << "seed " << seed;
+    }
+    EXPECT_EQ(first_full[0].poses, first_full[1].poses) << "seed " << seed;
+    EXPECT_EQ(first_full[0].initial_chi2, first_full[1].initial_chi2) << "seed " << seed;
+    EXPECT_LT(first_full[1].iterations, first_full[0].iterations) << "seed " << seed;
+    EXPECT_EQ(first_full[1].termination, "function_tolerance") << "seed " << seed;
+  }
+}
+
 TEST(IncrementalInitialization, LoopClosureSolvesItsOldEndToo) {
   // A relative pose from pose 250 back to pose 5: the stage that adds pose
   // 250 also solves the 2 * loop_closure_poses + 1 poses centred on pose 5.
@@ -466,6 +543,14 @@ TEST(IncrementalInitialization, RejectsBadOptions) {
   EXPECT_FALSE(options.Validate().ok());
   options = IncrementalInitializationOptions();
   options.broken_odometry_repair_poses = -1;
+  EXPECT_FALSE(options.Validate().ok());
+  options = IncrementalInitializationOptions();
+  options.window_observations_per_new = -1.0;
+  EXPECT_FALSE(options.Validate().ok());
+  options.window_observations_per_new = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(options.Validate().ok());
+  options = IncrementalInitializationOptions();
+  options.full_stage_function_tolerance = -1e-4;
   EXPECT_FALSE(options.Validate().ok());
   EXPECT_TRUE(IncrementalInitializationOptions().Validate().ok());
 }
