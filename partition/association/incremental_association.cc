@@ -1137,7 +1137,8 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
       GS_RETURN_IF_ERROR(PairStage(begin, end, &run));
       // A loop closed in the stage bends the old map too: solved whole (the
       // window's tests are done).
-      if (summary->loop_closures + summary->gap_closures > closures)
+      if (options.window.whole_after_loop_closure &&
+          summary->loop_closures + summary->gap_closures > closures)
         run.window_begin = run.windows->Whole(end);
       if (run.window_begin > 0) ++summary->windowed_stages;
       if (run.gap_closed) {

@@ -9,9 +9,10 @@
 // never above b), plus the neighbourhoods of the old ends of the new poses'
 // loop closures. B = 0 is the whole prefix, as is every full stage: the first
 // stage whose prefix reaches full_stage_growth times the last whole one (as
-// iSAM's periodic batch steps), and the caller solves a stage whose loop
-// closure (submap matching, or after a gap) joined features whole too: a
-// window cannot spread over the whole loop the drift the closure finds. The sub-problem is incremental
+// iSAM's periodic batch steps), and with whole_after_loop_closure the caller
+// solves a stage whose loop closure (submap matching, or after a gap) joined
+// features whole too: a window cannot spread over the whole loop the drift
+// the closure finds. The sub-problem is incremental
 // initialization's window sub-problem (partition/initialization/internal/
 // window_stage.h): the features seen from the window's poses, each with at
 // most max_prior_observations_per_feature earlier sightings from poses held
@@ -64,6 +65,12 @@ struct StageWindowOptions {
   // A stage whose prefix reaches this times the last whole one solves the
   // whole prefix (0: never after the window first leaves pose 0).
   double full_stage_growth = 2.0;
+  // A stage whose loop closure (submap matching or after a gap) joined
+  // features is solved whole: a window cannot spread the drift the closure
+  // finds over the loop. Off: on the GPS campus the fixes hold the loop, and
+  // its closures (85 stages of 600 at 30 000 poses) made the pass quadratic
+  // again (docs/association.md, "Windowed stages").
+  bool whole_after_loop_closure = false;
 
   [[nodiscard]] Status Validate() const;
 };
