@@ -39,6 +39,10 @@
 // (variance components); GS_SCALE=0/1 sets the variance-factor scaling of both
 // passes (default: incremental pass on, batch rounds off); GS_SPLITS=1 prints
 // every key landmark split over several features with the pose spans;
+// GS_SOLVE_WINDOW=0/1, GS_SOLVE_WINDOW_POSES, GS_SOLVE_WINDOW_OBS, GS_FULL_GROWTH,
+// GS_LOOP_WHOLE=0/1 set the pass's stage window (window.enabled, .window_poses,
+// .window_observations, .full_stage_growth, .whole_after_loop_closure;
+// partition/association/windowed_stage.h);
 // GS_PASS_PAIRS=1 runs the incremental pass alone, solves it, and prints its
 // features (majority key landmark, position, pose span) and the first
 // round's correspondence test (distance, d^2, pi, the covariance of the
@@ -237,6 +241,11 @@ void AssociationOptionsFromEnvironment(gs::partition::AssociationOptions* option
   if (const char* v = std::getenv("GS_INC_WINDOW_OBS")) inc.provisional_observations = std::atoll(v);
   if (const char* v = std::getenv("GS_LOOP_WINDOW_OBS")) inc.local_observations = std::atoll(v);
   if (const char* v = std::getenv("GS_INC_ITERATIONS")) inc.max_iterations_per_stage = std::atoi(v);
+  if (const char* v = std::getenv("GS_SOLVE_WINDOW")) inc.window.enabled = std::atoi(v) != 0;
+  if (const char* v = std::getenv("GS_SOLVE_WINDOW_POSES")) inc.window.window_poses = std::atoll(v);
+  if (const char* v = std::getenv("GS_SOLVE_WINDOW_OBS")) inc.window.window_observations = std::atoll(v);
+  if (const char* v = std::getenv("GS_FULL_GROWTH")) inc.window.full_stage_growth = std::atof(v);
+  if (const char* v = std::getenv("GS_LOOP_WHOLE")) inc.window.whole_after_loop_closure = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_LOOP")) inc.close_loops = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_GAP")) inc.close_after_gaps = std::atoi(v) != 0;
   if (const char* v = std::getenv("GS_GAP_OBS")) inc.gap_observations = std::atof(v);
@@ -319,6 +328,9 @@ void PrintIncremental(const gs::partition::AssociationSummary& summary) {
   std::printf("incremental variance components (last stage): observations %.4g, pose "
               "constraints %.4g, GPS %.4g\n",
               inc.observation_variance_factor, inc.pose_variance_factor, inc.gps_variance_factor);
+  std::printf("incremental windows: %lld stages solved in a window, at most %lld poses re-solved\n",
+              static_cast<long long>(inc.windowed_stages),
+              static_cast<long long>(inc.largest_window_poses));
 }
 
 // Were the undone merges wrong (sides' representatives from different

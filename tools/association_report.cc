@@ -44,6 +44,8 @@ nlohmann::json BuildAssociationReport(const partition::AssociationOptions& optio
                         {"close_after_gaps", options.incremental.close_after_gaps},
                         {"gap_closures", inc.gap_closures},
                         {"gap_pairs", inc.gap_pairs},
+                        {"windowed_stages", inc.windowed_stages},
+                        {"largest_window_poses", inc.largest_window_poses},
                         {"chi2", inc.chi2},
                         {"solve_seconds", inc.solve_seconds},
                         {"covariance_seconds", inc.covariance_seconds},

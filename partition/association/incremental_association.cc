@@ -24,6 +24,7 @@
 #include "partition/initialization/internal/odometry_chain.h"
 #include "partition/association/internal/variance_factor.h"
 #include "partition/association/variance_components.h"
+#include "partition/association/windowed_stage.h"
 #include "partition/initialization/singleton_solve.h"
 
 namespace graphslam::partition {
@@ -60,6 +61,9 @@ struct Stage {
   core::Problem2d sub;
   std::vector<int32_t> cluster_feature;
   std::unordered_map<int32_t, int32_t> singleton_feature;
+  // A window's sub-problem (BuildRunStage): its re-solved poses and their
+  // indices in sub. Empty: sub's poses are the prefix [0, end).
+  std::vector<int32_t> unknown_poses, local_poses;
 };
 
 Stage BuildStage(const core::Problem2d& problem, const std::vector<core::Pose2>& poses,
@@ -383,7 +387,74 @@ struct IncrementalRun {
   int32_t gap_begin = -1;
   int32_t young_since = -1;
   bool gap_closed = false;  // the current stage closed a gap
+  // The current stage's new poses start at stage_begin; its window at
+  // window_begin (0: the whole prefix; partition/association/windowed_stage.h).
+  std::unique_ptr<StageWindows> windows;
+  std::unique_ptr<WindowedStageBuilder> windowed;
+  int32_t stage_begin = 0;
+  int32_t window_begin = 0;
 };
+
+// The sub-problem of poses [0, end) with a singleton per unassigned
+// observation of poses [begin, end): the whole prefix (BuildStage), or the
+// stage's window when it has one (partition/association/windowed_stage.h).
+// With `targets`, the live clusters within search_radius of a singleton
+// join it (by their earlier sightings if the window does not see them):
+// every cluster a scan of the stage may be tested against has a covariance.
+Stage BuildRunStage(IncrementalRun* run, int32_t begin, int32_t end, bool targets) {
+  if (run->window_begin <= 0)
+    return BuildStage(*run->problem, run->poses, run->clusters, run->cluster_of, begin, end);
+  const core::Problem2d& problem = *run->problem;
+  const auto clusters = static_cast<int32_t>(run->clusters.size());
+  std::vector<int32_t> label(problem.observations.size(), -1);
+  std::vector<core::Point2> positions;
+  positions.reserve(clusters);
+  for (const Cluster& cluster : run->clusters) positions.push_back(cluster.position);
+  std::vector<int32_t> singles;  // the singletons' input observations, label clusters + i
+  for (size_t o = 0; o < label.size(); ++o) {
+    const core::Observation& obs = problem.observations[o];
+    const int32_t c = run->cluster_of[o];
+    if (c >= 0) {
+      if (!run->clusters[c].dropped) label[o] = c;
+    } else if (obs.pose >= begin && obs.pose < end) {
+      label[o] = static_cast<int32_t>(positions.size());
+      positions.push_back(FirstSight(obs, run->poses[obs.pose]));
+      singles.push_back(static_cast<int32_t>(o));
+    }
+  }
+  std::vector<int32_t> extra;
+  if (targets && !singles.empty()) {
+    const double radius = run->options.search_radius;
+    std::unordered_map<int64_t, std::vector<int32_t>> grid;
+    for (int32_t c = 0; c < clusters; ++c) {
+      const Cluster& cluster = run->clusters[c];
+      if (cluster.dropped || cluster.absorbed || cluster.members.empty()) continue;
+      grid[CellKey(cluster.position, radius)].push_back(c);
+    }
+    std::vector<uint8_t> taken(clusters, 0);
+    for (size_t s = clusters; s < positions.size(); ++s) {
+      ForEachInNearbyCells(grid, positions[s], radius, [&](int32_t c) {
+        if (taken[c] || (positions[c] - positions[s]).squaredNorm() > run->radius_squared) return;
+        taken[c] = 1;
+        extra.push_back(c);
+      });
+    }
+  }
+  WindowedSubProblem window;
+  run->windowed->Build(run->window_begin, run->stage_begin, end, run->poses, label, positions,
+                       extra, &window);
+  Stage stage;
+  stage.sub = std::move(window.sub);
+  stage.cluster_feature.assign(window.local_of_label.begin(),
+                               window.local_of_label.begin() + clusters);
+  for (size_t i = 0; i < singles.size(); ++i)
+    stage.singleton_feature[singles[i]] = window.local_of_label[clusters + i];
+  run->summary->largest_window_poses = std::max(
+      run->summary->largest_window_poses, static_cast<int64_t>(window.unknown_poses.size()));
+  stage.unknown_poses = std::move(window.unknown_poses);
+  stage.local_poses = std::move(window.local_poses);
+  return stage;
+}
 
 // The stage's view of the clusters met so far: the linearization at its
 // start, the whitened gains, the grid of cluster positions, and the clusters
@@ -723,7 +794,7 @@ Status PairStage(int32_t begin, int32_t end, IncrementalRun* run) {
   // before any pairing; with fixes, solved first by SolveFixesFirst).
   Clock::time_point t0 = Clock::now();
   StageView view;
-  view.stage = BuildStage(*run->problem, run->poses, run->clusters, run->cluster_of, begin, end);
+  view.stage = BuildRunStage(run, begin, end, /*targets=*/true);
   InMemoryChunkSource chunks(view.stage.sub, run->chunking);
   core::PoseMarginals marginals;
   GS_RETURN_IF_ERROR(
@@ -776,12 +847,17 @@ Status PairStage(int32_t begin, int32_t end, IncrementalRun* run) {
 Status SolvePrefix(int32_t end, const char* what, IncrementalRun* run, Stage* solved,
                    core::SolverSummary* solver_summary) {
   const Clock::time_point solve_start = Clock::now();
-  *solved = BuildStage(*run->problem, run->poses, run->clusters, run->cluster_of, end, end);
+  *solved = BuildRunStage(run, end, end, /*targets=*/false);
   GS_RETURN_IF_ERROR(
       SolveWithoutSingletons(run->stage_options, run->chunking, &solved->sub, solver_summary)
-          .WithContext(std::string("incremental association, ") + what + " of poses 0.." +
-                       std::to_string(end - 1)));
-  std::copy(solved->sub.poses.begin(), solved->sub.poses.end(), run->poses.begin());
+          .WithContext(std::string("incremental association, ") + what + " of poses " +
+                       std::to_string(run->window_begin) + ".." + std::to_string(end - 1)));
+  if (solved->unknown_poses.empty()) {
+    std::copy(solved->sub.poses.begin(), solved->sub.poses.end(), run->poses.begin());
+  } else {
+    for (size_t i = 0; i < solved->unknown_poses.size(); ++i)
+      run->poses[solved->unknown_poses[i]] = solved->sub.poses[solved->local_poses[i]];
+  }
   for (size_t c = 0; c < run->clusters.size(); ++c)
     if (solved->cluster_feature[c] >= 0)
       run->clusters[c].position = solved->sub.features[solved->cluster_feature[c]];
@@ -971,6 +1047,7 @@ Status IncrementalAssociationOptions::Validate() const {
         "incremental association: gap_observations must be finite and >= 0 and "
         "gap_max_rotation finite and > 0, got " + std::to_string(gap_observations) + " and " +
         std::to_string(gap_max_rotation));
+  GS_RETURN_IF_ERROR(window.Validate());
   return loop.Validate();
 }
 
@@ -1005,6 +1082,8 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
   std::vector<uint8_t> placed(n, 0);
   for (int32_t p = 0; p < n; ++p) placed[p] = problem->pose_fixed[p] != 0;
   run.cluster_of.assign(m, -1);
+  run.windows = std::make_unique<StageWindows>(options.window, run.observations_before);
+  run.windowed = std::make_unique<WindowedStageBuilder>(options.window, *problem);
   run.has_fix.assign(n, 0);
   for (const core::GpsConstraint& c : problem->gps) run.has_fix[c.pose] = 1;
   run.chunking.max_observations_per_chunk = options.chunk_observations;
@@ -1050,9 +1129,18 @@ Status AssociateIncrementally(const IncrementalAssociationOptions& options,
         }
         run.last_seen = p;
       }
+      run.stage_begin = begin;
+      run.window_begin = run.windows->Begin(begin, end);
       GS_RETURN_IF_ERROR(SolveFixesFirst(begin, end, &run));
       run.gap_closed = false;
+      const int64_t closures = summary->loop_closures + summary->gap_closures;
       GS_RETURN_IF_ERROR(PairStage(begin, end, &run));
+      // A loop closed in the stage bends the old map too: solved whole (the
+      // window's tests are done).
+      if (options.window.whole_after_loop_closure &&
+          summary->loop_closures + summary->gap_closures > closures)
+        run.window_begin = run.windows->Whole(end);
+      if (run.window_begin > 0) ++summary->windowed_stages;
       if (run.gap_closed) {
         // Every observation after the gap is checked against the older ones
         // of its feature, as the stage's own pairings are.

@@ -45,6 +45,15 @@
 //       feature, and the stage undo checks every feature seen on both sides
 //       of the gap. Tried at every stage until accepted or until the older
 //       features are tracked again
+//     the sub-problem is the whole prefix until the stage has a window:
+//       from then on every linearization and solve of the stage holds only
+//       a window of recent poses (at least window.window_poses poses and
+//       window.window_observations observations), the features they see
+//       with a few earlier sightings from poses held fixed, and the old
+//       features near the stage's new observations; the whole prefix again
+//       when it has grown window.full_stage_growth-fold
+//       (partition/association/windowed_stage.h). The pass is then linear
+//       in poses
 //     solve the sub-problem with those correspondences (at most
 //       max_iterations_per_stage Levenberg-Marquardt iterations, singletons
 //       left out: partition/initialization/singleton_solve.h)
@@ -79,6 +88,7 @@
 #include "core/status.h"
 #include "partition/association/joint_compatibility.h"
 #include "partition/association/submap_matching.h"
+#include "partition/association/windowed_stage.h"
 
 namespace graphslam::partition {
 
@@ -196,6 +206,8 @@ struct IncrementalAssociationOptions {
   double gap_observations = 20.0;
   double gap_max_rotation = 1.0;
   int64_t chunk_observations = 4096;
+  // The stages' window (partition/association/windowed_stage.h).
+  StageWindowOptions window;
 
   [[nodiscard]] Status Validate() const;
 };
@@ -216,6 +228,8 @@ struct IncrementalAssociationSummary {
   int64_t gap_pairs = 0;             // young features joined to older ones by them
   int64_t duplicates_merged = 0;     // features joined by the duplicate test
   int64_t stage_undone = 0;          // stage pairings undone after a stage solve
+  int64_t windowed_stages = 0;       // stages solved in a window, not the whole prefix
+  int64_t largest_window_poses = 0;  // most poses one window re-solved
   double chi2 = 0.0;                 // after the last stage solve
   double variance_factor = 1.0;      // the factor the last gates and undo used
   // Variance components at the start of the last stage (0 when not estimated).

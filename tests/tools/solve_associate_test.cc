@@ -129,6 +129,9 @@ TEST_F(SolveAssociateTest, IncrementalPassFindsTheSameCorrespondences) {
   const nlohmann::json report = nlohmann::json::parse(report_file);
   EXPECT_TRUE(report["association"]["incremental"]["ran"].get<bool>());
   EXPECT_GT(report["association"]["incremental"]["stages"].get<int>(), 0);
+  // A few poses: every stage solves the whole prefix.
+  EXPECT_EQ(report["association"]["incremental"]["windowed_stages"].get<int>(), 0);
+  EXPECT_EQ(report["association"]["incremental"]["largest_window_poses"].get<int>(), 0);
 }
 
 double FinalChi2(const std::string& report_path) {
