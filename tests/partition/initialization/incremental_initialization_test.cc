@@ -34,6 +34,30 @@ IncrementalInitializationOptions SmallWindows() {
   return options;
 }
 
+// A seed's badly initialized 48-pose problem through the stages with a tight
+// solver; before[p] counts the observations of the poses before p.
+struct StagedRun {
+  core::Problem2d problem;
+  core::SolverOptions solver;
+  std::vector<int64_t> before;
+  IncrementalSummary incremental;
+  double optimum = 0.0;
+};
+
+StagedRun RunStages(const IncrementalInitializationOptions& options, uint32_t seed) {
+  const testing::RandomProblem random = testing::BadlyInitializedProblem(seed, 48, true, false);
+  StagedRun run;
+  run.optimum = testing::DenseOptimum(random);
+  run.problem = random.problem;
+  run.before.assign(random.problem.num_poses() + 1, 0);
+  for (const core::Observation& o : random.problem.observations) ++run.before[o.pose + 1];
+  for (size_t p = 1; p < run.before.size(); ++p) run.before[p] += run.before[p - 1];
+  run.solver.function_tolerance = 1e-12;
+  const Status status = InitializeIncrementally(options, run.solver, &run.problem, &run.incremental);
+  EXPECT_TRUE(status.ok()) << status.ToString();
+  return run;
+}
+
 TEST(IncrementalInitialization, ThenSolveReachesTheDenseOptimum) {
   for (const auto& [range_bearing, velocity] :
        {std::pair{true, false}, std::pair{false, false}, std::pair{true, true}}) {
@@ -125,20 +149,12 @@ TEST(IncrementalInitialization, ObservationBoundsCutWindowsAndNewPoses) {
   options.loop_closure_poses = 2;
   options.max_prior_observations_per_feature = 6;
   for (uint32_t seed = 1; seed <= 3; ++seed) {
-    const testing::RandomProblem random = testing::BadlyInitializedProblem(seed, 48, true, false);
-    const double optimum = testing::DenseOptimum(random);
-    std::vector<int64_t> before(random.problem.num_poses() + 1, 0);
-    for (const core::Observation& o : random.problem.observations) ++before[o.pose + 1];
-    for (size_t p = 1; p < before.size(); ++p) before[p] += before[p - 1];
-    core::Problem2d problem = random.problem;
-    core::SolverOptions solver;
-    solver.function_tolerance = 1e-12;
-    IncrementalSummary incremental;
-    ASSERT_TRUE(InitializeIncrementally(options, solver, &problem, &incremental).ok());
-    ASSERT_GE(incremental.stages.size(), 4u);
+    StagedRun run = RunStages(options, seed);
+    const std::vector<int64_t>& before = run.before;
+    ASSERT_GE(run.incremental.stages.size(), 4u);
     int64_t previous = 0;
     int windows_cut = 0;
-    for (const IncrementalStageSummary& stage : incremental.stages) {
+    for (const IncrementalStageSummary& stage : run.incremental.stages) {
       const int64_t new_observations = before[stage.poses] - before[previous];
       if (stage.poses - previous > 1) {
         EXPECT_LE(new_observations, options.max_new_observations) << "stage up to " << stage.poses;
@@ -153,8 +169,8 @@ TEST(IncrementalInitialization, ObservationBoundsCutWindowsAndNewPoses) {
       previous = stage.poses;
     }
     EXPECT_GE(windows_cut, 2) << "seed " << seed;
-    const core::SolverSummary summary = FullSolve(&problem, solver);
-    EXPECT_NEAR(summary.final_chi2, optimum, 1e-6 * optimum) << "seed " << seed;
+    const core::SolverSummary summary = FullSolve(&run.problem, run.solver);
+    EXPECT_NEAR(summary.final_chi2, run.optimum, 1e-6 * run.optimum) << "seed " << seed;
   }
 }
 
@@ -174,20 +190,12 @@ TEST(IncrementalInitialization, WindowsInProportionToTheirNewPoses) {
   options.loop_closure_poses = 2;
   options.max_prior_observations_per_feature = 6;
   for (uint32_t seed = 1; seed <= 3; ++seed) {
-    const testing::RandomProblem random = testing::BadlyInitializedProblem(seed, 48, true, false);
-    const double optimum = testing::DenseOptimum(random);
-    std::vector<int64_t> before(random.problem.num_poses() + 1, 0);
-    for (const core::Observation& o : random.problem.observations) ++before[o.pose + 1];
-    for (size_t p = 1; p < before.size(); ++p) before[p] += before[p - 1];
-    core::Problem2d problem = random.problem;
-    core::SolverOptions solver;
-    solver.function_tolerance = 1e-12;
-    IncrementalSummary incremental;
-    ASSERT_TRUE(InitializeIncrementally(options, solver, &problem, &incremental).ok());
-    ASSERT_GE(incremental.stages.size(), 4u);
+    StagedRun run = RunStages(options, seed);
+    const std::vector<int64_t>& before = run.before;
+    ASSERT_GE(run.incremental.stages.size(), 4u);
     int64_t previous = 0;
     int windows_cut = 0;
-    for (const IncrementalStageSummary& stage : incremental.stages) {
+    for (const IncrementalStageSummary& stage : run.incremental.stages) {
       const int64_t new_observations = before[stage.poses] - before[previous];
       if (!stage.full && previous > 0) {
         // No loop closures: the unknown poses are the window itself.
@@ -199,8 +207,8 @@ TEST(IncrementalInitialization, WindowsInProportionToTheirNewPoses) {
       previous = stage.poses;
     }
     EXPECT_GE(windows_cut, 2) << "seed " << seed;
-    const core::SolverSummary summary = FullSolve(&problem, solver);
-    EXPECT_NEAR(summary.final_chi2, optimum, 1e-6 * optimum) << "seed " << seed;
+    const core::SolverSummary summary = FullSolve(&run.problem, run.solver);
+    EXPECT_NEAR(summary.final_chi2, run.optimum, 1e-6 * run.optimum) << "seed " << seed;
   }
 }
 
