@@ -174,6 +174,19 @@ int64_t CellKey(const core::Point2& p, double cell) {
   return (x << 32) ^ (y & 0xffffffffLL);
 }
 
+// The grid (cells of side `cell`, CellKey) of the clusters `keep` accepts,
+// each cell listing its cluster ids in increasing order.
+template <class Keep>
+std::unordered_map<int64_t, std::vector<int32_t>> GridOfClusters(
+    const std::vector<Cluster>& clusters, double cell, Keep keep) {
+  std::unordered_map<int64_t, std::vector<int32_t>> grid;
+  for (size_t c = 0; c < clusters.size(); ++c) {
+    if (!keep(clusters[c])) continue;
+    grid[CellKey(clusters[c].position, cell)].push_back(static_cast<int32_t>(c));
+  }
+  return grid;
+}
+
 // Calls visit(c) for every cluster id in the 3 x 3 cells of `grid` (cells of
 // side `cell`, CellKey) around q: every cluster within `cell` of q, and more.
 template <class Grid, class Visit>
@@ -425,12 +438,9 @@ Stage BuildRunStage(IncrementalRun* run, int32_t begin, int32_t end, bool target
   std::vector<int32_t> extra;
   if (targets && !singles.empty()) {
     const double radius = run->options.search_radius;
-    std::unordered_map<int64_t, std::vector<int32_t>> grid;
-    for (int32_t c = 0; c < clusters; ++c) {
-      const Cluster& cluster = run->clusters[c];
-      if (cluster.dropped || cluster.absorbed || cluster.members.empty()) continue;
-      grid[CellKey(cluster.position, radius)].push_back(c);
-    }
+    const auto grid = GridOfClusters(run->clusters, radius, [](const Cluster& cluster) {
+      return !cluster.dropped && !cluster.absorbed && !cluster.members.empty();
+    });
     std::vector<uint8_t> taken(clusters, 0);
     for (size_t s = clusters; s < positions.size(); ++s) {
       ForEachInNearbyCells(grid, positions[s], radius, [&](int32_t c) {
@@ -814,12 +824,9 @@ Status PairStage(int32_t begin, int32_t end, IncrementalRun* run) {
   }
   if (run->options.merge_duplicates)
     GS_RETURN_IF_ERROR(MergeDuplicateClusters(LocalWindowStart(*run, begin), &view, run));
-  for (size_t c = 0; c < run->clusters.size(); ++c) {
-    const Cluster& cluster = run->clusters[c];
-    if (cluster.dropped || cluster.absorbed || cluster.representative < 0) continue;
-    view.grid[CellKey(cluster.position, run->options.search_radius)].push_back(
-        static_cast<int32_t>(c));
-  }
+  view.grid = GridOfClusters(run->clusters, run->options.search_radius, [](const Cluster& cluster) {
+    return !cluster.dropped && !cluster.absorbed && cluster.representative >= 0;
+  });
   // The clusters made before the stage.
   const std::vector<uint8_t> solved_before(run->clusters.size(), 1);
   view.is_touched.assign(run->clusters.size(), 0);
@@ -920,10 +927,7 @@ int64_t RescueProvisional(IncrementalRun* run) {
            static_cast<int64_t>(c.members.size()) >= options.confirm_observations;
   };
   const double radius = options.search_radius;
-  std::unordered_map<int64_t, std::vector<int32_t>> grid;
-  for (size_t c = 0; c < clusters.size(); ++c)
-    if (confirmed(clusters[c]))
-      grid[CellKey(clusters[c].position, radius)].push_back(static_cast<int32_t>(c));
+  const auto grid = GridOfClusters(clusters, radius, confirmed);
   int64_t rescued = 0;
   for (size_t p = 0; p < clusters.size(); ++p) {
     const Cluster& cluster = clusters[p];
